@@ -1,0 +1,73 @@
+#include "command.h"
+
+#include <algorithm>
+#include <iostream>
+#include <map>
+#include <vector>
+
+#include "mmba/core/logging.h"
+
+namespace mmba::app {
+namespace {
+
+std::vector<std::pair<int, CommandSetup>>& Registry() {
+  static std::vector<std::pair<int, CommandSetup>> registry;
+  return registry;
+}
+
+}  // namespace
+
+void AddCommonOptions(CLI::App* sub, CommonOptions* common) {
+  sub->add_flag("-q,--quiet", common->quiet, "Print only errors and the final summary");
+  sub->add_flag("-v,--verbose", common->verbose, "Print debugging detail");
+}
+
+bool RegisterCommand(int order, CommandSetup setup) {
+  Registry().emplace_back(order, std::move(setup));
+  return true;
+}
+
+int RunMain(int argc, char** argv) {
+  CLI::App app{
+      "mmba: multi-modal photogrammetric bundle adjustment for survey-grade work.\n"
+      "Exit codes: 0 ok, 2 bad input, 3 adjustment/registration failed or did not converge."};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "mmba 0.1.0");
+  CommonOptions common;
+  auto& registry = Registry();
+  std::stable_sort(registry.begin(), registry.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<std::pair<CLI::App*, std::function<int()>>> commands;
+  for (auto& [order, setup] : registry) {
+    const size_t before = app.get_subcommands({}).size();
+    std::function<int()> run = setup(app, &common);
+    const auto subs = app.get_subcommands({});
+    if (subs.size() > before) commands.emplace_back(subs.back(), std::move(run));
+  }
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    // CLI11 returns 0 for --help/--version; any real option error is bad input.
+    return code == 0 ? kExitOk : kExitInputError;
+  }
+  SetVerbosity(common.quiet ? Verbosity::kQuiet
+                            : (common.verbose ? Verbosity::kVerbose : Verbosity::kNormal));
+  try {
+    for (auto& [sub, run] : commands) {
+      if (sub->parsed()) return run();
+    }
+  } catch (const InputError& e) {
+    std::cerr << "mmba: error: " << e.what() << std::endl;
+    return kExitInputError;
+  } catch (const CommandFailed& e) {
+    std::cerr << "mmba: failed: " << e.what() << std::endl;
+    return kExitNotConverged;
+  } catch (const std::exception& e) {
+    std::cerr << "mmba: internal error: " << e.what() << std::endl;
+    return kExitFailure;
+  }
+  return kExitFailure;
+}
+
+}  // namespace mmba::app

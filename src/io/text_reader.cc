@@ -1,0 +1,118 @@
+#include "mmba/io/text_reader.h"
+
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "mmba/core/error.h"
+
+namespace mmba::io {
+
+std::string ReadWholeFile(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) {
+    throw InputError::Message(path, "file not found");
+  }
+  if (std::filesystem::is_directory(path, ec)) {
+    throw InputError::Message(path, "is a directory, expected a file");
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError::Message(path, "cannot open file for reading");
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  return buffer.str();
+}
+
+bool ParseDouble(std::string_view token, double* value) {
+  if (token.empty()) return false;
+  const std::string copy(token);
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(copy.c_str(), &end);
+  if (end != copy.c_str() + copy.size()) return false;
+  if (!std::isfinite(v)) return false;
+  *value = v;
+  return true;
+}
+
+bool ParseInt(std::string_view token, int64_t* value) {
+  if (token.empty()) return false;
+  const char* begin = token.data();
+  if (*begin == '+') ++begin;
+  const auto result = std::from_chars(begin, token.data() + token.size(), *value);
+  return result.ec == std::errc() && result.ptr == token.data() + token.size();
+}
+
+TokenLine::TokenLine(std::string file, int64_t line_number, std::string_view text)
+    : file_(std::move(file)), line_number_(line_number) {
+  size_t i = 0;
+  while (i < text.size()) {
+    while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
+    size_t j = i;
+    while (j < text.size() && !std::isspace(static_cast<unsigned char>(text[j]))) ++j;
+    if (j > i) tokens_.emplace_back(text.substr(i, j - i));
+    i = j;
+  }
+}
+
+void TokenLine::Fail(const std::string& field, const std::string& found,
+                     const std::string& expected) const {
+  throw InputError(file_, line_number_, field, found, expected);
+}
+
+void TokenLine::ExpectCount(size_t count, const std::string& what) const {
+  if (tokens_.size() != count) {
+    Fail(what, std::to_string(tokens_.size()) + " values",
+         std::to_string(count) + " values");
+  }
+}
+
+void TokenLine::ExpectAtLeast(size_t count, const std::string& what) const {
+  if (tokens_.size() < count) {
+    Fail(what, std::to_string(tokens_.size()) + " values",
+         "at least " + std::to_string(count) + " values");
+  }
+}
+
+const std::string& TokenLine::Str(size_t i, const std::string& field) const {
+  if (i >= tokens_.size()) Fail(field, "end of line", "a value");
+  return tokens_[i];
+}
+
+double TokenLine::Double(size_t i, const std::string& field) const {
+  double v = 0.0;
+  if (!ParseDouble(Str(i, field), &v)) Fail(field, tokens_[i], "a finite number");
+  return v;
+}
+
+int64_t TokenLine::Int(size_t i, const std::string& field) const {
+  int64_t v = 0;
+  if (!ParseInt(Str(i, field), &v)) Fail(field, tokens_[i], "an integer");
+  return v;
+}
+
+uint64_t TokenLine::UInt(size_t i, const std::string& field) const {
+  int64_t v = 0;
+  if (!ParseInt(Str(i, field), &v) || v < 0) {
+    Fail(field, tokens_[i], "a non-negative integer");
+  }
+  return static_cast<uint64_t>(v);
+}
+
+bool LineCursor::Next(std::string_view* line) {
+  if (pos_ >= text_.size()) return false;
+  size_t end = text_.find('\n', pos_);
+  if (end == std::string_view::npos) end = text_.size();
+  std::string_view l = text_.substr(pos_, end - pos_);
+  if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
+  *line = l;
+  pos_ = end + 1;
+  ++line_number_;
+  return true;
+}
+
+}  // namespace mmba::io

@@ -1,0 +1,120 @@
+#include "mmba/sensors/camera.h"
+
+#include <algorithm>
+#include <limits>
+
+namespace mmba::sensors {
+
+std::string CameraModelName(CameraModelId model_id) {
+#define MMBA_CASE(Model) \
+  if (model_id == Model::kModelId) return Model::kName;
+  MMBA_FOR_EACH_CAMERA_MODEL(MMBA_CASE)
+#undef MMBA_CASE
+  return "";
+}
+
+CameraModelId CameraModelFromName(const std::string& name) {
+#define MMBA_CASE(Model) \
+  if (name == Model::kName) return Model::kModelId;
+  MMBA_FOR_EACH_CAMERA_MODEL(MMBA_CASE)
+#undef MMBA_CASE
+  return CameraModelId::kInvalid;
+}
+
+CameraModelId CameraModelFromInt(int value) {
+#define MMBA_CASE(Model) \
+  if (value == static_cast<int>(Model::kModelId)) return Model::kModelId;
+  MMBA_FOR_EACH_CAMERA_MODEL(MMBA_CASE)
+#undef MMBA_CASE
+  return CameraModelId::kInvalid;
+}
+
+std::string KnownCameraModelNames() {
+  std::string names;
+#define MMBA_CASE(Model)             \
+  if (!names.empty()) names += ", "; \
+  names += Model::kName;
+  MMBA_FOR_EACH_CAMERA_MODEL(MMBA_CASE)
+#undef MMBA_CASE
+  return names;
+}
+
+int CameraModelNumParams(CameraModelId model_id) {
+#define MMBA_CASE(Model) \
+  if (model_id == Model::kModelId) return Model::kNumParams;
+  MMBA_FOR_EACH_CAMERA_MODEL(MMBA_CASE)
+#undef MMBA_CASE
+  return -1;
+}
+
+std::string CameraModelParamsInfo(CameraModelId model_id) {
+#define MMBA_CASE(Model) \
+  if (model_id == Model::kModelId) return Model::kParamsInfo;
+  MMBA_FOR_EACH_CAMERA_MODEL(MMBA_CASE)
+#undef MMBA_CASE
+  return "";
+}
+
+std::vector<int> CameraModelFocalIdxs(CameraModelId model_id) {
+#define MMBA_CASE(Model)                                                        \
+  if (model_id == Model::kModelId)                                              \
+    return std::vector<int>(Model::kFocalIdxs.begin(), Model::kFocalIdxs.end());
+  MMBA_FOR_EACH_CAMERA_MODEL(MMBA_CASE)
+#undef MMBA_CASE
+  return {};
+}
+
+std::vector<int> CameraModelPrincipalIdxs(CameraModelId model_id) {
+#define MMBA_CASE(Model)                                                                \
+  if (model_id == Model::kModelId)                                                      \
+    return std::vector<int>(Model::kPrincipalIdxs.begin(), Model::kPrincipalIdxs.end());
+  MMBA_FOR_EACH_CAMERA_MODEL(MMBA_CASE)
+#undef MMBA_CASE
+  return {};
+}
+
+std::vector<int> CameraModelExtraIdxs(CameraModelId model_id) {
+  std::vector<int> extra;
+  const int num_params = CameraModelNumParams(model_id);
+  const std::vector<int> focal = CameraModelFocalIdxs(model_id);
+  const std::vector<int> principal = CameraModelPrincipalIdxs(model_id);
+  for (int i = 0; i < num_params; ++i) {
+    if (std::find(focal.begin(), focal.end(), i) == focal.end() &&
+        std::find(principal.begin(), principal.end(), i) == principal.end()) {
+      extra.push_back(i);
+    }
+  }
+  return extra;
+}
+
+double Camera::MeanFocalLength() const {
+  const std::vector<int> idxs = CameraModelFocalIdxs(model_id);
+  double sum = 0.0;
+  for (int i : idxs) sum += params.at(i);
+  return idxs.empty() ? 0.0 : sum / idxs.size();
+}
+
+std::optional<Eigen::Vector2d> Camera::ImgFromCam(const Eigen::Vector3d& point_in_cam) const {
+  Eigen::Vector2d xy;
+#define MMBA_CASE(Model)                                                          \
+  if (model_id == Model::kModelId) {                                              \
+    if (!Model::ImgFromCam(params.data(), point_in_cam.data(), xy.data())) {      \
+      return std::nullopt;                                                        \
+    }                                                                             \
+    return xy;                                                                    \
+  }
+  MMBA_FOR_EACH_CAMERA_MODEL(MMBA_CASE)
+#undef MMBA_CASE
+  return std::nullopt;
+}
+
+Eigen::Vector3d Camera::CamFromImg(const Eigen::Vector2d& xy) const {
+  Eigen::Vector3d ray = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+#define MMBA_CASE(Model) \
+  if (model_id == Model::kModelId) Model::CamFromImg(params.data(), xy.x(), xy.y(), ray.data());
+  MMBA_FOR_EACH_CAMERA_MODEL(MMBA_CASE)
+#undef MMBA_CASE
+  return ray;
+}
+
+}  // namespace mmba::sensors
