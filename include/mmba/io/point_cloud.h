@@ -1,9 +1,22 @@
 #pragma once
 
-// Point clouds as mmba reads and writes them. Readers: PLY (ASCII / binary little and big
-// endian), PCD (through PCL, in the registration module's io), XYZ text, LAS 1.2–1.4.
-// OWNED BY the registration work (issue 5): this header fixes the struct and the PLY
-// functions every module uses; implementation in src/io/point_cloud*.cc.
+// Point clouds as mmba reads and writes them. Readers (all in library mmba_io_cloud, no PCL):
+//   PLY  ascii / binary_little_endian / binary_big_endian; vertex properties x y z (any
+//        numeric type), optional nx ny nz (or normal_x …), intensity / scalar_intensity /
+//        reflectance, red green blue (or diffuse_red …); other elements are skipped.
+//   PCD  v0.7 ascii / binary / binary_compressed (LZF); fields x y z, normal_x…, intensity,
+//        rgb / rgba (packed). VIEWPOINT is not applied (as PCL's loadPCDFile).
+//   XYZ  text (.xyz .txt .csv .pts): whitespace or comma separated; an optional first line
+//        of column names (x y z nx ny nz intensity r g b …); without names the column count
+//        decides: 3 = xyz, 4 = xyz intensity, 6 = xyz rgb if the 3 extra values are integers
+//        in 0..255 else xyz normal, 7 = xyz intensity rgb, 9 = xyz rgb normal.
+//        Lines starting with '#' or '//' are comments; a first line holding one integer
+//        (PTS point count) is skipped.
+//   LAS  1.2–1.4 uncompressed, point data formats 0–3 and 6–8, with scale and offset
+//        (a small reader written here: Debian packages no LAS library). LAZ is refused.
+//   BIN  KITTI velodyne: float32 little-endian x y z reflectance per point.
+// Non-finite coordinates are an InputError unless ReadOptions::skip_invalid_points, which
+// drops them (PCD's organised clouds mark missing returns with NaN x y z).
 
 #include <array>
 #include <cstdint>
@@ -29,13 +42,45 @@ struct PointCloud {
   bool has_colors() const { return !colors.empty(); }
 };
 
-/// Reads a cloud, choosing the reader from the extension (.ply, .xyz/.txt/.csv, .las, .bin
-/// = KITTI velodyne). Throws InputError naming the file (and line or byte) on bad input.
+/// How readers treat doubtful content.
+struct ReadOptions {
+  /// false: a point with a NaN/Inf coordinate (or normal) is an InputError naming where it
+  /// is. true: such points are dropped (counted in ReadStats::num_skipped).
+  bool skip_invalid_points = false;
+};
+
+/// What a reader found, for logging.
+struct ReadStats {
+  std::string format;         ///< "ply-ascii", "ply-binary-le", "pcd-binary-compressed", "las-1.4-fmt6", …
+  size_t num_read = 0;        ///< points kept
+  size_t num_skipped = 0;     ///< points dropped by skip_invalid_points
+};
+
+/// Reads a cloud, choosing the reader from the extension (.ply, .pcd, .xyz/.txt/.csv/.pts,
+/// .las, .bin = KITTI velodyne). Throws InputError naming the file (and line or byte) on bad
+/// input: missing file, bad header, truncated data, non-finite values (unless skipped).
 PointCloud ReadPointCloud(const std::string& path);
+PointCloud ReadPointCloud(const std::string& path, const ReadOptions& options,
+                          ReadStats* stats = nullptr);
 
 PointCloud ReadPly(const std::string& path);
+PointCloud ReadPly(const std::string& path, const ReadOptions& options,
+                   ReadStats* stats = nullptr);
+PointCloud ReadPcd(const std::string& path, const ReadOptions& options = {},
+                   ReadStats* stats = nullptr);
+PointCloud ReadXyz(const std::string& path, const ReadOptions& options = {},
+                   ReadStats* stats = nullptr);
+/// LAS: intensity is the raw 16-bit value; 16-bit colours are reduced to 8 bits (>> 8)
+/// unless every stored value is <= 255 (writers that store 8-bit colour in 16-bit fields).
+PointCloud ReadLas(const std::string& path, const ReadOptions& options = {},
+                   ReadStats* stats = nullptr);
+PointCloud ReadKittiBin(const std::string& path, const ReadOptions& options = {},
+                        ReadStats* stats = nullptr);
+
 /// Writes PLY (binary little endian unless `ascii`), with every attribute the cloud has,
-/// atomically (temp + rename). Intensity is written as property `float intensity`.
+/// atomically (temp + rename). Coordinates are written as `double x y z` (survey
+/// coordinates lose millimetres in float32), normals as `float nx ny nz`, intensity as
+/// `float intensity`, colours as `uchar red green blue`.
 void WritePly(const PointCloud& cloud, const std::string& path, bool ascii = false);
 
 }  // namespace mmba::io

@@ -1,0 +1,314 @@
+// Shared helpers, the extension dispatch, the XYZ text and KITTI .bin readers.
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include "io_cloud/point_cloud_internal.h"
+#include "mmba/io/text_reader.h"
+
+namespace mmba::io {
+namespace internal {
+
+size_t ScalarSize(ScalarType type) {
+  switch (type) {
+    case ScalarType::kInt8:
+    case ScalarType::kUInt8: return 1;
+    case ScalarType::kInt16:
+    case ScalarType::kUInt16: return 2;
+    case ScalarType::kInt32:
+    case ScalarType::kUInt32:
+    case ScalarType::kFloat32: return 4;
+    case ScalarType::kFloat64: return 8;
+  }
+  return 0;
+}
+
+double ReadScalar(const char* data, ScalarType type, bool swap) {
+  char buffer[8];
+  const size_t n = ScalarSize(type);
+  std::memcpy(buffer, data, n);
+  if (swap) std::reverse(buffer, buffer + n);
+  switch (type) {
+    case ScalarType::kInt8: { int8_t v; std::memcpy(&v, buffer, 1); return v; }
+    case ScalarType::kUInt8: { uint8_t v; std::memcpy(&v, buffer, 1); return v; }
+    case ScalarType::kInt16: { int16_t v; std::memcpy(&v, buffer, 2); return v; }
+    case ScalarType::kUInt16: { uint16_t v; std::memcpy(&v, buffer, 2); return v; }
+    case ScalarType::kInt32: { int32_t v; std::memcpy(&v, buffer, 4); return v; }
+    case ScalarType::kUInt32: { uint32_t v; std::memcpy(&v, buffer, 4); return v; }
+    case ScalarType::kFloat32: { float v; std::memcpy(&v, buffer, 4); return v; }
+    case ScalarType::kFloat64: { double v; std::memcpy(&v, buffer, 8); return v; }
+  }
+  return 0.0;
+}
+
+CloudBuilder::CloudBuilder(const std::string& file, const ReadOptions& options,
+                           bool normals, bool intensity, bool colors, size_t reserve)
+    : file_(file),
+      options_(options),
+      has_normals_(normals),
+      has_intensity_(intensity),
+      has_colors_(colors) {
+  // Do not trust a header's count for the reservation beyond a sane size.
+  reserve = std::min<size_t>(reserve, size_t{1} << 26);
+  cloud_.points.reserve(reserve);
+  if (normals) cloud_.normals.reserve(reserve);
+  if (intensity) cloud_.intensity.reserve(reserve);
+  if (colors) cloud_.colors.reserve(reserve);
+}
+
+PointCloud CloudBuilder::Finish(const std::string& format, ReadStats* stats) {
+  if (stats != nullptr) {
+    stats->format = format;
+    stats->num_read = cloud_.points.size();
+    stats->num_skipped = skipped_;
+  }
+  return std::move(cloud_);
+}
+
+std::string ToLower(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return out;
+}
+
+}  // namespace internal
+
+using internal::CloudBuilder;
+using internal::ToLower;
+
+PointCloud ReadPointCloud(const std::string& path) { return ReadPointCloud(path, {}); }
+
+PointCloud ReadPointCloud(const std::string& path, const ReadOptions& options,
+                          ReadStats* stats) {
+  const std::string ext = ToLower(std::filesystem::path(path).extension().string());
+  if (ext == ".ply") return ReadPly(path, options, stats);
+  if (ext == ".pcd") return ReadPcd(path, options, stats);
+  if (ext == ".las") return ReadLas(path, options, stats);
+  if (ext == ".bin") return ReadKittiBin(path, options, stats);
+  if (ext == ".xyz" || ext == ".txt" || ext == ".csv" || ext == ".pts") {
+    return ReadXyz(path, options, stats);
+  }
+  if (ext == ".laz") {
+    throw InputError(path, 0, "extension", ext,
+                     "an uncompressed format (.las); decompress LAZ first (laszip/pdal)");
+  }
+  throw InputError(path, 0, "extension", ext.empty() ? "(none)" : ext,
+                   "one of .ply .pcd .las .bin .xyz .txt .csv .pts");
+}
+
+// ---------------------------------------------------------------------------------------
+// XYZ text.
+
+namespace {
+
+enum class Column { kX, kY, kZ, kNx, kNy, kNz, kIntensity, kR, kG, kB, kIgnore };
+
+Column ColumnFromName(const std::string& raw) {
+  std::string name = ToLower(raw);
+  while (!name.empty() && (name[0] == '/' || name[0] == '#')) name.erase(0, 1);
+  if (name == "x" || name == "//x") return Column::kX;
+  if (name == "y") return Column::kY;
+  if (name == "z") return Column::kZ;
+  if (name == "nx" || name == "normal_x") return Column::kNx;
+  if (name == "ny" || name == "normal_y") return Column::kNy;
+  if (name == "nz" || name == "normal_z") return Column::kNz;
+  if (name == "intensity" || name == "i" || name == "scalar_intensity" ||
+      name == "reflectance") {
+    return Column::kIntensity;
+  }
+  if (name == "r" || name == "red") return Column::kR;
+  if (name == "g" || name == "green") return Column::kG;
+  if (name == "b" || name == "blue") return Column::kB;
+  return Column::kIgnore;
+}
+
+bool IsComment(std::string_view line) {
+  size_t i = 0;
+  while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+  if (i == line.size()) return true;  // blank
+  return line[i] == '#' || line.substr(i, 2) == "//";
+}
+
+std::string CommasToSpaces(std::string_view line) {
+  std::string s(line);
+  std::replace(s.begin(), s.end(), ',', ' ');
+  std::replace(s.begin(), s.end(), ';', ' ');
+  return s;
+}
+
+}  // namespace
+
+PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStats* stats) {
+  const std::string text = ReadWholeFile(path);
+  LineCursor cursor(text);
+  std::string_view line;
+  std::vector<Column> columns;
+  bool first_content = true;
+  // Find the layout from the first lines.
+  std::vector<std::pair<int64_t, std::string>> pending;  // first data line, if any
+  while (cursor.Next(&line)) {
+    const bool comment = IsComment(line);
+    const std::string s = CommasToSpaces(comment ? std::string_view() : line);
+    if (comment) {
+      // A CloudCompare-style "//X,Y,Z,R,G,B" header names the columns.
+      std::string_view t = line;
+      while (!t.empty() && std::isspace(static_cast<unsigned char>(t[0]))) t.remove_prefix(1);
+      if (first_content && t.substr(0, 2) == "//" && t.size() > 2) {
+        TokenLine names(path, cursor.line_number(), CommasToSpaces(t.substr(2)));
+        double v;
+        if (names.size() >= 3 && !ParseDouble(names.Str(0, "name"), &v)) {
+          for (size_t i = 0; i < names.size(); ++i) {
+            columns.push_back(ColumnFromName(names.Str(i, "name")));
+          }
+          first_content = false;
+        }
+      }
+      continue;
+    }
+    TokenLine tokens(path, cursor.line_number(), s);
+    double v;
+    if (first_content && !ParseDouble(tokens.Str(0, "x"), &v)) {
+      for (size_t i = 0; i < tokens.size(); ++i) {
+        columns.push_back(ColumnFromName(tokens.Str(i, "name")));
+      }
+      first_content = false;
+      continue;
+    }
+    if (first_content && tokens.size() == 1) {  // PTS point count
+      tokens.UInt(0, "point count");
+      first_content = false;
+      continue;
+    }
+    first_content = false;
+    pending.emplace_back(cursor.line_number(), s);
+    break;
+  }
+  if (pending.empty()) {
+    throw InputError::Message(path, "no points (expected lines of x y z ...)");
+  }
+  TokenLine first(path, pending[0].first, pending[0].second);
+  if (columns.empty()) {
+    switch (first.size()) {
+      case 3: columns = {Column::kX, Column::kY, Column::kZ}; break;
+      case 4: columns = {Column::kX, Column::kY, Column::kZ, Column::kIntensity}; break;
+      case 6: {
+        bool rgb = true;
+        for (size_t i = 3; i < 6; ++i) {
+          int64_t c;
+          if (!ParseInt(first.Str(i, "value"), &c) || c < 0 || c > 255) rgb = false;
+        }
+        columns = {Column::kX, Column::kY, Column::kZ};
+        if (rgb) {
+          columns.insert(columns.end(), {Column::kR, Column::kG, Column::kB});
+        } else {
+          columns.insert(columns.end(), {Column::kNx, Column::kNy, Column::kNz});
+        }
+        break;
+      }
+      case 7:
+        columns = {Column::kX, Column::kY, Column::kZ, Column::kIntensity,
+                   Column::kR, Column::kG, Column::kB};
+        break;
+      case 9:
+        columns = {Column::kX, Column::kY, Column::kZ, Column::kR, Column::kG,
+                   Column::kB, Column::kNx, Column::kNy, Column::kNz};
+        break;
+      default:
+        first.Fail("column count", std::to_string(first.size()),
+                   "3 (x y z), 4 (+intensity), 6 (+rgb or +normal), 7 (+intensity rgb), "
+                   "9 (+rgb normal), or a first line naming the columns");
+    }
+  }
+  int index[10];
+  std::fill(index, index + 10, -1);
+  for (size_t i = 0; i < columns.size(); ++i) {
+    if (columns[i] != Column::kIgnore && index[static_cast<int>(columns[i])] < 0) {
+      index[static_cast<int>(columns[i])] = static_cast<int>(i);
+    }
+  }
+  auto has = [&](Column c) { return index[static_cast<int>(c)] >= 0; };
+  if (!has(Column::kX) || !has(Column::kY) || !has(Column::kZ)) {
+    throw InputError(path, 0, "columns", std::to_string(columns.size()) + " named columns",
+                     "columns named x, y and z");
+  }
+  const bool normals = has(Column::kNx) && has(Column::kNy) && has(Column::kNz);
+  const bool colors = has(Column::kR) && has(Column::kG) && has(Column::kB);
+  const bool intensity = has(Column::kIntensity);
+  CloudBuilder builder(path, options, normals, intensity, colors, text.size() / 24);
+
+  auto parse = [&](const TokenLine& t) {
+    t.ExpectCount(columns.size(), "point");
+    double xyz[3], n[3] = {0, 0, 0};
+    uint8_t rgb[3] = {0, 0, 0};
+    float inten = 0.0f;
+    const char* names[3] = {"x", "y", "z"};
+    const char* nnames[3] = {"nx", "ny", "nz"};
+    const char* cnames[3] = {"red", "green", "blue"};
+    // Non-finite values: ParseDouble refuses "nan"/"inf", so check the text ourselves to give
+    // the finiteness error (or skip) instead of a parse error.
+    auto value = [&](int i, const char* field) {
+      const std::string& s = t.Str(i, field);
+      const std::string l = ToLower(s);
+      if (l.find("nan") != std::string::npos || l.find("inf") != std::string::npos) {
+        return std::numeric_limits<double>::quiet_NaN();
+      }
+      return t.Double(i, field);
+    };
+    for (int k = 0; k < 3; ++k) xyz[k] = value(index[static_cast<int>(Column::kX) + k], names[k]);
+    if (normals) {
+      for (int k = 0; k < 3; ++k) n[k] = value(index[static_cast<int>(Column::kNx) + k], nnames[k]);
+    }
+    if (intensity) inten = static_cast<float>(value(index[static_cast<int>(Column::kIntensity)], "intensity"));
+    if (colors) {
+      for (int k = 0; k < 3; ++k) {
+        const uint64_t c = t.UInt(index[static_cast<int>(Column::kR) + k], cnames[k]);
+        if (c > 255) t.Fail(cnames[k], std::to_string(c), "an integer in 0..255");
+        rgb[k] = static_cast<uint8_t>(c);
+      }
+    }
+    builder.Add(xyz, normals ? n : nullptr, inten, rgb, [&] {
+      return path + ":" + std::to_string(t.line_number());
+    });
+  };
+  parse(first);
+  while (cursor.Next(&line)) {
+    if (IsComment(line)) continue;
+    parse(TokenLine(path, cursor.line_number(), CommasToSpaces(line)));
+  }
+  return builder.Finish("xyz", stats);
+}
+
+// ---------------------------------------------------------------------------------------
+// KITTI velodyne .bin: float32 x y z reflectance, little endian.
+
+PointCloud ReadKittiBin(const std::string& path, const ReadOptions& options,
+                        ReadStats* stats) {
+  const std::string data = ReadWholeFile(path);
+  if (data.empty()) throw InputError::Message(path, "empty file (expected float32 x y z r records)");
+  if (data.size() % 16 != 0) {
+    throw InputError::AtByte(path, data.size() - data.size() % 16, "file size",
+                             std::to_string(data.size()) + " bytes",
+                             "a multiple of 16 (float32 x y z reflectance per point)");
+  }
+  const size_t n = data.size() / 16;
+  const bool swap = !internal::HostIsLittleEndian();
+  CloudBuilder builder(path, options, false, true, false, n);
+  for (size_t i = 0; i < n; ++i) {
+    const char* p = data.data() + 16 * i;
+    double xyz[3];
+    for (int k = 0; k < 3; ++k) {
+      xyz[k] = internal::ReadScalar(p + 4 * k, internal::ScalarType::kFloat32, swap);
+    }
+    const float r =
+        static_cast<float>(internal::ReadScalar(p + 12, internal::ScalarType::kFloat32, swap));
+    builder.Add(xyz, nullptr, r, nullptr, [&] {
+      return path + " (byte " + std::to_string(16 * i) + ")";
+    });
+  }
+  return builder.Finish("kitti-bin", stats);
+}
+
+}  // namespace mmba::io

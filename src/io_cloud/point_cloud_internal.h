@@ -1,0 +1,81 @@
+#pragma once
+
+// Shared pieces of the point-cloud readers (src/io_cloud/point_cloud_*.cc).
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <string_view>
+
+#include "mmba/core/error.h"
+#include "mmba/io/point_cloud.h"
+
+namespace mmba::io::internal {
+
+/// Scalar types of PLY and PCD fields.
+enum class ScalarType { kInt8, kUInt8, kInt16, kUInt16, kInt32, kUInt32, kFloat32, kFloat64 };
+
+size_t ScalarSize(ScalarType type);
+
+/// Reads one scalar at `data` (no alignment needed), byte-swapping when `swap`.
+double ReadScalar(const char* data, ScalarType type, bool swap);
+
+/// True on a little-endian host.
+inline bool HostIsLittleEndian() {
+  const uint16_t probe = 1;
+  uint8_t first = 0;
+  std::memcpy(&first, &probe, 1);
+  return first == 1;
+}
+
+/// Appends points to a cloud, checking finiteness. `where` names the point for errors
+/// (e.g. "file:12" or "file (byte 400)"); it is only built when needed.
+class CloudBuilder {
+ public:
+  CloudBuilder(const std::string& file, const ReadOptions& options, bool normals,
+               bool intensity, bool colors, size_t reserve);
+
+  /// Returns false if the point was skipped. `describe_location()` gives the error prefix.
+  template <typename Describe>
+  bool Add(const double xyz[3], const double* normal, float intensity, const uint8_t* rgb,
+           Describe describe_location) {
+    bool finite = std::isfinite(xyz[0]) && std::isfinite(xyz[1]) && std::isfinite(xyz[2]);
+    if (finite && normal != nullptr) {
+      finite = std::isfinite(normal[0]) && std::isfinite(normal[1]) && std::isfinite(normal[2]);
+    }
+    if (finite && has_intensity_) finite = std::isfinite(intensity);
+    const size_t index = seen_++;
+    if (!finite) {
+      if (options_.skip_invalid_points) {
+        ++skipped_;
+        return false;
+      }
+      throw InputError::Message(describe_location(),
+                                "point " + std::to_string(index) +
+                                    ": non-finite coordinate, normal or intensity (NaN/Inf); "
+                                    "expected finite values (or read with skip_invalid_points)");
+    }
+    cloud_.points.emplace_back(xyz[0], xyz[1], xyz[2]);
+    if (has_normals_) cloud_.normals.emplace_back(normal[0], normal[1], normal[2]);
+    if (has_intensity_) cloud_.intensity.push_back(intensity);
+    if (has_colors_) cloud_.colors.push_back({rgb[0], rgb[1], rgb[2]});
+    return true;
+  }
+  /// Counts a point that is dropped without a check (e.g. PCD NaN padding).
+  void CountSkipped() { ++skipped_; }
+
+  PointCloud Finish(const std::string& format, ReadStats* stats);
+
+ private:
+  std::string file_;
+  ReadOptions options_;
+  bool has_normals_, has_intensity_, has_colors_;
+  size_t seen_ = 0;
+  size_t skipped_ = 0;
+  PointCloud cloud_;
+};
+
+std::string ToLower(std::string_view s);
+
+}  // namespace mmba::io::internal

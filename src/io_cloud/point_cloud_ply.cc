@@ -1,0 +1,374 @@
+// PLY reader (ascii, binary little/big endian) and writer.
+// Format: Greg Turk, "The PLY Polygon File Format" (1994), as used by the Stanford 3D
+// Scanning Repository.
+
+#include <algorithm>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+#include "io_cloud/point_cloud_internal.h"
+#include "mmba/core/atomic_file.h"
+#include "mmba/io/text_reader.h"
+
+namespace mmba::io {
+namespace {
+
+using internal::CloudBuilder;
+using internal::ScalarType;
+
+struct PlyProperty {
+  std::string name;
+  ScalarType type = ScalarType::kFloat32;
+  bool is_list = false;
+  ScalarType count_type = ScalarType::kUInt8;
+};
+
+struct PlyElement {
+  std::string name;
+  uint64_t count = 0;
+  std::vector<PlyProperty> properties;
+};
+
+enum class PlyFormat { kAscii, kBinaryLe, kBinaryBe };
+
+bool ParsePlyType(const std::string& s, ScalarType* type) {
+  static const std::pair<const char*, ScalarType> kTypes[] = {
+      {"char", ScalarType::kInt8},     {"int8", ScalarType::kInt8},
+      {"uchar", ScalarType::kUInt8},   {"uint8", ScalarType::kUInt8},
+      {"short", ScalarType::kInt16},   {"int16", ScalarType::kInt16},
+      {"ushort", ScalarType::kUInt16}, {"uint16", ScalarType::kUInt16},
+      {"int", ScalarType::kInt32},     {"int32", ScalarType::kInt32},
+      {"uint", ScalarType::kUInt32},   {"uint32", ScalarType::kUInt32},
+      {"float", ScalarType::kFloat32}, {"float32", ScalarType::kFloat32},
+      {"double", ScalarType::kFloat64}, {"float64", ScalarType::kFloat64}};
+  for (const auto& [name, t] : kTypes) {
+    if (s == name) {
+      *type = t;
+      return true;
+    }
+  }
+  return false;
+}
+
+constexpr const char* kTypeNames =
+    "one of char uchar short ushort int uint float double (or int8 … float64)";
+
+// Property roles within the vertex element.
+struct VertexLayout {
+  int xyz[3] = {-1, -1, -1};
+  int normal[3] = {-1, -1, -1};
+  int intensity = -1;
+  int rgb[3] = {-1, -1, -1};
+};
+
+VertexLayout FindVertexLayout(const PlyElement& vertex) {
+  VertexLayout layout;
+  for (size_t i = 0; i < vertex.properties.size(); ++i) {
+    const PlyProperty& p = vertex.properties[i];
+    if (p.is_list) continue;
+    const std::string& n = p.name;
+    const int idx = static_cast<int>(i);
+    if (n == "x") layout.xyz[0] = idx;
+    else if (n == "y") layout.xyz[1] = idx;
+    else if (n == "z") layout.xyz[2] = idx;
+    else if (n == "nx" || n == "normal_x") layout.normal[0] = idx;
+    else if (n == "ny" || n == "normal_y") layout.normal[1] = idx;
+    else if (n == "nz" || n == "normal_z") layout.normal[2] = idx;
+    else if ((n == "intensity" || n == "scalar_intensity" || n == "reflectance" ||
+              n == "scalar_Intensity") && layout.intensity < 0) {
+      layout.intensity = idx;
+    } else if (n == "red" || n == "diffuse_red" || n == "r") layout.rgb[0] = idx;
+    else if (n == "green" || n == "diffuse_green" || n == "g") layout.rgb[1] = idx;
+    else if (n == "blue" || n == "diffuse_blue" || n == "b") layout.rgb[2] = idx;
+  }
+  return layout;
+}
+
+uint8_t ColorByte(double v, ScalarType type) {
+  switch (type) {
+    case ScalarType::kFloat32:
+    case ScalarType::kFloat64:
+      return static_cast<uint8_t>(std::clamp(v * 255.0 + 0.5, 0.0, 255.0));
+    case ScalarType::kUInt16:
+    case ScalarType::kInt16:
+      return static_cast<uint8_t>(std::clamp(v / 257.0 + 0.5, 0.0, 255.0));
+    default:
+      return static_cast<uint8_t>(std::clamp(v, 0.0, 255.0));
+  }
+}
+
+}  // namespace
+
+PointCloud ReadPly(const std::string& path) { return ReadPly(path, {}); }
+
+PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStats* stats) {
+  const std::string data = ReadWholeFile(path);
+  // --- header
+  LineCursor cursor(data);
+  std::string_view line;
+  if (!cursor.Next(&line) || line != "ply") {
+    throw InputError(path, 1, "magic", std::string(line.substr(0, 16)), "'ply'");
+  }
+  PlyFormat format = PlyFormat::kAscii;
+  bool have_format = false;
+  std::vector<PlyElement> elements;
+  size_t header_end = std::string::npos;
+  while (cursor.Next(&line)) {
+    TokenLine t(path, cursor.line_number(), line);
+    if (t.size() == 0) continue;
+    const std::string& key = t.Str(0, "keyword");
+    if (key == "comment" || key == "obj_info") continue;
+    if (key == "format") {
+      t.ExpectCount(3, "format");
+      const std::string& f = t.Str(1, "format");
+      if (f == "ascii") format = PlyFormat::kAscii;
+      else if (f == "binary_little_endian") format = PlyFormat::kBinaryLe;
+      else if (f == "binary_big_endian") format = PlyFormat::kBinaryBe;
+      else t.Fail("format", f, "ascii, binary_little_endian or binary_big_endian");
+      if (t.Str(2, "version") != "1.0") t.Fail("version", t.Str(2, "version"), "1.0");
+      have_format = true;
+    } else if (key == "element") {
+      t.ExpectCount(3, "element");
+      PlyElement e;
+      e.name = t.Str(1, "element name");
+      e.count = t.UInt(2, "element count");
+      elements.push_back(e);
+    } else if (key == "property") {
+      if (elements.empty()) t.Fail("property", std::string(line), "an 'element' line before it");
+      PlyProperty p;
+      if (t.size() >= 2 && t.Str(1, "type") == "list") {
+        t.ExpectCount(5, "list property");
+        p.is_list = true;
+        if (!ParsePlyType(t.Str(2, "count type"), &p.count_type)) {
+          t.Fail("count type", t.Str(2, "count type"), kTypeNames);
+        }
+        if (!ParsePlyType(t.Str(3, "item type"), &p.type)) {
+          t.Fail("item type", t.Str(3, "item type"), kTypeNames);
+        }
+        p.name = t.Str(4, "name");
+      } else {
+        t.ExpectCount(3, "property");
+        if (!ParsePlyType(t.Str(1, "type"), &p.type)) t.Fail("type", t.Str(1, "type"), kTypeNames);
+        p.name = t.Str(2, "name");
+      }
+      elements.back().properties.push_back(p);
+    } else if (key == "end_header") {
+      header_end = static_cast<size_t>(line.data() + line.size() - data.data());
+      // Skip the line terminator ("\n" or "\r\n").
+      if (header_end < data.size() && data[header_end] == '\r') ++header_end;
+      if (header_end < data.size() && data[header_end] == '\n') ++header_end;
+      break;
+    } else {
+      t.Fail("keyword", key, "one of format, comment, obj_info, element, property, end_header");
+    }
+  }
+  if (!have_format) throw InputError::Message(path, "PLY header has no 'format' line");
+  if (header_end == std::string::npos) {
+    throw InputError::Message(path, "PLY header has no 'end_header' line (truncated file?)");
+  }
+  size_t vertex_index = elements.size();
+  for (size_t i = 0; i < elements.size(); ++i) {
+    if (elements[i].name == "vertex") {
+      vertex_index = i;
+      break;
+    }
+  }
+  if (vertex_index == elements.size()) {
+    throw InputError::Message(path, "PLY header declares no 'vertex' element");
+  }
+  const PlyElement& vertex = elements[vertex_index];
+  const VertexLayout layout = FindVertexLayout(vertex);
+  for (int k = 0; k < 3; ++k) {
+    if (layout.xyz[k] < 0) {
+      throw InputError(path, 0, "vertex property", "missing " + std::string(1, "xyz"[k]),
+                       "vertex properties x, y and z (scalar)");
+    }
+  }
+  const bool normals = layout.normal[0] >= 0 && layout.normal[1] >= 0 && layout.normal[2] >= 0;
+  const bool colors = layout.rgb[0] >= 0 && layout.rgb[1] >= 0 && layout.rgb[2] >= 0;
+  const bool intensity = layout.intensity >= 0;
+  CloudBuilder builder(path, options, normals, intensity, colors, vertex.count);
+  std::vector<double> values(vertex.properties.size());
+
+  auto emit = [&](auto describe) {
+    double xyz[3], n[3];
+    uint8_t rgb[3] = {0, 0, 0};
+    for (int k = 0; k < 3; ++k) xyz[k] = values[layout.xyz[k]];
+    if (normals) {
+      for (int k = 0; k < 3; ++k) n[k] = values[layout.normal[k]];
+    }
+    if (colors) {
+      for (int k = 0; k < 3; ++k) {
+        rgb[k] = ColorByte(values[layout.rgb[k]], vertex.properties[layout.rgb[k]].type);
+      }
+    }
+    const float inten = intensity ? static_cast<float>(values[layout.intensity]) : 0.0f;
+    builder.Add(xyz, normals ? n : nullptr, inten, rgb, describe);
+  };
+
+  if (format == PlyFormat::kAscii) {
+    LineCursor body(std::string_view(data).substr(header_end));
+    const int64_t line_offset = cursor.line_number();
+    std::string_view l;
+    for (size_t e = 0; e <= vertex_index; ++e) {
+      const PlyElement& element = elements[e];
+      for (uint64_t i = 0; i < element.count; ++i) {
+        if (!body.Next(&l)) {
+          throw InputError(path, line_offset + body.line_number() + 1, element.name,
+                           "end of file after " + std::to_string(i) + " of " +
+                               std::to_string(element.count) + " items",
+                           "one line per item (truncated file?)");
+        }
+        if (e != vertex_index) continue;  // other elements occupy one line each
+        TokenLine t(path, line_offset + body.line_number(), l);
+        size_t token = 0;
+        for (size_t p = 0; p < element.properties.size(); ++p) {
+          const PlyProperty& prop = element.properties[p];
+          if (prop.is_list) {
+            const uint64_t count = t.UInt(token++, prop.name + " count");
+            token += count;
+            continue;
+          }
+          const std::string& s = t.Str(token, prop.name);
+          const std::string lower = internal::ToLower(s);
+          if (lower.find("nan") != std::string::npos || lower.find("inf") != std::string::npos) {
+            values[p] = std::numeric_limits<double>::quiet_NaN();
+          } else {
+            values[p] = t.Double(token, prop.name);
+          }
+          ++token;
+        }
+        if (token != t.size()) {
+          t.Fail("vertex", std::to_string(t.size()) + " values",
+                 std::to_string(token) + " values (one per property)");
+        }
+        emit([&] { return path + ":" + std::to_string(t.line_number()); });
+      }
+    }
+    return builder.Finish("ply-ascii", stats);
+  }
+
+  const bool file_le = format == PlyFormat::kBinaryLe;
+  const bool swap = file_le != internal::HostIsLittleEndian();
+  size_t pos = header_end;
+  auto need = [&](size_t bytes, const std::string& what) {
+    if (pos + bytes > data.size()) {
+      throw InputError::AtByte(path, pos, what, "end of file",
+                               std::to_string(bytes) + " more bytes (truncated file?)");
+    }
+  };
+  for (size_t e = 0; e <= vertex_index; ++e) {
+    const PlyElement& element = elements[e];
+    // Fixed-size fast path check.
+    bool fixed = true;
+    size_t stride = 0;
+    for (const PlyProperty& p : element.properties) {
+      if (p.is_list) fixed = false;
+      stride += internal::ScalarSize(p.type);
+    }
+    if (e != vertex_index && fixed) {
+      const uint64_t bytes = stride * element.count;
+      need(bytes, element.name + " element");
+      pos += bytes;
+      continue;
+    }
+    if (fixed) need(static_cast<size_t>(stride * element.count), element.name + " element");
+    for (uint64_t i = 0; i < element.count; ++i) {
+      const size_t item_start = pos;
+      for (size_t p = 0; p < element.properties.size(); ++p) {
+        const PlyProperty& prop = element.properties[p];
+        if (prop.is_list) {
+          need(internal::ScalarSize(prop.count_type), prop.name + " count");
+          const double count = internal::ReadScalar(data.data() + pos, prop.count_type, swap);
+          if (count < 0) {
+            throw InputError::AtByte(path, pos, prop.name + " count", std::to_string(count),
+                                     "a non-negative count");
+          }
+          pos += internal::ScalarSize(prop.count_type);
+          const size_t bytes = static_cast<size_t>(count) * internal::ScalarSize(prop.type);
+          need(bytes, prop.name);
+          pos += bytes;
+          continue;
+        }
+        need(internal::ScalarSize(prop.type), prop.name);
+        values[p] = internal::ReadScalar(data.data() + pos, prop.type, swap);
+        pos += internal::ScalarSize(prop.type);
+      }
+      if (e == vertex_index) {
+        emit([&] { return path + " (byte " + std::to_string(item_start) + ")"; });
+      }
+    }
+  }
+  return builder.Finish(file_le ? "ply-binary-le" : "ply-binary-be", stats);
+}
+
+void WritePly(const PointCloud& cloud, const std::string& path, bool ascii) {
+  const size_t n = cloud.size();
+  auto check = [&](size_t size, const char* what) {
+    if (size != 0 && size != n) {
+      throw std::invalid_argument(std::string("WritePly: ") + what + " has " +
+                                  std::to_string(size) + " entries for " + std::to_string(n) +
+                                  " points");
+    }
+  };
+  check(cloud.normals.size(), "normals");
+  check(cloud.intensity.size(), "intensity");
+  check(cloud.colors.size(), "colors");
+  const bool little = internal::HostIsLittleEndian();
+  WriteFileAtomically(
+      path,
+      [&](std::ostream& out) {
+        out << "ply\nformat "
+            << (ascii ? "ascii" : (little ? "binary_little_endian" : "binary_big_endian"))
+            << " 1.0\ncomment written by mmba\nelement vertex " << n
+            << "\nproperty double x\nproperty double y\nproperty double z\n";
+        if (cloud.has_normals()) out << "property float nx\nproperty float ny\nproperty float nz\n";
+        if (cloud.has_intensity()) out << "property float intensity\n";
+        if (cloud.has_colors()) {
+          out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+        }
+        out << "end_header\n";
+        if (ascii) {
+          out << std::setprecision(17);
+          for (size_t i = 0; i < n; ++i) {
+            const auto& p = cloud.points[i];
+            out << p.x() << ' ' << p.y() << ' ' << p.z();
+            if (cloud.has_normals()) {
+              out << std::setprecision(9) << ' ' << static_cast<float>(cloud.normals[i].x())
+                  << ' ' << static_cast<float>(cloud.normals[i].y()) << ' '
+                  << static_cast<float>(cloud.normals[i].z()) << std::setprecision(17);
+            }
+            if (cloud.has_intensity()) {
+              out << std::setprecision(9) << ' ' << cloud.intensity[i] << std::setprecision(17);
+            }
+            if (cloud.has_colors()) {
+              out << ' ' << int(cloud.colors[i][0]) << ' ' << int(cloud.colors[i][1]) << ' '
+                  << int(cloud.colors[i][2]);
+            }
+            out << '\n';
+          }
+          return;
+        }
+        std::string record;
+        for (size_t i = 0; i < n; ++i) {
+          record.clear();
+          auto put = [&record](const void* v, size_t size) {
+            record.append(static_cast<const char*>(v), size);
+          };
+          put(cloud.points[i].data(), 3 * sizeof(double));
+          if (cloud.has_normals()) {
+            const float nf[3] = {static_cast<float>(cloud.normals[i].x()),
+                                 static_cast<float>(cloud.normals[i].y()),
+                                 static_cast<float>(cloud.normals[i].z())};
+            put(nf, sizeof(nf));
+          }
+          if (cloud.has_intensity()) put(&cloud.intensity[i], sizeof(float));
+          if (cloud.has_colors()) put(cloud.colors[i].data(), 3);
+          out.write(record.data(), static_cast<std::streamsize>(record.size()));
+        }
+      },
+      /*binary=*/true);
+}
+
+}  // namespace mmba::io

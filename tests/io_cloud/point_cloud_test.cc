@@ -1,0 +1,406 @@
+#include "mmba/io/point_cloud.h"
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "mmba/core/error.h"
+
+namespace mmba::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+class PointCloudIoTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("mmba_io_cloud_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) +
+            "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  std::string Write(const std::string& name, const std::string& content) {
+    const std::string path = (dir_ / name).string();
+    std::ofstream(path, std::ios::binary) << content;
+    return path;
+  }
+  fs::path dir_;
+};
+
+// Expects an InputError whose message contains every fragment.
+template <typename F>
+void ExpectInputError(F f, std::initializer_list<std::string> fragments) {
+  try {
+    f();
+    FAIL() << "no InputError thrown";
+  } catch (const InputError& e) {
+    for (const std::string& fragment : fragments) {
+      EXPECT_NE(std::string(e.what()).find(fragment), std::string::npos)
+          << "message '" << e.what() << "' lacks '" << fragment << "'";
+    }
+  }
+}
+
+template <typename T>
+void Put(std::string* s, T v) {
+  s->append(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+template <typename T>
+void PutBe(std::string* s, T v) {
+  char b[sizeof(T)];
+  std::memcpy(b, &v, sizeof(T));
+  for (size_t i = 0; i < sizeof(T); ++i) s->push_back(b[sizeof(T) - 1 - i]);
+}
+
+PointCloud MakeCloud() {
+  PointCloud c;
+  c.points = {{1.5, -2.25, 3.125}, {1e6 + 0.001, 5e6 + 0.002, 100.0}, {0, 0, 0}};
+  c.normals = {{0, 0, 1}, {1, 0, 0}, {0, -1, 0}};
+  c.intensity = {0.5f, 12.0f, 0.0f};
+  c.colors = {{{255, 0, 10}}, {{1, 2, 3}}, {{200, 100, 50}}};
+  return c;
+}
+
+TEST_F(PointCloudIoTest, PlyRoundTripBinaryAndAscii) {
+  const PointCloud c = MakeCloud();
+  for (bool ascii : {false, true}) {
+    const std::string path = (dir_ / (ascii ? "a.ply" : "b.ply")).string();
+    WritePly(c, path, ascii);
+    ReadStats stats;
+    const PointCloud r = ReadPly(path, {}, &stats);
+    EXPECT_EQ(stats.format, ascii ? "ply-ascii" : "ply-binary-le");
+    ASSERT_EQ(r.size(), c.size());
+    ASSERT_TRUE(r.has_normals() && r.has_intensity() && r.has_colors());
+    for (size_t i = 0; i < c.size(); ++i) {
+      EXPECT_EQ(r.points[i], c.points[i]);  // double coordinates survive exactly
+      EXPECT_NEAR((r.normals[i] - c.normals[i]).norm(), 0.0, 1e-7);
+      EXPECT_EQ(r.intensity[i], c.intensity[i]);
+      EXPECT_EQ(r.colors[i], c.colors[i]);
+    }
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "b.ply.tmp"));
+}
+
+TEST_F(PointCloudIoTest, PlyBigEndianWithOtherElementsAndListSkipped) {
+  std::string s =
+      "ply\nformat binary_big_endian 1.0\ncomment test\n"
+      "element camera 1\nproperty float a\nproperty list uchar int idx\n"
+      "element vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
+      "property ushort scalar_intensity\nproperty uchar red\nproperty uchar green\n"
+      "property uchar blue\n"
+      "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  PutBe<float>(&s, 9.0f);
+  s.push_back(2);
+  PutBe<int32_t>(&s, 7);
+  PutBe<int32_t>(&s, 8);
+  for (int i = 0; i < 2; ++i) {
+    PutBe<float>(&s, 1.0f + i);
+    PutBe<float>(&s, 2.0f);
+    PutBe<float>(&s, -3.0f);
+    PutBe<uint16_t>(&s, 1000 + i);
+    s.push_back(static_cast<char>(10));
+    s.push_back(static_cast<char>(20));
+    s.push_back(static_cast<char>(250));
+  }
+  s.push_back(3);  // face: not read
+  const PointCloud c = ReadPly(Write("be.ply", s));
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_EQ(c.points[1], Eigen::Vector3d(2, 2, -3));
+  EXPECT_EQ(c.intensity[1], 1001.0f);
+  EXPECT_EQ(c.colors[0][2], 250);
+  EXPECT_FALSE(c.has_normals());
+}
+
+TEST_F(PointCloudIoTest, PlyAsciiStanfordStyle) {
+  const std::string path = Write(
+      "s.ply",
+      "ply\r\nformat ascii 1.0\r\nobj_info is_cyberware_data 1\r\nelement vertex 2\r\n"
+      "property float x\r\nproperty float y\r\nproperty float z\r\n"
+      "element range_grid 3\r\nproperty list uchar int vertex_indices\r\nend_header\r\n"
+      "-0.06325 0.0359793 0.0420873 \r\n1 2 3\r\n1 0\r\n0\r\n0\r\n");
+  const PointCloud c = ReadPointCloud(path);
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_DOUBLE_EQ(c.points[0].x(), -0.06325);
+}
+
+TEST_F(PointCloudIoTest, PlyBrokenFixtures) {
+  ExpectInputError([&] { ReadPly(Write("m.ply", "plx\nformat ascii 1.0\n")); },
+                   {"m.ply:1", "magic", "plx"});
+  ExpectInputError(
+      [&] { ReadPly(Write("f.ply", "ply\nformat binary_middle_endian 1.0\nend_header\n")); },
+      {"f.ply:2", "binary_middle_endian"});
+  ExpectInputError([&] {
+    ReadPly(Write("t.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty flot x\n"));
+  }, {"t.ply:4", "flot"});
+  ExpectInputError([&] {
+    ReadPly(Write("h.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"));
+  }, {"h.ply", "end_header"});
+  ExpectInputError([&] {
+    ReadPly(Write("noz.ply",
+                  "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n"
+                  "property float y\nend_header\n1 2\n"));
+  }, {"noz.ply", "missing z"});
+  const std::string head =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nend_header\n";
+  ExpectInputError([&] { ReadPly(Write("tr.ply", head + "1 2 3\n4 5 6\n")); },
+                   {"tr.ply:10", "end of file after 2 of 3"});
+  ExpectInputError([&] { ReadPly(Write("v.ply", head + "1 2 3\n4 5\n7 8 9\n")); },
+                   {"v.ply:9", "end of line"});
+  ExpectInputError([&] { ReadPly(Write("w.ply", head + "1 2 3\n4 5 abc\n7 8 9\n")); },
+                   {"w.ply:9", "'z'", "abc"});
+  ExpectInputError([&] { ReadPly(Write("n.ply", head + "1 2 3\n4 nan 6\n7 8 9\n")); },
+                   {"n.ply:9", "non-finite"});
+  ReadOptions skip;
+  skip.skip_invalid_points = true;
+  ReadStats stats;
+  const PointCloud c = ReadPly(Write("n2.ply", head + "1 2 3\n4 nan 6\n7 inf 9\n"), skip, &stats);
+  EXPECT_EQ(c.size(), 1u);
+  EXPECT_EQ(stats.num_skipped, 2u);
+  // Binary truncated.
+  std::string b =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\n"
+      "property float y\nproperty float z\nend_header\n";
+  const size_t header = b.size();
+  for (int i = 0; i < 5; ++i) Put<float>(&b, 1.0f);
+  ExpectInputError([&] { ReadPly(Write("bt.ply", b)); },
+                   {"bt.ply (byte " + std::to_string(header) + ")", "truncated"});
+  ExpectInputError([&] { ReadPly((dir_ / "missing.ply").string()); }, {"missing.ply", "not found"});
+}
+
+TEST_F(PointCloudIoTest, PcdAsciiBinaryAndCompressed) {
+  // ascii with packed float rgb (PCL writes rgb as the float with the colour's bits).
+  const uint32_t bits = (10u << 16) | (20u << 8) | 30u;
+  float packed;
+  std::memcpy(&packed, &bits, 4);
+  char rgb_text[64];
+  std::snprintf(rgb_text, sizeof(rgb_text), "%.9g", packed);
+  const std::string ascii = std::string(
+      "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z rgb\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\n"
+      "WIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\nDATA ascii\n1 2 3 ") +
+      rgb_text + "\nnan nan nan " + rgb_text + "\n";
+  ExpectInputError([&] { ReadPcd(Write("a.pcd", ascii)); }, {"a.pcd:13", "non-finite"});
+  ReadOptions skip;
+  skip.skip_invalid_points = true;
+  PointCloud c = ReadPointCloud(Write("a2.pcd", ascii), skip);
+  ASSERT_EQ(c.size(), 1u);
+  EXPECT_EQ(c.colors[0], (std::array<uint8_t, 3>{10, 20, 30}));
+
+  // binary (AoS) with normals and a uint8 intensity.
+  std::string bin =
+      "VERSION 0.7\nFIELDS x y z normal_x normal_y normal_z intensity\nSIZE 4 4 4 4 4 4 1\n"
+      "TYPE F F F F F F U\nCOUNT 1 1 1 1 1 1 1\nWIDTH 2\nHEIGHT 1\nPOINTS 2\nDATA binary\n";
+  for (int i = 0; i < 2; ++i) {
+    for (float v : {1.0f * i, 2.0f, 3.0f, 0.0f, 0.0f, 1.0f}) Put<float>(&bin, v);
+    bin.push_back(static_cast<char>(7 + i));
+  }
+  c = ReadPcd(Write("b.pcd", bin));
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_EQ(c.points[1], Eigen::Vector3d(1, 2, 3));
+  EXPECT_EQ(c.normals[1], Eigen::Vector3d(0, 0, 1));
+  EXPECT_EQ(c.intensity[1], 8.0f);
+  ExpectInputError([&] { ReadPcd(Write("bt.pcd", bin.substr(0, bin.size() - 3))); },
+                   {"bt.pcd", "truncated"});
+
+  // binary_compressed with an LZF stream made of literal runs only (valid LZF).
+  std::string soa;
+  for (float v : {1.0f, 4.0f}) Put<float>(&soa, v);
+  for (float v : {2.0f, 5.0f}) Put<float>(&soa, v);
+  for (float v : {3.0f, 6.0f}) Put<float>(&soa, v);
+  std::string lzf;
+  lzf.push_back(static_cast<char>(soa.size() - 1));  // one literal run of 24 bytes
+  lzf += soa;
+  std::string comp =
+      "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 2\nHEIGHT 1\n"
+      "POINTS 2\nDATA binary_compressed\n";
+  Put<uint32_t>(&comp, static_cast<uint32_t>(lzf.size()));
+  Put<uint32_t>(&comp, static_cast<uint32_t>(soa.size()));
+  comp += lzf;
+  ReadStats stats;
+  c = ReadPcd(Write("c.pcd", comp), {}, &stats);
+  EXPECT_EQ(stats.format, "pcd-binary-compressed");
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_EQ(c.points[1], Eigen::Vector3d(4, 5, 6));
+  std::string corrupt = comp;
+  corrupt[corrupt.size() - lzf.size()] = 40;  // literal run longer than the data
+  ExpectInputError([&] { ReadPcd(Write("cc.pcd", corrupt)); }, {"cc.pcd", "LZF"});
+
+  ExpectInputError([&] { ReadPcd(Write("h.pcd", "VERSION 0.7\nFIELDS x y z\nSIZE 4 4\n")); },
+                   {"h.pcd:3", "SIZE"});
+  ExpectInputError([&] {
+    ReadPcd(Write("p.pcd", "FIELDS rgba\nSIZE 4\nTYPE U\nCOUNT 1\nWIDTH 1\nHEIGHT 1\n"
+                           "POINTS 1\nDATA ascii\n5\n"));
+  }, {"p.pcd", "no x"});
+}
+
+TEST_F(PointCloudIoTest, PclTestFilesFromDataFolder) {
+  const std::string dir = std::string(MMBA_SOURCE_DIR) + "/data/pointclouds/pcl_test/";
+  if (!fs::exists(dir + "bun0.pcd")) GTEST_SKIP() << "data/pointclouds/pcl_test absent";
+  const PointCloud bun0 = ReadPointCloud(dir + "bun0.pcd");
+  EXPECT_EQ(bun0.size(), 397u);
+  EXPECT_TRUE(bun0.has_normals());
+  EXPECT_NEAR(bun0.points[0].x(), 0.0054215998, 1e-9);
+  if (fs::exists(dir + "milk_color.pcd")) {
+    ReadStats stats;
+    const PointCloud milk = ReadPointCloud(dir + "milk_color.pcd", {}, &stats);
+    EXPECT_EQ(stats.format, "pcd-binary-compressed");
+    EXPECT_EQ(milk.size(), 13704u);
+    EXPECT_TRUE(milk.has_colors());
+  }
+}
+
+TEST_F(PointCloudIoTest, XyzVariants) {
+  PointCloud c = ReadPointCloud(Write("a.xyz", "# comment\n1 2 3\n4 5 6\n\n"));
+  EXPECT_EQ(c.size(), 2u);
+  c = ReadPointCloud(Write("b.txt", "1,2,3,255,0,7\n4,5,6,1,2,3\n"));
+  ASSERT_TRUE(c.has_colors());
+  EXPECT_EQ(c.colors[0][2], 7);
+  c = ReadPointCloud(Write("c.xyz", "1 2 3 0 0.6 0.8\n"));
+  ASSERT_TRUE(c.has_normals());
+  EXPECT_DOUBLE_EQ(c.normals[0].z(), 0.8);
+  c = ReadPointCloud(Write("d.csv", "X,Y,Z,Intensity\n1,2,3,0.25\n"));
+  ASSERT_TRUE(c.has_intensity());
+  EXPECT_FLOAT_EQ(c.intensity[0], 0.25f);
+  c = ReadPointCloud(Write("e.pts", "2\n1 2 3 5 1 2 3\n1 2 3 6 4 5 6\n"));
+  ASSERT_TRUE(c.has_intensity() && c.has_colors());
+  EXPECT_FLOAT_EQ(c.intensity[1], 6.0f);
+  c = ReadPointCloud(Write("f.txt", "//X,Y,Z,R,G,B\n1,2,3,4,5,6\n"));
+  EXPECT_EQ(c.colors[0][0], 4);
+  ExpectInputError([&] { ReadPointCloud(Write("g.xyz", "1 2 3\n4 5\n")); }, {"g.xyz:2", "2 values"});
+  ExpectInputError([&] { ReadPointCloud(Write("h.xyz", "1 2 3\n4 5 z\n")); }, {"h.xyz:2", "'z'"});
+  ExpectInputError([&] { ReadPointCloud(Write("i.xyz", "1 2 3\n4 NaN 6\n")); },
+                   {"i.xyz:2", "non-finite"});
+  ExpectInputError([&] { ReadPointCloud(Write("j.xyz", "1 2 3 4 5\n")); },
+                   {"j.xyz:1", "column count"});
+  ExpectInputError([&] { ReadPointCloud(Write("k.xyz", "# nothing\n")); }, {"k.xyz", "no points"});
+  ExpectInputError([&] { ReadPointCloud(Write("l.obj", "v 1 2 3\n")); }, {"l.obj", ".obj"});
+}
+
+// A LAS file made by hand after the ASPRS LAS 1.4 R15 tables.
+std::string MakeLas(int minor, int format, const std::vector<Eigen::Vector3i>& raw,
+                    uint16_t extra_record_bytes = 0) {
+  static const uint16_t kLength[] = {20, 28, 26, 34, 57, 63, 30, 36, 38};
+  const uint16_t header_size = minor == 4 ? 375 : (minor == 3 ? 235 : 227);
+  const uint16_t length = kLength[format] + extra_record_bytes;
+  std::string s = "LASF";
+  Put<uint16_t>(&s, 0);  // file source id
+  Put<uint16_t>(&s, 0);  // global encoding
+  s.append(16, '\0');    // GUID
+  s.push_back(1);
+  s.push_back(static_cast<char>(minor));
+  s.append(64, ' ');  // system id, generating software
+  Put<uint16_t>(&s, 1);
+  Put<uint16_t>(&s, 2026);
+  Put<uint16_t>(&s, header_size);
+  Put<uint32_t>(&s, header_size + 10);  // offset to point data (10 bytes of padding)
+  Put<uint32_t>(&s, 0);                 // number of VLRs
+  s.push_back(static_cast<char>(format));
+  Put<uint16_t>(&s, length);
+  Put<uint32_t>(&s, format >= 6 ? 0 : static_cast<uint32_t>(raw.size()));
+  for (int i = 0; i < 5; ++i) Put<uint32_t>(&s, 0);
+  for (double v : {0.001, 0.001, 0.01}) Put<double>(&s, v);      // scale
+  for (double v : {500000.0, 4000000.0, 100.0}) Put<double>(&s, v);  // offset
+  for (int i = 0; i < 6; ++i) Put<double>(&s, 0.0);              // bounds
+  if (minor >= 3) Put<uint64_t>(&s, 0);
+  if (minor == 4) {
+    Put<uint64_t>(&s, 0);
+    Put<uint32_t>(&s, 0);
+    Put<uint64_t>(&s, raw.size());
+    for (int i = 0; i < 15; ++i) Put<uint64_t>(&s, 0);
+  }
+  EXPECT_EQ(s.size(), header_size);
+  s.append(10, '\0');
+  for (size_t i = 0; i < raw.size(); ++i) {
+    const size_t start = s.size();
+    for (int k = 0; k < 3; ++k) Put<int32_t>(&s, raw[i][k]);
+    Put<uint16_t>(&s, static_cast<uint16_t>(100 + i));  // intensity
+    if (format <= 5) {
+      s.append(4, '\0');  // return bits, class, scan angle, user data
+      Put<uint16_t>(&s, 0);
+      if (format == 1 || format == 3) Put<double>(&s, 0.0);
+    } else {
+      s.append(4, '\0');
+      Put<int16_t>(&s, 0);
+      Put<uint16_t>(&s, 0);
+      Put<double>(&s, 0.0);
+    }
+    if (format == 2 || format == 3 || format == 7 || format == 8) {
+      for (uint16_t c : {uint16_t(65535), uint16_t(256 * 10), uint16_t(0)}) Put<uint16_t>(&s, c);
+    }
+    if (format == 8) Put<uint16_t>(&s, 0);
+    s.append(extra_record_bytes, '\0');
+    EXPECT_EQ(s.size() - start, length);
+  }
+  return s;
+}
+
+TEST_F(PointCloudIoTest, LasFormatsAndVersions) {
+  const std::vector<Eigen::Vector3i> raw = {{1000, -2000, 50}, {-1, 0, 123456}};
+  struct Case { int minor, format; };
+  for (const Case& k : {Case{2, 0}, Case{2, 1}, Case{2, 2}, Case{3, 3}, Case{4, 1}, Case{4, 6},
+                        Case{4, 7}, Case{4, 8}}) {
+    SCOPED_TRACE("LAS 1." + std::to_string(k.minor) + " format " + std::to_string(k.format));
+    ReadStats stats;
+    const PointCloud c = ReadLas(Write("a.las", MakeLas(k.minor, k.format, raw, 3)), {}, &stats);
+    ASSERT_EQ(c.size(), 2u);
+    EXPECT_NEAR(c.points[0].x(), 500001.0, 1e-9);
+    EXPECT_NEAR(c.points[0].y(), 3999998.0, 1e-9);
+    EXPECT_NEAR(c.points[0].z(), 100.5, 1e-9);
+    EXPECT_NEAR(c.points[1].z(), 1334.56, 1e-9);
+    EXPECT_EQ(c.intensity[1], 101.0f);
+    const bool rgb = k.format == 2 || k.format == 3 || k.format >= 7;
+    EXPECT_EQ(c.has_colors(), rgb);
+    if (rgb) {
+      EXPECT_EQ(c.colors[0], (std::array<uint8_t, 3>{255, 10, 0}));
+    }
+  }
+}
+
+TEST_F(PointCloudIoTest, LasBrokenFixtures) {
+  const std::vector<Eigen::Vector3i> raw = {{1, 2, 3}, {4, 5, 6}};
+  std::string ok = MakeLas(2, 1, raw);
+  ExpectInputError([&] { ReadLas(Write("s.las", "LASX" + ok.substr(4))); },
+                   {"s.las (byte 0)", "signature"});
+  ExpectInputError([&] { ReadLas(Write("t.las", ok.substr(0, ok.size() - 5))); },
+                   {"t.las", "truncated"});
+  ExpectInputError([&] { ReadLas(Write("h.las", ok.substr(0, 100))); }, {"h.las", "227 bytes"});
+  std::string v = ok;
+  v[25] = 0;
+  ExpectInputError([&] { ReadLas(Write("v.las", v)); }, {"v.las (byte 24)", "1.0"});
+  std::string z = MakeLas(4, 6, raw);
+  z[104] = static_cast<char>(0x86);
+  ExpectInputError([&] { ReadLas(Write("z.las", z)); }, {"z.las (byte 104)", "LAZ"});
+  std::string f = ok;
+  f[104] = 4;
+  ExpectInputError([&] { ReadLas(Write("f.las", f)); }, {"point data format", "'4'"});
+  std::string sc = ok;
+  const double zero = 0.0;
+  std::memcpy(&sc[131], &zero, 8);
+  ExpectInputError([&] { ReadLas(Write("sc.las", sc)); }, {"sc.las (byte 131)", "x scale"});
+  ExpectInputError([&] { ReadPointCloud(Write("c.laz", ok)); }, {"c.laz", "LAZ"});
+}
+
+TEST_F(PointCloudIoTest, KittiBin) {
+  std::string s;
+  for (float v : {1.0f, 2.0f, 3.0f, 0.5f, -1.0f, -2.0f, -3.0f, 0.25f}) Put<float>(&s, v);
+  const PointCloud c = ReadPointCloud(Write("000000.bin", s));
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_EQ(c.points[1], Eigen::Vector3d(-1, -2, -3));
+  EXPECT_EQ(c.intensity[1], 0.25f);
+  ExpectInputError([&] { ReadPointCloud(Write("t.bin", s.substr(0, 30))); },
+                   {"t.bin (byte 16)", "multiple of 16"});
+  std::string n = s;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(&n[4], &nan, 4);
+  ExpectInputError([&] { ReadPointCloud(Write("n.bin", n)); }, {"n.bin (byte 0)", "non-finite"});
+  ExpectInputError([&] { ReadPointCloud(Write("e.bin", "")); }, {"e.bin", "empty"});
+}
+
+}  // namespace
+}  // namespace mmba::io
