@@ -1,0 +1,175 @@
+#include "mmba/sensors/camera_models.h"
+
+#include <cmath>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <ceres/jet.h>
+#include <gtest/gtest.h>
+
+#include "mmba/sensors/camera.h"
+
+namespace mmba::sensors {
+namespace {
+
+// Typical parameters of each model (a 640×480 image; the panorama is 2000×1000).
+std::vector<double> TypicalParams(CameraModelId id) {
+  switch (id) {
+    case CameraModelId::kSimplePinhole: return {500, 320, 240};
+    case CameraModelId::kPinhole: return {500, 510, 320, 240};
+    case CameraModelId::kSimpleRadial: return {500, 320, 240, -0.08};
+    case CameraModelId::kRadial: return {500, 320, 240, -0.08, 0.01};
+    case CameraModelId::kOpenCV: return {500, 510, 320, 240, -0.1, 0.02, 0.001, -0.002};
+    case CameraModelId::kOpenCVFisheye: return {300, 305, 320, 240, 0.05, -0.01, 0.002, -0.001};
+    case CameraModelId::kFullOpenCV:
+      return {500, 510, 320, 240, -0.1, 0.02, 0.001, -0.002, 0.003, 0.01, -0.005, 0.001};
+    case CameraModelId::kEquirectangular: {
+      const auto p = EquirectangularModel::DefaultParams(2000, 1000);
+      return {p[0], p[1], p[2]};
+    }
+    default: return {};
+  }
+}
+
+// Points the model images well: for perspective models within ±40° of the axis, for the
+// panorama all around (avoiding the exact poles).
+std::vector<Eigen::Vector3d> GridPoints(bool spherical) {
+  std::vector<Eigen::Vector3d> points;
+  for (double az = -170; az <= 170; az += (spherical ? 20 : 8)) {
+    for (double el = -70; el <= 70; el += (spherical ? 20 : 8)) {
+      if (!spherical && (std::abs(az) > 40 || std::abs(el) > 30)) continue;
+      const double a = az * M_PI / 180, e = el * M_PI / 180;
+      const double range = 3.0 + 0.01 * (az + el + 200);
+      points.emplace_back(range * std::cos(e) * std::sin(a), -range * std::sin(e),
+                          range * std::cos(e) * std::cos(a));
+    }
+  }
+  return points;
+}
+
+template <typename Model>
+void CheckModel() {
+  SCOPED_TRACE(Model::kName);
+  const bool spherical = Model::kModelId == CameraModelId::kEquirectangular;
+  const std::vector<double> params = TypicalParams(Model::kModelId);
+  ASSERT_EQ(static_cast<int>(params.size()), Model::kNumParams);
+  int checked = 0;
+  for (const Eigen::Vector3d& point : GridPoints(spherical)) {
+    double xy[2];
+    ASSERT_TRUE(Model::ImgFromCam(params.data(), point.data(), xy));
+    // Round trip: the ray of the pixel points at the point.
+    double ray[3];
+    Model::CamFromImg(params.data(), xy[0], xy[1], ray);
+    const Eigen::Vector3d r(ray[0], ray[1], ray[2]);
+    EXPECT_LT(r.normalized().cross(point.normalized()).norm(), 1e-9) << point.transpose();
+    EXPECT_GT(r.dot(point), 0.0);
+
+    // Jacobian sweep: Jets against central differences, w.r.t. point and parameters.
+    using Jet = ceres::Jet<double, 3 + Model::kNumParams>;
+    Jet point_jet[3];
+    std::vector<Jet> params_jet(Model::kNumParams);
+    for (int i = 0; i < 3; ++i) point_jet[i] = Jet(point[i], i);
+    for (int i = 0; i < Model::kNumParams; ++i) params_jet[i] = Jet(params[i], 3 + i);
+    Jet xy_jet[2];
+    ASSERT_TRUE(Model::ImgFromCam(params_jet.data(), point_jet, xy_jet));
+    EXPECT_NEAR(xy_jet[0].a, xy[0], 1e-9);
+    for (int k = 0; k < 3 + Model::kNumParams; ++k) {
+      std::vector<double> pp = params, pm = params;
+      Eigen::Vector3d xp = point, xm = point;
+      const double h = k < 3 ? 1e-6 : 1e-7 * std::max(1.0, std::abs(params[k - 3]));
+      if (k < 3) {
+        xp[k] += h;
+        xm[k] -= h;
+      } else {
+        pp[k - 3] += h;
+        pm[k - 3] -= h;
+      }
+      double yp[2], ym[2];
+      ASSERT_TRUE(Model::ImgFromCam(pp.data(), xp.data(), yp));
+      ASSERT_TRUE(Model::ImgFromCam(pm.data(), xm.data(), ym));
+      for (int c = 0; c < 2; ++c) {
+        const double numeric = (yp[c] - ym[c]) / (2 * h);
+        EXPECT_NEAR(xy_jet[c].v[k], numeric, 1e-4 * std::max(1.0, std::abs(numeric)))
+            << "component " << c << " derivative " << k << " at " << point.transpose();
+      }
+    }
+    ++checked;
+  }
+  EXPECT_GT(checked, 10);
+}
+
+TEST(CameraModels, RoundTripAndJacobians) {
+#define MMBA_CHECK(Model) CheckModel<Model>();
+  MMBA_FOR_EACH_CAMERA_MODEL(MMBA_CHECK)
+#undef MMBA_CHECK
+}
+
+TEST(CameraModels, PerspectiveRejectsPointsBehind) {
+  const std::vector<double> params = TypicalParams(CameraModelId::kPinhole);
+  const double behind[3] = {0.1, 0.2, -1.0};
+  double xy[2] = {-7, -7};
+  EXPECT_FALSE(PinholeModel::ImgFromCam(params.data(), behind, xy));
+  EXPECT_EQ(xy[0], -7);
+}
+
+TEST(CameraModels, PinholeHandComputed) {
+  const double params[4] = {500, 510, 320, 240};
+  const double point[3] = {1.0, -0.5, 4.0};
+  double xy[2];
+  ASSERT_TRUE(PinholeModel::ImgFromCam(params, point, xy));
+  EXPECT_DOUBLE_EQ(xy[0], 500 * 0.25 + 320);
+  EXPECT_DOUBLE_EQ(xy[1], 510 * -0.125 + 240);
+}
+
+// Eq. (5)-(6) of Wang et al. 2012 in the camera frame (x right, y down, z forward):
+// the centre column looks forward, the top row up, the column grows to the right.
+TEST(CameraModels, EquirectangularMatchesThePaperMapping) {
+  const double width = 2000, height = 1000;
+  const auto params = EquirectangularModel::DefaultParams(width, height);
+  double xy[2];
+  const double forward[3] = {0, 0, 5};
+  ASSERT_TRUE(EquirectangularModel::ImgFromCam(params.data(), forward, xy));
+  EXPECT_NEAR(xy[0], width / 2, 1e-9);
+  EXPECT_NEAR(xy[1], height / 2, 1e-9);
+  const double right[3] = {2, 0, 0};
+  ASSERT_TRUE(EquirectangularModel::ImgFromCam(params.data(), right, xy));
+  EXPECT_NEAR(xy[0], 0.75 * width, 1e-9);
+  const double up[3] = {0, -3, 1e-9};
+  ASSERT_TRUE(EquirectangularModel::ImgFromCam(params.data(), up, xy));
+  EXPECT_NEAR(xy[1], 0.0, 1e-6);
+  // 45° above the horizon, 90° left: θ = 45°, φ = -90° -> r = H/4, c = W/4.
+  const double up_left[3] = {-1, -1, 0};
+  ASSERT_TRUE(EquirectangularModel::ImgFromCam(params.data(), up_left, xy));
+  EXPECT_NEAR(xy[0], width / 4, 1e-9);
+  EXPECT_NEAR(xy[1], height / 4, 1e-9);
+  // Just either side of the seam behind the camera: columns near 0 and near W.
+  const double behind_left[3] = {-1e-3, 0, -1}, behind_right[3] = {1e-3, 0, -1};
+  ASSERT_TRUE(EquirectangularModel::ImgFromCam(params.data(), behind_left, xy));
+  EXPECT_LT(xy[0], 1.0);
+  ASSERT_TRUE(EquirectangularModel::ImgFromCam(params.data(), behind_right, xy));
+  EXPECT_GT(xy[0], width - 1.0);
+  const double origin[3] = {0, 0, 0};
+  EXPECT_FALSE(EquirectangularModel::ImgFromCam(params.data(), origin, xy));
+}
+
+TEST(Camera, RuntimeDispatchAndNames) {
+  EXPECT_EQ(CameraModelFromName("OPENCV_FISHEYE"), CameraModelId::kOpenCVFisheye);
+  EXPECT_EQ(CameraModelFromName("PINHOL"), CameraModelId::kInvalid);
+  EXPECT_EQ(CameraModelFromInt(6), CameraModelId::kFullOpenCV);
+  EXPECT_EQ(CameraModelFromInt(42), CameraModelId::kInvalid);
+  EXPECT_EQ(CameraModelNumParams(CameraModelId::kOpenCV), 8);
+  EXPECT_EQ(CameraModelExtraIdxs(CameraModelId::kOpenCV), (std::vector<int>{4, 5, 6, 7}));
+  EXPECT_EQ(CameraModelExtraIdxs(CameraModelId::kEquirectangular), std::vector<int>{});
+  Camera camera;
+  camera.model_id = CameraModelId::kSimpleRadial;
+  camera.params = {500, 320, 240, -0.05};
+  const auto xy = camera.ImgFromCam(Eigen::Vector3d(0.3, 0.1, 2.0));
+  ASSERT_TRUE(xy.has_value());
+  const Eigen::Vector3d ray = camera.CamFromImg(*xy);
+  EXPECT_NEAR(ray.x(), 0.15, 1e-9);
+  EXPECT_NEAR(ray.y(), 0.05, 1e-9);
+  EXPECT_FALSE(camera.ImgFromCam(Eigen::Vector3d(0, 0, -1)).has_value());
+}
+
+}  // namespace
+}  // namespace mmba::sensors
