@@ -1,0 +1,21 @@
+#pragma once
+
+#include <string>
+
+#include "mmba/survey/network.h"
+
+namespace mmba::io {
+
+/// Reads the plain CSV form of a survey network (README "mmba survey"). One record a line,
+/// comma separated, '#' starts a comment:
+///   param,<name>,<value>        sigma-apr | conf-pr | sigma-act | axes-xy | angles
+///   point,<id>,<x>,<y>,<z>,<fix>,<adj>   empty fields allowed; fix/adj as gama-local
+///   set,<station>               starts a direction set (its own orientation unknown)
+///   <kind>,<from>,<to>,<value>,<sigma>[,<from_dh>,<to_dh>]
+/// with kind = direction (inside a set), distance, s-distance, z-angle, azimuth, dh,
+/// angle (<to> = "bs/fs"). Angles in gon (or d-m-s, σ then in seconds), σ of angles in
+/// cc, of lengths in mm. Same conventions and errors as ReadGamaLocal.
+survey::SurveyNetwork ReadSurveyCsv(const std::string& path);
+survey::SurveyNetwork ParseSurveyCsv(const std::string& text, const std::string& file);
+
+}  // namespace mmba::io

@@ -1,0 +1,402 @@
+#include "mmba/stats/statistics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include <Eigen/Dense>
+#include <Eigen/Sparse>
+#include <Eigen/SparseCholesky>
+#include <boost/math/distributions/chi_squared.hpp>
+#include <boost/math/distributions/normal.hpp>
+#include <boost/math/distributions/students_t.hpp>
+
+namespace mmba::stats {
+
+bool StatisticsOptions::Check(std::string* error) const {
+  if (!(confidence > 0.0 && confidence < 1.0)) {
+    *error = "confidence: found " + std::to_string(confidence) + ", expected 0 < p < 1";
+    return false;
+  }
+  if (!(rank_tolerance > 0.0 && rank_tolerance < 1e-2)) {
+    *error = "rank_tolerance: found " + std::to_string(rank_tolerance) + ", expected (0, 1e-2)";
+    return false;
+  }
+  for (const MinimumNormCoordinate& c : minimum_norm) {
+    if (c.block == nullptr || c.index < 0) {
+      *error = "minimum_norm: a null block or negative index";
+      return false;
+    }
+  }
+  return true;
+}
+
+double NetworkStatistics::Covariance(const double* a, int i, const double* b, int j) const {
+  const auto ia = column.find(a);
+  const auto ib = column.find(b);
+  if (ia == column.end() || ib == column.end()) return 0.0;
+  return scale_used * scale_used * cofactor(ia->second + i, ib->second + j);
+}
+
+std::string NetworkStatistics::BriefReport() const {
+  std::ostringstream s;
+  s << "equations " << num_equations << ", unknowns " << num_unknowns << ", defect " << defect
+    << ", dof " << degrees_of_freedom << ", sigma0 ratio " << std::setprecision(4)
+    << sigma0_ratio << " (chi2 bounds " << chi2_lower << ".." << chi2_upper << ": "
+    << (chi2_passed ? "passed" : "failed") << ")";
+  return s.str();
+}
+
+double ChiSquareQuantile(double p, int dof) {
+  boost::math::chi_squared_distribution<double> d(dof);
+  return boost::math::quantile(d, p);
+}
+
+double StudentUpperQuantile(double upper_tail, int dof) {
+  boost::math::students_t_distribution<double> d(dof);
+  return boost::math::quantile(boost::math::complement(d, upper_tail));
+}
+
+double NormalUpperQuantile(double upper_tail) {
+  boost::math::normal_distribution<double> d;
+  return boost::math::quantile(boost::math::complement(d, upper_tail));
+}
+
+ErrorEllipse StandardEllipse(const Eigen::Matrix2d& c) {
+  // Eigen-decomposition in closed form, as GNU Gama's std_error_ellipse (network.cpp).
+  ErrorEllipse e;
+  const double c11 = c(0, 0), c22 = c(1, 1), c12 = c(0, 1);
+  const double root = std::sqrt((c11 - c22) * (c11 - c22) + 4 * c12 * c12);
+  const double small = std::max(0.0, (c11 + c22 - root) / 2);
+  e.a = std::sqrt(small + root);
+  e.b = std::sqrt(small);
+  if (root == 0.0) return e;
+  e.angle_rad = std::atan2(2 * c12, c11 - c22) / 2;
+  if (e.angle_rad < 0) e.angle_rad += M_PI;
+  return e;
+}
+
+void StandardEllipsoid(const Eigen::Matrix3d& covariance, Eigen::Vector3d* semi_axes,
+                       Eigen::Matrix3d* axes) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(covariance);
+  for (int i = 0; i < 3; ++i) {
+    (*semi_axes)(i) = std::sqrt(std::max(0.0, eig.eigenvalues()(2 - i)));
+    axes->col(i) = eig.eigenvectors().col(2 - i);
+  }
+}
+
+namespace {
+
+struct Linearization {
+  std::vector<double*> blocks;
+  std::vector<int> sizes;
+  std::map<const double*, int> column;
+  int n = 0;
+  int m = 0;
+  Eigen::SparseMatrix<double, Eigen::RowMajor> jacobian;
+  std::vector<double> residuals;
+};
+
+Linearization Linearize(ceres::Problem& problem,
+                        const std::vector<ceres::ResidualBlockId>* residual_blocks) {
+  Linearization lin;
+  std::vector<double*> all;
+  problem.GetParameterBlocks(&all);
+  for (double* block : all) {
+    if (problem.IsParameterBlockConstant(block)) continue;
+    const int size = problem.ParameterBlockTangentSize(block);
+    if (size == 0) continue;
+    lin.column[block] = lin.n;
+    lin.blocks.push_back(block);
+    lin.sizes.push_back(size);
+    lin.n += size;
+  }
+  ceres::Problem::EvaluateOptions options;
+  options.parameter_blocks = lin.blocks;
+  if (residual_blocks) options.residual_blocks = *residual_blocks;
+  options.apply_loss_function = false;
+  options.num_threads = 1;
+  ceres::CRSMatrix crs;
+  double cost = 0.0;
+  problem.Evaluate(options, &cost, &lin.residuals, nullptr, &crs);
+  lin.m = crs.num_rows;
+  std::vector<Eigen::Triplet<double>> triplets;
+  triplets.reserve(crs.values.size());
+  for (int r = 0; r < crs.num_rows; ++r) {
+    for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
+      triplets.emplace_back(r, crs.cols[k], crs.values[k]);
+    }
+  }
+  lin.jacobian.resize(crs.num_rows, crs.num_cols);
+  lin.jacobian.setFromTriplets(triplets.begin(), triplets.end());
+  return lin;
+}
+
+std::string Describe(const Linearization& lin, const StatisticsOptions& options, int col) {
+  for (size_t b = 0; b < lin.blocks.size(); ++b) {
+    const int start = lin.column.at(lin.blocks[b]);
+    if (col >= start && col < start + lin.sizes[b]) {
+      if (options.describe) return options.describe(lin.blocks[b], col - start);
+      std::ostringstream s;
+      s << "parameter block " << b << " component " << col - start;
+      return s.str();
+    }
+  }
+  return "parameter " + std::to_string(col);
+}
+
+/// Result of the rank analysis.
+struct Inverse {
+  int defect = 0;
+  Eigen::MatrixXd cofactor;  // n×n
+  Eigen::MatrixXd null_space;  // n×defect (original units)
+  Eigen::MatrixXd projector;   // P (n×n) when defect > 0
+};
+
+Inverse Analyze(const Linearization& lin, const StatisticsOptions& options, bool want_inverse) {
+  Inverse out;
+  const int n = lin.n;
+  if (n == 0) {
+    out.cofactor.resize(0, 0);
+    return out;
+  }
+  const Eigen::SparseMatrix<double> jt = lin.jacobian.transpose();
+  Eigen::SparseMatrix<double> normal = jt * lin.jacobian;
+  Eigen::VectorXd diag = normal.diagonal();
+  double max_diag = diag.maxCoeff();
+  for (int j = 0; j < n; ++j) {
+    if (!(diag(j) > 1e-30 * std::max(1.0, max_diag))) {
+      throw DegenerateNetworkError("singular network: no observation determines " +
+                                   Describe(lin, options, j));
+    }
+  }
+  const Eigen::VectorXd scale = diag.cwiseSqrt().cwiseInverse();
+  if (n <= options.dense_limit) {
+    Eigen::MatrixXd ns = Eigen::MatrixXd(normal);
+    ns = scale.asDiagonal() * ns * scale.asDiagonal();
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(ns);
+    const Eigen::VectorXd& lambda = eig.eigenvalues();  // ascending
+    const double lmax = lambda(n - 1);
+    std::vector<int> null;
+    for (int i = 0; i < n; ++i) {
+      if (lambda(i) < options.rank_tolerance * lmax) null.push_back(i);
+    }
+    out.defect = static_cast<int>(null.size());
+    if (out.defect > 0) {
+      // Undetermined parameters: the largest components of the null vectors.
+      Eigen::MatrixXd g(n, out.defect);
+      for (int k = 0; k < out.defect; ++k) g.col(k) = eig.eigenvectors().col(null[k]);
+      if (options.minimum_norm.empty()) {
+        std::vector<std::pair<double, int>> weight;
+        for (int j = 0; j < n; ++j) weight.emplace_back(g.row(j).norm(), j);
+        std::sort(weight.rbegin(), weight.rend());
+        std::ostringstream s;
+        s << "singular network: datum defect " << out.defect
+          << " and no constrained coordinates; undetermined: ";
+        for (size_t k = 0; k < std::min<size_t>(4, weight.size()); ++k) {
+          s << (k ? ", " : "") << Describe(lin, options, weight[k].second);
+        }
+        s << "; fix or constrain points";
+        throw DegenerateNetworkError(s.str());
+      }
+      out.null_space = scale.asDiagonal() * g;  // original units
+      Eigen::VectorXd e = Eigen::VectorXd::Zero(n);
+      for (const MinimumNormCoordinate& c : options.minimum_norm) {
+        const auto it = lin.column.find(c.block);
+        if (it == lin.column.end()) continue;  // a fixed coordinate
+        e(it->second + c.index) = 1.0;
+      }
+      const Eigen::MatrixXd ge = e.asDiagonal() * out.null_space;
+      const Eigen::MatrixXd m = out.null_space.transpose() * ge;
+      Eigen::JacobiSVD<Eigen::MatrixXd> svd(m);
+      const Eigen::VectorXd sv = svd.singularValues();
+      if (sv(sv.size() - 1) < 1e-10 * std::max(1e-300, sv(0)) || sv(0) == 0.0) {
+        throw DegenerateNetworkError(
+            "singular network: datum defect " + std::to_string(out.defect) +
+            " is not removed by the constrained coordinates (too few or badly placed)");
+      }
+      out.projector = Eigen::MatrixXd::Identity(n, n) -
+                      out.null_space * m.inverse() * ge.transpose();
+    }
+    if (want_inverse) {
+      Eigen::VectorXd inv_lambda = Eigen::VectorXd::Zero(n);
+      for (int i = 0; i < n; ++i) {
+        if (!(lambda(i) < options.rank_tolerance * lmax)) inv_lambda(i) = 1.0 / lambda(i);
+      }
+      const Eigen::MatrixXd& v = eig.eigenvectors();
+      Eigen::MatrixXd pinv = v * inv_lambda.asDiagonal() * v.transpose();
+      pinv = scale.asDiagonal() * pinv * scale.asDiagonal();
+      out.cofactor = out.defect > 0 ? Eigen::MatrixXd(out.projector * pinv *
+                                                      out.projector.transpose())
+                                    : pinv;
+    }
+    return out;
+  }
+  // Large problems: sparse LDLᵀ of the scaled normal matrix (no datum defect allowed).
+  Eigen::SparseMatrix<double> ns = scale.asDiagonal() * normal * scale.asDiagonal();
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(ns);
+  if (ldlt.info() != Eigen::Success) {
+    throw DegenerateNetworkError("singular network: the normal matrix cannot be factorized");
+  }
+  const Eigen::VectorXd d = ldlt.vectorD();
+  const double dmax = d.maxCoeff();
+  for (int i = 0; i < n; ++i) {
+    if (!(d(i) > options.rank_tolerance * dmax)) {
+      const int col = ldlt.permutationPinv().indices()(i);
+      if (!options.minimum_norm.empty()) {
+        throw DegenerateNetworkError(
+            "free network with " + std::to_string(n) +
+            " unknowns is beyond the dense minimum-norm path (dense_limit); fix points");
+      }
+      throw DegenerateNetworkError("singular network (datum defect): undetermined " +
+                                   Describe(lin, options, col) + "; fix or constrain points");
+    }
+  }
+  if (want_inverse) {
+    Eigen::MatrixXd identity = Eigen::MatrixXd::Identity(n, n);
+    Eigen::MatrixXd inv = ldlt.solve(identity);
+    out.cofactor = scale.asDiagonal() * inv * scale.asDiagonal();
+  }
+  return out;
+}
+
+std::vector<ceres::ResidualBlockId> AllBlocks(const std::vector<const FactorGroup*>& groups) {
+  std::vector<ceres::ResidualBlockId> ids;
+  for (const FactorGroup* g : groups) {
+    ids.insert(ids.end(), g->residual_blocks().begin(), g->residual_blocks().end());
+  }
+  return ids;
+}
+
+}  // namespace
+
+int CheckDatum(ceres::Problem& problem, const StatisticsOptions& options) {
+  const Linearization lin = Linearize(problem, nullptr);
+  return Analyze(lin, options, /*want_inverse=*/false).defect;
+}
+
+int ApplyMinimumNorm(ceres::Problem& problem, const StatisticsOptions& options,
+                     const std::vector<double>& reference) {
+  if (options.minimum_norm.empty()) return 0;
+  const Linearization lin = Linearize(problem, nullptr);
+  const Inverse inv = Analyze(lin, options, /*want_inverse=*/false);
+  if (inv.defect == 0) return 0;
+  Eigen::VectorXd x(lin.n);
+  for (size_t b = 0; b < lin.blocks.size(); ++b) {
+    if (problem.ParameterBlockSize(lin.blocks[b]) != lin.sizes[b]) {
+      throw std::invalid_argument("ApplyMinimumNorm: parameter blocks with manifolds");
+    }
+    for (int k = 0; k < lin.sizes[b]; ++k) x(lin.column.at(lin.blocks[b]) + k) = lin.blocks[b][k];
+  }
+  Eigen::VectorXd delta = Eigen::VectorXd::Zero(lin.n);
+  for (size_t i = 0; i < options.minimum_norm.size(); ++i) {
+    const MinimumNormCoordinate& c = options.minimum_norm[i];
+    const auto it = lin.column.find(c.block);
+    if (it == lin.column.end()) continue;
+    delta(it->second + c.index) = c.block[c.index] - reference.at(i);
+  }
+  // x_new = x − G (GᵀEG)⁻¹ GᵀE (x − x_ref): the projector P applied to the correction.
+  x -= (Eigen::MatrixXd::Identity(lin.n, lin.n) - inv.projector) * delta;
+  for (size_t b = 0; b < lin.blocks.size(); ++b) {
+    for (int k = 0; k < lin.sizes[b]; ++k) lin.blocks[b][k] = x(lin.column.at(lin.blocks[b]) + k);
+  }
+  return inv.defect;
+}
+
+NetworkStatistics ComputeStatistics(ceres::Problem& problem,
+                                    const std::vector<const FactorGroup*>& groups,
+                                    const StatisticsOptions& options) {
+  std::string error;
+  if (!options.Check(&error)) throw std::invalid_argument(error);
+  const std::vector<ceres::ResidualBlockId> ids = AllBlocks(groups);
+  const Linearization lin = Linearize(problem, &ids);
+  Inverse inv = Analyze(lin, options, /*want_inverse=*/true);
+
+  NetworkStatistics st;
+  st.confidence = options.confidence;
+  st.num_equations = lin.m;
+  st.num_unknowns = lin.n;
+  st.defect = inv.defect;
+  st.degrees_of_freedom = lin.m - lin.n + inv.defect;
+  st.blocks = lin.blocks;
+  st.column = lin.column;
+  st.cofactor = std::move(inv.cofactor);
+  for (double r : lin.residuals) st.sum_squares += r * r;
+  const int dof = st.degrees_of_freedom;
+  st.sigma0_ratio = dof > 0 ? std::sqrt(st.sum_squares / dof) : 0.0;
+  st.scale_used = options.use_apriori_sigma0 ? 1.0 : st.sigma0_ratio;
+  const double alpha = 1.0 - options.confidence;
+  if (dof > 0) {
+    st.chi2_lower = std::sqrt(ChiSquareQuantile(alpha / 2, dof) / dof);
+    st.chi2_upper = std::sqrt(ChiSquareQuantile(1 - alpha / 2, dof) / dof);
+    st.chi2_passed = st.sigma0_ratio >= st.chi2_lower && st.sigma0_ratio <= st.chi2_upper;
+    st.critical_value = options.use_apriori_sigma0 ? NormalUpperQuantile(alpha / 2)
+                                                   : StudentUpperQuantile(alpha / 2, dof);
+  } else if (options.use_apriori_sigma0) {
+    st.critical_value = NormalUpperQuantile(alpha / 2);
+  }
+
+  // Rows: residuals, redundancy h_ii = j_iᵀ Q j_i, studentized residuals (Baarda 1968; with
+  // the a-posteriori σ0 Pope's τ), as GNU Gama's LocalNetwork::studentized_residual.
+  int row_index = 0;
+  double max_abs = -1.0;
+  for (size_t g = 0; g < groups.size(); ++g) {
+    const FactorGroup* group = groups[g];
+    const auto* correlated = dynamic_cast<const CorrelatedBlockSource*>(group);
+    GroupStatistic gs;
+    gs.name = group->name();
+    for (size_t b = 0; b < group->residual_blocks().size(); ++b) {
+      const int size =
+          problem.GetCostFunctionForResidualBlock(group->residual_blocks()[b])->num_residuals();
+      Eigen::MatrixXd l;
+      if (correlated) {
+        l = correlated->BlockSqrtCovariance(b);
+      } else {
+        l = Eigen::MatrixXd::Identity(size, size) * group->block_sigmas()[b];
+      }
+      Eigen::VectorXd e(size);
+      for (int k = 0; k < size; ++k) e(k) = lin.residuals[row_index + k];
+      const Eigen::VectorXd v = l * e;
+      for (int k = 0; k < size; ++k) {
+        const int r = row_index + k;
+        RowStatistic rs;
+        rs.group = g;
+        rs.block = b;
+        rs.row = k;
+        rs.whitened = e(k);
+        rs.residual = v(k);
+        rs.sigma = l.row(k).norm();
+        double h = 0.0;
+        for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator a(lin.jacobian, r); a;
+             ++a) {
+          for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator c(lin.jacobian, r);
+               c; ++c) {
+            h += a.value() * c.value() * st.cofactor(a.col(), c.col());
+          }
+        }
+        h = std::min(1.0, std::max(0.0, h));
+        rs.redundancy = 1.0 - h;
+        rs.control = 100.0 * std::abs(1.0 - std::sqrt(h));
+        const double denominator = st.scale_used * rs.sigma * std::sqrt(rs.redundancy);
+        rs.studentized = denominator > 0 ? rs.residual / denominator : 0.0;
+        rs.critical = dof > 0 && rs.control >= 0.1 && std::abs(rs.studentized) > st.critical_value;
+        if (rs.control >= 0.1 && std::abs(rs.studentized) > max_abs) {
+          max_abs = std::abs(rs.studentized);
+          st.max_row = static_cast<int>(st.rows.size());
+        }
+        gs.rows += 1;
+        gs.sum_squares += e(k) * e(k);
+        gs.redundancy += rs.redundancy;
+        st.rows.push_back(rs);
+      }
+      row_index += size;
+    }
+    gs.variance_component = gs.redundancy > 1e-12 ? gs.sum_squares / gs.redundancy : 0.0;
+    st.groups.push_back(gs);
+  }
+  if (st.max_row >= 0) st.max_row_critical = st.rows[st.max_row].critical;
+  return st;
+}
+
+}  // namespace mmba::stats
