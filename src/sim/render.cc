@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "mmba/sim/texture.h"
@@ -64,23 +65,17 @@ uint8_t ToByte(double radiance, double exposure, double noise) {
 
 }  // namespace
 
-GrayImage RenderImage(const RayCaster& caster, const SimScene& scene,
-                      const sensors::Camera& camera, const Rigid3d& cam_from_world,
-                      const RenderOptions& options, uint64_t seed, uint64_t stream, int threads) {
-  GrayImage image;
-  image.width = static_cast<int>(camera.width);
-  image.height = static_cast<int>(camera.height);
-  image.pixels.assign(static_cast<size_t>(image.width) * image.height, 0);
-  const Rigid3d world_from_cam = cam_from_world.Inverse();
-  const Eigen::Vector3d origin = world_from_cam.translation;
-  const Eigen::Vector3d sun = options.sun_direction.normalized();
-  const int n = options.samples_per_axis;
+RayTable MakeRayTable(const sensors::Camera& camera, int samples_per_axis, int threads) {
+  RayTable table;
+  const int n = samples_per_axis;
+  table.samples_per_axis = n;
+  const int width = static_cast<int>(camera.width), height = static_cast<int>(camera.height);
+  table.rays.assign(static_cast<size_t>(width) * height * n * n,
+                    Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
   const bool fisheye = camera.model_id == sensors::CameraModelId::kOpenCVFisheye;
-  internal::ParallelFor(static_cast<size_t>(image.height), threads, [&](size_t begin, size_t end) {
+  internal::ParallelFor(static_cast<size_t>(height), threads, [&](size_t begin, size_t end) {
     for (size_t y = begin; y < end; ++y) {
-      for (int x = 0; x < image.width; ++x) {
-        double sum = 0;
-        int count = 0;
+      for (int x = 0; x < width; ++x) {
         for (int sy = 0; sy < n; ++sy) {
           for (int sx = 0; sx < n; ++sx) {
             const Eigen::Vector2d xy(x + (sx + 0.5) / n, static_cast<double>(y) + (sy + 0.5) / n);
@@ -91,10 +86,45 @@ GrayImage RenderImage(const RayCaster& caster, const SimScene& scene,
               const auto back = camera.ImgFromCam(ray);
               if (!back || (*back - xy).norm() > 0.01) continue;
             }
-            sum += Shade(caster, scene, origin, world_from_cam.rotation * ray.normalized(),
-                         options, sun, seed, 0);
-            ++count;
+            table.rays[((y * width + x) * n + sy) * n + sx] = ray.normalized();
           }
+        }
+      }
+    }
+  });
+  return table;
+}
+
+GrayImage RenderImage(const RayCaster& caster, const SimScene& scene,
+                      const sensors::Camera& camera, const Rigid3d& cam_from_world,
+                      const RenderOptions& options, uint64_t seed, uint64_t stream, int threads,
+                      const RayTable* rays) {
+  RayTable own;
+  if (rays == nullptr || rays->samples_per_axis != options.samples_per_axis ||
+      rays->rays.size() != camera.width * camera.height * options.samples_per_axis *
+                               options.samples_per_axis) {
+    own = MakeRayTable(camera, options.samples_per_axis, threads);
+    rays = &own;
+  }
+  GrayImage image;
+  image.width = static_cast<int>(camera.width);
+  image.height = static_cast<int>(camera.height);
+  image.pixels.assign(static_cast<size_t>(image.width) * image.height, 0);
+  const Rigid3d world_from_cam = cam_from_world.Inverse();
+  const Eigen::Vector3d origin = world_from_cam.translation;
+  const Eigen::Vector3d sun = options.sun_direction.normalized();
+  const int n2 = options.samples_per_axis * options.samples_per_axis;
+  internal::ParallelFor(static_cast<size_t>(image.height), threads, [&](size_t begin, size_t end) {
+    for (size_t y = begin; y < end; ++y) {
+      for (int x = 0; x < image.width; ++x) {
+        double sum = 0;
+        int count = 0;
+        const size_t base = (y * image.width + x) * n2;
+        for (int k = 0; k < n2; ++k) {
+          const Eigen::Vector3d& ray = rays->rays[base + k];
+          if (!ray.allFinite()) continue;
+          sum += Shade(caster, scene, origin, world_from_cam.rotation * ray, options, sun, seed, 0);
+          ++count;
         }
         if (count == 0) continue;
         internal::Rng rng(seed, stream, y * image.width + x);

@@ -104,7 +104,7 @@ double Albedo(const Material& material, const Eigen::Vector3d& point_in_world,
       break;
     }
     case TexturePattern::kWood: {
-      const double streak = 0.5 + 0.5 * std::sin(v * 40.0 / s + 6.0 * grain);
+      const double streak = 0.5 + 0.5 * std::sin(v * 4.0 * M_PI / s + 6.0 * grain);  // period s/2
       pattern = 0.6 * streak + 0.4 * grain;
       break;
     }

@@ -39,11 +39,22 @@ struct RenderOptions {
   bool Check(std::string* error) const;
 };
 
+/// The unit viewing rays (camera frame) of every pixel sample of a camera, computed once and
+/// reused for every pose (undistortion is iterative, so this saves most of the work for
+/// OPENCV and OPENCV_FISHEYE). Rays the model cannot form are NaN.
+struct RayTable {
+  int samples_per_axis = 1;
+  std::vector<Eigen::Vector3d> rays;  ///< (y·W + x)·n² + sy·n + sx
+};
+RayTable MakeRayTable(const sensors::Camera& camera, int samples_per_axis, int threads);
+
 /// Renders what `camera` at `cam_from_world` sees. Pixels whose ray the model cannot form
-/// (outside a fisheye's domain) are black. Deterministic for `seed` and `stream`.
+/// (outside a fisheye's domain) are black. Deterministic for `seed` and `stream`. `rays`
+/// (optional) must come from MakeRayTable(camera, options.samples_per_axis).
 GrayImage RenderImage(const RayCaster& caster, const SimScene& scene,
                       const sensors::Camera& camera, const Rigid3d& cam_from_world,
-                      const RenderOptions& options, uint64_t seed, uint64_t stream, int threads);
+                      const RenderOptions& options, uint64_t seed, uint64_t stream, int threads,
+                      const RayTable* rays = nullptr);
 
 /// Stitches the images of a rig into an equirectangular panorama (`pano_camera`, in the rig
 /// frame): every panorama pixel's bearing is placed at `stitch_distance_m` from the rig

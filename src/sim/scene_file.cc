@@ -1,0 +1,176 @@
+// Scene files of `mmba simulate --scene FILE.yaml` (schema in README "mmba simulate").
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <set>
+
+#include <yaml-cpp/yaml.h>
+
+#include "mmba/core/error.h"
+#include "mmba/sim/simulate.h"
+
+namespace mmba::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+class Reader {
+ public:
+  explicit Reader(std::string path) : path_(std::move(path)) {}
+
+  // Reads the keys of `node` (a map) through `handlers`; any other key is an error.
+  void Map(const YAML::Node& node, const std::string& where,
+           const std::map<std::string, std::function<void(const YAML::Node&, const std::string&)>>& handlers) {
+    if (!node.IsMap()) Fail(node, where, "a mapping", "a " + Kind(node));
+    for (const auto& item : node) {
+      const std::string key = item.first.as<std::string>();
+      const std::string field = where.empty() ? key : where + "." + key;
+      const auto it = handlers.find(key);
+      if (it == handlers.end()) {
+        std::string known;
+        for (const auto& [name, fn] : handlers) known += (known.empty() ? "" : ", ") + name;
+        Fail(item.first, field, "one of " + known, "unknown key '" + key + "'");
+      }
+      it->second(item.second, field);
+    }
+  }
+  double Number(const YAML::Node& node, const std::string& field) {
+    try {
+      if (!node.IsScalar()) throw YAML::Exception(node.Mark(), "");
+      return node.as<double>();
+    } catch (const YAML::Exception&) {
+      Fail(node, field, "a number", "'" + Text(node) + "'");
+    }
+    return 0;
+  }
+  int Integer(const YAML::Node& node, const std::string& field) {
+    try {
+      if (!node.IsScalar()) throw YAML::Exception(node.Mark(), "");
+      return node.as<int>();
+    } catch (const YAML::Exception&) {
+      Fail(node, field, "an integer", "'" + Text(node) + "'");
+    }
+    return 0;
+  }
+  std::string String(const YAML::Node& node, const std::string& field) {
+    if (!node.IsScalar()) Fail(node, field, "a string", "a " + Kind(node));
+    return node.as<std::string>();
+  }
+  [[noreturn]] void Fail(const YAML::Node& node, const std::string& field, const std::string& expected,
+                         const std::string& found) {
+    throw InputError(path_, node.Mark().line >= 0 ? node.Mark().line + 1 : 0, field, found, expected);
+  }
+
+ private:
+  static std::string Kind(const YAML::Node& node) {
+    return node.IsMap() ? "mapping" : node.IsSequence() ? "sequence" : node.IsNull() ? "null" : "scalar";
+  }
+  static std::string Text(const YAML::Node& node) { return node.IsScalar() ? node.Scalar() : Kind(node); }
+  std::string path_;
+};
+
+}  // namespace
+
+void ReadSceneFile(const std::string& path, SimulateOptions* o) {
+  if (!fs::exists(path)) throw InputError::Message(path, "scene file not found");
+  YAML::Node root;
+  try {
+    root = YAML::LoadFile(path);
+  } catch (const YAML::Exception& e) {
+    throw InputError(path, e.mark.line + 1, "YAML", e.msg, "valid YAML");
+  }
+  Reader r(path);
+  using Node = const YAML::Node&;
+  using F = const std::string&;
+  const auto num = [&](double* v) { return [&r, v](Node n, F f) { *v = r.Number(n, f); }; };
+  const auto integer = [&](int* v) { return [&r, v](Node n, F f) { *v = r.Integer(n, f); }; };
+  // The preset sets sizes first; the other keys then override it, whatever their order.
+  if (root.IsMap() && root["preset"]) {
+    const std::string preset = r.String(root["preset"], "preset");
+    if (!o->ApplyPreset(preset)) r.Fail(root["preset"], "preset", "small or full", "'" + preset + "'");
+  }
+  r.Map(root, "", {
+      {"scene", [&](Node n, F f) {
+         o->scene = r.String(n, f);
+         if (o->scene != "gate" && o->scene != "cathedral") {
+           r.Fail(n, f, "gate or cathedral (or give 'mesh')", "'" + o->scene + "'");
+         }
+       }},
+      {"mesh", [&](Node n, F f) {
+         const fs::path mesh = r.String(n, f);
+         o->mesh_path = (mesh.is_absolute() ? mesh : fs::path(path).parent_path() / mesh).string();
+         o->scene = o->mesh_path;
+       }},
+      {"seed", [&](Node n, F f) {
+         const int seed = r.Integer(n, f);
+         if (seed < 0) r.Fail(n, f, "a seed >= 0", std::to_string(seed));
+         o->seed = static_cast<uint64_t>(seed);
+       }},
+      {"preset", [&](Node, F) {}},  // applied above
+      {"origin", [&](Node n, F f) {
+         r.Map(n, f, {{"latitude_deg", num(&o->origin.latitude_deg)},
+                      {"longitude_deg", num(&o->origin.longitude_deg)},
+                      {"height_m", num(&o->origin.height_m)}});
+       }},
+      {"gate", [&](Node n, F f) {
+         r.Map(n, f, {{"width_m", num(&o->gate.width_m)}, {"height_m", num(&o->gate.height_m)},
+                      {"post_width_m", num(&o->gate.post_width_m)},
+                      {"relief_depth_m", num(&o->gate.relief_depth_m)},
+                      {"relief_blocks", integer(&o->gate.relief_blocks)},
+                      {"studio_half_size_m", num(&o->gate.studio_half_size_m)}});
+       }},
+      {"cathedral", [&](Node n, F f) {
+         r.Map(n, f, {{"width_m", num(&o->cathedral.width_m)}, {"height_m", num(&o->cathedral.height_m)},
+                      {"depth_m", num(&o->cathedral.depth_m)}, {"bays", integer(&o->cathedral.bays)},
+                      {"storeys", integer(&o->cathedral.storeys)},
+                      {"relief_blocks", integer(&o->cathedral.relief_blocks)},
+                      {"ground_half_size_m", num(&o->cathedral.ground_half_size_m)}});
+       }},
+      {"photos", [&](Node n, F f) {
+         r.Map(n, f, {{"count", integer(&o->photos.count)}, {"width", integer(&o->photos.width)},
+                      {"height", integer(&o->photos.height)}, {"focal_px", num(&o->photos.focal_px)},
+                      {"tie_points", integer(&o->photos.tie_points)},
+                      {"observation_sigma_px", num(&o->photos.observation_sigma_px)}});
+       }},
+      {"spheres", [&](Node n, F f) {
+         r.Map(n, f, {{"stations", integer(&o->spheres.stations)}, {"width", integer(&o->spheres.width)},
+                      {"baseline_m", num(&o->spheres.baseline_m)},
+                      {"lower_height_m", num(&o->spheres.lower_height_m)},
+                      {"principal_offset_px", num(&o->spheres.principal_offset_px)},
+                      {"axis_tilt_deg", num(&o->spheres.axis_tilt_deg)}});
+       }},
+      {"rig", [&](Node n, F f) {
+         r.Map(n, f, {{"frames", integer(&o->rig.frames)}, {"width", integer(&o->rig.width)},
+                      {"focal_px", num(&o->rig.focal_px)},
+                      {"panorama_width", integer(&o->rig.panorama_width)}});
+       }},
+      {"lidar", [&](Node n, F f) {
+         r.Map(n, f, {{"static_scans", integer(&o->static_scans)},
+                      {"azimuth_step_deg", num(&o->static_scan.azimuth_step_deg)},
+                      {"elevation_step_deg", num(&o->static_scan.elevation_step_deg)},
+                      {"range_sigma_m", num(&o->static_scan.noise.range_sigma_m)},
+                      {"max_range_m", num(&o->static_scan.noise.max_range_m)},
+                      {"mobile_revolutions", integer(&o->mobile_revolutions)},
+                      {"mobile_azimuth_step_deg", num(&o->mobile_scan.azimuth_step_deg)},
+                      {"mobile_speed_mps", num(&o->mobile_speed_mps)}});
+       }},
+      {"total_station", [&](Node n, F f) {
+         r.Map(n, f, {{"setups", integer(&o->total_station.setups)},
+                      {"direction_sigma_cc", num(&o->total_station.direction_sigma_cc)},
+                      {"zenith_sigma_cc", num(&o->total_station.zenith_sigma_cc)},
+                      {"distance_sigma_mm", num(&o->total_station.distance_sigma_mm)},
+                      {"distance_sigma_ppm", num(&o->total_station.distance_sigma_ppm)}});
+       }},
+      {"render", [&](Node n, F f) {
+         r.Map(n, f, {{"samples_per_axis", integer(&o->render.samples_per_axis)},
+                      {"noise_sigma_dn", num(&o->render.noise_sigma_dn)}});
+       }},
+      {"clouds", [&](Node n, F f) {
+         r.Map(n, f, {{"surface_samples", integer(&o->clouds.surface_samples)}});
+       }},
+  });
+  std::string error;
+  if (!o->Check(&error)) throw InputError::Message(path, error);
+}
+
+}  // namespace mmba::sim

@@ -1,0 +1,267 @@
+#include "mmba/sim/simulate.h"
+
+#include <expat.h>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "mmba/core/error.h"
+#include "mmba/io/colmap_model.h"
+#include "mmba/io/point_cloud.h"
+#include "mmba/sim/survey.h"
+
+namespace mmba::sim {
+namespace {
+
+namespace fs = std::filesystem;
+
+SimulateOptions Tiny() {
+  SimulateOptions o;
+  o.scene = "gate";
+  o.seed = 11;
+  o.threads = 2;
+  o.photos.count = 4;
+  o.photos.width = 160;
+  o.photos.height = 120;
+  o.photos.focal_px = 140;
+  o.photos.tie_points = 150;
+  o.spheres.stations = 1;
+  o.spheres.width = 256;
+  o.rig.frames = 1;
+  o.rig.width = 48;
+  o.rig.focal_px = 20;
+  o.rig.panorama_width = 128;
+  o.static_scans = 1;
+  o.static_scan.azimuth_step_deg = 3;
+  o.static_scan.elevation_step_deg = 3;
+  o.mobile_revolutions = 2;
+  o.mobile_scan.azimuth_step_deg = 3;
+  o.clouds.surface_samples = 4000;
+  return o;
+}
+
+std::string Slurp(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+fs::path OutDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("mmba_sim_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+class SimulateTiny : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new fs::path(OutDir("a"));
+    result_ = new SimulateResult(Simulate(Tiny(), dir_->string()));
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*dir_);
+    delete dir_;
+    delete result_;
+  }
+  static fs::path* dir_;
+  static SimulateResult* result_;
+};
+fs::path* SimulateTiny::dir_ = nullptr;
+SimulateResult* SimulateTiny::result_ = nullptr;
+
+TEST_F(SimulateTiny, WritesTheDocumentedLayout) {
+  for (const char* file :
+       {"project.yaml", "gnss.csv", "trajectory_ins.csv", "ground_truth.json", "survey/network.xml",
+        "clouds/lidar.ply", "clouds/mobile_lidar.ply", "clouds/spherical_stereo.ply", "clouds/multi_view.ply",
+        "clouds/plane_proxy.ply", "clouds/spherical_stereo_part.ply", "clouds/scans/scan_1.ply",
+        "images/photos/photo_000.png", "images/spherical/S1_lower.png", "images/spherical/S1_upper.png",
+        "images/rig/frame_000_cam5.png", "images/rig_panoramas/frame_000.png", "calib/photo_camera.yaml",
+        "calib/spherical_stereo.yaml", "calib/ladybug.yaml", "calib/mobile_lidar.yaml",
+        "colmap/photos/images.txt", "truth/colmap_photos/points3D.txt", "truth/truth.json",
+        "truth/mesh.obj", "truth/trajectory_true.csv"}) {
+    EXPECT_TRUE(fs::exists(*dir_ / file)) << file;
+  }
+  const auto registration = nlohmann::json::parse(Slurp(*dir_ / "ground_truth.json"));
+  for (const char* key : {"world_from_lidar", "world_from_spherical_stereo", "world_from_multi_view",
+                          "world_from_plane_proxy", "world_from_multi_view_part"}) {
+    ASSERT_TRUE(registration.contains(key)) << key;
+    EXPECT_EQ(registration[key].size(), 16u) << key;
+  }
+  EXPECT_GT(result_->tie_points, 20u);
+  EXPECT_GT(result_->static_points, 1000u);
+}
+
+TEST_F(SimulateTiny, SameSeedSameBytes) {
+  const fs::path other = OutDir("b");
+  Simulate(Tiny(), other.string());
+  size_t compared = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(*dir_)) {
+    if (!entry.is_regular_file()) continue;
+    const fs::path rel = fs::relative(entry.path(), *dir_);
+    ASSERT_TRUE(fs::exists(other / rel)) << rel;
+    EXPECT_EQ(Slurp(entry.path()), Slurp(other / rel)) << rel;
+    ++compared;
+  }
+  EXPECT_GT(compared, 25u);
+  fs::remove_all(other);
+}
+
+TEST_F(SimulateTiny, TrueColmapModelProjectsExactlyAndPerturbedOneReads) {
+  const io::ColmapModel truth = io::ReadColmapModel((*dir_ / "truth" / "colmap_photos").string());
+  const io::ColmapModel perturbed = io::ReadColmapModel((*dir_ / "colmap" / "photos").string());
+  EXPECT_EQ(truth.images.size(), 4u);
+  EXPECT_EQ(perturbed.NumObservations(), truth.NumObservations());
+  double max_error = 0;
+  for (const auto& [id, image] : truth.images) {
+    const sensors::Camera& camera = truth.cameras.at(image.camera_id);
+    for (size_t k = 0; k < image.points2D.size(); ++k) {
+      const auto xy = camera.ImgFromCam(image.cam_from_world * truth.points3D.at(image.point3D_ids[k]).xyz);
+      ASSERT_TRUE(xy.has_value());
+      max_error = std::max(max_error, (*xy - image.points2D[k]).norm());
+    }
+  }
+  EXPECT_LT(max_error, 1e-4);  // text precision of COLMAP's writer
+}
+
+// Counts the elements of network.xml with expat (a real XML parser).
+std::map<std::string, int> CountXmlElements(const std::string& text, bool* ok) {
+  std::map<std::string, int> counts;
+  XML_Parser parser = XML_ParserCreate(nullptr);
+  XML_SetUserData(parser, &counts);
+  XML_SetStartElementHandler(parser, [](void* data, const XML_Char* name, const XML_Char**) {
+    ++(*static_cast<std::map<std::string, int>*>(data))[name];
+  });
+  *ok = XML_Parse(parser, text.data(), static_cast<int>(text.size()), 1) == XML_STATUS_OK;
+  XML_ParserFree(parser);
+  return counts;
+}
+
+TEST_F(SimulateTiny, NetworkXmlParsesWithTheRightCountsAndRecomputesFromTruth) {
+  bool ok = false;
+  const auto counts = CountXmlElements(Slurp(*dir_ / "survey" / "network.xml"), &ok);
+  ASSERT_TRUE(ok);
+  const auto truth = nlohmann::json::parse(Slurp(*dir_ / "truth" / "truth.json"));
+  const auto& survey = truth["survey"];
+  EXPECT_EQ(counts.at("gama-local"), 1);
+  EXPECT_EQ(counts.at("point"), static_cast<int>(survey["points"].size()));
+  EXPECT_EQ(counts.at("obs"), static_cast<int>(survey["setups"].size()));
+  const int n_obs = static_cast<int>(survey["observations"].size());
+  EXPECT_EQ(counts.at("direction") + counts.at("z-angle") + counts.at("s-distance"), n_obs);
+  EXPECT_EQ(counts.at("direction"), counts.at("s-distance"));
+  EXPECT_EQ(static_cast<int>(result_->ts_observations), n_obs);
+  ASSERT_GT(n_obs, 10);
+  // Every observation recomputes from the true coordinates within 5σ.
+  const geodesy::LocalTangentPlane plane(SimulateOptions().origin);
+  std::map<std::string, Eigen::Vector3d> points;
+  for (const auto& p : survey["points"]) {
+    points[p["id"]] = Eigen::Vector3d(p["point_in_world"][0], p["point_in_world"][1], p["point_in_world"][2]);
+  }
+  std::map<std::string, std::pair<double, double>> setups;
+  for (const auto& s : survey["setups"]) setups[s["point"]] = {s["instrument_height_m"], s["orientation_gon"]};
+  for (const auto& o : survey["observations"]) {
+    const auto& [hi, orientation] = setups.at(o["from"]);
+    double direction, zenith, distance;
+    ComputeTsObservation(plane, points.at(o["from"]), hi, orientation, points.at(o["to"]),
+                         o["target_height_m"], &direction, &zenith, &distance);
+    const std::string kind = o["kind"];
+    const double value = o["value"], sigma = o["sigma"];
+    if (kind == "direction") {
+      double d = std::fmod(value - direction + 600.0, 400.0) - 200.0;
+      EXPECT_LT(std::abs(d), 5 * sigma * 1e-4) << o.dump();
+    } else if (kind == "z-angle") {
+      EXPECT_LT(std::abs(value - zenith), 5 * sigma * 1e-4) << o.dump();
+    } else {
+      EXPECT_LT(std::abs(value - distance), 5 * sigma * 1e-3) << o.dump();
+    }
+  }
+}
+
+TEST_F(SimulateTiny, StaticScanLiesOnTheMeshAndCloudsMatchTheirTransforms) {
+  const auto truth = nlohmann::json::parse(Slurp(*dir_ / "truth" / "truth.json"));
+  const TriangleMesh mesh = LoadMesh((*dir_ / "truth" / "mesh.obj").string(), Material());
+  RayCaster caster(mesh);
+  const auto& scan_truth = truth["lidar"]["static_scans"][0];
+  std::vector<double> m = scan_truth["world_from_scan"]["matrix_row_major"];
+  Eigen::Matrix<double, 3, 4> matrix;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) matrix(r, c) = m[4 * r + c];
+  const Rigid3d world_from_scan = Rigid3d::FromMatrix(matrix);
+  const io::PointCloud scan = io::ReadPly((*dir_ / "clouds" / "scans" / "scan_1.ply").string());
+  ASSERT_TRUE(scan.has_intensity());
+  size_t on_surface = 0;
+  for (const auto& p_scan : scan.points) {
+    const Eigen::Vector3d p = world_from_scan * p_scan;
+    const Eigen::Vector3d o = world_from_scan.translation;
+    const RayHit hit = caster.Intersect(o, (p - o).normalized());
+    // Within 5σ of the first surface (σ = 3 mm + 20 ppm); glass passes and ghosts aside.
+    if (hit.hit && std::abs((p - o).norm() - hit.distance_m) < 5 * (0.003 + 20e-6 * hit.distance_m)) ++on_surface;
+  }
+  EXPECT_GT(static_cast<double>(on_surface) / scan.size(), 0.97);
+  // The spherical stereo cloud maps onto the mesh with its ground-truth transform.
+  const auto registration = nlohmann::json::parse(Slurp(*dir_ / "ground_truth.json"));
+  std::vector<double> t = registration["world_from_spherical_stereo"];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) matrix(r, c) = t[4 * r + c];
+  const Rigid3d world_from_stereo = Rigid3d::FromMatrix(matrix);
+  const io::PointCloud stereo = io::ReadPly((*dir_ / "clouds" / "spherical_stereo.ply").string());
+  ASSERT_GT(stereo.size(), 100u);
+  const auto& lower = truth["spherical_stereo"]["stations"][0]["lower_from_world"]["matrix_row_major"];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) matrix(r, c) = lower[4 * r + c];
+  const Eigen::Vector3d eye = Rigid3d::FromMatrix(matrix).Inverse().translation;
+  // Range error within 5σ, σ_r = r²·σ_d / (f·b·sin θ) (the documented model).
+  const auto& model = truth["clouds"]["spherical_stereo"];
+  const double f = model["stereo_width_px"].get<double>() / (2 * M_PI);
+  const double b = model["baseline_m"], sigma_d = model["disparity_sigma_px"];
+  size_t close = 0;
+  for (const auto& p_block : stereo.points) {
+    const Eigen::Vector3d p = world_from_stereo * p_block;
+    const Eigen::Vector3d ray = p - eye;
+    const RayHit hit = caster.Intersect(eye, ray.normalized());
+    const double r = ray.norm(), sin_theta = std::hypot(ray.x(), ray.y()) / r;
+    const double sigma = r * r * sigma_d / (f * b * sin_theta);
+    if (hit.hit && std::abs(r - hit.distance_m) < 5 * sigma) ++close;
+  }
+  EXPECT_GT(static_cast<double>(close) / stereo.size(), 0.97);
+}
+
+TEST(Simulate, ImpossibleParametersAreInputErrors) {
+  SimulateOptions o = Tiny();
+  o.spheres.baseline_m = -0.6;
+  try {
+    Simulate(o, OutDir("bad").string());
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("baseline_m"), std::string::npos) << e.what();
+  }
+  o = Tiny();
+  o.photos.width = 0;
+  EXPECT_THROW(Simulate(o, OutDir("bad").string()), InputError);
+  const fs::path dir = OutDir("scenefile");
+  fs::create_directories(dir);
+  std::ofstream(dir / "bad.yaml") << "scene: gate\nphotos:\n  count: many\n";
+  try {
+    ReadSceneFile((dir / "bad.yaml").string(), &o);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.yaml:3"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("photos.count"), std::string::npos) << e.what();
+  }
+  std::ofstream(dir / "unknown.yaml") << "scene: gate\nphotoz: 3\n";
+  EXPECT_THROW(ReadSceneFile((dir / "unknown.yaml").string(), &o), InputError);
+  std::ofstream(dir / "empty.obj") << "# no faces\n";
+  std::ofstream(dir / "mesh.yaml") << "mesh: empty.obj\n";
+  SimulateOptions from_file = Tiny();
+  ReadSceneFile((dir / "mesh.yaml").string(), &from_file);
+  EXPECT_THROW(Simulate(from_file, (dir / "out").string()), InputError);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace mmba::sim
