@@ -206,3 +206,23 @@ TEST(GamaLocal, ZoltanDms) { CompareWithGama("zoltan-test_2d_dms"); }
 
 }  // namespace
 }  // namespace mmba::survey
+
+namespace mmba::survey {
+namespace {
+
+// Mikhail, Observations and Least Squares (1976), Example 7.4: level net, weights 1/length.
+// The file's comment holds the textbook's adjusted heights (to 1 mm): B 825.220, C 835.535,
+// D 809.535, E 830.846. Ours agree within 1.1 mm (D: 809.5339); the book rounds
+// intermediate values, so the test allows 1.5 mm.
+TEST(GamaLocal, Mikhail74AgainstTextbook) {
+  SurveyNetwork net = io::ReadGamaLocal(DataPath("mikhail-7.4.gkf"));
+  const SurveyAdjustment adj = AdjustNetwork(&net, SurveyAdjustOptions());
+  ASSERT_TRUE(adj.converged);
+  EXPECT_EQ(adj.statistics.degrees_of_freedom, 4);
+  const std::map<std::string, double> book = {
+      {"B", 825.220}, {"C", 835.535}, {"D", 809.535}, {"E", 830.846}};
+  for (const auto& [id, z] : book) EXPECT_NEAR(net.Find(id)->coords.z(), z, 1.5e-3) << id;
+}
+
+}  // namespace
+}  // namespace mmba::survey

@@ -1,0 +1,284 @@
+// mmba survey: adjustment of a total-station / levelling / GNSS-vector network (GNU Gama
+// gama-local XML or the survey CSV), with survey statistics.
+#include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "command.h"
+#include "mmba/core/atomic_file.h"
+#include "mmba/io/gama_local.h"
+#include "mmba/io/survey_csv.h"
+#include "mmba/survey/adjust.h"
+
+namespace mmba::app {
+namespace {
+namespace fs = std::filesystem;
+using survey::CoordStatus;
+
+struct SurveyArgs {
+  std::string input;
+  std::string output;
+  double confidence = 0.0;
+  int max_iterations = 100;
+  size_t report_rows = 10;
+};
+
+/// Input angle unit: gon (default) or degrees (parameters angles="360").
+struct AngleUnit {
+  bool gons = true;
+  double FromRad(double rad) const { return rad * (gons ? 200.0 : 180.0) / M_PI; }
+  /// Small angles (residuals, σ): cc or arc seconds.
+  double SmallFromRad(double rad) const { return rad * (gons ? 2.0e6 : 648000.0) / M_PI; }
+  const char* name() const { return gons ? "gon" : "deg"; }
+  const char* small_name() const { return gons ? "cc" : "arcsec"; }
+};
+
+double Full(double value, double full) {
+  value = std::fmod(value, full);
+  return value < 0 ? value + full : value;
+}
+
+std::string Fixed(double v, int digits) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(digits) << v;
+  return s.str();
+}
+
+int RunSurvey(const SurveyArgs& args) {
+  if (args.confidence != 0.0 && !(args.confidence > 0 && args.confidence < 1)) {
+    throw InputError::Message("--confidence", "found " + std::to_string(args.confidence) +
+                                                  ", expected 0 < p < 1");
+  }
+  const std::string ext = fs::path(args.input).extension().string();
+  survey::SurveyNetwork net = (ext == ".csv") ? io::ReadSurveyCsv(args.input)
+                                              : io::ReadGamaLocal(args.input);
+  survey::SurveyAdjustOptions options;
+  options.confidence = args.confidence;
+  options.max_iterations = args.max_iterations;
+  const survey::SurveyAdjustment adj = survey::AdjustNetwork(&net, options);
+  if (!adj.converged) {
+    throw CommandFailed("survey adjustment " + adj.status + ": " + adj.reason);
+  }
+  const stats::NetworkStatistics& st = adj.statistics;
+  const AngleUnit unit{net.output_gons};
+  const double m0_apr = net.sigma0_apriori;
+  const double m0_apost = m0_apr * st.sigma0_ratio;
+  const bool apriori = net.sigma_act_apriori;
+
+  nlohmann::json json;
+  json["input"] = args.input;
+  json["description"] = net.description;
+  json["axes_xy"] = net.axes.code;
+  json["angles"] = net.angles_left_handed ? "left-handed" : "right-handed";
+  json["angle_unit"] = unit.name();
+  json["sigma0_apriori"] = m0_apr;
+  json["sigma0_aposteriori"] = m0_apost;
+  json["sigma0_ratio"] = st.sigma0_ratio;
+  json["sigma0_used"] = apriori ? "apriori" : "aposteriori";
+  json["degrees_of_freedom"] = st.degrees_of_freedom;
+  json["equations"] = st.num_equations;
+  json["unknowns"] = st.num_unknowns;
+  json["defect"] = st.defect;
+  json["datum"] = adj.datum;
+  json["confidence"] = st.confidence;
+  json["chi2_lower"] = st.chi2_lower;
+  json["chi2_upper"] = st.chi2_upper;
+  json["chi2_test_passed"] = st.chi2_passed;
+  json["critical_value"] = st.critical_value;
+  json["iterations"] = adj.iterations;
+  json["removed_observations"] = adj.removed;
+  nlohmann::json points = nlohmann::json::array();
+  for (const survey::SurveyPoint& p : net.points) {
+    if (p.xy == CoordStatus::kUnused && p.z == CoordStatus::kUnused) continue;
+    nlohmann::json jp;
+    jp["id"] = p.id;
+    const Eigen::Vector2d xy = net.axes.XyFromEn(p.coords.head<2>());
+    const Eigen::Matrix3d cov = survey::PointCovariance(adj, net, p);
+    if (p.xy != CoordStatus::kUnused && p.has_xy) {
+      jp["x"] = xy.x();
+      jp["y"] = xy.y();
+      jp["status_x"] = jp["status_y"] = survey::CoordStatusName(p.xy);
+      if (p.xy_free()) {
+        jp["sigma_x"] = std::sqrt(cov(0, 0));
+        jp["sigma_y"] = std::sqrt(cov(1, 1));
+        const stats::ErrorEllipse e = stats::StandardEllipse(cov.topLeftCorner<2, 2>());
+        jp["ellipse_a"] = e.a;
+        jp["ellipse_b"] = e.b;
+        // Angle of the major axis from +x towards +y (Gama's convention), input unit.
+        jp["ellipse_azimuth"] = unit.FromRad(e.angle_rad);
+        const double k = std::sqrt(stats::ChiSquareQuantile(st.confidence, 2));
+        jp["confidence_ellipse_a"] = k * e.a;
+        jp["confidence_ellipse_b"] = k * e.b;
+      }
+    }
+    if (p.z != CoordStatus::kUnused && p.has_z) {
+      jp["z"] = p.coords.z();
+      jp["status_z"] = survey::CoordStatusName(p.z);
+      if (p.z_free()) jp["sigma_z"] = std::sqrt(cov(2, 2));
+    }
+    if (p.xy_free() && p.z_free()) {
+      Eigen::Vector3d axes_m;
+      Eigen::Matrix3d dirs;
+      stats::StandardEllipsoid(cov, &axes_m, &dirs);
+      jp["ellipsoid_axes"] = {axes_m(0), axes_m(1), axes_m(2)};
+    }
+    points.push_back(jp);
+  }
+  json["points"] = points;
+  nlohmann::json orientations = nlohmann::json::array();
+  for (const survey::Cluster& c : net.clusters) {
+    if (c.type != survey::Cluster::Type::kStandpoint || !c.has_orientation) continue;
+    const double o = net.angles_left_handed ? c.orientation : -c.orientation;
+    orientations.push_back({{"station", c.station}, {"line", c.line},
+                            {"orientation", Full(unit.FromRad(o), unit.gons ? 400.0 : 360.0)}});
+  }
+  json["orientations"] = orientations;
+  nlohmann::json groups = nlohmann::json::array();
+  for (const stats::GroupStatistic& g : st.groups) {
+    groups.push_back({{"name", g.name}, {"observations", g.rows},
+                      {"redundancy", g.redundancy},
+                      {"variance_component", g.variance_component},
+                      {"sigma0_ratio", std::sqrt(g.variance_component)}});
+  }
+  json["variance_components"] = groups;
+
+  // Observations in input order, with their statistics.
+  std::vector<int> order(adj.rows.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    return std::make_pair(adj.rows[a].cluster, adj.rows[a].observation) <
+           std::make_pair(adj.rows[b].cluster, adj.rows[b].observation);
+  });
+  std::ostringstream csv;
+  csv << "index,line,kind,from,to,observed,adjusted,residual,residual_unit,sigma,redundancy,"
+         "studentized,flag\n";
+  struct Line {
+    double abs_t;
+    std::string text;
+  };
+  std::vector<Line> largest;
+  for (size_t k = 0; k < order.size(); ++k) {
+    const int r = order[k];
+    const stats::RowStatistic& row = st.rows[r];
+    const survey::Observation& o =
+        net.clusters[adj.rows[r].cluster].observations[adj.rows[r].observation];
+    const bool angle = survey::ObsKindIsAngle(o.kind);
+    const double sign = angle && !net.angles_left_handed ? -1.0 : 1.0;
+    // residual = prediction − observation (Gama's v = adjusted − observed)
+    double observed = o.value, adjusted = o.value + row.residual;
+    double residual = row.residual, sigma = row.sigma;
+    std::string runit = "mm";
+    if (angle) {
+      const bool zenith = o.kind == survey::ObsKind::kZenithAngle;
+      observed = zenith ? unit.FromRad(o.value) : Full(unit.FromRad(sign * o.value), unit.gons ? 400 : 360);
+      adjusted = zenith ? unit.FromRad(o.value + row.residual)
+                        : Full(unit.FromRad(sign * (o.value + row.residual)), unit.gons ? 400 : 360);
+      residual = unit.SmallFromRad(sign * row.residual);
+      sigma = unit.SmallFromRad(row.sigma);
+      runit = unit.small_name();
+    } else {
+      residual *= 1000.0;
+      sigma *= 1000.0;
+    }
+    std::string flag;
+    if (r == st.max_row) flag = row.critical ? "max-critical" : "max";
+    else if (row.critical) flag = "critical";
+    const std::string to = o.fs.empty() ? o.to : o.to + "/" + o.fs;
+    csv << k + 1 << "," << o.line << "," << survey::ObsKindName(o.kind) << "," << o.from << ","
+        << to << "," << Fixed(observed, 7) << "," << Fixed(adjusted, 7) << ","
+        << Fixed(residual, 3) << "," << runit << "," << Fixed(sigma, 3) << ","
+        << Fixed(row.redundancy, 4) << "," << Fixed(row.studentized, 3) << "," << flag << "\n";
+    largest.push_back({std::abs(row.studentized),
+                       "| " + std::to_string(k + 1) + " | " + std::to_string(o.line) + " | " +
+                           survey::ObsKindName(o.kind) + " | " + o.from + " | " + to + " | " +
+                           Fixed(residual, 2) + " " + runit + " | " + Fixed(row.redundancy, 3) +
+                           " | " + Fixed(row.studentized, 2) + " | " + flag + " |"});
+  }
+  std::sort(largest.begin(), largest.end(),
+            [](const Line& a, const Line& b) { return a.abs_t > b.abs_t; });
+
+  std::ostringstream summary;
+  summary << "survey " << args.input << ": " << st.num_equations << " observations, "
+          << st.num_unknowns << " unknowns, defect " << st.defect << ", dof "
+          << st.degrees_of_freedom << "\n"
+          << "  datum: " << adj.datum << "\n"
+          << "  sigma0 a-priori " << m0_apr << ", a-posteriori " << Fixed(m0_apost, 4)
+          << " (ratio " << Fixed(st.sigma0_ratio, 3) << "), used: "
+          << (apriori ? "apriori" : "aposteriori") << "\n"
+          << "  chi2 test at " << st.confidence << ": ratio in [" << Fixed(st.chi2_lower, 3)
+          << ", " << Fixed(st.chi2_upper, 3) << "] -> "
+          << (st.degrees_of_freedom > 0 ? (st.chi2_passed ? "passed" : "failed")
+                                        : "failed (no redundancy)")
+          << "\n";
+  if (st.max_row >= 0) {
+    const stats::RowStatistic& row = st.rows[st.max_row];
+    const survey::Observation& o =
+        net.clusters[adj.rows[st.max_row].cluster].observations[adj.rows[st.max_row].observation];
+    summary << "  data snooping: largest studentized residual " << Fixed(row.studentized, 2)
+            << " (critical " << Fixed(st.critical_value, 3) << ") at " << net.source << ":"
+            << o.line << " " << survey::ObsKindName(o.kind) << " " << o.from << " -> " << o.to
+            << (row.critical ? "  <- likely blunder" : "") << "\n";
+  }
+  if (!adj.removed.empty()) summary << "  removed observations: " << adj.removed.size() << "\n";
+
+  std::ostringstream md;
+  md << "# Survey adjustment\n\n" << "Input: `" << args.input << "`";
+  if (!net.description.empty()) md << " — " << net.description;
+  md << "\n\n```\n" << summary.str() << "```\n\n## Variance components (per group)\n\n"
+     << "| group | observations | redundancy | σ0 ratio |\n|---|---|---|---|\n";
+  for (const stats::GroupStatistic& g : st.groups) {
+    md << "| " << g.name << " | " << g.rows << " | " << Fixed(g.redundancy, 2) << " | "
+       << Fixed(std::sqrt(g.variance_component), 3) << " |\n";
+  }
+  md << "\n## Largest studentized residuals\n\n"
+     << "| # | line | kind | from | to | residual | redundancy | studentized | flag |\n"
+     << "|---|---|---|---|---|---|---|---|---|\n";
+  for (size_t i = 0; i < std::min(args.report_rows, largest.size()); ++i) {
+    md << largest[i].text << "\n";
+  }
+  if (!adj.removed.empty()) {
+    md << "\n## Removed observations\n\n";
+    for (const std::string& r : adj.removed) md << "- " << r << "\n";
+  }
+
+  fs::create_directories(args.output);
+  AtomicFileSet files;
+  const std::string json_text = json.dump(2);
+  files.Add(fs::path(args.output) / "adjusted.json",
+            [&](std::ostream& out) { out << json_text << "\n"; });
+  const std::string csv_text = csv.str();
+  files.Add(fs::path(args.output) / "observations.csv",
+            [&](std::ostream& out) { out << csv_text; });
+  const std::string md_text = md.str();
+  files.Add(fs::path(args.output) / "report.md", [&](std::ostream& out) { out << md_text; });
+  files.Commit();
+  std::cout << summary.str();
+  return kExitOk;
+}
+
+std::function<int()> SetupSurveyCommand(CLI::App& app, CommonOptions* common) {
+  auto args = std::make_shared<SurveyArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "survey", "Adjust a survey network (gama-local XML or survey CSV) with statistics");
+  sub->add_option("--input", args->input, "Network: gama-local .xml/.gkf or survey .csv")
+      ->required();
+  sub->add_option("--output", args->output,
+                  "Folder for adjusted.json, observations.csv, report.md (created)")
+      ->required();
+  sub->add_option("--confidence", args->confidence,
+                  "Confidence level of the tests (default: the file's conf-pr, else 0.95)");
+  sub->add_option("--max-iterations", args->max_iterations, "Levenberg-Marquardt iterations")
+      ->capture_default_str();
+  AddCommonOptions(sub, common);
+  return [args]() { return RunSurvey(*args); };
+}
+
+}  // namespace
+
+MMBA_REGISTER_COMMAND(40, SetupSurveyCommand);
+
+}  // namespace mmba::app
