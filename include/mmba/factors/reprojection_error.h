@@ -16,6 +16,7 @@
 #include <ceres/autodiff_cost_function.h>
 #include <ceres/rotation.h>
 
+#include "mmba/sensors/camera.h"
 #include "mmba/sensors/camera_models.h"
 
 namespace mmba::factors {
