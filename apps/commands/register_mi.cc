@@ -1,0 +1,413 @@
+// mmba register-mi: mutual-information registration of LiDAR to images and panoramas
+// (Wang, Ferrie & Macfarlane, CVPRW 2012), one frame or a rig over many frames (issue 6).
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "command.h"
+#include "mmba/core/atomic_file.h"
+#include "mmba/core/logging.h"
+#include "mmba/core/progress.h"
+#include "mmba/io/kitti.h"
+#include "mmba/io/point_cloud.h"
+#include "mmba/io/text_reader.h"
+#include "mmba/registration/mi/mi_registration.h"
+
+namespace mmba::app {
+namespace {
+namespace fs = std::filesystem;
+namespace mi = registration::mi;
+
+struct RegisterMiArgs {
+  std::vector<std::string> lidar;
+  std::vector<std::string> image;
+  std::string list;
+  std::string camera;
+  std::string kitti_calib;
+  int kitti_camera = 2;
+  std::string initial;
+  std::string metric = "nmi";
+  std::string representation = "intensity";
+  std::string smoothing = "bspline";
+  std::string region = "whole";
+  std::string view = "image";
+  int bins = 64;
+  int pyramid_levels = 3;
+  double bound_m = 0.5;
+  double bound_deg = 3.0;
+  double simplex = 1.0;
+  int max_iterations = 200;
+  double point_radius_m = 0.03;
+  int max_point_radius_px = 3;
+  double max_range_m = 200.0;
+  std::vector<double> perturb;
+  std::string probe;
+  int probe_level = 0;
+  std::string output;
+  std::string lidar_image;
+};
+
+nlohmann::json MetricJson(const mi::MetricValue& m) {
+  return {{"mi_bits", m.mi},
+          {"nmi", m.nmi},
+          {"nid", m.nid},
+          {"joint_entropy_bits", m.joint_entropy},
+          {"samples", m.samples},
+          {"lidar_samples", m.lidar_samples}};
+}
+
+nlohmann::json PoseJson(const Rigid3d& pose) {
+  const Eigen::Matrix4d m = pose.ToMatrix4();
+  nlohmann::json values = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) values.push_back(m(r, c));
+  }
+  return values;
+}
+
+nlohmann::json CorrectionJson(const mi::Vector6d& c) {
+  return {{"tx", c[0]}, {"ty", c[1]}, {"tz", c[2]},
+          {"roll", c[3]}, {"pitch", c[4]}, {"yaw", c[5]}};
+}
+
+nlohmann::json OffsetJson(const mi::PixelOffsetStats& s) {
+  return {{"points", s.points},
+          {"median_px", s.median_px},
+          {"mean_px", s.mean_px},
+          {"p90_px", s.p90_px},
+          {"max_px", s.max_px}};
+}
+
+Rigid3d ReadPoseJson(const std::string& path) {
+  const std::string text = io::ReadWholeFile(path);
+  nlohmann::json json;
+  try {
+    json = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw InputError::AtByte(path, e.byte, "json", e.what(), "valid JSON");
+  }
+  if (!json.is_object() || !json.contains("cam_from_lidar")) {
+    throw InputError(path, 0, "cam_from_lidar", "(missing)",
+                     "an object with \"cam_from_lidar\": 16 numbers (4x4 row-major)");
+  }
+  const nlohmann::json& m = json["cam_from_lidar"];
+  if (!m.is_array() || m.size() != 16) {
+    throw InputError(path, 0, "cam_from_lidar", m.dump().substr(0, 60),
+                     "16 numbers (4x4 row-major)");
+  }
+  double v[16];
+  for (int i = 0; i < 16; ++i) {
+    if (!m[i].is_number()) {
+      throw InputError(path, 0, "cam_from_lidar[" + std::to_string(i) + "]", m[i].dump(),
+                       "a number");
+    }
+    v[i] = m[i].get<double>();
+  }
+  return io::RigidFromRowMajor4x4(v, path, "cam_from_lidar");
+}
+
+int RunRegisterMi(const RegisterMiArgs& args) {
+  Timer wall;
+  // ---- Options (validated before any reading).
+  mi::RegistrationOptions options;
+  if (!mi::ParseMetric(args.metric, &options.metric.kind)) {
+    throw InputError::Message("--metric", "found '" + args.metric + "', expected mi, nmi or nid");
+  }
+  if (!mi::ParseRepresentation(args.representation, &options.render.representation)) {
+    throw InputError::Message("--representation", "found '" + args.representation +
+                                                      "', expected intensity, points or depth");
+  }
+  if (!mi::ParseSmoothing(args.smoothing, &options.metric.smoothing)) {
+    throw InputError::Message("--smoothing", "found '" + args.smoothing +
+                                                 "', expected none, parzen or bspline");
+  }
+  if (!mi::ParseRegion(args.region, &options.metric.region)) {
+    throw InputError::Message("--region", "found '" + args.region +
+                                              "', expected whole or overlap");
+  }
+  mi::ViewOptions view_options;
+  if (!mi::ParseViewKind(args.view, &view_options.kind)) {
+    throw InputError::Message("--view", "found '" + args.view +
+                                            "', expected image, equirect, perspective or cube");
+  }
+  options.metric.bins = args.bins;
+  options.pyramid_levels = args.pyramid_levels;
+  options.bound_translation_m = args.bound_m;
+  options.bound_rotation_deg = args.bound_deg;
+  options.nelder_mead.initial_step = mi::Vector6d::Constant(args.simplex);
+  options.nelder_mead.max_iterations = args.max_iterations;
+  options.render.point_radius_m = args.point_radius_m;
+  options.render.max_point_radius_px = args.max_point_radius_px;
+  options.render.max_range_m = args.max_range_m;
+  if (options.metric.region == mi::Region::kOverlap &&
+      options.render.representation == mi::Representation::kPoints) {
+    throw InputError::Message("--representation", "points with --region overlap has a constant "
+                                                  "LiDAR image (MI = 0); use --region whole");
+  }
+  std::string error;
+  if (!options.Check(&error)) throw InputError::Message("options", error);
+  if (!args.perturb.empty() && args.perturb.size() != 6) {
+    throw InputError::Message("--perturb", "found " + std::to_string(args.perturb.size()) +
+                                               " values, expected 6: tx,ty,tz,roll,pitch,yaw");
+  }
+  if (args.camera.empty() == args.kitti_calib.empty()) {
+    throw InputError::Message("--camera/--kitti-calib", "give exactly one of them");
+  }
+  // ---- Frames: --image/--lidar pairs or a list file (IMAGE LIDAR per line).
+  std::vector<std::pair<std::string, std::string>> pairs;
+  if (args.image.size() != args.lidar.size()) {
+    throw InputError::Message("--image/--lidar", std::to_string(args.image.size()) +
+                                                     " images but " +
+                                                     std::to_string(args.lidar.size()) +
+                                                     " clouds; give them in pairs");
+  }
+  for (size_t i = 0; i < args.image.size(); ++i) pairs.emplace_back(args.image[i], args.lidar[i]);
+  if (!args.list.empty()) {
+    const std::string text = io::ReadWholeFile(args.list);
+    const fs::path base = fs::path(args.list).parent_path();
+    io::LineCursor cursor(text);
+    std::string_view line_text;
+    while (cursor.Next(&line_text)) {
+      io::TokenLine line(args.list, cursor.line_number(), line_text);
+      if (line.size() == 0 || line.Str(0, "image").front() == '#') continue;
+      line.ExpectCount(2, "frame (IMAGE LIDAR)");
+      auto resolve = [&](const std::string& p) {
+        return fs::path(p).is_absolute() ? p : (base / p).string();
+      };
+      pairs.emplace_back(resolve(line.Str(0, "image")), resolve(line.Str(1, "lidar")));
+    }
+  }
+  if (pairs.empty()) {
+    throw InputError::Message("--image/--lidar", "no frame given (use --image and --lidar, "
+                                                 "or --list)");
+  }
+  // ---- Read everything before any work.
+  std::vector<mi::GrayImage> images;
+  for (const auto& [image_path, lidar_path] : pairs) images.push_back(mi::ReadGrayImage(image_path));
+  sensors::Camera camera;
+  Rigid3d cam_from_lidar_calibration;
+  bool have_calibration_pose = false;
+  if (!args.kitti_calib.empty()) {
+    const io::KittiCalibration calibration = io::ReadKittiCalibration(args.kitti_calib);
+    const io::KittiCameraPose kitti =
+        io::KittiCamera(calibration, args.kitti_camera, images[0].width, images[0].height,
+                        args.kitti_calib);
+    camera = kitti.camera;
+    cam_from_lidar_calibration = kitti.cam_from_lidar;
+    have_calibration_pose = true;
+  } else {
+    const io::CameraYaml camera_yaml = io::ReadCameraYaml(args.camera);
+    camera = camera_yaml.camera;
+    if (camera_yaml.cam_from_lidar) {
+      cam_from_lidar_calibration = *camera_yaml.cam_from_lidar;
+      have_calibration_pose = true;
+    }
+  }
+  for (size_t i = 0; i < images.size(); ++i) {
+    if (images[i].width != static_cast<int>(camera.width) ||
+        images[i].height != static_cast<int>(camera.height)) {
+      throw InputError::Message(pairs[i].first, "image is " + std::to_string(images[i].width) +
+                                                    "x" + std::to_string(images[i].height) +
+                                                    " but the camera is " +
+                                                    std::to_string(camera.width) + "x" +
+                                                    std::to_string(camera.height));
+    }
+  }
+  Rigid3d start = cam_from_lidar_calibration;
+  if (!args.initial.empty()) {
+    start = ReadPoseJson(args.initial);
+  } else if (!have_calibration_pose) {
+    throw InputError::Message(args.camera, "no cam_from_lidar in the camera file and no "
+                                           "--initial POSE.json: the start pose is unknown");
+  }
+  const Rigid3d reference = start;
+  if (!args.perturb.empty()) {
+    mi::Vector6d perturb;
+    for (int i = 0; i < 6; ++i) perturb[i] = args.perturb[i];
+    start = mi::ApplyCorrection(start, perturb);
+  }
+  std::vector<mi::LidarPoints> clouds;
+  for (const auto& [image_path, lidar_path] : pairs) {
+    const io::PointCloud cloud = io::ReadPointCloud(lidar_path);
+    if (cloud.empty()) throw InputError::Message(lidar_path, "cloud has no points");
+    if (options.render.representation == mi::Representation::kIntensity &&
+        !cloud.has_intensity()) {
+      throw InputError::Message(lidar_path, "cloud has no intensity but --representation "
+                                            "intensity was asked for (use points or depth)");
+    }
+    clouds.push_back(mi::PrepareLidarPoints(cloud));
+    spdlog::info("read {}: {} points{}", lidar_path, cloud.size(),
+                 cloud.has_intensity() ? " with intensity" : "");
+  }
+  std::vector<mi::Frame> frames;
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    mi::Frame frame;
+    frame.name = pairs[i].first;
+    frame.views = mi::MakeViews(images[i], camera, view_options, pairs[i].first);
+    frame.points = &clouds[i];
+    frames.push_back(std::move(frame));
+  }
+  // ---- Probe (around the start), then registration.
+  if (!args.probe.empty()) {
+    mi::RegistrationOptions probe_options = options;
+    probe_options.bound_translation_m = std::max(options.bound_translation_m, 2.0);
+    probe_options.bound_rotation_deg = std::max(options.bound_rotation_deg, 2.0);
+    probe_options.pyramid_levels = std::max(1, args.probe_level + 1);
+    if (!probe_options.Check(&error)) throw InputError::Message("--probe-level", error);
+    mi::FrameSetEvaluator evaluator(frames, start, probe_options);
+    mi::WriteProbe(mi::Probe(evaluator, start, 2.0, 0.1, args.probe_level), args.probe);
+    spdlog::info("probe written to {}", args.probe);
+  }
+  mi::RegistrationResult result;
+  if (frames.size() == 1) {
+    result = mi::RegisterFrames(frames, start, options);
+  } else {
+    mi::RigOptions rig;
+    rig.registration = options;
+    result = mi::RegisterRig(frames, start, rig);
+  }
+  // ---- Output.
+  nlohmann::json out;
+  out["status"] = result.status;
+  out["reason"] = result.reason;
+  out["cam_from_lidar"] = PoseJson(result.cam_from_lidar);
+  out["cam_from_lidar_start"] = PoseJson(start);
+  out["correction"] = CorrectionJson(result.correction);
+  out["correction_convention"] =
+      "lidar_from_cam' = [Rz(yaw) Ry(pitch) Rx(roll) R | c + t] about the camera centre, "
+      "axes of the LiDAR frame; metres and degrees";
+  nlohmann::json cov = nlohmann::json::array();
+  for (int r = 0; r < 6; ++r) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int c = 0; c < 6; ++c) row.push_back(result.covariance(r, c));
+    cov.push_back(row);
+  }
+  out["covariance"] = cov;
+  out["covariance_units"] = "m^2, deg^2 in the order tx ty tz roll pitch yaw";
+  out["covariance_valid"] = result.covariance_valid;
+  out["trusted"] = result.trusted;
+  out["confidence_reason"] = result.confidence_reason;
+  out["metric"] = args.metric;
+  out["metric_before"] = options.metric.kind == mi::MetricKind::kNid ? -result.metric_before.value
+                                                                     : result.metric_before.value;
+  out["metric_after"] = options.metric.kind == mi::MetricKind::kNid ? -result.metric_after.value
+                                                                    : result.metric_after.value;
+  out["metrics_before"] = MetricJson(result.metric_before);
+  out["metrics_after"] = MetricJson(result.metric_after);
+  out["iterations"] = result.iterations;
+  out["evaluations"] = result.evaluations;
+  out["runtime_seconds"] = result.runtime_seconds;
+  out["settings"] = {{"representation", args.representation}, {"view", args.view},
+                     {"bins", args.bins},                     {"smoothing", args.smoothing},
+                     {"region", args.region},                 {"pyramid_levels", args.pyramid_levels},
+                     {"bound_m", args.bound_m},               {"bound_deg", args.bound_deg}};
+  if (frames.size() > 1) {
+    out["used_frames"] = result.used_frames;
+    nlohmann::json rejected = nlohmann::json::array();
+    for (const auto& [name, why] : result.rejected_frames) {
+      rejected.push_back({{"frame", name}, {"reason", why}});
+    }
+    out["rejected_frames"] = rejected;
+    nlohmann::json per_frame = nlohmann::json::array();
+    for (size_t i = 0; i < result.frame_results.size(); ++i) {
+      const mi::RegistrationResult& r = result.frame_results[i];
+      per_frame.push_back({{"frame", frames[i].name},
+                           {"status", r.status},
+                           {"reason", r.reason},
+                           {"correction", CorrectionJson(r.correction)}});
+    }
+    out["frames"] = per_frame;
+  }
+  if (!args.perturb.empty()) {
+    // Against the unperturbed start (the calibration): before and after, first frame's views.
+    nlohmann::json offsets = nlohmann::json::array();
+    for (const mi::View& view : frames[0].views) {
+      offsets.push_back(
+          {{"view", view.name},
+           {"before", OffsetJson(mi::PixelOffsets(clouds[0], view, reference, start,
+                                                  options.render))},
+           {"after", OffsetJson(mi::PixelOffsets(clouds[0], view, reference,
+                                                 result.cam_from_lidar, options.render))}});
+    }
+    out["perturbation"] = CorrectionJson(Eigen::Map<const mi::Vector6d>(args.perturb.data()));
+    out["pixel_offset_vs_reference"] = offsets;
+  }
+  AtomicFileSet files;
+  files.Add(args.output, [&](std::ostream& stream) { stream << out.dump(2) << "\n"; });
+  if (!args.lidar_image.empty()) {
+    mi::LidarImage rendered;
+    mi::RenderLidarImage(clouds[0], frames[0].views[0], result.cam_from_lidar, options.render,
+                         &rendered);
+    mi::WriteGrayPng(mi::LidarImageToGray(rendered), args.lidar_image);
+  }
+  files.Commit();
+  std::cout << result.BriefReport() << std::endl;
+  spdlog::info("wrote {} ({:.2f} s)", args.output, wall.ElapsedSeconds());
+  return result.ok() ? kExitOk : kExitNotConverged;
+}
+
+std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
+  auto args = std::make_shared<RegisterMiArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "register-mi",
+      "Register LiDAR to images/panoramas by maximising mutual information (Wang et al. "
+      "2012): pose correction with covariance; several frames give a rig calibration");
+  sub->add_option("--lidar", args->lidar, "Cloud (.bin KITTI, .ply, .pcd, .las, .xyz); "
+                                          "repeat with --image for several frames");
+  sub->add_option("--image", args->image, "Image or equirectangular panorama; repeatable");
+  sub->add_option("--list", args->list, "Text file of frames: IMAGE LIDAR per line");
+  sub->add_option("--camera", args->camera, "Camera YAML (calib/README.md)");
+  sub->add_option("--kitti-calib", args->kitti_calib, "KITTI calibration file (camera 2)");
+  sub->add_option("--kitti-camera", args->kitti_camera, "KITTI camera index 0..3")
+      ->capture_default_str();
+  sub->add_option("--initial", args->initial, "POSE.json with cam_from_lidar (4x4 row-major)");
+  sub->add_option("--metric", args->metric, "mi | nmi | nid")->capture_default_str();
+  sub->add_option("--representation", args->representation, "intensity | points | depth")
+      ->capture_default_str();
+  sub->add_option("--bins", args->bins, "Histogram bins per axis (paper: 256)")
+      ->capture_default_str();
+  sub->add_option("--smoothing", args->smoothing, "none | parzen | bspline")
+      ->capture_default_str();
+  sub->add_option("--region", args->region, "whole | overlap")->capture_default_str();
+  sub->add_option("--view", args->view, "image (= equirect for a panorama) | perspective | cube")
+      ->capture_default_str();
+  sub->add_option("--pyramid-levels", args->pyramid_levels, "Coarse-to-fine levels")
+      ->capture_default_str();
+  sub->add_option("--bound-m", args->bound_m, "Search bound on the translation, m")
+      ->capture_default_str();
+  sub->add_option("--bound-deg", args->bound_deg, "Search bound on the rotation, deg")
+      ->capture_default_str();
+  sub->add_option("--simplex", args->simplex, "Initial simplex size, units (paper: 1)")
+      ->capture_default_str();
+  sub->add_option("--max-iterations", args->max_iterations, "Nelder-Mead iterations per level")
+      ->capture_default_str();
+  sub->add_option("--point-radius-m", args->point_radius_m,
+                  "Point footprint: radius = this * f / range pixels")
+      ->capture_default_str();
+  sub->add_option("--max-point-radius-px", args->max_point_radius_px, "Footprint cap, px")
+      ->capture_default_str();
+  sub->add_option("--max-range-m", args->max_range_m, "Ignore points farther than this")
+      ->capture_default_str();
+  sub->add_option("--perturb", args->perturb,
+                  "Test: start from the start pose corrected by tx,ty,tz,roll,pitch,yaw "
+                  "(m, deg) and report pixel offsets against the unperturbed pose")
+      ->delimiter(',');
+  sub->add_option("--probe", args->probe, "Write the probe (CSV, PNG) into this folder");
+  sub->add_option("--probe-level", args->probe_level,
+                  "Pyramid level of the probe (0 = full resolution)")
+      ->capture_default_str();
+  sub->add_option("--lidar-image", args->lidar_image,
+                  "Write the LiDAR image of the result (first view) as PNG");
+  sub->add_option("--output", args->output, "OUT.json")->required();
+  AddCommonOptions(sub, common);
+  return [args] { return RunRegisterMi(*args); };
+}
+
+}  // namespace
+
+MMBA_REGISTER_COMMAND(60, SetupRegisterMi);
+
+}  // namespace mmba::app

@@ -1,0 +1,65 @@
+#pragma once
+
+// KITTI calibration files and the project's own camera YAML (library mmba_io_kitti).
+// KITTI velodyne scans are read by io::ReadPointCloud / ReadKittiBin (mmba_io_cloud).
+// KITTI data is CC BY-NC-SA 3.0; see data/SOURCES.md.
+
+#include <optional>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "mmba/geometry/rigid3d.h"
+#include "mmba/sensors/camera.h"
+
+namespace mmba::io {
+
+/// The matrices of a KITTI object/odometry calibration file ("KEY: v1 v2 ...").
+struct KittiCalibration {
+  Eigen::Matrix<double, 3, 4> p[4];               ///< P0..P3, rectified projections
+  Eigen::Matrix3d r0_rect = Eigen::Matrix3d::Identity();  ///< R0_rect (or R_rect_00)
+  Eigen::Matrix<double, 3, 4> tr_velo_to_cam;    ///< Tr_velo_to_cam (velo -> cam 0, unrect.)
+};
+
+/// Reads a KITTI calibration file. Accepts the object format (P0..P3, R0_rect,
+/// Tr_velo_to_cam, ...) and the raw/odometry key spellings (P_rect_0X / R_rect_00 /
+/// Tr / Tr_velo_cam). Throws InputError (file:line, field, value) for a malformed number, a
+/// wrong count, a missing required key or a non-orthonormal rotation.
+KittiCalibration ReadKittiCalibration(const std::string& path);
+
+/// A camera of KITTI as an mmba camera and its pose relative to the velodyne.
+struct KittiCameraPose {
+  sensors::Camera camera;  ///< PINHOLE fx, fy, cx, cy from the left 3×3 K of P_i
+  Rigid3d cam_from_lidar;  ///< pose of that camera (its own frame, K's pixels)
+};
+
+/// Camera `index` (2 = left colour) of a calibration: PINHOLE from the left 3×3 K of P_i and
+///   cam_from_lidar = [I | K⁻¹·P_i[:,3]] · R0_rect · Tr_velo_to_cam,
+/// so that K · (cam_from_lidar · X) equals P_i · R0_rect · Tr_velo_to_cam · X (issue 6).
+/// Width and height are those of the image (KITTI does not store them in the calibration).
+/// Throws InputError when K is singular or not upper triangular with zero skew.
+KittiCameraPose KittiCamera(const KittiCalibration& calibration, int index, uint64_t width,
+                            uint64_t height, const std::string& source = "calibration");
+
+/// The project's camera YAML (schema in calib/README.md, section "Camera YAML"):
+///   model: PINHOLE            # any mmba model name
+///   width: 1242               # pixels
+///   height: 375
+///   params: [fx, fy, cx, cy]  # in the model's order
+///   cam_from_lidar: [16 numbers, 4×4 row-major]   # optional
+struct CameraYaml {
+  sensors::Camera camera;
+  std::optional<Rigid3d> cam_from_lidar;
+};
+/// Throws InputError naming the file, the field and the value on any problem.
+CameraYaml ReadCameraYaml(const std::string& path);
+/// Writes the same schema atomically.
+void WriteCameraYaml(const CameraYaml& camera_yaml, const std::string& path);
+
+/// A 4×4 row-major matrix from 16 numbers as a rigid transform; throws InputError (naming
+/// `where` and `field`) unless the last row is (0 0 0 1) and the rotation is orthonormal
+/// within `tolerance`.
+Rigid3d RigidFromRowMajor4x4(const double* values16, const std::string& where,
+                             const std::string& field, double tolerance = 1e-4);
+
+}  // namespace mmba::io

@@ -1,0 +1,48 @@
+#pragma once
+
+// Grey images for MI registration (library mmba_registration_mi). Plain float buffers so that
+// OpenCV stays inside two .cc files (image_io.cc, probe_plot.cc).
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace mmba::registration::mi {
+
+/// A grey image, row-major, values 0..255 (8-bit range even when stored as float).
+/// Pixel (c, r) covers [c, c+1) × [r, r+1); its centre is (c + 0.5, r + 0.5) (COLMAP).
+struct GrayImage {
+  int width = 0;
+  int height = 0;
+  std::vector<float> pixels;  ///< width·height, row-major
+
+  GrayImage() = default;
+  GrayImage(int w, int h, float fill = 0.f) : width(w), height(h), pixels(size_t(w) * h, fill) {}
+  bool empty() const { return pixels.empty(); }
+  float& at(int c, int r) { return pixels[size_t(r) * width + c]; }
+  float at(int c, int r) const { return pixels[size_t(r) * width + c]; }
+  /// Bilinear value at continuous pixel coordinates (COLMAP convention); false outside.
+  bool Sample(double x, double y, float* value) const;
+};
+
+/// Reads an image file (PNG, JPEG, TIFF, ... through OpenCV) as 8-bit grey (colour converted
+/// with the usual luma weights). Throws InputError naming the file when it is missing or not
+/// an image.
+GrayImage ReadGrayImage(const std::string& path);
+
+/// Writes an 8-bit grey PNG atomically (values clamped to 0..255).
+void WriteGrayPng(const GrayImage& image, const std::string& path);
+
+/// Half resolution by 2×2 box averaging (odd last row/column dropped).
+GrayImage Downsample2(const GrayImage& image);
+
+/// Statistics used to refuse images the paper's method cannot register (overexposed/black).
+struct ImageContrast {
+  double mean = 0;
+  double stdev = 0;
+  double fraction_dark = 0;       ///< value <= 5
+  double fraction_saturated = 0;  ///< value >= 250
+};
+ImageContrast MeasureContrast(const GrayImage& image);
+
+}  // namespace mmba::registration::mi

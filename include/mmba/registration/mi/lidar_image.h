@@ -1,0 +1,113 @@
+#pragma once
+
+// LiDAR images (Wang, Ferrie & Macfarlane 2012, Sec. 3.1): a cloud rendered from a camera pose
+// as an intensity image, a points-only image or a depth map, with a z-buffer whose point
+// footprint shrinks with range so that the far side of a wall does not show through.
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mmba/geometry/rigid3d.h"
+#include "mmba/io/point_cloud.h"
+#include "mmba/registration/mi/image.h"
+#include "mmba/sensors/camera.h"
+
+namespace mmba::registration::mi {
+
+/// The paper's three representations of the LiDAR.
+enum class Representation { kIntensity, kPoints, kDepth };
+std::string RepresentationName(Representation representation);
+/// "intensity" | "points" | "depth"; false when unknown.
+bool ParseRepresentation(const std::string& name, Representation* representation);
+
+/// A cloud prepared for repeated rendering: float coordinates in the LiDAR frame and a
+/// per-point value in [0, 1] for the intensity representation (raw reflectance stretched
+/// between its 1st and 99th percentile).
+struct LidarPoints {
+  std::vector<Eigen::Vector3f> points_in_lidar;
+  std::vector<float> intensity01;  ///< empty when the cloud has no intensity
+  bool has_intensity() const { return !intensity01.empty(); }
+  size_t size() const { return points_in_lidar.size(); }
+};
+LidarPoints PrepareLidarPoints(const io::PointCloud& cloud);
+
+/// One rendered view: a camera (any mmba model) and the rotation of this view relative to
+/// the frame's image camera (identity for the image itself; a perspective cut of a panorama
+/// is rotated). The grey image is the part of the photo/panorama seen by this view.
+struct View {
+  sensors::Camera camera;
+  Eigen::Matrix3d view_from_cam = Eigen::Matrix3d::Identity();
+  GrayImage image;
+  std::string name;
+};
+
+/// How the views of a frame are cut from its image (item 1 of issue 6).
+enum class ViewKind {
+  kImage,        ///< the image itself with its camera (pinhole, fisheye, or whole equirect)
+  kPerspective,  ///< perspective cuts of an equirectangular panorama (paper: 940×452)
+  kCube,         ///< the four side faces (90° each) of a cube map of the panorama
+};
+std::string ViewKindName(ViewKind kind);
+/// "image"|"equirect" → kImage, "perspective", "cube"; false when unknown.
+bool ParseViewKind(const std::string& name, ViewKind* kind);
+
+struct ViewOptions {
+  ViewKind kind = ViewKind::kImage;
+  int perspective_width = 940;   ///< paper's view size
+  int perspective_height = 452;
+  double perspective_hfov_deg = 90.0;
+  /// Headings of the perspective cuts relative to the panorama's centre column, degrees
+  /// (the paper used views perpendicular to the driving direction: ±90).
+  std::vector<double> perspective_yaw_deg = {-90.0, 90.0};
+  int cube_face_size = 512;
+  bool Check(std::string* error) const;
+};
+
+/// Cuts the views of one frame from its image and camera. Perspective and cube views need an
+/// EQUIRECTANGULAR camera (InputError otherwise, naming `source`).
+std::vector<View> MakeViews(const GrayImage& image, const sensors::Camera& camera,
+                            const ViewOptions& options, const std::string& source);
+
+/// Half-resolution copy of a view (image box-filtered, camera focal/principal halved).
+View DownsampleView(const View& view);
+
+struct RenderOptions {
+  Representation representation = Representation::kIntensity;
+  /// Footprint of a point: radius = point_radius_m · f / range pixels, clamped to
+  /// [0, max_point_radius_px] (0 = one pixel). Larger near the camera, as a real surface.
+  double point_radius_m = 0.03;
+  int max_point_radius_px = 3;
+  double min_range_m = 0.5;    ///< points closer than this are ignored
+  double max_range_m = 200.0;  ///< and farther
+  bool Check(std::string* error) const;
+};
+
+/// A rendered LiDAR image: value in [0, 1] where covered, negative where no point is seen.
+/// `offset_x/y` hold the sub-pixel position of the winning point relative to the pixel centre,
+/// so that metrics can sample the photo where the point really falls (smooth in the pose).
+struct LidarImage {
+  int width = 0;
+  int height = 0;
+  std::vector<float> value;
+  std::vector<float> depth;
+  std::vector<float> offset_x;
+  std::vector<float> offset_y;
+  std::vector<int> point_index;  ///< winning point, -1 where empty
+  size_t covered_pixels = 0;
+};
+
+/// Distinct points winning at least one pixel (the independent samples of the image).
+size_t CountVisiblePoints(const LidarImage& image);
+
+/// Renders the points seen by `view` from `cam_from_lidar` (the pose of the frame's image
+/// camera). Depth values are 1/range stretched over [1/max_range, 1/min_range] (near bright).
+/// For kIntensity the cloud must have intensity (CHECK; callers validate first).
+void RenderLidarImage(const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
+                      const RenderOptions& options, LidarImage* out);
+
+/// The LiDAR image as an 8-bit grey picture (empty pixels black), for reports and tests.
+GrayImage LidarImageToGray(const LidarImage& image);
+
+}  // namespace mmba::registration::mi

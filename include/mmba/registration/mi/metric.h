@@ -1,0 +1,76 @@
+#pragma once
+
+// Similarity of a LiDAR image and a photo: mutual information (maximised, as Wang et al. 2012
+// insist, Eq. (1)–(3)), normalised MI (Studholme et al. 1999) and the normalised information
+// distance NID = 1 − MI/H(X,Y) (Li et al. 2004), from a joint histogram.
+
+#include <string>
+#include <vector>
+
+#include "mmba/registration/mi/lidar_image.h"
+
+namespace mmba::registration::mi {
+
+enum class MetricKind { kMi, kNmi, kNid };
+std::string MetricName(MetricKind kind);
+bool ParseMetric(const std::string& name, MetricKind* kind);
+
+/// How samples enter the joint histogram.
+enum class Smoothing {
+  kNone,     ///< one count per sample in its bin
+  kParzen,   ///< histogram convolved with a Gaussian of `parzen_sigma_bins` (Parzen window)
+  kBSpline,  ///< each sample spread over 4×4 bins with cubic B-spline weights of its
+             ///< continuous values (Mattes et al. 2003), photo sampled bilinearly at the
+             ///< point's sub-pixel position: smooth in the pose, used for gradients
+};
+std::string SmoothingName(Smoothing smoothing);
+bool ParseSmoothing(const std::string& name, Smoothing* smoothing);
+
+enum class Region {
+  kWholeImage,  ///< every pixel of the views; pixels without LiDAR form their own LiDAR bin
+                ///< (the paper's black background). Sample count fixed: no sample-size bias.
+  kOverlap,     ///< only pixels covered by LiDAR (sample count varies with the pose)
+};
+std::string RegionName(Region region);
+bool ParseRegion(const std::string& name, Region* region);
+
+struct MetricOptions {
+  MetricKind kind = MetricKind::kNmi;
+  int bins = 64;  ///< per axis (paper: 256)
+  Smoothing smoothing = Smoothing::kBSpline;
+  double parzen_sigma_bins = 1.0;
+  Region region = Region::kWholeImage;
+  bool Check(std::string* error) const;
+};
+
+/// Entropies in bits of one evaluation; `value` is the chosen metric oriented so that
+/// LARGER IS BETTER (NID is reported as −NID in `value`, and as itself in `nid`).
+struct MetricValue {
+  double mi = 0;             ///< H(X) + H(Y) − H(X,Y), bits
+  double nmi = 0;            ///< (H(X) + H(Y)) / H(X,Y), 1..2
+  double nid = 1;            ///< 1 − MI / H(X,Y), 0..1, smaller is better
+  double joint_entropy = 0;  ///< H(X,Y), bits
+  double samples = 0;        ///< number of samples in the histogram
+  double lidar_samples = 0;  ///< of which covered by LiDAR
+  double value = 0;          ///< the metric chosen in the options, larger = better
+};
+
+/// Accumulates a joint histogram over one or more views (a frame's views share it).
+class JointHistogram {
+ public:
+  explicit JointHistogram(const MetricOptions& options);
+  void Clear();
+  /// Adds every sample of one rendered view against its photo.
+  void Add(const LidarImage& lidar, const GrayImage& photo);
+  MetricValue Evaluate() const;
+
+ private:
+  void AddSample(double lidar_bin, double photo_bin, bool lidar_empty);
+  MetricOptions options_;
+  int lidar_bins_;  ///< options.bins + 1 in whole-image mode (the empty bin is 0)
+  std::vector<double> counts_;  ///< lidar_bins_ × bins, row = lidar
+  double total_ = 0;
+  double lidar_total_ = 0;
+};
+
+}  // namespace mmba::registration::mi

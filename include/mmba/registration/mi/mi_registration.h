@@ -1,0 +1,165 @@
+#pragma once
+
+// Mutual-information registration of LiDAR to panoramas and images (Wang, Ferrie &
+// Macfarlane, "Automatic Registration of Mobile LiDAR and Spherical Panoramas", CVPRW 2012):
+// the pose of each image's camera relative to the cloud is corrected by maximising a
+// similarity of a rendered LiDAR image and the photo over 6 corrections; the result carries
+// a 6×6 covariance from the curvature of the metric and a confidence flag.
+//
+// Correction convention (tx, ty, tz in metres; roll, pitch, yaw in degrees): the camera pose
+// in the LiDAR frame is corrected about the camera centre, with axes of the LiDAR frame:
+//   lidar_from_cam' = [R_z(yaw)·R_y(pitch)·R_x(roll) · R | c + (tx, ty, tz)]
+// where lidar_from_cam = [R | c] is the start. For KITTI (x forward, y left, z up) and for a
+// local east-north-up world this is the vehicle's roll/pitch/yaw and a shift of the camera.
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mmba/geometry/rigid3d.h"
+#include "mmba/registration/mi/lidar_image.h"
+#include "mmba/registration/mi/metric.h"
+#include "mmba/registration/mi/nelder_mead.h"
+
+namespace mmba::registration::mi {
+
+/// Applies a correction (tx, ty, tz [m], roll, pitch, yaw [deg]) to a start pose.
+Rigid3d ApplyCorrection(const Rigid3d& cam_from_lidar_start, const Vector6d& correction);
+/// The correction that takes `start` to `corrected` (inverse of ApplyCorrection).
+Vector6d CorrectionBetween(const Rigid3d& cam_from_lidar_start, const Rigid3d& corrected);
+
+/// One image and its cloud: the views cut from the image and the prepared points.
+struct Frame {
+  std::string name;
+  std::vector<View> views;
+  const LidarPoints* points = nullptr;  ///< not owned
+};
+
+struct RegistrationOptions {
+  MetricOptions metric;
+  RenderOptions render;
+  NelderMeadOptions nelder_mead;  ///< paper defaults; bounds set from the fields below
+  double bound_translation_m = 0.5;  ///< search box ± around the start (trust region)
+  double bound_rotation_deg = 3.0;
+  int pyramid_levels = 3;            ///< 1 = full resolution only
+  bool gradient_refinement = true;   ///< after Nelder–Mead, on the B-spline histogram
+  int gradient_max_iterations = 20;
+  double max_points_per_pixel = 4.0;  ///< per pyramid level (speed; z-buffer keeps nearest)
+  /// Failure checks.
+  double min_covered_fraction = 0.02;  ///< of view pixels covered by LiDAR at the start
+  double max_dark_or_saturated = 0.85; ///< fraction of photo pixels ≤5 or ≥250
+  double min_photo_stdev = 3.0;        ///< grey levels
+  /// Confidence: the peak must rise above the metric's mean along each axis scan by this
+  /// fraction of |peak|, and no other local maximum may come within it.
+  double min_relative_peak = 0.002;
+  bool check_multiple_peaks = true;
+  bool Check(std::string* error) const;
+};
+
+/// Per-axis scan of the metric around a pose: the paper's probe (Figs. 3, 11).
+struct ProbeSample {
+  int axis = 0;            ///< 0..5 = tx, ty, tz, roll, pitch, yaw
+  double offset = 0;       ///< units (m or deg)
+  MetricValue metric;
+};
+
+struct RegistrationResult {
+  std::string status = "failed";  ///< "ok" or "failed"
+  std::string reason;
+  Rigid3d cam_from_lidar;          ///< the corrected pose (the start when failed early)
+  Vector6d correction = Vector6d::Zero();
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();  ///< m², deg²
+  bool covariance_valid = false;
+  bool trusted = false;            ///< confidence flag: single clear peak
+  std::string confidence_reason;
+  MetricValue metric_before;
+  MetricValue metric_after;
+  int iterations = 0;              ///< Nelder–Mead + gradient iterations, all levels
+  int evaluations = 0;
+  double runtime_seconds = 0;
+  /// Multi-frame only: frames used and frames rejected, with reasons.
+  std::vector<std::string> used_frames;
+  std::vector<std::pair<std::string, std::string>> rejected_frames;
+  std::vector<RegistrationResult> frame_results;  ///< per frame (multi-frame only)
+
+  bool ok() const { return status == "ok"; }
+  std::string BriefReport() const;
+};
+
+/// Evaluates the metric of a set of frames (sharing one pose) at a pose, at pyramid level
+/// `level` (0 = full resolution). At construction the points are culled to those that can
+/// reach a view from anywhere inside the search bounds around `cam_from_lidar_start`, and
+/// each level keeps at most `max_points_per_pixel` points per view pixel (a deterministic
+/// even subsample), so that an evaluation costs O(pixels), not O(cloud).
+/// Not thread-safe (one render buffer).
+class FrameSetEvaluator {
+ public:
+  FrameSetEvaluator(const std::vector<Frame>& frames, const Rigid3d& cam_from_lidar_start,
+                    const RegistrationOptions& options);
+  int levels() const { return static_cast<int>(pyramid_.size()); }
+  MetricValue Evaluate(const Rigid3d& cam_from_lidar, int level,
+                       const MetricOptions& metric) const;
+  MetricValue Evaluate(const Rigid3d& cam_from_lidar, int level) const {
+    return Evaluate(cam_from_lidar, level, options_.metric);
+  }
+  /// Fraction of view pixels covered by LiDAR at a pose (full resolution).
+  double CoveredFraction(const Rigid3d& cam_from_lidar) const;
+  size_t VisiblePoints(const Rigid3d& cam_from_lidar) const;
+  const std::vector<Frame>& frames() const { return frames_; }
+
+ private:
+  std::vector<Frame> frames_;
+  RegistrationOptions options_;
+  std::vector<std::vector<std::vector<View>>> pyramid_;  ///< level → frame → views
+  std::vector<std::vector<LidarPoints>> points_;           ///< level → frame → culled points
+  mutable LidarImage buffer_;
+};
+
+/// Registers one frame (or several frames sharing one pose, treated as one image set).
+RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
+                                  const Rigid3d& cam_from_lidar_start,
+                                  const RegistrationOptions& options);
+
+/// Rig calibration: one cam_from_lidar shared by many frames. Each frame is registered alone
+/// first; frames that fail, are not trusted, or whose correction disagrees with the median of
+/// the others by more than 3 robust σ (MAD) are rejected; the kept frames are registered
+/// jointly (sum of their metrics), and the covariance comes from the summed curvature.
+struct RigOptions {
+  RegistrationOptions registration;
+  double disagree_floor_m = 0.05;    ///< a frame disagrees only beyond max(3σ_MAD, floor)
+  double disagree_floor_deg = 0.3;
+  int min_frames = 2;
+};
+RegistrationResult RegisterRig(const std::vector<Frame>& frames,
+                               const Rigid3d& cam_from_lidar_start, const RigOptions& options);
+
+/// The probe: each parameter perturbed from −range to +range in `step` units around `pose`
+/// (others fixed), at pyramid `level` (0 = full resolution). Paper: ±2 units, 0.1 step.
+std::vector<ProbeSample> Probe(const FrameSetEvaluator& evaluator, const Rigid3d& pose,
+                               double range = 2.0, double step = 0.1, int level = 0);
+/// Writes probe.csv (axis, offset, mi, nmi, nid, joint_entropy, samples) and one PNG plot
+/// per axis (probe_<axis>.png: MI, NMI, joint entropy, each normalised to its own range)
+/// atomically into `dir`.
+void WriteProbe(const std::vector<ProbeSample>& samples, const std::string& dir);
+
+/// Pixel offsets between the projections of the LiDAR points seen by `view` under a
+/// reference pose and under an estimate (issue 6: "pixel offset of LiDAR points projected
+/// with the result against the calibration's own"). Points within [min, max] range.
+struct PixelOffsetStats {
+  size_t points = 0;
+  double median_px = 0;
+  double mean_px = 0;
+  double p90_px = 0;
+  double max_px = 0;
+  std::vector<double> offsets_px;  ///< one per point (for histograms)
+};
+PixelOffsetStats PixelOffsets(const LidarPoints& points, const View& view,
+                              const Rigid3d& cam_from_lidar_reference,
+                              const Rigid3d& cam_from_lidar_estimate,
+                              const RenderOptions& render);
+
+/// Names of the six parameters: tx, ty, tz, roll, pitch, yaw.
+const char* ParameterName(int axis);
+
+}  // namespace mmba::registration::mi

@@ -1,0 +1,274 @@
+#include "mmba/io/kitti.h"
+
+#include <cmath>
+#include <map>
+#include <sstream>
+#include <vector>
+
+#include <Eigen/LU>
+#include <yaml-cpp/yaml.h>
+
+#include "mmba/core/atomic_file.h"
+#include "mmba/core/error.h"
+#include "mmba/io/text_reader.h"
+
+namespace mmba::io {
+namespace {
+
+std::string Num(double v) {
+  std::ostringstream out;
+  out.precision(17);
+  out << v;
+  return out.str();
+}
+
+// A row of a calibration file: its values and its line.
+struct CalibRow {
+  std::vector<double> values;
+  int64_t line = 0;
+};
+
+Eigen::Matrix<double, 3, 4> Matrix3x4(const CalibRow& row) {
+  Eigen::Matrix<double, 3, 4> m;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 4; ++c) m(r, c) = row.values[4 * r + c];
+  }
+  return m;
+}
+
+void CheckRotation(const Eigen::Matrix3d& rotation, const std::string& file, int64_t line,
+                   const std::string& field, double tolerance) {
+  const double orthonormality =
+      (rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  const double det = rotation.determinant();
+  if (!(orthonormality <= tolerance) || !(std::abs(det - 1.0) <= tolerance)) {
+    throw InputError(file, line, field,
+                     "rotation with |R·Rᵀ − I| = " + Num(orthonormality) +
+                         ", det = " + Num(det),
+                     "an orthonormal rotation (det +1) within " + Num(tolerance));
+  }
+}
+
+}  // namespace
+
+KittiCalibration ReadKittiCalibration(const std::string& path) {
+  const std::string text = ReadWholeFile(path);
+  LineCursor cursor(text);
+  std::string_view line_text;
+  std::map<std::string, CalibRow> rows;
+  while (cursor.Next(&line_text)) {
+    TokenLine line(path, cursor.line_number(), line_text);
+    if (line.size() == 0) continue;
+    std::string key = line.Str(0, "key");
+    if (key.empty() || key.back() != ':') {
+      line.Fail("key", key, "'NAME:' followed by numbers (KITTI calibration format)");
+    }
+    key.pop_back();
+    CalibRow row;
+    row.line = line.line_number();
+    for (size_t i = 1; i < line.size(); ++i) {
+      row.values.push_back(line.Double(i, key + "[" + std::to_string(i - 1) + "]"));
+    }
+    rows[key] = std::move(row);
+  }
+  auto find = [&](std::initializer_list<const char*> names, size_t count,
+                  bool required) -> const CalibRow* {
+    for (const char* name : names) {
+      auto it = rows.find(name);
+      if (it == rows.end()) continue;
+      if (it->second.values.size() != count) {
+        throw InputError(path, it->second.line, name,
+                         std::to_string(it->second.values.size()) + " numbers",
+                         std::to_string(count) + " numbers");
+      }
+      return &it->second;
+    }
+    if (required) {
+      std::string list;
+      for (const char* name : names) list += (list.empty() ? "" : " or ") + std::string(name);
+      throw InputError::Message(path, "missing calibration key " + list +
+                                          " (expected a KITTI object/odometry calib file)");
+    }
+    return nullptr;
+  };
+  KittiCalibration calibration;
+  for (int i = 0; i < 4; ++i) {
+    const std::string a = "P" + std::to_string(i);
+    const std::string b = "P_rect_0" + std::to_string(i);
+    calibration.p[i] = Matrix3x4(*find({a.c_str(), b.c_str()}, 12, true));
+  }
+  if (const CalibRow* r0 = find({"R0_rect", "R_rect_00", "R_rect"}, 9, false)) {
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) calibration.r0_rect(r, c) = r0->values[3 * r + c];
+    }
+    CheckRotation(calibration.r0_rect, path, r0->line, "R0_rect", 1e-4);
+  }
+  // The odometry format's "Tr" maps velodyne to the (rectified) camera 0 directly; without
+  // R0_rect the identity is right for it.
+  const CalibRow* tr = find({"Tr_velo_to_cam", "Tr_velo_cam", "Tr"}, 12, true);
+  calibration.tr_velo_to_cam = Matrix3x4(*tr);
+  CheckRotation(calibration.tr_velo_to_cam.leftCols<3>(), path, tr->line, "Tr_velo_to_cam",
+                1e-4);
+  return calibration;
+}
+
+KittiCameraPose KittiCamera(const KittiCalibration& calibration, int index, uint64_t width,
+                            uint64_t height, const std::string& source) {
+  if (index < 0 || index > 3) {
+    throw InputError::Message(source, "KITTI camera index " + std::to_string(index) +
+                                          " out of range 0..3");
+  }
+  const Eigen::Matrix<double, 3, 4>& p = calibration.p[index];
+  const Eigen::Matrix3d k = p.leftCols<3>();
+  const std::string field = "P" + std::to_string(index);
+  if (!(k(0, 0) > 0) || !(k(1, 1) > 0) || std::abs(k(0, 1)) > 1e-9 * k(0, 0) ||
+      std::abs(k(1, 0)) > 1e-12 || std::abs(k(2, 0)) > 1e-12 || std::abs(k(2, 1)) > 1e-12 ||
+      std::abs(k(2, 2) - 1.0) > 1e-9) {
+    std::ostringstream found;
+    found << k.format(Eigen::IOFormat(Eigen::FullPrecision, 0, " ", "; "));
+    throw InputError::Message(source, "field '" + field + "': left 3x3 is [" + found.str() +
+                                          "], expected K = [fx 0 cx; 0 fy cy; 0 0 1]");
+  }
+  KittiCameraPose result;
+  result.camera.model_id = sensors::CameraModelId::kPinhole;
+  result.camera.width = width;
+  result.camera.height = height;
+  result.camera.params = {k(0, 0), k(1, 1), k(0, 2), k(1, 2)};
+  // cam_from_lidar = [I | K⁻¹·P[:,3]] · R0_rect · Tr_velo_to_cam (issue 6, item 7).
+  Eigen::Matrix4d rect = Eigen::Matrix4d::Identity();
+  rect.topLeftCorner<3, 3>() = calibration.r0_rect;
+  Eigen::Matrix4d velo = Eigen::Matrix4d::Identity();
+  velo.topRows<3>() = calibration.tr_velo_to_cam;
+  Eigen::Matrix4d shift = Eigen::Matrix4d::Identity();
+  shift.block<3, 1>(0, 3) = k.inverse() * p.col(3);
+  const Eigen::Matrix4d cam_from_lidar = shift * rect * velo;
+  result.cam_from_lidar = Rigid3d::FromMatrix(cam_from_lidar.topRows<3>());
+  return result;
+}
+
+Rigid3d RigidFromRowMajor4x4(const double* v, const std::string& where,
+                             const std::string& field, double tolerance) {
+  for (int i = 0; i < 16; ++i) {
+    if (!std::isfinite(v[i])) {
+      throw InputError::Message(where, "field '" + field + "': element " + std::to_string(i) +
+                                           " is not finite, expected a number");
+    }
+  }
+  if (std::abs(v[12]) > tolerance || std::abs(v[13]) > tolerance ||
+      std::abs(v[14]) > tolerance || std::abs(v[15] - 1.0) > tolerance) {
+    throw InputError::Message(where, "field '" + field + "': last row is (" + Num(v[12]) +
+                                         " " + Num(v[13]) + " " + Num(v[14]) + " " +
+                                         Num(v[15]) + "), expected (0 0 0 1)");
+  }
+  Eigen::Matrix<double, 3, 4> m;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 4; ++c) m(r, c) = v[4 * r + c];
+  }
+  CheckRotation(m.leftCols<3>(), where, 0, field, tolerance);
+  return Rigid3d::FromMatrix(m);
+}
+
+CameraYaml ReadCameraYaml(const std::string& path) {
+  const std::string text = ReadWholeFile(path);
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(path, e.mark.line + 1, "yaml", e.msg, "valid YAML");
+  }
+  if (!root.IsMap()) throw InputError(path, 1, "document", "not a mapping", "a YAML mapping");
+  auto line_of = [](const YAML::Node& n) { return static_cast<int64_t>(n.Mark().line) + 1; };
+  auto need = [&](const char* key) {
+    YAML::Node node = root[key];
+    if (!node) throw InputError(path, 0, key, "(missing)", "a value (see calib/README.md)");
+    return node;
+  };
+  auto as_double = [&](const YAML::Node& node, const std::string& field) {
+    double value = 0;
+    try {
+      value = node.as<double>();
+    } catch (const YAML::Exception&) {
+      throw InputError(path, line_of(node), field, node.IsScalar() ? node.Scalar() : "(not a number)",
+                       "a number");
+    }
+    if (!std::isfinite(value)) {
+      throw InputError(path, line_of(node), field, node.Scalar(), "a finite number");
+    }
+    return value;
+  };
+  auto as_size = [&](const char* key) {
+    YAML::Node node = need(key);
+    const double value = as_double(node, key);
+    if (!(value >= 1) || value != std::floor(value) || value > 1e6) {
+      throw InputError(path, line_of(node), key, node.Scalar(), "a positive integer (pixels)");
+    }
+    return static_cast<uint64_t>(value);
+  };
+  CameraYaml result;
+  YAML::Node model = need("model");
+  const std::string model_name = model.IsScalar() ? model.Scalar() : "";
+  result.camera.model_id = sensors::CameraModelFromName(model_name);
+  if (result.camera.model_id == sensors::CameraModelId::kInvalid) {
+    throw InputError(path, line_of(model), "model", model_name,
+                     "one of " + sensors::KnownCameraModelNames());
+  }
+  result.camera.width = as_size("width");
+  result.camera.height = as_size("height");
+  YAML::Node params = need("params");
+  const int expected = sensors::CameraModelNumParams(result.camera.model_id);
+  if (!params.IsSequence() || static_cast<int>(params.size()) != expected) {
+    throw InputError(path, line_of(params), "params",
+                     params.IsSequence() ? std::to_string(params.size()) + " values"
+                                         : "not a list",
+                     "a list of " + std::to_string(expected) + " values (" +
+                         sensors::CameraModelParamsInfo(result.camera.model_id) + ")");
+  }
+  for (size_t i = 0; i < params.size(); ++i) {
+    result.camera.params.push_back(as_double(params[i], "params[" + std::to_string(i) + "]"));
+  }
+  for (int i : sensors::CameraModelFocalIdxs(result.camera.model_id)) {
+    if (!(result.camera.params[i] > 0)) {
+      throw InputError(path, line_of(params[i]), "params[" + std::to_string(i) + "]",
+                       Num(result.camera.params[i]), "a positive focal length");
+    }
+  }
+  if (YAML::Node pose = root["cam_from_lidar"]) {
+    if (!pose.IsSequence() || pose.size() != 16) {
+      throw InputError(path, line_of(pose), "cam_from_lidar",
+                       pose.IsSequence() ? std::to_string(pose.size()) + " values" : "not a list",
+                       "16 numbers (4x4 row-major)");
+    }
+    double v[16];
+    for (int i = 0; i < 16; ++i) {
+      v[i] = as_double(pose[i], "cam_from_lidar[" + std::to_string(i) + "]");
+    }
+    result.cam_from_lidar =
+        RigidFromRowMajor4x4(v, path + ":" + std::to_string(line_of(pose)), "cam_from_lidar");
+  }
+  return result;
+}
+
+void WriteCameraYaml(const CameraYaml& camera_yaml, const std::string& path) {
+  WriteFileAtomically(path, [&](std::ostream& out) {
+    out.precision(17);
+    out << "# mmba camera (schema: calib/README.md)\n";
+    out << "model: " << camera_yaml.camera.ModelName() << "\n";
+    out << "width: " << camera_yaml.camera.width << "\n";
+    out << "height: " << camera_yaml.camera.height << "\n";
+    out << "params: [";
+    for (size_t i = 0; i < camera_yaml.camera.params.size(); ++i) {
+      out << (i ? ", " : "") << camera_yaml.camera.params[i];
+    }
+    out << "]\n";
+    if (camera_yaml.cam_from_lidar) {
+      const Eigen::Matrix4d m = camera_yaml.cam_from_lidar->ToMatrix4();
+      out << "cam_from_lidar: [";
+      for (int r = 0; r < 4; ++r) {
+        for (int c = 0; c < 4; ++c) out << ((r || c) ? ", " : "") << m(r, c);
+      }
+      out << "]\n";
+    }
+  });
+}
+
+}  // namespace mmba::io

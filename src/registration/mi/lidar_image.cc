@@ -1,0 +1,332 @@
+#include "mmba/registration/mi/lidar_image.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <glog/logging.h>
+
+#include "mmba/core/error.h"
+
+namespace mmba::registration::mi {
+
+std::string RepresentationName(Representation representation) {
+  switch (representation) {
+    case Representation::kIntensity: return "intensity";
+    case Representation::kPoints: return "points";
+    case Representation::kDepth: return "depth";
+  }
+  return "";
+}
+
+bool ParseRepresentation(const std::string& name, Representation* representation) {
+  for (Representation r : {Representation::kIntensity, Representation::kPoints,
+                           Representation::kDepth}) {
+    if (name == RepresentationName(r)) {
+      *representation = r;
+      return true;
+    }
+  }
+  return false;
+}
+
+std::string ViewKindName(ViewKind kind) {
+  switch (kind) {
+    case ViewKind::kImage: return "image";
+    case ViewKind::kPerspective: return "perspective";
+    case ViewKind::kCube: return "cube";
+  }
+  return "";
+}
+
+bool ParseViewKind(const std::string& name, ViewKind* kind) {
+  if (name == "image" || name == "equirect") {
+    *kind = ViewKind::kImage;
+  } else if (name == "perspective") {
+    *kind = ViewKind::kPerspective;
+  } else if (name == "cube") {
+    *kind = ViewKind::kCube;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+bool ViewOptions::Check(std::string* error) const {
+  if (perspective_width < 8 || perspective_height < 8) {
+    *error = "perspective view size " + std::to_string(perspective_width) + "x" +
+             std::to_string(perspective_height) + " must be at least 8x8";
+    return false;
+  }
+  if (!(perspective_hfov_deg > 1 && perspective_hfov_deg < 170)) {
+    *error = "perspective_hfov_deg " + std::to_string(perspective_hfov_deg) +
+             " must be in (1, 170)";
+    return false;
+  }
+  if (perspective_yaw_deg.empty()) {
+    *error = "perspective_yaw_deg must list at least one heading";
+    return false;
+  }
+  if (cube_face_size < 8) {
+    *error = "cube_face_size " + std::to_string(cube_face_size) + " must be >= 8";
+    return false;
+  }
+  return true;
+}
+
+bool RenderOptions::Check(std::string* error) const {
+  if (!(point_radius_m >= 0)) {
+    *error = "point_radius_m " + std::to_string(point_radius_m) + " must be >= 0";
+    return false;
+  }
+  if (max_point_radius_px < 0 || max_point_radius_px > 16) {
+    *error = "max_point_radius_px " + std::to_string(max_point_radius_px) +
+             " must be in 0..16";
+    return false;
+  }
+  if (!(min_range_m > 0) || !(max_range_m > min_range_m)) {
+    *error = "ranges must satisfy 0 < min_range_m < max_range_m (found " +
+             std::to_string(min_range_m) + ", " + std::to_string(max_range_m) + ")";
+    return false;
+  }
+  return true;
+}
+
+LidarPoints PrepareLidarPoints(const io::PointCloud& cloud) {
+  LidarPoints prepared;
+  prepared.points_in_lidar.reserve(cloud.size());
+  for (const Eigen::Vector3d& p : cloud.points) prepared.points_in_lidar.push_back(p.cast<float>());
+  if (cloud.has_intensity()) {
+    // Stretch between the 1st and 99th percentile: raw reflectance scales differ between
+    // scanners (0..1, 0..255, 0..65535) and a few specular returns would crush the rest.
+    std::vector<float> sorted = cloud.intensity;
+    const size_t lo_i = sorted.size() / 100;
+    const size_t hi_i = sorted.size() - 1 - sorted.size() / 100;
+    std::nth_element(sorted.begin(), sorted.begin() + lo_i, sorted.end());
+    const float lo = sorted[lo_i];
+    std::nth_element(sorted.begin(), sorted.begin() + hi_i, sorted.end());
+    const float hi = sorted[hi_i];
+    const float scale = hi > lo ? 1.f / (hi - lo) : 0.f;
+    prepared.intensity01.resize(cloud.size());
+    for (size_t i = 0; i < cloud.size(); ++i) {
+      prepared.intensity01[i] = std::clamp((cloud.intensity[i] - lo) * scale, 0.f, 1.f);
+    }
+  }
+  return prepared;
+}
+
+namespace {
+
+Eigen::Matrix3d RotationAboutY(double angle_rad) {
+  return Eigen::AngleAxisd(angle_rad, Eigen::Vector3d::UnitY()).toRotationMatrix();
+}
+
+// Perspective cut of an equirectangular panorama looking `yaw_deg` right of its centre.
+View CutPerspective(const GrayImage& pano, const sensors::Camera& pano_camera, int width,
+                    int height, double hfov_deg, double yaw_deg, const std::string& name) {
+  View view;
+  view.name = name;
+  const double f = 0.5 * width / std::tan(0.5 * hfov_deg * M_PI / 180.0);
+  view.camera.model_id = sensors::CameraModelId::kPinhole;
+  view.camera.width = width;
+  view.camera.height = height;
+  view.camera.params = {f, f, 0.5 * width, 0.5 * height};
+  const Eigen::Matrix3d cam_from_view = RotationAboutY(yaw_deg * M_PI / 180.0);
+  view.view_from_cam = cam_from_view.transpose();
+  view.image = GrayImage(width, height);
+  const double* params = pano_camera.params.data();
+  const double period = 2.0 * M_PI * params[0];
+  for (int r = 0; r < height; ++r) {
+    for (int c = 0; c < width; ++c) {
+      const Eigen::Vector3d ray_in_view((c + 0.5 - 0.5 * width) / f,
+                                        (r + 0.5 - 0.5 * height) / f, 1.0);
+      const Eigen::Vector3d ray_in_cam = cam_from_view * ray_in_view;
+      double xy[2] = {0.0, 0.0};
+      sensors::EquirectangularModel::ImgFromCam(params, ray_in_cam.data(), xy);
+      if (xy[0] < 0.5) xy[0] += period;
+      if (xy[0] > pano.width - 0.5) xy[0] -= period;
+      xy[0] = std::clamp(xy[0], 0.5, pano.width - 0.5);
+      xy[1] = std::clamp(xy[1], 0.5, pano.height - 0.5);
+      float value = 0;
+      pano.Sample(xy[0], xy[1], &value);
+      view.image.at(c, r) = value;
+    }
+  }
+  return view;
+}
+
+template <typename Model>
+void RenderWithModel(const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
+                     const RenderOptions& options, LidarImage* out) {
+  const int width = out->width;
+  const int height = out->height;
+  const Eigen::Matrix3d view_from_lidar_r =
+      view.view_from_cam * cam_from_lidar.rotation.toRotationMatrix();
+  const Eigen::Vector3d view_from_lidar_t = view.view_from_cam * cam_from_lidar.translation;
+  const Eigen::Matrix3f rotation = view_from_lidar_r.cast<float>();
+  const Eigen::Vector3f translation = view_from_lidar_t.cast<float>();
+  const double* params = view.camera.params.data();
+  const double focal = view.camera.MeanFocalLength();
+  const float min_range2 = static_cast<float>(options.min_range_m * options.min_range_m);
+  const float max_range2 = static_cast<float>(options.max_range_m * options.max_range_m);
+  const float radius_factor = static_cast<float>(options.point_radius_m * focal);
+  const float log_min = static_cast<float>(std::log(options.min_range_m));
+  const float log_span =
+      static_cast<float>(std::log(options.max_range_m) - std::log(options.min_range_m));
+  const int max_radius = options.max_point_radius_px;
+  constexpr bool kPerspective = Model::kModelId != sensors::CameraModelId::kEquirectangular;
+  const double period = 2.0 * M_PI * params[0];  // panorama columns per turn (f = W/2π)
+  const size_t n = points.size();
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f p = rotation * points.points_in_lidar[i] + translation;
+    if (kPerspective && !(p.z() > 0.f)) continue;
+    const float range2 = p.squaredNorm();
+    if (range2 < min_range2 || range2 > max_range2) continue;
+    const double point_in_view[3] = {p.x(), p.y(), p.z()};
+    double xy[2];
+    if (!Model::ImgFromCam(params, point_in_view, xy)) continue;
+    if (!kPerspective) {  // the ±180° seam: wrap the column into the panorama
+      if (xy[0] >= width) xy[0] -= period;
+      if (xy[0] < 0) xy[0] += period;
+    }
+    if (!(xy[0] >= 0 && xy[1] >= 0 && xy[0] < width && xy[1] < height)) continue;
+    const float range = std::sqrt(range2);
+    const int col = static_cast<int>(xy[0]);
+    const int row = static_cast<int>(xy[1]);
+    const int radius = std::min(max_radius, static_cast<int>(radius_factor / range));
+    float value = 1.f;
+    if (options.representation == Representation::kIntensity) {
+      value = points.intensity01[i];
+    } else if (options.representation == Representation::kDepth) {
+      value = std::clamp(1.f - (std::log(range) - log_min) / log_span, 0.f, 1.f);
+    }
+    const float off_x = static_cast<float>(xy[0] - (col + 0.5));
+    const float off_y = static_cast<float>(xy[1] - (row + 0.5));
+    const int r0 = std::max(0, row - radius), r1 = std::min(height - 1, row + radius);
+    const int c0 = std::max(0, col - radius), c1 = std::min(width - 1, col + radius);
+    for (int r = r0; r <= r1; ++r) {
+      const size_t base = static_cast<size_t>(r) * width;
+      for (int c = c0; c <= c1; ++c) {
+        const size_t k = base + c;
+        if (range < out->depth[k]) {
+          out->depth[k] = range;
+          out->value[k] = value;
+          out->offset_x[k] = off_x;
+          out->offset_y[k] = off_y;
+          out->point_index[k] = static_cast<int>(i);
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<View> MakeViews(const GrayImage& image, const sensors::Camera& camera,
+                            const ViewOptions& options, const std::string& source) {
+  std::string error;
+  if (!options.Check(&error)) throw InputError::Message(source, error);
+  if (image.width != static_cast<int>(camera.width) ||
+      image.height != static_cast<int>(camera.height)) {
+    throw InputError::Message(
+        source, "image is " + std::to_string(image.width) + "x" + std::to_string(image.height) +
+                    " but the camera is " + std::to_string(camera.width) + "x" +
+                    std::to_string(camera.height));
+  }
+  std::vector<View> views;
+  if (options.kind == ViewKind::kImage) {
+    View view;
+    view.camera = camera;
+    view.image = image;
+    view.name = "image";
+    views.push_back(std::move(view));
+    return views;
+  }
+  if (camera.model_id != sensors::CameraModelId::kEquirectangular) {
+    throw InputError::Message(source, "view '" + ViewKindName(options.kind) +
+                                          "' needs an EQUIRECTANGULAR camera, found " +
+                                          camera.ModelName());
+  }
+  if (options.kind == ViewKind::kPerspective) {
+    for (double yaw : options.perspective_yaw_deg) {
+      views.push_back(CutPerspective(image, camera, options.perspective_width,
+                                     options.perspective_height, options.perspective_hfov_deg,
+                                     yaw, "perspective_" + std::to_string(int(std::lround(yaw)))));
+    }
+  } else {
+    for (double yaw : {0.0, 90.0, 180.0, 270.0}) {
+      views.push_back(CutPerspective(image, camera, options.cube_face_size,
+                                     options.cube_face_size, 90.0, yaw,
+                                     "cube_" + std::to_string(int(yaw))));
+    }
+  }
+  return views;
+}
+
+View DownsampleView(const View& view) {
+  View half;
+  half.name = view.name;
+  half.view_from_cam = view.view_from_cam;
+  half.image = Downsample2(view.image);
+  half.camera = view.camera;
+  half.camera.width = half.image.width;
+  half.camera.height = half.image.height;
+  // Pixel coordinates scale with the image when the top-left corner is the origin (COLMAP).
+  const double sx = static_cast<double>(half.image.width) / view.image.width;
+  const double sy = static_cast<double>(half.image.height) / view.image.height;
+  const double s = 0.5 * (sx + sy);
+  for (int i : sensors::CameraModelFocalIdxs(view.camera.model_id)) half.camera.params[i] *= s;
+  const std::vector<int> principal = sensors::CameraModelPrincipalIdxs(view.camera.model_id);
+  if (principal.size() == 2) {
+    half.camera.params[principal[0]] *= sx;
+    half.camera.params[principal[1]] *= sy;
+  }
+  return half;
+}
+
+void RenderLidarImage(const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
+                      const RenderOptions& options, LidarImage* out) {
+  CHECK(options.representation != Representation::kIntensity || points.has_intensity() ||
+        points.size() == 0)
+      << "intensity representation of a cloud without intensity";
+  out->width = static_cast<int>(view.camera.width);
+  out->height = static_cast<int>(view.camera.height);
+  const size_t pixels = static_cast<size_t>(out->width) * out->height;
+  out->value.assign(pixels, -1.f);
+  out->depth.assign(pixels, std::numeric_limits<float>::infinity());
+  out->offset_x.assign(pixels, 0.f);
+  out->offset_y.assign(pixels, 0.f);
+  out->point_index.assign(pixels, -1);
+  switch (view.camera.model_id) {
+#define MMBA_RENDER_CASE(Model)                                   \
+  case Model::kModelId:                                           \
+    RenderWithModel<Model>(points, view, cam_from_lidar, options, out); \
+    break;
+    MMBA_FOR_EACH_CAMERA_MODEL(MMBA_RENDER_CASE)
+#undef MMBA_RENDER_CASE
+    default:
+      LOG(FATAL) << "unknown camera model";
+  }
+  out->covered_pixels = 0;
+  for (size_t k = 0; k < pixels; ++k) out->covered_pixels += out->point_index[k] >= 0;
+}
+
+size_t CountVisiblePoints(const LidarImage& image) {
+  std::vector<int> winners;
+  winners.reserve(image.covered_pixels);
+  for (int index : image.point_index) {
+    if (index >= 0) winners.push_back(index);
+  }
+  std::sort(winners.begin(), winners.end());
+  return static_cast<size_t>(std::unique(winners.begin(), winners.end()) - winners.begin());
+}
+
+GrayImage LidarImageToGray(const LidarImage& image) {
+  GrayImage gray(image.width, image.height);
+  for (size_t k = 0; k < image.value.size(); ++k) {
+    gray.pixels[k] = image.value[k] < 0 ? 0.f : 255.f * image.value[k];
+  }
+  return gray;
+}
+
+}  // namespace mmba::registration::mi

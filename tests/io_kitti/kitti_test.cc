@@ -1,0 +1,111 @@
+#include "mmba/io/kitti.h"
+
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "mmba/core/error.h"
+
+namespace mmba::io {
+namespace {
+
+std::string Fixture(const std::string& name) {
+  return std::string(MMBA_SOURCE_DIR) + "/tests/io_kitti/data/" + name;
+}
+
+// The convention: K · (cam_from_lidar · X) == P2 · R0_rect · Tr_velo_to_cam · X.
+void ExpectPixelConvention(const KittiCalibration& calibration, const KittiCameraPose& pose) {
+  Eigen::Matrix4d rect = Eigen::Matrix4d::Identity(), velo = Eigen::Matrix4d::Identity();
+  rect.topLeftCorner<3, 3>() = calibration.r0_rect;
+  velo.topRows<3>() = calibration.tr_velo_to_cam;
+  const Eigen::Matrix<double, 3, 4> projection = calibration.p[2] * rect * velo;
+  for (const Eigen::Vector3d& x : {Eigen::Vector3d(10, 2, -1), Eigen::Vector3d(25, -6, 1.5),
+                                   Eigen::Vector3d(5, 0.3, -1.6)}) {
+    const Eigen::Vector3d expected_h = projection * x.homogeneous();
+    const Eigen::Vector2d expected = expected_h.hnormalized();
+    const std::optional<Eigen::Vector2d> pixel = pose.camera.ImgFromCam(pose.cam_from_lidar * x);
+    ASSERT_TRUE(pixel.has_value());
+    EXPECT_LT((*pixel - expected).norm(), 1e-3) << x.transpose();
+  }
+}
+
+TEST(KittiCalibration, ReadsTheObjectFormatAndBuildsCamera2) {
+  const KittiCalibration calibration = ReadKittiCalibration(Fixture("calib_ok.txt"));
+  EXPECT_DOUBLE_EQ(calibration.p[2](0, 3), 45.0);
+  EXPECT_DOUBLE_EQ(calibration.r0_rect(0, 1), 0.01745240643728351);
+  EXPECT_DOUBLE_EQ(calibration.tr_velo_to_cam(2, 3), -0.33);
+  const KittiCameraPose pose = KittiCamera(calibration, 2, 1242, 375);
+  EXPECT_EQ(pose.camera.ModelName(), "PINHOLE");
+  EXPECT_EQ(pose.camera.params, (std::vector<double>{700, 700, 600, 180}));
+  // K⁻¹ · P2[:,3] = (45/700 − 600·0.005/700, −0.3/700 − 180·0.005/700, 0.005) is the shift
+  // from the rectified camera 0 to camera 2; the camera-0 origin maps to it.
+  ExpectPixelConvention(calibration, pose);
+}
+
+TEST(KittiCalibration, RealSampleFollowsTheConvention) {
+  const std::string path = std::string(MMBA_SOURCE_DIR) + "/data/kitti/calib/000000.txt";
+  if (!std::filesystem::exists(path)) {
+    GTEST_SKIP() << "KITTI sample absent (data/kitti, CC BY-NC-SA); skipping";
+  }
+  const KittiCalibration calibration = ReadKittiCalibration(path);
+  ExpectPixelConvention(calibration, KittiCamera(calibration, 2, 1242, 375));
+}
+
+void ExpectInputError(const std::string& file, const std::string& needle) {
+  try {
+    ReadKittiCalibration(Fixture(file));
+    FAIL() << "no error for " << file;
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(file), std::string::npos) << what;
+    EXPECT_NE(what.find(needle), std::string::npos) << what;
+  }
+}
+
+TEST(KittiCalibration, BrokenFilesNameTheFileLineAndField) {
+  ExpectInputError("calib_missing_p2.txt", "missing calibration key P2");
+  ExpectInputError("calib_bad_number.txt", "calib_bad_number.txt:3: field 'P2[3]'");
+  ExpectInputError("calib_short_row.txt", ":6: field 'Tr_velo_to_cam': found '11 numbers'");
+  ExpectInputError("calib_not_rotation.txt", "field 'Tr_velo_to_cam'");
+  ExpectInputError("does_not_exist.txt", "file not found");
+}
+
+TEST(KittiCalibration, SingularKIsRejected) {
+  KittiCalibration calibration = ReadKittiCalibration(Fixture("calib_ok.txt"));
+  calibration.p[2](0, 0) = 0;
+  EXPECT_THROW(KittiCamera(calibration, 2, 1242, 375), InputError);
+}
+
+TEST(CameraYaml, ReadsAndRoundTrips) {
+  const CameraYaml camera = ReadCameraYaml(Fixture("camera_ok.yaml"));
+  EXPECT_EQ(camera.camera.ModelName(), "PINHOLE");
+  EXPECT_EQ(camera.camera.width, 1242u);
+  EXPECT_DOUBLE_EQ(camera.camera.params[3], 180.5066);
+  ASSERT_TRUE(camera.cam_from_lidar.has_value());
+  EXPECT_NEAR(camera.cam_from_lidar->translation.z(), -0.27, 1e-12);
+  const std::string out =
+      (std::filesystem::temp_directory_path() / "mmba_camera_roundtrip.yaml").string();
+  WriteCameraYaml(camera, out);
+  const CameraYaml again = ReadCameraYaml(out);
+  EXPECT_EQ(again.camera.params, camera.camera.params);
+  EXPECT_LT((again.cam_from_lidar->ToMatrix4() - camera.cam_from_lidar->ToMatrix4()).norm(),
+            1e-12);
+  std::filesystem::remove(out);
+}
+
+TEST(CameraYaml, BrokenFilesNameTheField) {
+  auto expect = [](const std::string& file, const std::string& needle) {
+    try {
+      ReadCameraYaml(Fixture(file));
+      FAIL() << "no error for " << file;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  expect("camera_bad_model.yaml", "camera_bad_model.yaml:1: field 'model': found 'PINHOLLE'");
+  expect("camera_bad_params.yaml", "field 'params': found '3 values', expected a list of 4");
+  expect("camera_bad_pose.yaml", "last row is (0 0 1 1)");
+}
+
+}  // namespace
+}  // namespace mmba::io

@@ -1,0 +1,145 @@
+#include "mmba/registration/mi/metric.h"
+
+#include <cmath>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "mmba/registration/mi/nelder_mead.h"
+
+namespace mmba::registration::mi {
+namespace {
+
+// A LiDAR image covering every pixel with `values`, and a photo.
+LidarImage Covered(int w, int h, const std::vector<float>& values) {
+  LidarImage l;
+  l.width = w;
+  l.height = h;
+  l.value = values;
+  l.depth.assign(values.size(), 1.f);
+  l.offset_x.assign(values.size(), 0.f);
+  l.offset_y.assign(values.size(), 0.f);
+  l.point_index.resize(values.size());
+  for (size_t i = 0; i < values.size(); ++i) l.point_index[i] = static_cast<int>(i);
+  l.covered_pixels = values.size();
+  return l;
+}
+
+TEST(Metric, IdenticalUniformImagesGiveTheEntropy) {
+  // 8 equiprobable levels: MI = H = 3 bits, NMI = 2, NID = 0.
+  const int w = 64, h = 64;
+  std::vector<float> v(w * h);
+  GrayImage photo(w, h);
+  for (int i = 0; i < w * h; ++i) {
+    const int level = i % 8;
+    v[i] = level / 7.f;
+    photo.pixels[i] = 255.f * level / 7.f;
+  }
+  MetricOptions options;
+  options.bins = 8;
+  options.smoothing = Smoothing::kNone;
+  options.region = Region::kOverlap;
+  options.kind = MetricKind::kMi;
+  JointHistogram histogram(options);
+  histogram.Add(Covered(w, h, v), photo);
+  const MetricValue m = histogram.Evaluate();
+  EXPECT_NEAR(m.mi, 3.0, 1e-9);
+  EXPECT_NEAR(m.joint_entropy, 3.0, 1e-9);
+  EXPECT_NEAR(m.nmi, 2.0, 1e-9);
+  EXPECT_NEAR(m.nid, 0.0, 1e-9);
+  EXPECT_DOUBLE_EQ(m.value, m.mi);
+}
+
+TEST(Metric, IndependentImagesGiveNearZeroAndInversionDoesNotMatter) {
+  const int w = 200, h = 200;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  std::vector<float> v(w * h);
+  GrayImage independent(w, h), inverted(w, h);
+  for (int i = 0; i < w * h; ++i) {
+    v[i] = u(rng);
+    independent.pixels[i] = 255.f * u(rng);
+    inverted.pixels[i] = 255.f * (1.f - v[i]);
+  }
+  MetricOptions options;
+  options.bins = 16;
+  options.region = Region::kOverlap;
+  for (Smoothing s : {Smoothing::kNone, Smoothing::kParzen, Smoothing::kBSpline}) {
+    options.smoothing = s;
+    JointHistogram a(options), b(options);
+    a.Add(Covered(w, h, v), independent);
+    b.Add(Covered(w, h, v), inverted);
+    const MetricValue ma = a.Evaluate(), mb = b.Evaluate();
+    SCOPED_TRACE(SmoothingName(s));
+    EXPECT_LT(ma.mi, 0.02);          // plug-in bias only
+    EXPECT_GT(mb.mi, 1.5);  // a deterministic (inverted) relation
+    EXPECT_GT(mb.nmi, ma.nmi);
+    EXPECT_LT(mb.nid, ma.nid);
+    EXPECT_GE(ma.nid, 0.0);
+    EXPECT_LE(ma.nid, 1.0);
+  }
+}
+
+TEST(Metric, WholeImageCountsEmptyPixelsInTheirOwnBin) {
+  const int w = 10, h = 10;
+  LidarImage l = Covered(w, h, std::vector<float>(w * h, 0.5f));
+  GrayImage photo(w, h, 100.f);
+  for (int i = 0; i < 50; ++i) {
+    l.point_index[i] = -1;  // empty half ...
+    photo.pixels[i] = 250.f;  // ... where the photo is bright (sky)
+  }
+  MetricOptions options;
+  options.bins = 8;
+  options.smoothing = Smoothing::kNone;
+  options.region = Region::kWholeImage;
+  JointHistogram whole(options);
+  whole.Add(l, photo);
+  const MetricValue m = whole.Evaluate();
+  EXPECT_DOUBLE_EQ(m.samples, 100);
+  EXPECT_DOUBLE_EQ(m.lidar_samples, 50);
+  EXPECT_NEAR(m.mi, 1.0, 1e-9);  // coverage predicts the photo: one bit
+  options.region = Region::kOverlap;
+  JointHistogram overlap(options);
+  overlap.Add(l, photo);
+  EXPECT_DOUBLE_EQ(overlap.Evaluate().samples, 50);
+  EXPECT_NEAR(overlap.Evaluate().mi, 0.0, 1e-12);
+}
+
+TEST(Metric, OptionsCheckNamesTheField) {
+  MetricOptions options;
+  options.bins = 2;
+  std::string error;
+  EXPECT_FALSE(options.Check(&error));
+  EXPECT_NE(error.find("bins 2"), std::string::npos) << error;
+}
+
+TEST(NelderMead, FindsTheMaximumOfAQuadraticWithinBounds) {
+  Vector6d center;
+  center << 0.3, -0.2, 0.1, 1.5, -0.7, 0.4;
+  auto f = [&](const Vector6d& x) { return -(x - center).squaredNorm(); };
+  NelderMeadOptions options;
+  options.parameter_tolerance = 1e-4;
+  options.function_tolerance = 1e-10;
+  options.max_iterations = 2000;
+  NelderMeadResult r = MaximizeNelderMead(f, Vector6d::Zero(), options);
+  EXPECT_TRUE(r.converged);
+  EXPECT_LT((r.x - center).norm(), 1e-3);
+  // Bounds: the optimum outside the box lands on the box.
+  options.lower = Vector6d::Constant(-1.0);
+  options.upper = Vector6d::Constant(1.0);
+  r = MaximizeNelderMead(f, Vector6d::Zero(), options);
+  EXPECT_NEAR(r.x[3], 1.0, 1e-3);
+  EXPECT_LE(r.x.maxCoeff(), 1.0);
+  EXPECT_GE(r.x.minCoeff(), -1.0);
+}
+
+TEST(NelderMead, PaperDefaults) {
+  const NelderMeadOptions options;
+  EXPECT_DOUBLE_EQ(options.initial_step[0], 1.0);
+  EXPECT_DOUBLE_EQ(options.parameter_tolerance, 0.1);
+  EXPECT_DOUBLE_EQ(options.function_tolerance, 0.001);
+  EXPECT_EQ(options.max_iterations, 200);
+}
+
+}  // namespace
+}  // namespace mmba::registration::mi
