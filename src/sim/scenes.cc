@@ -69,7 +69,8 @@ void PlaceTargets(SimScene* scene, const std::vector<std::pair<double, double>>&
   RayCaster caster(scene->mesh);
   int k = 0;
   for (const auto& [x, z] : xz) {
-    const RayHit hit = caster.Intersect(Vector3d(x, -200.0, z), Vector3d::UnitY());
+    // From 1 m in front of the object (not from outside a surrounding studio wall).
+    const RayHit hit = caster.Intersect(Vector3d(x, scene->object_min.y() - 1.0, z), Vector3d::UnitY());
     if (!hit.hit) continue;
     std::ostringstream id;
     id << prefix << ++k;

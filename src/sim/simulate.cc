@@ -48,22 +48,18 @@ Eigen::Quaterniond SmallRotation(internal::Rng* rng, double sigma_rad) {
   return Eigen::Quaterniond(Eigen::AngleAxisd(axis_angle.norm(), axis_angle.normalized()));
 }
 
-json PoseJson(const Rigid3d& pose) {
-  const Eigen::Matrix4d m = pose.ToMatrix4();
-  json matrix = json::array();
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) matrix.push_back(m(r, c));
-  return json{{"qvec_wxyz", {pose.rotation.w(), pose.rotation.x(), pose.rotation.y(), pose.rotation.z()}},
-              {"tvec", {pose.translation.x(), pose.translation.y(), pose.translation.z()}},
-              {"matrix_row_major", matrix}};
-}
-
+// A 4×4 homogeneous matrix as four rows.
 json MatrixJson(const Rigid3d& pose) {
   const Eigen::Matrix4d m = pose.ToMatrix4();
-  json matrix = json::array();
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) matrix.push_back(m(r, c));
-  return matrix;
+  json rows = json::array();
+  for (int r = 0; r < 4; ++r) rows.push_back({m(r, 0), m(r, 1), m(r, 2), m(r, 3)});
+  return rows;
+}
+
+json PoseJson(const Rigid3d& pose) {
+  return json{{"qvec_wxyz", {pose.rotation.w(), pose.rotation.x(), pose.rotation.y(), pose.rotation.z()}},
+              {"tvec", {pose.translation.x(), pose.translation.y(), pose.translation.z()}},
+              {"matrix", MatrixJson(pose)}};
 }
 
 json VecJson(const Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }

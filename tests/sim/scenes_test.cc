@@ -47,6 +47,10 @@ TEST(Scenes, GateHasTheRequestedSizeAndTargetsOnSurfaces) {
     const RayHit hit =
         caster.Intersect(target.point_in_world - Eigen::Vector3d(0, 1, 0), Eigen::Vector3d::UnitY());
     ASSERT_TRUE(hit.hit) << target.id;
+    // ... on the gate itself, not on the studio walls.
+    EXPECT_TRUE((target.point_in_world.array() >= gate.object_min.array() - 0.2).all() &&
+                (target.point_in_world.array() <= gate.object_max.array() + 0.2).all())
+        << target.id << " at " << target.point_in_world.transpose();
     EXPECT_NEAR(hit.distance_m, 1.0, 1e-9) << target.id;
   }
 }

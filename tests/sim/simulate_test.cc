@@ -91,7 +91,8 @@ TEST_F(SimulateTiny, WritesTheDocumentedLayout) {
   for (const char* key : {"world_from_lidar", "world_from_spherical_stereo", "world_from_multi_view",
                           "world_from_plane_proxy", "world_from_multi_view_part"}) {
     ASSERT_TRUE(registration.contains(key)) << key;
-    EXPECT_EQ(registration[key].size(), 16u) << key;
+    ASSERT_EQ(registration[key].size(), 4u) << key;
+    EXPECT_EQ(registration[key][3], nlohmann::json({0.0, 0.0, 0.0, 1.0})) << key;
   }
   EXPECT_GT(result_->tie_points, 20u);
   EXPECT_GT(result_->static_points, 1000u);
@@ -182,16 +183,19 @@ TEST_F(SimulateTiny, NetworkXmlParsesWithTheRightCountsAndRecomputesFromTruth) {
   }
 }
 
+Rigid3d FromRows(const nlohmann::json& rows) {
+  Eigen::Matrix<double, 3, 4> matrix;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) matrix(r, c) = rows[r][c].get<double>();
+  return Rigid3d::FromMatrix(matrix);
+}
+
 TEST_F(SimulateTiny, StaticScanLiesOnTheMeshAndCloudsMatchTheirTransforms) {
   const auto truth = nlohmann::json::parse(Slurp(*dir_ / "truth" / "truth.json"));
   const TriangleMesh mesh = LoadMesh((*dir_ / "truth" / "mesh.obj").string(), Material());
   RayCaster caster(mesh);
   const auto& scan_truth = truth["lidar"]["static_scans"][0];
-  std::vector<double> m = scan_truth["world_from_scan"]["matrix_row_major"];
-  Eigen::Matrix<double, 3, 4> matrix;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c) matrix(r, c) = m[4 * r + c];
-  const Rigid3d world_from_scan = Rigid3d::FromMatrix(matrix);
+  const Rigid3d world_from_scan = FromRows(scan_truth["world_from_scan"]["matrix"]);
   const io::PointCloud scan = io::ReadPly((*dir_ / "clouds" / "scans" / "scan_1.ply").string());
   ASSERT_TRUE(scan.has_intensity());
   size_t on_surface = 0;
@@ -205,16 +209,11 @@ TEST_F(SimulateTiny, StaticScanLiesOnTheMeshAndCloudsMatchTheirTransforms) {
   EXPECT_GT(static_cast<double>(on_surface) / scan.size(), 0.97);
   // The spherical stereo cloud maps onto the mesh with its ground-truth transform.
   const auto registration = nlohmann::json::parse(Slurp(*dir_ / "ground_truth.json"));
-  std::vector<double> t = registration["world_from_spherical_stereo"];
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c) matrix(r, c) = t[4 * r + c];
-  const Rigid3d world_from_stereo = Rigid3d::FromMatrix(matrix);
+  const Rigid3d world_from_stereo = FromRows(registration["world_from_spherical_stereo"]);
   const io::PointCloud stereo = io::ReadPly((*dir_ / "clouds" / "spherical_stereo.ply").string());
   ASSERT_GT(stereo.size(), 100u);
-  const auto& lower = truth["spherical_stereo"]["stations"][0]["lower_from_world"]["matrix_row_major"];
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 4; ++c) matrix(r, c) = lower[4 * r + c];
-  const Eigen::Vector3d eye = Rigid3d::FromMatrix(matrix).Inverse().translation;
+  const Eigen::Vector3d eye =
+      FromRows(truth["spherical_stereo"]["stations"][0]["lower_from_world"]["matrix"]).Inverse().translation;
   // Range error within 5σ, σ_r = r²·σ_d / (f·b·sin θ) (the documented model).
   const auto& model = truth["clouds"]["spherical_stereo"];
   const double f = model["stereo_width_px"].get<double>() / (2 * M_PI);
