@@ -1,0 +1,53 @@
+#pragma once
+// JSON of a cloud registration result, shared by register-cloud and register-eval.
+
+#include <nlohmann/json.hpp>
+
+#include "mmba/registration/cloud/feature_registration.h"
+
+namespace mmba::app {
+
+inline nlohmann::json MatrixJson(const Eigen::Matrix4d& m) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) rows.push_back({m(r, 0), m(r, 1), m(r, 2), m(r, 3)});
+  return rows;
+}
+
+inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistrationResult& result) {
+  nlohmann::ordered_json runtime = nlohmann::ordered_json::object();
+  double total = 0.0;
+  for (const auto& stage : result.runtime) {
+    runtime[stage.stage] = stage.seconds;
+    total += stage.seconds;
+  }
+  runtime["total"] = total;
+  nlohmann::ordered_json hypotheses = nlohmann::ordered_json::array();
+  for (const auto& h : result.hypotheses) {
+    hypotheses.push_back({{"origin", h.origin},
+                          {"fitness", h.fitness},
+                          {"inlier_rmse", h.inlier_rmse},
+                          {"normal_agreement", h.normal_agreement},
+                          {"score", h.score},
+                          {"target_from_source", MatrixJson(h.target_from_source)}});
+  }
+  return {{"status", result.status},
+          {"reason", result.reason},
+          {"descriptor", result.descriptor},
+          {"target_from_source", MatrixJson(result.target_from_source)},
+          {"fitness", result.fitness},
+          {"inlier_rmse", result.inlier_rmse},
+          {"normal_agreement", result.normal_agreement},
+          {"confidence", result.confidence},
+          {"num_keypoints", {{"source", result.num_keypoints_source},
+                             {"target", result.num_keypoints_target}}},
+          {"num_correspondences", result.num_correspondences},
+          {"num_inliers", result.num_inliers},
+          {"point_spacing_m", result.point_spacing_m},
+          {"normal_radius_m", result.normal_radius_m},
+          {"support_radius_m", result.support_radius_m},
+          {"runtime_seconds", runtime},
+          {"hypotheses", hypotheses},
+          {"notes", result.notes}};
+}
+
+}  // namespace mmba::app

@@ -1,0 +1,149 @@
+#pragma once
+
+// Feature-based rigid registration of two point clouds of possibly different origin (LiDAR,
+// spherical stereo, multi-view stereo, planar proxy models), after
+//   Kim & Hilton, "Evaluation of 3D Feature Descriptors for Multi-modal Data Registration",
+//   3DV 2013 (Sec. 3: normals within R_n, 3D Kanade–Tomasi keypoints, descriptors within R_s,
+//   SAC-IA, ICP),
+// and past the failures it reports (Sec. 5): several hypotheses, each refined by
+// point-to-plane ICP and verified by overlap and normal agreement; a robust
+// correspondence-set estimator (maximum clique of pairwise-distance-consistent
+// correspondences); an optional gravity constraint (1-DoF rotation); coarse-to-fine for
+// large clouds; a confidence from the margin between the best and the runner-up hypothesis.
+// PCL is used inside the implementation only.
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mmba/io/point_cloud.h"
+
+namespace mmba::registration {
+
+/// Local 3D descriptor (Kim & Hilton Sec. 3.2).
+enum class Descriptor {
+  kFpfh,          ///< Fast Point Feature Histogram, 11 × 3 = 33-D (Rusu et al. 2009)
+  kShot,          ///< Signature of Histograms of OrienTations, 32 spatial bins × 11 = 352-D
+  kSpinImage,     ///< Spin Image, 8 bins a side (9 × 17) = 153-D (Johnson & Hebert 1999)
+  kShapeContext,  ///< 3D Shape Context, 12 × 11 × 15 = 1980-D (Frome et al. 2004)
+  kAuto,          ///< FPFH and SHOT both tried; the best verified hypothesis wins
+};
+
+/// "fpfh", "shot", "si", "sc3d", "auto". Returns false on an unknown name.
+bool ParseDescriptor(const std::string& name, Descriptor* descriptor);
+std::string DescriptorName(Descriptor descriptor);
+
+/// Options of RegisterClouds. Radii default from the measured point spacing s (median
+/// nearest-neighbour distance of the coarser of the two clouds after downsampling).
+struct CloudRegistrationOptions {
+  Descriptor descriptor = Descriptor::kAuto;  ///< see Descriptor
+  double normal_radius_m = 0.0;   ///< R_n; 0 = normal_radius_spacing × s
+  double support_radius_m = 0.0;  ///< R_s; 0 = support_radius_spacing × s
+  double normal_radius_spacing = 4.0;    ///< R_n in spacings when normal_radius_m = 0 (> 0)
+  double support_radius_spacing = 12.0;  ///< R_s in spacings when support_radius_m = 0 (> 0)
+  double keypoint_threshold = 0.1;  ///< F_t, smallest eigenvalue of the normal covariance (0..1/3)
+  double keypoint_grid_spacing = 1.0;  ///< keypoint grid cell in units of R_n (> 0): one per cell
+  int min_keypoints = 150;  ///< below this F_t is lowered, then uniform grid points are used (>= 3)
+  int max_points_features = 15000;  ///< coarse level: voxel size grows until a cloud fits (>= 1000)
+  int max_points_icp = 200000;      ///< fine level for ICP (>= 1000)
+  bool use_existing_normals = true;  ///< use normals stored in the clouds when present
+
+  // Hypotheses.
+  int sac_ia_iterations = 2000;     ///< SAC-IA iterations (Rusu et al. 2009) (>= 1)
+  int sac_ia_randomness = 3;        ///< SAC-IA: pick among this many nearest features (>= 1)
+  int num_hypotheses = 8;           ///< hypotheses kept for ICP and verification (>= 1)
+  bool use_max_clique = true;       ///< add the maximum-consistent-clique hypothesis
+  bool paper_only = false;          ///< SAC-IA best + ICP only, no verification (the paper)
+  double consistency_spacing = 3.0;  ///< clique: pairwise-length tolerance in spacings (> 0)
+  int max_correspondences = 600;    ///< correspondences fed to the clique search (>= 3)
+
+  // Gravity.
+  bool gravity_aligned = false;     ///< both clouds levelled: rotation only about `up`
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  ///< unit "up" in both frames
+
+  // ICP (point-to-plane, Chen & Medioni 1991).
+  bool icp = true;                  ///< refine each hypothesis with ICP
+  int icp_iterations = 40;          ///< per level (>= 1)
+  double icp_distance_spacing = 3.0;  ///< final correspondence distance in spacings (> 0)
+
+  // Verification and the verdict.
+  double inlier_distance_spacing = 2.0;  ///< inlier: distance to target < this × s (> 0)
+  double min_fitness = 0.2;       ///< fraction of source points that must be inliers (0..1]
+  double min_normal_agreement = 0.5;  ///< fraction of inliers with |n_s·n_t| > cos 30° (0..1]
+  double max_ambiguity = 0.97;    ///< runner-up/best score above this = ambiguous = failed
+  uint64_t seed = 42;             ///< random seed (results are deterministic)
+
+  /// False with a message naming the field, the value and the constraint when invalid.
+  bool Check(std::string* error) const;
+};
+
+/// One stage's wall-clock time.
+struct StageTime {
+  std::string stage;
+  double seconds = 0.0;
+};
+
+/// A hypothesis after refinement and verification.
+struct RegistrationHypothesis {
+  std::string origin;          ///< "sac-ia fpfh #0", "max-clique shot", "gravity-yaw" …
+  Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();
+  double fitness = 0.0;        ///< inlier fraction of the source
+  double inlier_rmse = 0.0;    ///< metres
+  double normal_agreement = 0.0;
+  double score = 0.0;          ///< fitness × normal_agreement
+};
+
+/// Result of RegisterClouds.
+struct CloudRegistrationResult {
+  std::string status = "failed";  ///< "ok" or "failed"
+  std::string reason;             ///< why it failed (empty when ok)
+  std::string descriptor;         ///< descriptor of the chosen hypothesis
+  Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();
+  double fitness = 0.0;           ///< inlier ratio of the (fine) source
+  double inlier_rmse = 0.0;       ///< metres
+  double normal_agreement = 0.0;
+  double confidence = 0.0;        ///< 0..1: 1 − runner-up score / best score, times fitness checks
+  size_t num_keypoints_source = 0, num_keypoints_target = 0;
+  size_t num_correspondences = 0;  ///< descriptor matches
+  size_t num_inliers = 0;          ///< fine source points within the inlier distance
+  double point_spacing_m = 0.0;    ///< s
+  double normal_radius_m = 0.0, support_radius_m = 0.0;
+  std::vector<StageTime> runtime;  ///< seconds per stage, in order
+  std::vector<RegistrationHypothesis> hypotheses;  ///< best first
+  std::vector<std::string> notes;  ///< fallbacks taken (lowered F_t, grid keypoints, …)
+
+  bool ok() const { return status == "ok"; }
+  double total_seconds() const;
+  std::string BriefReport() const;
+};
+
+/// Registers `source` onto `target`: returns target_from_source. Never throws on a failed
+/// registration (status "failed" with a reason); throws InputError only for invalid
+/// options (Check()).
+CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
+                                       const io::PointCloud& target,
+                                       const CloudRegistrationOptions& options);
+
+/// Median nearest-neighbour distance over up to `max_samples` points (metres); 0 when the
+/// cloud has fewer than 2 points.
+double EstimatePointSpacing(const io::PointCloud& cloud, size_t max_samples = 20000);
+
+/// Per-point distance of `cloud` (after target_from_source) to the nearest point of
+/// `target`, in metres.
+std::vector<double> DistancesToTarget(const io::PointCloud& source,
+                                      const io::PointCloud& target,
+                                      const Eigen::Matrix4d& target_from_source);
+
+/// Colours the transformed source by distance to the target, blue (0) → red (>= max_m),
+/// the error maps of Kim & Hilton Fig. 6. The result is in the target frame.
+io::PointCloud MakeErrorMap(const io::PointCloud& source, const io::PointCloud& target,
+                            const Eigen::Matrix4d& target_from_source, double max_m);
+
+/// RMS of ‖A·p − B·p‖ over the points p of `cloud`: the error of an estimated transform A
+/// against a ground truth B (Kim & Hilton Sec. 4, RMS error to the ground truth).
+double TransformRmsOnCloud(const io::PointCloud& cloud, const Eigen::Matrix4d& a,
+                           const Eigen::Matrix4d& b);
+
+}  // namespace mmba::registration

@@ -1,0 +1,59 @@
+#pragma once
+
+// The two experiments of Kim & Hilton (3DV 2013, Sec. 4) on a scene folder with ground truth:
+//   I.  every modality's full cloud registered to the LiDAR model (Table I);
+//   II. every modality's part registered to every other full model (Table II, the
+//       cross-modal matrix).
+// Folder layout (written by `mmba simulate`, or by hand):
+//   DIR/ground_truth.json     {"world_from_lidar": 4×4, "world_from_<m>": 4×4,
+//                              "world_from_<m>_part": 4×4, ...}  (row-major, nested rows)
+//   DIR/clouds/lidar.ply      the reference model
+//   DIR/clouds/<m>.ply        each modality's full cloud, in its own frame
+//   DIR/clouds/<m>_part.ply   optional: a part of it, in the same frame as <m>
+// The ground truth of registering a onto b is  b_from_a = world_from_b⁻¹ · world_from_a.
+
+#include <string>
+#include <vector>
+
+#include "mmba/registration/cloud/feature_registration.h"
+
+namespace mmba::registration {
+
+struct SceneEvalOptions {
+  /// Methods: "fpfh", "shot", "si", "sc3d" = the paper's pipeline with that descriptor
+  /// (SAC-IA best + ICP); "mmba" = the robust pipeline (descriptor auto, hypotheses,
+  /// max-clique, verification).
+  std::vector<std::string> methods = {"fpfh", "shot", "si", "sc3d", "mmba"};
+  double success_fraction = 0.1;  ///< success: RMS < this × scene extent (paper: 3 m / 30 m)
+  double accurate_m = 0.05;       ///< "accurate": RMS below this (metres)
+  bool cross_modal = true;        ///< run experiment II
+  CloudRegistrationOptions base;  ///< options shared by every run
+};
+
+struct EvalRow {
+  std::string experiment;  ///< "to-lidar" or "cross-modal"
+  std::string source, target, method;
+  std::string status, reason;
+  double rms_m = 0.0;      ///< RMS of ‖T·p − T_true·p‖ over the source points
+  double runtime_s = 0.0;
+  double fitness = 0.0, confidence = 0.0;
+  bool success = false;    ///< rms < success threshold (status may still be "failed")
+  bool accurate = false;   ///< rms < accurate_m
+};
+
+struct SceneEvaluation {
+  std::string dir;
+  std::vector<std::string> modalities;
+  double extent_m = 0.0;             ///< largest bounding-box side of the LiDAR model
+  double success_threshold_m = 0.0;
+  double accurate_m = 0.0;
+  std::vector<EvalRow> rows;
+};
+
+/// Runs the experiments. Throws InputError on a bad folder (missing files, bad JSON).
+SceneEvaluation EvaluateScene(const std::string& dir, const SceneEvalOptions& options);
+
+/// Writes `out_dir`/results.csv and `out_dir`/tables.md (atomically).
+void WriteSceneEvaluation(const SceneEvaluation& evaluation, const std::string& out_dir);
+
+}  // namespace mmba::registration

@@ -1,0 +1,908 @@
+// Feature-based registration pipeline (Kim & Hilton 3DV 2013, Sec. 3) and its robust
+// extensions; see include/mmba/registration/cloud/feature_registration.h.
+
+#include "mmba/registration/cloud/feature_registration.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <iomanip>
+#include <numeric>
+#include <random>
+#include <sstream>
+#include <unordered_map>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+
+#include "mmba/core/error.h"
+#include "mmba/core/logging.h"
+#include "mmba/core/progress.h"
+#include "mmba/registration/cloud/robust_estimators.h"
+#include "registration/cloud/pcl_backend.h"
+
+namespace mmba::registration {
+
+using internal::Descriptors;
+using internal::FeatureIndex;
+using internal::PointIndex;
+
+bool ParseDescriptor(const std::string& name, Descriptor* descriptor) {
+  if (name == "fpfh") *descriptor = Descriptor::kFpfh;
+  else if (name == "shot") *descriptor = Descriptor::kShot;
+  else if (name == "si" || name == "spin") *descriptor = Descriptor::kSpinImage;
+  else if (name == "sc3d" || name == "3dsc") *descriptor = Descriptor::kShapeContext;
+  else if (name == "auto") *descriptor = Descriptor::kAuto;
+  else return false;
+  return true;
+}
+
+std::string DescriptorName(Descriptor descriptor) {
+  switch (descriptor) {
+    case Descriptor::kFpfh: return "fpfh";
+    case Descriptor::kShot: return "shot";
+    case Descriptor::kSpinImage: return "si";
+    case Descriptor::kShapeContext: return "sc3d";
+    case Descriptor::kAuto: return "auto";
+  }
+  return "?";
+}
+
+bool CloudRegistrationOptions::Check(std::string* error) const {
+  auto fail = [error](const std::string& field, double value, const std::string& rule) {
+    std::ostringstream s;
+    s << "option '" << field << "' = " << value << " violates " << rule;
+    *error = s.str();
+    return false;
+  };
+  if (!(normal_radius_m >= 0)) return fail("normal_radius_m", normal_radius_m, ">= 0");
+  if (!(support_radius_m >= 0)) return fail("support_radius_m", support_radius_m, ">= 0");
+  if (normal_radius_m > 0 && support_radius_m > 0 && support_radius_m < normal_radius_m) {
+    return fail("support_radius_m", support_radius_m, ">= normal_radius_m");
+  }
+  if (!(normal_radius_spacing > 0)) return fail("normal_radius_spacing", normal_radius_spacing, "> 0");
+  if (!(support_radius_spacing > 0)) return fail("support_radius_spacing", support_radius_spacing, "> 0");
+  if (!(keypoint_threshold >= 0 && keypoint_threshold <= 1.0 / 3.0)) {
+    return fail("keypoint_threshold", keypoint_threshold, "0 <= F_t <= 1/3");
+  }
+  if (!(keypoint_grid_spacing > 0)) return fail("keypoint_grid_spacing", keypoint_grid_spacing, "> 0");
+  if (min_keypoints < 3) return fail("min_keypoints", min_keypoints, ">= 3");
+  if (max_points_features < 1000) return fail("max_points_features", max_points_features, ">= 1000");
+  if (max_points_icp < 1000) return fail("max_points_icp", max_points_icp, ">= 1000");
+  if (sac_ia_iterations < 1) return fail("sac_ia_iterations", sac_ia_iterations, ">= 1");
+  if (sac_ia_randomness < 1) return fail("sac_ia_randomness", sac_ia_randomness, ">= 1");
+  if (num_hypotheses < 1) return fail("num_hypotheses", num_hypotheses, ">= 1");
+  if (!(consistency_spacing > 0)) return fail("consistency_spacing", consistency_spacing, "> 0");
+  if (max_correspondences < 3) return fail("max_correspondences", max_correspondences, ">= 3");
+  if (!(std::abs(up.norm() - 1.0) < 1e-6)) return fail("up (norm)", up.norm(), "a unit vector");
+  if (icp_iterations < 1) return fail("icp_iterations", icp_iterations, ">= 1");
+  if (!(icp_distance_spacing > 0)) return fail("icp_distance_spacing", icp_distance_spacing, "> 0");
+  if (!(inlier_distance_spacing > 0)) {
+    return fail("inlier_distance_spacing", inlier_distance_spacing, "> 0");
+  }
+  if (!(min_fitness > 0 && min_fitness <= 1)) return fail("min_fitness", min_fitness, "0 < x <= 1");
+  if (!(min_normal_agreement >= 0 && min_normal_agreement <= 1)) {
+    return fail("min_normal_agreement", min_normal_agreement, "0 <= x <= 1");
+  }
+  if (!(max_ambiguity > 0 && max_ambiguity <= 1)) {
+    return fail("max_ambiguity", max_ambiguity, "0 < x <= 1");
+  }
+  return true;
+}
+
+double CloudRegistrationResult::total_seconds() const {
+  double t = 0.0;
+  for (const StageTime& s : runtime) t += s.seconds;
+  return t;
+}
+
+std::string CloudRegistrationResult::BriefReport() const {
+  std::ostringstream s;
+  s << std::setprecision(4) << "registration " << status;
+  if (!reason.empty()) s << " (" << reason << ")";
+  s << ": descriptor " << descriptor << ", fitness " << fitness << ", inlier RMSE "
+    << inlier_rmse << " m, normal agreement " << normal_agreement << ", confidence "
+    << confidence << ", keypoints " << num_keypoints_source << "/" << num_keypoints_target
+    << ", correspondences " << num_correspondences << ", " << total_seconds() << " s";
+  return s.str();
+}
+
+namespace {
+
+// ---------------------------------------------------------------------------------------
+// Levels (coarse-to-fine).
+
+struct Level {
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Vector3d> normals;  // empty or one per point
+  double spacing = 0.0;
+};
+
+struct VoxelKey {
+  int64_t x, y, z;
+  bool operator==(const VoxelKey& o) const { return x == o.x && y == o.y && z == o.z; }
+};
+struct VoxelKeyHash {
+  size_t operator()(const VoxelKey& k) const {
+    return static_cast<size_t>(k.x * 73856093LL ^ k.y * 19349663LL ^ k.z * 83492791LL);
+  }
+};
+
+// Voxel-grid downsampling to the centroid of each occupied voxel (normals averaged).
+Level VoxelDownsample(const std::vector<Eigen::Vector3d>& points,
+                      const std::vector<Eigen::Vector3d>& normals, double voxel) {
+  Level out;
+  if (voxel <= 0) {
+    out.points = points;
+    out.normals = normals;
+    return out;
+  }
+  std::unordered_map<VoxelKey, int, VoxelKeyHash> index;
+  index.reserve(points.size() / 2 + 1);
+  std::vector<int> count;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const VoxelKey key{static_cast<int64_t>(std::floor(points[i].x() / voxel)),
+                       static_cast<int64_t>(std::floor(points[i].y() / voxel)),
+                       static_cast<int64_t>(std::floor(points[i].z() / voxel))};
+    auto [it, inserted] = index.emplace(key, static_cast<int>(out.points.size()));
+    if (inserted) {
+      out.points.push_back(points[i]);
+      if (!normals.empty()) out.normals.push_back(normals[i]);
+      count.push_back(1);
+    } else {
+      out.points[it->second] += points[i];
+      if (!normals.empty()) {
+        // Flip to agree with the voxel's first normal before summing.
+        const Eigen::Vector3d& n = normals[i];
+        out.normals[it->second] += n.dot(out.normals[it->second]) < 0 ? -n : n;
+      }
+      ++count[it->second];
+    }
+  }
+  for (size_t i = 0; i < out.points.size(); ++i) {
+    out.points[i] /= count[i];
+    if (!out.normals.empty()) {
+      const double norm = out.normals[i].norm();
+      out.normals[i] = norm > 1e-12 ? Eigen::Vector3d(out.normals[i] / norm)
+                                    : Eigen::Vector3d::Constant(std::nan(""));
+    }
+  }
+  return out;
+}
+
+double MedianSpacing(const std::vector<Eigen::Vector3d>& points, size_t max_samples) {
+  if (points.size() < 2) return 0.0;
+  PointIndex index(points);
+  const size_t step = std::max<size_t>(1, points.size() / max_samples);
+  std::vector<double> d;
+  std::vector<int> idx;
+  std::vector<float> sq;
+  for (size_t i = 0; i < points.size(); i += step) {
+    index.KNearest(points[i], 2, &idx, &sq);
+    if (sq.size() == 2) d.push_back(std::sqrt(sq[1]));
+  }
+  if (d.empty()) return 0.0;
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  return d[d.size() / 2];
+}
+
+// Smallest voxel >= `voxel` that leaves at most `max_points` (0 = keep the cloud as is when
+// it is small enough).
+double VoxelForBudget(const io::PointCloud& cloud, double voxel, size_t max_points) {
+  if (cloud.size() <= max_points && voxel <= 0) return 0.0;
+  if (voxel <= 0) voxel = MedianSpacing(cloud.points, 5000);
+  for (int k = 0; k < 40; ++k) {
+    const Level l = VoxelDownsample(cloud.points, {}, voxel);
+    if (l.points.size() <= max_points) return voxel;
+    voxel *= 1.25;
+  }
+  return voxel;
+}
+
+Eigen::Vector3d Apply(const Eigen::Matrix4d& t, const Eigen::Vector3d& p) {
+  return t.topLeftCorner<3, 3>() * p + t.topRightCorner<3, 1>();
+}
+
+// Removes points whose normal is not finite.
+void DropInvalidNormals(Level* level) {
+  size_t j = 0;
+  for (size_t i = 0; i < level->points.size(); ++i) {
+    if (level->normals[i].allFinite()) {
+      level->points[j] = level->points[i];
+      level->normals[j] = level->normals[i];
+      ++j;
+    }
+  }
+  level->points.resize(j);
+  level->normals.resize(j);
+}
+
+// ---------------------------------------------------------------------------------------
+// Keypoints: 3D Kanade–Tomasi (Kim & Hilton Sec. 3.1), evenly distributed by a grid: the
+// strongest response above F_t in each cell.
+
+std::vector<int> GridMaxima(const std::vector<Eigen::Vector3d>& points,
+                            const std::vector<float>& response, double threshold, double cell) {
+  std::unordered_map<VoxelKey, int, VoxelKeyHash> best;
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (response[i] < threshold) continue;
+    const VoxelKey key{static_cast<int64_t>(std::floor(points[i].x() / cell)),
+                       static_cast<int64_t>(std::floor(points[i].y() / cell)),
+                       static_cast<int64_t>(std::floor(points[i].z() / cell))};
+    auto [it, inserted] = best.emplace(key, static_cast<int>(i));
+    if (!inserted && response[i] > response[it->second]) it->second = static_cast<int>(i);
+  }
+  std::vector<int> out;
+  out.reserve(best.size());
+  for (const auto& [key, i] : best) out.push_back(i);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+std::vector<int> SelectKeypoints(const Level& level, double normal_radius,
+                                 const CloudRegistrationOptions& options,
+                                 const std::string& which, std::vector<std::string>* notes) {
+  const std::vector<float> response =
+      internal::TomasiResponse(level.points, level.normals, normal_radius);
+  const double cell = options.keypoint_grid_spacing * normal_radius;
+  std::vector<int> keypoints = GridMaxima(level.points, response, options.keypoint_threshold, cell);
+  // Planar proxy models have too few corners (Kim & Hilton Sec. 5): lower F_t, then take a
+  // uniform grid of points.
+  double threshold = options.keypoint_threshold;
+  while (static_cast<int>(keypoints.size()) < options.min_keypoints && threshold > 1e-3) {
+    threshold /= 4.0;
+    keypoints = GridMaxima(level.points, response, threshold, cell);
+    if (static_cast<int>(keypoints.size()) >= options.min_keypoints) {
+      std::ostringstream s;
+      s << which << ": only few keypoints at F_t = " << options.keypoint_threshold
+        << ", lowered to " << threshold;
+      notes->push_back(s.str());
+    }
+  }
+  if (static_cast<int>(keypoints.size()) < options.min_keypoints) {
+    keypoints = GridMaxima(level.points, std::vector<float>(level.points.size(), 1.0f), 0.0,
+                           cell);
+    notes->push_back(which + ": too few Kanade–Tomasi keypoints, used a uniform grid");
+  }
+  return keypoints;
+}
+
+// ---------------------------------------------------------------------------------------
+// Hypotheses.
+
+struct Hypothesis {
+  std::string origin;
+  std::string descriptor;
+  Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();
+  double cost = 0.0;  // SAC-IA cost (lower is better)
+  double fitness = 0.0, rmse = 0.0, normal_agreement = 0.0, score = 0.0;
+  size_t inliers = 0;
+};
+
+// Transforms differ less than `rotation_deg` and `translation_m` (measured at `centre`).
+bool SameTransform(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b,
+                   const Eigen::Vector3d& centre, double rotation_deg, double translation_m) {
+  const Eigen::Matrix3d r = a.topLeftCorner<3, 3>().transpose() * b.topLeftCorner<3, 3>();
+  return RotationAngleDeg(r) < rotation_deg &&
+         (Apply(a, centre) - Apply(b, centre)).norm() < translation_m;
+}
+
+struct Matching {
+  std::string descriptor;
+  std::vector<Eigen::Vector3d> src_kp, tgt_kp;     // valid keypoints
+  std::vector<std::vector<int>> src_to_tgt;        // k nearest target keypoints per source
+  std::vector<std::pair<int, int>> best_pairs;     // for the clique: nearest (and mutual first)
+};
+
+Matching MatchDescriptors(const std::string& name, const Level& src, const Level& tgt,
+                          const std::vector<int>& src_kp, const std::vector<int>& tgt_kp,
+                          const Descriptors& ds, const Descriptors& dt, int k,
+                          size_t max_pairs) {
+  Matching m;
+  m.descriptor = name;
+  std::vector<float> src_data, tgt_data;
+  const int dim = ds.dim;
+  for (size_t i = 0; i < src_kp.size(); ++i) {
+    if (!ds.valid[i]) continue;
+    m.src_kp.push_back(src.points[src_kp[i]]);
+    src_data.insert(src_data.end(), ds.data.begin() + i * dim, ds.data.begin() + (i + 1) * dim);
+  }
+  for (size_t i = 0; i < tgt_kp.size(); ++i) {
+    if (!dt.valid[i]) continue;
+    m.tgt_kp.push_back(tgt.points[tgt_kp[i]]);
+    tgt_data.insert(tgt_data.end(), dt.data.begin() + i * dim, dt.data.begin() + (i + 1) * dim);
+  }
+  if (m.src_kp.size() < 3 || m.tgt_kp.size() < 3) return m;
+  FeatureIndex tgt_index(tgt_data, dim), src_index(src_data, dim);
+  std::vector<int> idx, back;
+  std::vector<float> sq, back_sq;
+  std::vector<std::tuple<int, float, int, int>> pairs;  // (not mutual, distance, src, tgt)
+  m.src_to_tgt.resize(m.src_kp.size());
+  for (size_t i = 0; i < m.src_kp.size(); ++i) {
+    tgt_index.KNearest(&src_data[i * dim], k, &idx, &sq);
+    m.src_to_tgt[i] = idx;
+    if (idx.empty() || idx[0] < 0) continue;
+    src_index.KNearest(&tgt_data[idx[0] * dim], 1, &back, &back_sq);
+    const bool mutual = !back.empty() && back[0] == static_cast<int>(i);
+    pairs.emplace_back(mutual ? 0 : 1, sq[0], static_cast<int>(i), idx[0]);
+  }
+  // Target-to-source nearest neighbours add the correspondences the other way round.
+  for (size_t j = 0; j < m.tgt_kp.size(); ++j) {
+    src_index.KNearest(&tgt_data[j * dim], 1, &back, &back_sq);
+    if (back.empty() || back[0] < 0) continue;
+    if (!m.src_to_tgt[back[0]].empty() && m.src_to_tgt[back[0]][0] == static_cast<int>(j)) {
+      continue;  // already in as a mutual pair
+    }
+    pairs.emplace_back(1, back_sq[0], back[0], static_cast<int>(j));
+  }
+  std::sort(pairs.begin(), pairs.end());
+  for (size_t i = 0; i < pairs.size() && i < max_pairs; ++i) {
+    m.best_pairs.emplace_back(std::get<2>(pairs[i]), std::get<3>(pairs[i]));
+  }
+  return m;
+}
+
+// Keeps the `capacity` best distinct hypotheses by cost.
+class HypothesisPool {
+ public:
+  HypothesisPool(size_t capacity, Eigen::Vector3d centre, double translation_m)
+      : capacity_(capacity), centre_(std::move(centre)), translation_m_(translation_m) {}
+  void Offer(const Hypothesis& h) {
+    for (Hypothesis& existing : pool_) {
+      if (SameTransform(existing.transform, h.transform, centre_, 5.0, translation_m_)) {
+        if (h.cost < existing.cost) existing = h;
+        Sort();
+        return;
+      }
+    }
+    if (pool_.size() < capacity_) {
+      pool_.push_back(h);
+    } else if (h.cost < pool_.back().cost) {
+      pool_.back() = h;
+    } else {
+      return;
+    }
+    Sort();
+  }
+  const std::vector<Hypothesis>& hypotheses() const { return pool_; }
+
+ private:
+  void Sort() {
+    std::stable_sort(pool_.begin(), pool_.end(),
+                     [](const Hypothesis& a, const Hypothesis& b) { return a.cost < b.cost; });
+  }
+  size_t capacity_;
+  Eigen::Vector3d centre_;
+  double translation_m_;
+  std::vector<Hypothesis> pool_;
+};
+
+// Truncated-quadratic alignment cost of `sample` under `t` (mean of min(d², τ²) / τ²).
+double AlignmentCost(const std::vector<Eigen::Vector3d>& sample, const PointIndex& target,
+                     const Eigen::Matrix4d& t, double tau) {
+  double cost = 0.0;
+  int index;
+  double sq;
+  const double tau2 = tau * tau;
+  for (const Eigen::Vector3d& p : sample) {
+    if (!target.Nearest(Apply(t, p), &index, &sq)) return 1.0;
+    cost += std::min(sq, tau2);
+  }
+  return cost / (tau2 * static_cast<double>(std::max<size_t>(1, sample.size())));
+}
+
+// SAC-IA (Rusu, Blodow & Beetz, "Fast Point Feature Histograms for 3D Registration", ICRA
+// 2009, Sec. IV-A): draw samples of source keypoints at least `min_distance` apart, pair each
+// with one of its k most similar target keypoints at random, fit a rigid transform and score
+// the whole (sampled) source; here with a truncated quadratic score, a cheap edge-length
+// pre-check of the sample, and the best distinct hypotheses kept rather than one.
+void SacIa(const Matching& m, const std::vector<Eigen::Vector3d>& score_sample,
+           const PointIndex& target, const CloudRegistrationOptions& options, double spacing,
+           double min_distance, double tau, std::mt19937_64* rng, HypothesisPool* pool) {
+  const int n = static_cast<int>(m.src_kp.size());
+  if (n < 3 || m.tgt_kp.size() < 3) return;
+  const int sample_size = options.gravity_aligned ? 2 : 3;
+  const double tolerance = options.consistency_spacing * spacing;
+  std::uniform_int_distribution<int> pick(0, n - 1);
+  const Eigen::Vector3d* up = options.gravity_aligned ? &options.up : nullptr;
+  for (int it = 0; it < options.sac_ia_iterations; ++it) {
+    int sample[3];
+    bool ok = true;
+    for (int s = 0; s < sample_size && ok; ++s) {
+      bool found = false;
+      for (int attempt = 0; attempt < 50 && !found; ++attempt) {
+        const int c = pick(*rng);
+        found = true;
+        for (int r = 0; r < s; ++r) {
+          if (c == sample[r] || (m.src_kp[c] - m.src_kp[sample[r]]).norm() < min_distance) {
+            found = false;
+          }
+        }
+        if (found) sample[s] = c;
+      }
+      ok = found;
+    }
+    if (!ok) continue;
+    std::vector<Eigen::Vector3d> src, dst;
+    for (int s = 0; s < sample_size; ++s) {
+      const std::vector<int>& candidates = m.src_to_tgt[sample[s]];
+      if (candidates.empty()) {
+        ok = false;
+        break;
+      }
+      std::uniform_int_distribution<int> choose(0, static_cast<int>(candidates.size()) - 1);
+      const int j = candidates[choose(*rng)];
+      if (j < 0) {
+        ok = false;
+        break;
+      }
+      src.push_back(m.src_kp[sample[s]]);
+      dst.push_back(m.tgt_kp[j]);
+    }
+    if (!ok) continue;
+    for (int a = 0; a < sample_size && ok; ++a) {
+      for (int b = a + 1; b < sample_size; ++b) {
+        if (std::abs((src[a] - src[b]).norm() - (dst[a] - dst[b]).norm()) > tolerance) ok = false;
+      }
+    }
+    if (!ok) continue;
+    Hypothesis h;
+    h.transform = EstimateRigid(src, dst, up);
+    h.cost = AlignmentCost(score_sample, target, h.transform, tau);
+    h.origin = "sac-ia " + m.descriptor;
+    h.descriptor = m.descriptor;
+    pool->Offer(h);
+  }
+}
+
+// Maximum clique of pairwise-consistent correspondences, then a least-squares fit.
+bool CliqueHypothesis(const Matching& m, const CloudRegistrationOptions& options,
+                      double spacing, Hypothesis* h, std::vector<std::string>* notes) {
+  if (m.best_pairs.size() < 3) return false;
+  std::vector<Eigen::Vector3d> src, dst;
+  for (const auto& [i, j] : m.best_pairs) {
+    src.push_back(m.src_kp[i]);
+    dst.push_back(m.tgt_kp[j]);
+  }
+  CliqueOptions clique_options;
+  clique_options.tolerance_m = options.consistency_spacing * spacing;
+  bool exact = true;
+  const std::vector<int> clique = MaxConsistentClique(src, dst, clique_options, &exact);
+  if (!exact) notes->push_back("max-clique " + m.descriptor + ": search budget reached");
+  if (clique.size() < (options.gravity_aligned ? 2u : 3u)) return false;
+  std::vector<Eigen::Vector3d> cs, cd;
+  for (int i : clique) {
+    cs.push_back(src[i]);
+    cd.push_back(dst[i]);
+  }
+  h->transform = EstimateRigid(cs, cd, options.gravity_aligned ? &options.up : nullptr);
+  h->origin = "max-clique " + m.descriptor + " (" + std::to_string(clique.size()) + " of " +
+              std::to_string(src.size()) + ")";
+  h->descriptor = m.descriptor;
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------
+// Point-to-plane ICP (Chen & Medioni 1991; linearised as Low 2004, Eq. 6–8), coarse to fine
+// in the correspondence distance; rotation about `up` only when levelled.
+
+Eigen::Matrix4d PointToPlaneIcp(const std::vector<Eigen::Vector3d>& src,
+                                const std::vector<Eigen::Vector3d>& tgt,
+                                const std::vector<Eigen::Vector3d>& tgt_normals,
+                                const PointIndex& tgt_index, Eigen::Matrix4d transform,
+                                double start_distance, double end_distance, int iterations,
+                                const Eigen::Vector3d* up) {
+  double distance = std::max(start_distance, end_distance);
+  for (int it = 0; it < iterations; ++it) {
+    Eigen::Matrix<double, 6, 6> jtj = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> jtr = Eigen::Matrix<double, 6, 1>::Zero();
+    int count = 0;
+    int index;
+    double sq;
+    const double d2 = distance * distance;
+    for (const Eigen::Vector3d& p : src) {
+      const Eigen::Vector3d q = Apply(transform, p);
+      if (!tgt_index.Nearest(q, &index, &sq) || sq > d2) continue;
+      const Eigen::Vector3d& n = tgt_normals[index];
+      if (!n.allFinite()) continue;
+      const double r = (q - tgt[index]).dot(n);
+      // Tukey-like down-weighting of the far residuals.
+      const double w = 1.0 / (1.0 + (r * r) / (0.25 * d2));
+      Eigen::Matrix<double, 6, 1> j;
+      j.head<3>() = q.cross(n);
+      j.tail<3>() = n;
+      jtj += w * j * j.transpose();
+      jtr += w * j * r;
+      ++count;
+    }
+    if (count < 6) break;
+    Eigen::Matrix<double, 6, 1> x;
+    if (up != nullptr) {
+      // Parameters (α about up, t): J_α = (q × n)·up.
+      Eigen::Matrix<double, 6, 4> b = Eigen::Matrix<double, 6, 4>::Zero();
+      b.block<3, 1>(0, 0) = *up;
+      b.block<3, 3>(3, 1) = Eigen::Matrix3d::Identity();
+      const Eigen::Matrix4d a = b.transpose() * jtj * b;
+      const Eigen::Vector4d y = a.ldlt().solve(-b.transpose() * jtr);
+      x = b * y;
+    } else {
+      x = jtj.ldlt().solve(-jtr);
+    }
+    if (!x.allFinite()) break;
+    Eigen::Matrix4d delta = Eigen::Matrix4d::Identity();
+    const Eigen::Vector3d omega = x.head<3>();
+    if (omega.norm() > 1e-12) {
+      delta.topLeftCorner<3, 3>() = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix();
+    }
+    delta.topRightCorner<3, 1>() = x.tail<3>();
+    transform = delta * transform;
+    const bool small = omega.norm() < 1e-6 && x.tail<3>().norm() < 1e-3 * end_distance;
+    if (small && distance <= end_distance) break;
+    distance = std::max(end_distance, distance * 0.7);
+  }
+  return transform;
+}
+
+// Overlap and normal agreement of `src` (with normals) under `t` (hypothesis verification).
+void Verify(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen::Vector3d>& src_n,
+            const std::vector<Eigen::Vector3d>& tgt_n, const PointIndex& tgt_index,
+            const Eigen::Matrix4d& t, double tau, Hypothesis* h) {
+  size_t inliers = 0, agree = 0;
+  double sum_sq = 0.0;
+  int index;
+  double sq;
+  const double cos30 = std::cos(30.0 * M_PI / 180.0);
+  const Eigen::Matrix3d r = t.topLeftCorner<3, 3>();
+  for (size_t i = 0; i < src.size(); ++i) {
+    if (!tgt_index.Nearest(Apply(t, src[i]), &index, &sq) || sq > tau * tau) continue;
+    ++inliers;
+    sum_sq += sq;
+    if (!src_n.empty() && !tgt_n.empty() && src_n[i].allFinite() && tgt_n[index].allFinite() &&
+        std::abs((r * src_n[i]).dot(tgt_n[index])) > cos30) {
+      ++agree;
+    }
+  }
+  h->inliers = inliers;
+  h->fitness = src.empty() ? 0.0 : static_cast<double>(inliers) / src.size();
+  h->rmse = inliers > 0 ? std::sqrt(sum_sq / inliers) : 0.0;
+  h->normal_agreement = inliers > 0 ? static_cast<double>(agree) / inliers : 0.0;
+  h->score = h->fitness * h->normal_agreement;
+}
+
+std::vector<size_t> StrideSample(size_t n, size_t max_count) {
+  std::vector<size_t> out;
+  const double step = n > max_count ? static_cast<double>(n) / max_count : 1.0;
+  for (double x = 0; x < n && out.size() < max_count; x += step) {
+    out.push_back(static_cast<size_t>(x));
+  }
+  return out;
+}
+
+template <typename T>
+std::vector<T> Pick(const std::vector<T>& v, const std::vector<size_t>& idx) {
+  std::vector<T> out;
+  if (v.empty()) return out;
+  out.reserve(idx.size());
+  for (size_t i : idx) out.push_back(v[i]);
+  return out;
+}
+
+std::string CheckCloud(const io::PointCloud& cloud, const std::string& which) {
+  if (cloud.empty()) return which + " cloud is empty";
+  if (cloud.size() < 10) {
+    return which + " cloud has " + std::to_string(cloud.size()) + " points (need at least 10)";
+  }
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud.points[i].allFinite()) {
+      return which + " point " + std::to_string(i) + " is not finite (NaN/Inf)";
+    }
+  }
+  return "";
+}
+
+}  // namespace
+
+double EstimatePointSpacing(const io::PointCloud& cloud, size_t max_samples) {
+  return MedianSpacing(cloud.points, max_samples);
+}
+
+CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
+                                       const io::PointCloud& target,
+                                       const CloudRegistrationOptions& options) {
+  std::string option_error;
+  if (!options.Check(&option_error)) throw InputError::Message("registration options", option_error);
+  CloudRegistrationResult result;
+  Timer stage_timer;
+  auto end_stage = [&](const std::string& name) {
+    result.runtime.push_back({name, stage_timer.ElapsedSeconds()});
+    stage_timer.Restart();
+  };
+  auto fail = [&](const std::string& reason) {
+    result.status = "failed";
+    result.reason = reason;
+    return result;
+  };
+  for (const auto& [cloud, which] : {std::pair{&source, "source"}, std::pair{&target, "target"}}) {
+    const std::string problem = CheckCloud(*cloud, which);
+    if (!problem.empty()) return fail(problem);
+  }
+
+  // --- Levels: a common coarse voxel for the features (clouds of different density are
+  // matched at the density of the sparser one), a finer one for ICP.
+  const double s_src = EstimatePointSpacing(source), s_tgt = EstimatePointSpacing(target);
+  if (s_src <= 0 || s_tgt <= 0) return fail("all points of a cloud coincide (spacing 0)");
+  double coarse_voxel = std::max(s_src, s_tgt);
+  coarse_voxel = std::max(coarse_voxel, VoxelForBudget(source, coarse_voxel, options.max_points_features));
+  coarse_voxel = std::max(coarse_voxel, VoxelForBudget(target, coarse_voxel, options.max_points_features));
+  const bool src_normals = options.use_existing_normals && source.has_normals();
+  const bool tgt_normals = options.use_existing_normals && target.has_normals();
+  Level src_coarse = VoxelDownsample(source.points, src_normals ? source.normals : std::vector<Eigen::Vector3d>{}, coarse_voxel);
+  Level tgt_coarse = VoxelDownsample(target.points, tgt_normals ? target.normals : std::vector<Eigen::Vector3d>{}, coarse_voxel);
+  const double fine_voxel_src = VoxelForBudget(source, 0.0, options.max_points_icp);
+  const double fine_voxel_tgt = VoxelForBudget(target, 0.0, options.max_points_icp);
+  Level src_fine = VoxelDownsample(source.points, src_normals ? source.normals : std::vector<Eigen::Vector3d>{}, fine_voxel_src);
+  Level tgt_fine = VoxelDownsample(target.points, tgt_normals ? target.normals : std::vector<Eigen::Vector3d>{}, fine_voxel_tgt);
+  const double spacing = std::max(MedianSpacing(src_coarse.points, 20000),
+                                  MedianSpacing(tgt_coarse.points, 20000));
+  const double fine_spacing = std::max(MedianSpacing(src_fine.points, 20000),
+                                       MedianSpacing(tgt_fine.points, 20000));
+  result.point_spacing_m = spacing;
+  const double normal_radius = options.normal_radius_m > 0 ? options.normal_radius_m
+                                                           : options.normal_radius_spacing * spacing;
+  const double support_radius = options.support_radius_m > 0
+                                    ? options.support_radius_m
+                                    : options.support_radius_spacing * spacing;
+  result.normal_radius_m = normal_radius;
+  result.support_radius_m = support_radius;
+  spdlog::debug("registration: spacing {:.4g} m (fine {:.4g}), R_n {:.4g} m, R_s {:.4g} m, "
+                "coarse {} / {} points, fine {} / {}",
+                spacing, fine_spacing, normal_radius, support_radius, src_coarse.points.size(),
+                tgt_coarse.points.size(), src_fine.points.size(), tgt_fine.points.size());
+  end_stage("downsample");
+
+  // --- Normals within R_n (oriented towards each cloud's origin, the scanner of a scan).
+  const Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();
+  for (Level* level : {&src_coarse, &tgt_coarse}) {
+    if (level->normals.empty()) {
+      level->normals = internal::EstimateNormals(level->points, normal_radius, viewpoint);
+    }
+    const size_t before = level->points.size();
+    DropInvalidNormals(level);
+    if (level->points.size() < before / 2 || level->points.size() < 10) {
+      std::ostringstream s;
+      s << "cloud too sparse for the normal radius " << normal_radius << " m: "
+        << before - level->points.size() << " of " << before
+        << " points have too few neighbours (give a larger --normal-radius)";
+      return fail(s.str());
+    }
+  }
+  for (Level* level : {&src_fine, &tgt_fine}) {
+    if (level->normals.empty()) {
+      level->normals = internal::EstimateNormals(
+          level->points, std::max(options.normal_radius_spacing * fine_spacing,
+                                  std::min(normal_radius, 4.0 * fine_spacing)),
+          viewpoint);
+    }
+  }
+  end_stage("normals");
+
+  // --- Keypoints.
+  const std::vector<int> src_kp =
+      SelectKeypoints(src_coarse, normal_radius, options, "source", &result.notes);
+  const std::vector<int> tgt_kp =
+      SelectKeypoints(tgt_coarse, normal_radius, options, "target", &result.notes);
+  result.num_keypoints_source = src_kp.size();
+  result.num_keypoints_target = tgt_kp.size();
+  end_stage("keypoints");
+  if (src_kp.size() < 3 || tgt_kp.size() < 3) {
+    return fail("too few keypoints (" + std::to_string(src_kp.size()) + " source, " +
+                std::to_string(tgt_kp.size()) + " target; need 3)");
+  }
+  // Sparse for the support radius?
+  {
+    PointIndex tgt_coarse_index(tgt_coarse.points);
+    std::vector<int> neighbours;
+    std::vector<size_t> counts;
+    for (size_t i = 0; i < tgt_kp.size(); i += std::max<size_t>(1, tgt_kp.size() / 50)) {
+      tgt_coarse_index.Radius(tgt_coarse.points[tgt_kp[i]], support_radius, &neighbours);
+      counts.push_back(neighbours.size());
+    }
+    std::nth_element(counts.begin(), counts.begin() + counts.size() / 2, counts.end());
+    if (counts[counts.size() / 2] < 16) {
+      return fail("cloud too sparse for the support radius " + std::to_string(support_radius) +
+                  " m: median " + std::to_string(counts[counts.size() / 2]) +
+                  " neighbours at the keypoints (need 16; give a larger --support-radius)");
+    }
+  }
+
+  // --- Descriptors and matching.
+  std::vector<Descriptor> descriptors;
+  if (options.descriptor == Descriptor::kAuto) {
+    descriptors = {Descriptor::kFpfh, Descriptor::kShot};
+  } else {
+    descriptors = {options.descriptor};
+  }
+  const Eigen::Vector3d* up = options.gravity_aligned ? &options.up : nullptr;
+  std::vector<Matching> matchings;
+  for (Descriptor d : descriptors) {
+    const Descriptors ds = internal::ComputeDescriptors(d, src_coarse.points, src_coarse.normals,
+                                                        src_kp, support_radius, up);
+    const Descriptors dt = internal::ComputeDescriptors(d, tgt_coarse.points, tgt_coarse.normals,
+                                                        tgt_kp, support_radius, up);
+    end_stage("descriptors " + DescriptorName(d));
+    matchings.push_back(MatchDescriptors(DescriptorName(d), src_coarse, tgt_coarse, src_kp,
+                                         tgt_kp, ds, dt, options.sac_ia_randomness,
+                                         options.max_correspondences));
+    result.num_correspondences += matchings.back().best_pairs.size();
+    end_stage("matching " + DescriptorName(d));
+  }
+
+  // --- Hypotheses: SAC-IA and the maximum consistent clique.
+  PointIndex tgt_coarse_index(tgt_coarse.points);
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const auto& p : src_coarse.points) centre += p;
+  centre /= static_cast<double>(src_coarse.points.size());
+  const std::vector<size_t> score_idx = StrideSample(src_coarse.points.size(), 1000);
+  const std::vector<Eigen::Vector3d> score_sample = Pick(src_coarse.points, score_idx);
+  std::mt19937_64 rng(options.seed);
+  const double tau_coarse = normal_radius;
+  HypothesisPool pool(static_cast<size_t>(options.num_hypotheses), centre, normal_radius);
+  for (const Matching& m : matchings) {
+    SacIa(m, score_sample, tgt_coarse_index, options, spacing, support_radius / 2.0, tau_coarse,
+          &rng, &pool);
+  }
+  end_stage("sac-ia");
+  std::vector<Hypothesis> hypotheses = pool.hypotheses();
+  if (options.paper_only && hypotheses.size() > 1) hypotheses.resize(1);
+  if (!options.paper_only && options.use_max_clique) {
+    for (const Matching& m : matchings) {
+      Hypothesis h;
+      if (CliqueHypothesis(m, options, spacing, &h, &result.notes)) {
+        h.cost = AlignmentCost(score_sample, tgt_coarse_index, h.transform, tau_coarse);
+        hypotheses.push_back(h);
+      }
+    }
+    end_stage("max-clique");
+  }
+  if (hypotheses.empty()) {
+    return fail("no hypothesis: no consistent descriptor matches (" +
+                std::to_string(result.num_correspondences) + " correspondences)");
+  }
+
+  // --- Refine each hypothesis with ICP on the coarse level, then verify.
+  const std::vector<size_t> icp_idx = StrideSample(src_coarse.points.size(), 5000);
+  const std::vector<Eigen::Vector3d> icp_src = Pick(src_coarse.points, icp_idx);
+  const std::vector<Eigen::Vector3d> icp_src_n = Pick(src_coarse.normals, icp_idx);
+  const double tau = options.inlier_distance_spacing * spacing;
+  for (Hypothesis& h : hypotheses) {
+    if (options.icp) {
+      h.transform = PointToPlaneIcp(icp_src, tgt_coarse.points, tgt_coarse.normals,
+                                    tgt_coarse_index, h.transform, support_radius / 2.0,
+                                    options.icp_distance_spacing * spacing,
+                                    options.icp_iterations, up);
+    }
+    Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, h.transform, tau, &h);
+  }
+  std::stable_sort(hypotheses.begin(), hypotheses.end(),
+                   [](const Hypothesis& a, const Hypothesis& b) { return a.score > b.score; });
+  end_stage("icp+verify coarse");
+
+  // --- Fine ICP on the winner.
+  Hypothesis best = hypotheses.front();
+  PointIndex tgt_fine_index(tgt_fine.points);
+  const std::vector<size_t> fine_idx = StrideSample(src_fine.points.size(), 50000);
+  const std::vector<Eigen::Vector3d> fine_src = Pick(src_fine.points, fine_idx);
+  const std::vector<Eigen::Vector3d> fine_src_n = Pick(src_fine.normals, fine_idx);
+  const double fine_tau = options.inlier_distance_spacing * fine_spacing;
+  if (options.icp) {
+    best.transform = PointToPlaneIcp(fine_src, tgt_fine.points, tgt_fine.normals,
+                                     tgt_fine_index, best.transform,
+                                     options.icp_distance_spacing * spacing,
+                                     options.icp_distance_spacing * fine_spacing,
+                                     options.icp_iterations, up);
+  }
+  Hypothesis fine_check = best;
+  Verify(fine_src, fine_src_n, tgt_fine.normals, tgt_fine_index, best.transform, fine_tau,
+         &fine_check);
+  end_stage("icp fine");
+
+  // --- Verdict.
+  result.descriptor = best.descriptor;
+  result.target_from_source = best.transform;
+  result.fitness = fine_check.fitness;
+  result.inlier_rmse = fine_check.rmse;
+  result.normal_agreement = fine_check.normal_agreement;
+  result.num_inliers = static_cast<size_t>(
+      std::llround(fine_check.fitness * static_cast<double>(src_fine.points.size())));
+  double runner_up = 0.0;
+  const RegistrationHypothesis* runner = nullptr;
+  for (const Hypothesis& h : hypotheses) {
+    RegistrationHypothesis r;
+    r.origin = h.origin;
+    r.target_from_source = h.transform;
+    r.fitness = h.fitness;
+    r.inlier_rmse = h.rmse;
+    r.normal_agreement = h.normal_agreement;
+    r.score = h.score;
+    result.hypotheses.push_back(r);
+  }
+  for (size_t i = 1; i < hypotheses.size(); ++i) {
+    if (!SameTransform(hypotheses[i].transform, hypotheses[0].transform, centre, 2.0,
+                       2.0 * tau)) {
+      runner_up = hypotheses[i].score;
+      runner = &result.hypotheses[i];
+      break;
+    }
+  }
+  const double best_score = hypotheses.front().score;
+  result.confidence = best_score > 0 ? std::clamp(1.0 - runner_up / best_score, 0.0, 1.0) : 0.0;
+  std::ostringstream why;
+  why << std::setprecision(3);
+  if (fine_check.fitness < options.min_fitness) {
+    why << "best hypothesis (" << best.origin << ") makes only " << 100 * fine_check.fitness
+        << "% of the source lie within " << fine_tau << " m of the target (need "
+        << 100 * options.min_fitness << "%): the clouds do not overlap or no hypothesis is right";
+    return fail(why.str());
+  }
+  if (!options.paper_only && fine_check.normal_agreement < options.min_normal_agreement) {
+    why << "normals disagree: only " << 100 * fine_check.normal_agreement
+        << "% of the inliers have matching normals (need "
+        << 100 * options.min_normal_agreement << "%)";
+    return fail(why.str());
+  }
+  if (!options.paper_only && runner != nullptr && runner_up > options.max_ambiguity * best_score) {
+    const Eigen::Matrix3d r = runner->target_from_source.topLeftCorner<3, 3>().transpose() *
+                              best.transform.topLeftCorner<3, 3>();
+    why << "ambiguous: two different hypotheses fit almost equally (scores " << best_score
+        << " and " << runner_up << ", " << RotationAngleDeg(r)
+        << "° apart); a (pseudo-)symmetric scene — give --gravity-aligned or more overlap";
+    return fail(why.str());
+  }
+  result.status = "ok";
+  result.reason.clear();
+  return result;
+}
+
+std::vector<double> DistancesToTarget(const io::PointCloud& source, const io::PointCloud& target,
+                                      const Eigen::Matrix4d& target_from_source) {
+  PointIndex index(target.points);
+  std::vector<double> out(source.size(), std::numeric_limits<double>::infinity());
+  int i_near;
+  double sq;
+  for (size_t i = 0; i < source.size(); ++i) {
+    if (index.Nearest(Apply(target_from_source, source.points[i]), &i_near, &sq)) {
+      out[i] = std::sqrt(sq);
+    }
+  }
+  return out;
+}
+
+io::PointCloud MakeErrorMap(const io::PointCloud& source, const io::PointCloud& target,
+                            const Eigen::Matrix4d& target_from_source, double max_m) {
+  const std::vector<double> d = DistancesToTarget(source, target, target_from_source);
+  io::PointCloud out;
+  out.points.reserve(source.size());
+  out.colors.reserve(source.size());
+  out.intensity.reserve(source.size());
+  for (size_t i = 0; i < source.size(); ++i) {
+    out.points.push_back(Apply(target_from_source, source.points[i]));
+    // Blue → cyan → green → yellow → red ("jet"), as the error maps of Kim & Hilton Fig. 6.
+    const double t = max_m > 0 ? std::clamp(d[i] / max_m, 0.0, 1.0) : 0.0;
+    auto channel = [t](double centre) {
+      return static_cast<uint8_t>(255.0 * std::clamp(1.5 - std::abs(4.0 * t - centre), 0.0, 1.0));
+    };
+    out.colors.push_back({channel(3.0), channel(2.0), channel(1.0)});
+    out.intensity.push_back(static_cast<float>(d[i]));
+  }
+  return out;
+}
+
+double TransformRmsOnCloud(const io::PointCloud& cloud, const Eigen::Matrix4d& a,
+                           const Eigen::Matrix4d& b) {
+  if (cloud.empty()) return 0.0;
+  double sum = 0.0;
+  for (const Eigen::Vector3d& p : cloud.points) sum += (Apply(a, p) - Apply(b, p)).squaredNorm();
+  return std::sqrt(sum / static_cast<double>(cloud.size()));
+}
+
+}  // namespace mmba::registration

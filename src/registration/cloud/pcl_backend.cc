@@ -1,0 +1,264 @@
+// All PCL use of the cloud registration (kept to this one translation unit: PCL headers are
+// heavy). PCL 1.13.
+
+#include "registration/cloud/pcl_backend.h"
+
+#include <cmath>
+#include <limits>
+
+#include <flann/flann.hpp>
+#include <pcl/features/3dsc.h>
+#include <pcl/features/fpfh_omp.h>
+#include <pcl/features/normal_3d_omp.h>
+#include <pcl/features/shot_omp.h>
+#include <pcl/features/spin_image.h>
+#include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/keypoints/harris_3d.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+namespace mmba::registration::internal {
+namespace {
+
+constexpr int kThreads = 2;
+
+pcl::PointCloud<pcl::PointXYZ>::Ptr ToPcl(const std::vector<Eigen::Vector3d>& points) {
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
+  cloud->resize(points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    (*cloud)[i].getVector3fMap() = points[i].cast<float>();
+  }
+  cloud->width = static_cast<uint32_t>(points.size());
+  cloud->height = 1;
+  cloud->is_dense = true;
+  return cloud;
+}
+
+pcl::PointCloud<pcl::Normal>::Ptr ToPclNormals(const std::vector<Eigen::Vector3d>& normals) {
+  pcl::PointCloud<pcl::Normal>::Ptr cloud(new pcl::PointCloud<pcl::Normal>);
+  cloud->resize(normals.size());
+  for (size_t i = 0; i < normals.size(); ++i) {
+    (*cloud)[i].getNormalVector3fMap() = normals[i].cast<float>();
+    (*cloud)[i].curvature = 0.0f;
+  }
+  cloud->width = static_cast<uint32_t>(normals.size());
+  cloud->height = 1;
+  return cloud;
+}
+
+}  // namespace
+
+struct PointIndex::Impl {
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  bool empty = true;
+};
+
+PointIndex::PointIndex(const std::vector<Eigen::Vector3d>& points) : impl_(new Impl) {
+  if (!points.empty()) {
+    impl_->tree.setInputCloud(ToPcl(points));
+    impl_->empty = false;
+  }
+}
+PointIndex::~PointIndex() = default;
+
+bool PointIndex::Nearest(const Eigen::Vector3d& query, int* index,
+                         double* squared_distance) const {
+  if (impl_->empty) return false;
+  pcl::PointXYZ q;
+  q.getVector3fMap() = query.cast<float>();
+  pcl::Indices k(1);
+  std::vector<float> d(1);
+  if (impl_->tree.nearestKSearch(q, 1, k, d) < 1) return false;
+  *index = k[0];
+  *squared_distance = d[0];
+  return true;
+}
+
+void PointIndex::KNearest(const Eigen::Vector3d& query, int k, std::vector<int>* indices,
+                          std::vector<float>* squared_distances) const {
+  indices->clear();
+  squared_distances->clear();
+  if (impl_->empty) return;
+  pcl::PointXYZ q;
+  q.getVector3fMap() = query.cast<float>();
+  pcl::Indices idx;
+  impl_->tree.nearestKSearch(q, k, idx, *squared_distances);
+  indices->assign(idx.begin(), idx.end());
+}
+
+void PointIndex::Radius(const Eigen::Vector3d& query, double radius,
+                        std::vector<int>* indices) const {
+  indices->clear();
+  if (impl_->empty) return;
+  pcl::PointXYZ q;
+  q.getVector3fMap() = query.cast<float>();
+  pcl::Indices idx;
+  std::vector<float> d;
+  impl_->tree.radiusSearch(q, radius, idx, d);
+  indices->assign(idx.begin(), idx.end());
+}
+
+struct FeatureIndex::Impl {
+  std::vector<float> data;
+  int dim = 0;
+  std::unique_ptr<flann::Index<flann::L2<float>>> index;
+};
+
+FeatureIndex::FeatureIndex(const std::vector<float>& data, int dim) : impl_(new Impl) {
+  impl_->data = data;
+  impl_->dim = dim;
+  rows_ = dim > 0 ? data.size() / dim : 0;
+  if (rows_ == 0) return;
+  flann::Matrix<float> matrix(impl_->data.data(), rows_, dim);
+  impl_->index.reset(new flann::Index<flann::L2<float>>(matrix, flann::KDTreeIndexParams(4)));
+  impl_->index->buildIndex();
+}
+FeatureIndex::~FeatureIndex() = default;
+
+void FeatureIndex::KNearest(const float* query, int k, std::vector<int>* indices,
+                            std::vector<float>* squared_distances) const {
+  indices->assign(k, -1);
+  squared_distances->assign(k, std::numeric_limits<float>::infinity());
+  if (rows_ == 0) return;
+  k = std::min<int>(k, static_cast<int>(rows_));
+  indices->resize(k);
+  squared_distances->resize(k);
+  flann::Matrix<float> q(const_cast<float*>(query), 1, impl_->dim);
+  flann::Matrix<int> idx(indices->data(), 1, k);
+  flann::Matrix<float> dist(squared_distances->data(), 1, k);
+  impl_->index->knnSearch(q, idx, dist, k, flann::SearchParams(256));
+}
+
+std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>& points,
+                                             double radius, const Eigen::Vector3d& viewpoint) {
+  auto cloud = ToPcl(points);
+  pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> estimation(kThreads);
+  estimation.setInputCloud(cloud);
+  estimation.setRadiusSearch(radius);
+  estimation.setViewPoint(static_cast<float>(viewpoint.x()), static_cast<float>(viewpoint.y()),
+                          static_cast<float>(viewpoint.z()));
+  pcl::PointCloud<pcl::Normal> normals;
+  estimation.compute(normals);
+  std::vector<Eigen::Vector3d> out(points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    out[i] = normals[i].getNormalVector3fMap().cast<double>();
+  }
+  return out;
+}
+
+std::vector<float> TomasiResponse(const std::vector<Eigen::Vector3d>& points,
+                                  const std::vector<Eigen::Vector3d>& normals, double radius) {
+  auto cloud = ToPcl(points);
+  auto pcl_normals = ToPclNormals(normals);
+  pcl::HarrisKeypoint3D<pcl::PointXYZ, pcl::PointXYZI, pcl::Normal> harris(
+      pcl::HarrisKeypoint3D<pcl::PointXYZ, pcl::PointXYZI, pcl::Normal>::TOMASI, radius);
+  harris.setInputCloud(cloud);
+  harris.setNormals(pcl_normals);
+  harris.setNonMaxSupression(false);  // the grid selection is done by the caller
+  harris.setRefine(false);
+  harris.setNumberOfThreads(kThreads);
+  pcl::PointCloud<pcl::PointXYZI> response;
+  harris.compute(response);
+  std::vector<float> out(points.size(), 0.0f);
+  for (size_t i = 0; i < response.size() && i < out.size(); ++i) {
+    out[i] = std::isfinite(response[i].intensity) ? response[i].intensity : 0.0f;
+  }
+  return out;
+}
+
+namespace {
+
+template <typename Feature, typename Get>
+void CopyDescriptors(const pcl::PointCloud<Feature>& features, int dim, Get get,
+                     Descriptors* out) {
+  out->dim = dim;
+  out->data.assign(features.size() * dim, 0.0f);
+  out->valid.assign(features.size(), true);
+  for (size_t i = 0; i < features.size(); ++i) {
+    const float* f = get(features[i]);
+    bool finite = true, nonzero = false;
+    for (int k = 0; k < dim; ++k) {
+      if (!std::isfinite(f[k])) finite = false;
+      if (f[k] != 0.0f) nonzero = true;
+    }
+    out->valid[i] = finite && nonzero;
+    if (out->valid[i]) std::copy(f, f + dim, out->data.begin() + i * dim);
+  }
+}
+
+}  // namespace
+
+Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::Vector3d>& points,
+                               const std::vector<Eigen::Vector3d>& normals,
+                               const std::vector<int>& keypoints, double radius,
+                               const Eigen::Vector3d* up) {
+  auto surface = ToPcl(points);
+  auto surface_normals = ToPclNormals(normals);
+  std::vector<Eigen::Vector3d> kp_points;
+  for (int i : keypoints) kp_points.push_back(points[i]);
+  auto input = ToPcl(kp_points);
+  Descriptors out;
+  switch (descriptor) {
+    case Descriptor::kFpfh: {
+      pcl::FPFHEstimationOMP<pcl::PointXYZ, pcl::Normal, pcl::FPFHSignature33> est(kThreads);
+      est.setInputCloud(input);
+      est.setSearchSurface(surface);
+      est.setInputNormals(surface_normals);
+      est.setRadiusSearch(radius);
+      pcl::PointCloud<pcl::FPFHSignature33> f;
+      est.compute(f);
+      CopyDescriptors(f, 33, [](const pcl::FPFHSignature33& s) { return s.histogram; }, &out);
+      break;
+    }
+    case Descriptor::kShot: {
+      pcl::SHOTEstimationOMP<pcl::PointXYZ, pcl::Normal, pcl::SHOT352> est(kThreads);
+      est.setInputCloud(input);
+      est.setSearchSurface(surface);
+      est.setInputNormals(surface_normals);
+      est.setRadiusSearch(radius);
+      pcl::PointCloud<pcl::SHOT352> f;
+      est.compute(f);
+      CopyDescriptors(f, 352, [](const pcl::SHOT352& s) { return s.descriptor; }, &out);
+      break;
+    }
+    case Descriptor::kSpinImage: {
+      // 8 bins a side, support angle cosine 0.5, >= 16 neighbours (Kim & Hilton Sec. 3.2).
+      // PCL 1.13 indexes the input normals with the neighbours' surface indices, so the
+      // input is the whole surface and the keypoints are given as indices.
+      pcl::SpinImageEstimation<pcl::PointXYZ, pcl::Normal, pcl::Histogram<153>> est(8, 0.5, 16);
+      est.setInputCloud(surface);
+      est.setIndices(pcl::IndicesPtr(new pcl::Indices(keypoints.begin(), keypoints.end())));
+      est.setInputNormals(surface_normals);
+      if (up != nullptr) {
+        pcl::Normal axis;
+        axis.getNormalVector3fMap() = up->cast<float>();
+        est.setRotationAxis(axis);
+      }
+      est.setRadiusSearch(radius);
+      pcl::PointCloud<pcl::Histogram<153>> f;
+      est.compute(f);
+      CopyDescriptors(f, 153, [](const pcl::Histogram<153>& s) { return s.histogram; }, &out);
+      break;
+    }
+    case Descriptor::kShapeContext: {
+      // 12 azimuth × 11 elevation × 15 log-radial bins (PCL defaults = Frome et al.).
+      pcl::ShapeContext3DEstimation<pcl::PointXYZ, pcl::Normal, pcl::ShapeContext1980> est;
+      est.setInputCloud(input);
+      est.setSearchSurface(surface);
+      est.setInputNormals(surface_normals);
+      est.setRadiusSearch(radius);
+      est.setMinimalRadius(radius / 10.0);
+      est.setPointDensityRadius(radius / 5.0);
+      pcl::PointCloud<pcl::ShapeContext1980> f;
+      est.compute(f);
+      CopyDescriptors(f, 1980, [](const pcl::ShapeContext1980& s) { return s.descriptor; },
+                      &out);
+      break;
+    }
+    case Descriptor::kAuto:
+      break;
+  }
+  return out;
+}
+
+}  // namespace mmba::registration::internal

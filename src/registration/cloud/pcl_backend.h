@@ -1,0 +1,74 @@
+#pragma once
+
+// The PCL part of the cloud registration behind a PCL-free interface: kd-trees, normals,
+// the Kanade–Tomasi response and the four descriptors. Only pcl_backend.cc includes PCL.
+
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mmba/registration/cloud/feature_registration.h"
+
+namespace mmba::registration::internal {
+
+/// Kd-tree over 3-D points (PCL KdTreeFLANN).
+class PointIndex {
+ public:
+  explicit PointIndex(const std::vector<Eigen::Vector3d>& points);
+  ~PointIndex();
+  PointIndex(const PointIndex&) = delete;
+  PointIndex& operator=(const PointIndex&) = delete;
+  /// Nearest point; false if the tree is empty.
+  bool Nearest(const Eigen::Vector3d& query, int* index, double* squared_distance) const;
+  void KNearest(const Eigen::Vector3d& query, int k, std::vector<int>* indices,
+                std::vector<float>* squared_distances) const;
+  void Radius(const Eigen::Vector3d& query, double radius, std::vector<int>* indices) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Approximate nearest neighbours in descriptor space (FLANN, randomised kd-trees).
+class FeatureIndex {
+ public:
+  /// `rows` descriptors of `dim` floats each, row-major.
+  FeatureIndex(const std::vector<float>& data, int dim);
+  ~FeatureIndex();
+  FeatureIndex(const FeatureIndex&) = delete;
+  FeatureIndex& operator=(const FeatureIndex&) = delete;
+  void KNearest(const float* query, int k, std::vector<int>* indices,
+                std::vector<float>* squared_distances) const;
+  size_t rows() const { return rows_; }
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  size_t rows_ = 0;
+};
+
+/// Normals by PCA within `radius` (PCL NormalEstimationOMP), oriented towards `viewpoint`.
+/// Points with too few neighbours get a NaN normal.
+std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>& points,
+                                             double radius, const Eigen::Vector3d& viewpoint);
+
+/// Kanade–Tomasi response per point: smallest eigenvalue of the mean of n·nᵀ over the
+/// neighbours within `radius` (PCL HarrisKeypoint3D, method TOMASI, no suppression).
+std::vector<float> TomasiResponse(const std::vector<Eigen::Vector3d>& points,
+                                  const std::vector<Eigen::Vector3d>& normals, double radius);
+
+/// Descriptors of the keypoints `keypoints` (indices into `points`) within `radius`, on the
+/// surface `points`/`normals`. `valid[i]` is false where the descriptor is undefined (too few
+/// neighbours, NaN). `up` (optional) is the spin-image axis for levelled clouds.
+struct Descriptors {
+  int dim = 0;
+  std::vector<float> data;  // keypoints × dim
+  std::vector<bool> valid;
+};
+Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::Vector3d>& points,
+                               const std::vector<Eigen::Vector3d>& normals,
+                               const std::vector<int>& keypoints, double radius,
+                               const Eigen::Vector3d* up);
+
+}  // namespace mmba::registration::internal

@@ -1,0 +1,174 @@
+#include "mmba/registration/cloud/feature_registration.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+#include "mmba/core/error.h"
+#include "mmba/registration/cloud/robust_estimators.h"
+
+namespace mmba::registration {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kPclDir = std::string(MMBA_SOURCE_DIR) + "/data/pointclouds/pcl_test/";
+
+// PCL's own registration test: bun0 → bun4 (test/registration/test_registration.cpp).
+Eigen::Matrix4d Bun0ToBun4() {
+  Eigen::Matrix4d m;
+  m << 0.825336, 0, -0.564642, 0.037267, 0, 1, 0, 0, 0.564642, 0, 0.825336, 0.038325, 0, 0, 0,
+      1;
+  return m;
+}
+
+io::PointCloud Transformed(const io::PointCloud& c, const Eigen::Matrix4d& m) {
+  io::PointCloud out = c;
+  for (auto& p : out.points) p = m.topLeftCorner<3, 3>() * p + m.topRightCorner<3, 1>();
+  for (auto& n : out.normals) n = m.topLeftCorner<3, 3>() * n;
+  return out;
+}
+
+TEST(FeatureRegistration, PclBun0ToBun4WithinPclTolerance) {
+  const io::PointCloud bun0 = io::ReadPointCloud(kPclDir + "bun0.pcd");
+  const io::PointCloud bun4 = io::ReadPointCloud(kPclDir + "bun4.pcd");
+  for (const char* name : {"auto", "fpfh", "shot"}) {
+    SCOPED_TRACE(name);
+    CloudRegistrationOptions options;
+    ASSERT_TRUE(ParseDescriptor(name, &options.descriptor));
+    const CloudRegistrationResult r = RegisterClouds(bun0, bun4, options);
+    ASSERT_TRUE(r.ok()) << r.reason;
+    // PCL's test checks every matrix entry within 0.1.
+    EXPECT_LT((r.target_from_source - Bun0ToBun4()).cwiseAbs().maxCoeff(), 0.1)
+        << r.target_from_source;
+    EXPECT_GT(r.fitness, 0.5);
+    EXPECT_GT(r.num_keypoints_source, 3u);
+    EXPECT_GT(r.confidence, 0.0);
+  }
+}
+
+TEST(FeatureRegistration, PaperModeEveryDescriptorOnBunny) {
+  // bun4 against a rotated, shifted copy of itself: every descriptor of the paper must work
+  // on an exact overlap.
+  const io::PointCloud bun4 = io::ReadPointCloud(kPclDir + "bun4.pcd");
+  Eigen::Matrix4d truth = Eigen::Matrix4d::Identity();
+  truth.topLeftCorner<3, 3>() =
+      Eigen::AngleAxisd(1.0, Eigen::Vector3d(0.2, 1, 0.1).normalized()).toRotationMatrix();
+  truth.topRightCorner<3, 1>() = Eigen::Vector3d(0.3, -0.1, 0.05);
+  const io::PointCloud moved = Transformed(bun4, truth);
+  for (const char* name : {"fpfh", "shot", "si", "sc3d"}) {
+    SCOPED_TRACE(name);
+    CloudRegistrationOptions options;
+    ASSERT_TRUE(ParseDescriptor(name, &options.descriptor));
+    options.use_existing_normals = false;
+    const CloudRegistrationResult r = RegisterClouds(bun4, moved, options);
+    ASSERT_TRUE(r.ok()) << r.reason;
+    EXPECT_LT(TransformRmsOnCloud(bun4, r.target_from_source, truth), 1e-3);
+  }
+}
+
+TEST(FeatureRegistration, GravityAlignedYawOnly) {
+  const io::PointCloud bun0 = io::ReadPointCloud(kPclDir + "bun0.pcd");
+  const io::PointCloud bun4 = io::ReadPointCloud(kPclDir + "bun4.pcd");
+  CloudRegistrationOptions options;
+  options.gravity_aligned = true;
+  options.up = Eigen::Vector3d::UnitY();  // the bunny scans turn about y
+  const CloudRegistrationResult r = RegisterClouds(bun0, bun4, options);
+  ASSERT_TRUE(r.ok()) << r.reason;
+  EXPECT_LT((r.target_from_source - Bun0ToBun4()).cwiseAbs().maxCoeff(), 0.1);
+  // The rotation is about y only.
+  const Eigen::Vector3d y = r.target_from_source.topLeftCorner<3, 3>() * Eigen::Vector3d::UnitY();
+  EXPECT_NEAR(y.y(), 1.0, 1e-9);
+}
+
+TEST(FeatureRegistration, StanfordScansAgainstBunConf) {
+  const std::string dir = "/work/shared/data/pointclouds/stanford_bunny/";
+  if (!fs::exists(dir + "bun000.ply") || !fs::exists(dir + "bun045.ply")) {
+    GTEST_SKIP() << "Stanford bunny scans (research licence) not present in " << dir;
+  }
+  const io::PointCloud bun000 = io::ReadPointCloud(dir + "bun000.ply");
+  const io::PointCloud bun045 = io::ReadPointCloud(dir + "bun045.ply");
+  // bun.conf: bun045 t = (-0.0520211, -0.000383981, -0.0109223), q = (0.00548449, -0.294635,
+  // -0.0038555, 0.955586) (x y z w); p_common = R(q)ᵀ·p + t; bun000 is the identity.
+  const Eigen::Quaterniond q(0.955586, 0.00548449, -0.294635, -0.0038555);
+  Eigen::Matrix4d truth = Eigen::Matrix4d::Identity();
+  truth.topLeftCorner<3, 3>() = q.normalized().toRotationMatrix().transpose();
+  truth.topRightCorner<3, 1>() = Eigen::Vector3d(-0.0520211, -0.000383981, -0.0109223);
+  const CloudRegistrationResult r = RegisterClouds(bun045, bun000, CloudRegistrationOptions{});
+  ASSERT_TRUE(r.ok()) << r.reason;
+  const Eigen::Matrix3d dr =
+      truth.topLeftCorner<3, 3>().transpose() * r.target_from_source.topLeftCorner<3, 3>();
+  EXPECT_LT(RotationAngleDeg(dr), 0.15);
+  EXPECT_LT((truth.topRightCorner<3, 1>() - r.target_from_source.topRightCorner<3, 1>()).norm(),
+            0.3e-3);
+}
+
+TEST(FeatureRegistration, FailuresAreReportedNotGuessed) {
+  const io::PointCloud bun0 = io::ReadPointCloud(kPclDir + "bun0.pcd");
+  CloudRegistrationOptions options;
+  // Empty cloud.
+  CloudRegistrationResult r = RegisterClouds(io::PointCloud{}, bun0, options);
+  EXPECT_EQ(r.status, "failed");
+  EXPECT_NE(r.reason.find("empty"), std::string::npos) << r.reason;
+  // NaN point.
+  io::PointCloud nan_cloud = bun0;
+  nan_cloud.points[5].y() = std::nan("");
+  r = RegisterClouds(nan_cloud, bun0, options);
+  EXPECT_EQ(r.status, "failed");
+  EXPECT_NE(r.reason.find("not finite"), std::string::npos) << r.reason;
+  // Too sparse for the (given) radii.
+  CloudRegistrationOptions tiny = options;
+  tiny.normal_radius_m = 1e-4;
+  tiny.support_radius_m = 2e-4;
+  r = RegisterClouds(bun0, bun0, tiny);
+  EXPECT_EQ(r.status, "failed");
+  EXPECT_NE(r.reason.find("sparse"), std::string::npos) << r.reason;
+  // No overlap: a random blob registered to the bunny.
+  std::mt19937 rng(1);
+  std::normal_distribution<double> g(0.0, 0.05);
+  io::PointCloud blob;
+  for (int i = 0; i < 400; ++i) blob.points.emplace_back(5 + g(rng), g(rng), g(rng));
+  r = RegisterClouds(blob, bun0, options);
+  EXPECT_EQ(r.status, "failed") << r.BriefReport();
+  EXPECT_FALSE(r.reason.empty());
+  // A plane against a plane: any in-plane shift fits; never an "ok" with a wrong transform.
+  io::PointCloud plane, plane2;
+  for (int i = 0; i < 40; ++i) {
+    for (int j = 0; j < 40; ++j) {
+      plane.points.emplace_back(0.01 * i, 0.01 * j, 0.0);
+      plane2.points.emplace_back(0.01 * i + 0.123, 0.01 * j - 0.05, 0.0);
+    }
+  }
+  r = RegisterClouds(plane, plane2, options);
+  if (r.ok()) {
+    // If it claims success the shift must be right.
+    Eigen::Matrix4d truth = Eigen::Matrix4d::Identity();
+    truth.topRightCorner<3, 1>() = Eigen::Vector3d(0.123, -0.05, 0);
+    EXPECT_LT(TransformRmsOnCloud(plane, r.target_from_source, truth), 0.02) << r.BriefReport();
+  }
+  // Bad options are an InputError.
+  CloudRegistrationOptions bad = options;
+  bad.min_fitness = 0;
+  EXPECT_THROW(RegisterClouds(bun0, bun0, bad), InputError);
+}
+
+TEST(FeatureRegistration, ErrorMapColoursByDistance) {
+  io::PointCloud source, target;
+  source.points = {{0, 0, 0}, {0, 0, 1}};
+  target.points = {{0, 0, 0}};
+  const io::PointCloud map = MakeErrorMap(source, target, Eigen::Matrix4d::Identity(), 1.0);
+  ASSERT_EQ(map.size(), 2u);
+  EXPECT_GT(map.colors[0][2], 100);  // blue at 0 ("jet")
+  EXPECT_EQ(map.colors[0][0], 0);
+  EXPECT_GT(map.colors[1][0], 100);  // red at max
+  EXPECT_EQ(map.colors[1][2], 0);
+  EXPECT_FLOAT_EQ(map.intensity[1], 1.0f);
+}
+
+}  // namespace
+}  // namespace mmba::registration
