@@ -527,6 +527,15 @@ SurveyAdjustment AdjustNetwork(SurveyNetwork* net, const SurveyAdjustOptions& op
   } catch (const stats::DegenerateNetworkError& e) {
     throw InputError::Message(net->source, e.what());
   }
+  for (const SurveyPoint& p : net->points) {
+    const bool xy_missing = p.xy_free() && !result.statistics.IsFree(p.coords.data());
+    const bool z_missing = p.z_free() && !result.statistics.IsFree(p.coords.data() + 2);
+    if (xy_missing || z_missing) {
+      result.removed.push_back(Where(*net, p.line) + ": point " + p.id +
+                               ": no observation determines its " +
+                               (xy_missing ? "x, y" : "z") + " (left at the given values)");
+    }
+  }
   for (const stats::RowStatistic& row : result.statistics.rows) {
     const BlockSpec& spec = groups[row.group]->added_specs()[row.block];
     result.rows.push_back({spec.cluster, spec.observations[row.row]});
