@@ -94,8 +94,11 @@ int main(int argc, char** argv) {
   }
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
-  std::cout << "status " << adj.status << ", iterations " << adj.iterations << ", Ceres solve "
-            << adj.solve_seconds << " s\n"
+  std::cout << "status " << adj.status << ", iterations " << adj.iterations << "\n"
+            << "stages: prepare (approximations, robust pre-adjustment, datum check) "
+            << adj.prepare_seconds << " s, Ceres solve " << adj.solve_seconds
+            << " s, statistics (full covariance, redundancy, tests) " << adj.statistics_seconds
+            << " s\n"
             << "unknowns " << adj.statistics.num_unknowns << ", dof "
             << adj.statistics.degrees_of_freedom << ", sigma0 ratio "
             << adj.statistics.sigma0_ratio << "\n"

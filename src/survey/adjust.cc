@@ -1,6 +1,7 @@
 #include "mmba/survey/adjust.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <set>
 #include <sstream>
@@ -370,6 +371,10 @@ SurveyAdjustment AdjustNetwork(SurveyNetwork* net, const SurveyAdjustOptions& op
   std::string error;
   if (!options.Check(&error)) throw InputError::Message("survey options", error);
   SurveyAdjustment result;
+  const auto start = std::chrono::steady_clock::now();
+  auto seconds_since = [](std::chrono::steady_clock::time_point t) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+  };
   result.removed = ReviseObservations(net, /*test_absolute_terms=*/false);
   ComputeApproximations(net);
   // Reference of the minimum-norm datum: the approximate (given) constrained coordinates.
@@ -498,6 +503,7 @@ SurveyAdjustment AdjustNetwork(SurveyNetwork* net, const SurveyAdjustOptions& op
   for (auto& p : net->points) num_parameters += p.xy_free() * 2 + p.z_free();
   solver.linear_solver_type =
       num_parameters < 600 ? ceres::DENSE_QR : ceres::SPARSE_NORMAL_CHOLESKY;
+  result.prepare_seconds = seconds_since(start);
   ceres::Solver::Summary summary;
   ceres::Solve(solver, &problem, &summary);
   result.iterations = static_cast<int>(summary.iterations.size());
@@ -521,6 +527,7 @@ SurveyAdjustment AdjustNetwork(SurveyNetwork* net, const SurveyAdjustOptions& op
   if (!result.converged) return result;
   if (defect > 0) stats::ApplyMinimumNorm(problem, stats_options, reference);
 
+  const auto statistics_start = std::chrono::steady_clock::now();
   std::vector<const FactorGroup*> const_groups(groups.begin(), groups.end());
   try {
     result.statistics = stats::ComputeStatistics(problem, const_groups, stats_options);
@@ -540,6 +547,7 @@ SurveyAdjustment AdjustNetwork(SurveyNetwork* net, const SurveyAdjustOptions& op
     const BlockSpec& spec = groups[row.group]->added_specs()[row.block];
     result.rows.push_back({spec.cluster, spec.observations[row.row]});
   }
+  result.statistics_seconds = seconds_since(statistics_start);
   // Approximate values of constrained coordinates stay (Gama does not update them unless
   // update-constrained-coordinates="yes"; the minimum norm already used them).
   return result;

@@ -23,7 +23,9 @@ struct SurveyAdjustment {
   std::string status;  ///< "converged", "no_convergence", "failed"
   std::string reason;
   int iterations = 0;
-  double solve_seconds = 0.0;
+  double solve_seconds = 0.0;       ///< Ceres' main solve
+  double prepare_seconds = 0.0;     ///< approximations, robust pre-adjustment, datum check
+  double statistics_seconds = 0.0;  ///< covariance, redundancy, tests
   std::string datum;   ///< how the datum was fixed, for the report
   stats::NetworkStatistics statistics;
   struct RowSource {
