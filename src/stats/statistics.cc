@@ -311,7 +311,38 @@ NetworkStatistics ComputeStatistics(ceres::Problem& problem,
   if (!options.Check(&error)) throw std::invalid_argument(error);
   const std::vector<ceres::ResidualBlockId> ids = AllBlocks(groups);
   const Linearization lin = Linearize(problem, &ids);
-  Inverse inv = Analyze(lin, options, /*want_inverse=*/true);
+  Inverse inv = Analyze(lin, options, /*want_inverse=*/!options.use_ceres_covariance);
+  if (options.use_ceres_covariance) {
+    if (inv.defect > 0) {
+      throw std::invalid_argument(
+          "use_ceres_covariance: the network has a datum defect (minimum-norm datum); use the "
+          "explicit path");
+    }
+    ceres::Covariance::Options covariance_options;
+    covariance_options.algorithm_type = ceres::SPARSE_QR;  // SuiteSparse QR
+    covariance_options.num_threads = 1;
+    ceres::Covariance covariance(covariance_options);
+    std::vector<std::pair<const double*, const double*>> pairs;
+    for (size_t a = 0; a < lin.blocks.size(); ++a) {
+      for (size_t b = a; b < lin.blocks.size(); ++b) pairs.emplace_back(lin.blocks[a], lin.blocks[b]);
+    }
+    if (!covariance.Compute(pairs, &problem)) {
+      throw DegenerateNetworkError(
+          "ceres::Covariance failed: the Jacobian is rank deficient (a datum defect or a "
+          "parameter no observation determines)");
+    }
+    inv.cofactor = Eigen::MatrixXd::Zero(lin.n, lin.n);
+    for (size_t a = 0; a < lin.blocks.size(); ++a) {
+      for (size_t b = a; b < lin.blocks.size(); ++b) {
+        const int na = lin.sizes[a], nb = lin.sizes[b];
+        Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> block(na, nb);
+        covariance.GetCovarianceBlockInTangentSpace(lin.blocks[a], lin.blocks[b], block.data());
+        const int ra = lin.column.at(lin.blocks[a]), rb = lin.column.at(lin.blocks[b]);
+        inv.cofactor.block(ra, rb, na, nb) = block;
+        inv.cofactor.block(rb, ra, nb, na) = block.transpose();
+      }
+    }
+  }
 
   NetworkStatistics st;
   st.confidence = options.confidence;

@@ -14,6 +14,7 @@
 #include "mmba/io/gama_local.h"
 #include "mmba/io/text_reader.h"
 #include "mmba/survey/adjust.h"
+#include "mmba/survey/survey_group.h"
 
 namespace mmba::survey {
 namespace {
@@ -222,6 +223,37 @@ TEST(GamaLocal, Mikhail74AgainstTextbook) {
   const std::map<std::string, double> book = {
       {"B", 825.220}, {"C", 835.535}, {"D", 809.535}, {"E", 830.846}};
   for (const auto& [id, z] : book) EXPECT_NEAR(net.Find(id)->coords.z(), z, 1.5e-3) << id;
+}
+
+}  // namespace
+}  // namespace mmba::survey
+
+namespace mmba::survey {
+namespace {
+
+// The explicit covariance (normal-matrix inverse) equals ceres::Covariance (SuiteSparse QR).
+TEST(GamaLocal, CeresCovarianceAgreesWithExplicitPath) {
+  SurveyNetwork net = io::ReadGamaLocal(DataPath("gama-local.gkf"));
+  SurveyAdjustment adj = AdjustNetwork(&net, SurveyAdjustOptions());
+  ASSERT_TRUE(adj.converged);
+  // Rebuild the problem at the solution and compare both paths.
+  ceres::Problem problem;
+  std::vector<std::unique_ptr<SurveyGroup>> groups = MakeSurveyGroups(&net);
+  Scene scene;
+  std::vector<const FactorGroup*> pointers;
+  for (auto& g : groups) {
+    g->AddResiduals(scene, problem);
+    pointers.push_back(g.get());
+  }
+  SetSurveyParameterStates(&net, problem);
+  stats::StatisticsOptions options;
+  const stats::NetworkStatistics explicit_path = stats::ComputeStatistics(problem, pointers, options);
+  options.use_ceres_covariance = true;
+  const stats::NetworkStatistics ceres_path = stats::ComputeStatistics(problem, pointers, options);
+  ASSERT_EQ(explicit_path.cofactor.rows(), ceres_path.cofactor.rows());
+  const double scale = explicit_path.cofactor.cwiseAbs().maxCoeff();
+  EXPECT_LT((explicit_path.cofactor - ceres_path.cofactor).cwiseAbs().maxCoeff(), 1e-8 * scale);
+  EXPECT_EQ(explicit_path.max_row, ceres_path.max_row);
 }
 
 }  // namespace

@@ -45,6 +45,10 @@ struct StatisticsOptions {
   std::vector<MinimumNormCoordinate> minimum_norm;
   double rank_tolerance = 1e-9;      ///< relative eigenvalue below which a direction is null
   int dense_limit = 2500;            ///< unknowns up to which the dense eigen path is used
+  /// Covariance from ceres::Covariance (SPARSE_QR, SuiteSparse) over all pairs of free
+  /// blocks instead of the explicit normal-matrix inverse; only for networks without datum
+  /// defect (the minimum-norm datum needs the explicit path). Slower for large networks.
+  bool use_ceres_covariance = false;
   /// Names a parameter scalar in error messages ("y of point 12"); optional.
   std::function<std::string(const double* block, int index)> describe;
 
