@@ -150,7 +150,7 @@ int ParseObjIndex(const std::string& token, int num_vertices, const std::string&
   char* end = nullptr;
   const long value = std::strtol(head.c_str(), &end, 10);
   if (head.empty() || *end != '\0' || value == 0) {
-    throw InputError(path, line, "face vertex", "'" + token + "'",
+    throw InputError(path, line, "face vertex", token,
                      "a non-zero integer vertex index (v, v/vt, v//vn or v/vt/vn)");
   }
   const long index = value > 0 ? value - 1 : num_vertices + value;
@@ -180,13 +180,13 @@ TriangleMesh LoadObj(const std::string& path, const Material& default_material) 
       Eigen::Vector3d v;
       std::string s[3];
       if (!(tokens >> s[0] >> s[1] >> s[2])) {
-        throw InputError(path, line, "v", "'" + raw + "'", "three coordinates 'v x y z'");
+        throw InputError(path, line, "v", raw, "three coordinates 'v x y z'");
       }
       for (int k = 0; k < 3; ++k) {
         char* end = nullptr;
         v[k] = std::strtod(s[k].c_str(), &end);
         if (*end != '\0' || !std::isfinite(v[k])) {
-          throw InputError(path, line, "v", "'" + s[k] + "'", "a finite number");
+          throw InputError(path, line, "v", s[k], "a finite number");
         }
       }
       mesh.vertices.push_back(v);
@@ -261,7 +261,7 @@ double ReadPlyBinary(const std::string& type, const char* p) {
 TriangleMesh LoadPly(const std::string& path, const Material& default_material) {
   const std::string data = io::ReadWholeFile(path);
   if (data.rfind("ply", 0) != 0) {
-    throw InputError(path, 1, "magic", "'" + data.substr(0, 3) + "'", "'ply'");
+    throw InputError(path, 1, "magic", data.substr(0, 3), "'ply'");
   }
   const size_t header_end = data.find("end_header");
   if (header_end == std::string::npos) {
@@ -279,7 +279,7 @@ TriangleMesh LoadPly(const std::string& path, const Material& default_material) 
     if (keyword == "format") {
       tokens >> format;
       if (format != "ascii" && format != "binary_little_endian") {
-        throw InputError(path, line, "format", "'" + format + "'",
+        throw InputError(path, line, "format", format,
                          "ascii or binary_little_endian");
       }
     } else if (keyword == "element") {
@@ -291,7 +291,7 @@ TriangleMesh LoadPly(const std::string& path, const Material& default_material) 
       elements.push_back(element);
     } else if (keyword == "property") {
       if (elements.empty()) {
-        throw InputError(path, line, "property", "'" + raw + "'", "a property after an element");
+        throw InputError(path, line, "property", raw, "a property after an element");
       }
       PlyProperty property;
       std::string type;
@@ -304,7 +304,7 @@ TriangleMesh LoadPly(const std::string& path, const Material& default_material) 
       }
       if (PlyTypeSize(property.type) == 0 ||
           (!property.count_type.empty() && PlyTypeSize(property.count_type) == 0)) {
-        throw InputError(path, line, "property type", "'" + raw + "'", "a PLY scalar type");
+        throw InputError(path, line, "property type", raw, "a PLY scalar type");
       }
       elements.back().properties.push_back(property);
     }
@@ -330,7 +330,7 @@ TriangleMesh LoadPly(const std::string& path, const Material& default_material) 
             const double value = std::strtod(token.c_str(), &end);
             if (*end != '\0') {
               throw InputError(path, 0, element.name + " " + std::to_string(i),
-                               "'" + token + "'", "a number for '" + property.name + "'");
+                               token, "a number for '" + property.name + "'");
             }
             return value;
           }
@@ -385,7 +385,7 @@ TriangleMesh LoadMesh(const std::string& path, const Material& default_material)
   } else if (lower.size() >= 4 && lower.substr(lower.size() - 4) == ".ply") {
     mesh = LoadPly(path, default_material);
   } else {
-    throw InputError(path, 0, "mesh file extension", "'" + path + "'", ".obj or .ply");
+    throw InputError(path, 0, "mesh file extension", path, ".obj or .ply");
   }
   mesh.Validate(path);
   return mesh;

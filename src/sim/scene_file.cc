@@ -29,7 +29,7 @@ class Reader {
       if (it == handlers.end()) {
         std::string known;
         for (const auto& [name, fn] : handlers) known += (known.empty() ? "" : ", ") + name;
-        Fail(item.first, field, "one of " + known, "unknown key '" + key + "'");
+        Fail(item.first, field, "one of " + known, key + " (unknown key)");
       }
       it->second(item.second, field);
     }
@@ -39,7 +39,7 @@ class Reader {
       if (!node.IsScalar()) throw YAML::Exception(node.Mark(), "");
       return node.as<double>();
     } catch (const YAML::Exception&) {
-      Fail(node, field, "a number", "'" + Text(node) + "'");
+      Fail(node, field, "a number", Text(node));
     }
     return 0;
   }
@@ -48,7 +48,7 @@ class Reader {
       if (!node.IsScalar()) throw YAML::Exception(node.Mark(), "");
       return node.as<int>();
     } catch (const YAML::Exception&) {
-      Fail(node, field, "an integer", "'" + Text(node) + "'");
+      Fail(node, field, "an integer", Text(node));
     }
     return 0;
   }
@@ -87,13 +87,13 @@ void ReadSceneFile(const std::string& path, SimulateOptions* o) {
   // The preset sets sizes first; the other keys then override it, whatever their order.
   if (root.IsMap() && root["preset"]) {
     const std::string preset = r.String(root["preset"], "preset");
-    if (!o->ApplyPreset(preset)) r.Fail(root["preset"], "preset", "small or full", "'" + preset + "'");
+    if (!o->ApplyPreset(preset)) r.Fail(root["preset"], "preset", "small or full", preset);
   }
   r.Map(root, "", {
       {"scene", [&](Node n, F f) {
          o->scene = r.String(n, f);
          if (o->scene != "gate" && o->scene != "cathedral") {
-           r.Fail(n, f, "gate or cathedral (or give 'mesh')", "'" + o->scene + "'");
+           r.Fail(n, f, "gate or cathedral (or give 'mesh')", o->scene);
          }
        }},
       {"mesh", [&](Node n, F f) {

@@ -195,9 +195,8 @@ bool SimulateOptions::ApplyPreset(const std::string& name) {
   spheres.width = 6284;  // Wang et al. 2012 used Ladybug panoramas of this order
   rig.width = 1232;      // Ladybug: 1616×1232 (portrait here: 1232×1540)
   rig.focal_px = 420.0;
-  rig.frames = 10;
+  rig.frames = 6;
   rig.panorama_width = 6284;
-  render.samples_per_axis = 2;
   static_scan.azimuth_step_deg = 0.08;
   static_scan.elevation_step_deg = 0.08;  // ≈ 4500×1800 = 8.2 M rays per station
   mobile_scan.azimuth_step_deg = 0.08;    // HDL-64E at 10 Hz
