@@ -40,6 +40,7 @@ int main(int argc, char** argv) {
     else if (key == "min_keypoints") options.min_keypoints = static_cast<int>(v);
     else if (key == "sac_ia_iterations") options.sac_ia_iterations = static_cast<int>(v);
     else if (key == "keypoint_threshold") options.keypoint_threshold = v;
+    else if (key == "keypoint_grid_spacing") options.keypoint_grid_spacing = v;
     else if (key == "icp_distance_spacing") options.icp_distance_spacing = v;
     else if (key == "icp_iterations") options.icp_iterations = static_cast<int>(v);
     else if (key == "normal_radius_spacing") options.normal_radius_spacing = v;
@@ -59,6 +60,12 @@ int main(int argc, char** argv) {
   getrusage(RUSAGE_SELF, &usage);
   std::printf("points %zu / %zu, read %.3f s, %s\n", source.size(), target.size(), read_s,
               r.BriefReport().c_str());
+  std::printf("spacing %.4g m, R_n %.4g m, R_s %.4g m\n", r.point_spacing_m, r.normal_radius_m,
+              r.support_radius_m);
+  for (const auto& h : r.hypotheses) {
+    std::printf("  hypothesis %-32s fitness %.3f normals %.3f score %.3f\n", h.origin.c_str(),
+                h.fitness, h.normal_agreement, h.score);
+  }
   for (const auto& s : r.runtime) std::printf("  %-22s %8.3f s\n", s.stage.c_str(), s.seconds);
   std::printf("wall %.3f s, peak RSS %.1f MiB\n", wall.ElapsedSeconds(),
               usage.ru_maxrss / 1024.0);

@@ -81,9 +81,9 @@ TEST(FeatureRegistration, GravityAlignedYawOnly) {
   const CloudRegistrationResult r = RegisterClouds(bun0, bun4, options);
   ASSERT_TRUE(r.ok()) << r.reason;
   EXPECT_LT((r.target_from_source - Bun0ToBun4()).cwiseAbs().maxCoeff(), 0.1);
-  // The rotation is about y only.
+  // Hypotheses turn about y only; the final free ICP may tilt by a little.
   const Eigen::Vector3d y = r.target_from_source.topLeftCorner<3, 3>() * Eigen::Vector3d::UnitY();
-  EXPECT_NEAR(y.y(), 1.0, 1e-9);
+  EXPECT_GT(y.y(), std::cos(2.0 * M_PI / 180.0));
 }
 
 TEST(FeatureRegistration, StanfordScansAgainstBunConf) {
@@ -99,7 +99,9 @@ TEST(FeatureRegistration, StanfordScansAgainstBunConf) {
   Eigen::Matrix4d truth = Eigen::Matrix4d::Identity();
   truth.topLeftCorner<3, 3>() = q.normalized().toRotationMatrix().transpose();
   truth.topRightCorner<3, 1>() = Eigen::Vector3d(-0.0520211, -0.000383981, -0.0109223);
-  const CloudRegistrationResult r = RegisterClouds(bun045, bun000, CloudRegistrationOptions{});
+  CloudRegistrationOptions options;
+  options.descriptor = Descriptor::kFpfh;  // the default "auto" also runs SHOT (slower test)
+  const CloudRegistrationResult r = RegisterClouds(bun045, bun000, options);
   ASSERT_TRUE(r.ok()) << r.reason;
   const Eigen::Matrix3d dr =
       truth.topLeftCorner<3, 3>().transpose() * r.target_from_source.topLeftCorner<3, 3>();

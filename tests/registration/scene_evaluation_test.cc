@@ -88,13 +88,24 @@ TEST_F(SceneEvaluationTest, BothExperimentsAndTables) {
   ASSERT_EQ(eval.modalities, (std::vector<std::string>{"moved", "scan0"}));
   // to-lidar: 2 modalities × 2 methods; cross-modal: scan0_part → {moved, lidar} × 2.
   ASSERT_EQ(eval.rows.size(), 8u);
+  int ok_cross = 0;
   for (const EvalRow& r : eval.rows) {
     if (r.method != "mmba") continue;
     SCOPED_TRACE(r.source + " -> " + r.target);
-    EXPECT_EQ(r.status, "ok") << r.reason;
-    EXPECT_TRUE(r.success);
-    EXPECT_LT(r.rms_m, 0.01);
+    if (r.experiment == "to-lidar") {
+      EXPECT_EQ(r.status, "ok") << r.reason;
+    }
+    // Never a wrong transform reported as ok (the half bunny against the re-framed bunny may
+    // be reported ambiguous instead).
+    if (r.status == "ok") {
+      EXPECT_TRUE(r.success);
+      EXPECT_LT(r.rms_m, 0.01);
+      ok_cross += r.experiment == "cross-modal";
+    } else {
+      EXPECT_FALSE(r.reason.empty());
+    }
   }
+  EXPECT_GE(ok_cross, 1);
   const fs::path out = dir_ / "eval";
   WriteSceneEvaluation(eval, out.string());
   std::ifstream csv(out / "results.csv");

@@ -191,10 +191,11 @@ double MedianSpacing(const std::vector<Eigen::Vector3d>& points, size_t max_samp
 double VoxelForBudget(const io::PointCloud& cloud, double voxel, size_t max_points) {
   if (cloud.size() <= max_points && voxel <= 0) return 0.0;
   if (voxel <= 0) voxel = MedianSpacing(cloud.points, 5000);
-  for (int k = 0; k < 40; ++k) {
-    const Level l = VoxelDownsample(cloud.points, {}, voxel);
-    if (l.points.size() <= max_points) return voxel;
-    voxel *= 1.25;
+  // Surfaces: the count falls about as 1/voxel²; a few secant steps, then a safety margin.
+  for (int k = 0; k < 8; ++k) {
+    const size_t count = VoxelDownsample(cloud.points, {}, voxel).points.size();
+    if (count <= max_points) return voxel;
+    voxel *= std::max(1.05, std::sqrt(static_cast<double>(count) / max_points) * 1.02);
   }
   return voxel;
 }
@@ -787,24 +788,53 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
                    [](const Hypothesis& a, const Hypothesis& b) { return a.score > b.score; });
   end_stage("icp+verify coarse");
 
-  // --- Fine ICP on the winner.
-  Hypothesis best = hypotheses.front();
+  // --- Fine ICP and verification of the best distinct coarse hypotheses (coarse-to-fine:
+  // a loose coarse inlier distance cannot tell a shifted repetitive structure from the
+  // truth; the fine level can).
   PointIndex tgt_fine_index(tgt_fine.points);
-  const std::vector<size_t> fine_idx = StrideSample(src_fine.points.size(), 50000);
+  const std::vector<size_t> fine_idx = StrideSample(src_fine.points.size(), 20000);
   const std::vector<Eigen::Vector3d> fine_src = Pick(src_fine.points, fine_idx);
   const std::vector<Eigen::Vector3d> fine_src_n = Pick(src_fine.normals, fine_idx);
   const double fine_tau = options.inlier_distance_spacing * fine_spacing;
-  if (options.icp) {
-    best.transform = PointToPlaneIcp(fine_src, tgt_fine.points, tgt_fine.normals,
-                                     tgt_fine_index, best.transform,
-                                     options.icp_distance_spacing * spacing,
-                                     options.icp_distance_spacing * fine_spacing,
-                                     options.icp_iterations, up);
+  std::vector<Hypothesis> finalists;
+  for (const Hypothesis& h : hypotheses) {
+    if (finalists.size() >= 3) break;
+    bool duplicate = false;
+    for (const Hypothesis& f : finalists) {
+      duplicate = duplicate || SameTransform(f.transform, h.transform, centre, 2.0, 2.0 * tau);
+    }
+    if (duplicate) continue;
+    Hypothesis f = h;
+    if (options.icp) {
+      f.transform = PointToPlaneIcp(fine_src, tgt_fine.points, tgt_fine.normals,
+                                    tgt_fine_index, f.transform,
+                                    options.icp_distance_spacing * spacing,
+                                    options.icp_distance_spacing * fine_spacing,
+                                    options.icp_iterations, nullptr);  // free: levelled ≠ exact
+    }
+    Verify(fine_src, fine_src_n, tgt_fine.normals, tgt_fine_index, f.transform, fine_tau, &f);
+    finalists.push_back(f);
+    if (options.paper_only) break;
   }
-  Hypothesis fine_check = best;
-  Verify(fine_src, fine_src_n, tgt_fine.normals, tgt_fine_index, best.transform, fine_tau,
-         &fine_check);
-  end_stage("icp fine");
+  std::stable_sort(finalists.begin(), finalists.end(),
+                   [](const Hypothesis& a, const Hypothesis& b) { return a.score > b.score; });
+  // Finalists that converged to the same transform are one hypothesis.
+  for (size_t i = 1; i < finalists.size();) {
+    bool same = false;
+    for (size_t j = 0; j < i; ++j) {
+      // Noisy clouds leave ICP in slightly different spots of one basin.
+      same = same || SameTransform(finalists[i].transform, finalists[j].transform, centre, 10.0,
+                                   10.0 * fine_tau);
+    }
+    if (same) {
+      finalists.erase(finalists.begin() + static_cast<long>(i));
+    } else {
+      ++i;
+    }
+  }
+  Hypothesis best = finalists.front();
+  const Hypothesis fine_check = best;
+  end_stage("icp+verify fine");
 
   // --- Verdict.
   result.descriptor = best.descriptor;
@@ -816,9 +846,9 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
       std::llround(fine_check.fitness * static_cast<double>(src_fine.points.size())));
   double runner_up = 0.0;
   const RegistrationHypothesis* runner = nullptr;
-  for (const Hypothesis& h : hypotheses) {
+  for (const Hypothesis& h : finalists) {
     RegistrationHypothesis r;
-    r.origin = h.origin;
+    r.origin = h.origin + " (fine)";
     r.target_from_source = h.transform;
     r.fitness = h.fitness;
     r.inlier_rmse = h.rmse;
@@ -826,15 +856,21 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     r.score = h.score;
     result.hypotheses.push_back(r);
   }
-  for (size_t i = 1; i < hypotheses.size(); ++i) {
-    if (!SameTransform(hypotheses[i].transform, hypotheses[0].transform, centre, 2.0,
-                       2.0 * tau)) {
-      runner_up = hypotheses[i].score;
-      runner = &result.hypotheses[i];
-      break;
-    }
+  for (const Hypothesis& h : hypotheses) {
+    RegistrationHypothesis r;
+    r.origin = h.origin + " (coarse)";
+    r.target_from_source = h.transform;
+    r.fitness = h.fitness;
+    r.inlier_rmse = h.rmse;
+    r.normal_agreement = h.normal_agreement;
+    r.score = h.score;
+    result.hypotheses.push_back(r);
   }
-  const double best_score = hypotheses.front().score;
+  if (finalists.size() > 1) {
+    runner_up = finalists[1].score;
+    runner = &result.hypotheses[1];
+  }
+  const double best_score = best.score;
   result.confidence = best_score > 0 ? std::clamp(1.0 - runner_up / best_score, 0.0, 1.0) : 0.0;
   std::ostringstream why;
   why << std::setprecision(3);

@@ -44,9 +44,9 @@ struct CloudRegistrationOptions {
   double normal_radius_spacing = 4.0;    ///< R_n in spacings when normal_radius_m = 0 (> 0)
   double support_radius_spacing = 12.0;  ///< R_s in spacings when support_radius_m = 0 (> 0)
   double keypoint_threshold = 0.1;  ///< F_t, smallest eigenvalue of the normal covariance (0..1/3)
-  double keypoint_grid_spacing = 1.0;  ///< keypoint grid cell in units of R_n (> 0): one per cell
+  double keypoint_grid_spacing = 0.5;  ///< keypoint grid cell in units of R_n (> 0): one per cell
   int min_keypoints = 150;  ///< below this F_t is lowered, then uniform grid points are used (>= 3)
-  int max_points_features = 15000;  ///< coarse level: voxel size grows until a cloud fits (>= 1000)
+  int max_points_features = 40000;  ///< coarse level: voxel size grows until a cloud fits (>= 1000)
   int max_points_icp = 200000;      ///< fine level for ICP (>= 1000)
   bool use_existing_normals = true;  ///< use normals stored in the clouds when present
 
@@ -60,7 +60,9 @@ struct CloudRegistrationOptions {
   int max_correspondences = 600;    ///< correspondences fed to the clique search (>= 3)
 
   // Gravity.
-  bool gravity_aligned = false;     ///< both clouds levelled: rotation only about `up`
+  /// Both clouds levelled (to a few degrees): hypotheses rotate about `up` only; the final
+  /// fine ICP is free (6 DoF) to absorb the residual tilt.
+  bool gravity_aligned = false;
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  ///< unit "up" in both frames
 
   // ICP (point-to-plane, Chen & Medioni 1991).
@@ -72,7 +74,7 @@ struct CloudRegistrationOptions {
   double inlier_distance_spacing = 2.0;  ///< inlier: distance to target < this × s (> 0)
   double min_fitness = 0.2;       ///< fraction of source points that must be inliers (0..1]
   double min_normal_agreement = 0.5;  ///< fraction of inliers with |n_s·n_t| > cos 30° (0..1]
-  double max_ambiguity = 0.97;    ///< runner-up/best score above this = ambiguous = failed
+  double max_ambiguity = 0.8;     ///< runner-up/best score above this = ambiguous = failed
   uint64_t seed = 42;             ///< random seed (results are deterministic)
 
   /// False with a message naming the field, the value and the constraint when invalid.
