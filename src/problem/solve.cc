@@ -60,6 +60,20 @@ SolveResult Solve(ProblemBuilder& builder, const SolveOptions& options) {
 
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = options.linear_solver;
+  if (options.auto_linear_solver) {
+    size_t num_images = 0;
+    for (const auto& [id, image] : builder.scene().images()) {
+      num_images += problem.HasParameterBlock(image.cam_from_world.translation.data()) ? 1 : 0;
+    }
+    if (num_images < 50) {
+      solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+    } else if (num_images < 1000) {
+      solver_options.linear_solver_type = ceres::SPARSE_SCHUR;
+    } else {
+      solver_options.linear_solver_type = ceres::ITERATIVE_SCHUR;
+      solver_options.preconditioner_type = ceres::SCHUR_JACOBI;
+    }
+  }
   solver_options.linear_solver_ordering = builder.ordering();
   solver_options.minimizer_type = ceres::TRUST_REGION;
   solver_options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
@@ -74,6 +88,7 @@ SolveResult Solve(ProblemBuilder& builder, const SolveOptions& options) {
   if (options.log_progress) solver_options.callbacks.push_back(&callback);
 
   ceres::Solve(solver_options, &problem, &result.summary);
+  spdlog::debug("{}", result.summary.FullReport());
   builder.Finish();
 
   const ceres::Solver::Summary& summary = result.summary;

@@ -17,6 +17,10 @@ struct SolveOptions {
   double function_tolerance = 1e-6;          ///< relative cost change to stop, > 0
   double gradient_tolerance = 1e-10;         ///< > 0
   double parameter_tolerance = 1e-8;         ///< > 0
+  /// Linear solver; with `auto_linear_solver` it is chosen from the number of images as
+  /// COLMAP's bundle adjuster does: DENSE_SCHUR below 50 images, SPARSE_SCHUR below 1000,
+  /// ITERATIVE_SCHUR (SCHUR_JACOBI) above.
+  bool auto_linear_solver = true;
   ceres::LinearSolverType linear_solver = ceres::SPARSE_SCHUR;
   bool log_progress = true;                  ///< one log line per iteration (info level)
 
