@@ -32,6 +32,6 @@ awk 'BEGIN{n=0} /^#/ {next} { n++; if (n % 2 == 1) {
 colmap model_analyzer --path "$work/sparse/0" 2>&1 | tee "$work/analyzer.log" | grep -E "Registered images|Points|Observations|Mean reprojection" || true
 colmap model_aligner --input_path "$work/sparse/0" --output_path "$work/aligned" \
   --ref_images_path "$work/true_centres.txt" --ref_is_gps 0 --alignment_type custom \
-  --alignment_max_error 0.5 > "$work/align.log" 2>&1 || true
+  --robust_alignment 1 --robust_alignment_max_error 0.5 > "$work/align.log" 2>&1 || true
 grep -iE "error|residual|Aligning" "$work/align.log" | tail -5 || true
 printf 'wall time extract+match+map: %.1f s\n' "$(echo "$end - $start" | bc)"
