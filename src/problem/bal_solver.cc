@@ -3,22 +3,11 @@
 #include <cmath>
 #include <memory>
 
+#include "logging_callback.h"
 #include "mmba/core/logging.h"
 #include "mmba/factors/snavely_reprojection_error.h"
 
 namespace mmba {
-namespace {
-
-class BalLoggingCallback : public ceres::IterationCallback {
- public:
-  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
-    spdlog::info("iteration {:3d}: cost {:.6e}, change {:.3e}, {:.2f} s", s.iteration, s.cost,
-                 s.cost_change, s.cumulative_time_in_seconds);
-    return ceres::SOLVER_CONTINUE;
-  }
-};
-
-}  // namespace
 
 bool BalSolveOptions::Check(std::string* error) const {
   if (num_threads < 1) {
@@ -65,7 +54,7 @@ BalSolveResult SolveBal(io::BalProblem* bal, const BalSolveOptions& options) {
     }
     solver_options.linear_solver_ordering = ordering;
   }
-  BalLoggingCallback callback;
+  internal::LoggingCallback callback;
   if (options.log_progress) solver_options.callbacks.push_back(&callback);
 
   BalSolveResult result;

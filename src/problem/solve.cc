@@ -3,21 +3,10 @@
 #include <cmath>
 #include <sstream>
 
+#include "logging_callback.h"
 #include "mmba/core/logging.h"
 
 namespace mmba {
-namespace {
-
-class LoggingCallback : public ceres::IterationCallback {
- public:
-  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
-    spdlog::info("iteration {:3d}: cost {:.6e}, change {:.3e}, |step| {:.2e}, {:.2f} s",
-                 s.iteration, s.cost, s.cost_change, s.step_norm, s.cumulative_time_in_seconds);
-    return ceres::SOLVER_CONTINUE;
-  }
-};
-
-}  // namespace
 
 bool SolveOptions::Check(std::string* error) const {
   if (max_iterations < 0) {
@@ -84,7 +73,7 @@ SolveResult Solve(ProblemBuilder& builder, const SolveOptions& options) {
   solver_options.parameter_tolerance = options.parameter_tolerance;
   solver_options.minimizer_progress_to_stdout = false;
   solver_options.logging_type = ceres::SILENT;
-  LoggingCallback callback;
+  internal::LoggingCallback callback;
   if (options.log_progress) solver_options.callbacks.push_back(&callback);
 
   ceres::Solve(solver_options, &problem, &result.summary);
