@@ -32,7 +32,7 @@ struct RegisterMiArgs {
   std::string metric = "nmi";
   std::string representation = "intensity";
   std::string smoothing = "bspline";
-  std::string region = "whole";
+  std::string region = "overlap";
   std::string view = "image";
   int bins = 64;
   int pyramid_levels = 3;
@@ -41,7 +41,7 @@ struct RegisterMiArgs {
   double simplex = 1.0;
   int max_iterations = 200;
   double point_radius_m = 0.03;
-  int max_point_radius_px = 3;
+  int max_point_radius_px = 2;
   double max_range_m = 200.0;
   std::vector<double> perturb;
   std::string probe;

@@ -219,7 +219,7 @@ bool CheckConfidence(const FrameSetEvaluator& evaluator, const Rigid3d& start,
                      const Vector6d& x, const RegistrationOptions& options, int level,
                      std::string* reason, int* evaluations) {
   const Vector6d bound = BoundVector(options);
-  constexpr int kSide = 8;
+  constexpr int kSide = 5;
   // Judged on MI (bits) so that the relative thresholds mean the same for every metric.
   MetricOptions metric = options.metric;
   metric.kind = MetricKind::kMi;
@@ -246,7 +246,7 @@ bool CheckConfidence(const FrameSetEvaluator& evaluator, const Rigid3d& start,
     // The optimum must hold the maximum within ±2 samples of the centre.
     const int argmax = static_cast<int>(std::max_element(values.begin(), values.end()) -
                                         values.begin());
-    if (std::abs(argmax - kSide) > 2 && peak - center > 0.25 * depth) {
+    if (std::abs(argmax - kSide) > 1 && peak - center > 0.25 * depth) {
       *reason = std::string("higher MI along ") + ParameterName(axis) + " at offset " +
                 Fixed((argmax - kSide) * step, 3) + " from the optimum: multi-peaked or not "
                 "converged";
@@ -254,9 +254,9 @@ bool CheckConfidence(const FrameSetEvaluator& evaluator, const Rigid3d& start,
     }
     // A second local maximum, away from the centre, nearly as high as the peak.
     for (int k = 1; k + 1 < static_cast<int>(values.size()); ++k) {
-      if (std::abs(k - kSide) <= 2) continue;
+      if (std::abs(k - kSide) <= 1) continue;
       if (values[k] >= values[k - 1] && values[k] >= values[k + 1] &&
-          values[k] > peak - 0.1 * depth && std::abs(k - argmax) > 2) {
+          values[k] > peak - 0.1 * depth && std::abs(k - argmax) > 1) {
         *reason = std::string("second peak along ") + ParameterName(axis) + " at offset " +
                   Fixed((k - kSide) * step, 3);
         return false;
@@ -286,7 +286,7 @@ Eigen::Matrix<double, 6, 6> MiHessian(const FrameSetEvaluator& evaluator, const 
   }
   std::mt19937 rng(12345);
   std::uniform_real_distribution<double> uniform(-2.0, 2.0);
-  while (offsets.size() < 90) {
+  while (offsets.size() < 56) {
     Vector6d d;
     for (int i = 0; i < 6; ++i) d[i] = uniform(rng);
     offsets.push_back(d);
@@ -488,7 +488,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   const int check_level = std::min(1, levels - 1);
   bool trusted = true;
   for (int i = 0; i < 6; ++i) {
-    if (std::abs(x[i]) >= 0.98 * bound[i]) {
+    if (std::abs(x[i]) >= 0.9 * bound[i]) {
       trusted = false;
       reason = std::string("optimum on the search bound of ") + ParameterName(i) + " (" +
                Fixed(x[i]) + ")";

@@ -78,7 +78,7 @@ struct RenderOptions {
   /// Footprint of a point: radius = point_radius_m · f / range pixels, clamped to
   /// [0, max_point_radius_px] (0 = one pixel). Larger near the camera, as a real surface.
   double point_radius_m = 0.03;
-  int max_point_radius_px = 3;
+  int max_point_radius_px = 2;
   double min_range_m = 0.5;    ///< points closer than this are ignored
   double max_range_m = 200.0;  ///< and farther
   bool Check(std::string* error) const;

@@ -44,8 +44,8 @@ struct RegistrationOptions {
   double bound_rotation_deg = 3.0;
   int pyramid_levels = 3;            ///< 1 = full resolution only
   bool gradient_refinement = true;   ///< after Nelder–Mead, on the B-spline histogram
-  int gradient_max_iterations = 20;
-  double max_points_per_pixel = 4.0;  ///< per pyramid level (speed; z-buffer keeps nearest)
+  int gradient_max_iterations = 5;
+  double max_points_per_pixel = 1.5;  ///< per pyramid level (speed; z-buffer keeps nearest)
   /// Failure checks.
   double min_covered_fraction = 0.02;  ///< of view pixels covered by LiDAR at the start
   double max_dark_or_saturated = 0.85; ///< fraction of photo pixels ≤5 or ≥250
