@@ -120,11 +120,13 @@ TEST(SphericalReprojectionError, GradientCheck) {
 }
 
 TEST(CreateReprojectionCost, DispatchesEveryModel) {
-  const double params[12] = {500, 510, 320, 240, 0, 0, 0, 0, 0, 0, 0, 0};
+  const double params[12] = {500, 510, 320, 240, 0.5, 0, 0, 0, 0, 0, 0, 0};
   for (CameraModelId id : {CameraModelId::kSimplePinhole, CameraModelId::kPinhole,
                            CameraModelId::kSimpleRadial, CameraModelId::kRadial,
                            CameraModelId::kOpenCV, CameraModelId::kOpenCVFisheye,
-                           CameraModelId::kFullOpenCV, CameraModelId::kEquirectangular}) {
+                           CameraModelId::kFullOpenCV, CameraModelId::kFOV,
+                           CameraModelId::kSimpleRadialFisheye, CameraModelId::kRadialFisheye,
+                           CameraModelId::kThinPrismFisheye, CameraModelId::kEquirectangular}) {
     std::unique_ptr<ceres::CostFunction> cost(
         CreateReprojectionCost(id, Eigen::Vector2d(1, 2), 1.0, params));
     ASSERT_NE(cost, nullptr);

@@ -23,6 +23,11 @@ std::vector<double> TypicalParams(CameraModelId id) {
     case CameraModelId::kOpenCVFisheye: return {300, 305, 320, 240, 0.05, -0.01, 0.002, -0.001};
     case CameraModelId::kFullOpenCV:
       return {500, 510, 320, 240, -0.1, 0.02, 0.001, -0.002, 0.003, 0.01, -0.005, 0.001};
+    case CameraModelId::kFOV: return {500, 510, 320, 240, 0.9};
+    case CameraModelId::kSimpleRadialFisheye: return {300, 320, 240, 0.04};
+    case CameraModelId::kRadialFisheye: return {300, 320, 240, 0.04, -0.01};
+    case CameraModelId::kThinPrismFisheye:
+      return {300, 305, 320, 240, 0.03, -0.01, 0.001, -0.002, 0.002, -0.001, 0.0005, -0.0004};
     case CameraModelId::kEquirectangular: {
       const auto p = EquirectangularModel::DefaultParams(2000, 1000);
       return {p[0], p[1], p[2]};

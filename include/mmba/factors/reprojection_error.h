@@ -158,6 +158,10 @@ inline ceres::CostFunction* CreateReprojectionCost(sensors::CameraModelId model_
       MMBA_CASE(sensors::OpenCVModel)
       MMBA_CASE(sensors::OpenCVFisheyeModel)
       MMBA_CASE(sensors::FullOpenCVModel)
+      MMBA_CASE(sensors::FOVModel)
+      MMBA_CASE(sensors::SimpleRadialFisheyeModel)
+      MMBA_CASE(sensors::RadialFisheyeModel)
+      MMBA_CASE(sensors::ThinPrismFisheyeModel)
 #undef MMBA_CASE
     default:
       return nullptr;

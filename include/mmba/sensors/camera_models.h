@@ -34,6 +34,10 @@ enum class CameraModelId : int {
   kOpenCV = 4,
   kOpenCVFisheye = 5,
   kFullOpenCV = 6,
+  kFOV = 7,
+  kSimpleRadialFisheye = 8,
+  kRadialFisheye = 9,
+  kThinPrismFisheye = 10,
   kEquirectangular = 100,
 };
 
@@ -43,6 +47,8 @@ using ceres::abs;
 using std::abs;
 using std::atan;
 using std::atan2;
+using ceres::tan;
+using std::tan;
 using std::sqrt;
 using ceres::atan;
 using ceres::atan2;
@@ -324,6 +330,141 @@ struct FullOpenCVModel {
   MMBA_PERSPECTIVE_MODEL_METHODS
 };
 
+
+/// FOV (Devernay & Faugeras 2001, as in COLMAP): fx, fy, cx, cy, omega.
+/// Distorted radius r_d = atan(2 r tan(ω/2)) / ω; Taylor forms near ω = 0 and r = 0.
+struct FOVModel {
+  using Self = FOVModel;
+  static constexpr CameraModelId kModelId = CameraModelId::kFOV;
+  static constexpr const char* kName = "FOV";
+  static constexpr int kNumParams = 5;
+  static constexpr int kNumFocalAndPrincipal = 4;
+  static constexpr const char* kParamsInfo = "fx, fy, cx, cy, omega";
+  static constexpr std::array<int, 2> kFocalIdxs{0, 1};
+  static constexpr std::array<int, 2> kPrincipalIdxs{2, 3};
+  template <typename T>
+  static void Intrinsics(const T* p, T* fx, T* fy, T* cx, T* cy) {
+    *fx = p[0]; *fy = p[1]; *cx = p[2]; *cy = p[3];
+  }
+  template <typename T>
+  static void Distortion(const T* extra, const T& u, const T& v, T* du, T* dv) {
+    using internal::atan;
+    using internal::sqrt;
+    using internal::tan;
+    const T& omega = extra[0];
+    const T omega2 = omega * omega;
+    const T radius2 = u * u + v * v;
+    constexpr double kEpsilon = 1e-4;
+    T factor;
+    if (omega2 < T(kEpsilon)) {
+      // second-order Taylor expansion in ω of atan(2 r tan(ω/2)) / (r ω)
+      factor = (omega2 * radius2) / T(3) - omega2 / T(12) + T(1);
+    } else if (radius2 < T(kEpsilon)) {
+      // second-order Taylor expansion in r
+      const T t = tan(omega / T(2));
+      factor = (T(-2) * t * (T(4) * radius2 * t * t - T(3))) / (T(3) * omega);
+    } else {
+      const T radius = sqrt(radius2);
+      factor = atan(radius * T(2) * tan(omega / T(2))) / (radius * omega);
+    }
+    *du = u * factor - u;
+    *dv = v * factor - v;
+  }
+  MMBA_PERSPECTIVE_MODEL_METHODS
+};
+
+/// Equidistant fisheye term θ_d/r of the *_FISHEYE models; 1 near the axis.
+template <typename T, typename Poly>
+T FisheyeScale(const T& u, const T& v, Poly poly) {
+  using internal::atan;
+  using internal::sqrt;
+  const T r2 = u * u + v * v;
+  if (!(r2 > T(std::numeric_limits<double>::epsilon()))) return T(1);
+  const T r = sqrt(r2);
+  const T theta = atan(r);
+  return theta * poly(theta * theta) / r;
+}
+
+/// SIMPLE_RADIAL_FISHEYE: f, cx, cy, k (θ_d = θ(1 + kθ²)).
+struct SimpleRadialFisheyeModel {
+  using Self = SimpleRadialFisheyeModel;
+  static constexpr CameraModelId kModelId = CameraModelId::kSimpleRadialFisheye;
+  static constexpr const char* kName = "SIMPLE_RADIAL_FISHEYE";
+  static constexpr int kNumParams = 4;
+  static constexpr int kNumFocalAndPrincipal = 3;
+  static constexpr const char* kParamsInfo = "f, cx, cy, k";
+  static constexpr std::array<int, 1> kFocalIdxs{0};
+  static constexpr std::array<int, 2> kPrincipalIdxs{1, 2};
+  template <typename T>
+  static void Intrinsics(const T* p, T* fx, T* fy, T* cx, T* cy) {
+    *fx = p[0]; *fy = p[0]; *cx = p[1]; *cy = p[2];
+  }
+  template <typename T>
+  static void Distortion(const T* extra, const T& u, const T& v, T* du, T* dv) {
+    const T scale = FisheyeScale(u, v, [&](const T& t2) { return T(1) + extra[0] * t2; });
+    *du = u * scale - u;
+    *dv = v * scale - v;
+  }
+  MMBA_PERSPECTIVE_MODEL_METHODS
+};
+
+/// RADIAL_FISHEYE: f, cx, cy, k1, k2 (θ_d = θ(1 + k1θ² + k2θ⁴)).
+struct RadialFisheyeModel {
+  using Self = RadialFisheyeModel;
+  static constexpr CameraModelId kModelId = CameraModelId::kRadialFisheye;
+  static constexpr const char* kName = "RADIAL_FISHEYE";
+  static constexpr int kNumParams = 5;
+  static constexpr int kNumFocalAndPrincipal = 3;
+  static constexpr const char* kParamsInfo = "f, cx, cy, k1, k2";
+  static constexpr std::array<int, 1> kFocalIdxs{0};
+  static constexpr std::array<int, 2> kPrincipalIdxs{1, 2};
+  template <typename T>
+  static void Intrinsics(const T* p, T* fx, T* fy, T* cx, T* cy) {
+    *fx = p[0]; *fy = p[0]; *cx = p[1]; *cy = p[2];
+  }
+  template <typename T>
+  static void Distortion(const T* extra, const T& u, const T& v, T* du, T* dv) {
+    const T scale = FisheyeScale(
+        u, v, [&](const T& t2) { return T(1) + extra[0] * t2 + extra[1] * t2 * t2; });
+    *du = u * scale - u;
+    *dv = v * scale - v;
+  }
+  MMBA_PERSPECTIVE_MODEL_METHODS
+};
+
+/// THIN_PRISM_FISHEYE: fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, sx1, sy1. The equidistant
+/// angle (θ u/r, θ v/r) is distorted by radial (k1..k4), tangential (p1, p2) and thin-prism
+/// (sx1, sy1) terms, as in COLMAP.
+struct ThinPrismFisheyeModel {
+  using Self = ThinPrismFisheyeModel;
+  static constexpr CameraModelId kModelId = CameraModelId::kThinPrismFisheye;
+  static constexpr const char* kName = "THIN_PRISM_FISHEYE";
+  static constexpr int kNumParams = 12;
+  static constexpr int kNumFocalAndPrincipal = 4;
+  static constexpr const char* kParamsInfo = "fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, sx1, sy1";
+  static constexpr std::array<int, 2> kFocalIdxs{0, 1};
+  static constexpr std::array<int, 2> kPrincipalIdxs{2, 3};
+  template <typename T>
+  static void Intrinsics(const T* p, T* fx, T* fy, T* cx, T* cy) {
+    *fx = p[0]; *fy = p[1]; *cx = p[2]; *cy = p[3];
+  }
+  template <typename T>
+  static void Distortion(const T* extra, const T& u, const T& v, T* du, T* dv) {
+    const T scale = FisheyeScale(u, v, [](const T&) { return T(1); });
+    const T a = u * scale;
+    const T b = v * scale;
+    const T a2 = a * a;
+    const T ab = a * b;
+    const T b2 = b * b;
+    const T r2 = a2 + b2;
+    const T r4 = r2 * r2;
+    const T radial = extra[0] * r2 + extra[1] * r4 + extra[4] * r4 * r2 + extra[5] * r4 * r4;
+    *du = a + a * radial + T(2) * extra[2] * ab + extra[3] * (r2 + T(2) * a2) + extra[6] * r2 - u;
+    *dv = b + b * radial + T(2) * extra[3] * ab + extra[2] * (r2 + T(2) * b2) + extra[7] * r2 - v;
+  }
+  MMBA_PERSPECTIVE_MODEL_METHODS
+};
+
 #undef MMBA_PERSPECTIVE_MODEL_METHODS
 
 /// EQUIRECTANGULAR (mmba): f, cx, cy — a spherical panorama W×H with H = W/2.
@@ -395,6 +536,10 @@ struct EquirectangularModel {
   FUNC(::mmba::sensors::OpenCVModel)           \
   FUNC(::mmba::sensors::OpenCVFisheyeModel)    \
   FUNC(::mmba::sensors::FullOpenCVModel)       \
+  FUNC(::mmba::sensors::FOVModel)              \
+  FUNC(::mmba::sensors::SimpleRadialFisheyeModel) \
+  FUNC(::mmba::sensors::RadialFisheyeModel)    \
+  FUNC(::mmba::sensors::ThinPrismFisheyeModel) \
   FUNC(::mmba::sensors::EquirectangularModel)
 
 }  // namespace mmba::sensors
