@@ -12,6 +12,7 @@
 #include "mmba/core/atomic_file.h"
 #include "mmba/io/gama_local.h"
 #include "mmba/io/survey_csv.h"
+#include "mmba/geodesy/geodesy.h"
 #include "mmba/survey/adjust.h"
 
 namespace mmba::app {
@@ -75,6 +76,14 @@ int RunSurvey(const SurveyArgs& args) {
   json["axes_xy"] = net.axes.code;
   json["angles"] = net.angles_left_handed ? "left-handed" : "right-handed";
   json["angle_unit"] = unit.name();
+  if (net.geodetic) {
+    json["origin"] = {{"latitude_deg", net.origin.latitude_deg},
+                      {"longitude_deg", net.origin.longitude_deg},
+                      {"height_m", net.origin.height_m}};
+    json["frame"] = "local tangent plane (ENU) at the origin, station verticals";
+  } else {
+    json["frame"] = "input plane (gama-local)";
+  }
   json["sigma0_apriori"] = m0_apr;
   json["sigma0_aposteriori"] = m0_apost;
   json["sigma0_ratio"] = st.sigma0_ratio;
@@ -119,6 +128,18 @@ int RunSurvey(const SurveyArgs& args) {
       jp["z"] = p.coords.z();
       jp["status_z"] = survey::CoordStatusName(p.z);
       if (p.z_free()) jp["sigma_z"] = std::sqrt(cov(2, 2));
+    }
+    if (net.geodetic && p.has_xy) {
+      // Georeferenced outputs: WGS84 geodetic and UTM of the adjusted point.
+      const geodesy::LocalTangentPlane plane(net.origin);
+      const Eigen::Vector3d enu(p.coords.x(), p.coords.y(), p.has_z ? p.coords.z() : 0.0);
+      const geodesy::Geodetic g = plane.GeodeticFromEnu(enu);
+      jp["latitude_deg"] = g.latitude_deg;
+      jp["longitude_deg"] = g.longitude_deg;
+      if (p.has_z) jp["ellipsoidal_height_m"] = g.height_m;
+      const geodesy::Utm utm = geodesy::UtmFromGeodetic(g);
+      jp["utm"] = {{"zone", utm.zone}, {"north", utm.northp}, {"easting", utm.easting_m},
+                   {"northing", utm.northing_m}};
     }
     if (p.xy_free() && p.z_free()) {
       Eigen::Vector3d axes_m;

@@ -57,6 +57,18 @@ Geodetic GeodeticFromTransverseMercator(const Eigen::Vector2d& xy, double lon0_d
   return g;
 }
 
+double NormalSectionRadius(double latitude_deg, double azimuth_rad) {
+  const double a = GeographicLib::Constants::WGS84_a();
+  const double f = GeographicLib::Constants::WGS84_f();
+  const double e2 = f * (2 - f);
+  const double s = std::sin(latitude_deg * kDegToRad);
+  const double w = std::sqrt(1 - e2 * s * s);
+  const double n = a / w;                     // prime vertical
+  const double m = a * (1 - e2) / (w * w * w);  // meridian
+  const double c = std::cos(azimuth_rad), sn = std::sin(azimuth_rad);
+  return 1.0 / (c * c / m + sn * sn / n);
+}
+
 Eigen::Matrix3d EnuFromEcefRotation(double latitude_deg, double longitude_deg) {
   const double phi = latitude_deg * kDegToRad;
   const double lam = longitude_deg * kDegToRad;

@@ -69,13 +69,25 @@ survey::SurveyNetwork ParseSurveyCsv(const std::string& text, const std::string&
     return v;
   };
   // Pass 1: parameters and points.
+  bool origin_after_points = false;
   for (const Row& r : rows) {
     const std::string& kind = r.f[0];
-    if (kind == "param") {
-      if (r.f.size() != 3) fail(r, "param", std::to_string(r.f.size()) + " fields", "3 fields");
+    if (kind == "param" && r.f.size() == 5 && r.f[1] == "origin") {
+      net.geodetic = true;
+      net.origin = {number(r, 2, "origin latitude"), number(r, 3, "origin longitude"),
+                    number(r, 4, "origin height")};
+      if (std::abs(net.origin.latitude_deg) > 90 || std::abs(net.origin.longitude_deg) > 180) {
+        fail(r, "origin", r.f[2] + "," + r.f[3], "latitude in [-90, 90], longitude in [-180, 180]");
+      }
+      if (origin_after_points) fail(r, "origin", "after gpoint records", "the origin before any gpoint");
+    } else if (kind == "param") {
+      if (r.f.size() != 3) fail(r, "param", std::to_string(r.f.size()) + " fields", "3 fields (origin: 5)");
       const std::string& name = r.f[1];
       const std::string& value = r.f[2];
-      if (name == "sigma-apr") {
+      if (name == "refraction") {
+        net.refraction_k = number(r, 2, name);
+        if (std::abs(net.refraction_k) > 1) fail(r, name, value, "a coefficient in [-1, 1]");
+      } else if (name == "sigma-apr") {
         net.sigma0_apriori = number(r, 2, name);
         if (!(net.sigma0_apriori > 0)) fail(r, name, value, "a number > 0");
       } else if (name == "conf-pr") {
@@ -90,8 +102,32 @@ survey::SurveyNetwork ParseSurveyCsv(const std::string& text, const std::string&
         if (value != "left-handed" && value != "right-handed") fail(r, name, value, "left-handed or right-handed");
         net.angles_left_handed = value == "left-handed";
       } else {
-        fail(r, "param", name, "sigma-apr, conf-pr, sigma-act, axes-xy or angles");
+        fail(r, "param", name, "sigma-apr, conf-pr, sigma-act, axes-xy, angles, refraction or origin");
       }
+    } else if (kind == "gpoint") {
+      // gpoint,id,latitude,longitude,height,fix,adj: geodetic (WGS84) coordinates.
+      if (!net.geodetic) fail(r, "gpoint", r.f.size() > 1 ? r.f[1] : "", "a 'param,origin,lat,lon,h' record first");
+      origin_after_points = true;
+      if (r.f.size() != 7) fail(r, "gpoint", std::to_string(r.f.size()) + " fields", "7 fields: gpoint,id,lat,lon,h,fix,adj");
+      if (r.f[1].empty()) fail(r, "gpoint id", "nothing", "a point id");
+      const geodesy::LocalTangentPlane plane(net.origin);
+      const geodesy::Geodetic g{number(r, 2, "latitude"), number(r, 3, "longitude"), number(r, 4, "height")};
+      survey::SurveyPoint& p = net.GetOrAdd(r.f[1], r.line);
+      p.coords = plane.EnuFromGeodetic(g);
+      p.has_xy = p.given_xy = p.has_z = p.given_z = true;
+      auto apply = [&](const std::string& code, bool fixed) {
+        if (code.empty()) return;
+        if (code != "xy" && code != "xyz" && code != "z" && code != "XY" && code != "XYZ" &&
+            code != "XYz" && code != "xyZ" && code != "Z") {
+          fail(r, fixed ? "fix" : "adj", code, "one of xy, xyz, z, XY, XYZ, XYz, xyZ, Z");
+        }
+        const bool xy = code.find_first_of("xyXY") != std::string::npos;
+        const bool z = code.find_first_of("zZ") != std::string::npos;
+        if (xy) p.xy = fixed ? CoordStatus::kFixed : (code[0] == 'X' ? CoordStatus::kConstrained : CoordStatus::kAdjusted);
+        if (z) p.z = fixed ? CoordStatus::kFixed : (code.back() == 'Z' ? CoordStatus::kConstrained : CoordStatus::kAdjusted);
+      };
+      apply(r.f[6], false);
+      apply(r.f[5], true);
     } else if (kind == "point") {
       if (r.f.size() != 7) fail(r, "point", std::to_string(r.f.size()) + " fields", "7 fields: point,id,x,y,z,fix,adj");
       if (r.f[1].empty()) fail(r, "point id", "nothing", "a point id");
@@ -124,7 +160,7 @@ survey::SurveyNetwork ParseSurveyCsv(const std::string& text, const std::string&
   long set = -1;  // index of the current direction set
   for (const Row& r : rows) {
     const std::string& kind = r.f[0];
-    if (kind == "param" || kind == "point") continue;
+    if (kind == "param" || kind == "point" || kind == "gpoint") continue;
     if (kind == "set") {
       if (r.f.size() != 2 || net.Find(r.f[1]) == nullptr) {
         fail(r, "set station", r.f.size() > 1 ? r.f[1] : "nothing", "the id of a defined point");

@@ -73,14 +73,29 @@ ceres::CostFunction* CreateSurveyBlockCost(SurveyNetwork* network, const BlockSp
     SurveyPoint* from = network->Find(o.from);
     SurveyPoint* to = o.to.empty() ? nullptr : network->Find(o.to);
     SurveyPoint* fs = o.fs.empty() ? nullptr : network->Find(o.fs);
-    if (NeedsXy(o.kind)) {
+    const bool is_coordinate = o.kind == ObsKind::kCoordX || o.kind == ObsKind::kCoordY ||
+                               o.kind == ObsKind::kCoordZ || o.kind == ObsKind::kVectorX ||
+                               o.kind == ObsKind::kVectorY || o.kind == ObsKind::kVectorZ;
+    const bool geodetic = network->geodetic && !is_coordinate;
+    if (NeedsXy(o.kind) || (geodetic && from->has_xy && (!to || to->has_xy))) {
       row.from_xy = param(from->xy_block(), 2);
       if (to) row.to_xy = param(to->xy_block(), 2);
       if (fs) row.fs_xy = param(fs->xy_block(), 2);
     }
-    if (NeedsZ(o.kind)) {
-      row.from_z = param(from->z_block(), 1);
-      if (to) row.to_z = param(to->z_block(), 1);
+    if (NeedsZ(o.kind) || geodetic) {
+      // In a geodetic network the station's vertical tilts horizontal observations too.
+      if (NeedsZ(o.kind) || from->has_z) row.from_z = param(from->z_block(), 1);
+      if (to && (NeedsZ(o.kind) || to->has_z)) row.to_z = param(to->z_block(), 1);
+      if (fs && fs->has_z) row.fs_z = param(fs->z_block(), 1);
+    }
+    if (geodetic) {
+      const geodesy::LocalTangentPlane plane(network->origin);
+      row.station_from_world = plane.StationEnuFromWorld(from->coords);
+      const SurveyPoint* target = to ? to : from;
+      const Eigen::Vector3d d = row.station_from_world * (target->coords - from->coords);
+      const double latitude = plane.GeodeticFromEnu(from->coords).latitude_deg;
+      row.curvature_radius_m = geodesy::NormalSectionRadius(latitude, std::atan2(d.x(), d.y()));
+      row.refraction_k = network->refraction_k;
     }
     if (o.kind == ObsKind::kDirection) row.orientation = param(&cluster.orientation, 1);
     rows.push_back(row);

@@ -63,6 +63,10 @@ class LocalTangentPlane {
   Eigen::Matrix3d enu_from_ecef_;
 };
 
+/// Radius of curvature (m) of the WGS84 normal section at `latitude_deg` in the direction
+/// `azimuth_rad` (Euler: 1/R = cos²α/M + sin²α/N).
+double NormalSectionRadius(double latitude_deg, double azimuth_rad);
+
 /// Rotation ENU-at-(lat, lon) from ECEF (the standard one, e.g. Hofmann-Wellenhof et al.,
 /// GNSS, 2008, Eq. (10.14)).
 Eigen::Matrix3d EnuFromEcefRotation(double latitude_deg, double longitude_deg);

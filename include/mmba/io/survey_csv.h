@@ -8,8 +8,12 @@ namespace mmba::io {
 
 /// Reads the plain CSV form of a survey network (README "mmba survey"). One record a line,
 /// comma separated, '#' starts a comment:
-///   param,<name>,<value>        sigma-apr | conf-pr | sigma-act | axes-xy | angles
+///   param,<name>,<value>        sigma-apr | conf-pr | sigma-act | axes-xy | angles |
+///                               refraction (coefficient k of zenith angles)
+///   param,origin,<lat>,<lon>,<h>  georeferenced network: WGS84 origin of the local tangent
+///                               plane; observations then use each station's own vertical
 ///   point,<id>,<x>,<y>,<z>,<fix>,<adj>   empty fields allowed; fix/adj as gama-local
+///   gpoint,<id>,<lat>,<lon>,<h>,<fix>,<adj>  WGS84 geodetic coordinates (needs the origin)
 ///   set,<station>               starts a direction set (its own orientation unknown)
 ///   <kind>,<from>,<to>,<value>,<sigma>[,<from_dh>,<to_dh>]
 /// with kind = direction (inside a set), distance, s-distance, z-angle, azimuth, dh,

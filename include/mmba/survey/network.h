@@ -6,6 +6,8 @@
 
 #include <Eigen/Core>
 
+#include "mmba/geodesy/geodesy.h"
+
 namespace mmba::survey {
 
 /// Role of one coordinate (xy pair or z) of a survey point (GNU Gama's point types).
@@ -123,6 +125,14 @@ struct SurveyNetwork {
   bool sigma_act_apriori = false;  ///< sigma-act="apriori"
   bool update_constrained = false; ///< update-constrained-coordinates
   double tol_abs_mm = 1000.0;      ///< tol-abs (information)
+
+  /// Georeferenced network: coordinates are the local tangent plane (ENU) at `origin`
+  /// (in the input axes), and every observation is predicted in its station's own local
+  /// vertical with Earth curvature (and refraction `refraction_k` on zenith angles).
+  /// Without an origin the input plane is used as GNU Gama does.
+  bool geodetic = false;
+  geodesy::Geodetic origin;
+  double refraction_k = 0.0;
 
   SurveyPoint* Find(const std::string& id);
   const SurveyPoint* Find(const std::string& id) const;
