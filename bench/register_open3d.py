@@ -18,6 +18,7 @@ seed = int(sys.argv[5]) if len(sys.argv) > 5 else 42
 o3d.utility.random.seed(seed)
 t_import = time.perf_counter() - t0
 t1 = time.perf_counter()
+c1 = time.process_time()
 src = o3d.io.read_point_cloud(src_path)
 tgt = o3d.io.read_point_cloud(tgt_path)
 
@@ -45,8 +46,9 @@ icp = o3d.pipelines.registration.registration_icp(
     src, tgt, 0.4 * voxel, ransac.transformation,
     o3d.pipelines.registration.TransformationEstimationPointToPlane())
 wall = time.perf_counter() - t1
+cpu = time.process_time() - c1
 print(f"open3d {o3d.__version__}: ransac fitness {ransac.fitness:.4f}, icp fitness "
-      f"{icp.fitness:.4f}, inlier rmse {icp.inlier_rmse:.6g} m, wall {wall:.3f} s "
+      f"{icp.fitness:.4f}, inlier rmse {icp.inlier_rmse:.6g} m, wall {wall:.3f} s, CPU {cpu:.3f} s "
       f"(+ import {t_import:.2f} s)")
 print("target_from_source")
 for row in icp.transformation:

@@ -67,7 +67,9 @@ int main(int argc, char** argv) {
                 h.fitness, h.normal_agreement, h.score);
   }
   for (const auto& s : r.runtime) std::printf("  %-22s %8.3f s\n", s.stage.c_str(), s.seconds);
-  std::printf("wall %.3f s, peak RSS %.1f MiB\n", wall.ElapsedSeconds(),
+  const double cpu_s = usage.ru_utime.tv_sec + usage.ru_utime.tv_usec * 1e-6 +
+                      usage.ru_stime.tv_sec + usage.ru_stime.tv_usec * 1e-6;
+  std::printf("wall %.3f s, CPU %.3f s, peak RSS %.1f MiB\n", wall.ElapsedSeconds(), cpu_s,
               usage.ru_maxrss / 1024.0);
   std::printf("target_from_source\n");
   for (int i = 0; i < 4; ++i) {

@@ -67,6 +67,7 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   }
   if (!(keypoint_grid_spacing > 0)) return fail("keypoint_grid_spacing", keypoint_grid_spacing, "> 0");
   if (min_keypoints < 3) return fail("min_keypoints", min_keypoints, ">= 3");
+  if (max_keypoints < min_keypoints) return fail("max_keypoints", max_keypoints, ">= min_keypoints");
   if (max_points_features < 1000) return fail("max_points_features", max_points_features, ">= 1000");
   if (max_points_icp < 1000) return fail("max_points_icp", max_points_icp, ">= 1000");
   if (sac_ia_iterations < 1) return fail("sac_ia_iterations", sac_ia_iterations, ">= 1");
@@ -264,6 +265,12 @@ std::vector<int> SelectKeypoints(const Level& level, double normal_radius,
     keypoints = GridMaxima(level.points, std::vector<float>(level.points.size(), 1.0f), 0.0,
                            cell);
     notes->push_back(which + ": too few Kanade–Tomasi keypoints, used a uniform grid");
+  }
+  // Bound the descriptor cost: coarser grid cells until at most max_keypoints remain.
+  double coarser = cell;
+  for (int k = 0; k < 10 && static_cast<int>(keypoints.size()) > options.max_keypoints; ++k) {
+    coarser *= std::max(1.1, std::sqrt(static_cast<double>(keypoints.size()) / options.max_keypoints));
+    keypoints = GridMaxima(level.points, response, threshold, coarser);
   }
   return keypoints;
 }
@@ -792,7 +799,7 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   // a loose coarse inlier distance cannot tell a shifted repetitive structure from the
   // truth; the fine level can).
   PointIndex tgt_fine_index(tgt_fine.points);
-  const std::vector<size_t> fine_idx = StrideSample(src_fine.points.size(), 20000);
+  const std::vector<size_t> fine_idx = StrideSample(src_fine.points.size(), 10000);
   const std::vector<Eigen::Vector3d> fine_src = Pick(src_fine.points, fine_idx);
   const std::vector<Eigen::Vector3d> fine_src_n = Pick(src_fine.normals, fine_idx);
   const double fine_tau = options.inlier_distance_spacing * fine_spacing;

@@ -46,6 +46,7 @@ struct CloudRegistrationOptions {
   double keypoint_threshold = 0.1;  ///< F_t, smallest eigenvalue of the normal covariance (0..1/3)
   double keypoint_grid_spacing = 0.5;  ///< keypoint grid cell in units of R_n (> 0): one per cell
   int min_keypoints = 150;  ///< below this F_t is lowered, then uniform grid points are used (>= 3)
+  int max_keypoints = 600;  ///< above this the keypoint grid is coarsened (>= min_keypoints)
   int max_points_features = 40000;  ///< coarse level: voxel size grows until a cloud fits (>= 1000)
   int max_points_icp = 200000;      ///< fine level for ICP (>= 1000)
   bool use_existing_normals = true;  ///< use normals stored in the clouds when present
@@ -68,7 +69,7 @@ struct CloudRegistrationOptions {
   // ICP (point-to-plane, Chen & Medioni 1991).
   bool icp = true;                  ///< refine each hypothesis with ICP
   int icp_iterations = 40;          ///< per level (>= 1)
-  double icp_distance_spacing = 3.0;  ///< final correspondence distance in spacings (> 0)
+  double icp_distance_spacing = 1.0;  ///< final correspondence distance in spacings (> 0)
 
   // Verification and the verdict.
   double inlier_distance_spacing = 2.0;  ///< inlier: distance to target < this × s (> 0)
