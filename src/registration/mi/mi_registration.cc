@@ -495,7 +495,10 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
       break;
     }
   }
-  if (trusted && (!result.covariance_valid || weak_directions > 2)) {
+  // One weak direction is usual for a single view (forward motion against a rotation); more
+  // means the surface is flat in a subspace and the pose is not determined (measured on KITTI:
+  // two weak directions accompanied 9 px errors).
+  if (trusted && (!result.covariance_valid || weak_directions > 1)) {
     trusted = false;
     reason = "metric surface not peaked at the optimum (" + std::to_string(weak_directions) +
              " of 6 directions without curvature; information eigenvalues " +
