@@ -18,6 +18,7 @@ FactorGroup& ProblemBuilder::AddGroup(std::unique_ptr<FactorGroup> group) {
 }
 
 ceres::Problem& ProblemBuilder::Build() {
+  if (problem_) return *problem_;  // built already: the groups' blocks exist once
   // Check the gauge before any work.
   const bool datum_fixed_by_groups =
       std::any_of(groups_.begin(), groups_.end(),

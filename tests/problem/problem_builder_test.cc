@@ -245,6 +245,23 @@ TEST(ProblemBuilder, PointsBehindACameraAreSkippedAndCounted) {
   EXPECT_EQ(group->residual_blocks().size() + group->num_skipped(), block.observations.size());
 }
 
+TEST(ProblemBuilder, BuildThenSolveAddsTheBlocksOnce) {
+  const SimulatedBlock block = Simulate(0.5);
+  Scene scene = Perturb(block.truth, 0.005, 0.05, 0.03);
+  ProblemBuilder builder(&scene);
+  FactorGroup& group = builder.AddGroup(std::make_unique<ReprojectionGroup>(block.observations));
+  ceres::Problem& problem = builder.Build();
+  const int num_blocks = problem.NumResidualBlocks();
+  problem.SetParameterBlockConstant(scene.Point(Point3DId(1)).data());  // caller's own control
+  SolveOptions options;
+  options.log_progress = false;
+  const SolveResult result = Solve(builder, options);
+  ASSERT_TRUE(result.converged);
+  EXPECT_EQ(builder.problem().NumResidualBlocks(), num_blocks);
+  EXPECT_EQ(group.residual_blocks().size(), static_cast<size_t>(num_blocks));
+  EXPECT_EQ(result.after[0].num_observations, block.observations.size());
+}
+
 TEST(ProblemBuilder, GaugeErrorsAreInputErrors) {
   const SimulatedBlock block = Simulate(0.5);
   Scene scene = block.truth;

@@ -59,8 +59,10 @@ class ProblemBuilder {
 
   /// Adds every group, sets manifolds, constant blocks, the gauge and the Schur elimination
   /// ordering (points first). Throws InputError when the gauge names images that are not
-  /// in the scene or a fixed gauge is combined with datum-fixing groups.
+  /// in the scene or a fixed gauge is combined with datum-fixing groups. Calling it again
+  /// returns the problem already built (so a caller may Build(), adjust blocks, then Solve()).
   ceres::Problem& Build();
+  bool built() const { return problem_ != nullptr; }
 
   /// After the solve: moves the scene back from the gauge frame (kTwoPoses solves in the
   /// frame of the first camera so that the second camera's distance is a norm constraint).

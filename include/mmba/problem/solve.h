@@ -49,7 +49,8 @@ struct SolveResult {
   std::string BriefReport() const;
 };
 
-/// Builds (if not yet built), solves and evaluates.
+/// Builds (if not yet built; see ProblemBuilder::Build), solves, undoes the gauge transform
+/// and evaluates every group before and after.
 SolveResult Solve(ProblemBuilder& builder, const SolveOptions& options);
 
 }  // namespace mmba
