@@ -106,7 +106,8 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_option("--up", args->up, "up direction x y z (default 0 0 1)")->expected(3);
   sub->add_flag("--no-icp", args->no_icp, "skip the ICP refinement");
   sub->add_flag("--paper", args->paper,
-                "the paper's pipeline only: best SAC-IA hypothesis + ICP, no verification");
+                "the paper's pipeline only: best SAC-IA hypothesis + ICP, no verification "
+                "(status \"unverified\", exit 3)");
   sub->add_flag("--skip-invalid", args->skip_invalid,
                 "drop points with NaN/Inf coordinates while reading (default: error)");
   sub->add_option("--error-map", args->error_map,

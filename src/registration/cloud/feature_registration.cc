@@ -901,6 +901,12 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
         << "° apart); a (pseudo-)symmetric scene — give --gravity-aligned or more overlap";
     return fail(why.str());
   }
+  if (options.paper_only) {
+    // The paper's pipeline has no verification: its result is not claimed as "ok".
+    result.status = "unverified";
+    result.reason = "paper pipeline (best SAC-IA + ICP) without hypothesis verification";
+    return result;
+  }
   result.status = "ok";
   result.reason.clear();
   return result;

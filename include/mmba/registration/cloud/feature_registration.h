@@ -56,7 +56,8 @@ struct CloudRegistrationOptions {
   int sac_ia_randomness = 3;        ///< SAC-IA: pick among this many nearest features (>= 1)
   int num_hypotheses = 8;           ///< hypotheses kept for ICP and verification (>= 1)
   bool use_max_clique = true;       ///< add the maximum-consistent-clique hypothesis
-  bool paper_only = false;          ///< SAC-IA best + ICP only, no verification (the paper)
+  bool paper_only = false;          ///< SAC-IA best + ICP only, no verification (the paper);
+                                    ///< status is then "unverified", never "ok"
   double consistency_spacing = 3.0;  ///< clique: pairwise-length tolerance in spacings (> 0)
   int max_correspondences = 600;    ///< correspondences fed to the clique search (>= 3)
 
@@ -100,7 +101,7 @@ struct RegistrationHypothesis {
 
 /// Result of RegisterClouds.
 struct CloudRegistrationResult {
-  std::string status = "failed";  ///< "ok" or "failed"
+  std::string status = "failed";  ///< "ok", "failed", or "unverified" (paper_only runs)
   std::string reason;             ///< why it failed (empty when ok)
   std::string descriptor;         ///< descriptor of the chosen hypothesis
   Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();
