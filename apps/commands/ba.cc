@@ -82,8 +82,13 @@ int RunBa(const BaArgs& args) {
   Scene scene;
   std::vector<ReprojectionObservation> observations =
       SceneFromColmap(model, args.sigma_px, &scene);
+  if (observations.empty()) {
+    throw InputError::Message(args.input, "the model has no observations (no 3-D point with a "
+                                          "track): nothing to adjust");
+  }
   ProblemBuilder builder(&scene);
-  builder.AddGroup(std::make_unique<ReprojectionGroup>(std::move(observations), loss));
+  const FactorGroup& group =
+      builder.AddGroup(std::make_unique<ReprojectionGroup>(std::move(observations), loss));
   ParameterOptions parameters;
   parameters.refine_focal = args.refine_focal;
   parameters.refine_principal_point = args.refine_principal_point;
@@ -104,6 +109,12 @@ int RunBa(const BaArgs& args) {
     }
   }
   builder.set_gauge(gauge);
+  builder.Build();
+  if (group.residual_blocks().empty()) {
+    throw CommandFailed("none of the " + std::to_string(group.num_skipped()) +
+                        " observations can be used (points behind their cameras at the "
+                        "start): no model written");
+  }
 
   SolveResult result = Solve(builder, solve_options);
   const GroupEvaluation& before = result.before.at(0);

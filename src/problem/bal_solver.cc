@@ -1,5 +1,6 @@
 #include "mmba/problem/bal_solver.h"
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -65,7 +66,7 @@ BalSolveResult SolveBal(io::BalProblem* bal, const BalSolveOptions& options) {
   const ceres::Solver::Summary& summary = result.summary;
   result.initial_cost = summary.initial_cost;
   result.final_cost = summary.final_cost;
-  result.iterations = static_cast<int>(summary.iterations.size()) - 1;
+  result.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
   result.solve_seconds = summary.total_time_in_seconds;
   result.num_residuals = summary.num_residuals;
   result.reason = summary.message;

@@ -1,5 +1,6 @@
 #include "mmba/problem/solve.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -83,7 +84,7 @@ SolveResult Solve(ProblemBuilder& builder, const SolveOptions& options) {
   const ceres::Solver::Summary& summary = result.summary;
   result.initial_cost = summary.initial_cost;
   result.final_cost = summary.final_cost;
-  result.iterations = static_cast<int>(summary.iterations.size()) - 1;
+  result.iterations = std::max(0, static_cast<int>(summary.iterations.size()) - 1);
   result.solve_seconds = summary.total_time_in_seconds;
   result.num_residuals = summary.num_residuals;
   result.num_parameter_blocks = summary.num_parameter_blocks;

@@ -144,6 +144,17 @@ TEST_F(CliTest, NonConvergenceIsExitThreeAndNoModel) {
   EXPECT_EQ(nlohmann::json::parse(json_file)["status"], "no_convergence");
 }
 
+TEST_F(CliTest, BaModelWithoutObservationsIsBadInput) {
+  fs::create_directories(Tmp("empty"));
+  std::ofstream(Tmp("empty/cameras.txt")) << "1 PINHOLE 640 480 500 500 320 240\n";
+  std::ofstream(Tmp("empty/images.txt")) << "1 1 0 0 0 0 0 0 1 a.jpg\n\n2 1 0 0 0 1 0 0 1 b.jpg\n\n";
+  std::ofstream(Tmp("empty/points3D.txt")) << "";
+  const RunResult run = Mmba("ba --input " + Tmp("empty") + " --output " + Tmp("out"));
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("the model has no observations"));
+  EXPECT_FALSE(fs::exists(Tmp("out")));
+}
+
 TEST_F(CliTest, BalWritesTheCostsCeresDefines) {
   const RunResult run = Mmba("bal " + kSource + "/data/bal/dubrovnik-3-7-pre.txt --json " +
                        Tmp("bal.json") + " -q");
