@@ -379,6 +379,27 @@ void SimulatePhotos(Context* c) {
     point.xyz += Vector3d(noise.Normal(o.point_sigma_m), noise.Normal(o.point_sigma_m), noise.Normal(o.point_sigma_m));
     point.error = -1.0;
   }
+  // Image measurements of the surveyed targets (the photogrammetrist's control/check point
+  // measurements): every target inside a photo and in its line of sight, true projection +
+  // N(0, σ) per axis from a stream of its own (the other outputs do not change with it).
+  internal::Rng target_noise(c->options.seed, 0x7A6E7);
+  std::ostringstream target_csv;
+  target_csv << "# mmba simulate: image measurements of the surveyed targets (survey/network.xml ids)\n"
+                "point_id,image,x_px,y_px,sigma_px\n";
+  int target_measurements = 0;
+  for (const ScenePoint& target : c->scene.targets) {
+    for (int i = 0; i < o.count; ++i) {
+      const auto xy = camera.ImgFromCam(poses[i] * target.point_in_world);
+      if (!xy || xy->x() < 0 || xy->y() < 0 || xy->x() >= o.width || xy->y() >= o.height) continue;
+      if (!SeesPoint(c->caster, poses[i].Inverse().translation, target.point_in_world)) continue;
+      const Eigen::Vector2d measured = *xy + Eigen::Vector2d(target_noise.Normal(o.observation_sigma_px),
+                                                             target_noise.Normal(o.observation_sigma_px));
+      target_csv << target.id << "," << truth_model.images.at(ImageId(i + 1)).name << "," << Fmt(measured.x(), 3)
+                 << "," << Fmt(measured.y(), 3) << "," << o.observation_sigma_px << "\n";
+      ++target_measurements;
+    }
+  }
+  WriteText(c->out / "survey" / "image_points.csv", target_csv.str());
   io::WriteColmapModel(truth_model, (c->out / "truth" / "colmap_photos").string(), io::ColmapFormat::kText);
   io::WriteColmapModel(perturbed, (c->out / "colmap" / "photos").string(), io::ColmapFormat::kText);
   // Calibration and truth.
@@ -395,6 +416,8 @@ void SimulatePhotos(Context* c) {
                         {"colmap_model", "truth/colmap_photos"}, {"tie_points", truth_model.points3D.size()}};
   c->project_sensors << "  - id: photos\n    type: photo_collection\n    images: images/photos\n"
                         "    calibration: calib/photo_camera.yaml\n    colmap_model: colmap/photos\n"
+                        "    control_measurements: survey/image_points.csv  # "
+                     << target_measurements << " image measurements of surveyed targets\n"
                         "    sigma_px: " << o.observation_sigma_px << "\n";
 }
 

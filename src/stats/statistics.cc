@@ -23,6 +23,10 @@ bool StatisticsOptions::Check(std::string* error) const {
     *error = "rank_tolerance: found " + std::to_string(rank_tolerance) + ", expected (0, 1e-2)";
     return false;
   }
+  if (!eliminate.empty() && (!minimum_norm.empty() || use_ceres_covariance)) {
+    *error = "eliminate: the Schur path supports neither a minimum-norm datum nor ceres::Covariance";
+    return false;
+  }
   for (const MinimumNormCoordinate& c : minimum_norm) {
     if (c.block == nullptr || c.index < 0) {
       *error = "minimum_norm: a null block or negative index";
@@ -99,10 +103,12 @@ struct Linearization {
 };
 
 Linearization Linearize(ceres::Problem& problem,
-                        const std::vector<ceres::ResidualBlockId>* residual_blocks) {
+                        const std::vector<ceres::ResidualBlockId>* residual_blocks,
+                        const std::set<const double*>& last = {}) {
   Linearization lin;
   std::vector<double*> all;
   problem.GetParameterBlocks(&all);
+  std::stable_partition(all.begin(), all.end(), [&](double* b) { return last.count(b) == 0; });
   for (double* block : all) {
     if (problem.IsParameterBlockConstant(block)) continue;
     const int size = problem.ParameterBlockTangentSize(block);
@@ -261,6 +267,152 @@ Inverse Analyze(const Linearization& lin, const StatisticsOptions& options, bool
   return out;
 }
 
+/// The Schur path of StatisticsOptions::eliminate: cofactor of the kept blocks (the first
+/// `kept` columns of `lin`) and h_ii of every row.
+struct SchurInverse {
+  int kept = 0;  // columns of the kept blocks
+  Eigen::MatrixXd cofactor;
+  std::vector<double> h;
+};
+
+SchurInverse AnalyzeSchur(const Linearization& lin, const StatisticsOptions& options) {
+  SchurInverse out;
+  int kept_blocks = 0;
+  for (size_t b = 0; b < lin.blocks.size(); ++b) {
+    if (options.eliminate.count(lin.blocks[b]) == 0) {
+      out.kept += lin.sizes[b];
+      ++kept_blocks;
+    }
+  }
+  const int nc = out.kept;
+  using RowIt = Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator;
+  // Which eliminated block (first column, size) each row touches; -1 = none.
+  std::vector<int> row_point(lin.m, -1);
+  std::map<int, std::vector<int>> rows_of_point;  // first column -> rows
+  std::map<int, int> point_size;
+  for (size_t b = kept_blocks; b < lin.blocks.size(); ++b) {
+    point_size[lin.column.at(lin.blocks[b])] = lin.sizes[b];
+  }
+  for (int r = 0; r < lin.m; ++r) {
+    for (RowIt it(lin.jacobian, r); it; ++it) {
+      if (it.col() < nc || it.value() == 0.0) continue;
+      const int first = std::prev(point_size.upper_bound(it.col()))->first;
+      if (row_point[r] >= 0 && row_point[r] != first) {
+        throw std::invalid_argument("eliminate: a residual block touches two eliminated blocks");
+      }
+      row_point[r] = first;
+    }
+    if (row_point[r] >= 0) rows_of_point[row_point[r]].push_back(r);
+  }
+  // U = AᵀA over the kept columns, then S = U − Σ_p W_p V_p⁻¹ W_pᵀ.
+  Eigen::MatrixXd s = Eigen::MatrixXd::Zero(nc, nc);
+  for (int r = 0; r < lin.m; ++r) {
+    for (RowIt a(lin.jacobian, r); a; ++a) {
+      if (a.col() >= nc) continue;
+      for (RowIt c(lin.jacobian, r); c; ++c) {
+        if (c.col() < nc) s(a.col(), c.col()) += a.value() * c.value();
+      }
+    }
+  }
+  struct PointBlock {
+    std::vector<int> cols;     // kept columns its rows touch
+    Eigen::MatrixXd v_inv;     // q×q
+    Eigen::MatrixXd g;         // q×k: V⁻¹ W_pᵀ on `cols`
+  };
+  std::map<int, PointBlock> points;
+  for (const auto& [first, rows] : rows_of_point) {
+    const int q = point_size.at(first);
+    PointBlock pb;
+    std::map<int, int> local;
+    for (int r : rows) {
+      for (RowIt it(lin.jacobian, r); it; ++it) {
+        if (it.col() < nc && !local.count(it.col())) {
+          local[it.col()] = 0;
+        }
+      }
+    }
+    for (auto& [col, index] : local) {
+      index = static_cast<int>(pb.cols.size());
+      pb.cols.push_back(col);
+    }
+    const int k = static_cast<int>(pb.cols.size());
+    Eigen::MatrixXd v = Eigen::MatrixXd::Zero(q, q);
+    Eigen::MatrixXd w = Eigen::MatrixXd::Zero(k, q);
+    for (int r : rows) {
+      Eigen::VectorXd a = Eigen::VectorXd::Zero(k), b = Eigen::VectorXd::Zero(q);
+      for (RowIt it(lin.jacobian, r); it; ++it) {
+        if (it.col() < nc) a(local.at(it.col())) = it.value();
+        else b(it.col() - first) = it.value();
+      }
+      v += b * b.transpose();
+      w += a * b.transpose();
+    }
+    Eigen::FullPivLU<Eigen::MatrixXd> lu(v);
+    if (lu.rank() < q) {
+      throw DegenerateNetworkError("singular network: an eliminated point (" +
+                                   Describe(lin, options, first) +
+                                   ") is not determined by its observations");
+    }
+    pb.v_inv = lu.inverse();
+    pb.g = pb.v_inv * w.transpose();
+    const Eigen::MatrixXd update = w * pb.g;
+    for (int i = 0; i < k; ++i) {
+      for (int j = 0; j < k; ++j) s(pb.cols[i], pb.cols[j]) -= update(i, j);
+    }
+    points[first] = std::move(pb);
+  }
+  // S⁻¹ with Jacobi scaling; a non-positive pivot names the parameter.
+  Eigen::VectorXd diag = s.diagonal();
+  for (int j = 0; j < nc; ++j) {
+    if (!(diag(j) > 1e-30)) {
+      throw DegenerateNetworkError("singular network: no observation determines " +
+                                   Describe(lin, options, j));
+    }
+  }
+  const Eigen::VectorXd scale = diag.cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd scaled = scale.asDiagonal() * s * scale.asDiagonal();
+  Eigen::LDLT<Eigen::MatrixXd> ldlt(scaled);
+  const Eigen::VectorXd pivots = ldlt.vectorD();
+  for (int j = 0; j < nc; ++j) {
+    if (!(pivots(j) > options.rank_tolerance)) {
+      throw DegenerateNetworkError(
+          "singular network (datum defect or an undetermined parameter) near " +
+          Describe(lin, options, j));
+    }
+  }
+  out.cofactor = scale.asDiagonal() * ldlt.solve(Eigen::MatrixXd::Identity(nc, nc)) *
+                 scale.asDiagonal();
+  // h_ii per row.
+  out.h.assign(lin.m, 0.0);
+  for (const auto& [first, pb] : points) {
+    const int k = static_cast<int>(pb.cols.size());
+    Eigen::MatrixXd m(k, k);
+    for (int i = 0; i < k; ++i) {
+      for (int j = 0; j < k; ++j) m(i, j) = out.cofactor(pb.cols[i], pb.cols[j]);
+    }
+    std::map<int, int> local;
+    for (int i = 0; i < k; ++i) local[pb.cols[i]] = i;
+    for (int r : rows_of_point.at(first)) {
+      Eigen::VectorXd a = Eigen::VectorXd::Zero(k), b = Eigen::VectorXd::Zero(pb.v_inv.rows());
+      for (RowIt it(lin.jacobian, r); it; ++it) {
+        if (it.col() < nc) a(local.at(it.col())) = it.value();
+        else b(it.col() - first) = it.value();
+      }
+      const Eigen::VectorXd z = a - pb.g.transpose() * b;
+      out.h[r] = z.dot(m * z) + b.dot(pb.v_inv * b);
+    }
+  }
+  for (int r = 0; r < lin.m; ++r) {
+    if (row_point[r] >= 0) continue;
+    double h = 0.0;
+    for (RowIt a(lin.jacobian, r); a; ++a) {
+      for (RowIt c(lin.jacobian, r); c; ++c) h += a.value() * c.value() * out.cofactor(a.col(), c.col());
+    }
+    out.h[r] = h;
+  }
+  return out;
+}
+
 std::vector<ceres::ResidualBlockId> AllBlocks(const std::vector<const FactorGroup*>& groups) {
   std::vector<ceres::ResidualBlockId> ids;
   for (const FactorGroup* g : groups) {
@@ -310,8 +462,25 @@ NetworkStatistics ComputeStatistics(ceres::Problem& problem,
   std::string error;
   if (!options.Check(&error)) throw std::invalid_argument(error);
   const std::vector<ceres::ResidualBlockId> ids = AllBlocks(groups);
-  const Linearization lin = Linearize(problem, &ids);
-  Inverse inv = Analyze(lin, options, /*want_inverse=*/!options.use_ceres_covariance);
+  const Linearization lin = Linearize(problem, &ids, options.eliminate);
+  Inverse inv;
+  std::vector<double> schur_h;
+  std::vector<double*> kept_blocks = lin.blocks;
+  std::map<const double*, int> kept_column = lin.column;
+  if (!options.eliminate.empty()) {
+    SchurInverse schur = AnalyzeSchur(lin, options);
+    inv.cofactor = std::move(schur.cofactor);
+    schur_h = std::move(schur.h);
+    kept_blocks.clear();
+    kept_column.clear();
+    for (double* b : lin.blocks) {
+      if (options.eliminate.count(b)) continue;
+      kept_column[b] = lin.column.at(b);
+      kept_blocks.push_back(b);
+    }
+  } else {
+    inv = Analyze(lin, options, /*want_inverse=*/!options.use_ceres_covariance);
+  }
   if (options.use_ceres_covariance) {
     if (inv.defect > 0) {
       throw std::invalid_argument(
@@ -350,8 +519,8 @@ NetworkStatistics ComputeStatistics(ceres::Problem& problem,
   st.num_unknowns = lin.n;
   st.defect = inv.defect;
   st.degrees_of_freedom = lin.m - lin.n + inv.defect;
-  st.blocks = lin.blocks;
-  st.column = lin.column;
+  st.blocks = kept_blocks;
+  st.column = kept_column;
   st.cofactor = std::move(inv.cofactor);
   for (double r : lin.residuals) st.sum_squares += r * r;
   const int dof = st.degrees_of_freedom;
@@ -399,11 +568,12 @@ NetworkStatistics ComputeStatistics(ceres::Problem& problem,
         rs.residual = v(k);
         rs.sigma = l.row(k).norm();
         double h = 0.0;
-        for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator a(lin.jacobian, r); a;
-             ++a) {
-          for (Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator c(lin.jacobian, r);
-               c; ++c) {
-            h += a.value() * c.value() * st.cofactor(a.col(), c.col());
+        if (!schur_h.empty()) {
+          h = schur_h[r];
+        } else {
+          using RowIt = Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator;
+          for (RowIt a(lin.jacobian, r); a; ++a) {
+            for (RowIt c(lin.jacobian, r); c; ++c) h += a.value() * c.value() * st.cofactor(a.col(), c.col());
           }
         }
         h = std::min(1.0, std::max(0.0, h));

@@ -164,6 +164,33 @@ TEST(Statistics, MinimumNormDatumOnConstrainedPoints) {
   EXPECT_GT(st.Covariance(&f.h[3], 0, &f.h[3], 0), 0.0);
 }
 
+// The Schur path (a block eliminated as the tie points of a bundle block) gives the same
+// redundancy numbers, σ0 and cofactor of the kept blocks as the full inverse.
+TEST(Statistics, SchurEliminationMatchesFullInverse) {
+  Fixture f(/*fix_first=*/true);
+  const NetworkStatistics full = ComputeStatistics(f.problem, {f.ga.get(), f.gb.get()}, StatisticsOptions());
+  StatisticsOptions options;
+  options.eliminate = {&f.h[3]};
+  const NetworkStatistics schur = ComputeStatistics(f.problem, {f.ga.get(), f.gb.get()}, options);
+  EXPECT_EQ(schur.degrees_of_freedom, full.degrees_of_freedom);
+  EXPECT_NEAR(schur.sigma0_ratio, full.sigma0_ratio, 1e-12);
+  ASSERT_EQ(schur.rows.size(), full.rows.size());
+  for (size_t i = 0; i < full.rows.size(); ++i) {
+    EXPECT_NEAR(schur.rows[i].redundancy, full.rows[i].redundancy, 1e-9) << "row " << i;
+    EXPECT_NEAR(schur.rows[i].studentized, full.rows[i].studentized, 1e-9) << "row " << i;
+  }
+  for (int a : {1, 2}) {
+    for (int b : {1, 2}) {
+      EXPECT_NEAR(schur.Covariance(&f.h[a], 0, &f.h[b], 0), full.Covariance(&f.h[a], 0, &f.h[b], 0), 1e-15);
+    }
+  }
+  EXPECT_FALSE(schur.IsFree(&f.h[3]));
+  EXPECT_NEAR(schur.groups[1].redundancy, full.groups[1].redundancy, 1e-9);
+  // h1 and h3 share an observation: they cannot both be eliminated.
+  options.eliminate = {&f.h[1], &f.h[3]};
+  EXPECT_THROW(ComputeStatistics(f.problem, {f.ga.get(), f.gb.get()}, options), std::invalid_argument);
+}
+
 TEST(Statistics, EllipseAndQuantiles) {
   Eigen::Matrix2d c;
   c << 4.0, 0.0, 0.0, 1.0;

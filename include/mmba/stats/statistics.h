@@ -2,6 +2,7 @@
 
 #include <functional>
 #include <map>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -49,6 +50,13 @@ struct StatisticsOptions {
   /// blocks instead of the explicit normal-matrix inverse; only for networks without datum
   /// defect (the minimum-norm datum needs the explicit path). Slower for large networks.
   bool use_ceres_covariance = false;
+  /// Blocks eliminated by the Schur complement (the tie points of a bundle block, Triggs et
+  /// al. 2000, Sec. 6.1): the normal matrix N = [U W; Wᵀ V] is reduced to S = U − W V⁻¹ Wᵀ,
+  /// `cofactor` is S⁻¹ over the other blocks only (eliminated blocks are not in `blocks`),
+  /// and each row's h_ii = z S⁻¹ zᵀ + b V_p⁻¹ bᵀ with z = a − b V_p⁻¹ W_pᵀ (a, b: the row's
+  /// Jacobian on the kept and on its eliminated block). Every residual block may touch at
+  /// most one eliminated block; no datum defect (minimum_norm must be empty).
+  std::set<const double*> eliminate;
   /// Names a parameter scalar in error messages ("y of point 12"); optional.
   std::function<std::string(const double* block, int index)> describe;
 
