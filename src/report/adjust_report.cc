@@ -331,7 +331,7 @@ td.num { text-align: right; white-space: nowrap; font-variant-numeric: tabular-n
 tr { break-inside: avoid; page-break-inside: avoid; }
 tr.flag td { background: #fde2e1; }
 tr.rms td { font-weight: bold; background: #f3f3f3; }
-table.meta th { text-align: left; background: #f6f6f6; width: 34mm; }
+table.meta th { text-align: left; background: #f6f6f6; width: 40mm; white-space: nowrap; }
 table.meta { font-size: 9.5pt; }
 .badge { display: inline-block; padding: 1px 9px; border-radius: 3px; color: #fff; font-weight: bold; }
 .ok { background: #1a7f37; } .bad { background: #c62828; } .warn { background: #b26a00; }
@@ -344,7 +344,8 @@ table.meta { font-size: 9.5pt; }
 .verdict { font-weight: bold; padding: 1px 8px; border-radius: 3px; color: #fff; }
 .verdict.pass { background: #1a7f37; } .verdict.fail { background: #c62828; } .verdict.none { background: #777; }
 .note { color: #555; font-size: 8.5pt; }
-.plots { display: flex; flex-wrap: wrap; gap: 6px 10px; }
+.plots { display: flex; flex-wrap: wrap; gap: 6px 14px; }
+.plots figure { flex: 0 0 335px; width: 335px; }
 figure { margin: 4px 0; break-inside: avoid; page-break-inside: avoid; }
 figcaption { font-size: 8.5pt; color: #333; max-width: 100%; }
 svg.plot { max-width: 100%; height: auto; display: block; }
@@ -481,11 +482,10 @@ void RenderGroups(const json& groups, std::ostringstream& html) {
     html << "<p class=\"note\">The report lists no observation groups.</p>\n</section>\n";
     return;
   }
-  html << "<table>\n<tr><th>group</th><th>unit</th><th>observations</th><th>residuals</th>"
-          "<th>redundancy</th><th>"
-       << kSigma << " a-priori</th><th>RMS</th><th>mean</th><th>max</th>"
-          "<th>variance component "
-       << kSigma << "&#770;<sup>2</sup></th><th>outliers</th><th>robust loss</th></tr>\n";
+  html << "<table>\n<tr><th>group</th><th>unit</th><th>obser&shy;vations</th><th>resi&shy;duals</th>"
+          "<th>redun&shy;dancy &Sigma;r</th><th>"
+       << kSigma << " a-priori</th><th>RMS</th><th>mean</th><th>max</th><th>"
+       << kSigma << "&#770;<sup>2</sup><sub>k</sub></th><th>out&shy;liers</th><th>robust loss</th></tr>\n";
   struct Plot {
     std::string name, unit;
     std::vector<double> whitened;
@@ -543,7 +543,7 @@ void RenderGroups(const json& groups, std::ostringstream& html) {
   for (const Plot& plot : plots) {
     HistogramOptions options;
     options.title = plot.name;
-    options.width_px = 345;
+    options.width_px = 335;
     options.height_px = 215;
     if (plot.norms) {
       options.density = ReferenceDensity::kChi;

@@ -478,7 +478,8 @@ std::string SvgPoseCorrections(const std::vector<PoseCorrectionPoint>& poses, in
 
   // Panel: y range [lo, hi] mapped onto [y0 + panel_h, y0].
   auto Axes = [&](double y0, double lo, double hi, double step, const std::string& label) {
-    auto Y = [&](double v) { return y0 + panel_h - (v - lo) / (hi - lo) * panel_h; };
+    // By value: the returned mapping outlives this call's parameters.
+    auto Y = [=](double v) { return y0 + panel_h - (v - lo) / (hi - lo) * panel_h; };
     for (double t : Ticks(lo, hi, step)) {
       svg << Line(left, Y(t), left + plot_w, Y(t),
                   std::abs(t) < 1e-12 ? "stroke=\"#555\"" : "stroke=\"#e4e4e4\"");

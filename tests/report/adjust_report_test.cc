@@ -1,5 +1,6 @@
 #include "mmba/report/adjust_report.h"
 
+#include <cmath>
 #include <functional>
 #include <stdexcept>
 #include <string>
@@ -219,11 +220,16 @@ TEST(AdjustReport, NullsAndEmptyArraysRenderGracefully) {
   report["control_points"] = json::array(
       {{{"id", "P"}, {"role", "control"}, {"surveyed", {nullptr, nullptr, nullptr}},
         {"sigma", {nullptr, 0.0, nullptr}}}});
+  // A report filled from C++ holds NaN/Inf doubles (not nulls) where a figure is undefined.
+  report["sigma0"]["aposteriori"] = NAN;
+  report["groups"][0]["sigma"] = INFINITY;
+  report["groups"][0]["whitened"].push_back(NAN);
   report["blunders"] = json::array();
   report["pose_corrections"] = json::array();
   report["warnings"] = json::array();
   const std::string html = RenderAdjustReportHtml(report);
-  EXPECT_NE(html.find("no finite values (2 NaN/Inf)"), std::string::npos);
+  EXPECT_NE(html.find("no finite values (3 NaN/Inf)"), std::string::npos);
+  EXPECT_NE(html.find("NOT TESTED"), std::string::npos);
   EXPECT_NE(html.find("no values"), std::string::npos);
   EXPECT_NE(html.find("no points with coordinates"), std::string::npos);
   EXPECT_NE(html.find("\xE2\x80\x94"), std::string::npos);  // "—" for the missing numbers
