@@ -340,7 +340,7 @@ table.meta { font-size: 9.5pt; }
            break-inside: avoid; page-break-inside: avoid; }
 .summary table { border: none; margin: 0; font-size: 10pt; }
 .summary th, .summary td { border: none; padding: 2px 8px 2px 0; text-align: left; }
-.summary th { background: none; font-weight: normal; color: #444; }
+.summary th { background: none; font-weight: normal; color: #444; white-space: nowrap; }
 .verdict { font-weight: bold; padding: 1px 8px; border-radius: 3px; color: #fff; }
 .verdict.pass { background: #1a7f37; } .verdict.fail { background: #c62828; } .verdict.none { background: #777; }
 .note { color: #555; font-size: 8.5pt; }
