@@ -2,11 +2,15 @@
 // perturbed by 0.1 m and 1° in known directions, register, and report the pixel offsets of
 // the LiDAR points projected with the result against the calibration's own, before/after.
 //   mi_kitti [DATA_DIR=data/kitti] [METRIC=nmi] [REGION=overlap] [BINS=64] [BOUND_M=0.5]
-//            [BOUND_DEG=3]
+//            [BOUND_DEG=3] [STARTS=0,1,...,7]
+// MMBA_DEBUG=1 in the environment logs each stage (time, evaluations).
 #include <cstdio>
+#include <cstdlib>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
 #include "mmba/io/kitti.h"
 #include "mmba/io/point_cloud.h"
@@ -23,6 +27,12 @@ int main(int argc, char** argv) {
   if (argc > 4) options.metric.bins = std::stoi(argv[4]);
   if (argc > 5) options.bound_translation_m = std::stod(argv[5]);
   if (argc > 6) options.bound_rotation_deg = std::stod(argv[6]);
+  std::vector<int> starts;
+  if (argc > 7) {
+    std::stringstream list(argv[7]);
+    for (std::string item; std::getline(list, item, ',');) starts.push_back(std::stoi(item));
+  }
+  if (std::getenv("MMBA_DEBUG") != nullptr) SetVerbosity(Verbosity::kVerbose);
   const GrayImage image = ReadGrayImage(dir + "/image_2/000000.png");
   const io::KittiCameraPose kitti = io::KittiCamera(
       io::ReadKittiCalibration(dir + "/calib/000000.txt"), 2, image.width, image.height);
@@ -42,11 +52,16 @@ int main(int argc, char** argv) {
   p << 0.1, -0.1, 0.1, 1.0, -1.0, 1.0;
   perturbations.push_back(p);
   perturbations.push_back(-p);
-  std::printf("%-40s %-6s %8s %8s  %-44s %s\n", "perturbation (tx ty tz m, r p y deg)", "status",
-              "before", "after", "residual error (m, deg)", "time");
+  std::printf("%-40s %-6s %8s %8s  %-44s %6s %7s %6s %6s %6s\n",
+              "perturbation (tx ty tz m, r p y deg)", "status", "before", "after",
+              "residual error (m, deg)", "time", "sigma", "restart", "MIgain", "z");
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   int recovered = 0;
-  for (const Vector6d& perturbation : perturbations) {
+  if (starts.empty()) {
+    for (size_t i = 0; i < perturbations.size(); ++i) starts.push_back(static_cast<int>(i));
+  }
+  for (int index : starts) {
+    const Vector6d& perturbation = perturbations.at(index);
     const Rigid3d start = ApplyCorrection(kitti.cam_from_lidar, perturbation);
     const RegistrationResult result = RegisterFrames({frame}, start, options);
     const PixelOffsetStats before =
@@ -55,14 +70,16 @@ int main(int argc, char** argv) {
                                                 result.cam_from_lidar, options.render);
     const Vector6d error = CorrectionBetween(kitti.cam_from_lidar, result.cam_from_lidar);
     recovered += after.median_px < 1.0;
+    const AcceptanceChecks& c = result.checks;
     std::printf("%5.2f %5.2f %5.2f %5.1f %5.1f %5.1f        %-6s %6.2fpx %6.2fpx  "
-                "%6.3f %6.3f %6.3f %6.2f %6.2f %6.2f  %.1f s  %s\n",
+                "%6.3f %6.3f %6.3f %6.2f %6.2f %6.2f  %5.1fs %6.2fpx %6.2fpx %6.4f %6.0f  %s\n",
                 perturbation[0], perturbation[1], perturbation[2], perturbation[3],
                 perturbation[4], perturbation[5], result.status.c_str(), before.median_px,
                 after.median_px, error[0], error[1], error[2], error[3], error[4], error[5],
-                result.runtime_seconds, result.reason.c_str());
+                result.runtime_seconds, c.sigma_px, c.restart_spread_px,
+                c.mi_bits - c.mi_shuffled_bits, c.mi_significance, result.reason.c_str());
   }
   std::printf("median offset < 1 px after registration: %d of %zu starts\n", recovered,
-              perturbations.size());
+              starts.size());
   return 0;
 }

@@ -3,12 +3,15 @@
 // registration from a start perturbed by 0.1 m and 1°. Prints wall time, evaluations, peak
 // memory and pixel offsets before/after for each representation.
 //   mi_speed [MILLION_POINTS=1] [REPRESENTATION=all|intensity|points|depth]
+// MMBA_DEBUG=1 in the environment logs each stage (time, evaluations).
 #include <sys/resource.h>
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 
+#include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
 #include "mmba/registration/mi/mi_registration.h"
 #include "registration/mi/synthetic_scene.h"
@@ -25,6 +28,7 @@ static double PeakRssMiB() {
 int main(int argc, char** argv) {
   const double million = argc > 1 ? std::stod(argv[1]) : 1.0;
   const std::string which = argc > 2 ? argv[2] : "all";
+  if (std::getenv("MMBA_DEBUG") != nullptr) SetVerbosity(Verbosity::kVerbose);
   const double area_m2 = 1114.0;  // surfaces of testing::StreetScene()
   const double spacing = std::sqrt(area_m2 / (million * 1e6));
   Timer timer;
@@ -56,12 +60,19 @@ int main(int argc, char** argv) {
     const PixelOffsetStats before = PixelOffsets(points, frame.views[0], truth, start, options.render);
     const PixelOffsetStats after =
         PixelOffsets(points, frame.views[0], truth, result.cam_from_lidar, options.render);
+    const AcceptanceChecks& c = result.checks;
     std::printf("%-9s %-6s %6.2f s  %4d evals  %5.1f ms/eval  median offset %.2f -> %.2f px "
-                "(p90 %.2f -> %.2f)  peak %.0f MiB  %s\n",
+                "(p90 %.2f -> %.2f)  sigma %.3f px  restarts %.2f px  MI gain %.4f bits "
+                "(z %.0f)  peak %.0f MiB  %s\n",
                 RepresentationName(r).c_str(), result.status.c_str(), seconds,
                 result.evaluations, 1000 * seconds / std::max(1, result.evaluations),
-                before.median_px, after.median_px, before.p90_px, after.p90_px, PeakRssMiB(),
-                result.reason.c_str());
+                before.median_px, after.median_px, before.p90_px, after.p90_px, c.sigma_px,
+                c.restart_spread_px, c.mi_bits - c.mi_shuffled_bits, c.mi_significance,
+                PeakRssMiB(), result.reason.c_str());
+    for (const StageStat& stage : result.stages) {
+      std::printf("    %-28s %4d evals %7.3f s\n", stage.name.c_str(), stage.evaluations,
+                  stage.seconds);
+    }
   }
   return 0;
 }

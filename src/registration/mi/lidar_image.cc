@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include <glog/logging.h>
@@ -155,9 +156,26 @@ View CutPerspective(const GrayImage& pano, const sensors::Camera& pano_camera, i
   return view;
 }
 
+constexpr uint64_t kEmptyKey = ~uint64_t{0};
+
+inline uint32_t FloatBits(float f) {
+  uint32_t bits;
+  std::memcpy(&bits, &f, sizeof(bits));
+  return bits;
+}
+
+inline float BitsFloat(uint32_t bits) {
+  float f;
+  std::memcpy(&f, &bits, sizeof(f));
+  return f;
+}
+
+// Pass 1 of the z-buffer: each point is projected once and its footprint keeps, per pixel,
+// the smallest key (range << 32 | index). Positive IEEE floats order as their bit patterns,
+// so one 64-bit comparison resolves depth (ties: lower index) without touching the outputs.
 template <typename Model>
-void RenderWithModel(const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
-                     const RenderOptions& options, LidarImage* out) {
+void SplatWithModel(const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
+                    const RenderOptions& options, LidarImage* out) {
   const int width = out->width;
   const int height = out->height;
   const Eigen::Matrix3d view_from_lidar_r =
@@ -170,12 +188,11 @@ void RenderWithModel(const LidarPoints& points, const View& view, const Rigid3d&
   const float min_range2 = static_cast<float>(options.min_range_m * options.min_range_m);
   const float max_range2 = static_cast<float>(options.max_range_m * options.max_range_m);
   const float radius_factor = static_cast<float>(options.point_radius_m * focal);
-  const float log_min = static_cast<float>(std::log(options.min_range_m));
-  const float log_span =
-      static_cast<float>(std::log(options.max_range_m) - std::log(options.min_range_m));
   const int max_radius = options.max_point_radius_px;
   constexpr bool kPerspective = Model::kModelId != sensors::CameraModelId::kEquirectangular;
   const double period = 2.0 * M_PI * params[0];  // panorama columns per turn (f = W/2π)
+  uint64_t* zbuffer = out->zbuffer.data();
+  Eigen::Vector2f* projected = out->projected.data();
   const size_t n = points.size();
   for (size_t i = 0; i < n; ++i) {
     const Eigen::Vector3f p = rotation * points.points_in_lidar[i] + translation;
@@ -194,28 +211,13 @@ void RenderWithModel(const LidarPoints& points, const View& view, const Rigid3d&
     const int col = static_cast<int>(xy[0]);
     const int row = static_cast<int>(xy[1]);
     const int radius = std::min(max_radius, static_cast<int>(radius_factor / range));
-    float value = 1.f;
-    if (options.representation == Representation::kIntensity) {
-      value = points.intensity01[i];
-    } else if (options.representation == Representation::kDepth) {
-      value = std::clamp(1.f - (std::log(range) - log_min) / log_span, 0.f, 1.f);
-    }
-    const float off_x = static_cast<float>(xy[0] - (col + 0.5));
-    const float off_y = static_cast<float>(xy[1] - (row + 0.5));
+    projected[i] = Eigen::Vector2f(static_cast<float>(xy[0]), static_cast<float>(xy[1]));
+    const uint64_t key = (static_cast<uint64_t>(FloatBits(range)) << 32) | static_cast<uint32_t>(i);
     const int r0 = std::max(0, row - radius), r1 = std::min(height - 1, row + radius);
     const int c0 = std::max(0, col - radius), c1 = std::min(width - 1, col + radius);
     for (int r = r0; r <= r1; ++r) {
-      const size_t base = static_cast<size_t>(r) * width;
-      for (int c = c0; c <= c1; ++c) {
-        const size_t k = base + c;
-        if (range < out->depth[k]) {
-          out->depth[k] = range;
-          out->value[k] = value;
-          out->offset_x[k] = off_x;
-          out->offset_y[k] = off_y;
-          out->point_index[k] = static_cast<int>(i);
-        }
-      }
+      uint64_t* line = zbuffer + static_cast<size_t>(r) * width;
+      for (int c = c0; c <= c1; ++c) line[c] = std::min(line[c], key);
     }
   }
 }
@@ -289,26 +291,60 @@ void RenderLidarImage(const LidarPoints& points, const View& view, const Rigid3d
   CHECK(options.representation != Representation::kIntensity || points.has_intensity() ||
         points.size() == 0)
       << "intensity representation of a cloud without intensity";
+  CHECK_LT(points.size(), size_t{1} << 32) << "at most 2^32 points per render";
   out->width = static_cast<int>(view.camera.width);
   out->height = static_cast<int>(view.camera.height);
   const size_t pixels = static_cast<size_t>(out->width) * out->height;
-  out->value.assign(pixels, -1.f);
-  out->depth.assign(pixels, std::numeric_limits<float>::infinity());
-  out->offset_x.assign(pixels, 0.f);
-  out->offset_y.assign(pixels, 0.f);
-  out->point_index.assign(pixels, -1);
+  out->zbuffer.assign(pixels, kEmptyKey);
+  if (out->projected.size() < points.size()) out->projected.resize(points.size());
   switch (view.camera.model_id) {
-#define MMBA_RENDER_CASE(Model)                                   \
-  case Model::kModelId:                                           \
-    RenderWithModel<Model>(points, view, cam_from_lidar, options, out); \
+#define MMBA_RENDER_CASE(Model)                                         \
+  case Model::kModelId:                                                 \
+    SplatWithModel<Model>(points, view, cam_from_lidar, options, out); \
     break;
     MMBA_FOR_EACH_CAMERA_MODEL(MMBA_RENDER_CASE)
 #undef MMBA_RENDER_CASE
     default:
       LOG(FATAL) << "unknown camera model";
   }
-  out->covered_pixels = 0;
-  for (size_t k = 0; k < pixels; ++k) out->covered_pixels += out->point_index[k] >= 0;
+  // Pass 2: the winner of each pixel gives its value, depth and sub-pixel offset.
+  out->value.resize(pixels);
+  out->depth.resize(pixels);
+  out->offset_x.resize(pixels);
+  out->offset_y.resize(pixels);
+  out->point_index.resize(pixels);
+  const float log_min = static_cast<float>(std::log(options.min_range_m));
+  const float inv_log_span =
+      static_cast<float>(1.0 / (std::log(options.max_range_m) - std::log(options.min_range_m)));
+  size_t covered = 0;
+  for (size_t k = 0; k < pixels; ++k) {
+    const uint64_t key = out->zbuffer[k];
+    if (key == kEmptyKey) {
+      out->value[k] = -1.f;
+      out->depth[k] = std::numeric_limits<float>::infinity();
+      out->offset_x[k] = 0.f;
+      out->offset_y[k] = 0.f;
+      out->point_index[k] = -1;
+      continue;
+    }
+    ++covered;
+    const uint32_t i = static_cast<uint32_t>(key & 0xffffffffu);
+    const float range = BitsFloat(static_cast<uint32_t>(key >> 32));
+    float value = 1.f;
+    if (options.representation == Representation::kIntensity) {
+      value = points.intensity01[i];
+    } else if (options.representation == Representation::kDepth) {
+      value = std::clamp(1.f - (std::log(range) - log_min) * inv_log_span, 0.f, 1.f);
+    }
+    const Eigen::Vector2f& xy = out->projected[i];
+    out->value[k] = value;
+    out->depth[k] = range;
+    // Offset of the point from the centre of ITS pixel, shared by its whole footprint.
+    out->offset_x[k] = xy.x() - (std::floor(xy.x()) + 0.5f);
+    out->offset_y[k] = xy.y() - (std::floor(xy.y()) + 0.5f);
+    out->point_index[k] = static_cast<int>(i);
+  }
+  out->covered_pixels = covered;
 }
 
 size_t CountVisiblePoints(const LidarImage& image) {

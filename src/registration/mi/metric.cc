@@ -72,11 +72,13 @@ bool MetricOptions::Check(std::string* error) const {
 
 JointHistogram::JointHistogram(const MetricOptions& options)
     : options_(options),
-      lidar_bins_(options.region == Region::kWholeImage ? options.bins + 1 : options.bins),
-      counts_(static_cast<size_t>(lidar_bins_) * options.bins, 0.0) {}
+      bins_(options.bins),
+      counts_(static_cast<size_t>(options.bins + 3) * (options.bins + 3), 0.0),
+      empty_counts_(options.bins + 3, 0.0) {}
 
 void JointHistogram::Clear() {
   std::fill(counts_.begin(), counts_.end(), 0.0);
+  std::fill(empty_counts_.begin(), empty_counts_.end(), 0.0);
   total_ = 0;
   lidar_total_ = 0;
 }
@@ -85,13 +87,13 @@ namespace {
 
 // Cubic B-spline weights of the four bins base−1 .. base+2 for a fractional position t
 // (Mattes et al. 2003, Eq. (4); Thévenaz & Unser 2000).
-inline void CubicBSplineWeights(double t, double w[4]) {
-  const double t2 = t * t, t3 = t2 * t;
-  const double u = 1.0 - t;
-  w[0] = u * u * u / 6.0;
-  w[1] = (3.0 * t3 - 6.0 * t2 + 4.0) / 6.0;
-  w[2] = (-3.0 * t3 + 3.0 * t2 + 3.0 * t + 1.0) / 6.0;
-  w[3] = t3 / 6.0;
+inline void CubicBSplineWeights(float t, float w[4]) {
+  const float t2 = t * t, t3 = t2 * t;
+  const float u = 1.f - t;
+  w[0] = u * u * u * (1.f / 6.f);
+  w[1] = (3.f * t3 - 6.f * t2 + 4.f) * (1.f / 6.f);
+  w[2] = (-3.f * t3 + 3.f * t2 + 3.f * t + 1.f) * (1.f / 6.f);
+  w[3] = t3 * (1.f / 6.f);
 }
 
 double Entropy(const std::vector<double>& p, double total) {
@@ -105,58 +107,98 @@ double Entropy(const std::vector<double>& p, double total) {
   return h;
 }
 
+// Bilinear photo value at continuous pixel coordinates (x, y), clamped to the image: the
+// same as GrayImage::Sample inside, the nearest edge value outside (a point's sub-pixel
+// offset can reach half a pixel past the border).
+inline float SamplePhoto(const GrayImage& photo, float x, float y) {
+  const float u = std::clamp(x - 0.5f, 0.f, static_cast<float>(photo.width - 1));
+  const float v = std::clamp(y - 0.5f, 0.f, static_cast<float>(photo.height - 1));
+  const int c0 = std::min(static_cast<int>(u), std::max(0, photo.width - 2));
+  const int r0 = std::min(static_cast<int>(v), std::max(0, photo.height - 2));
+  const int c1 = std::min(c0 + 1, photo.width - 1);
+  const int r1 = std::min(r0 + 1, photo.height - 1);
+  const float a = u - c0, b = v - r0;
+  const float* row0 = &photo.pixels[static_cast<size_t>(r0) * photo.width];
+  const float* row1 = &photo.pixels[static_cast<size_t>(r1) * photo.width];
+  return (1 - b) * ((1 - a) * row0[c0] + a * row0[c1]) + b * ((1 - a) * row1[c0] + a * row1[c1]);
+}
+
 }  // namespace
 
-void JointHistogram::AddSample(double lidar_pos, double photo_pos, bool lidar_empty) {
-  const int bins = options_.bins;
-  const int first_lidar = options_.region == Region::kWholeImage ? 1 : 0;
+inline void JointHistogram::AddSample(float lidar_pos, float photo_pos, bool lidar_empty) {
+  const int bins = bins_;
+  const int stride = bins + 3;
   total_ += 1;
-  if (!lidar_empty) lidar_total_ += 1;
-  if (options_.smoothing != Smoothing::kBSpline) {
-    const int py = std::clamp(static_cast<int>(photo_pos + 0.5), 0, bins - 1);
-    const int lx = lidar_empty ? 0
-                               : first_lidar + std::clamp(static_cast<int>(lidar_pos + 0.5), 0,
-                                                          bins - 1);
-    counts_[static_cast<size_t>(lx) * bins + py] += 1;
+  if (lidar_empty) {
+    if (options_.smoothing != Smoothing::kBSpline) {
+      empty_counts_[1 + std::clamp(static_cast<int>(photo_pos + 0.5f), 0, bins - 1)] += 1;
+      return;
+    }
+    float wy[4];
+    const int by = std::clamp(static_cast<int>(photo_pos), 0, bins - 1);
+    CubicBSplineWeights(photo_pos - by, wy);
+    for (int j = 0; j < 4; ++j) empty_counts_[by + j] += wy[j];
     return;
   }
-  double wy[4], wx[4] = {0, 1, 0, 0};
-  const int by = static_cast<int>(std::floor(photo_pos));
-  CubicBSplineWeights(photo_pos - by, wy);
-  int bx = 0;
-  if (!lidar_empty) {
-    bx = static_cast<int>(std::floor(lidar_pos));
-    CubicBSplineWeights(lidar_pos - bx, wx);
+  lidar_total_ += 1;
+  if (options_.smoothing != Smoothing::kBSpline) {
+    const int py = std::clamp(static_cast<int>(photo_pos + 0.5f), 0, bins - 1);
+    const int lx = std::clamp(static_cast<int>(lidar_pos + 0.5f), 0, bins - 1);
+    counts_[static_cast<size_t>(lx + 1) * stride + py + 1] += 1;
+    return;
   }
+  float wx[4], wy[4];
+  // Positions are within [0, bins − 1]; the clamp only guards rounding.
+  const int bx = std::clamp(static_cast<int>(lidar_pos), 0, bins - 1);
+  const int by = std::clamp(static_cast<int>(photo_pos), 0, bins - 1);
+  CubicBSplineWeights(lidar_pos - bx, wx);
+  CubicBSplineWeights(photo_pos - by, wy);
+  // Padded index of bin (bx − 1 + i, by − 1 + j) is (bx + i) · stride + by + j.
+  double* base = &counts_[static_cast<size_t>(bx) * stride + by];
   for (int i = 0; i < 4; ++i) {
-    if (wx[i] == 0) continue;
-    const int lx = lidar_empty ? 0 : first_lidar + std::clamp(bx - 1 + i, 0, bins - 1);
-    double* row = &counts_[static_cast<size_t>(lx) * bins];
-    for (int j = 0; j < 4; ++j) {
-      row[std::clamp(by - 1 + j, 0, bins - 1)] += wx[i] * wy[j];
-    }
+    double* row = base + static_cast<size_t>(i) * stride;
+    row[0] += wx[i] * wy[0];
+    row[1] += wx[i] * wy[1];
+    row[2] += wx[i] * wy[2];
+    row[3] += wx[i] * wy[3];
   }
 }
 
 void JointHistogram::Add(const LidarImage& lidar, const GrayImage& photo) {
-  const int bins = options_.bins;
+  const int bins = bins_;
   const bool whole = options_.region == Region::kWholeImage;
   const bool spline = options_.smoothing == Smoothing::kBSpline;
   // Continuous bin coordinates: value 0..1 (LiDAR) and 0..255 (photo) onto 0..bins−1.
-  const double lidar_scale = bins - 1;
-  const double photo_scale = (bins - 1) / 255.0;
+  const float lidar_scale = static_cast<float>(bins - 1);
+  const float photo_scale = static_cast<float>((bins - 1) / 255.0);
   for (int r = 0; r < lidar.height; ++r) {
+    const size_t row = static_cast<size_t>(r) * lidar.width;
+    const float* photo_row = &photo.pixels[static_cast<size_t>(r) * photo.width];
     for (int c = 0; c < lidar.width; ++c) {
-      const size_t k = static_cast<size_t>(r) * lidar.width + c;
+      const size_t k = row + c;
       const bool empty = lidar.point_index[k] < 0;
       if (empty && !whole) continue;
-      float photo_value = photo.at(c, r);
+      float photo_value = photo_row[c];
       if (spline && !empty) {
         // Sample the photo where the point really falls: smooth in the pose.
-        photo.Sample(c + 0.5 + lidar.offset_x[k], r + 0.5 + lidar.offset_y[k], &photo_value);
+        photo_value = SamplePhoto(photo, c + 0.5f + lidar.offset_x[k], r + 0.5f + lidar.offset_y[k]);
       }
-      AddSample(empty ? 0.0 : lidar.value[k] * lidar_scale, photo_value * photo_scale, empty);
+      AddSample(empty ? 0.f : lidar.value[k] * lidar_scale, photo_value * photo_scale, empty);
     }
+  }
+}
+
+void JointHistogram::AddPairs(const std::vector<float>& lidar01,
+                              const std::vector<float>& photo255) {
+  const bool whole = options_.region == Region::kWholeImage;
+  const float lidar_scale = static_cast<float>(bins_ - 1);
+  const float photo_scale = static_cast<float>((bins_ - 1) / 255.0);
+  const size_t n = std::min(lidar01.size(), photo255.size());
+  for (size_t k = 0; k < n; ++k) {
+    const bool empty = lidar01[k] < 0;
+    if (empty && !whole) continue;
+    AddSample(empty ? 0.f : std::min(lidar01[k], 1.f) * lidar_scale,
+              std::clamp(photo255[k], 0.f, 255.f) * photo_scale, empty);
   }
 }
 
@@ -165,8 +207,23 @@ MetricValue JointHistogram::Evaluate() const {
   result.samples = total_;
   result.lidar_samples = lidar_total_;
   if (total_ <= 0) return result;
-  const int bins = options_.bins;
-  std::vector<double> joint = counts_;
+  const int bins = bins_;
+  const int stride = bins + 3;
+  const bool whole = options_.region == Region::kWholeImage;
+  // Rows: the empty-LiDAR bin first in whole-image mode, then the LiDAR bins.
+  const int lidar_bins = whole ? bins + 1 : bins;
+  const int first = whole ? 1 : 0;
+  // Fold the padding onto the edge bins (padded index p ↦ bin clamp(p − 1, 0, bins − 1)).
+  auto fold = [bins](int p) { return std::clamp(p - 1, 0, bins - 1); };
+  std::vector<double> joint(static_cast<size_t>(lidar_bins) * bins, 0.0);
+  if (whole) {
+    for (int q = 0; q < stride; ++q) joint[fold(q)] += empty_counts_[q];
+  }
+  for (int p = 0; p < stride; ++p) {
+    double* row = &joint[static_cast<size_t>(first + fold(p)) * bins];
+    const double* padded = &counts_[static_cast<size_t>(p) * stride];
+    for (int q = 0; q < stride; ++q) row[fold(q)] += padded[q];
+  }
   if (options_.smoothing == Smoothing::kParzen) {
     // Separable Gaussian Parzen window over the bins (not across the empty LiDAR bin).
     const double sigma = options_.parzen_sigma_bins;
@@ -178,9 +235,8 @@ MetricValue JointHistogram::Evaluate() const {
       sum += kernel[i + radius];
     }
     for (double& w : kernel) w /= sum;
-    const int first = options_.region == Region::kWholeImage ? 1 : 0;
     std::vector<double> tmp(joint.size(), 0.0);
-    for (int x = 0; x < lidar_bins_; ++x) {  // along the photo axis
+    for (int x = 0; x < lidar_bins; ++x) {  // along the photo axis
       for (int y = 0; y < bins; ++y) {
         double v = 0;
         for (int i = -radius; i <= radius; ++i) {
@@ -191,20 +247,20 @@ MetricValue JointHistogram::Evaluate() const {
       }
     }
     joint = tmp;
-    for (int x = first; x < lidar_bins_; ++x) {  // along the LiDAR axis
+    for (int x = first; x < lidar_bins; ++x) {  // along the LiDAR axis
       for (int y = 0; y < bins; ++y) {
         double v = 0;
         for (int i = -radius; i <= radius; ++i) {
-          const int xx = std::clamp(x + i, first, lidar_bins_ - 1);
+          const int xx = std::clamp(x + i, first, lidar_bins - 1);
           v += kernel[i + radius] * tmp[static_cast<size_t>(xx) * bins + y];
         }
         joint[static_cast<size_t>(x) * bins + y] = v;
       }
     }
   }
-  std::vector<double> lidar_marginal(lidar_bins_, 0.0), photo_marginal(bins, 0.0);
+  std::vector<double> lidar_marginal(lidar_bins, 0.0), photo_marginal(bins, 0.0);
   double total = 0;
-  for (int x = 0; x < lidar_bins_; ++x) {
+  for (int x = 0; x < lidar_bins; ++x) {
     for (int y = 0; y < bins; ++y) {
       const double c = joint[static_cast<size_t>(x) * bins + y];
       lidar_marginal[x] += c;

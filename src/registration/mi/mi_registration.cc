@@ -94,6 +94,31 @@ bool RegistrationOptions::Check(std::string* error) const {
     *error = "max_points_per_pixel must be > 0";
     return false;
   }
+  if (covariance_level < 0 || covariance_level >= pyramid_levels) {
+    *error = "covariance_level " + std::to_string(covariance_level) + " must be in 0.." +
+             std::to_string(pyramid_levels - 1) + " (pyramid_levels - 1)";
+    return false;
+  }
+  if (!(max_sigma_px > 0) || !(restart_tolerance_px > 0)) {
+    *error = "max_sigma_px and restart_tolerance_px must be > 0 (found " +
+             std::to_string(max_sigma_px) + ", " + std::to_string(restart_tolerance_px) + ")";
+    return false;
+  }
+  if (restart_level < 0 || restart_level >= pyramid_levels) {
+    *error = "restart_level " + std::to_string(restart_level) + " must be in 0.." +
+             std::to_string(pyramid_levels - 1) + " (pyramid_levels - 1)";
+    return false;
+  }
+  if (restarts < 0 || restarts > 32 || !(restart_offset_m > 0) || !(restart_offset_deg > 0)) {
+    *error = "restarts must be in 0..32 with offsets > 0 (found " + std::to_string(restarts) +
+             ", " + std::to_string(restart_offset_m) + " m, " +
+             std::to_string(restart_offset_deg) + " deg)";
+    return false;
+  }
+  if (shuffles < 2 || shuffles > 100) {
+    *error = "shuffles " + std::to_string(shuffles) + " must be in 2..100";
+    return false;
+  }
   return true;
 }
 
@@ -178,11 +203,18 @@ MetricValue FrameSetEvaluator::Evaluate(const Rigid3d& cam_from_lidar, int level
   JointHistogram histogram(level_metric);
   for (size_t f = 0; f < frames_.size(); ++f) {
     for (const View& view : pyramid_[level][f]) {
+      Timer render;
       RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer_);
+      render_seconds_ += render.ElapsedSeconds();
+      Timer fill;
       histogram.Add(buffer_, view.image);
+      histogram_seconds_ += fill.ElapsedSeconds();
     }
   }
-  return histogram.Evaluate();
+  Timer fill;
+  const MetricValue value = histogram.Evaluate();
+  histogram_seconds_ += fill.ElapsedSeconds();
+  return value;
 }
 
 double FrameSetEvaluator::CoveredFraction(const Rigid3d& cam_from_lidar) const {
@@ -197,15 +229,118 @@ double FrameSetEvaluator::CoveredFraction(const Rigid3d& cam_from_lidar) const {
   return pixels > 0 ? covered / pixels : 0.0;
 }
 
-size_t FrameSetEvaluator::VisiblePoints(const Rigid3d& cam_from_lidar) const {
+size_t FrameSetEvaluator::VisiblePoints(const Rigid3d& cam_from_lidar, int level) const {
   size_t visible = 0;
   for (size_t f = 0; f < frames_.size(); ++f) {
-    for (const View& view : pyramid_[0][f]) {
-      RenderLidarImage(points_[0][f], view, cam_from_lidar, options_.render, &buffer_);
+    for (const View& view : pyramid_[level][f]) {
+      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer_);
       visible += CountVisiblePoints(buffer_);
     }
   }
   return visible;
+}
+
+void FrameSetEvaluator::EvaluateShuffled(const Rigid3d& cam_from_lidar, int level, int shuffles,
+                                         double* mi_bits,
+                                         std::vector<double>* shuffled_mi_bits) const {
+  MetricOptions metric = options_.metric;
+  metric.kind = MetricKind::kMi;
+  metric.bins = std::max(8, metric.bins >> level);
+  const bool whole = metric.region == Region::kWholeImage;
+  std::vector<float> lidar, photo;
+  for (size_t f = 0; f < frames_.size(); ++f) {
+    for (const View& view : pyramid_[level][f]) {
+      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer_);
+      for (size_t k = 0; k < buffer_.value.size(); ++k) {
+        const bool covered = buffer_.point_index[k] >= 0;
+        if (!covered && !whole) continue;
+        lidar.push_back(covered ? buffer_.value[k] : -1.f);
+        photo.push_back(view.image.pixels[k]);
+      }
+    }
+  }
+  JointHistogram histogram(metric);
+  histogram.AddPairs(lidar, photo);
+  *mi_bits = histogram.Evaluate().mi;
+  shuffled_mi_bits->clear();
+  std::mt19937 rng(20120616);
+  for (int s = 0; s < shuffles; ++s) {
+    std::shuffle(photo.begin(), photo.end(), rng);
+    histogram.Clear();
+    histogram.AddPairs(lidar, photo);
+    shuffled_mi_bits->push_back(histogram.Evaluate().mi);
+  }
+}
+
+std::vector<FrameSetEvaluator::VisiblePoint> FrameSetEvaluator::SampleVisiblePoints(
+    const Rigid3d& cam_from_lidar, size_t max_points) const {
+  std::vector<VisiblePoint> all;
+  for (size_t f = 0; f < frames_.size(); ++f) {
+    for (size_t v = 0; v < pyramid_[0][f].size(); ++v) {
+      RenderLidarImage(points_[0][f], pyramid_[0][f][v], cam_from_lidar, options_.render,
+                       &buffer_);
+      std::vector<int> winners;
+      for (int index : buffer_.point_index) {
+        if (index >= 0) winners.push_back(index);
+      }
+      std::sort(winners.begin(), winners.end());
+      winners.erase(std::unique(winners.begin(), winners.end()), winners.end());
+      for (int index : winners) {
+        all.push_back({static_cast<int>(f), static_cast<int>(v),
+                       points_[0][f].points_in_lidar[index].cast<double>()});
+      }
+    }
+  }
+  if (all.size() <= max_points) return all;
+  std::vector<VisiblePoint> sample;
+  const double stride = static_cast<double>(all.size()) / max_points;
+  for (double k = 0; k < all.size() && sample.size() < max_points; k += stride) {
+    sample.push_back(all[static_cast<size_t>(k)]);
+  }
+  return sample;
+}
+
+bool FrameSetEvaluator::Project(const VisiblePoint& point, const Rigid3d& cam_from_lidar,
+                                Eigen::Vector2d* pixel) const {
+  const View& view = pyramid_[0][point.frame][point.view];
+  const Eigen::Vector3d p = view.view_from_cam * (cam_from_lidar * point.point_in_lidar);
+  if (!view.camera.IsSpherical() && p.z() <= 0) return false;
+  const std::optional<Eigen::Vector2d> xy = view.camera.ImgFromCam(p);
+  if (!xy) return false;
+  *pixel = *xy;
+  return true;
+}
+
+namespace {
+
+// Pixel difference a − b; across the ±180° seam of a panorama the shorter way round.
+Eigen::Vector2d PixelDifference(const View& view, const Eigen::Vector2d& a,
+                                const Eigen::Vector2d& b) {
+  Eigen::Vector2d d = a - b;
+  if (view.camera.IsSpherical()) {
+    const double period = 2 * M_PI * view.camera.params[0];
+    d.x() -= period * std::round(d.x() / period);
+  }
+  return d;
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return std::numeric_limits<double>::infinity();
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+}  // namespace
+
+double FrameSetEvaluator::MedianPixelDistance(const std::vector<VisiblePoint>& sample,
+                                              const Rigid3d& a, const Rigid3d& b) const {
+  std::vector<double> distances;
+  for (const VisiblePoint& point : sample) {
+    Eigen::Vector2d pa, pb;
+    if (!Project(point, a, &pa) || !Project(point, b, &pb)) continue;
+    distances.push_back(PixelDifference(pyramid_[0][point.frame][point.view], pa, pb).norm());
+  }
+  return Median(distances);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -271,7 +406,7 @@ bool CheckConfidence(const FrameSetEvaluator& evaluator, const Rigid3d& start,
 // points of the box x ± 2h. The rendered metric is piecewise constant at the pixel scale, so
 // a regression over many samples is far steadier than finite differences.
 Eigen::Matrix<double, 6, 6> MiHessian(const FrameSetEvaluator& evaluator, const Rigid3d& start,
-                                      const Vector6d& x, const MetricOptions& metric,
+                                      const Vector6d& x, const MetricOptions& metric, int level,
                                       int* evaluations) {
   Vector6d h;
   h << 0.04, 0.04, 0.04, 0.2, 0.2, 0.2;
@@ -302,8 +437,9 @@ Eigen::Matrix<double, 6, 6> MiHessian(const FrameSetEvaluator& evaluator, const 
     for (int i = 0; i < 6; ++i) {
       for (int j = i; j < 6; ++j) design(k, col++) = (i == j ? 0.5 : 1.0) * d[i] * d[j];
     }
-    values[k] = evaluator.Evaluate(ApplyCorrection(start, x + d.cwiseProduct(h)), 0, metric).mi *
-                M_LN2;
+    values[k] =
+        evaluator.Evaluate(ApplyCorrection(start, x + d.cwiseProduct(h)), level, metric).mi *
+        M_LN2;
     ++*evaluations;
   }
   const Eigen::VectorXd coef = design.colPivHouseholderQr().solve(values);
@@ -316,6 +452,144 @@ Eigen::Matrix<double, 6, 6> MiHessian(const FrameSetEvaluator& evaluator, const 
     }
   }
   return hessian;
+}
+
+// Coarse-to-fine search from x0: Nelder–Mead at levels top_level .. bottom_level with the
+// simplex `top_step` at the top level, halved at each finer one, and the tolerances of the
+// main run at each level (`finest_tolerance` > 0 replaces the one of bottom_level); then
+// (optionally) gradient ascent on the B-spline histogram at level 0.
+struct SearchResult {
+  Vector6d x = Vector6d::Zero();
+  double value = 0;
+  int iterations = 0;
+  int evaluations = 0;
+};
+
+SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x0,
+                    int top_level, int bottom_level, const Vector6d& top_step,
+                    double finest_tolerance, bool gradient,
+                    const RegistrationOptions& options, class StageClock* clock,
+                    const std::string& stage_prefix);
+
+// Records the time and evaluations of consecutive stages into a result.
+class StageClock {
+ public:
+  explicit StageClock(RegistrationResult* result) : result_(result) {}
+  /// Closes a stage that made `evaluations` metric evaluations (added to the result).
+  void Mark(const std::string& name, int evaluations) {
+    StageStat stat;
+    stat.name = name;
+    stat.seconds = timer_.ElapsedSeconds();
+    stat.evaluations = evaluations;
+    result_->evaluations += evaluations;
+    result_->stages.push_back(stat);
+    spdlog::debug("MI stage {}: {} evaluations, {:.3f} s", name, stat.evaluations, stat.seconds);
+    timer_.Restart();
+  }
+
+ private:
+  RegistrationResult* result_;
+  Timer timer_;
+};
+
+SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x0,
+                    int top_level, int bottom_level, const Vector6d& top_step,
+                    double finest_tolerance, bool gradient,
+                    const RegistrationOptions& options, StageClock* clock,
+                    const std::string& stage_prefix) {
+  SearchResult search;
+  const Vector6d bound = BoundVector(options);
+  const int levels = evaluator.levels();
+  Vector6d x = x0;
+  for (int level = top_level; level >= bottom_level; --level) {
+    NelderMeadOptions nm = options.nelder_mead;
+    nm.lower = -bound;
+    nm.upper = bound;
+    nm.initial_step = top_step * std::pow(0.5, top_level - level);
+    // Tolerance: the paper's at the coarsest level, halved per finer level.
+    nm.parameter_tolerance =
+        options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1 - level);
+    if (level == bottom_level && finest_tolerance > 0) nm.parameter_tolerance = finest_tolerance;
+    const NelderMeadResult r = MaximizeNelderMead(
+        [&](const Vector6d& y) {
+          return evaluator.Evaluate(ApplyCorrection(start, y), level).value;
+        },
+        x, nm);
+    spdlog::debug("MI {}level {}: {} iterations, metric {:.6f}, correction [{:.3f} {:.3f} {:.3f} "
+                  "{:.3f} {:.3f} {:.3f}]",
+                  stage_prefix, level, r.iterations, r.value, r.x[0], r.x[1], r.x[2], r.x[3],
+                  r.x[4], r.x[5]);
+    x = r.x;
+    search.value = r.value;
+    search.iterations += r.iterations;
+    search.evaluations += r.evaluations;
+    if (clock != nullptr) clock->Mark(stage_prefix + "nelder-mead level " + std::to_string(level),
+                                      r.evaluations);
+  }
+  // Gradient refinement on the B-spline histogram (smooth in the pose): steepest ascent in
+  // the scaled units with a backtracking step.
+  if (gradient) {
+    MetricOptions smooth = options.metric;
+    smooth.smoothing = Smoothing::kBSpline;
+    int evaluations = 0;
+    auto f = [&](const Vector6d& y) {
+      ++evaluations;
+      return evaluator.Evaluate(ApplyCorrection(start, y), 0, smooth).value;
+    };
+    Vector6d h;
+    h << 0.005, 0.005, 0.005, 0.02, 0.02, 0.02;
+    double fx = f(x);
+    double alpha = 0.05;  // units per unit of normalised gradient
+    for (int it = 0; it < options.gradient_max_iterations && alpha > 1e-3; ++it) {
+      Vector6d g;
+      for (int i = 0; i < 6; ++i) {
+        Vector6d a = x, b = x;
+        a[i] += h[i];
+        b[i] -= h[i];
+        g[i] = (f(a) - f(b)) / (2 * h[i]);
+      }
+      if (!(g.norm() > 0)) break;
+      const Vector6d direction = g / g.cwiseAbs().maxCoeff();
+      bool improved = false;
+      while (alpha > 1e-3) {
+        const Vector6d y = (x + alpha * direction).cwiseMax(-bound).cwiseMin(bound);
+        const double fy = f(y);
+        if (fy > fx) {
+          x = y;
+          fx = fy;
+          improved = true;
+          alpha *= 1.5;
+          break;
+        }
+        alpha *= 0.5;
+      }
+      ++search.iterations;
+      if (!improved) break;
+    }
+    search.evaluations += evaluations;
+    if (clock != nullptr) clock->Mark(stage_prefix + "gradient refinement", evaluations);
+  }
+  search.x = x;
+  return search;
+}
+
+// Second derivative of MI (nats per unit²) along a unit direction of the correction: a
+// parabola a + b·t + ½·c·t² fitted by least squares to 13 samples t ∈ [−0.3, 0.3].
+double CurvatureAlong(const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x,
+                      const Vector6d& direction, const MetricOptions& metric, int level,
+                      int* evaluations) {
+  constexpr int kSide = 6;
+  constexpr double kStep = 0.05;
+  Eigen::Matrix<double, 2 * kSide + 1, 3> design;
+  Eigen::Matrix<double, 2 * kSide + 1, 1> values;
+  for (int k = -kSide; k <= kSide; ++k) {
+    const double t = k * kStep;
+    design.row(k + kSide) << 1.0, t, 0.5 * t * t;
+    values[k + kSide] =
+        evaluator.Evaluate(ApplyCorrection(start, x + t * direction), level, metric).mi * M_LN2;
+    ++*evaluations;
+  }
+  return design.colPivHouseholderQr().solve(values)[2];
 }
 
 }  // namespace
@@ -368,7 +642,9 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
       }
     }
   }
+  StageClock clock(&result);
   FrameSetEvaluator evaluator(frames, cam_from_lidar_start, options);
+  clock.Mark("prepare", 0);
   const double covered = evaluator.CoveredFraction(cam_from_lidar_start);
   if (covered < options.min_covered_fraction) {
     return fail("image does not overlap the cloud: " + Fixed(100 * covered, 2) +
@@ -376,148 +652,216 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
                 Fixed(100 * options.min_covered_fraction, 2) + " %)");
   }
   result.metric_before = evaluator.Evaluate(cam_from_lidar_start, 0);
+  clock.Mark("start checks", 2);
 
+  // ---- Optimisation: Nelder–Mead coarse to fine (paper defaults at the coarsest level),
+  // then gradient ascent on the smooth histogram.
   const Vector6d bound = BoundVector(options);
-  NelderMeadOptions nm = options.nelder_mead;
-  nm.lower = -bound;
-  nm.upper = bound;
-  Vector6d x = Vector6d::Zero();
   const int levels = evaluator.levels();
-  for (int level = levels - 1; level >= 0; --level) {
-    const double scale = std::pow(0.5, levels - 1 - level);
-    NelderMeadOptions level_nm = nm;
-    level_nm.initial_step = nm.initial_step.cwiseMin(bound) * scale;
-    level_nm.parameter_tolerance = nm.parameter_tolerance * scale;
-    const NelderMeadResult r = MaximizeNelderMead(
-        [&](const Vector6d& y) {
-          return evaluator.Evaluate(ApplyCorrection(cam_from_lidar_start, y), level).value;
-        },
-        x, level_nm);
-    spdlog::debug("MI level {}: {} iterations, metric {:.6f}, correction [{:.3f} {:.3f} {:.3f} "
-                  "{:.3f} {:.3f} {:.3f}]",
-                  level, r.iterations, r.value, r.x[0], r.x[1], r.x[2], r.x[3], r.x[4], r.x[5]);
-    x = r.x;
-    result.iterations += r.iterations;
-    result.evaluations += r.evaluations;
-  }
-  // Gradient refinement on the B-spline histogram (smooth in the pose): steepest ascent in
-  // the scaled units with a backtracking step.
-  if (options.gradient_refinement) {
-    MetricOptions smooth = options.metric;
-    smooth.smoothing = Smoothing::kBSpline;
-    auto f = [&](const Vector6d& y) {
-      ++result.evaluations;
-      return evaluator.Evaluate(ApplyCorrection(cam_from_lidar_start, y), 0, smooth).value;
-    };
-    Vector6d h;
-    h << 0.005, 0.005, 0.005, 0.02, 0.02, 0.02;
-    double fx = f(x);
-    double alpha = 0.05;  // units per unit of normalised gradient
-    for (int it = 0; it < options.gradient_max_iterations && alpha > 1e-3; ++it) {
-      Vector6d g;
-      for (int i = 0; i < 6; ++i) {
-        Vector6d a = x, b = x;
-        a[i] += h[i];
-        b[i] -= h[i];
-        g[i] = (f(a) - f(b)) / (2 * h[i]);
-      }
-      if (!(g.norm() > 0)) break;
-      const Vector6d direction = g / g.cwiseAbs().maxCoeff();
-      bool improved = false;
-      while (alpha > 1e-3) {
-        const Vector6d y = (x + alpha * direction).cwiseMax(-bound).cwiseMin(bound);
-        const double fy = f(y);
-        if (fy > fx) {
-          x = y;
-          fx = fy;
-          improved = true;
-          alpha *= 1.5;
-          break;
-        }
-        alpha *= 0.5;
-      }
-      ++result.iterations;
-      if (!improved) break;
-    }
-  }
+  const SearchResult main_search =
+      Search(evaluator, cam_from_lidar_start, Vector6d::Zero(), levels - 1, 0,
+             options.nelder_mead.initial_step.cwiseMin(bound), -1.0,
+             options.gradient_refinement, options, &clock, "");
+  result.iterations += main_search.iterations;
+  Vector6d x = main_search.x;
   result.correction = x;
   result.cam_from_lidar = ApplyCorrection(cam_from_lidar_start, x);
   result.metric_after = evaluator.Evaluate(result.cam_from_lidar, 0);
+  AcceptanceChecks& checks = result.checks;
 
-  // Uncertainty: Laplace approximation. N·MI (nats) is the log-likelihood ratio of the
+  // ---- Uncertainty: Laplace approximation. N·MI (nats) is the log-likelihood ratio of the
   // joint against independent intensities (Roche et al. 2000), so the covariance of the
-  // correction is (N_eff · (−∇²MI))⁻¹ with N_eff the distinct LiDAR points seen.
-  const double n_eff = static_cast<double>(evaluator.VisiblePoints(result.cam_from_lidar));
+  // correction is (N_eff · (−∇²MI))⁻¹ with N_eff the distinct LiDAR points seen at the level
+  // of the fit.
+  const int covariance_level = std::min(options.covariance_level, levels - 1);
+  const double n_eff =
+      static_cast<double>(evaluator.VisiblePoints(result.cam_from_lidar, covariance_level));
+  int hessian_evaluations = 0;
   const Eigen::Matrix<double, 6, 6> hessian =
-      MiHessian(evaluator, cam_from_lidar_start, x, options.metric, &result.evaluations);
+      MiHessian(evaluator, cam_from_lidar_start, x, options.metric, covariance_level,
+                &hessian_evaluations);
   const Eigen::Matrix<double, 6, 6> information = -n_eff * hessian;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(information);
   const double min_eigen = eigen.eigenvalues().minCoeff();
-  {
-    std::ostringstream diag;
-    diag << "MI Hessian (nats/unit^2) diagonal " << hessian.diagonal().transpose()
-         << "; information eigenvalues " << eigen.eigenvalues().transpose() << "; N_eff "
-         << n_eff;
-    spdlog::debug("{}", diag.str());
-  }
   const double max_eigen = eigen.eigenvalues().maxCoeff();
-  int weak_directions = 0;
   if (max_eigen > 0) {
-    // Directions the curvature does not determine (information below 1e-3 of the strongest,
-    // or negative from noise on a near-flat ridge, e.g. forward motion against pitch) get the
-    // variance of a uniform distribution over the search box: the only knowledge left.
+    // Directions the curvature does not determine (no positive curvature, or less
+    // information than the search box itself holds) get the variance of a uniform
+    // distribution over the box: the only knowledge left. If they move pixels, the σ check
+    // below fails.
     Eigen::Matrix<double, 6, 6> box_variance = Eigen::Matrix<double, 6, 6>::Zero();
     for (int i = 0; i < 6; ++i) box_variance(i, i) = bound[i] * bound[i] / 3.0;
     const Eigen::Matrix<double, 6, 6>& v = eigen.eigenvectors();
     for (int k = 0; k < 6; ++k) {
       const Vector6d direction = v.col(k);
+      const double box = direction.dot(box_variance * direction);
+      double lambda = eigen.eigenvalues()[k];
+      if (!(lambda > 0 && 1.0 / lambda < box)) {
+        // The 28-term fit is noisiest in its weakest direction: measure the curvature along
+        // that one direction alone, a parabola fitted to 13 samples over ±0.3 units.
+        lambda = -n_eff * CurvatureAlong(evaluator, cam_from_lidar_start, x, direction,
+                                         options.metric, covariance_level,
+                                         &hessian_evaluations);
+      }
       double variance;
-      if (eigen.eigenvalues()[k] > 1e-3 * max_eigen) {
-        variance = 1.0 / eigen.eigenvalues()[k];
+      if (lambda > 0 && 1.0 / lambda < box) {
+        variance = 1.0 / lambda;
       } else {
-        variance = direction.dot(box_variance * direction);
-        ++weak_directions;
+        variance = box;
+        ++checks.weak_directions;
       }
       result.covariance += variance * direction * direction.transpose();
     }
     result.covariance_valid = true;
   }
+  {
+    std::ostringstream diag;
+    diag << "MI Hessian (nats/unit^2) diagonal " << hessian.diagonal().transpose()
+         << "; information eigenvalues " << eigen.eigenvalues().transpose() << "; N_eff "
+         << n_eff << " at level " << covariance_level << "; weakest direction "
+         << eigen.eigenvectors().col(0).transpose();
+    spdlog::debug("{}", diag.str());
+  }
+  clock.Mark("covariance", hessian_evaluations + 1);
 
-  // Confidence and status.
-  std::string reason;
-  const int check_level = std::min(1, levels - 1);
-  bool trusted = true;
+  // ---- Acceptance. Every check is measured; status "ok" needs all of them.
+  std::vector<std::string> failures;
   for (int i = 0; i < 6; ++i) {
     if (std::abs(x[i]) >= 0.9 * bound[i]) {
-      trusted = false;
-      reason = std::string("optimum on the search bound of ") + ParameterName(i) + " (" +
-               Fixed(x[i]) + ")";
+      checks.on_bound = true;
+      failures.push_back(std::string("optimum on the search bound of ") + ParameterName(i) +
+                         " (" + Fixed(x[i]) + ")");
       break;
     }
   }
-  // One weak direction is usual for a single view (forward motion against a rotation); more
-  // means the surface is flat in a subspace and the pose is not determined (measured on KITTI:
-  // two weak directions accompanied 9 px errors).
-  if (trusted && (!result.covariance_valid || weak_directions > 1)) {
-    trusted = false;
-    reason = "metric surface not peaked at the optimum (" + std::to_string(weak_directions) +
-             " of 6 directions without curvature; information eigenvalues " +
-             Fixed(min_eigen, 1) + " .. " + Fixed(max_eigen, 1) + ")";
+  // (1) Predicted pixel σ: is the maximum well conditioned at the accuracy asked for?
+  const std::vector<FrameSetEvaluator::VisiblePoint> sample =
+      evaluator.SampleVisiblePoints(result.cam_from_lidar, 2000);
+  if (!result.covariance_valid) {
+    failures.push_back("no maximum: the metric's curvature is not negative in any direction "
+                       "(information eigenvalues " + Fixed(min_eigen, 1) + " .. " +
+                       Fixed(max_eigen, 1) + ")");
+  } else {
+    Vector6d h;
+    h << 1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2;
+    std::vector<double> sigmas;
+    for (const FrameSetEvaluator::VisiblePoint& point : sample) {
+      Eigen::Matrix<double, 2, 6> jacobian;
+      bool ok = true;
+      for (int k = 0; k < 6 && ok; ++k) {
+        Vector6d a = x, b = x;
+        a[k] += h[k];
+        b[k] -= h[k];
+        Eigen::Vector2d pa, pb;
+        ok = evaluator.Project(point, ApplyCorrection(cam_from_lidar_start, a), &pa) &&
+             evaluator.Project(point, ApplyCorrection(cam_from_lidar_start, b), &pb);
+        if (ok) {
+          jacobian.col(k) =
+              PixelDifference(evaluator.frames()[point.frame].views[point.view], pa, pb) /
+              (2 * h[k]);
+        }
+      }
+      if (ok) sigmas.push_back(std::sqrt((jacobian * result.covariance * jacobian.transpose()).trace()));
+    }
+    checks.sigma_px = Median(sigmas);
+    if (!(checks.sigma_px <= options.max_sigma_px)) {
+      failures.push_back("pose not determined to the accuracy asked: predicted pixel sigma " +
+                         Fixed(checks.sigma_px, 2) + " px > " + Fixed(options.max_sigma_px, 2) +
+                         " px (" + std::to_string(checks.weak_directions) +
+                         " of 6 directions without curvature)");
+    }
   }
-  if (trusted) {
-    trusted = CheckConfidence(evaluator, cam_from_lidar_start, x, options, check_level, &reason,
-                              &result.evaluations);
+  // (2) Significance of the MI against the shuffled-pairing baseline (same samples, photo
+  // values permuted: what MI a pose without any relation to the photo would show).
+  {
+    std::vector<double> shuffled;
+    evaluator.EvaluateShuffled(result.cam_from_lidar, 0, options.shuffles, &checks.mi_bits,
+                               &shuffled);
+    double mean = 0, var = 0;
+    for (double v : shuffled) mean += v;
+    mean /= shuffled.size();
+    for (double v : shuffled) var += (v - mean) * (v - mean);
+    checks.mi_shuffled_bits = mean;
+    checks.mi_shuffled_sd_bits = std::sqrt(var / (shuffled.size() - 1));
+    const double gain = checks.mi_bits - mean;
+    checks.mi_significance = gain / std::max(checks.mi_shuffled_sd_bits, 1e-9);
+    if (!(gain >= options.min_mi_gain_bits) ||
+        !(checks.mi_significance >= options.min_mi_significance)) {
+      failures.push_back("MI not significant: " + Fixed(checks.mi_bits, 4) + " bits vs " +
+                         Fixed(mean, 4) + " +- " + Fixed(checks.mi_shuffled_sd_bits, 4) +
+                         " bits with shuffled pairings");
+    }
+    clock.Mark("shuffled baseline", 1);
   }
-  result.trusted = trusted;
-  result.confidence_reason =
-      trusted ? (weak_directions == 0
-                     ? std::string("single clear peak")
-                     : "single peak; " + std::to_string(weak_directions) +
-                           " weakly determined direction(s) carry the search-box variance")
-              : reason;
-  result.status = trusted ? "ok" : "failed";
-  result.reason = trusted ? "" : reason;
+  // (3) Restarts: the fine levels re-optimised from points around the optimum must come back
+  // to it (a clear maximum draws them back; a plateau or a ridge leaves them elsewhere).
+  {
+    Vector6d offset;
+    offset << options.restart_offset_m, options.restart_offset_m, options.restart_offset_m,
+        options.restart_offset_deg, options.restart_offset_deg, options.restart_offset_deg;
+    const int restart_level = std::min(options.restart_level, levels - 1);
+    // The restarts stop where the main run stopped: at its finest tolerance.
+    const double tolerance =
+        options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1);
+    std::mt19937 rng(6);
+    int evaluations = 0;
+    checks.restart_spread_px = 0;
+    checks.restart_best_gain = -std::numeric_limits<double>::infinity();
+    for (int k = 0; k < options.restarts; ++k) {
+      Vector6d signs;
+      for (int i = 0; i < 6; ++i) signs[i] = (rng() & 1u) ? 1.0 : -1.0;
+      if (k % 2 == 1) signs = -signs;  // pairs of opposite starts
+      const Vector6d x0 = (x + signs.cwiseProduct(offset)).cwiseMax(-bound).cwiseMin(bound);
+      const SearchResult restart =
+          Search(evaluator, cam_from_lidar_start, x0, restart_level, restart_level,
+                 2.0 * offset, tolerance, false, options, nullptr,
+                 "restart " + std::to_string(k) + " ");
+      evaluations += restart.evaluations;
+      const Rigid3d pose = ApplyCorrection(cam_from_lidar_start, restart.x);
+      const double distance = evaluator.MedianPixelDistance(sample, result.cam_from_lidar, pose);
+      const double gain = evaluator.Evaluate(pose, 0).value - result.metric_after.value;
+      ++evaluations;
+      checks.restart_spread_px = std::max(checks.restart_spread_px, distance);
+      checks.restart_best_gain = std::max(checks.restart_best_gain, gain);
+      ++checks.restarts_run;
+      spdlog::debug("MI restart {}: {:.2f} px from the optimum, metric {:+.6f}", k, distance,
+                    gain);
+    }
+    if (checks.restarts_run > 0 && !(checks.restart_spread_px <= options.restart_tolerance_px)) {
+      failures.push_back("restarts disagree: re-optimised from +-(" +
+                         Fixed(options.restart_offset_m, 2) + " m, " +
+                         Fixed(options.restart_offset_deg, 2) + " deg) around the optimum, one "
+                         "ended " + Fixed(checks.restart_spread_px, 2) + " px away (tolerance " +
+                         Fixed(options.restart_tolerance_px, 2) + " px)");
+    }
+    clock.Mark("restarts", evaluations);
+  }
+  // (4) Per-axis scans: flat or multi-peaked surfaces.
+  {
+    int evaluations = 0;
+    checks.scans_passed = CheckConfidence(evaluator, cam_from_lidar_start, x, options,
+                                          std::min(1, levels - 1), &checks.scans_reason,
+                                          &evaluations);
+    if (!checks.scans_passed) failures.push_back(checks.scans_reason);
+    clock.Mark("axis scans", evaluations);
+  }
+  result.trusted = failures.empty();
+  if (result.trusted) {
+    result.confidence_reason =
+        "single clear peak: predicted sigma " + Fixed(checks.sigma_px, 2) + " px, " +
+        std::to_string(checks.restarts_run) + " restarts within " +
+        Fixed(checks.restart_spread_px, 2) + " px, MI " + Fixed(checks.mi_bits, 4) +
+        " bits vs shuffled " + Fixed(checks.mi_shuffled_bits, 4) + " bits";
+  } else {
+    std::string joined;
+    for (const std::string& f : failures) joined += (joined.empty() ? "" : "; ") + f;
+    result.confidence_reason = joined;
+  }
+  result.status = result.trusted ? "ok" : "failed";
+  result.reason = result.trusted ? "" : result.confidence_reason;
   result.runtime_seconds = timer.ElapsedSeconds();
+  spdlog::debug("MI evaluator: render {:.3f} s, histogram {:.3f} s", evaluator.render_seconds(),
+                evaluator.histogram_seconds());
   return result;
 }
 

@@ -4,6 +4,7 @@
 // as an intensity image, a points-only image or a depth map, with a z-buffer whose point
 // footprint shrinks with range so that the far side of a wall does not show through.
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -96,6 +97,10 @@ struct LidarImage {
   std::vector<float> offset_y;
   std::vector<int> point_index;  ///< winning point, -1 where empty
   size_t covered_pixels = 0;
+  /// Scratch reused between renders: per pixel the packed (range bits, point index) key of
+  /// the nearest point, and per point its projection (kept to avoid reallocation).
+  std::vector<uint64_t> zbuffer;
+  std::vector<Eigen::Vector2f> projected;
 };
 
 /// Distinct points winning at least one pixel (the independent samples of the image).

@@ -62,13 +62,20 @@ class JointHistogram {
   void Clear();
   /// Adds every sample of one rendered view against its photo.
   void Add(const LidarImage& lidar, const GrayImage& photo);
+  /// Adds samples given as pairs: LiDAR value in [0, 1] (negative = no LiDAR, counted only in
+  /// whole-image mode) and photo grey level 0..255. Used for the shuffled-pairing baseline.
+  void AddPairs(const std::vector<float>& lidar01, const std::vector<float>& photo255);
   MetricValue Evaluate() const;
 
  private:
-  void AddSample(double lidar_bin, double photo_bin, bool lidar_empty);
+  void AddSample(float lidar_pos, float photo_pos, bool lidar_empty);
   MetricOptions options_;
-  int lidar_bins_;  ///< options.bins + 1 in whole-image mode (the empty bin is 0)
-  std::vector<double> counts_;  ///< lidar_bins_ × bins, row = lidar
+  int bins_;
+  /// LiDAR-covered samples: (bins+3)² bins with one bin of padding below and two above on
+  /// both axes, so that the 4×4 B-spline footprint needs no clamping; Evaluate() folds the
+  /// padding onto the edge bins (the same as clamping each contribution).
+  std::vector<double> counts_;
+  std::vector<double> empty_counts_;  ///< photo histogram of samples without LiDAR (bins+3)
   double total_ = 0;
   double lidar_total_ = 0;
 };

@@ -54,6 +54,30 @@ struct RegistrationOptions {
   /// fraction of |peak|, and no other local maximum may come within it.
   double min_relative_peak = 0.002;
   bool check_multiple_peaks = true;
+  /// Pyramid level of the quadratic fit that gives the covariance (0 = full resolution; at
+  /// level 1, a quarter of the cost, the fit was too noisy on the synthetic street: a
+  /// spurious negative curvature made a 0.3 px result look undetermined).
+  int covariance_level = 0;
+  /// Acceptance: status "ok" needs every check below to pass (see AcceptanceChecks).
+  /// Predicted 1-σ displacement of the visible LiDAR points in the image, px: median over
+  /// the points of sqrt(trace(J Σ Jᵀ)), J = ∂pixel/∂correction, Σ = the covariance.
+  double max_sigma_px = 0.5;
+  /// Restarts: Nelder–Mead at `restart_level` (simplex 2·offset, the main run's finest
+  /// tolerance) from this many points around the optimum (offset ±restart_offset in each
+  /// parameter, deterministic signs, in opposite pairs); each must end within
+  /// restart_tolerance_px (median full-resolution pixel distance of the visible points) of
+  /// the optimum. Level 1 costs a quarter of level 0.
+  int restarts = 3;
+  int restart_level = 1;
+  double restart_offset_m = 0.05;
+  double restart_offset_deg = 0.5;
+  double restart_tolerance_px = 1.0;
+  /// Shuffled-pairing baseline: MI at the optimum against MI with the photo values permuted
+  /// over the same samples (`shuffles` permutations). Needs gain ≥ min_mi_gain_bits and
+  /// (gain / σ of the shuffled MI) ≥ min_mi_significance.
+  int shuffles = 8;
+  double min_mi_gain_bits = 0.02;
+  double min_mi_significance = 10.0;
   bool Check(std::string* error) const;
 };
 
@@ -62,6 +86,29 @@ struct ProbeSample {
   int axis = 0;            ///< 0..5 = tx, ty, tz, roll, pitch, yaw
   double offset = 0;       ///< units (m or deg)
   MetricValue metric;
+};
+
+/// Time and metric evaluations of one stage of a registration (profiling, bench/RESULTS.md).
+struct StageStat {
+  std::string name;
+  int evaluations = 0;
+  double seconds = 0;
+};
+
+/// The acceptance tests of one registration, all measured (also when an earlier one failed).
+struct AcceptanceChecks {
+  bool on_bound = false;            ///< optimum at ≥ 90 % of the search bound in some parameter
+  double sigma_px = -1;             ///< predicted pixel σ (median over visible points)
+  int weak_directions = 0;          ///< no positive curvature / less than the box: box σ
+  int restarts_run = 0;
+  double restart_spread_px = -1;    ///< largest median pixel distance restart ↔ optimum
+  double restart_best_gain = 0;     ///< best restart metric − optimum metric (> 0: higher)
+  double mi_bits = 0;               ///< MI at the optimum (pixel-centre samples)
+  double mi_shuffled_bits = 0;      ///< mean MI of the shuffled pairings
+  double mi_shuffled_sd_bits = 0;   ///< their standard deviation
+  double mi_significance = 0;       ///< (mi − shuffled mean) / shuffled sd
+  bool scans_passed = false;        ///< per-axis scans: single peak, not flat
+  std::string scans_reason;
 };
 
 struct RegistrationResult {
@@ -73,11 +120,13 @@ struct RegistrationResult {
   bool covariance_valid = false;
   bool trusted = false;            ///< confidence flag: single clear peak
   std::string confidence_reason;
+  AcceptanceChecks checks;
   MetricValue metric_before;
   MetricValue metric_after;
   int iterations = 0;              ///< Nelder–Mead + gradient iterations, all levels
   int evaluations = 0;
   double runtime_seconds = 0;
+  std::vector<StageStat> stages;   ///< in order of execution
   /// Multi-frame only: frames used and frames rejected, with reasons.
   std::vector<std::string> used_frames;
   std::vector<std::pair<std::string, std::string>> rejected_frames;
@@ -103,10 +152,31 @@ class FrameSetEvaluator {
   MetricValue Evaluate(const Rigid3d& cam_from_lidar, int level) const {
     return Evaluate(cam_from_lidar, level, options_.metric);
   }
+  /// MI (bits) of the pixel-centre samples at a pose, and of `shuffles` random permutations
+  /// of the photo values over the same samples (the no-information baseline).
+  void EvaluateShuffled(const Rigid3d& cam_from_lidar, int level, int shuffles,
+                        double* mi_bits, std::vector<double>* shuffled_mi_bits) const;
+  /// A sample (at most `max_points`) of the LiDAR points visible at a pose (full resolution).
+  struct VisiblePoint {
+    int frame = 0;
+    int view = 0;
+    Eigen::Vector3d point_in_lidar;
+  };
+  std::vector<VisiblePoint> SampleVisiblePoints(const Rigid3d& cam_from_lidar,
+                                                size_t max_points) const;
+  /// Full-resolution pixel of a visible point under a pose; false when it does not project.
+  bool Project(const VisiblePoint& point, const Rigid3d& cam_from_lidar,
+               Eigen::Vector2d* pixel) const;
+  /// Median pixel distance of the sample between two poses (seam-aware for panoramas).
+  double MedianPixelDistance(const std::vector<VisiblePoint>& sample, const Rigid3d& a,
+                             const Rigid3d& b) const;
   /// Fraction of view pixels covered by LiDAR at a pose (full resolution).
   double CoveredFraction(const Rigid3d& cam_from_lidar) const;
-  size_t VisiblePoints(const Rigid3d& cam_from_lidar) const;
+  size_t VisiblePoints(const Rigid3d& cam_from_lidar, int level = 0) const;
   const std::vector<Frame>& frames() const { return frames_; }
+  /// Time spent rendering and filling histograms since construction (profiling).
+  double render_seconds() const { return render_seconds_; }
+  double histogram_seconds() const { return histogram_seconds_; }
 
  private:
   std::vector<Frame> frames_;
@@ -114,6 +184,8 @@ class FrameSetEvaluator {
   std::vector<std::vector<std::vector<View>>> pyramid_;  ///< level → frame → views
   std::vector<std::vector<LidarPoints>> points_;           ///< level → frame → culled points
   mutable LidarImage buffer_;
+  mutable double render_seconds_ = 0;
+  mutable double histogram_seconds_ = 0;
 };
 
 /// Registers one frame (or several frames sharing one pose, treated as one image set).
