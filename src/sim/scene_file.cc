@@ -1,85 +1,16 @@
 // Scene files of `mmba simulate --scene FILE.yaml` (schema in README "mmba simulate").
 #include <filesystem>
-#include <functional>
-#include <map>
-#include <set>
-
-#include <yaml-cpp/yaml.h>
 
 #include "mmba/core/error.h"
+#include "mmba/io/yaml_reader.h"
 #include "mmba/sim/simulate.h"
 
 namespace mmba::sim {
-namespace {
-
 namespace fs = std::filesystem;
 
-class Reader {
- public:
-  explicit Reader(std::string path) : path_(std::move(path)) {}
-
-  // Reads the keys of `node` (a map) through `handlers`; any other key is an error.
-  void Map(const YAML::Node& node, const std::string& where,
-           const std::map<std::string, std::function<void(const YAML::Node&, const std::string&)>>& handlers) {
-    if (!node.IsMap()) Fail(node, where, "a mapping", "a " + Kind(node));
-    for (const auto& item : node) {
-      const std::string key = item.first.as<std::string>();
-      const std::string field = where.empty() ? key : where + "." + key;
-      const auto it = handlers.find(key);
-      if (it == handlers.end()) {
-        std::string known;
-        for (const auto& [name, fn] : handlers) known += (known.empty() ? "" : ", ") + name;
-        Fail(item.first, field, "one of " + known, key + " (unknown key)");
-      }
-      it->second(item.second, field);
-    }
-  }
-  double Number(const YAML::Node& node, const std::string& field) {
-    try {
-      if (!node.IsScalar()) throw YAML::Exception(node.Mark(), "");
-      return node.as<double>();
-    } catch (const YAML::Exception&) {
-      Fail(node, field, "a number", Text(node));
-    }
-    return 0;
-  }
-  int Integer(const YAML::Node& node, const std::string& field) {
-    try {
-      if (!node.IsScalar()) throw YAML::Exception(node.Mark(), "");
-      return node.as<int>();
-    } catch (const YAML::Exception&) {
-      Fail(node, field, "an integer", Text(node));
-    }
-    return 0;
-  }
-  std::string String(const YAML::Node& node, const std::string& field) {
-    if (!node.IsScalar()) Fail(node, field, "a string", "a " + Kind(node));
-    return node.as<std::string>();
-  }
-  [[noreturn]] void Fail(const YAML::Node& node, const std::string& field, const std::string& expected,
-                         const std::string& found) {
-    throw InputError(path_, node.Mark().line >= 0 ? node.Mark().line + 1 : 0, field, found, expected);
-  }
-
- private:
-  static std::string Kind(const YAML::Node& node) {
-    return node.IsMap() ? "mapping" : node.IsSequence() ? "sequence" : node.IsNull() ? "null" : "scalar";
-  }
-  static std::string Text(const YAML::Node& node) { return node.IsScalar() ? node.Scalar() : Kind(node); }
-  std::string path_;
-};
-
-}  // namespace
-
 void ReadSceneFile(const std::string& path, SimulateOptions* o) {
-  if (!fs::exists(path)) throw InputError::Message(path, "scene file not found");
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::Exception& e) {
-    throw InputError(path, e.mark.line + 1, "YAML", e.msg, "valid YAML");
-  }
-  Reader r(path);
+  const io::YamlReader r(path);
+  const YAML::Node root = r.Load("scene file");
   using Node = const YAML::Node&;
   using F = const std::string&;
   const auto num = [&](double* v) { return [&r, v](Node n, F f) { *v = r.Number(n, f); }; };

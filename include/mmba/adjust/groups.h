@@ -1,0 +1,108 @@
+// Factor groups of the joint adjustment that join the image blocks to the survey network and
+// to the LiDAR: image measurements of surveyed targets, GNSS coordinates of marks, and
+// tie points on the LiDAR surface (point-to-plane).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "mmba/core/ids.h"
+#include "mmba/problem/factor_group.h"
+#include "mmba/survey/network.h"
+
+namespace mmba::adjust {
+
+/// An image measurement of a surveyed point (a target, a control mark).
+struct TargetMeasurement {
+  std::string point_id;
+  ImageId image_id;
+  Eigen::Vector2d xy = Eigen::Vector2d::Zero();
+  double sigma_px = 1.0;
+  std::string source;  ///< "file:line", for reports
+};
+
+/// Reprojection of survey points (world ENU coordinates, two parameter blocks east-north and
+/// up as the survey groups use them) into the images of a Scene: the residual that makes the
+/// total-station control and the photo block one adjustment. The network's coordinates must
+/// be in the project's world frame (local ENU at the project origin).
+class TargetReprojectionGroup : public FactorGroup {
+ public:
+  TargetReprojectionGroup(survey::SurveyNetwork* network, std::vector<TargetMeasurement> measurements,
+                          LossOptions loss, std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+  const std::vector<TargetMeasurement>& measurements() const { return measurements_; }
+
+ private:
+  survey::SurveyNetwork* network_;
+  std::vector<TargetMeasurement> measurements_;
+};
+
+/// GNSS coordinates of a surveyed mark in the world ENU frame with σ per axis: three
+/// residual blocks (east, north, up) per mark.
+struct GnssPoint {
+  std::string point_id;
+  Eigen::Vector3d enu = Eigen::Vector3d::Zero();
+  Eigen::Vector3d sigma = Eigen::Vector3d::Ones();  ///< east, north, up [m]
+  std::string source;
+};
+
+class GnssPointGroup : public FactorGroup {
+ public:
+  GnssPointGroup(survey::SurveyNetwork* network, std::vector<GnssPoint> points, LossOptions loss,
+                 std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+  const std::vector<GnssPoint>& points() const { return points_; }
+  /// Observation index i of a block = 3·point + axis.
+
+ private:
+  survey::SurveyNetwork* network_;
+  std::vector<GnssPoint> points_;
+};
+
+/// A tie point's plane on the LiDAR surface: n·(X − p) = 0.
+struct SurfacePlane {
+  Point3DId point3D_id;
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  double sigma_m = 0.01;
+};
+
+class LidarSurfaceGroup : public FactorGroup {
+ public:
+  LidarSurfaceGroup(std::vector<SurfacePlane> planes, LossOptions loss, std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+  const std::vector<SurfacePlane>& planes() const { return planes_; }
+
+ private:
+  std::vector<SurfacePlane> planes_;
+};
+
+/// The LiDAR surface near a set of points: a k-d tree over the reference cloud (cropped to
+/// the region of interest so memory stays bounded) and local plane fits.
+class LidarSurface {
+ public:
+  /// Reads `path`, keeping points inside [min − margin, max + margin].
+  LidarSurface(const std::string& path, const Eigen::Vector3d& roi_min,
+               const Eigen::Vector3d& roi_max, double margin);
+  ~LidarSurface();
+  LidarSurface(const LidarSurface&) = delete;
+  LidarSurface& operator=(const LidarSurface&) = delete;
+
+  size_t size() const;
+  size_t num_read() const { return num_read_; }
+  /// The plane through the `k` nearest LiDAR points of `query` (PCA), when the nearest is
+  /// within `max_distance`, the neighbourhood is planar (smallest eigenvalue ≤ 10 % of the
+  /// middle one) and |n·(query − centroid)| ≤ max_distance.
+  bool FitPlane(const Eigen::Vector3d& query, double max_distance, int k, Eigen::Vector3d* normal,
+                Eigen::Vector3d* centroid) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  size_t num_read_ = 0;
+};
+
+}  // namespace mmba::adjust

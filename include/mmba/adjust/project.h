@@ -1,0 +1,95 @@
+// The project file of the joint adjustment `mmba adjust` (YAML, schema in README
+// "project.yaml" and calib/README.md). LoadProject validates the whole file — keys, types,
+// ranges, units, that every referenced file exists — before any work, with errors naming the
+// file, line and key (InputError, exit 2).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "mmba/geodesy/geodesy.h"
+#include "mmba/problem/factor_group.h"
+
+namespace mmba::adjust {
+
+/// Intrinsics refined in the adjustment (each photo collection's own camera).
+struct RefineIntrinsics {
+  bool focal = true;
+  bool principal_point = true;
+  bool distortion = true;
+};
+
+struct PhotoCollection {
+  std::string id;
+  int line = 0;                       ///< of the sensor in the project file
+  std::string images;                 ///< folder of the photos
+  std::string calibration;            ///< camera YAML (model, width, height, params); "" = COLMAP's
+  std::string colmap_model;           ///< COLMAP model folder; "" = run COLMAP on `images`
+  std::string control_measurements;   ///< CSV point_id,image,x_px,y_px[,sigma_px]; "" = none
+  double sigma_px = 1.0;              ///< σ of a tie-point image coordinate
+  double control_sigma_px = 0.0;      ///< σ of a target measurement; 0 = the CSV's, else sigma_px
+  LossOptions loss{LossType::kHuber, 3.0};
+  RefineIntrinsics refine;
+};
+
+struct TotalStation {
+  std::string id;
+  int line = 0;
+  std::string file;  ///< GNU Gama gama-local XML or the survey CSV; axes of the world frame
+  LossOptions loss{LossType::kHuber, 3.0};
+};
+
+struct Gnss {
+  std::string id;
+  int line = 0;
+  std::string file;  ///< CSV id,kind,time_s,latitude_deg,longitude_deg,height_m,sigma_{east,north,up}_m
+  LossOptions loss{LossType::kHuber, 3.0};
+};
+
+struct LidarStatic {
+  std::string id;
+  int line = 0;
+  std::string reference_cloud;        ///< registered cloud in the world frame
+  std::vector<std::string> scans;     ///< per-scan files (validated; see README limits)
+  double range_sigma_m = 0.003;
+  double surface_sigma_m = 0.01;      ///< σ of a tie point's distance to the LiDAR surface
+  double max_distance_m = 0.3;        ///< association gate of the first outer iteration
+  LossOptions loss{LossType::kHuber, 3.0};
+};
+
+/// A sensor the project may name that this version validates but does not adjust
+/// (spherical_stereo, camera_rig, lidar_mobile): reported as not used.
+struct OtherSensor {
+  std::string id;
+  std::string type;
+  int line = 0;
+};
+
+struct AdjustSettings {
+  int max_iterations = 100;   ///< Levenberg–Marquardt iterations per outer iteration
+  int outer_iterations = 4;   ///< re-association of LiDAR correspondences
+  double confidence = 0.95;   ///< χ² test and data-snooping level
+  /// An observation is a blunder when its studentized residual exceeds the critical value
+  /// AND its whitened residual exceeds this (4: about 6 false alarms per 100 000 good ones).
+  double outlier_sigma = 4.0;
+};
+
+struct Project {
+  std::string path;  ///< the project file
+  std::string dir;   ///< its folder (paths are relative to it)
+  std::string name;
+  geodesy::Geodetic origin;  ///< world = ENU tangent plane here
+  std::vector<std::string> check_points;  ///< surveyed points withheld from the adjustment
+  AdjustSettings settings;
+  std::vector<PhotoCollection> photos;
+  std::vector<TotalStation> total_stations;
+  std::vector<Gnss> gnss;
+  std::vector<LidarStatic> lidar_static;
+  std::vector<OtherSensor> other_sensors;
+  std::string truth;  ///< simulations: truth JSON (evaluation only, never used to adjust)
+};
+
+/// Reads and validates `path` (see above). Throws InputError.
+Project LoadProject(const std::string& path);
+
+}  // namespace mmba::adjust

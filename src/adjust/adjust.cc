@@ -1,0 +1,628 @@
+#include "mmba/adjust/adjust.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <spdlog/spdlog.h>
+
+#include "internal.h"
+#include "mmba/core/error.h"
+#include "mmba/core/progress.h"
+#include "mmba/io/csv_table.h"
+#include "mmba/io/gama_local.h"
+#include "mmba/io/kitti.h"
+#include "mmba/io/survey_csv.h"
+#include "mmba/problem/colmap_scene.h"
+#include "mmba/survey/survey_group.h"
+
+namespace mmba::adjust {
+namespace internal {
+
+Eigen::Vector3d WorldFromSurvey(const survey::SurveyNetwork&, const survey::SurveyPoint& p) { return p.coords; }
+
+Eigen::Matrix3d SurveyPointCovariance(const stats::NetworkStatistics& st, const survey::SurveyNetwork&,
+                                      const survey::SurveyPoint& p) {
+  double* xy = const_cast<double*>(p.coords.data());
+  const std::pair<double*, int> scalars[3] = {{xy, 0}, {xy, 1}, {xy + 2, 0}};
+  Eigen::Matrix3d enu = Eigen::Matrix3d::Zero();
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) {
+      enu(a, b) = st.Covariance(scalars[a].first, scalars[a].second, scalars[b].first, scalars[b].second);
+    }
+  }
+  return enu;
+}
+
+}  // namespace internal
+
+namespace {
+
+namespace fs = std::filesystem;
+using internal::JointState;
+using internal::PhotoBlock;
+
+/// A stage's result: logged now and listed in the report.
+void Note(JointState* s, const std::string& text) {
+  spdlog::info("adjust: {}", text);
+  s->log.push_back(text);
+}
+
+class AdjustFailure : public std::runtime_error {
+ public:
+  AdjustFailure(std::string status, const std::string& reason)
+      : std::runtime_error(reason), status_(std::move(status)) {}
+  const std::string& status() const { return status_; }
+
+ private:
+  std::string status_;
+};
+
+std::string ProjectKey(const Project& project, int line, const std::string& key) {
+  return project.path + ":" + std::to_string(line) + ": " + key;
+}
+
+// ---- total station -----------------------------------------------------------------------
+
+void LoadNetwork(JointState* s) {
+  const Project& project = *s->project;
+  if (project.total_stations.empty()) return;
+  const TotalStation& ts = project.total_stations.front();
+  const std::string ext = fs::path(ts.file).extension().string();
+  survey::SurveyNetwork network = ext == ".csv" ? io::ReadSurveyCsv(ts.file) : io::ReadGamaLocal(ts.file);
+  for (size_t i = 0; i < project.check_points.size(); ++i) {
+    if (!network.Find(project.check_points[i])) {
+      throw InputError::Message(project.path, "check_points[" + std::to_string(i) + "]: found " +
+                                                  project.check_points[i] + ", expected a point of " + ts.file);
+    }
+  }
+  // Initialisation step 1: the network alone gives the control coordinates (and, for check
+  // points, the surveyed coordinates they are compared with).
+  s->surveyed = network;
+  survey::SurveyAdjustOptions options;
+  options.confidence = project.settings.confidence;
+  s->surveyed_adjustment = survey::AdjustNetwork(&*s->surveyed, options);
+  if (!s->surveyed_adjustment.converged) {
+    throw AdjustFailure("failed", "total station network " + ts.file + " alone does not adjust: " +
+                                      s->surveyed_adjustment.reason);
+  }
+  Note(s, "total station network alone: " + std::to_string(s->surveyed_adjustment.statistics.num_equations) +
+                   " observations, sigma0 ratio " + std::to_string(s->surveyed_adjustment.statistics.sigma0_ratio));
+  // The joint network starts from the adjusted coordinates; check points are withheld: their
+  // coordinates leave the network and every observation of them is set passive.
+  s->joint = *s->surveyed;
+  const std::set<std::string> check(project.check_points.begin(), project.check_points.end());
+  for (survey::SurveyPoint& p : s->joint->points) {
+    if (check.count(p.id)) p.xy = p.z = survey::CoordStatus::kUnused;
+  }
+  for (survey::Cluster& cluster : s->joint->clusters) {
+    for (survey::Observation& o : cluster.observations) {
+      if (check.count(o.from) || check.count(o.to) || check.count(o.fs)) {
+        o.active = false;
+        o.passive_reason = "check point withheld";
+      }
+    }
+  }
+}
+
+// ---- GNSS --------------------------------------------------------------------------------
+
+void LoadGnss(JointState* s) {
+  for (const Gnss& g : s->project->gnss) {
+    const io::CsvTable table = io::CsvTable::Read(
+        g.file, {"id", "kind", "latitude_deg", "longitude_deg", "height_m", "sigma_east_m", "sigma_north_m", "sigma_up_m"});
+    for (const io::CsvTable::Row& row : table.rows()) {
+      const std::string& kind = table.String(row, "kind");
+      if (kind == "trajectory") {
+        ++s->gnss_trajectory_rows;
+        continue;
+      }
+      if (kind != "control") table.Fail(row, "kind", kind, "control or trajectory");
+      geodesy::Geodetic geo{table.Double(row, "latitude_deg"), table.Double(row, "longitude_deg"),
+                            table.Double(row, "height_m")};
+      if (std::abs(geo.latitude_deg) > 90) table.Fail(row, "latitude_deg", table.String(row, "latitude_deg"), "[-90, 90] degrees");
+      if (std::abs(geo.longitude_deg) > 180) table.Fail(row, "longitude_deg", table.String(row, "longitude_deg"), "[-180, 180] degrees");
+      GnssPoint p;
+      p.point_id = table.String(row, "id");
+      p.enu = s->plane.EnuFromGeodetic(geo);
+      if (p.enu.norm() > 50000) {
+        table.Fail(row, "latitude_deg", table.String(row, "latitude_deg") + ", " + table.String(row, "longitude_deg"),
+                   "a point within 50 km of the project origin (inconsistent origin or units?)");
+      }
+      const char* sigma_columns[3] = {"sigma_east_m", "sigma_north_m", "sigma_up_m"};
+      for (int a = 0; a < 3; ++a) {
+        p.sigma(a) = table.Double(row, sigma_columns[a]);
+        if (!(p.sigma(a) > 0 && p.sigma(a) <= 10)) {
+          table.Fail(row, sigma_columns[a], table.String(row, sigma_columns[a]), "a σ in (0, 10] m");
+        }
+      }
+      p.source = g.file + ":" + std::to_string(row.line);
+      if (!s->joint || !s->joint->Find(p.point_id)) {
+        s->warnings.push_back("GNSS point " + p.point_id + " (" + p.source + ") is not a point of the survey network: not used");
+        continue;
+      }
+      if (std::count(s->project->check_points.begin(), s->project->check_points.end(), p.point_id)) {
+        continue;  // withheld with the check point
+      }
+      s->gnss_points.push_back(p);
+    }
+  }
+  if (s->gnss_trajectory_rows > 0) {
+    s->warnings.push_back(std::to_string(s->gnss_trajectory_rows) +
+                          " GNSS/INS trajectory rows not used: no rig or mobile sensor is adjusted in this version");
+  }
+}
+
+// ---- photos ------------------------------------------------------------------------------
+
+std::string RunColmap(const PhotoCollection& p, const std::string& work, const sensors::Camera* calibration) {
+  if (std::system("command -v colmap > /dev/null 2>&1") != 0) {
+    throw AdjustFailure("failed", "photo collection '" + p.id + "' has no colmap_model and the colmap command is not installed");
+  }
+  fs::create_directories(fs::path(work) / "sparse");
+  const auto quote = [](const std::string& s) { return "'" + s + "'"; };
+  const std::string db = quote((fs::path(work) / "database.db").string());
+  std::string camera_options = " --ImageReader.single_camera 1";
+  if (calibration) {
+    std::ostringstream params;
+    for (size_t i = 0; i < calibration->params.size(); ++i) params << (i ? "," : "") << calibration->params[i];
+    camera_options += " --ImageReader.camera_model " + calibration->ModelName() + " --ImageReader.camera_params " + params.str();
+  }
+  const std::string log = " >> " + quote((fs::path(work) / "colmap.log").string()) + " 2>&1";
+  const std::vector<std::string> commands = {
+      "QT_QPA_PLATFORM=offscreen colmap feature_extractor --database_path " + db + " --image_path " + quote(p.images) +
+          camera_options + " --SiftExtraction.use_gpu 0" + log,
+      "QT_QPA_PLATFORM=offscreen colmap exhaustive_matcher --database_path " + db + " --SiftMatching.use_gpu 0" + log,
+      "QT_QPA_PLATFORM=offscreen colmap mapper --database_path " + db + " --image_path " + quote(p.images) +
+          " --output_path " + quote((fs::path(work) / "sparse").string()) + log};
+  for (const std::string& command : commands) {
+    spdlog::info("adjust: {}", command);
+    if (std::system(command.c_str()) != 0) {
+      throw AdjustFailure("failed", "COLMAP failed on photo collection '" + p.id + "' (log: " + work + "/colmap.log)");
+    }
+  }
+  const fs::path model = fs::path(work) / "sparse" / "0";
+  if (!fs::exists(model / "images.bin")) {
+    throw AdjustFailure("failed", "COLMAP reconstructed no model from photo collection '" + p.id + "'");
+  }
+  return model.string();
+}
+
+Eigen::Vector3d Triangulate(const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>& rays) {
+  // Least-squares intersection of rays (centre, unit direction): Σ (I − ddᵀ)(X − c) = 0.
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (const auto& [c, d] : rays) {
+    const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - d * d.transpose();
+    a += p;
+    b += p * c;
+  }
+  return a.ldlt().solve(b);
+}
+
+/// Rays of the measurements of each point id, in the scene's current frame.
+std::map<std::string, std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>> MeasurementRays(
+    const Scene& scene, const std::vector<TargetMeasurement>& measurements) {
+  std::map<std::string, std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>> rays;
+  for (const TargetMeasurement& m : measurements) {
+    const ImagePose& image = scene.Image(m.image_id);
+    const Rigid3d world_from_cam = image.cam_from_world.Inverse();
+    const Eigen::Vector3d d = world_from_cam.rotation * scene.Camera(image.camera_id).CamFromImg(m.xy);
+    rays[m.point_id].emplace_back(world_from_cam.translation, d.normalized());
+  }
+  return rays;
+}
+
+void LoadPhotos(JointState* s, const std::string& work_dir) {
+  const Project& project = *s->project;
+  if (project.photos.empty()) return;
+  if (project.photos.size() > 1) {
+    throw InputError::Message(ProjectKey(project, project.photos[1].line, "sensors"),
+                              "found a second photo_collection, expected one (this version adjusts one photo block)");
+  }
+  const PhotoCollection& p = project.photos.front();
+  PhotoBlock block;
+  block.config = &p;
+  std::optional<sensors::Camera> calibration;
+  if (!p.calibration.empty()) calibration = io::ReadCameraYaml(p.calibration).camera;
+  const std::string model_dir =
+      p.colmap_model.empty() ? RunColmap(p, (fs::path(work_dir) / ("colmap_" + p.id)).string(),
+                                         calibration ? &*calibration : nullptr)
+                             : p.colmap_model;
+  block.model = io::ReadColmapModel(model_dir);
+  if (block.model.cameras.empty() || block.model.images.empty()) {
+    throw InputError::Message(model_dir, "the COLMAP model has no cameras or no images");
+  }
+  if (calibration) {
+    for (auto& [id, camera] : block.model.cameras) {
+      if (camera.model_id != calibration->model_id || camera.width != calibration->width ||
+          camera.height != calibration->height) {
+        throw InputError::Message(p.calibration,
+                                  "model/size " + calibration->ModelName() + " " + std::to_string(calibration->width) + "x" +
+                                      std::to_string(calibration->height) + " disagrees with COLMAP camera " +
+                                      std::to_string(id.value) + " (" + camera.ModelName() + " " +
+                                      std::to_string(camera.width) + "x" + std::to_string(camera.height) + ") of " + model_dir);
+      }
+      camera.params = calibration->params;
+    }
+  }
+  block.ties = SceneFromColmap(block.model, p.sigma_px, &s->scene);
+  std::map<std::string, ImageId> image_by_name;
+  for (const auto& [id, image] : block.model.images) image_by_name[image.name] = id;
+  if (!p.control_measurements.empty()) {
+    if (!s->joint) {
+      throw InputError::Message(ProjectKey(project, p.line, "control_measurements"),
+                                "image measurements of surveyed points need a total_station sensor");
+    }
+    const io::CsvTable table = io::CsvTable::Read(p.control_measurements, {"point_id", "image", "x_px", "y_px"});
+    const std::set<std::string> check(project.check_points.begin(), project.check_points.end());
+    std::vector<TargetMeasurement> check_measurements;
+    for (const io::CsvTable::Row& row : table.rows()) {
+      TargetMeasurement m;
+      m.point_id = table.String(row, "point_id");
+      if (!s->surveyed->Find(m.point_id)) {
+        table.Fail(row, "point_id", m.point_id, "a point of " + project.total_stations.front().file);
+      }
+      const auto image = image_by_name.find(table.String(row, "image"));
+      if (image == image_by_name.end()) table.Fail(row, "image", table.String(row, "image"), "an image of " + model_dir);
+      m.image_id = image->second;
+      m.xy = {table.Double(row, "x_px"), table.Double(row, "y_px")};
+      const sensors::Camera& camera = block.model.cameras.at(block.model.images.at(m.image_id).camera_id);
+      if (m.xy.x() < -0.5 || m.xy.y() < -0.5 || m.xy.x() > camera.width + 0.5 || m.xy.y() > camera.height + 0.5) {
+        table.Fail(row, "x_px", table.String(row, "x_px") + ", " + table.String(row, "y_px"),
+                   "a pixel inside the " + std::to_string(camera.width) + "x" + std::to_string(camera.height) + " image");
+      }
+      m.sigma_px = p.control_sigma_px > 0 ? p.control_sigma_px : table.Double(row, "sigma_px", p.sigma_px);
+      if (!(m.sigma_px > 0 && m.sigma_px <= 50)) table.Fail(row, "sigma_px", std::to_string(m.sigma_px), "a σ in (0, 50] px");
+      m.source = p.control_measurements + ":" + std::to_string(row.line);
+      (check.count(m.point_id) ? check_measurements : block.control).push_back(m);
+    }
+    // Initialisation: the control targets intersected in the block's frame, then the
+    // similarity block → world (Umeyama 1991) from their surveyed coordinates.
+    std::vector<Eigen::Vector3d> from, to;
+    std::vector<std::string> used;
+    for (const auto& [id, rays] : MeasurementRays(s->scene, block.control)) {
+      if (rays.size() < 2) continue;
+      from.push_back(Triangulate(rays));
+      to.push_back(internal::WorldFromSurvey(*s->surveyed, *s->surveyed->Find(id)));
+      used.push_back(id);
+    }
+    if (from.size() >= 3) {
+      Eigen::Matrix3Xd a(3, from.size()), b(3, to.size());
+      for (size_t i = 0; i < from.size(); ++i) {
+        a.col(i) = from[i];
+        b.col(i) = to[i];
+      }
+      const Eigen::Matrix4d t = Eigen::umeyama(a, b, true);
+      const double scale = t.topLeftCorner<3, 3>().col(0).norm();
+      const Eigen::Matrix3d rotation = t.topLeftCorner<3, 3>() / scale;
+      const Sim3d world_from_block(scale, Eigen::Quaterniond(rotation).normalized(), t.topRightCorner<3, 1>());
+      double sum = 0.0;
+      for (size_t i = 0; i < from.size(); ++i) sum += (world_from_block * from[i] - to[i]).squaredNorm();
+      const double rms = std::sqrt(sum / from.size());
+      s->scene.Transform(world_from_block);
+      std::ostringstream g;
+      g << "similarity from " << from.size() << " control targets: scale " << scale << ", RMS " << rms << " m";
+      block.georeference = g.str();
+    } else if (!project.lidar_static.empty()) {
+      block.georeference = "as given (fewer than 3 control targets measured in 2+ photos; LiDAR surface ties)";
+      s->warnings.push_back("photo collection '" + p.id + "': " + std::to_string(from.size()) +
+                            " control targets measured in 2+ photos; the block is taken as roughly georeferenced");
+    } else {
+      throw AdjustFailure("failed", "photo collection '" + p.id + "' has no overlap with the control: " +
+                                        std::to_string(from.size()) + " surveyed targets measured in 2+ photos, 3 needed "
+                                        "(or a lidar_static sensor)");
+    }
+    // Check points: image-only points of the scene, intersected after the georeference.
+    uint64_t next = internal::kCheckPointIdBase;
+    const auto rays = MeasurementRays(s->scene, check_measurements);
+    for (const auto& [id, point_rays] : rays) {
+      if (point_rays.size() < 2) {
+        s->warnings.push_back("check point " + id + " is measured in fewer than 2 photos: not evaluated");
+        continue;
+      }
+      const Point3DId point3D_id(next++);
+      s->scene.AddPoint(point3D_id, Triangulate(point_rays));
+      block.check_ids[id] = point3D_id;
+    }
+    for (const TargetMeasurement& m : check_measurements) {
+      if (block.check_ids.count(m.point_id)) block.check.push_back({m.image_id, block.check_ids.at(m.point_id), m.xy, m.sigma_px});
+    }
+  } else if (project.lidar_static.empty()) {
+    throw AdjustFailure("failed", "photo collection '" + p.id + "' has no overlap with any other sensor: no "
+                                  "control_measurements and no lidar_static sensor");
+  } else {
+    block.georeference = "as given (no control measurements; LiDAR surface ties)";
+  }
+  for (const auto& [id, image] : s->scene.images()) block.initial_poses[id] = image.cam_from_world;
+  block.initial_params = s->scene.cameras().begin()->second.params;
+  Note(s, "photo block '" + p.id + "': " + std::to_string(block.model.images.size()) + " images, " +
+                   std::to_string(block.model.points3D.size()) + " tie points, " + std::to_string(block.ties.size()) +
+                   " observations; georeference: " + block.georeference);
+  s->photos = std::move(block);
+}
+
+// ---- LiDAR -------------------------------------------------------------------------------
+
+void LoadLidar(JointState* s) {
+  if (s->project->lidar_static.empty() || !s->photos) return;
+  const LidarStatic& l = s->project->lidar_static.front();
+  if (s->project->lidar_static.size() > 1) {
+    s->warnings.push_back("only the first lidar_static sensor's reference cloud ties the photos in this version");
+  }
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+  for (const auto& [id, p] : s->scene.points()) {
+    if (id.value >= internal::kCheckPointIdBase) continue;
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  s->surface = std::make_unique<LidarSurface>(l.reference_cloud, lo, hi, 1.0);
+  Note(s, "LiDAR reference " + l.reference_cloud + ": " + std::to_string(s->surface->num_read()) +
+                   " points read, " + std::to_string(s->surface->size()) + " near the photo block kept");
+  if (s->surface->size() < 100) {
+    throw AdjustFailure("failed", "lidar_static '" + l.id + "': the reference cloud does not overlap the photo block (" +
+                                      std::to_string(s->surface->size()) + " points within 1 m of its tie points)");
+  }
+  if (!l.scans.empty()) {
+    s->warnings.push_back("lidar_static '" + l.id + "': the " + std::to_string(l.scans.size()) +
+                          " individual scans are not adjusted in this version (the registered reference cloud is used)");
+  }
+}
+
+size_t Associate(JointState* s, double gate) {
+  const LidarStatic& l = s->project->lidar_static.front();
+  const double sigma = std::sqrt(l.surface_sigma_m * l.surface_sigma_m + l.range_sigma_m * l.range_sigma_m);
+  s->planes.clear();
+  for (const auto& [id, p] : s->scene.points()) {
+    if (id.value >= internal::kCheckPointIdBase) continue;
+    Eigen::Vector3d n, c;
+    if (s->surface->FitPlane(p, gate, 12, &n, &c)) s->planes.push_back({id, n, c, sigma});
+  }
+  std::sort(s->planes.begin(), s->planes.end(),
+            [](const SurfacePlane& a, const SurfacePlane& b) { return a.point3D_id < b.point3D_id; });
+  return s->planes.size();
+}
+
+// ---- the joint problem -------------------------------------------------------------------
+
+template <typename T>
+std::vector<T> Without(const std::vector<T>& all, const std::set<size_t>& excluded) {
+  std::vector<T> out;
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (!excluded.count(i)) out.push_back(all[i]);
+  }
+  return out;
+}
+
+const char* kTies = "photos: tie points";
+const char* kTargets = "photos: control targets";
+const char* kCheck = "photos: check points";
+const char* kGnss = "GNSS control";
+const char* kLidar = "LiDAR surface (tie points)";
+
+void BuildProblem(JointState* s) {
+  s->builder = std::make_unique<ProblemBuilder>(&s->scene);
+  const auto excluded = [&](const char* name) {
+    const auto it = s->excluded.find(name);
+    return it == s->excluded.end() ? std::set<size_t>() : it->second;
+  };
+  if (s->photos) {
+    const PhotoCollection& p = *s->photos->config;
+    s->builder->AddGroup(std::make_unique<ReprojectionGroup>(Without(s->photos->ties, excluded(kTies)), p.loss, kTies));
+    if (!s->photos->control.empty()) {
+      s->builder->AddGroup(std::make_unique<TargetReprojectionGroup>(
+          &*s->joint, Without(s->photos->control, excluded(kTargets)), p.loss, kTargets));
+    }
+    if (!s->photos->check.empty()) {
+      s->builder->AddGroup(std::make_unique<ReprojectionGroup>(s->photos->check, LossOptions(), kCheck));
+    }
+    ParameterOptions parameters;
+    parameters.refine_focal = p.refine.focal;
+    parameters.refine_principal_point = p.refine.principal_point;
+    parameters.refine_extra = p.refine.distortion;
+    s->builder->set_parameter_options(parameters);
+  }
+  if (s->joint) {
+    for (auto& group : survey::MakeSurveyGroups(&*s->joint, s->project->total_stations.front().loss)) {
+      s->builder->AddGroup(std::move(group));
+    }
+  }
+  if (!s->gnss_points.empty()) {
+    s->builder->AddGroup(std::make_unique<GnssPointGroup>(&*s->joint, Without(s->gnss_points, excluded(kGnss)),
+                                                          s->project->gnss.front().loss, kGnss));
+  }
+  if (!s->planes.empty()) {
+    s->builder->AddGroup(std::make_unique<LidarSurfaceGroup>(Without(s->planes, excluded(kLidar)),
+                                                             s->project->lidar_static.front().loss, kLidar));
+  }
+  GaugeOptions gauge;
+  gauge.kind = GaugeOptions::Kind::kNone;  // the datum comes from the control, GNSS and LiDAR
+  s->builder->set_gauge(gauge);
+  ceres::Problem& problem = s->builder->Build();
+  if (s->joint) survey::SetSurveyParameterStates(&*s->joint, problem);
+  for (const auto& group : s->builder->groups()) {
+    group->set_outlier_threshold(s->project->settings.outlier_sigma);
+  }
+}
+
+void SolveOnce(JointState* s, const AdjustOptions& options) {
+  BuildProblem(s);
+  SolveOptions solve;
+  solve.max_iterations = s->project->settings.max_iterations;
+  solve.num_threads = options.num_threads;
+  solve.log_progress = options.log_progress;
+  solve.function_tolerance = 1e-8;
+  s->solve = Solve(*s->builder, solve);
+  if (!s->solve.converged) {
+    throw AdjustFailure(s->solve.status, "the joint adjustment did not converge: " + s->solve.reason);
+  }
+  std::ostringstream groups;
+  for (const GroupEvaluation& e : s->solve.after) {
+    groups << (groups.tellp() > 0 ? "; " : "") << e.name << " RMS " << e.rms_units << " " << e.unit;
+  }
+  Note(s, "solved in " + std::to_string(s->solve.iterations) + " iterations: " + groups.str());
+}
+
+stats::NetworkStatistics Statistics(JointState* s) {
+  stats::StatisticsOptions options;
+  options.confidence = s->project->settings.confidence;
+  for (auto& [id, point] : s->scene.points()) {
+    if (id.value < internal::kCheckPointIdBase) options.eliminate.insert(point.data());
+  }
+  std::map<const double*, std::string> names;
+  for (const auto& [id, image] : s->scene.images()) {
+    const std::string name = s->photos ? s->photos->model.images.at(id).name : std::to_string(id.value);
+    names[image.cam_from_world.rotation.coeffs().data()] = "rotation of image " + name;
+    names[image.cam_from_world.translation.data()] = "position of image " + name;
+  }
+  for (const auto& [id, camera] : s->scene.cameras()) names[camera.params.data()] = "intrinsics of camera " + std::to_string(id.value);
+  for (const auto& [name, id] : s->photos ? s->photos->check_ids : std::map<std::string, Point3DId>()) {
+    names[s->scene.Point(id).data()] = "check point " + name + " (image measurements)";
+  }
+  if (s->joint) {
+    for (const survey::SurveyPoint& p : s->joint->points) {
+      names[p.coords.data()] = "horizontal position of point " + p.id;
+      names[p.coords.data() + 2] = "height of point " + p.id;
+    }
+  }
+  options.describe = [names](const double* block, int index) {
+    const auto it = names.find(block);
+    return (it == names.end() ? std::string("a parameter") : it->second) + " (component " + std::to_string(index) + ")";
+  };
+  std::vector<const FactorGroup*> groups;
+  for (const auto& g : s->builder->groups()) groups.push_back(g.get());
+  try {
+    return stats::ComputeStatistics(s->builder->problem(), groups, options);
+  } catch (const stats::DegenerateNetworkError& e) {
+    throw AdjustFailure("failed", std::string("degenerate configuration: ") + e.what());
+  }
+}
+
+std::string DescribeObservation(const JointState& s, const FactorGroup& group, size_t block) {
+  const size_t index = group.block_observation_index()[block];
+  const std::string name = group.name();
+  if (name == kTies && s.photos) {
+    const ReprojectionObservation& o = s.photos->ties[index];
+    return "point " + std::to_string(o.point3D_id.value) + " in " + s.photos->model.images.at(o.image_id).name;
+  }
+  if (name == kTargets && s.photos) {
+    const TargetMeasurement& m = s.photos->control[index];
+    return "target " + m.point_id + " in " + s.photos->model.images.at(m.image_id).name + " (" + m.source + ")";
+  }
+  if (name == kGnss) {
+    const GnssPoint& p = s.gnss_points[index / 3];
+    return "GNSS " + std::string(index % 3 == 0 ? "east" : index % 3 == 1 ? "north" : "up") + " of " + p.point_id +
+           " (" + p.source + ")";
+  }
+  if (name == kLidar) return "tie point " + std::to_string(s.planes[index].point3D_id.value) + " to the LiDAR surface";
+  if (const auto* sg = dynamic_cast<const survey::SurveyGroup*>(&group)) {
+    const survey::BlockSpec& spec = sg->added_specs()[block];
+    const survey::Cluster& c = s.joint->clusters[spec.cluster];
+    const survey::Observation& o = c.observations[spec.observations.front()];
+    return std::string(survey::ObsKindName(o.kind)) + " " + o.from + " -> " + o.to + " (" + s.joint->source + ":" +
+           std::to_string(o.line) + ")";
+  }
+  return group.name() + " #" + std::to_string(index);
+}
+
+/// Data snooping (Baarda 1968), one round: observations whose studentized residual exceeds
+/// the critical value and whose whitened residual exceeds outlier_sigma are excluded (survey
+/// observations set passive). Returns the number excluded.
+size_t Snoop(JointState* s, const stats::NetworkStatistics& st) {
+  const double threshold = s->project->settings.outlier_sigma;
+  std::map<std::pair<size_t, size_t>, std::pair<double, double>> worst;  // (group, block) → (w, e)
+  for (const stats::RowStatistic& row : st.rows) {
+    if (!row.critical || std::abs(row.whitened) <= threshold) continue;
+    auto& w = worst[{row.group, row.block}];
+    if (std::abs(row.studentized) > std::abs(w.first)) w = {row.studentized, row.whitened};
+  }
+  const auto& groups = s->builder->groups();
+  for (const auto& [key, value] : worst) {
+    const FactorGroup& group = *groups[key.first];
+    if (group.name() == kCheck) continue;  // check points are evaluated, not snooped
+    const size_t index = group.block_observation_index()[key.second];
+    s->blunders.push_back({group.name(), DescribeObservation(*s, group, key.second), value.second, value.first});
+    if (const auto* sg = dynamic_cast<const survey::SurveyGroup*>(&group)) {
+      const survey::BlockSpec& spec = sg->added_specs()[key.second];
+      for (size_t o : spec.observations) {
+        s->joint->clusters[spec.cluster].observations[o].active = false;
+        s->joint->clusters[spec.cluster].observations[o].passive_reason = "blunder (data snooping)";
+      }
+    } else if (group.name() == kGnss) {
+      for (int axis = 0; axis < 3; ++axis) s->excluded[kGnss].insert(3 * (index / 3) + axis);
+    } else {
+      s->excluded[group.name()].insert(index);
+    }
+  }
+  // Excluded observation indices refer to the full lists; the groups are rebuilt from them.
+  return worst.size();
+}
+
+}  // namespace
+
+AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options) {
+  AdjustOutcome outcome;
+  Timer timer;
+  JointState s;
+  s.project = &project;
+  s.plane = geodesy::LocalTangentPlane(project.origin);
+  const std::string work_dir = options.output_dir + ".work";
+  try {
+    spdlog::info("adjust: reading sensors of {}", project.path);
+    LoadNetwork(&s);
+    LoadGnss(&s);
+    LoadPhotos(&s, work_dir);
+    LoadLidar(&s);
+    if (!project.other_sensors.empty()) {
+      for (const OtherSensor& o : project.other_sensors) {
+        s.warnings.push_back("sensor '" + o.id + "' (" + o.type + ") validated but not adjusted: not implemented in this version");
+      }
+    }
+    // First the photo block on the control alone (the LiDAR association needs it near its
+    // final place), then outer iterations: associate tie points with the LiDAR surface (gate
+    // shrinking from max_distance_m to 3σ), solve, until the association no longer changes.
+    SolveOnce(&s, options);
+    s.outer_iterations = 1;
+    if (s.surface) {
+      double gate = project.lidar_static.front().max_distance_m;
+      size_t previous = 0;
+      for (int k = 0; k < project.settings.outer_iterations; ++k) {
+        const size_t n = Associate(&s, gate);
+        Note(&s, "outer iteration " + std::to_string(k + 2) + ": " + std::to_string(n) +
+                     " tie points on the LiDAR surface (gate " + std::to_string(gate) + " m)");
+        if (n < 10) {
+          throw AdjustFailure("failed", "only " + std::to_string(n) + " tie points lie within " + std::to_string(gate) +
+                                            " m of the LiDAR surface: no overlap, or the photo block is far from the LiDAR frame");
+        }
+        if (k > 0 && n == previous && gate <= 3 * s.planes.front().sigma_m) break;
+        previous = n;
+        SolveOnce(&s, options);
+        s.outer_iterations = k + 2;
+        gate = std::max(0.5 * gate, 3 * s.planes.front().sigma_m);
+      }
+    }
+    // Statistics, one round of data snooping, and the final solve and statistics.
+    s.statistics = Statistics(&s);
+    if (Snoop(&s, s.statistics) > 0) {
+      spdlog::info("adjust: {} observation(s) flagged as blunders and excluded; solving again", s.blunders.size());
+      SolveOnce(&s, options);
+      s.statistics = Statistics(&s);
+    }
+  } catch (const AdjustFailure& e) {
+    outcome.status = e.status();
+    outcome.reason = e.what();
+    return outcome;
+  }
+  s.seconds = timer.ElapsedSeconds();
+  outcome.status = "converged";
+  outcome.ok = true;
+  WriteOutputs(s, options, &outcome);
+  std::error_code ignored;
+  fs::remove_all(work_dir, ignored);
+  return outcome;
+}
+
+}  // namespace mmba::adjust

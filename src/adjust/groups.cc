@@ -1,0 +1,145 @@
+#include "mmba/adjust/groups.h"
+
+#include <ceres/ceres.h>
+
+#include "mmba/factors/reprojection_error.h"
+
+namespace mmba::adjust {
+namespace {
+
+/// Wraps a reprojection cost (blocks: rotation 4, translation 3, point 3, intrinsics) into
+/// one on the survey point's blocks (rotation, translation, east-north 2, up 1, intrinsics).
+class NetworkPointReprojectionCost : public ceres::CostFunction {
+ public:
+  explicit NetworkPointReprojectionCost(ceres::CostFunction* inner) : inner_(inner) {
+    const std::vector<int32_t>& sizes = inner_->parameter_block_sizes();
+    set_num_residuals(inner_->num_residuals());
+    *mutable_parameter_block_sizes() = {sizes[0], sizes[1], 2, 1, sizes[3]};
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const double point[3] = {parameters[2][0], parameters[2][1], parameters[3][0]};
+    const double* inner_parameters[4] = {parameters[0], parameters[1], point, parameters[4]};
+    if (jacobians == nullptr) return inner_->Evaluate(inner_parameters, residuals, nullptr);
+    const int m = num_residuals();
+    std::vector<double> j_point(m * 3);
+    double* inner_jacobians[4] = {jacobians[0], jacobians[1],
+                                  (jacobians[2] || jacobians[3]) ? j_point.data() : nullptr,
+                                  jacobians[4]};
+    if (!inner_->Evaluate(inner_parameters, residuals, inner_jacobians)) return false;
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    const Eigen::Map<const RowMajor> jp(j_point.data(), m, 3);
+    if (jacobians[2]) Eigen::Map<RowMajor>(jacobians[2], m, 2) = jp.leftCols(2);
+    if (jacobians[3]) Eigen::Map<RowMajor>(jacobians[3], m, 1) = jp.col(2);
+    return true;
+  }
+
+ private:
+  std::unique_ptr<ceres::CostFunction> inner_;
+};
+
+/// (x_axis − value)/σ on the point's east-north block (axis 0, 1) or up block (axis 2).
+class GnssAxisCost : public ceres::CostFunction {
+ public:
+  GnssAxisCost(int axis, double value, double sigma) : index_(axis < 2 ? axis : 0), value_(value), sigma_(sigma) {
+    set_num_residuals(1);
+    mutable_parameter_block_sizes()->push_back(axis < 2 ? 2 : 1);
+  }
+  bool Evaluate(double const* const* p, double* r, double** j) const override {
+    r[0] = (p[0][index_] - value_) / sigma_;
+    if (j && j[0]) {
+      const int size = parameter_block_sizes()[0];
+      for (int k = 0; k < size; ++k) j[0][k] = k == index_ ? 1.0 / sigma_ : 0.0;
+    }
+    return true;
+  }
+
+ private:
+  int index_;
+  double value_, sigma_;
+};
+
+/// n·(X − p)/σ (point-to-plane, Chen & Medioni 1992).
+class PointToPlaneCost : public ceres::SizedCostFunction<1, 3> {
+ public:
+  PointToPlaneCost(const Eigen::Vector3d& normal, const Eigen::Vector3d& point, double sigma)
+      : n_(normal / sigma), d_(normal.dot(point) / sigma) {}
+  bool Evaluate(double const* const* p, double* r, double** j) const override {
+    r[0] = n_.dot(Eigen::Map<const Eigen::Vector3d>(p[0])) - d_;
+    if (j && j[0]) {
+      Eigen::Map<Eigen::Vector3d> jacobian(j[0]);
+      jacobian = n_;
+    }
+    return true;
+  }
+
+ private:
+  Eigen::Vector3d n_;
+  double d_;
+};
+
+}  // namespace
+
+TargetReprojectionGroup::TargetReprojectionGroup(survey::SurveyNetwork* network,
+                                                 std::vector<TargetMeasurement> measurements,
+                                                 LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "px", loss), network_(network), measurements_(std::move(measurements)) {}
+
+void TargetReprojectionGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
+  for (size_t i = 0; i < measurements_.size(); ++i) {
+    const TargetMeasurement& m = measurements_[i];
+    survey::SurveyPoint* point = network_->Find(m.point_id);
+    if (point == nullptr || !scene.HasImage(m.image_id)) {
+      Skip();
+      continue;
+    }
+    ImagePose& image = scene.Image(m.image_id);
+    sensors::Camera& camera = scene.Camera(image.camera_id);
+    if (!camera.ImgFromCam(image.cam_from_world * point->coords)) {
+      Skip();
+      continue;
+    }
+    ceres::CostFunction* inner = factors::CreateReprojectionCost(camera.model_id, m.xy, m.sigma_px,
+                                                                 camera.params.data());
+    AddBlock(problem, new NetworkPointReprojectionCost(inner),
+             {image.cam_from_world.rotation.coeffs().data(), image.cam_from_world.translation.data(),
+              point->xy_block(), point->z_block(), camera.params.data()},
+             m.sigma_px, i);
+  }
+}
+
+GnssPointGroup::GnssPointGroup(survey::SurveyNetwork* network, std::vector<GnssPoint> points,
+                               LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "m", loss), network_(network), points_(std::move(points)) {}
+
+void GnssPointGroup::AddResiduals(Scene&, ceres::Problem& problem) {
+  for (size_t i = 0; i < points_.size(); ++i) {
+    survey::SurveyPoint* point = network_->Find(points_[i].point_id);
+    for (int axis = 0; axis < 3; ++axis) {
+      if (point == nullptr) {
+        Skip();
+        continue;
+      }
+      AddBlock(problem,
+               new GnssAxisCost(axis, points_[i].enu(axis), points_[i].sigma(axis)),
+               {axis < 2 ? point->xy_block() : point->z_block()}, points_[i].sigma(axis), 3 * i + axis);
+    }
+  }
+}
+
+LidarSurfaceGroup::LidarSurfaceGroup(std::vector<SurfacePlane> planes, LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "m", loss), planes_(std::move(planes)) {}
+
+void LidarSurfaceGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
+  for (size_t i = 0; i < planes_.size(); ++i) {
+    const SurfacePlane& plane = planes_[i];
+    if (!scene.HasPoint(plane.point3D_id)) {
+      Skip();
+      continue;
+    }
+    AddBlock(problem, new PointToPlaneCost(plane.normal, plane.point, plane.sigma_m),
+             {scene.Point(plane.point3D_id).data()}, plane.sigma_m, i);
+  }
+}
+
+}  // namespace mmba::adjust

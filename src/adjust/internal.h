@@ -1,0 +1,86 @@
+// Shared state of the joint adjustment between adjust.cc (model, solve, statistics) and
+// outputs.cc (files and report). Private to mmba_adjust.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "mmba/adjust/adjust.h"
+#include "mmba/adjust/groups.h"
+#include "mmba/geodesy/geodesy.h"
+#include "mmba/io/colmap_model.h"
+#include "mmba/problem/problem_builder.h"
+#include "mmba/problem/reprojection_group.h"
+#include "mmba/problem/solve.h"
+#include "mmba/stats/statistics.h"
+#include "mmba/survey/adjust.h"
+#include "mmba/survey/network.h"
+
+namespace mmba::adjust::internal {
+
+/// Check points live in the Scene as ordinary 3-D points with ids from here up.
+constexpr uint64_t kCheckPointIdBase = 4000000000ULL;
+
+struct PhotoBlock {
+  const PhotoCollection* config = nullptr;
+  io::ColmapModel model;                       ///< as read (initial values)
+  std::vector<ReprojectionObservation> ties;   ///< tie-point observations
+  std::vector<TargetMeasurement> control;      ///< measurements of control targets
+  std::vector<ReprojectionObservation> check;  ///< measurements of check points (scene points)
+  std::map<std::string, Point3DId> check_ids;  ///< check point → scene point
+  std::map<ImageId, Rigid3d> initial_poses;    ///< after the initial georeference
+  std::vector<double> initial_params;          ///< intrinsics after initialisation
+  std::string georeference;                    ///< how the block was put into the world
+};
+
+struct Blunder {
+  std::string group;
+  std::string observation;
+  double whitened = 0.0;
+  double studentized = 0.0;
+};
+
+struct JointState {
+  const Project* project = nullptr;
+  geodesy::LocalTangentPlane plane{geodesy::Geodetic{}};
+  std::optional<survey::SurveyNetwork> surveyed;     ///< network-only adjustment (control)
+  survey::SurveyAdjustment surveyed_adjustment;
+  std::optional<survey::SurveyNetwork> joint;        ///< the network in the joint problem
+  std::vector<GnssPoint> gnss_points;
+  size_t gnss_trajectory_rows = 0;
+  std::optional<PhotoBlock> photos;
+  Scene scene;
+  std::unique_ptr<LidarSurface> surface;
+  std::vector<SurfacePlane> planes;
+  // Excluded by data snooping: group name → observation indices.
+  std::map<std::string, std::set<size_t>> excluded;
+  std::vector<Blunder> blunders;
+  std::unique_ptr<ProblemBuilder> builder;
+  SolveResult solve;
+  int outer_iterations = 0;
+  double seconds = 0.0;
+  stats::NetworkStatistics statistics;
+  std::vector<std::string> warnings;
+  std::vector<std::string> log;  ///< stages, for the report
+};
+
+/// Writes every output file into options.output_dir (atomically, all or nothing) and fills
+/// outcome.report / summary.
+void WriteOutputs(JointState& state, const AdjustOptions& options, AdjustOutcome* outcome);
+
+/// Camera centre in the world.
+inline Eigen::Vector3d CameraCentre(const Rigid3d& cam_from_world) {
+  return cam_from_world.Inverse().translation;
+}
+
+/// World ENU coordinates of a survey point (SurveyPoint::coords are ENU whatever the input axes).
+Eigen::Vector3d WorldFromSurvey(const survey::SurveyNetwork& network, const survey::SurveyPoint& p);
+/// Covariance (ENU) of a survey point's coordinates from statistics over its blocks.
+Eigen::Matrix3d SurveyPointCovariance(const stats::NetworkStatistics& st,
+                                      const survey::SurveyNetwork& network, const survey::SurveyPoint& p);
+
+}  // namespace mmba::adjust::internal

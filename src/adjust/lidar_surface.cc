@@ -1,0 +1,61 @@
+// The only translation unit of mmba_adjust that includes PCL (its k-d tree).
+#include <Eigen/Eigenvalues>
+#include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include "mmba/adjust/groups.h"
+#include "mmba/io/point_cloud.h"
+
+namespace mmba::adjust {
+
+struct LidarSurface::Impl {
+  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud{new pcl::PointCloud<pcl::PointXYZ>};
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // float precision: points relative to it
+};
+
+LidarSurface::LidarSurface(const std::string& path, const Eigen::Vector3d& roi_min,
+                           const Eigen::Vector3d& roi_max, double margin)
+    : impl_(std::make_unique<Impl>()) {
+  const io::PointCloud cloud = io::ReadPointCloud(path);
+  num_read_ = cloud.size();
+  const Eigen::Vector3d lo = roi_min.array() - margin, hi = roi_max.array() + margin;
+  impl_->offset = 0.5 * (roi_min + roi_max);
+  impl_->cloud->reserve(cloud.size());
+  for (const Eigen::Vector3d& p : cloud.points) {
+    if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+    const Eigen::Vector3f q = (p - impl_->offset).cast<float>();
+    impl_->cloud->push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
+  }
+  if (!impl_->cloud->empty()) impl_->tree.setInputCloud(impl_->cloud);
+}
+
+LidarSurface::~LidarSurface() = default;
+
+size_t LidarSurface::size() const { return impl_->cloud->size(); }
+
+bool LidarSurface::FitPlane(const Eigen::Vector3d& query, double max_distance, int k,
+                            Eigen::Vector3d* normal, Eigen::Vector3d* centroid) const {
+  if (impl_->cloud->size() < static_cast<size_t>(k)) return false;
+  const Eigen::Vector3f q = (query - impl_->offset).cast<float>();
+  std::vector<int> index(k);
+  std::vector<float> distance2(k);
+  if (impl_->tree.nearestKSearch(pcl::PointXYZ(q.x(), q.y(), q.z()), k, index, distance2) < k) return false;
+  if (distance2[0] > max_distance * max_distance) return false;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (int i : index) mean += impl_->cloud->points[i].getVector3fMap().cast<double>();
+  mean /= k;
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (int i : index) {
+    const Eigen::Vector3d d = impl_->cloud->points[i].getVector3fMap().cast<double>() - mean;
+    covariance += d * d.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(covariance / k);
+  if (!(eig.eigenvalues()(0) <= 0.1 * eig.eigenvalues()(1))) return false;  // not planar
+  *normal = eig.eigenvectors().col(0);
+  *centroid = mean + impl_->offset;
+  return std::abs(normal->dot(query - *centroid)) <= max_distance;
+}
+
+}  // namespace mmba::adjust

@@ -1,0 +1,388 @@
+// Output files of `mmba adjust` and the report (report.json → report.html).
+#include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <spdlog/spdlog.h>
+
+#include "internal.h"
+#include "mmba/core/atomic_file.h"
+#include "mmba/io/point_cloud.h"
+#include "mmba/problem/colmap_scene.h"
+#include "mmba/report/adjust_report.h"
+
+namespace mmba::adjust::internal {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+constexpr double kDeg = 180.0 / M_PI;
+
+json Vec(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+double Num(double v) { return std::isfinite(v) ? v : 0.0; }
+
+Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+/// Covariance of a camera centre c = −Rᵀt from the pose blocks' covariance (rotation on
+/// Ceres' EigenQuaternionManifold: R ⊞ δ = Exp(δ)·R, so ∂c/∂δ = −Rᵀ[t]×, ∂c/∂t = −Rᵀ).
+Eigen::Matrix3d CentreCovariance(const stats::NetworkStatistics& st, const ImagePose& pose) {
+  const double* q = pose.cam_from_world.rotation.coeffs().data();
+  const double* t = pose.cam_from_world.translation.data();
+  if (!st.IsFree(q) && !st.IsFree(t)) return Eigen::Matrix3d::Zero();
+  Eigen::Matrix<double, 6, 6> c = Eigen::Matrix<double, 6, 6>::Zero();
+  const std::pair<const double*, int> s[6] = {{q, 0}, {q, 1}, {q, 2}, {t, 0}, {t, 1}, {t, 2}};
+  for (int a = 0; a < 6; ++a) {
+    for (int b = 0; b < 6; ++b) c(a, b) = st.Covariance(s[a].first, s[a].second, s[b].first, s[b].second);
+  }
+  const Eigen::Matrix3d rt = pose.cam_from_world.rotation.toRotationMatrix().transpose();
+  Eigen::Matrix<double, 3, 6> j;
+  j << -rt * Skew(pose.cam_from_world.translation), -rt;
+  return j * c * j.transpose();
+}
+
+Eigen::Matrix3d PointCovariance3(const stats::NetworkStatistics& st, const double* p) {
+  Eigen::Matrix3d c;
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) c(a, b) = st.Covariance(p, a, p, b);
+  }
+  return c;
+}
+
+json Ellipse(const Eigen::Matrix3d& enu) {
+  const stats::ErrorEllipse e = stats::StandardEllipse(enu.topLeftCorner<2, 2>());
+  // StandardEllipse's angle is from axis 1 (east) towards axis 2 (north); azimuth is from north
+  // clockwise: 90° − angle.
+  double azimuth = 90.0 - e.angle_rad * kDeg;
+  if (azimuth < 0) azimuth += 180.0;
+  return {{"a", Num(e.a)}, {"b", Num(e.b)}, {"azimuth_deg", azimuth}};
+}
+
+json Histogram(const FactorGroup& group) {
+  json values = json::array();
+  for (const ObservationResidual& o : group.Evaluate().observations) {
+    for (double w : o.whitened) values.push_back(Num(w));
+  }
+  return values;
+}
+
+std::string Geo(const geodesy::LocalTangentPlane& plane, const Eigen::Vector3d& enu) {
+  const geodesy::Geodetic g = plane.GeodeticFromEnu(enu);
+  const geodesy::Utm u = geodesy::UtmFromGeodetic(g);
+  std::ostringstream s;
+  s << std::setprecision(10) << g.latitude_deg << "," << g.longitude_deg << "," << std::setprecision(4) << std::fixed
+    << g.height_m << "," << u.zone << (u.northp ? "N" : "S") << "," << std::setprecision(4) << u.easting_m << ","
+    << u.northing_m;
+  return s.str();
+}
+
+void WriteText(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+/// Truth evaluation of a simulated project (never used by the adjustment itself).
+json EvaluateTruth(const JointState& s) {
+  std::ifstream in(s.project->truth);
+  const json truth = json::parse(in);
+  json out;
+  if (s.photos && truth.contains("photos")) {
+    double sum = 0.0, worst = 0.0, worst_rotation = 0.0;
+    size_t n = 0;
+    std::map<std::string, ImageId> by_name;
+    for (const auto& [id, image] : s.photos->model.images) by_name[image.name] = id;
+    for (const json& t : truth["photos"]["images"]) {
+      const auto it = by_name.find(t["name"].get<std::string>());
+      if (it == by_name.end()) continue;
+      const std::vector<double> q = t["cam_from_world"]["qvec_wxyz"], tv = t["cam_from_world"]["tvec"];
+      const Rigid3d true_pose(Eigen::Quaterniond(q[0], q[1], q[2], q[3]), Eigen::Vector3d(tv[0], tv[1], tv[2]));
+      const Rigid3d& pose = s.scene.Image(it->second).cam_from_world;
+      const double d = (CameraCentre(pose) - CameraCentre(true_pose)).norm();
+      sum += d * d;
+      worst = std::max(worst, d);
+      worst_rotation = std::max(worst_rotation, pose.rotation.angularDistance(true_pose.rotation) * kDeg);
+      ++n;
+    }
+    out["photo_positions"] = {{"images", n}, {"rmse_m", n ? std::sqrt(sum / n) : 0.0}, {"max_m", worst},
+                              {"max_rotation_deg", worst_rotation}};
+    const std::vector<double> true_params = truth["photos"]["camera"]["params"];
+    const std::vector<double>& params = s.scene.cameras().begin()->second.params;
+    out["photo_camera"] = {{"adjusted", params}, {"true", true_params}, {"initial", s.photos->initial_params}};
+  }
+  if (s.joint && truth.contains("survey")) {
+    json points = json::array();
+    for (const json& t : truth["survey"]["points"]) {
+      const survey::SurveyPoint* p = s.joint->Find(t["id"].get<std::string>());
+      if (!p || !(p->xy_free() || p->z_free())) continue;
+      const std::vector<double> w = t["point_in_world"];
+      const Eigen::Vector3d d = WorldFromSurvey(*s.joint, *p) - Eigen::Vector3d(w[0], w[1], w[2]);
+      points.push_back({{"id", p->id}, {"d", Vec(d)}});
+    }
+    out["survey_points"] = points;
+  }
+  return out;
+}
+
+}  // namespace
+
+void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* outcome) {
+  const Project& project = *s.project;
+  const stats::NetworkStatistics& st = s.statistics;
+  const fs::path out_dir = options.output_dir;
+  const fs::path stage = out_dir.string() + ".writing";
+  fs::remove_all(stage);
+  fs::create_directories(stage / "calibration");
+  json report;
+  report["schema"] = "mmba-adjust-report-1";
+  report["project"] = project.name;
+  {
+    std::time_t now = std::time(nullptr);
+    char buffer[32];
+    std::strftime(buffer, sizeof buffer, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+    report["generated_utc"] = buffer;
+  }
+  report["status"] = outcome->status;
+  report["origin"] = {{"latitude_deg", project.origin.latitude_deg}, {"longitude_deg", project.origin.longitude_deg},
+                      {"height_m", project.origin.height_m}};
+  const geodesy::Utm origin_utm = geodesy::UtmFromGeodetic(project.origin);
+  report["frame"] = "local ENU tangent plane at the project origin (metres); WGS84 and UTM in the CSV files";
+  report["utm_zone"] = std::to_string(origin_utm.zone) + (origin_utm.northp ? "N" : "S");
+  report["solver"] = {{"iterations", s.solve.iterations}, {"outer_iterations", s.outer_iterations},
+                      {"initial_cost", s.solve.initial_cost}, {"final_cost", s.solve.final_cost},
+                      {"seconds", s.seconds}};
+  report["sigma0"] = {{"apriori", 1.0}, {"aposteriori", st.sigma0_ratio}, {"dof", st.degrees_of_freedom},
+                      {"confidence", st.confidence}, {"chi2_lower", st.chi2_lower}, {"chi2_upper", st.chi2_upper},
+                      {"passed", st.chi2_passed}};
+  // Groups.
+  json groups = json::array();
+  const auto& builder_groups = s.builder->groups();
+  for (size_t g = 0; g < builder_groups.size(); ++g) {
+    const FactorGroup& group = *builder_groups[g];
+    const GroupEvaluation e = group.Evaluate();
+    double max_norm = 0.0, sigma_sum = 0.0;
+    for (const ObservationResidual& o : e.observations) max_norm = std::max(max_norm, o.norm_units);
+    for (double sigma : group.block_sigmas()) sigma_sum += sigma;
+    const stats::GroupStatistic& gs = st.groups.at(g);
+    groups.push_back({{"name", group.name()}, {"unit", group.unit()}, {"observations", e.num_observations},
+                      {"residuals", e.num_residuals}, {"rms", Num(e.rms_units)}, {"mean", Num(e.mean_norm_units)},
+                      {"max", Num(max_norm)}, {"sigma", group.block_sigmas().empty() ? 0.0 : sigma_sum / group.block_sigmas().size()},
+                      {"loss", group.loss().ToString()}, {"outliers", e.num_outliers},
+                      {"variance_component", Num(gs.variance_component)}, {"redundancy", Num(gs.redundancy)},
+                      {"whitened", Histogram(group)}});
+  }
+  report["groups"] = groups;
+  // Control and check points.
+  json control = json::array();
+  double check_sum[3] = {0, 0, 0}, expected_sum = 0.0;
+  size_t check_count = 0;
+  if (s.joint) {
+    std::set<std::string> measured;
+    if (s.photos) {
+      for (const TargetMeasurement& m : s.photos->control) measured.insert(m.point_id);
+    }
+    for (const survey::SurveyPoint& p : s.joint->points) {
+      const survey::SurveyPoint* before = s.surveyed->Find(p.id);
+      const bool check = s.photos && s.photos->check_ids.count(p.id);
+      if (!check && !measured.count(p.id)) continue;
+      const Eigen::Vector3d surveyed = WorldFromSurvey(*s.surveyed, *before);
+      const Eigen::Matrix3d surveyed_cov = SurveyPointCovariance(s.surveyed_adjustment.statistics, *s.surveyed, *before);
+      Eigen::Vector3d adjusted;
+      Eigen::Matrix3d cov;
+      if (check) {
+        const double* point = s.scene.Point(s.photos->check_ids.at(p.id)).data();
+        adjusted = s.scene.Point(s.photos->check_ids.at(p.id));
+        cov = PointCovariance3(st, point) + surveyed_cov;  // the difference of independent estimates
+      } else {
+        adjusted = WorldFromSurvey(*s.joint, p);
+        cov = SurveyPointCovariance(st, *s.joint, p);
+      }
+      const Eigen::Vector3d d = adjusted - surveyed;
+      const Eigen::Vector3d sigma = cov.diagonal().cwiseMax(0.0).cwiseSqrt();
+      control.push_back({{"id", p.id}, {"role", check ? "check" : "control"}, {"surveyed", Vec(surveyed)},
+                         {"adjusted", Vec(adjusted)}, {"d", Vec(d)}, {"sigma", Vec(sigma)}, {"ellipse", Ellipse(cov)}});
+      if (check) {
+        for (int a = 0; a < 3; ++a) check_sum[a] += d(a) * d(a);
+        expected_sum += cov.trace();
+        ++check_count;
+      }
+    }
+  }
+  report["control_points"] = control;
+  if (check_count > 0) {
+    const Eigen::Vector3d rmse(std::sqrt(check_sum[0] / check_count), std::sqrt(check_sum[1] / check_count),
+                               std::sqrt(check_sum[2] / check_count));
+    report["check_summary"] = {{"count", check_count}, {"rmse", Vec(rmse)}, {"rmse_3d", rmse.norm()},
+                               {"expected_rmse_3d", std::sqrt(expected_sum / check_count)}};
+  }
+  json blunders = json::array();
+  for (const Blunder& b : s.blunders) {
+    blunders.push_back({{"group", b.group}, {"observation", b.observation}, {"studentized", b.studentized},
+                        {"whitened", b.whitened}, {"downweighted", true}});
+  }
+  report["blunders"] = blunders;
+  // Poses, corrections, calibration, files.
+  json corrections = json::array();
+  std::ostringstream poses;
+  poses << "# mmba adjust: camera poses; position = camera centre in the world (local ENU at the project origin), "
+           "q = cam_from_world (w, x, y, z); sigma from the adjustment's covariance (scaled by sigma0)\n"
+           "image,sensor,east_m,north_m,up_m,qw,qx,qy,qz,latitude_deg,longitude_deg,height_m,utm_zone,utm_easting_m,"
+           "utm_northing_m,sigma_east_m,sigma_north_m,sigma_up_m,d_position_m,d_rotation_deg\n";
+  json calibrations = json::array();
+  if (s.photos) {
+    for (const auto& [id, image] : s.photos->model.images) {
+      const ImagePose& pose = s.scene.Image(id);
+      const Eigen::Vector3d c = CameraCentre(pose.cam_from_world);
+      const Rigid3d& initial = s.photos->initial_poses.at(id);
+      const Eigen::Vector3d d = c - CameraCentre(initial);
+      const double d_rotation = pose.cam_from_world.rotation.angularDistance(initial.rotation) * kDeg;
+      const Eigen::Vector3d sigma = CentreCovariance(st, pose).diagonal().cwiseMax(0.0).cwiseSqrt();
+      const Eigen::Quaterniond& q = pose.cam_from_world.rotation;
+      poses << image.name << "," << s.photos->config->id << "," << std::setprecision(12) << c.x() << "," << c.y() << ","
+            << c.z() << "," << q.w() << "," << q.x() << "," << q.y() << "," << q.z() << "," << Geo(s.plane, c) << ","
+            << std::setprecision(6) << sigma.x() << "," << sigma.y() << "," << sigma.z() << "," << d.norm() << ","
+            << d_rotation << "\n";
+      corrections.push_back({{"image", image.name}, {"sensor", s.photos->config->id}, {"d", Vec(d)},
+                             {"d_position_m", d.norm()}, {"d_rotation_deg", d_rotation}});
+    }
+    // Adjusted COLMAP model and calibration.
+    io::ColmapModel model = s.photos->model;
+    UpdateColmapFromScene(s.scene, &model);
+    io::WriteColmapModel(model, (stage / "colmap" / s.photos->config->id).string(), io::ColmapFormat::kText);
+    for (const auto& [id, camera] : s.scene.cameras()) {
+      json parameters = json::array();
+      std::ostringstream yaml;
+      yaml << "# mmba adjust: calibration of photo collection '" << s.photos->config->id << "' (camera " << id.value
+           << "), sigma from the adjustment\nmodel: " << camera.ModelName() << "\nwidth: " << camera.width
+           << "\nheight: " << camera.height << "\nparams: [";
+      std::ostringstream sigmas;
+      for (size_t k = 0; k < camera.params.size(); ++k) {
+        const double sigma = st.IsFree(camera.params.data())
+                                 ? std::sqrt(std::max(0.0, st.Covariance(camera.params.data(), k, camera.params.data(), k)))
+                                 : 0.0;
+        yaml << (k ? ", " : "") << std::setprecision(10) << camera.params[k];
+        sigmas << (k ? ", " : "") << std::setprecision(4) << sigma;
+        parameters.push_back({{"name", "p" + std::to_string(k)}, {"initial", s.photos->initial_params.at(k)},
+                              {"adjusted", camera.params[k]}, {"sigma", sigma}});
+      }
+      yaml << "]\nsigma: [" << sigmas.str() << "]\n";
+      WriteText(stage / "calibration" / (s.photos->config->id + "_camera.yaml"), yaml.str());
+      calibrations.push_back({{"name", s.photos->config->id + " camera " + std::to_string(id.value) + " (" +
+                                           camera.ModelName() + ")"},
+                              {"parameters", parameters}});
+    }
+    // Georeferenced tie points (coloured from the images) and the LiDAR error map.
+    io::PointCloud ties, errors;
+    std::map<Point3DId, double> distance;
+    for (const SurfacePlane& p : s.planes) distance[p.point3D_id] = p.normal.dot(s.scene.Point(p.point3D_id) - p.point);
+    for (const auto& [id, point] : model.points3D) {
+      ties.points.push_back(point.xyz);
+      ties.colors.push_back(point.color);
+      if (distance.count(id)) {
+        errors.points.push_back(point.xyz);
+        errors.intensity.push_back(static_cast<float>(distance.at(id)));
+      }
+    }
+    io::WritePly(ties, (stage / "tie_points.ply").string());
+    if (!errors.empty()) io::WritePly(errors, (stage / "error_map_lidar.ply").string());
+  }
+  WriteText(stage / "poses.csv", poses.str());
+  report["pose_corrections"] = corrections;
+  report["calibrations"] = calibrations;
+  // Survey points.
+  if (s.joint) {
+    std::ostringstream points;
+    points << "# mmba adjust: surveyed points in the world (local ENU at the project origin); sigma and ellipse "
+              "(1 sigma, azimuth from north) from the joint adjustment\n"
+              "id,role,east_m,north_m,up_m,sigma_east_m,sigma_north_m,sigma_up_m,ellipse_a_m,ellipse_b_m,"
+              "ellipse_azimuth_deg,latitude_deg,longitude_deg,height_m,utm_zone,utm_easting_m,utm_northing_m\n";
+    for (const survey::SurveyPoint& p : s.joint->points) {
+      const bool check = std::count(project.check_points.begin(), project.check_points.end(), p.id) > 0;
+      if (check && !(s.photos && s.photos->check_ids.count(p.id))) continue;
+      const Eigen::Vector3d x = check ? s.scene.Point(s.photos->check_ids.at(p.id)) : WorldFromSurvey(*s.joint, p);
+      const Eigen::Matrix3d cov = check ? PointCovariance3(st, s.scene.Point(s.photos->check_ids.at(p.id)).data())
+                                        : SurveyPointCovariance(st, *s.joint, p);
+      const Eigen::Vector3d sigma = cov.diagonal().cwiseMax(0.0).cwiseSqrt();
+      const json e = Ellipse(cov);
+      const std::string role = check ? "check (photos only)" : (p.xy_free() || p.z_free()) ? "adjusted" : "fixed";
+      points << p.id << "," << role << "," << std::setprecision(12) << x.x() << "," << x.y() << "," << x.z() << ","
+             << std::setprecision(6) << sigma.x() << "," << sigma.y() << "," << sigma.z() << ","
+             << e["a"].get<double>() << "," << e["b"].get<double>() << "," << e["azimuth_deg"].get<double>() << ","
+             << Geo(s.plane, x) << "\n";
+    }
+    WriteText(stage / "points.csv", points.str());
+  }
+  // Observations.
+  {
+    std::ostringstream obs;
+    obs << "# mmba adjust: every residual row; residual = adjusted - observed in the group's unit; w = studentized\n"
+           "group,block,row,residual,whitened,sigma,redundancy,studentized,critical\n";
+    for (const stats::RowStatistic& r : st.rows) {
+      obs << '"' << builder_groups[r.group]->name() << "\"," << r.block << "," << r.row << "," << std::setprecision(6)
+          << r.residual << "," << r.whitened << "," << r.sigma << "," << r.redundancy << "," << r.studentized << ","
+          << (r.critical ? 1 : 0) << "\n";
+    }
+    WriteText(stage / "observations.csv", obs.str());
+  }
+  if (!project.truth.empty()) report["truth_evaluation"] = EvaluateTruth(s);
+  json files = json::array({json{{"name", "report.html"}, {"description", "this report"}},
+                            json{{"name", "report.json"}, {"description", "the report's data"}},
+                            json{{"name", "poses.csv"}, {"description", "camera poses: local ENU, WGS84, UTM, sigma"}},
+                            json{{"name", "observations.csv"}, {"description", "every residual with redundancy and studentized residual"}}});
+  if (s.joint) files.push_back({{"name", "points.csv"}, {"description", "surveyed points with sigma and error ellipses"}});
+  if (s.photos) {
+    files.push_back({{"name", "colmap/" + s.photos->config->id}, {"description", "adjusted COLMAP model (text)"}});
+    files.push_back({{"name", "calibration/" + s.photos->config->id + "_camera.yaml"}, {"description", "camera calibration with sigma"}});
+    files.push_back({{"name", "tie_points.ply"}, {"description", "georeferenced tie points, coloured from the images"}});
+    if (!s.planes.empty()) files.push_back({{"name", "error_map_lidar.ply"}, {"description", "tie points, intensity = signed distance to the LiDAR surface (m)"}});
+  }
+  report["files"] = files;
+  json warnings = json::array();
+  for (const std::string& w : s.warnings) warnings.push_back(w);
+  report["warnings"] = warnings;
+  json log = json::array();
+  for (const std::string& l : s.log) log.push_back(l);
+  report["log"] = log;
+  WriteText(stage / "report.json", report.dump(1));
+  WriteText(stage / "report.html", report::RenderAdjustReportHtml(report));
+  // Replace an earlier output only now that everything is written.
+  const fs::path old = out_dir.string() + ".old";
+  fs::remove_all(old);
+  if (fs::exists(out_dir)) fs::rename(out_dir, old);
+  fs::rename(stage, out_dir);
+  fs::remove_all(old);
+  outcome->report = report;
+  // Terminal summary.
+  std::ostringstream sum;
+  sum << "adjust " << project.name << ": converged, " << s.solve.iterations << " iterations (" << s.outer_iterations
+      << " outer), " << std::fixed << std::setprecision(1) << s.seconds << " s\n"
+      << "  sigma0 " << std::setprecision(3) << st.sigma0_ratio << ", chi2 test at " << st.confidence << ": ["
+      << st.chi2_lower << ", " << st.chi2_upper << "] -> " << (st.chi2_passed ? "passed" : "FAILED") << ", dof "
+      << st.degrees_of_freedom << "\n";
+  for (const json& g : groups) {
+    sum << "  " << std::left << std::setw(28) << g["name"].get<std::string>() << std::right << std::setw(7)
+        << g["observations"].get<size_t>() << " obs  RMS " << std::setprecision(4) << g["rms"].get<double>() << " "
+        << g["unit"].get<std::string>() << "  variance component " << std::setprecision(3)
+        << g["variance_component"].get<double>() << "\n";
+  }
+  if (report.contains("check_summary")) {
+    const json& c = report["check_summary"];
+    sum << "  check points: " << c["count"].get<size_t>() << ", RMSE 3D " << std::setprecision(4)
+        << c["rmse_3d"].get<double>() << " m (expected " << c["expected_rmse_3d"].get<double>() << " m)\n";
+  }
+  sum << "  blunders flagged and excluded: " << s.blunders.size() << "\n";
+  for (const std::string& w : s.warnings) sum << "  warning: " << w << "\n";
+  sum << "  report: " << (out_dir / "report.html").string();
+  outcome->summary = sum.str();
+}
+
+}  // namespace mmba::adjust::internal

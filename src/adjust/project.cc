@@ -1,0 +1,237 @@
+#include "mmba/adjust/project.h"
+
+#include <filesystem>
+#include <set>
+
+#include "mmba/core/error.h"
+#include "mmba/io/yaml_reader.h"
+
+namespace mmba::adjust {
+namespace {
+
+namespace fs = std::filesystem;
+using Node = const YAML::Node&;
+using Field = const std::string&;
+
+class ProjectReader {
+ public:
+  ProjectReader(const std::string& path, Project* project)
+      : r_(path), project_(project), dir_(fs::path(path).parent_path()) {}
+
+  const io::YamlReader& r() const { return r_; }
+
+  /// A path relative to the project file that must exist (a file or, if `folder`, a folder).
+  std::string ExistingPath(Node n, Field f, bool folder) const {
+    const fs::path given = r_.String(n, f);
+    const fs::path full = given.is_absolute() ? given : dir_ / given;
+    if (!fs::exists(full)) r_.Fail(n, f, folder ? "an existing folder" : "an existing file", given.string() + " (not found)");
+    if (folder != fs::is_directory(full)) r_.Fail(n, f, folder ? "a folder" : "a file", given.string());
+    return full.string();
+  }
+
+  LossOptions Loss(Node n, Field f) const {
+    LossOptions loss;
+    if (n.IsScalar()) {
+      const std::string name = r_.String(n, f);
+      if (!ParseLossType(name, &loss.type)) r_.Fail(n, f, "none, huber, cauchy or soft_l1", name);
+      loss.scale = 3.0;
+      return loss;
+    }
+    r_.Map(n, f, {{"type", [&](Node v, Field g) {
+                     const std::string name = r_.String(v, g);
+                     if (!ParseLossType(name, &loss.type)) r_.Fail(v, g, "none, huber, cauchy or soft_l1", name);
+                   }},
+                  {"scale", [&](Node v, Field g) { loss.scale = r_.Positive(v, g, 100.0, "σ units"); }}});
+    return loss;
+  }
+
+  /// σ in pixels: inconsistent units (metres or micrometres given for pixels) fail here.
+  double SigmaPx(Node n, Field f) const { return r_.Positive(n, f, 50.0, "px"); }
+  /// σ in metres: a value above `hi` is almost certainly millimetres given as metres.
+  double SigmaM(Node n, Field f, double hi) const { return r_.Positive(n, f, hi, "m (metres)"); }
+
+  void Sensor(Node n, Field f, std::set<std::string>* ids) {
+    if (!n.IsMap()) r_.Fail(n, f, "a mapping {id, type, ...}", io::YamlReader::Kind(n));
+    r_.Require(n, f, {"id", "type"});
+    const std::string id = r_.String(n["id"], f + ".id");
+    if (!ids->insert(id).second) r_.Fail(n["id"], f + ".id", "a unique sensor id", id + " (used twice)");
+    const std::string type = r_.String(n["type"], f + ".type");
+    const int line = n.Mark().line + 1;
+    const auto keep = [](Node, Field) {};
+    const auto path = [&](std::string* out, bool folder) {
+      return [this, out, folder](Node v, Field g) { *out = ExistingPath(v, g, folder); };
+    };
+    if (type == "photo_collection") {
+      PhotoCollection p;
+      p.id = id;
+      p.line = line;
+      r_.Map(n, f, {{"id", keep}, {"type", keep},
+                    {"images", path(&p.images, true)},
+                    {"calibration", path(&p.calibration, false)},
+                    {"colmap_model", path(&p.colmap_model, true)},
+                    {"control_measurements", path(&p.control_measurements, false)},
+                    {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
+                    {"control_sigma_px", [&](Node v, Field g) { p.control_sigma_px = SigmaPx(v, g); }},
+                    {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
+                    {"refine", [&](Node v, Field g) {
+                       p.refine = {false, false, false};
+                       const std::vector<std::string> list = r_.StringList(v, g);
+                       for (size_t i = 0; i < list.size(); ++i) {
+                         if (list[i] == "focal") p.refine.focal = true;
+                         else if (list[i] == "principal_point") p.refine.principal_point = true;
+                         else if (list[i] == "distortion") p.refine.distortion = true;
+                         else r_.Fail(v[i], g + "[" + std::to_string(i) + "]", "focal, principal_point or distortion", list[i]);
+                       }
+                     }}});
+      r_.Require(n, f, {"images"});
+      project_->photos.push_back(p);
+    } else if (type == "total_station") {
+      TotalStation t;
+      t.id = id;
+      t.line = line;
+      r_.Map(n, f, {{"id", keep}, {"type", keep}, {"file", path(&t.file, false)},
+                    {"loss", [&](Node v, Field g) { t.loss = Loss(v, g); }}});
+      r_.Require(n, f, {"file"});
+      if (!project_->total_stations.empty()) r_.Fail(n, f, "one total_station sensor (merge the networks into one file)", "a second one");
+      project_->total_stations.push_back(t);
+    } else if (type == "gnss") {
+      Gnss g;
+      g.id = id;
+      g.line = line;
+      r_.Map(n, f, {{"id", keep}, {"type", keep}, {"file", path(&g.file, false)},
+                    {"loss", [&](Node v, Field h) { g.loss = Loss(v, h); }}});
+      r_.Require(n, f, {"file"});
+      project_->gnss.push_back(g);
+    } else if (type == "lidar_static") {
+      LidarStatic l;
+      l.id = id;
+      l.line = line;
+      r_.Map(n, f, {{"id", keep}, {"type", keep},
+                    {"reference_cloud", path(&l.reference_cloud, false)},
+                    {"scans", [&](Node v, Field g) {
+                       if (!v.IsSequence()) r_.Fail(v, g, "a list of {file}", io::YamlReader::Kind(v));
+                       for (size_t i = 0; i < v.size(); ++i) {
+                         const std::string gi = g + "[" + std::to_string(i) + "]";
+                         std::string file;
+                         r_.Map(v[i], gi, {{"file", path(&file, false)}});
+                         r_.Require(v[i], gi, {"file"});
+                         l.scans.push_back(file);
+                       }
+                     }},
+                    {"range_sigma_m", [&](Node v, Field g) { l.range_sigma_m = SigmaM(v, g, 0.5); }},
+                    {"surface_sigma_m", [&](Node v, Field g) { l.surface_sigma_m = SigmaM(v, g, 0.5); }},
+                    {"max_distance_m", [&](Node v, Field g) { l.max_distance_m = SigmaM(v, g, 10.0); }},
+                    {"loss", [&](Node v, Field g) { l.loss = Loss(v, g); }}});
+      r_.Require(n, f, {"reference_cloud"});
+      project_->lidar_static.push_back(l);
+    } else if (type == "spherical_stereo" || type == "camera_rig" || type == "lidar_mobile") {
+      // Validated (keys, files, σ), not adjusted by this version (README "Limits").
+      std::string ignored;
+      const auto sigma_px = [&](Node v, Field g) { SigmaPx(v, g); };
+      const auto sigma_m = [&](Node v, Field g) { SigmaM(v, g, 0.5); };
+      if (type == "spherical_stereo") {
+        r_.Map(n, f, {{"id", keep}, {"type", keep}, {"images", path(&ignored, true)},
+                      {"calibration", path(&ignored, false)},
+                      {"stations", [&](Node v, Field g) { r_.StringList(v, g); }},
+                      {"baseline_sigma_m", sigma_m}, {"sigma_px", sigma_px}});
+      } else if (type == "camera_rig") {
+        r_.Map(n, f, {{"id", keep}, {"type", keep}, {"images", path(&ignored, true)},
+                      {"panoramas", path(&ignored, true)}, {"calibration", path(&ignored, false)},
+                      {"trajectory", path(&ignored, false)}, {"sigma_px", sigma_px}});
+      } else {
+        r_.Map(n, f, {{"id", keep}, {"type", keep}, {"cloud", path(&ignored, false)},
+                      {"trajectory", path(&ignored, false)}, {"calibration", path(&ignored, false)},
+                      {"range_sigma_m", sigma_m}});
+      }
+      project_->other_sensors.push_back({id, type, line});
+    } else {
+      r_.Fail(n["type"], f + ".type",
+              "photo_collection, total_station, gnss, lidar_static, spherical_stereo, camera_rig or lidar_mobile", type);
+    }
+  }
+
+ private:
+  io::YamlReader r_;
+  Project* project_;
+  fs::path dir_;
+};
+
+}  // namespace
+
+Project LoadProject(const std::string& path) {
+  Project project;
+  project.path = path;
+  project.dir = fs::path(path).parent_path().string();
+  ProjectReader reader(path, &project);
+  const io::YamlReader& r = reader.r();
+  const YAML::Node root = r.Load("project file");
+  if (!root.IsMap()) r.Fail(root, "(file)", "a mapping with mmba_project, name, origin, sensors", io::YamlReader::Kind(root));
+  r.Require(root, "", {"mmba_project", "origin", "sensors"});
+  std::set<std::string> ids;
+  bool have_origin = false;
+  r.Map(root, "", {
+      {"mmba_project", [&](Node n, Field f) {
+         const int version = r.Integer(n, f);
+         if (version != 1) r.Fail(n, f, "1", std::to_string(version));
+       }},
+      {"name", [&](Node n, Field f) { project.name = r.String(n, f); }},
+      {"origin", [&](Node n, Field f) {
+         r.Map(n, f, {{"latitude_deg", [&](Node v, Field g) {
+                         project.origin.latitude_deg = r.Number(v, g);
+                         if (std::abs(project.origin.latitude_deg) > 90) r.Fail(v, g, "a latitude in [-90, 90] degrees", r.Text(v));
+                       }},
+                      {"longitude_deg", [&](Node v, Field g) {
+                         project.origin.longitude_deg = r.Number(v, g);
+                         if (std::abs(project.origin.longitude_deg) > 180) r.Fail(v, g, "a longitude in [-180, 180] degrees", r.Text(v));
+                       }},
+                      {"height_m", [&](Node v, Field g) {
+                         project.origin.height_m = r.Number(v, g);
+                         if (std::abs(project.origin.height_m) > 10000) r.Fail(v, g, "an ellipsoidal height in metres (|h| <= 10 km)", r.Text(v));
+                       }}});
+         r.Require(n, f, {"latitude_deg", "longitude_deg", "height_m"});
+         have_origin = true;
+       }},
+      {"simulated", [&](Node n, Field f) {
+         r.Map(n, f, {{"seed", [](Node, Field) {}}, {"preset", [](Node, Field) {}},
+                      {"truth", [&](Node v, Field g) { project.truth = reader.ExistingPath(v, g, false); }}});
+       }},
+      {"check_points", [&](Node n, Field f) { project.check_points = r.StringList(n, f); }},
+      {"adjustment", [&](Node n, Field f) {
+         AdjustSettings& s = project.settings;
+         r.Map(n, f, {{"max_iterations", [&](Node v, Field g) {
+                         s.max_iterations = r.Integer(v, g);
+                         if (s.max_iterations < 1) r.Fail(v, g, "an integer >= 1", r.Text(v));
+                       }},
+                      {"outer_iterations", [&](Node v, Field g) {
+                         s.outer_iterations = r.Integer(v, g);
+                         if (s.outer_iterations < 1 || s.outer_iterations > 20) r.Fail(v, g, "an integer in [1, 20]", r.Text(v));
+                       }},
+                      {"confidence", [&](Node v, Field g) {
+                         s.confidence = r.Number(v, g);
+                         if (!(s.confidence > 0.5 && s.confidence < 1)) r.Fail(v, g, "a probability in (0.5, 1)", r.Text(v));
+                       }},
+                      {"outlier_sigma", [&](Node v, Field g) { s.outlier_sigma = r.Positive(v, g, 100, "σ units"); }}});
+       }},
+      {"sensors", [&](Node n, Field f) {
+         if (!n.IsSequence() || n.size() == 0) r.Fail(n, f, "a non-empty list of sensors", io::YamlReader::Kind(n));
+         for (size_t i = 0; i < n.size(); ++i) reader.Sensor(n[i], f + "[" + std::to_string(i) + "]", &ids);
+       }},
+  });
+  if (!have_origin) r.Fail(root, "origin", "the key to be present", "nothing");
+  std::set<std::string> seen;
+  for (size_t i = 0; i < project.check_points.size(); ++i) {
+    if (!seen.insert(project.check_points[i]).second) {
+      r.Fail(root["check_points"][i], "check_points[" + std::to_string(i) + "]", "each point once", project.check_points[i]);
+    }
+  }
+  if (!project.check_points.empty() && project.total_stations.empty()) {
+    r.Fail(root["check_points"], "check_points", "a total_station sensor that surveys them", "none");
+  }
+  if (project.photos.empty() && project.total_stations.empty()) {
+    r.Fail(root["sensors"], "sensors", "at least a photo_collection or a total_station", "neither");
+  }
+  if (project.name.empty()) project.name = fs::path(path).parent_path().filename().string();
+  return project;
+}
+
+}  // namespace mmba::adjust
