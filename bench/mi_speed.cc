@@ -52,6 +52,9 @@ int main(int argc, char** argv) {
     if (which != "all" && which != RepresentationName(r)) continue;
     RegistrationOptions options;
     options.render.representation = r;
+    if (const char* level = std::getenv("MI_FINEST_NM_LEVEL")) {
+      options.finest_nelder_mead_level = std::atoi(level);
+    }
     // Points-only images carry information only against the empty background.
     if (r == Representation::kPoints) options.metric.region = Region::kWholeImage;
     Timer one;

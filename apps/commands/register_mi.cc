@@ -40,6 +40,9 @@ struct RegisterMiArgs {
   double bound_deg = 3.0;
   double simplex = 1.0;
   int max_iterations = 200;
+  int restarts = 3;
+  double restart_tolerance_px = 1.0;
+  double max_sigma_px = 0.5;
   double point_radius_m = 0.03;
   int max_point_radius_px = 2;
   double max_range_m = 200.0;
@@ -139,6 +142,9 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.bound_rotation_deg = args.bound_deg;
   options.nelder_mead.initial_step = mi::Vector6d::Constant(args.simplex);
   options.nelder_mead.max_iterations = args.max_iterations;
+  options.restarts = args.restarts;
+  options.restart_tolerance_px = args.restart_tolerance_px;
+  options.max_sigma_px = args.max_sigma_px;
   options.render.point_radius_m = args.point_radius_m;
   options.render.max_point_radius_px = args.max_point_radius_px;
   options.render.max_range_m = args.max_range_m;
@@ -290,6 +296,28 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   out["covariance_valid"] = result.covariance_valid;
   out["trusted"] = result.trusted;
   out["confidence_reason"] = result.confidence_reason;
+  const mi::AcceptanceChecks& checks = result.checks;
+  out["checks"] = {{"on_bound", checks.on_bound},
+                   {"sigma_px", checks.sigma_px},
+                   {"max_sigma_px", options.max_sigma_px},
+                   {"weak_directions", checks.weak_directions},
+                   {"restarts", checks.restarts_run},
+                   {"restart_spread_px", checks.restart_spread_px},
+                   {"restart_tolerance_px", options.restart_tolerance_px},
+                   {"restart_best_gain", checks.restart_best_gain},
+                   {"mi_bits", checks.mi_bits},
+                   {"mi_shuffled_bits", checks.mi_shuffled_bits},
+                   {"mi_shuffled_sd_bits", checks.mi_shuffled_sd_bits},
+                   {"mi_significance", checks.mi_significance},
+                   {"axis_scans_passed", checks.scans_passed},
+                   {"axis_scans_reason", checks.scans_reason}};
+  nlohmann::json stages = nlohmann::json::array();
+  for (const mi::StageStat& stage : result.stages) {
+    stages.push_back({{"stage", stage.name},
+                      {"evaluations", stage.evaluations},
+                      {"seconds", stage.seconds}});
+  }
+  out["stages"] = stages;
   out["metric"] = args.metric;
   out["metric_before"] = options.metric.kind == mi::MetricKind::kNid ? -result.metric_before.value
                                                                      : result.metric_before.value;
@@ -383,6 +411,15 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
   sub->add_option("--simplex", args->simplex, "Initial simplex size, units (paper: 1)")
       ->capture_default_str();
   sub->add_option("--max-iterations", args->max_iterations, "Nelder-Mead iterations per level")
+      ->capture_default_str();
+  sub->add_option("--restarts", args->restarts,
+                  "Acceptance: re-optimisations from around the optimum that must agree")
+      ->capture_default_str();
+  sub->add_option("--restart-tolerance-px", args->restart_tolerance_px,
+                  "Acceptance: largest median pixel distance of a restart from the optimum")
+      ->capture_default_str();
+  sub->add_option("--max-sigma-px", args->max_sigma_px,
+                  "Acceptance: largest predicted pixel sigma (from the covariance)")
       ->capture_default_str();
   sub->add_option("--point-radius-m", args->point_radius_m,
                   "Point footprint: radius = this * f / range pixels")

@@ -6,6 +6,7 @@
 #include <numeric>
 #include <random>
 #include <sstream>
+#include <thread>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -104,6 +105,11 @@ bool RegistrationOptions::Check(std::string* error) const {
              std::to_string(max_sigma_px) + ", " + std::to_string(restart_tolerance_px) + ")";
     return false;
   }
+  if (finest_nelder_mead_level < 0 || finest_nelder_mead_level >= pyramid_levels) {
+    *error = "finest_nelder_mead_level " + std::to_string(finest_nelder_mead_level) +
+             " must be in 0.." + std::to_string(pyramid_levels - 1) + " (pyramid_levels - 1)";
+    return false;
+  }
   if (restart_level < 0 || restart_level >= pyramid_levels) {
     *error = "restart_level " + std::to_string(restart_level) + " must be in 0.." +
              std::to_string(pyramid_levels - 1) + " (pyramid_levels - 1)";
@@ -124,6 +130,37 @@ bool RegistrationOptions::Check(std::string* error) const {
 
 // ---------------------------------------------------------------------------------------
 // FrameSetEvaluator
+
+namespace {
+
+// One render buffer per thread, reused between evaluations.
+LidarImage& ThreadBuffer() {
+  thread_local LidarImage buffer;
+  return buffer;
+}
+
+}  // namespace
+
+namespace {
+
+// body(0) .. body(count − 1) on up to `threads` threads (the caller's included).
+void ParallelFor(int count, int threads, const std::function<void(int)>& body) {
+  threads = std::max(1, std::min(threads, count));
+  if (threads == 1) {
+    for (int i = 0; i < count; ++i) body(i);
+    return;
+  }
+  std::atomic<int> next{0};
+  auto worker = [&] {
+    for (int i = next++; i < count; i = next++) body(i);
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (std::thread& thread : pool) thread.join();
+}
+
+}  // namespace
 
 FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
                                      const Rigid3d& cam_from_lidar_start,
@@ -196,6 +233,7 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
 
 MetricValue FrameSetEvaluator::Evaluate(const Rigid3d& cam_from_lidar, int level,
                                         const MetricOptions& metric) const {
+  LidarImage& buffer = ThreadBuffer();
   // Each pyramid level has a quarter of the samples; halving the bins keeps the plug-in
   // estimator's bias, ≈ (bins_x − 1)(bins_y − 1) / (2N) (Miller 1955), the same at every level.
   MetricOptions level_metric = metric;
@@ -204,37 +242,39 @@ MetricValue FrameSetEvaluator::Evaluate(const Rigid3d& cam_from_lidar, int level
   for (size_t f = 0; f < frames_.size(); ++f) {
     for (const View& view : pyramid_[level][f]) {
       Timer render;
-      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer_);
-      render_seconds_ += render.ElapsedSeconds();
+      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer);
+      render_ns_ += static_cast<int64_t>(1e9 * render.ElapsedSeconds());
       Timer fill;
-      histogram.Add(buffer_, view.image);
-      histogram_seconds_ += fill.ElapsedSeconds();
+      histogram.Add(buffer, view.image);
+      histogram_ns_ += static_cast<int64_t>(1e9 * fill.ElapsedSeconds());
     }
   }
   Timer fill;
   const MetricValue value = histogram.Evaluate();
-  histogram_seconds_ += fill.ElapsedSeconds();
+  histogram_ns_ += static_cast<int64_t>(1e9 * fill.ElapsedSeconds());
   return value;
 }
 
 double FrameSetEvaluator::CoveredFraction(const Rigid3d& cam_from_lidar) const {
+  LidarImage& buffer = ThreadBuffer();
   double covered = 0, pixels = 0;
   for (size_t f = 0; f < frames_.size(); ++f) {
     for (const View& view : pyramid_[0][f]) {
-      RenderLidarImage(points_[0][f], view, cam_from_lidar, options_.render, &buffer_);
-      covered += buffer_.covered_pixels;
-      pixels += static_cast<double>(buffer_.width) * buffer_.height;
+      RenderLidarImage(points_[0][f], view, cam_from_lidar, options_.render, &buffer);
+      covered += buffer.covered_pixels;
+      pixels += static_cast<double>(buffer.width) * buffer.height;
     }
   }
   return pixels > 0 ? covered / pixels : 0.0;
 }
 
 size_t FrameSetEvaluator::VisiblePoints(const Rigid3d& cam_from_lidar, int level) const {
+  LidarImage& buffer = ThreadBuffer();
   size_t visible = 0;
   for (size_t f = 0; f < frames_.size(); ++f) {
     for (const View& view : pyramid_[level][f]) {
-      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer_);
-      visible += CountVisiblePoints(buffer_);
+      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer);
+      visible += CountVisiblePoints(buffer);
     }
   }
   return visible;
@@ -243,6 +283,7 @@ size_t FrameSetEvaluator::VisiblePoints(const Rigid3d& cam_from_lidar, int level
 void FrameSetEvaluator::EvaluateShuffled(const Rigid3d& cam_from_lidar, int level, int shuffles,
                                          double* mi_bits,
                                          std::vector<double>* shuffled_mi_bits) const {
+  LidarImage& buffer = ThreadBuffer();
   MetricOptions metric = options_.metric;
   metric.kind = MetricKind::kMi;
   metric.bins = std::max(8, metric.bins >> level);
@@ -250,11 +291,11 @@ void FrameSetEvaluator::EvaluateShuffled(const Rigid3d& cam_from_lidar, int leve
   std::vector<float> lidar, photo;
   for (size_t f = 0; f < frames_.size(); ++f) {
     for (const View& view : pyramid_[level][f]) {
-      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer_);
-      for (size_t k = 0; k < buffer_.value.size(); ++k) {
-        const bool covered = buffer_.point_index[k] >= 0;
+      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer);
+      for (size_t k = 0; k < buffer.value.size(); ++k) {
+        const bool covered = buffer.point_index[k] >= 0;
         if (!covered && !whole) continue;
-        lidar.push_back(covered ? buffer_.value[k] : -1.f);
+        lidar.push_back(covered ? buffer.value[k] : -1.f);
         photo.push_back(view.image.pixels[k]);
       }
     }
@@ -274,13 +315,14 @@ void FrameSetEvaluator::EvaluateShuffled(const Rigid3d& cam_from_lidar, int leve
 
 std::vector<FrameSetEvaluator::VisiblePoint> FrameSetEvaluator::SampleVisiblePoints(
     const Rigid3d& cam_from_lidar, size_t max_points) const {
+  LidarImage& buffer = ThreadBuffer();
   std::vector<VisiblePoint> all;
   for (size_t f = 0; f < frames_.size(); ++f) {
     for (size_t v = 0; v < pyramid_[0][f].size(); ++v) {
       RenderLidarImage(points_[0][f], pyramid_[0][f][v], cam_from_lidar, options_.render,
-                       &buffer_);
+                       &buffer);
       std::vector<int> winners;
-      for (int index : buffer_.point_index) {
+      for (int index : buffer.point_index) {
         if (index >= 0) winners.push_back(index);
       }
       std::sort(winners.begin(), winners.end());
@@ -359,14 +401,14 @@ bool CheckConfidence(const FrameSetEvaluator& evaluator, const Rigid3d& start,
   MetricOptions metric = options.metric;
   metric.kind = MetricKind::kMi;
   for (int axis = 0; axis < 6; ++axis) {
-    std::vector<double> values;
+    std::vector<double> values(2 * kSide + 1);
     const double step = bound[axis] / kSide;
-    for (int k = -kSide; k <= kSide; ++k) {
+    ParallelFor(2 * kSide + 1, options.threads, [&](int k) {
       Vector6d y = x;
-      y[axis] = x[axis] + k * step;
-      values.push_back(evaluator.Evaluate(ApplyCorrection(start, y), level, metric).value);
-      ++*evaluations;
-    }
+      y[axis] = x[axis] + (k - kSide) * step;
+      values[k] = evaluator.Evaluate(ApplyCorrection(start, y), level, metric).value;
+    });
+    *evaluations += 2 * kSide + 1;
     const double center = values[kSide];
     const double peak = *std::max_element(values.begin(), values.end());
     const double low = *std::min_element(values.begin(), values.end());
@@ -407,7 +449,7 @@ bool CheckConfidence(const FrameSetEvaluator& evaluator, const Rigid3d& start,
 // a regression over many samples is far steadier than finite differences.
 Eigen::Matrix<double, 6, 6> MiHessian(const FrameSetEvaluator& evaluator, const Rigid3d& start,
                                       const Vector6d& x, const MetricOptions& metric, int level,
-                                      int* evaluations) {
+                                      int threads, int* evaluations) {
   Vector6d h;
   h << 0.04, 0.04, 0.04, 0.2, 0.2, 0.2;
   std::vector<Vector6d> offsets;  // in units of h
@@ -437,11 +479,14 @@ Eigen::Matrix<double, 6, 6> MiHessian(const FrameSetEvaluator& evaluator, const 
     for (int i = 0; i < 6; ++i) {
       for (int j = i; j < 6; ++j) design(k, col++) = (i == j ? 0.5 : 1.0) * d[i] * d[j];
     }
-    values[k] =
-        evaluator.Evaluate(ApplyCorrection(start, x + d.cwiseProduct(h)), level, metric).mi *
-        M_LN2;
-    ++*evaluations;
   }
+  ParallelFor(static_cast<int>(offsets.size()), threads, [&](int k) {
+    values[k] = evaluator.Evaluate(ApplyCorrection(start, x + offsets[k].cwiseProduct(h)), level,
+                                   metric)
+                    .mi *
+                M_LN2;
+  });
+  *evaluations += static_cast<int>(offsets.size());
   const Eigen::VectorXd coef = design.colPivHouseholderQr().solve(values);
   Eigen::Matrix<double, 6, 6> hessian;
   int col = 7;
@@ -541,13 +586,15 @@ SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
     double fx = f(x);
     double alpha = 0.05;  // units per unit of normalised gradient
     for (int it = 0; it < options.gradient_max_iterations && alpha > 1e-3; ++it) {
+      Eigen::Matrix<double, 12, 1> sides;
+      ParallelFor(12, options.threads, [&](int k) {
+        Vector6d y = x;
+        y[k / 2] += (k % 2 == 0 ? 1.0 : -1.0) * h[k / 2];
+        sides[k] = evaluator.Evaluate(ApplyCorrection(start, y), 0, smooth).value;
+      });
+      evaluations += 12;
       Vector6d g;
-      for (int i = 0; i < 6; ++i) {
-        Vector6d a = x, b = x;
-        a[i] += h[i];
-        b[i] -= h[i];
-        g[i] = (f(a) - f(b)) / (2 * h[i]);
-      }
+      for (int i = 0; i < 6; ++i) g[i] = (sides[2 * i] - sides[2 * i + 1]) / (2 * h[i]);
       if (!(g.norm() > 0)) break;
       const Vector6d direction = g / g.cwiseAbs().maxCoeff();
       bool improved = false;
@@ -577,7 +624,7 @@ SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
 // parabola a + b·t + ½·c·t² fitted by least squares to 13 samples t ∈ [−0.3, 0.3].
 double CurvatureAlong(const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x,
                       const Vector6d& direction, const MetricOptions& metric, int level,
-                      int* evaluations) {
+                      int threads, int* evaluations) {
   constexpr int kSide = 6;
   constexpr double kStep = 0.05;
   Eigen::Matrix<double, 2 * kSide + 1, 3> design;
@@ -585,10 +632,13 @@ double CurvatureAlong(const FrameSetEvaluator& evaluator, const Rigid3d& start, 
   for (int k = -kSide; k <= kSide; ++k) {
     const double t = k * kStep;
     design.row(k + kSide) << 1.0, t, 0.5 * t * t;
-    values[k + kSide] =
-        evaluator.Evaluate(ApplyCorrection(start, x + t * direction), level, metric).mi * M_LN2;
-    ++*evaluations;
   }
+  ParallelFor(2 * kSide + 1, threads, [&](int k) {
+    const double t = (k - kSide) * kStep;
+    values[k] =
+        evaluator.Evaluate(ApplyCorrection(start, x + t * direction), level, metric).mi * M_LN2;
+  });
+  *evaluations += 2 * kSide + 1;
   return design.colPivHouseholderQr().solve(values)[2];
 }
 
@@ -659,7 +709,8 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   const Vector6d bound = BoundVector(options);
   const int levels = evaluator.levels();
   const SearchResult main_search =
-      Search(evaluator, cam_from_lidar_start, Vector6d::Zero(), levels - 1, 0,
+      Search(evaluator, cam_from_lidar_start, Vector6d::Zero(), levels - 1,
+             std::min(options.finest_nelder_mead_level, levels - 1),
              options.nelder_mead.initial_step.cwiseMin(bound), -1.0,
              options.gradient_refinement, options, &clock, "");
   result.iterations += main_search.iterations;
@@ -679,7 +730,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   int hessian_evaluations = 0;
   const Eigen::Matrix<double, 6, 6> hessian =
       MiHessian(evaluator, cam_from_lidar_start, x, options.metric, covariance_level,
-                &hessian_evaluations);
+                options.threads, &hessian_evaluations);
   const Eigen::Matrix<double, 6, 6> information = -n_eff * hessian;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(information);
   const double min_eigen = eigen.eigenvalues().minCoeff();
@@ -700,7 +751,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
         // The 28-term fit is noisiest in its weakest direction: measure the curvature along
         // that one direction alone, a parabola fitted to 13 samples over ±0.3 units.
         lambda = -n_eff * CurvatureAlong(evaluator, cam_from_lidar_start, x, direction,
-                                         options.metric, covariance_level,
+                                         options.metric, covariance_level, options.threads,
                                          &hessian_evaluations);
       }
       double variance;
@@ -807,20 +858,28 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     int evaluations = 0;
     checks.restart_spread_px = 0;
     checks.restart_best_gain = -std::numeric_limits<double>::infinity();
+    std::vector<Vector6d> starts;
     for (int k = 0; k < options.restarts; ++k) {
       Vector6d signs;
       for (int i = 0; i < 6; ++i) signs[i] = (rng() & 1u) ? 1.0 : -1.0;
-      if (k % 2 == 1) signs = -signs;  // pairs of opposite starts
-      const Vector6d x0 = (x + signs.cwiseProduct(offset)).cwiseMax(-bound).cwiseMin(bound);
-      const SearchResult restart =
-          Search(evaluator, cam_from_lidar_start, x0, restart_level, restart_level,
-                 2.0 * offset, tolerance, false, options, nullptr,
-                 "restart " + std::to_string(k) + " ");
-      evaluations += restart.evaluations;
-      const Rigid3d pose = ApplyCorrection(cam_from_lidar_start, restart.x);
+      if (k % 2 == 1) signs = -starts.back().cwiseQuotient(offset).cwiseSign();  // opposite pair
+      starts.push_back(signs.cwiseProduct(offset));
+    }
+    std::vector<SearchResult> restarts(options.restarts);
+    std::vector<double> restart_values(options.restarts);
+    ParallelFor(options.restarts, options.threads, [&](int k) {
+      const Vector6d x0 = (x + starts[k]).cwiseMax(-bound).cwiseMin(bound);
+      restarts[k] = Search(evaluator, cam_from_lidar_start, x0, restart_level, restart_level,
+                           2.0 * offset, tolerance, false, options, nullptr,
+                           "restart " + std::to_string(k) + " ");
+      restart_values[k] =
+          evaluator.Evaluate(ApplyCorrection(cam_from_lidar_start, restarts[k].x), 0).value;
+    });
+    for (int k = 0; k < options.restarts; ++k) {
+      evaluations += restarts[k].evaluations + 1;
+      const Rigid3d pose = ApplyCorrection(cam_from_lidar_start, restarts[k].x);
       const double distance = evaluator.MedianPixelDistance(sample, result.cam_from_lidar, pose);
-      const double gain = evaluator.Evaluate(pose, 0).value - result.metric_after.value;
-      ++evaluations;
+      const double gain = restart_values[k] - result.metric_after.value;
       checks.restart_spread_px = std::max(checks.restart_spread_px, distance);
       checks.restart_best_gain = std::max(checks.restart_best_gain, gain);
       ++checks.restarts_run;

@@ -12,6 +12,8 @@
 // where lidar_from_cam = [R | c] is the start. For KITTI (x forward, y left, z up) and for a
 // local east-north-up world this is the vehicle's roll/pitch/yaw and a shift of the camera.
 
+#include <atomic>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -43,6 +45,9 @@ struct RegistrationOptions {
   double bound_translation_m = 0.5;  ///< search box ± around the start (trust region)
   double bound_rotation_deg = 3.0;
   int pyramid_levels = 3;            ///< 1 = full resolution only
+  /// Nelder–Mead runs from the coarsest level down to this one; finer levels get only the
+  /// gradient refinement (0 = Nelder–Mead at full resolution too).
+  int finest_nelder_mead_level = 0;
   bool gradient_refinement = true;   ///< after Nelder–Mead, on the B-spline histogram
   int gradient_max_iterations = 5;
   double max_points_per_pixel = 1.5;  ///< per pyramid level (speed; z-buffer keeps nearest)
@@ -54,6 +59,8 @@ struct RegistrationOptions {
   /// fraction of |peak|, and no other local maximum may come within it.
   double min_relative_peak = 0.002;
   bool check_multiple_peaks = true;
+  /// Threads for independent evaluations (covariance fit, restarts, scans, gradient).
+  int threads = 2;
   /// Pyramid level of the quadratic fit that gives the covariance (0 = full resolution; at
   /// level 1, a quarter of the cost, the fit was too noisy on the synthetic street: a
   /// spurious negative curvature made a 0.3 px result look undetermined).
@@ -141,7 +148,7 @@ struct RegistrationResult {
 /// reach a view from anywhere inside the search bounds around `cam_from_lidar_start`, and
 /// each level keeps at most `max_points_per_pixel` points per view pixel (a deterministic
 /// even subsample), so that an evaluation costs O(pixels), not O(cloud).
-/// Not thread-safe (one render buffer).
+/// Thread-safe: each thread renders into its own buffer.
 class FrameSetEvaluator {
  public:
   FrameSetEvaluator(const std::vector<Frame>& frames, const Rigid3d& cam_from_lidar_start,
@@ -175,17 +182,16 @@ class FrameSetEvaluator {
   size_t VisiblePoints(const Rigid3d& cam_from_lidar, int level = 0) const;
   const std::vector<Frame>& frames() const { return frames_; }
   /// Time spent rendering and filling histograms since construction (profiling).
-  double render_seconds() const { return render_seconds_; }
-  double histogram_seconds() const { return histogram_seconds_; }
+  double render_seconds() const { return 1e-9 * render_ns_.load(); }
+  double histogram_seconds() const { return 1e-9 * histogram_ns_.load(); }
 
  private:
   std::vector<Frame> frames_;
   RegistrationOptions options_;
   std::vector<std::vector<std::vector<View>>> pyramid_;  ///< level → frame → views
   std::vector<std::vector<LidarPoints>> points_;           ///< level → frame → culled points
-  mutable LidarImage buffer_;
-  mutable double render_seconds_ = 0;
-  mutable double histogram_seconds_ = 0;
+  mutable std::atomic<int64_t> render_ns_{0};
+  mutable std::atomic<int64_t> histogram_ns_{0};
 };
 
 /// Registers one frame (or several frames sharing one pose, treated as one image set).
