@@ -2,14 +2,17 @@
 // intensity, a ray-cast photo (940×452 pinhole view, the paper's view size) from a known pose,
 // registration from a start perturbed by 0.1 m and 1°. Prints wall time, evaluations, peak
 // memory and pixel offsets before/after for each representation.
-//   mi_speed [MILLION_POINTS=1] [REPRESENTATION=all|intensity|points|depth]
+//   mi_speed [MILLION_POINTS=1] [REPRESENTATION=all|intensity|points|depth] [STARTS=1]
+// STARTS = 1: the start below; 6: also five more (0.1 m / 1° and 0.3 m / 2°, mixed signs).
 // MMBA_DEBUG=1 in the environment logs each stage (time, evaluations).
 #include <sys/resource.h>
 
 #include <cmath>
 #include <cstdio>
+#include <algorithm>
 #include <cstdlib>
 #include <string>
+#include <vector>
 
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
@@ -44,12 +47,20 @@ int main(int argc, char** argv) {
   frame.name = "street";
   frame.views = MakeViews(photo, camera, ViewOptions(), "street");
   frame.points = &points;
-  Vector6d perturbation;
-  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
-  const Rigid3d start = ApplyCorrection(truth, perturbation);
+  const int starts = argc > 3 ? std::atoi(argv[3]) : 1;
+  std::vector<Vector6d> perturbations(6);
+  perturbations[0] << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
+  perturbations[1] << -0.1, 0.1, -0.1, -1.0, 1.0, -1.0;
+  perturbations[2] << 0.1, 0.1, 0.1, 1.0, 1.0, 1.0;
+  perturbations[3] << 0.3, -0.3, 0.3, 2.0, -2.0, 2.0;
+  perturbations[4] << -0.3, 0.3, -0.3, -2.0, 2.0, -2.0;
+  perturbations[5] << 0.0, 0.3, 0.0, 0.0, 0.0, 2.0;
+  perturbations.resize(std::clamp(starts, 1, 6));
   for (Representation r :
        {Representation::kIntensity, Representation::kPoints, Representation::kDepth}) {
     if (which != "all" && which != RepresentationName(r)) continue;
+    for (const Vector6d& perturbation : perturbations) {
+    const Rigid3d start = ApplyCorrection(truth, perturbation);
     RegistrationOptions options;
     options.render.representation = r;
     if (const char* level = std::getenv("MI_FINEST_NM_LEVEL")) {
@@ -64,6 +75,8 @@ int main(int argc, char** argv) {
     const PixelOffsetStats after =
         PixelOffsets(points, frame.views[0], truth, result.cam_from_lidar, options.render);
     const AcceptanceChecks& c = result.checks;
+    std::printf("(%.2f %.2f %.2f m, %.1f %.1f %.1f deg) ", perturbation[0], perturbation[1],
+                perturbation[2], perturbation[3], perturbation[4], perturbation[5]);
     std::printf("%-9s %-6s %6.2f s  %4d evals  %5.1f ms/eval  median offset %.2f -> %.2f px "
                 "(p90 %.2f -> %.2f)  sigma %.3f px  restarts %.2f px  MI gain %.4f bits "
                 "(z %.0f)  peak %.0f MiB  %s\n",
@@ -75,6 +88,7 @@ int main(int argc, char** argv) {
     for (const StageStat& stage : result.stages) {
       std::printf("    %-28s %4d evals %7.3f s\n", stage.name.c_str(), stage.evaluations,
                   stage.seconds);
+    }
     }
   }
   return 0;
