@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <sstream>
+#include <type_traits>
 
 #include <Eigen/Geometry>
 #include <spdlog/spdlog.h>
@@ -409,12 +410,24 @@ void BuildProblem(JointState* s) {
     const auto it = s->excluded.find(name);
     return it == s->excluded.end() ? std::set<size_t>() : it->second;
   };
+  // Observations of a group with its variance-component factor applied to σ.
+  const auto scaled = [&](const char* name, auto list) {
+    const auto it = s->sigma_factor.find(name);
+    const double f = it == s->sigma_factor.end() ? 1.0 : it->second;
+    for (auto& o : list) {
+      if constexpr (std::is_same_v<std::decay_t<decltype(o)>, ReprojectionObservation>) o.sigma_px *= f;
+      else if constexpr (std::is_same_v<std::decay_t<decltype(o)>, TargetMeasurement>) o.sigma_px *= f;
+      else if constexpr (std::is_same_v<std::decay_t<decltype(o)>, SurfacePlane>) o.sigma_m *= f;
+      else o.sigma *= f;
+    }
+    return list;
+  };
   if (s->photos) {
     const PhotoCollection& p = *s->photos->config;
-    s->builder->AddGroup(std::make_unique<ReprojectionGroup>(Without(s->photos->ties, excluded(kTies)), p.loss, kTies));
+    s->builder->AddGroup(std::make_unique<ReprojectionGroup>(scaled(kTies, Without(s->photos->ties, excluded(kTies))), p.loss, kTies));
     if (!s->photos->control.empty()) {
       s->builder->AddGroup(std::make_unique<TargetReprojectionGroup>(
-          &*s->joint, Without(s->photos->control, excluded(kTargets)), p.loss, kTargets));
+          &*s->joint, scaled(kTargets, Without(s->photos->control, excluded(kTargets))), p.loss, kTargets));
     }
     if (!s->photos->check.empty()) {
       s->builder->AddGroup(std::make_unique<ReprojectionGroup>(s->photos->check, LossOptions(), kCheck));
@@ -431,11 +444,11 @@ void BuildProblem(JointState* s) {
     }
   }
   if (!s->gnss_points.empty()) {
-    s->builder->AddGroup(std::make_unique<GnssPointGroup>(&*s->joint, Without(s->gnss_points, excluded(kGnss)),
+    s->builder->AddGroup(std::make_unique<GnssPointGroup>(&*s->joint, scaled(kGnss, Without(s->gnss_points, excluded(kGnss))),
                                                           s->project->gnss.front().loss, kGnss));
   }
   if (!s->planes.empty()) {
-    s->builder->AddGroup(std::make_unique<LidarSurfaceGroup>(Without(s->planes, excluded(kLidar)),
+    s->builder->AddGroup(std::make_unique<LidarSurfaceGroup>(scaled(kLidar, Without(s->planes, excluded(kLidar))),
                                                              s->project->lidar_static.front().loss, kLidar));
   }
   GaugeOptions gauge;
@@ -456,6 +469,7 @@ void SolveOnce(JointState* s, const AdjustOptions& options) {
   solve.log_progress = options.log_progress;
   solve.function_tolerance = 1e-8;
   s->solve = Solve(*s->builder, solve);
+  s->total_iterations += s->solve.iterations;
   if (!s->solve.converged) {
     throw AdjustFailure(s->solve.status, "the joint adjustment did not converge: " + s->solve.reason);
   }
@@ -561,6 +575,36 @@ size_t Snoop(JointState* s, const stats::NetworkStatistics& st) {
   return worst.size();
 }
 
+/// Variance-component estimation (Förstner 1979): each group's σ is multiplied by the square
+/// root of its variance component σ̂²_k = Σe²/Σr (groups with Σr ≥ 5; the check points are
+/// not weighted). Survey groups scale their observations' σ and cluster covariances in the
+/// joint network; the others at the next BuildProblem. Returns false when every factor is
+/// within 1 % of 1 (converged).
+bool ApplyVarianceComponents(JointState* s, const stats::NetworkStatistics& st) {
+  bool changed = false;
+  const auto& groups = s->builder->groups();
+  for (size_t g = 0; g < groups.size(); ++g) {
+    const stats::GroupStatistic& gs = st.groups.at(g);
+    if (groups[g]->name() == kCheck || gs.redundancy < 5 || !(gs.variance_component > 0)) continue;
+    const double f = std::sqrt(gs.variance_component);
+    if (std::abs(f - 1.0) < 0.01) continue;
+    changed = true;
+    auto [it, inserted] = s->sigma_factor.emplace(groups[g]->name(), 1.0);
+    it->second *= f;
+    if (const auto* sg = dynamic_cast<const survey::SurveyGroup*>(groups[g].get())) {
+      for (const survey::BlockSpec& spec : sg->added_specs()) {
+        survey::Cluster& cluster = s->joint->clusters[spec.cluster];
+        for (size_t o : spec.observations) {
+          cluster.observations[o].sigma *= f;
+          cluster.covariance.row(o) *= f;
+          cluster.covariance.col(o) *= f;
+        }
+      }
+    }
+  }
+  return changed;
+}
+
 }  // namespace
 
 AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options) {
@@ -607,9 +651,19 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
     // Statistics, one round of data snooping, and the final solve and statistics.
     s.statistics = Statistics(&s);
     if (Snoop(&s, s.statistics) > 0) {
-      spdlog::info("adjust: {} observation(s) flagged as blunders and excluded; solving again", s.blunders.size());
+      Note(&s, std::to_string(s.blunders.size()) + " observation(s) flagged as blunders and excluded; solving again");
       SolveOnce(&s, options);
       s.statistics = Statistics(&s);
+    }
+    s.given_weights = s.statistics;  // σ0 and its test with the σ of the project
+    s.given_weights.cofactor.resize(0, 0);
+    s.given_weights.rows.clear();
+    if (project.settings.variance_components) {
+      for (int k = 0; k < 4 && ApplyVarianceComponents(&s, s.statistics); ++k) {
+        Note(&s, "variance components: re-weighting the groups (pass " + std::to_string(k + 1) + ")");
+        SolveOnce(&s, options);
+        s.statistics = Statistics(&s);
+      }
     }
   } catch (const AdjustFailure& e) {
     outcome.status = e.status();

@@ -63,7 +63,10 @@ struct JointState {
   SolveResult solve;
   int outer_iterations = 0;
   double seconds = 0.0;
-  stats::NetworkStatistics statistics;
+  stats::NetworkStatistics statistics;    ///< final (after variance components)
+  stats::NetworkStatistics given_weights;  ///< with the project's σ (no rows, no cofactor)
+  std::map<std::string, double> sigma_factor;  ///< estimated σ / given σ per group
+  int total_iterations = 0;
   std::vector<std::string> warnings;
   std::vector<std::string> log;  ///< stages, for the report
 };

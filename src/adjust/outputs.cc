@@ -157,12 +157,16 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
   const geodesy::Utm origin_utm = geodesy::UtmFromGeodetic(project.origin);
   report["frame"] = "local ENU tangent plane at the project origin (metres); WGS84 and UTM in the CSV files";
   report["utm_zone"] = std::to_string(origin_utm.zone) + (origin_utm.northp ? "N" : "S");
-  report["solver"] = {{"iterations", s.solve.iterations}, {"outer_iterations", s.outer_iterations},
+  report["solver"] = {{"iterations", s.total_iterations}, {"outer_iterations", s.outer_iterations},
                       {"initial_cost", s.solve.initial_cost}, {"final_cost", s.solve.final_cost},
                       {"seconds", s.seconds}};
   report["sigma0"] = {{"apriori", 1.0}, {"aposteriori", st.sigma0_ratio}, {"dof", st.degrees_of_freedom},
                       {"confidence", st.confidence}, {"chi2_lower", st.chi2_lower}, {"chi2_upper", st.chi2_upper},
                       {"passed", st.chi2_passed}};
+  const stats::NetworkStatistics& given = s.given_weights;
+  report["sigma0_given_weights"] = {{"aposteriori", given.sigma0_ratio}, {"dof", given.degrees_of_freedom},
+                                    {"chi2_lower", given.chi2_lower}, {"chi2_upper", given.chi2_upper},
+                                    {"passed", given.chi2_passed}};
   // Groups.
   json groups = json::array();
   const auto& builder_groups = s.builder->groups();
@@ -178,6 +182,9 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
                       {"max", Num(max_norm)}, {"sigma", group.block_sigmas().empty() ? 0.0 : sigma_sum / group.block_sigmas().size()},
                       {"loss", group.loss().ToString()}, {"outliers", e.num_outliers},
                       {"variance_component", Num(gs.variance_component)}, {"redundancy", Num(gs.redundancy)},
+                      {"sigma_factor", s.sigma_factor.count(group.name()) ? s.sigma_factor.at(group.name()) : 1.0},
+                      {"variance_component_given_weights",
+                       g < given.groups.size() ? Num(given.groups[g].variance_component) : 0.0},
                       {"whitened", Histogram(group)}});
   }
   report["groups"] = groups;
@@ -363,16 +370,19 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
   outcome->report = report;
   // Terminal summary.
   std::ostringstream sum;
-  sum << "adjust " << project.name << ": converged, " << s.solve.iterations << " iterations (" << s.outer_iterations
+  sum << "adjust " << project.name << ": converged, " << s.total_iterations << " iterations (" << s.outer_iterations
       << " outer), " << std::fixed << std::setprecision(1) << s.seconds << " s\n"
       << "  sigma0 " << std::setprecision(3) << st.sigma0_ratio << ", chi2 test at " << st.confidence << ": ["
       << st.chi2_lower << ", " << st.chi2_upper << "] -> " << (st.chi2_passed ? "passed" : "FAILED") << ", dof "
-      << st.degrees_of_freedom << "\n";
+      << st.degrees_of_freedom << "\n"
+      << "  with the project's sigma: sigma0 " << given.sigma0_ratio << " -> "
+      << (given.chi2_passed ? "passed" : "FAILED") << (s.sigma_factor.empty() ? "" : "; groups re-weighted by variance components")
+      << "\n";
   for (const json& g : groups) {
     sum << "  " << std::left << std::setw(28) << g["name"].get<std::string>() << std::right << std::setw(7)
         << g["observations"].get<size_t>() << " obs  RMS " << std::setprecision(4) << g["rms"].get<double>() << " "
         << g["unit"].get<std::string>() << "  variance component " << std::setprecision(3)
-        << g["variance_component"].get<double>() << "\n";
+        << g["variance_component_given_weights"].get<double>() << " (sigma x " << g["sigma_factor"].get<double>() << ")\n";
   }
   if (report.contains("check_summary")) {
     const json& c = report["check_summary"];

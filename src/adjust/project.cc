@@ -210,7 +210,8 @@ Project LoadProject(const std::string& path) {
                          s.confidence = r.Number(v, g);
                          if (!(s.confidence > 0.5 && s.confidence < 1)) r.Fail(v, g, "a probability in (0.5, 1)", r.Text(v));
                        }},
-                      {"outlier_sigma", [&](Node v, Field g) { s.outlier_sigma = r.Positive(v, g, 100, "σ units"); }}});
+                      {"outlier_sigma", [&](Node v, Field g) { s.outlier_sigma = r.Positive(v, g, 100, "σ units"); }},
+                      {"variance_components", [&](Node v, Field g) { s.variance_components = r.Bool(v, g); }}});
        }},
       {"sensors", [&](Node n, Field f) {
          if (!n.IsSequence() || n.size() == 0) r.Fail(n, f, "a non-empty list of sensors", io::YamlReader::Kind(n));

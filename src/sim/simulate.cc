@@ -887,8 +887,14 @@ std::string ProjectYaml(const Context& c) {
        "simulated: {seed: " << o.seed << ", preset: " << o.preset << ", truth: truth/truth.json}\n"
        "origin: {latitude_deg: " << std::setprecision(12) << o.origin.latitude_deg
     << ", longitude_deg: " << o.origin.longitude_deg << ", height_m: " << o.origin.height_m
-    << "}  # world = local ENU tangent plane here\n"
-       "sensors:\n" << c.project_sensors.str();
+    << "}  # world = local ENU tangent plane here\n";
+  // Every third surveyed target is withheld from the joint adjustment as a check point.
+  if (o.total_station.setups > 0 && c.scene.targets.size() >= 3) {
+    y << "check_points: [";
+    for (size_t i = 2; i < c.scene.targets.size(); i += 3) y << (i > 2 ? ", " : "") << c.scene.targets[i].id;
+    y << "]  # surveyed targets withheld from the adjustment\n";
+  }
+  y << "sensors:\n" << c.project_sensors.str();
   return y.str();
 }
 

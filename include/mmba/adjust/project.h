@@ -72,6 +72,8 @@ struct AdjustSettings {
   /// An observation is a blunder when its studentized residual exceeds the critical value
   /// AND its whitened residual exceeds this (4: about 6 false alarms per 100 000 good ones).
   double outlier_sigma = 4.0;
+  /// Re-weight the groups by variance-component estimation until their components are 1.
+  bool variance_components = true;
 };
 
 struct Project {

@@ -1,0 +1,106 @@
+// project.yaml validation: every bad input is one InputError naming the file, line and key.
+#include "mmba/adjust/project.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "mmba/core/error.h"
+
+namespace mmba::adjust {
+namespace {
+
+namespace fs = std::filesystem;
+
+class ProjectTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::path(testing::TempDir()) / ("mmba_project_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_ / "images");
+    fs::create_directories(dir_ / "model");
+    std::ofstream(dir_ / "network.xml") << "<gama-local/>\n";
+    std::ofstream(dir_ / "gnss.csv") << "id,kind\n";
+    std::ofstream(dir_ / "lidar.ply") << "ply\n";
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::string Write(const std::string& sensors, const std::string& extra = "") {
+    const fs::path path = dir_ / "project.yaml";
+    std::ofstream(path) << "mmba_project: 1\nname: t\norigin: {latitude_deg: 45, longitude_deg: 7, height_m: 300}\n"
+                        << extra << "sensors:\n" << sensors;
+    return path.string();
+  }
+
+  // The message of the InputError LoadProject throws (fails the test if none).
+  std::string Error(const std::string& path) {
+    try {
+      LoadProject(path);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    ADD_FAILURE() << "no InputError";
+    return "";
+  }
+
+  fs::path dir_;
+  const std::string photos_ = "  - {id: p, type: photo_collection, images: images, colmap_model: model, sigma_px: 0.7}\n";
+  const std::string ts_ = "  - {id: ts, type: total_station, file: network.xml}\n";
+};
+
+TEST_F(ProjectTest, ReadsAValidProject) {
+  const Project p = LoadProject(Write(photos_ + ts_ +
+                                          "  - {id: g, type: gnss, file: gnss.csv, loss: {type: cauchy, scale: 2}}\n"
+                                          "  - {id: l, type: lidar_static, reference_cloud: lidar.ply, range_sigma_m: 0.004}\n",
+                                      "check_points: [T3]\nadjustment: {outer_iterations: 2, variance_components: false}\n"));
+  ASSERT_EQ(p.photos.size(), 1u);
+  EXPECT_DOUBLE_EQ(p.photos[0].sigma_px, 0.7);
+  EXPECT_EQ(p.photos[0].colmap_model, (dir_ / "model").string());
+  EXPECT_EQ(p.total_stations.size(), 1u);
+  EXPECT_EQ(p.gnss[0].loss.type, LossType::kCauchy);
+  EXPECT_DOUBLE_EQ(p.lidar_static[0].range_sigma_m, 0.004);
+  EXPECT_EQ(p.check_points, std::vector<std::string>{"T3"});
+  EXPECT_EQ(p.settings.outer_iterations, 2);
+  EXPECT_FALSE(p.settings.variance_components);
+  EXPECT_DOUBLE_EQ(p.origin.latitude_deg, 45.0);
+}
+
+TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {
+  struct Case {
+    std::string sensors, extra, expect;
+  };
+  const std::vector<Case> cases = {
+      {photos_ + "  - {id: x, type: laser, file: a}\n", "", "sensors[1].type"},
+      {photos_ + "  - {id: p, type: total_station, file: network.xml}\n", "", "used twice"},
+      {"  - {id: p, type: photo_collection, images: nowhere}\n", "", "sensors[0].images"},
+      {"  - {id: p, type: photo_collection, images: images, colour: red}\n", "", "colour (unknown key)"},
+      {"  - {id: p, type: photo_collection, images: images, sigma_px: -1}\n", "", "sensors[0].sigma_px"},
+      {"  - {id: p, type: photo_collection, images: images, sigma_px: abc}\n", "", "a number"},
+      {ts_ + "  - {id: l, type: lidar_static, reference_cloud: lidar.ply, range_sigma_m: 3}\n", "", "m (metres)"},
+      {ts_, "check_points: [T1, T1]\n", "check_points[1]"},
+      {photos_, "check_points: [T1]\n", "total_station"},
+      {ts_, "adjustment: {outer_iterations: 0}\n", "adjustment.outer_iterations"},
+      {"  - {id: p, type: photo_collection, images: images, refine: [focus]}\n", "", "refine[0]"},
+      {"  - {id: p, type: photo_collection}\n", "", "sensors[0].images"},
+  };
+  for (const Case& c : cases) {
+    const std::string message = Error(Write(c.sensors, c.extra));
+    EXPECT_NE(message.find(c.expect), std::string::npos) << "expected '" << c.expect << "' in: " << message;
+    EXPECT_NE(message.find("project.yaml"), std::string::npos) << message;
+  }
+}
+
+TEST_F(ProjectTest, RejectsAMissingOriginOrFile) {
+  const fs::path path = dir_ / "project.yaml";
+  std::ofstream(path) << "mmba_project: 1\nsensors:\n" << ts_;
+  EXPECT_NE(Error(path.string()).find("origin"), std::string::npos);
+  std::ofstream(path) << "mmba_project: 2\norigin: {latitude_deg: 95, longitude_deg: 7, height_m: 1}\nsensors:\n" << ts_;
+  EXPECT_NE(Error(path.string()).find("mmba_project"), std::string::npos);
+  EXPECT_NE(Error((dir_ / "none.yaml").string()).find("not found"), std::string::npos);
+  std::ofstream(path) << "mmba_project: 1\norigin: {latitude_deg: 95, longitude_deg: 7, height_m: 1}\nsensors:\n" << ts_;
+  EXPECT_NE(Error(path.string()).find("origin.latitude_deg"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace mmba::adjust
