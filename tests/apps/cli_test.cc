@@ -177,5 +177,32 @@ TEST_F(CliTest, BalBadInputNamesTheLine) {
                                     "a finite number"));
 }
 
+TEST_F(CliTest, AdjustBadProjectIsExitTwoNamingTheKey) {
+  std::ofstream(Tmp("project.yaml"))
+      << "mmba_project: 1\norigin: {latitude_deg: 45, longitude_deg: 9, height_m: 200}\nsensors:\n"
+      << "  - {id: photos, type: photo_collection, images: " << kSource << "/data/colmap/balbianello/images, "
+      << "colmap_model: " << kModel << ", sigma_px: 0}\n";
+  const RunResult run = Mmba("adjust " + Tmp("project.yaml") + " --output " + Tmp("out"));
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("sensors[0].sigma_px"));
+  EXPECT_THAT(run.output, HasSubstr("project.yaml:4"));
+  EXPECT_FALSE(fs::exists(Tmp("out")));
+}
+
+TEST_F(CliTest, AdjustWithoutOverlapIsExitThreeAndKeepsTheEarlierOutput) {
+  fs::create_directories(Tmp("out"));
+  std::ofstream(Tmp("out/report.json")) << "{\"earlier\": true}\n";
+  std::ofstream(Tmp("project.yaml"))
+      << "mmba_project: 1\norigin: {latitude_deg: 45, longitude_deg: 9, height_m: 200}\nsensors:\n"
+      << "  - {id: photos, type: photo_collection, images: " << kSource << "/data/colmap/balbianello/images, "
+      << "colmap_model: " << kModel << "}\n"
+      << "  - {id: ts, type: total_station, file: " << kSource << "/data/gama/gama-local.gkf}\n";
+  const RunResult run = Mmba("adjust " + Tmp("project.yaml") + " --output " + Tmp("out") + " -q");
+  EXPECT_EQ(run.exit_code, 3) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("no overlap"));
+  std::ifstream earlier(Tmp("out/report.json"));
+  EXPECT_TRUE(nlohmann::json::parse(earlier)["earlier"].get<bool>());
+}
+
 }  // namespace
 }  // namespace mmba
