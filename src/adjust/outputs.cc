@@ -177,9 +177,14 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     for (const ObservationResidual& o : e.observations) max_norm = std::max(max_norm, o.norm_units);
     for (double sigma : group.block_sigmas()) sigma_sum += sigma;
     const stats::GroupStatistic& gs = st.groups.at(g);
-    groups.push_back({{"name", group.name()}, {"unit", group.unit()}, {"observations", e.num_observations},
-                      {"residuals", e.num_residuals}, {"rms", Num(e.rms_units)}, {"mean", Num(e.mean_norm_units)},
-                      {"max", Num(max_norm)}, {"sigma", group.block_sigmas().empty() ? 0.0 : sigma_sum / group.block_sigmas().size()},
+    // Angles in mgon, as surveyors read them (the groups work in radians).
+    const bool angle = group.unit() == "rad";
+    const double k = angle ? 200000.0 / M_PI : 1.0;
+    groups.push_back({{"name", group.name()}, {"unit", angle ? "mgon" : group.unit()}, {"observations", e.num_observations},
+                      {"residuals", e.num_residuals}, {"rms", Num(k * e.rms_units)}, {"mean", Num(k * e.mean_norm_units)},
+                      {"max", Num(k * max_norm)},
+                      {"sigma", group.block_sigmas().empty() ? 0.0 : k * sigma_sum / group.block_sigmas().size()},
+                      {"whitened_kind", "components"},
                       {"loss", group.loss().ToString()}, {"outliers", e.num_outliers},
                       {"variance_component", Num(gs.variance_component)}, {"redundancy", Num(gs.redundancy)},
                       {"sigma_factor", s.sigma_factor.count(group.name()) ? s.sigma_factor.at(group.name()) : 1.0},
