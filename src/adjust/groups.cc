@@ -38,6 +38,54 @@ class NetworkPointReprojectionCost : public ceres::CostFunction {
   std::unique_ptr<ceres::CostFunction> inner_;
 };
 
+/// Wraps a reprojection cost (rotation 4, translation 3, point 3, intrinsics) into one with a
+/// baseline block subtracted from the translation: (rotation, translation, baseline 3, point,
+/// intrinsics); t' = t − b, so ∂r/∂b = −∂r/∂t.
+class BaselineReprojectionCost : public ceres::CostFunction {
+ public:
+  explicit BaselineReprojectionCost(ceres::CostFunction* inner) : inner_(inner) {
+    const std::vector<int32_t>& sizes = inner_->parameter_block_sizes();
+    set_num_residuals(inner_->num_residuals());
+    *mutable_parameter_block_sizes() = {sizes[0], sizes[1], 3, sizes[2], sizes[3]};
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const double t[3] = {parameters[1][0] - parameters[2][0], parameters[1][1] - parameters[2][1],
+                         parameters[1][2] - parameters[2][2]};
+    const double* inner_parameters[4] = {parameters[0], t, parameters[3], parameters[4]};
+    if (jacobians == nullptr) return inner_->Evaluate(inner_parameters, residuals, nullptr);
+    const int m = num_residuals();
+    std::vector<double> j_t(m * 3);
+    double* inner_jacobians[4] = {jacobians[0], (jacobians[1] || jacobians[2]) ? j_t.data() : nullptr,
+                                  jacobians[3], jacobians[4]};
+    if (!inner_->Evaluate(inner_parameters, residuals, inner_jacobians)) return false;
+    for (int k = 0; k < m * 3; ++k) {
+      if (jacobians[1]) jacobians[1][k] = j_t[k];
+      if (jacobians[2]) jacobians[2][k] = -j_t[k];
+    }
+    return true;
+  }
+
+ private:
+  std::unique_ptr<ceres::CostFunction> inner_;
+};
+
+class ScalarPriorCost : public ceres::SizedCostFunction<1, 3> {
+ public:
+  ScalarPriorCost(int index, double prior, double sigma) : index_(index), prior_(prior), sigma_(sigma) {}
+  bool Evaluate(double const* const* p, double* r, double** j) const override {
+    r[0] = (p[0][index_] - prior_) / sigma_;
+    if (j && j[0]) {
+      for (int k = 0; k < 3; ++k) j[0][k] = k == index_ ? 1.0 / sigma_ : 0.0;
+    }
+    return true;
+  }
+
+ private:
+  int index_;
+  double prior_, sigma_;
+};
+
 /// (x_axis − value)/σ on the point's east-north block (axis 0, 1) or up block (axis 2).
 class GnssAxisCost : public ceres::CostFunction {
  public:
@@ -105,6 +153,42 @@ void TargetReprojectionGroup::AddResiduals(Scene& scene, ceres::Problem& problem
              {image.cam_from_world.rotation.coeffs().data(), image.cam_from_world.translation.data(),
               point->xy_block(), point->z_block(), camera.params.data()},
              m.sigma_px, i);
+  }
+}
+
+UpperSphereGroup::UpperSphereGroup(std::vector<UpperSphereObservation> observations, Eigen::Vector3d* baseline,
+                                   LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "px", loss), observations_(std::move(observations)), baseline_(baseline) {}
+
+void UpperSphereGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
+  for (size_t i = 0; i < observations_.size(); ++i) {
+    const UpperSphereObservation& o = observations_[i];
+    if (!scene.HasImage(o.lower_image_id) || !scene.HasPoint(o.point3D_id) || !scene.HasCamera(o.camera_id)) {
+      Skip();
+      continue;
+    }
+    ImagePose& lower = scene.Image(o.lower_image_id);
+    sensors::Camera& camera = scene.Camera(o.camera_id);
+    Eigen::Vector3d& point = scene.Point(o.point3D_id);
+    if (!camera.ImgFromCam(lower.cam_from_world * point - *baseline_)) {
+      Skip();
+      continue;
+    }
+    ceres::CostFunction* inner = factors::CreateReprojectionCost(camera.model_id, o.xy, o.sigma_px, camera.params.data());
+    AddBlock(problem, new BaselineReprojectionCost(inner),
+             {lower.cam_from_world.rotation.coeffs().data(), lower.cam_from_world.translation.data(),
+              baseline_->data(), point.data(), camera.params.data()},
+             o.sigma_px, i);
+  }
+}
+
+VectorPriorGroup::VectorPriorGroup(Eigen::Vector3d* value, const Eigen::Vector3d& prior, double sigma,
+                                   std::string name)
+    : FactorGroup(std::move(name), "m", LossOptions()), value_(value), prior_(prior), sigma_(sigma) {}
+
+void VectorPriorGroup::AddResiduals(Scene&, ceres::Problem& problem) {
+  for (int k = 0; k < 3; ++k) {
+    AddBlock(problem, new ScalarPriorCost(k, prior_(k), sigma_), {value_->data()}, sigma_, k);
   }
 }
 

@@ -37,6 +37,23 @@ struct PhotoBlock {
   std::string georeference;                    ///< how the block was put into the world
 };
 
+/// The spherical stereo pair: lower poses are Scene images, the upper sphere follows from
+/// the shared baseline vector.
+struct SphereBlock {
+  const SphericalStereo* config = nullptr;
+  CameraId lower_camera{1000001};
+  CameraId upper_camera{1000002};
+  std::vector<std::string> stations;
+  std::map<std::string, ImageId> lower_image;  ///< station → its lower sphere's Scene image
+  Eigen::Vector3d baseline = Eigen::Vector3d::Zero();        ///< upper centre in the lower frame
+  Eigen::Vector3d baseline_prior = Eigen::Vector3d::Zero();
+  std::vector<ReprojectionObservation> lower;
+  std::vector<UpperSphereObservation> upper;
+  std::vector<std::string> lower_source, upper_source;  ///< "file:line" per observation
+  std::vector<double> initial_lower_params, initial_upper_params;
+  std::map<ImageId, Rigid3d> initial_poses;
+};
+
 struct Blunder {
   std::string group;
   std::string observation;
@@ -53,6 +70,7 @@ struct JointState {
   std::vector<GnssPoint> gnss_points;
   size_t gnss_trajectory_rows = 0;
   std::optional<PhotoBlock> photos;
+  std::optional<SphereBlock> spheres;
   Scene scene;
   std::unique_ptr<LidarSurface> surface;
   std::vector<SurfacePlane> planes;

@@ -50,6 +50,30 @@ Eigen::Matrix3d CentreCovariance(const stats::NetworkStatistics& st, const Image
   return j * c * j.transpose();
 }
 
+/// σ of each ambient parameter of `block` (its covariance in the tangent space mapped through
+/// the manifold's Plus Jacobian: a SubsetManifold's constant entries get 0).
+std::vector<double> ParameterSigmas(const stats::NetworkStatistics& st, const ceres::Problem& problem,
+                                    const double* block) {
+  const int n = problem.ParameterBlockSize(block);
+  std::vector<double> sigma(n, 0.0);
+  if (!st.IsFree(block)) return sigma;
+  const int m = problem.ParameterBlockTangentSize(block);
+  Eigen::MatrixXd tangent(m, m);
+  for (int a = 0; a < m; ++a) {
+    for (int b = 0; b < m; ++b) tangent(a, b) = st.Covariance(block, a, block, b);
+  }
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> plus(n, m);
+  const ceres::Manifold* manifold = problem.GetManifold(block);
+  if (manifold) {
+    manifold->PlusJacobian(block, plus.data());
+  } else {
+    plus.setIdentity();
+  }
+  const Eigen::MatrixXd ambient = plus * tangent * plus.transpose();
+  for (int i = 0; i < n; ++i) sigma[i] = std::sqrt(std::max(0.0, ambient(i, i)));
+  return sigma;
+}
+
 Eigen::Matrix3d PointCovariance3(const stats::NetworkStatistics& st, const double* p) {
   Eigen::Matrix3d c;
   for (int a = 0; a < 3; ++a) {
@@ -116,8 +140,33 @@ json EvaluateTruth(const JointState& s) {
     out["photo_positions"] = {{"images", n}, {"rmse_m", n ? std::sqrt(sum / n) : 0.0}, {"max_m", worst},
                               {"max_rotation_deg", worst_rotation}};
     const std::vector<double> true_params = truth["photos"]["camera"]["params"];
-    const std::vector<double>& params = s.scene.cameras().begin()->second.params;
+    const std::vector<double>& params = s.scene.Camera(s.photos->model.cameras.begin()->first).params;
     out["photo_camera"] = {{"adjusted", params}, {"true", true_params}, {"initial", s.photos->initial_params}};
+  }
+  if (s.spheres && truth.contains("spherical_stereo")) {
+    const json& t = truth["spherical_stereo"];
+    double worst = 0.0, worst_rotation = 0.0;
+    // The lower cx is the heading datum: a cx offset from the truth is a rotation about the
+    // sphere's y axis by α = (cx_true − cx)/f, removed before comparing orientations.
+    const std::vector<double> true_lower = t["lower_camera"]["params"];
+    const std::vector<double>& lower = s.scene.Camera(s.spheres->lower_camera).params;
+    const double alpha = (true_lower[1] - lower[1]) / lower[0];
+    for (const json& station : t["stations"]) {
+      const auto it = s.spheres->lower_image.find(station["name"].get<std::string>());
+      if (it == s.spheres->lower_image.end()) continue;
+      const std::vector<double> q = station["lower_from_world"]["qvec_wxyz"], tv = station["lower_from_world"]["tvec"];
+      const Rigid3d true_pose(Eigen::Quaterniond(q[0], q[1], q[2], q[3]), Eigen::Vector3d(tv[0], tv[1], tv[2]));
+      const Rigid3d& pose = s.scene.Image(it->second).cam_from_world;
+      worst = std::max(worst, (CameraCentre(pose) - CameraCentre(true_pose)).norm());
+      const Eigen::Quaterniond expected = Eigen::AngleAxisd(alpha, Eigen::Vector3d::UnitY()) * true_pose.rotation;
+      worst_rotation = std::max(worst_rotation, pose.rotation.angularDistance(expected) * kDeg);
+    }
+    out["spheres"] = {{"max_position_m", worst}, {"max_rotation_deg_after_cx_datum", worst_rotation},
+                      {"lower_params", {{"adjusted", s.scene.Camera(s.spheres->lower_camera).params},
+                                        {"true", t["lower_camera"]["params"]}, {"initial", s.spheres->initial_lower_params}}},
+                      {"upper_params", {{"adjusted", s.scene.Camera(s.spheres->upper_camera).params},
+                                        {"true", t["upper_camera"]["params"]}, {"initial", s.spheres->initial_upper_params}}},
+                      {"baseline", {{"adjusted", Vec(s.spheres->baseline)}, {"true_length_m", t["baseline_m"]}}}};
   }
   if (s.joint && truth.contains("survey")) {
     json points = json::array();
@@ -270,17 +319,17 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     io::ColmapModel model = s.photos->model;
     UpdateColmapFromScene(s.scene, &model);
     io::WriteColmapModel(model, (stage / "colmap" / s.photos->config->id).string(), io::ColmapFormat::kText);
-    for (const auto& [id, camera] : s.scene.cameras()) {
+    for (const auto& [id, model_camera] : s.photos->model.cameras) {
+      const sensors::Camera& camera = s.scene.Camera(id);
       json parameters = json::array();
       std::ostringstream yaml;
       yaml << "# mmba adjust: calibration of photo collection '" << s.photos->config->id << "' (camera " << id.value
            << "), sigma from the adjustment\nmodel: " << camera.ModelName() << "\nwidth: " << camera.width
            << "\nheight: " << camera.height << "\nparams: [";
       std::ostringstream sigmas;
+      const std::vector<double> camera_sigma = ParameterSigmas(st, s.builder->problem(), camera.params.data());
       for (size_t k = 0; k < camera.params.size(); ++k) {
-        const double sigma = st.IsFree(camera.params.data())
-                                 ? std::sqrt(std::max(0.0, st.Covariance(camera.params.data(), k, camera.params.data(), k)))
-                                 : 0.0;
+        const double sigma = camera_sigma[k];
         yaml << (k ? ", " : "") << std::setprecision(10) << camera.params[k];
         sigmas << (k ? ", " : "") << std::setprecision(4) << sigma;
         parameters.push_back({{"name", "p" + std::to_string(k)}, {"initial", s.photos->initial_params.at(k)},
@@ -306,6 +355,69 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     }
     io::WritePly(ties, (stage / "tie_points.ply").string());
     if (!errors.empty()) io::WritePly(errors, (stage / "error_map_lidar.ply").string());
+  }
+  if (s.spheres) {
+    const SphereBlock& sb = *s.spheres;
+    for (const auto& [station, id] : sb.lower_image) {
+      const ImagePose& pose = s.scene.Image(id);
+      const Rigid3d& initial = sb.initial_poses.at(id);
+      for (int k = 0; k < 2; ++k) {
+        // The upper sphere: same orientation, centre at the baseline (lower frame).
+        const Rigid3d shift(Eigen::Quaterniond::Identity(), k == 0 ? Eigen::Vector3d::Zero() : Eigen::Vector3d(-sb.baseline));
+        const Rigid3d cam_from_world = shift * pose.cam_from_world;
+        const Eigen::Vector3d c = CameraCentre(cam_from_world);
+        const Eigen::Vector3d d = c - CameraCentre(shift * initial);
+        const double d_rotation = pose.cam_from_world.rotation.angularDistance(initial.rotation) * kDeg;
+        const Eigen::Vector3d sigma = CentreCovariance(st, pose).diagonal().cwiseMax(0.0).cwiseSqrt();
+        const Eigen::Quaterniond& q = cam_from_world.rotation;
+        const std::string name = station + (k == 0 ? "_lower" : "_upper");
+        poses << name << "," << sb.config->id << "," << std::setprecision(12) << c.x() << "," << c.y() << "," << c.z()
+              << "," << q.w() << "," << q.x() << "," << q.y() << "," << q.z() << "," << Geo(s.plane, c) << ","
+              << std::setprecision(6) << sigma.x() << "," << sigma.y() << "," << sigma.z() << "," << d.norm() << ","
+              << d_rotation << "\n";
+        if (k == 0) {
+          corrections.push_back({{"image", name}, {"sensor", sb.config->id}, {"d", Vec(d)}, {"d_position_m", d.norm()},
+                                 {"d_rotation_deg", d_rotation}});
+        }
+      }
+    }
+    // Line-scan calibration: principal offsets per sphere, baseline vector and its tilt.
+    std::ostringstream yaml;
+    json parameters = json::array();
+    yaml << "# mmba adjust: calibration of the spherical stereo pair '" << sb.config->id
+         << "', sigma from the adjustment\nmodel: EQUIRECTANGULAR\nwidth: " << s.scene.Camera(sb.lower_camera).width
+         << "\nheight: " << s.scene.Camera(sb.lower_camera).height << "\n";
+    const char* names[3] = {"f", "cx", "cy"};
+    for (int k = 0; k < 2; ++k) {
+      const sensors::Camera& camera = s.scene.Camera(k == 0 ? sb.lower_camera : sb.upper_camera);
+      const std::vector<double>& initial = k == 0 ? sb.initial_lower_params : sb.initial_upper_params;
+      yaml << (k == 0 ? "lower" : "upper") << "_params: [" << std::setprecision(10) << camera.params[0] << ", "
+           << camera.params[1] << ", " << camera.params[2] << "]\n" << (k == 0 ? "lower" : "upper") << "_sigma: [";
+      const std::vector<double> camera_sigma = ParameterSigmas(st, s.builder->problem(), camera.params.data());
+      for (int i = 0; i < 3; ++i) {
+        const double sigma = camera_sigma[i];
+        yaml << (i ? ", " : "") << std::setprecision(4) << sigma;
+        parameters.push_back({{"name", std::string(k == 0 ? "lower " : "upper ") + names[i]}, {"initial", initial[i]},
+                              {"adjusted", camera.params[i]}, {"sigma", sigma}});
+      }
+      yaml << "]\n";
+    }
+    Eigen::Vector3d baseline_sigma;
+    for (int i = 0; i < 3; ++i) {
+      baseline_sigma(i) = std::sqrt(std::max(0.0, st.Covariance(sb.baseline.data(), i, sb.baseline.data(), i)));
+    }
+    const double tilt = std::acos(std::min(1.0, -sb.baseline.y() / sb.baseline.norm())) * kDeg;
+    yaml << "baseline_m: " << std::setprecision(8) << sb.baseline.norm() << "\nbaseline_in_lower: [" << sb.baseline.x()
+         << ", " << sb.baseline.y() << ", " << sb.baseline.z() << "]  # x right, y down, z forward\nbaseline_sigma: ["
+         << std::setprecision(3) << baseline_sigma.x() << ", " << baseline_sigma.y() << ", " << baseline_sigma.z()
+         << "]\naxis_tilt_deg: " << std::setprecision(5) << tilt << "  # baseline from the sphere's vertical (-y)\n";
+    WriteText(stage / "calibration" / (sb.config->id + "_spherical.yaml"), yaml.str());
+    parameters.push_back({{"name", "baseline length [m]"}, {"initial", sb.baseline_prior.norm()},
+                          {"adjusted", sb.baseline.norm()}, {"sigma", baseline_sigma.y()}});
+    parameters.push_back({{"name", "axis tilt [deg]"}, {"initial", 0.0}, {"adjusted", tilt},
+                          {"sigma", std::hypot(baseline_sigma.x(), baseline_sigma.z()) / sb.baseline.norm() * kDeg}});
+    calibrations.push_back({{"name", sb.config->id + " spherical stereo pair (line-scan calibration)"},
+                            {"parameters", parameters}});
   }
   WriteText(stage / "poses.csv", poses.str());
   report["pose_corrections"] = corrections;
@@ -350,6 +462,10 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
                             json{{"name", "report.json"}, {"description", "the report's data"}},
                             json{{"name", "poses.csv"}, {"description", "camera poses: local ENU, WGS84, UTM, sigma"}},
                             json{{"name", "observations.csv"}, {"description", "every residual with redundancy and studentized residual"}}});
+  if (s.spheres) {
+    files.push_back({{"name", "calibration/" + s.spheres->config->id + "_spherical.yaml"},
+                     {"description", "line-scan calibration of the spherical pair with sigma"}});
+  }
   if (s.joint) files.push_back({{"name", "points.csv"}, {"description", "surveyed points with sigma and error ellipses"}});
   if (s.photos) {
     files.push_back({{"name", "colmap/" + s.photos->config->id}, {"description", "adjusted COLMAP model (text)"}});

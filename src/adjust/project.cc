@@ -130,10 +130,33 @@ class ProjectReader {
       const auto sigma_px = [&](Node v, Field g) { SigmaPx(v, g); };
       const auto sigma_m = [&](Node v, Field g) { SigmaM(v, g, 0.5); };
       if (type == "spherical_stereo") {
-        r_.Map(n, f, {{"id", keep}, {"type", keep}, {"images", path(&ignored, true)},
-                      {"calibration", path(&ignored, false)},
-                      {"stations", [&](Node v, Field g) { r_.StringList(v, g); }},
-                      {"baseline_sigma_m", sigma_m}, {"sigma_px", sigma_px}});
+        SphericalStereo p;
+        p.id = id;
+        p.line = line;
+        r_.Map(n, f, {{"id", keep}, {"type", keep}, {"images", path(&p.images, true)},
+                      {"calibration", path(&p.calibration, false)},
+                      {"stations", [&](Node v, Field g) { p.stations = r_.StringList(v, g); }},
+                      {"stations_file", path(&p.stations_file, false)},
+                      {"observations", path(&p.observations, false)},
+                      {"tie_block", [&](Node v, Field g) { p.tie_block = r_.String(v, g); }},
+                      {"baseline_sigma_m", [&](Node v, Field g) { p.baseline_sigma_m = SigmaM(v, g, 0.5); }},
+                      {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
+                      {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
+                      {"refine", [&](Node v, Field g) {
+                         p.refine_principal_point = p.refine_focal = false;
+                         const std::vector<std::string> list = r_.StringList(v, g);
+                         for (size_t i = 0; i < list.size(); ++i) {
+                           if (list[i] == "focal") p.refine_focal = true;
+                           else if (list[i] == "principal_point") p.refine_principal_point = true;
+                           else r_.Fail(v[i], g + "[" + std::to_string(i) + "]", "focal or principal_point", list[i]);
+                         }
+                       }}});
+        r_.Require(n, f, {"images", "calibration"});
+        if (!p.observations.empty() || !p.stations_file.empty()) {
+          r_.Require(n, f, {"observations", "stations_file", "tie_block"});
+          project_->spherical.push_back(p);
+          return;
+        }
       } else if (type == "camera_rig") {
         r_.Map(n, f, {{"id", keep}, {"type", keep}, {"images", path(&ignored, true)},
                       {"panoramas", path(&ignored, true)}, {"calibration", path(&ignored, false)},
@@ -230,6 +253,13 @@ Project LoadProject(const std::string& path) {
   }
   if (project.photos.empty() && project.total_stations.empty()) {
     r.Fail(root["sensors"], "sensors", "at least a photo_collection or a total_station", "neither");
+  }
+  for (const SphericalStereo& sphere : project.spherical) {
+    bool found = false;
+    for (const PhotoCollection& p : project.photos) found = found || p.id == sphere.tie_block;
+    if (!found) {
+      throw InputError(path, sphere.line, "tie_block", sphere.tie_block, "the id of a photo_collection sensor");
+    }
   }
   if (project.name.empty()) project.name = fs::path(path).parent_path().filename().string();
   return project;

@@ -23,6 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using Eigen::Vector3d;
+using Eigen::Vector2d;
 using json = nlohmann::json;
 constexpr double kDeg = M_PI / 180.0;
 
@@ -274,6 +275,9 @@ struct Context {
   json registration_truth;
   std::ostringstream project_sensors;
   SimulateResult result;
+  /// The photos' tie points (COLMAP point3D id, true position): other image sensors observe
+  /// the same ids, standing for features matched across sensors.
+  std::vector<std::pair<uint64_t, Vector3d>> tie_points;
 };
 
 // ---- photos: an OPENCV camera on two rings in front of the object.
@@ -355,6 +359,7 @@ void SimulatePhotos(Context* c) {
     truth_model.points3D[point.point3D_id] = point;
   }
   c->result.photos = o.count;
+  for (const auto& [id, point] : truth_model.points3D) c->tie_points.emplace_back(id.value, point.xyz);
   c->result.tie_points = truth_model.points3D.size();
   c->result.tie_observations = truth_model.NumObservations();
   // The perturbed model: nominal calibration, perturbed poses and points, noisy observations.
@@ -490,6 +495,39 @@ void SimulateSpheres(Context* c, const std::vector<SphereStation>& stations) {
                          {"images", {"images/spherical/" + stations[s].name + "_lower.png",
                                      "images/spherical/" + stations[s].name + "_upper.png"}}});
   }
+  // Tie-point observations of the spheres (the photos' tie points seen from a station, true
+  // projection + N(0, 0.5 px)) and approximate station setups (position 5 cm, heading 1°).
+  internal::Rng noise(c->options.seed, 0x5F51);
+  std::ostringstream observations, setups;
+  observations << "# mmba simulate: tie-point observations in the spherical images (point ids of colmap/photos)\n"
+                  "image,point_id,x_px,y_px,sigma_px\n";
+  setups << "# mmba simulate: approximate spherical station setups (lower sphere centre, heading of its forward axis from north)\n"
+            "station,east_m,north_m,up_m,heading_deg\n";
+  size_t num_observations = 0;
+  for (size_t s = 0; s < stations.size(); ++s) {
+    const Rigid3d poses[2] = {stations[s].lower_from_world, stations[s].upper_from_world};
+    const char* which[2] = {"lower", "upper"};
+    for (int k = 0; k < 2; ++k) {
+      const Vector3d eye = poses[k].Inverse().translation;
+      for (const auto& [id, point] : c->tie_points) {
+        const auto xy = truth_cam[k].ImgFromCam(poses[k] * point);
+        if (!xy || !SeesPoint(c->caster, eye, point)) continue;
+        const Vector2d measured = *xy + Vector2d(noise.Normal(0.5), noise.Normal(0.5));
+        observations << stations[s].name << "_" << which[k] << ".png," << id << "," << Fmt(measured.x(), 3) << ","
+                     << Fmt(measured.y(), 3) << ",0.5\n";
+        ++num_observations;
+      }
+    }
+    const Rigid3d world_from_lower = stations[s].lower_from_world.Inverse();
+    const Vector3d forward = world_from_lower.rotation * Vector3d::UnitZ();
+    const Vector3d centre = world_from_lower.translation + Vector3d(noise.Normal(0.05), noise.Normal(0.05), noise.Normal(0.05));
+    setups << stations[s].name << "," << Fmt(centre.x(), 4) << "," << Fmt(centre.y(), 4) << "," << Fmt(centre.z(), 4) << ","
+           << Fmt(std::atan2(forward.x(), forward.y()) / kDeg + noise.Normal(1.0), 3) << "\n";
+  }
+  if (!c->tie_points.empty()) {
+    WriteText(c->out / "observations" / "spherical.csv", observations.str());
+    WriteText(c->out / "spherical_stations.csv", setups.str());
+  }
   c->truth["spherical_stereo"] = {{"lower_camera", CameraJson(truth_cam[0])},
                                   {"upper_camera", CameraJson(truth_cam[1])},
                                   {"baseline_m", o.baseline_m},
@@ -506,6 +544,10 @@ void SimulateSpheres(Context* c, const std::vector<SphereStation>& stations) {
                         "    calibration: calib/spherical_stereo.yaml\n    stations: [";
   for (size_t s = 0; s < stations.size(); ++s) c->project_sensors << (s ? ", " : "") << stations[s].name;
   c->project_sensors << "]\n    baseline_sigma_m: 0.001\n    sigma_px: 0.5\n";
+  if (!c->tie_points.empty()) {
+    c->project_sensors << "    stations_file: spherical_stations.csv\n    observations: observations/spherical.csv  # "
+                       << num_observations << " tie-point observations\n    tie_block: photos\n";
+  }
 }
 
 // ---- the Ladybug-style rig: 5 cameras around + 1 up, OPENCV_FISHEYE, on the vehicle.

@@ -83,6 +83,10 @@ TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {
       {ts_, "adjustment: {outer_iterations: 0}\n", "adjustment.outer_iterations"},
       {"  - {id: p, type: photo_collection, images: images, refine: [focus]}\n", "", "refine[0]"},
       {"  - {id: p, type: photo_collection}\n", "", "sensors[0].images"},
+      {photos_ + "  - {id: s, type: spherical_stereo, images: images, calibration: gnss.csv, observations: gnss.csv}\n", "",
+       "sensors[1].stations_file"},
+      {photos_ + "  - {id: s, type: spherical_stereo, images: images, calibration: gnss.csv, observations: gnss.csv, "
+                 "stations_file: gnss.csv, tie_block: q}\n", "", "tie_block"},
   };
   for (const Case& c : cases) {
     const std::string message = Error(Write(c.sensors, c.extra));

@@ -40,6 +40,43 @@ class TargetReprojectionGroup : public FactorGroup {
   std::vector<TargetMeasurement> measurements_;
 };
 
+/// Observations of the upper sphere of a vertical stereo pair: the upper sphere has the lower
+/// sphere's orientation and sits at `baseline` (lower sphere frame) from it, so its point in
+/// the camera frame is R·X + t − baseline (R, t: the lower sphere's cam_from_world). Spherical
+/// residual on the sphere (factors/reprojection_error.h). `image_id` = the LOWER sphere's
+/// image in the Scene; `camera_id` = the upper sphere's camera.
+struct UpperSphereObservation {
+  ImageId lower_image_id;
+  CameraId camera_id;
+  Point3DId point3D_id;
+  Eigen::Vector2d xy = Eigen::Vector2d::Zero();
+  double sigma_px = 0.5;
+};
+
+class UpperSphereGroup : public FactorGroup {
+ public:
+  UpperSphereGroup(std::vector<UpperSphereObservation> observations, Eigen::Vector3d* baseline,
+                   LossOptions loss, std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+  const std::vector<UpperSphereObservation>& observations() const { return observations_; }
+
+ private:
+  std::vector<UpperSphereObservation> observations_;
+  Eigen::Vector3d* baseline_;
+};
+
+/// Prior on a vector parameter: (x − prior)/σ per component (3 blocks of one residual).
+class VectorPriorGroup : public FactorGroup {
+ public:
+  VectorPriorGroup(Eigen::Vector3d* value, const Eigen::Vector3d& prior, double sigma, std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+
+ private:
+  Eigen::Vector3d* value_;
+  Eigen::Vector3d prior_;
+  double sigma_;
+};
+
 /// GNSS coordinates of a surveyed mark in the world ENU frame with σ per axis: three
 /// residual blocks (east, north, up) per mark.
 struct GnssPoint {

@@ -57,8 +57,29 @@ struct LidarStatic {
   LossOptions loss{LossType::kHuber, 3.0};
 };
 
+/// A spherical line-scan stereo pair on a vertical mast (Wang et al.'s setup): per station the
+/// lower sphere's pose; the upper sphere shares its orientation and sits at a baseline vector
+/// (in the lower sphere's frame, one for all stations, with a prior) from it; principal
+/// offsets (cx, cy) of each sphere estimated. Tie-point observations refer to the point ids
+/// of `tie_block` (a photo_collection).
+struct SphericalStereo {
+  std::string id;
+  int line = 0;
+  std::string images;
+  std::string calibration;     ///< calib/spherical_stereo.yaml (calib/README.md)
+  std::vector<std::string> stations;
+  std::string stations_file;   ///< CSV station,east_m,north_m,up_m,heading_deg (initial setups)
+  std::string observations;    ///< CSV image,point_id,x_px,y_px[,sigma_px]; image = <station>_lower|upper.<ext>
+  std::string tie_block;       ///< id of the photo_collection whose point ids are observed
+  double baseline_sigma_m = 0.001;
+  double sigma_px = 0.5;
+  LossOptions loss{LossType::kHuber, 3.0};
+  bool refine_principal_point = true;
+  bool refine_focal = false;
+};
+
 /// A sensor the project may name that this version validates but does not adjust
-/// (spherical_stereo, camera_rig, lidar_mobile): reported as not used.
+/// (camera_rig, lidar_mobile, spherical_stereo without observations): reported as not used.
 struct OtherSensor {
   std::string id;
   std::string type;
@@ -87,6 +108,7 @@ struct Project {
   std::vector<TotalStation> total_stations;
   std::vector<Gnss> gnss;
   std::vector<LidarStatic> lidar_static;
+  std::vector<SphericalStereo> spherical;  ///< with observations (adjusted)
   std::vector<OtherSensor> other_sensors;
   std::string truth;  ///< simulations: truth JSON (evaluation only, never used to adjust)
 };
