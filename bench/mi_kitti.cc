@@ -3,7 +3,8 @@
 // the LiDAR points projected with the result against the calibration's own, before/after.
 //   mi_kitti [DATA_DIR=data/kitti] [METRIC=nmi] [REGION=overlap] [BINS=64] [BOUND_M=0.5]
 //            [BOUND_DEG=3] [STARTS=0,1,...,7]
-// MMBA_DEBUG=1 in the environment logs each stage (time, evaluations).
+// MMBA_DEBUG=1 in the environment logs each stage (time, evaluations);
+// MI_POINT_RADIUS_M, MI_MAX_POINT_RADIUS_PX, MI_REPRESENTATION override the defaults.
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -33,6 +34,17 @@ int main(int argc, char** argv) {
     for (std::string item; std::getline(list, item, ',');) starts.push_back(std::stoi(item));
   }
   if (std::getenv("MMBA_DEBUG") != nullptr) SetVerbosity(Verbosity::kVerbose);
+  // Experiments: the point footprint (radius = MI_POINT_RADIUS_M · f / range, at most
+  // MI_MAX_POINT_RADIUS_PX) and the representation.
+  if (const char* v = std::getenv("MI_POINT_RADIUS_M")) {
+    options.render.point_radius_m = std::atof(v);
+  }
+  if (const char* v = std::getenv("MI_MAX_POINT_RADIUS_PX")) {
+    options.render.max_point_radius_px = std::atoi(v);
+  }
+  if (const char* v = std::getenv("MI_REPRESENTATION")) {
+    if (!ParseRepresentation(v, &options.render.representation)) return 2;
+  }
   const GrayImage image = ReadGrayImage(dir + "/image_2/000000.png");
   const io::KittiCameraPose kitti = io::KittiCamera(
       io::ReadKittiCalibration(dir + "/calib/000000.txt"), 2, image.width, image.height);

@@ -63,8 +63,12 @@ int main(int argc, char** argv) {
     const Rigid3d start = ApplyCorrection(truth, perturbation);
     RegistrationOptions options;
     options.render.representation = r;
+    // Experiments: MI_FINEST_NM_LEVEL, MI_POINTS_PER_PIXEL override the defaults.
     if (const char* level = std::getenv("MI_FINEST_NM_LEVEL")) {
       options.finest_nelder_mead_level = std::atoi(level);
+    }
+    if (const char* cap = std::getenv("MI_POINTS_PER_PIXEL")) {
+      options.max_points_per_pixel = std::atof(cap);
     }
     // Points-only images carry information only against the empty background.
     if (r == Representation::kPoints) options.metric.region = Region::kWholeImage;
