@@ -121,6 +121,10 @@ bool RegistrationOptions::Check(std::string* error) const {
              std::to_string(restart_offset_deg) + " deg)";
     return false;
   }
+  if (threads < 1 || threads > 256) {
+    *error = "threads " + std::to_string(threads) + " must be in 1..256";
+    return false;
+  }
   if (shuffles < 2 || shuffles > 100) {
     *error = "shuffles " + std::to_string(shuffles) + " must be in 2..100";
     return false;
