@@ -41,6 +41,7 @@ struct RegisterMiArgs {
   double simplex = 1.0;
   int max_iterations = 200;
   int restarts = 3;
+  int restart_level = 1;
   int threads = 2;
   double restart_tolerance_px = 1.0;
   double max_sigma_px = 0.5;
@@ -144,6 +145,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.nelder_mead.initial_step = mi::Vector6d::Constant(args.simplex);
   options.nelder_mead.max_iterations = args.max_iterations;
   options.restarts = args.restarts;
+  options.restart_level = args.restart_level;
   options.threads = args.threads;
   options.restart_tolerance_px = args.restart_tolerance_px;
   options.max_sigma_px = args.max_sigma_px;
@@ -416,6 +418,9 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
       ->capture_default_str();
   sub->add_option("--restarts", args->restarts,
                   "Acceptance: re-optimisations from around the optimum that must agree")
+      ->capture_default_str();
+  sub->add_option("--restart-level", args->restart_level,
+                  "Pyramid level of the restarts (0 = full resolution: more precise, ~4x cost)")
       ->capture_default_str();
   sub->add_option("--threads", args->threads,
                   "Threads for independent metric evaluations (covariance, restarts, scans)")
