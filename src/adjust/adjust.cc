@@ -47,6 +47,7 @@ namespace fs = std::filesystem;
 using internal::JointState;
 using internal::PhotoBlock;
 using internal::SphereBlock;
+using internal::RigBlock;
 
 /// A stage's result: logged now and listed in the report.
 void Note(JointState* s, const std::string& text) {
@@ -457,6 +458,149 @@ void LoadSpheres(JointState* s) {
   s->spheres = std::move(block);
 }
 
+// ---- camera rig --------------------------------------------------------------------------
+
+Rigid3d ReadPose(const io::YamlReader& r, const YAML::Node& n, const std::string& f) {
+  std::vector<double> q, t;
+  r.Map(n, f, {{"qvec_wxyz", [&](const YAML::Node& v, const std::string& g) { q = r.NumberList(v, g); }},
+               {"tvec", [&](const YAML::Node& v, const std::string& g) { t = r.NumberList(v, g); }}});
+  if (q.size() != 4 || t.size() != 3) r.Fail(n, f, "{qvec_wxyz: [4 numbers], tvec: [3 numbers]}", "other sizes");
+  const Eigen::Quaterniond rotation(q[0], q[1], q[2], q[3]);
+  if (std::abs(rotation.norm() - 1.0) > 1e-3) r.Fail(n, f + ".qvec_wxyz", "a unit quaternion", "norm " + std::to_string(rotation.norm()));
+  return Rigid3d(rotation.normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
+}
+
+/// world_from_body at `time` from the trajectory rows (linear position, slerp rotation).
+Rigid3d InterpolateTrajectory(const std::vector<std::pair<double, Rigid3d>>& rows, double time) {
+  auto it = std::lower_bound(rows.begin(), rows.end(), time,
+                             [](const std::pair<double, Rigid3d>& row, double t) { return row.first < t; });
+  if (it == rows.begin()) return it->second;
+  if (it == rows.end()) return rows.back().second;
+  const auto& [t1, b] = *it;
+  const auto& [t0, a] = *(it - 1);
+  const double u = (time - t0) / (t1 - t0);
+  return Rigid3d(a.rotation.slerp(u, b.rotation), (1 - u) * a.translation + u * b.translation);
+}
+
+void LoadRig(JointState* s) {
+  const Project& project = *s->project;
+  if (project.rigs.empty()) return;
+  if (project.rigs.size() > 1) {
+    throw InputError::Message(ProjectKey(project, project.rigs[1].line, "sensors"),
+                              "found a second camera_rig sensor with observations, expected one");
+  }
+  const CameraRig& config = project.rigs.front();
+  if (!s->photos || s->photos->config->id != config.tie_block) {
+    throw InputError::Message(ProjectKey(project, config.line, "tie_block"),
+                              "found " + config.tie_block + ", expected the photo_collection whose tie points are observed");
+  }
+  RigBlock rig;
+  rig.config = &config;
+  // Calibration: body_from_rig (lever arm, boresight) and the cameras.
+  const io::YamlReader r(config.calibration);
+  const YAML::Node root = r.Load("rig calibration");
+  bool have_body = false;
+  uint64_t next_camera = 2000001;
+  r.Map(root, "", {{"body_from_rig", [&](const YAML::Node& n, const std::string& f) {
+                      rig.body_from_rig = ReadPose(r, n, f);
+                      have_body = true;
+                    }},
+                   {"cameras", [&](const YAML::Node& n, const std::string& f) {
+                      if (!n.IsSequence() || n.size() == 0) r.Fail(n, f, "a list of cameras", io::YamlReader::Kind(n));
+                      for (size_t i = 0; i < n.size(); ++i) {
+                        const std::string fi = f + "[" + std::to_string(i) + "]";
+                        sensors::Camera camera;
+                        std::string name, model;
+                        Rigid3d cam_from_rig;
+                        r.Map(n[i], fi, {{"name", [&](const YAML::Node& v, const std::string& g) { name = r.String(v, g); }},
+                                         {"model", [&](const YAML::Node& v, const std::string& g) {
+                                            model = r.String(v, g);
+                                            camera.model_id = sensors::CameraModelFromName(model);
+                                            if (camera.model_id == sensors::CameraModelId::kInvalid) {
+                                              r.Fail(v, g, "one of " + sensors::KnownCameraModelNames(), model);
+                                            }
+                                          }},
+                                         {"width", [&](const YAML::Node& v, const std::string& g) { camera.width = r.Integer(v, g); }},
+                                         {"height", [&](const YAML::Node& v, const std::string& g) { camera.height = r.Integer(v, g); }},
+                                         {"params", [&](const YAML::Node& v, const std::string& g) { camera.params = r.NumberList(v, g); }},
+                                         {"cam_from_rig", [&](const YAML::Node& v, const std::string& g) { cam_from_rig = ReadPose(r, v, g); }}});
+                        r.Require(n[i], fi, {"name", "model", "width", "height", "params", "cam_from_rig"});
+                        if (static_cast<int>(camera.params.size()) != sensors::CameraModelNumParams(camera.model_id)) {
+                          r.Fail(n[i]["params"], fi + ".params", std::to_string(sensors::CameraModelNumParams(camera.model_id)) +
+                                 " numbers for " + model, std::to_string(camera.params.size()) + " numbers");
+                        }
+                        camera.camera_id = CameraId(next_camera++);
+                        s->scene.AddCamera(camera);
+                        rig.cameras.push_back(camera.camera_id);
+                        rig.camera_names.push_back(name);
+                        rig.cam_from_rig.push_back(cam_from_rig);
+                        rig.initial_params.push_back(camera.params);
+                      }
+                    }},
+                   {"beams", [](const YAML::Node&, const std::string&) {}}});
+  if (!have_body) r.Fail(root, "body_from_rig", "the key to be present", "nothing");
+  rig.cam_from_rig_initial = rig.cam_from_rig;
+  // Frames and their GNSS/INS pose priors.
+  std::vector<std::pair<double, Rigid3d>> trajectory;
+  const io::CsvTable ins = io::CsvTable::Read(config.trajectory, {"time_s", "x_east_m", "y_north_m", "z_up_m", "qw", "qx", "qy", "qz"});
+  for (const io::CsvTable::Row& row : ins.rows()) {
+    const Eigen::Quaterniond q(ins.Double(row, "qw"), ins.Double(row, "qx"), ins.Double(row, "qy"), ins.Double(row, "qz"));
+    if (std::abs(q.norm() - 1.0) > 1e-3) ins.Fail(row, "qw", std::to_string(q.norm()), "a unit quaternion (norm 1)");
+    const double time = ins.Double(row, "time_s");
+    if (!trajectory.empty() && !(time > trajectory.back().first)) ins.Fail(row, "time_s", ins.String(row, "time_s"), "increasing times");
+    trajectory.emplace_back(time, Rigid3d(q.normalized(), Eigen::Vector3d(ins.Double(row, "x_east_m"), ins.Double(row, "y_north_m"),
+                                                                          ins.Double(row, "z_up_m"))));
+  }
+  if (trajectory.size() < 2) throw InputError::Message(config.trajectory, "fewer than 2 trajectory rows");
+  const io::CsvTable frames = io::CsvTable::Read(config.frames_file, {"frame", "time_s"});
+  std::map<std::string, size_t> frame_index;
+  for (const io::CsvTable::Row& row : frames.rows()) {
+    const double time = frames.Double(row, "time_s");
+    if (time < trajectory.front().first - 1.0 || time > trajectory.back().first + 1.0) {
+      frames.Fail(row, "time_s", frames.String(row, "time_s"), "a time covered by the trajectory " + config.trajectory);
+    }
+    frame_index[frames.String(row, "frame")] = rig.frame_names.size();
+    rig.frame_names.push_back(frames.String(row, "frame"));
+    rig.frame_times.push_back(time);
+    const Rigid3d world_from_rig = InterpolateTrajectory(trajectory, time) * rig.body_from_rig;
+    rig.rig_prior.push_back(world_from_rig.Inverse());
+  }
+  rig.rig_from_world = rig.rig_prior;
+  // Observations.
+  const io::CsvTable table = io::CsvTable::Read(config.observations, {"image", "point_id", "x_px", "y_px"});
+  for (const io::CsvTable::Row& row : table.rows()) {
+    const std::string stem = fs::path(table.String(row, "image")).stem().string();
+    const size_t underscore = stem.rfind('_');
+    const std::string frame = underscore == std::string::npos ? "" : stem.substr(0, underscore);
+    const std::string camera_name = underscore == std::string::npos ? "" : stem.substr(underscore + 1);
+    const auto camera = std::find(rig.camera_names.begin(), rig.camera_names.end(), camera_name);
+    if (!frame_index.count(frame) || camera == rig.camera_names.end()) {
+      table.Fail(row, "image", table.String(row, "image"), "<frame>_<camera>.<ext> of a frame of " + config.frames_file +
+                                                               " and a camera of " + config.calibration);
+    }
+    const double id = table.Double(row, "point_id");
+    const Point3DId point3D_id(static_cast<uint64_t>(std::max(0.0, id)));
+    if (id < 0 || id != std::floor(id) || !s->scene.HasPoint(point3D_id)) {
+      table.Fail(row, "point_id", table.String(row, "point_id"), "a point3D id of photo collection '" + config.tie_block + "'");
+    }
+    const size_t k = camera - rig.camera_names.begin();
+    const sensors::Camera& cam = s->scene.Camera(rig.cameras[k]);
+    const Eigen::Vector2d xy(table.Double(row, "x_px"), table.Double(row, "y_px"));
+    if (xy.x() < -0.5 || xy.y() < -0.5 || xy.x() > cam.width + 0.5 || xy.y() > cam.height + 0.5) {
+      table.Fail(row, "x_px", table.String(row, "x_px") + ", " + table.String(row, "y_px"), "a pixel inside the image");
+    }
+    const double sigma = table.Double(row, "sigma_px", config.sigma_px);
+    if (!(sigma > 0 && sigma <= 50)) table.Fail(row, "sigma_px", table.String(row, "sigma_px"), "a σ in (0, 50] px");
+    rig.observations.push_back({frame_index.at(frame), k, point3D_id, xy, sigma});
+    rig.sources.push_back(config.observations + ":" + std::to_string(row.line));
+  }
+  Note(s, "camera rig '" + config.id + "': " + std::to_string(rig.frame_names.size()) + " frames x " +
+              std::to_string(rig.cameras.size()) + " cameras, " + std::to_string(rig.observations.size()) +
+              " tie-point observations; cam_from_rig " + config.cam_from_rig + "; frame priors from " + config.trajectory +
+              " (sigma " + std::to_string(config.trajectory_sigma_m) + " m, " + std::to_string(config.trajectory_sigma_deg) + " deg)");
+  s->rig = std::move(rig);
+}
+
 // ---- LiDAR -------------------------------------------------------------------------------
 
 void LoadLidar(JointState* s) {
@@ -517,12 +661,19 @@ const char* kLidar = "LiDAR surface (tie points)";
 const char* kSphereLower = "spheres: lower";
 const char* kSphereUpper = "spheres: upper";
 const char* kBaseline = "spheres: baseline prior";
+const char* kRig = "rig: tie points";
+const char* kRigPrior = "rig: GNSS/INS frame priors";
+const char* kRigCalibration = "rig: cam_from_rig priors";
 
 void BuildProblem(JointState* s) {
   s->builder = std::make_unique<ProblemBuilder>(&s->scene);
   const auto excluded = [&](const char* name) {
     const auto it = s->excluded.find(name);
     return it == s->excluded.end() ? std::set<size_t>() : it->second;
+  };
+  const auto factor = [&](const char* name) {
+    const auto it = s->sigma_factor.find(name);
+    return it == s->sigma_factor.end() ? 1.0 : it->second;
   };
   // Observations of a group with its variance-component factor applied to σ.
   const auto scaled = [&](const char* name, auto list) {
@@ -532,6 +683,7 @@ void BuildProblem(JointState* s) {
       if constexpr (std::is_same_v<std::decay_t<decltype(o)>, ReprojectionObservation>) o.sigma_px *= f;
       else if constexpr (std::is_same_v<std::decay_t<decltype(o)>, TargetMeasurement>) o.sigma_px *= f;
       else if constexpr (std::is_same_v<std::decay_t<decltype(o)>, UpperSphereObservation>) o.sigma_px *= f;
+      else if constexpr (std::is_same_v<std::decay_t<decltype(o)>, RigObservation>) o.sigma_px *= f;
       else if constexpr (std::is_same_v<std::decay_t<decltype(o)>, SurfacePlane>) o.sigma_m *= f;
       else o.sigma *= f;
     }
@@ -559,7 +711,26 @@ void BuildProblem(JointState* s) {
     s->builder->AddGroup(std::make_unique<ReprojectionGroup>(scaled(kSphereLower, Without(sb.lower, excluded(kSphereLower))), loss, kSphereLower));
     s->builder->AddGroup(std::make_unique<UpperSphereGroup>(scaled(kSphereUpper, Without(sb.upper, excluded(kSphereUpper))),
                                                             &sb.baseline, loss, kSphereUpper));
-    s->builder->AddGroup(std::make_unique<VectorPriorGroup>(&sb.baseline, sb.baseline_prior, sb.config->baseline_sigma_m, kBaseline));
+    s->builder->AddGroup(std::make_unique<VectorPriorGroup>(&sb.baseline, sb.baseline_prior,
+                                                            factor(kBaseline) * sb.config->baseline_sigma_m, kBaseline));
+  }
+  if (s->rig) {
+    RigBlock& rig = *s->rig;
+    const CameraRig& c = *rig.config;
+    s->builder->AddGroup(std::make_unique<RigReprojectionGroup>(scaled(kRig, Without(rig.observations, excluded(kRig))),
+                                                                &rig.rig_from_world, &rig.cam_from_rig, rig.cameras, c.loss, kRig));
+    std::vector<Rigid3d*> frames;
+    for (Rigid3d& pose : rig.rig_from_world) frames.push_back(&pose);
+    s->builder->AddGroup(std::make_unique<PosePriorGroup>(frames, rig.rig_prior, factor(kRigPrior) * c.trajectory_sigma_m,
+                                                          factor(kRigPrior) * c.trajectory_sigma_deg * M_PI / 180.0, c.loss,
+                                                          kRigPrior));
+    if (c.cam_from_rig == "weighted") {
+      std::vector<Rigid3d*> cameras;
+      for (Rigid3d& pose : rig.cam_from_rig) cameras.push_back(&pose);
+      s->builder->AddGroup(std::make_unique<PosePriorGroup>(
+          cameras, rig.cam_from_rig_initial, factor(kRigCalibration) * c.cam_from_rig_sigma_m,
+          factor(kRigCalibration) * c.cam_from_rig_sigma_deg * M_PI / 180.0, LossOptions(), kRigCalibration));
+    }
   }
   if (s->joint) {
     for (auto& group : survey::MakeSurveyGroups(&*s->joint, s->project->total_stations.front().loss)) {
@@ -579,6 +750,42 @@ void BuildProblem(JointState* s) {
   s->builder->set_gauge(gauge);
   ceres::Problem& problem = s->builder->Build();
   if (s->joint) survey::SetSurveyParameterStates(&*s->joint, problem);
+  if (s->rig) {
+    RigBlock& rig = *s->rig;
+    for (Rigid3d& pose : rig.rig_from_world) {
+      if (problem.HasParameterBlock(pose.rotation.coeffs().data())) {
+        problem.SetManifold(pose.rotation.coeffs().data(), new ceres::EigenQuaternionManifold);
+      }
+    }
+    for (Rigid3d& pose : rig.cam_from_rig) {
+      double* q = pose.rotation.coeffs().data();
+      if (!problem.HasParameterBlock(q)) continue;
+      problem.SetManifold(q, new ceres::EigenQuaternionManifold);
+      if (rig.config->cam_from_rig == "fixed") {
+        problem.SetParameterBlockConstant(q);
+        problem.SetParameterBlockConstant(pose.translation.data());
+      }
+    }
+    // The rig cameras' intrinsics: the rig's own refine list.
+    const RefineIntrinsics& refine = rig.config->refine;
+    for (CameraId id : rig.cameras) {
+      sensors::Camera& camera = s->scene.Camera(id);
+      double* params = camera.params.data();
+      if (!problem.HasParameterBlock(params)) continue;
+      std::vector<int> constant;
+      const auto hold = [&](const std::vector<int>& idxs) { constant.insert(constant.end(), idxs.begin(), idxs.end()); };
+      if (!refine.focal) hold(sensors::CameraModelFocalIdxs(camera.model_id));
+      if (!refine.principal_point) hold(sensors::CameraModelPrincipalIdxs(camera.model_id));
+      if (!refine.distortion) hold(sensors::CameraModelExtraIdxs(camera.model_id));
+      std::sort(constant.begin(), constant.end());
+      if (constant.size() == camera.params.size()) {
+        problem.SetParameterBlockConstant(params);
+      } else {
+        problem.SetParameterBlockVariable(params);
+        problem.SetManifold(params, constant.empty() ? nullptr : new ceres::SubsetManifold(camera.params.size(), constant));
+      }
+    }
+  }
   if (s->spheres) {
     // The line-scan calibration: the vertical principal offsets cy of both spheres and the
     // horizontal offset cx of the upper one relative to the lower (a common cx shift of a full
@@ -631,6 +838,16 @@ stats::NetworkStatistics Statistics(JointState* s) {
     if (id.value < internal::kCheckPointIdBase) options.eliminate.insert(point.data());
   }
   std::map<const double*, std::string> names;
+  if (s->rig) {
+    for (size_t f = 0; f < s->rig->rig_from_world.size(); ++f) {
+      names[s->rig->rig_from_world[f].rotation.coeffs().data()] = "rotation of rig frame " + s->rig->frame_names[f];
+      names[s->rig->rig_from_world[f].translation.data()] = "position of rig frame " + s->rig->frame_names[f];
+    }
+    for (size_t k = 0; k < s->rig->cam_from_rig.size(); ++k) {
+      names[s->rig->cam_from_rig[k].rotation.coeffs().data()] = "cam_from_rig rotation of " + s->rig->camera_names[k];
+      names[s->rig->cam_from_rig[k].translation.data()] = "cam_from_rig translation of " + s->rig->camera_names[k];
+    }
+  }
   std::map<ImageId, std::string> station_of;
   if (s->spheres) {
     for (const auto& [station, id] : s->spheres->lower_image) station_of[id] = "station " + station;
@@ -677,6 +894,13 @@ std::string DescribeObservation(const JointState& s, const FactorGroup& group, s
     const TargetMeasurement& m = s.photos->control[index];
     return "target " + m.point_id + " in " + s.photos->model.images.at(m.image_id).name + " (" + m.source + ")";
   }
+  if (name == kRig && s.rig) {
+    const RigObservation& o = s.rig->observations[index];
+    return "point " + std::to_string(o.point3D_id.value) + " in " + s.rig->frame_names[o.frame] + "_" +
+           s.rig->camera_names[o.camera] + " (" + s.rig->sources[index] + ")";
+  }
+  if (name == kRigPrior && s.rig) return "GNSS/INS prior of rig frame " + s.rig->frame_names[index];
+  if (name == kRigCalibration && s.rig) return "cam_from_rig prior of " + s.rig->camera_names[index];
   if (name == kSphereLower && s.spheres) {
     return "point " + std::to_string(s.spheres->lower[index].point3D_id.value) + " (" + s.spheres->lower_source[index] + ")";
   }
@@ -777,6 +1001,7 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
     LoadGnss(&s);
     LoadPhotos(&s, work_dir);
     LoadSpheres(&s);
+    LoadRig(&s);
     LoadLidar(&s);
     if (!project.other_sensors.empty()) {
       for (const OtherSensor& o : project.other_sensors) {

@@ -1,6 +1,7 @@
 #include "mmba/adjust/groups.h"
 
 #include <ceres/ceres.h>
+#include <ceres/rotation.h>
 
 #include "mmba/factors/reprojection_error.h"
 
@@ -68,6 +69,89 @@ class BaselineReprojectionCost : public ceres::CostFunction {
 
  private:
   std::unique_ptr<ceres::CostFunction> inner_;
+};
+
+/// (q_cw, t_cw) = cam_from_rig ∘ rig_from_world, Eigen quaternion coefficient order (x, y, z, w).
+struct ComposePoses {
+  template <typename T>
+  bool operator()(const T* q_rw, const T* t_rw, const T* q_cr, const T* t_cr, T* out) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> rw(q_rw), cr(q_cr);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> trw(t_rw), tcr(t_cr);
+    const Eigen::Quaternion<T> cw = cr * rw;
+    const Eigen::Matrix<T, 3, 1> tcw = cr * trw + tcr;
+    out[0] = cw.x();
+    out[1] = cw.y();
+    out[2] = cw.z();
+    out[3] = cw.w();
+    out[4] = tcw.x();
+    out[5] = tcw.y();
+    out[6] = tcw.z();
+    return true;
+  }
+};
+
+/// The reprojection cost of a rig camera: blocks (q_rw, t_rw, q_cr, t_cr, point, intrinsics);
+/// the inner per-camera cost on the composed pose, chained with the composition's Jacobian
+/// (automatic differentiation of ComposePoses).
+class RigReprojectionCost : public ceres::CostFunction {
+ public:
+  explicit RigReprojectionCost(ceres::CostFunction* inner)
+      : inner_(inner), compose_(new ComposePoses) {
+    const std::vector<int32_t>& sizes = inner_->parameter_block_sizes();
+    set_num_residuals(inner_->num_residuals());
+    *mutable_parameter_block_sizes() = {4, 3, 4, 3, sizes[2], sizes[3]};
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    double composed[7];
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    RowMajor jc[4] = {RowMajor(7, 4), RowMajor(7, 3), RowMajor(7, 4), RowMajor(7, 3)};
+    double* jc_data[4] = {jc[0].data(), jc[1].data(), jc[2].data(), jc[3].data()};
+    const bool want_pose = jacobians && (jacobians[0] || jacobians[1] || jacobians[2] || jacobians[3]);
+    if (!compose_.Evaluate(parameters, composed, want_pose ? jc_data : nullptr)) return false;
+    const double* inner_parameters[4] = {composed, composed + 4, parameters[4], parameters[5]};
+    if (jacobians == nullptr) return inner_->Evaluate(inner_parameters, residuals, nullptr);
+    const int m = num_residuals();
+    RowMajor jq(m, 4), jt(m, 3);
+    double* inner_jacobians[4] = {want_pose ? jq.data() : nullptr, want_pose ? jt.data() : nullptr, jacobians[4],
+                                  jacobians[5]};
+    if (!inner_->Evaluate(inner_parameters, residuals, inner_jacobians)) return false;
+    if (!want_pose) return true;
+    // d r / d block = J_q · d q_cw / d block + J_t · d t_cw / d block.
+    for (int b = 0; b < 4; ++b) {
+      if (!jacobians[b]) continue;
+      const int n = b % 2 == 0 ? 4 : 3;
+      Eigen::Map<RowMajor>(jacobians[b], m, n) = jq * jc[b].topRows(4) + jt * jc[b].bottomRows(3);
+    }
+    return true;
+  }
+
+ private:
+  std::unique_ptr<ceres::CostFunction> inner_;
+  ceres::AutoDiffCostFunction<ComposePoses, 7, 4, 3, 4, 3> compose_;
+};
+
+/// Pose prior: position of the source origin in the target frame and the rotation difference.
+struct PosePriorCost {
+  PosePriorCost(const Rigid3d& prior, double sigma_m, double sigma_rad)
+      : prior_centre(prior.Inverse().translation), prior_rotation(prior.rotation), w_m(1 / sigma_m), w_rad(1 / sigma_rad) {}
+  template <typename T>
+  bool operator()(const T* q, const T* t, T* r) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> rotation(q);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> translation(t);
+    // For a pose X_from_world the centre of X in the world is −Rᵀt.
+    const Eigen::Matrix<T, 3, 1> centre = -(rotation.conjugate() * translation);
+    for (int k = 0; k < 3; ++k) r[k] = (centre[k] - T(prior_centre[k])) * T(w_m);
+    const Eigen::Quaternion<T> delta = prior_rotation.cast<T>().conjugate() * rotation;
+    T angle_axis[3];
+    const T quaternion[4] = {delta.w(), delta.x(), delta.y(), delta.z()};
+    ceres::QuaternionToAngleAxis(quaternion, angle_axis);
+    for (int k = 0; k < 3; ++k) r[3 + k] = angle_axis[k] * T(w_rad);
+    return true;
+  }
+  Eigen::Vector3d prior_centre;
+  Eigen::Quaterniond prior_rotation;
+  double w_m, w_rad;
 };
 
 class ScalarPriorCost : public ceres::SizedCostFunction<1, 3> {
@@ -189,6 +273,54 @@ VectorPriorGroup::VectorPriorGroup(Eigen::Vector3d* value, const Eigen::Vector3d
 void VectorPriorGroup::AddResiduals(Scene&, ceres::Problem& problem) {
   for (int k = 0; k < 3; ++k) {
     AddBlock(problem, new ScalarPriorCost(k, prior_(k), sigma_), {value_->data()}, sigma_, k);
+  }
+}
+
+RigReprojectionGroup::RigReprojectionGroup(std::vector<RigObservation> observations,
+                                           std::vector<Rigid3d>* rig_from_world, std::vector<Rigid3d>* cam_from_rig,
+                                           std::vector<CameraId> cameras, LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "px", loss),
+      observations_(std::move(observations)),
+      rig_from_world_(rig_from_world),
+      cam_from_rig_(cam_from_rig),
+      cameras_(std::move(cameras)) {}
+
+void RigReprojectionGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
+  for (size_t i = 0; i < observations_.size(); ++i) {
+    const RigObservation& o = observations_[i];
+    if (!scene.HasPoint(o.point3D_id) || o.frame >= rig_from_world_->size() || o.camera >= cam_from_rig_->size()) {
+      Skip();
+      continue;
+    }
+    Rigid3d& rw = (*rig_from_world_)[o.frame];
+    Rigid3d& cr = (*cam_from_rig_)[o.camera];
+    sensors::Camera& camera = scene.Camera(cameras_[o.camera]);
+    Eigen::Vector3d& point = scene.Point(o.point3D_id);
+    if (!camera.ImgFromCam(cr * (rw * point))) {
+      Skip();
+      continue;
+    }
+    ceres::CostFunction* inner = factors::CreateReprojectionCost(camera.model_id, o.xy, o.sigma_px, camera.params.data());
+    AddBlock(problem, new RigReprojectionCost(inner),
+             {rw.rotation.coeffs().data(), rw.translation.data(), cr.rotation.coeffs().data(), cr.translation.data(),
+              point.data(), camera.params.data()},
+             o.sigma_px, i);
+  }
+}
+
+PosePriorGroup::PosePriorGroup(std::vector<Rigid3d*> poses, std::vector<Rigid3d> priors, double sigma_m,
+                               double sigma_rad, LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "whitened", loss),
+      poses_(std::move(poses)),
+      priors_(std::move(priors)),
+      sigma_m_(sigma_m),
+      sigma_rad_(sigma_rad) {}
+
+void PosePriorGroup::AddResiduals(Scene&, ceres::Problem& problem) {
+  for (size_t i = 0; i < poses_.size(); ++i) {
+    AddBlock(problem,
+             new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(new PosePriorCost(priors_[i], sigma_m_, sigma_rad_)),
+             {poses_[i]->rotation.coeffs().data(), poses_[i]->translation.data()}, 1.0, i);
   }
 }
 

@@ -54,6 +54,23 @@ struct SphereBlock {
   std::map<ImageId, Rigid3d> initial_poses;
 };
 
+/// The camera rig: its own pose storage (frames, cameras); intrinsics are Scene cameras.
+struct RigBlock {
+  const CameraRig* config = nullptr;
+  std::vector<std::string> frame_names;
+  std::vector<double> frame_times;
+  std::vector<Rigid3d> rig_from_world;   ///< per frame (adjusted)
+  std::vector<Rigid3d> rig_prior;        ///< per frame, from the GNSS/INS trajectory
+  std::vector<std::string> camera_names;
+  std::vector<CameraId> cameras;         ///< Scene cameras
+  std::vector<Rigid3d> cam_from_rig;     ///< per camera (adjusted)
+  std::vector<Rigid3d> cam_from_rig_initial;
+  std::vector<std::vector<double>> initial_params;
+  Rigid3d body_from_rig;
+  std::vector<RigObservation> observations;
+  std::vector<std::string> sources;
+};
+
 struct Blunder {
   std::string group;
   std::string observation;
@@ -71,6 +88,7 @@ struct JointState {
   size_t gnss_trajectory_rows = 0;
   std::optional<PhotoBlock> photos;
   std::optional<SphereBlock> spheres;
+  std::optional<RigBlock> rig;
   Scene scene;
   std::unique_ptr<LidarSurface> surface;
   std::vector<SurfacePlane> planes;

@@ -35,18 +35,18 @@ Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
 
 /// Covariance of a camera centre c = −Rᵀt from the pose blocks' covariance (rotation on
 /// Ceres' EigenQuaternionManifold: R ⊞ δ = Exp(δ)·R, so ∂c/∂δ = −Rᵀ[t]×, ∂c/∂t = −Rᵀ).
-Eigen::Matrix3d CentreCovariance(const stats::NetworkStatistics& st, const ImagePose& pose) {
-  const double* q = pose.cam_from_world.rotation.coeffs().data();
-  const double* t = pose.cam_from_world.translation.data();
+Eigen::Matrix3d CentreCovariance(const stats::NetworkStatistics& st, const Rigid3d& cam_from_world) {
+  const double* q = cam_from_world.rotation.coeffs().data();
+  const double* t = cam_from_world.translation.data();
   if (!st.IsFree(q) && !st.IsFree(t)) return Eigen::Matrix3d::Zero();
   Eigen::Matrix<double, 6, 6> c = Eigen::Matrix<double, 6, 6>::Zero();
   const std::pair<const double*, int> s[6] = {{q, 0}, {q, 1}, {q, 2}, {t, 0}, {t, 1}, {t, 2}};
   for (int a = 0; a < 6; ++a) {
     for (int b = 0; b < 6; ++b) c(a, b) = st.Covariance(s[a].first, s[a].second, s[b].first, s[b].second);
   }
-  const Eigen::Matrix3d rt = pose.cam_from_world.rotation.toRotationMatrix().transpose();
+  const Eigen::Matrix3d rt = cam_from_world.rotation.toRotationMatrix().transpose();
   Eigen::Matrix<double, 3, 6> j;
-  j << -rt * Skew(pose.cam_from_world.translation), -rt;
+  j << -rt * Skew(cam_from_world.translation), -rt;
   return j * c * j.transpose();
 }
 
@@ -54,6 +54,7 @@ Eigen::Matrix3d CentreCovariance(const stats::NetworkStatistics& st, const Image
 /// the manifold's Plus Jacobian: a SubsetManifold's constant entries get 0).
 std::vector<double> ParameterSigmas(const stats::NetworkStatistics& st, const ceres::Problem& problem,
                                     const double* block) {
+  if (!problem.HasParameterBlock(block)) return std::vector<double>(3, 0.0);
   const int n = problem.ParameterBlockSize(block);
   std::vector<double> sigma(n, 0.0);
   if (!st.IsFree(block)) return sigma;
@@ -167,6 +168,33 @@ json EvaluateTruth(const JointState& s) {
                       {"upper_params", {{"adjusted", s.scene.Camera(s.spheres->upper_camera).params},
                                         {"true", t["upper_camera"]["params"]}, {"initial", s.spheres->initial_upper_params}}},
                       {"baseline", {{"adjusted", Vec(s.spheres->baseline)}, {"true_length_m", t["baseline_m"]}}}};
+  }
+  if (s.rig && truth.contains("rig")) {
+    const json& t = truth["rig"];
+    double worst = 0.0, worst_rotation = 0.0, worst_prior = 0.0;
+    for (size_t f = 0; f < s.rig->frame_names.size(); ++f) {
+      for (const json& frame : t["frames"]) {
+        if (frame["name"] != s.rig->frame_names[f]) continue;
+        const std::vector<double> q = frame["rig_from_world"]["qvec_wxyz"], tv = frame["rig_from_world"]["tvec"];
+        const Rigid3d true_pose(Eigen::Quaterniond(q[0], q[1], q[2], q[3]), Eigen::Vector3d(tv[0], tv[1], tv[2]));
+        worst = std::max(worst, (CameraCentre(s.rig->rig_from_world[f]) - CameraCentre(true_pose)).norm());
+        worst_prior = std::max(worst_prior, (CameraCentre(s.rig->rig_prior[f]) - CameraCentre(true_pose)).norm());
+        worst_rotation = std::max(worst_rotation, s.rig->rig_from_world[f].rotation.angularDistance(true_pose.rotation) * kDeg);
+      }
+    }
+    double worst_cam_t = 0.0, worst_cam_r = 0.0, worst_focal = 0.0;
+    for (size_t k = 0; k < s.rig->cameras.size() && k < t["cameras"].size(); ++k) {
+      const json& c = t["cameras"][k];
+      const std::vector<double> q = c["cam_from_rig"]["qvec_wxyz"], tv = c["cam_from_rig"]["tvec"];
+      const Rigid3d true_pose(Eigen::Quaterniond(q[0], q[1], q[2], q[3]), Eigen::Vector3d(tv[0], tv[1], tv[2]));
+      worst_cam_t = std::max(worst_cam_t, (CameraCentre(s.rig->cam_from_rig[k]) - CameraCentre(true_pose)).norm());
+      worst_cam_r = std::max(worst_cam_r, s.rig->cam_from_rig[k].rotation.angularDistance(true_pose.rotation) * kDeg);
+      const std::vector<double> params = c["camera"]["params"];
+      worst_focal = std::max(worst_focal, std::abs(s.scene.Camera(s.rig->cameras[k]).params[0] - params[0]));
+    }
+    out["rig"] = {{"max_frame_position_m", worst}, {"max_frame_rotation_deg", worst_rotation},
+                  {"max_prior_position_m", worst_prior}, {"max_cam_from_rig_position_m", worst_cam_t},
+                  {"max_cam_from_rig_rotation_deg", worst_cam_r}, {"max_focal_error_px", worst_focal}};
   }
   if (s.joint && truth.contains("survey")) {
     json points = json::array();
@@ -306,7 +334,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
       const Rigid3d& initial = s.photos->initial_poses.at(id);
       const Eigen::Vector3d d = c - CameraCentre(initial);
       const double d_rotation = pose.cam_from_world.rotation.angularDistance(initial.rotation) * kDeg;
-      const Eigen::Vector3d sigma = CentreCovariance(st, pose).diagonal().cwiseMax(0.0).cwiseSqrt();
+      const Eigen::Vector3d sigma = CentreCovariance(st, pose.cam_from_world).diagonal().cwiseMax(0.0).cwiseSqrt();
       const Eigen::Quaterniond& q = pose.cam_from_world.rotation;
       poses << image.name << "," << s.photos->config->id << "," << std::setprecision(12) << c.x() << "," << c.y() << ","
             << c.z() << "," << q.w() << "," << q.x() << "," << q.y() << "," << q.z() << "," << Geo(s.plane, c) << ","
@@ -368,7 +396,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
         const Eigen::Vector3d c = CameraCentre(cam_from_world);
         const Eigen::Vector3d d = c - CameraCentre(shift * initial);
         const double d_rotation = pose.cam_from_world.rotation.angularDistance(initial.rotation) * kDeg;
-        const Eigen::Vector3d sigma = CentreCovariance(st, pose).diagonal().cwiseMax(0.0).cwiseSqrt();
+        const Eigen::Vector3d sigma = CentreCovariance(st, pose.cam_from_world).diagonal().cwiseMax(0.0).cwiseSqrt();
         const Eigen::Quaterniond& q = cam_from_world.rotation;
         const std::string name = station + (k == 0 ? "_lower" : "_upper");
         poses << name << "," << sb.config->id << "," << std::setprecision(12) << c.x() << "," << c.y() << "," << c.z()
@@ -419,6 +447,57 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     calibrations.push_back({{"name", sb.config->id + " spherical stereo pair (line-scan calibration)"},
                             {"parameters", parameters}});
   }
+  if (s.rig) {
+    const RigBlock& rig = *s.rig;
+    for (size_t f = 0; f < rig.rig_from_world.size(); ++f) {
+      const Rigid3d& pose = rig.rig_from_world[f];
+      const Eigen::Vector3d d = CameraCentre(pose) - CameraCentre(rig.rig_prior[f]);
+      const double d_rotation = pose.rotation.angularDistance(rig.rig_prior[f].rotation) * kDeg;
+      corrections.push_back({{"image", rig.frame_names[f]}, {"sensor", rig.config->id}, {"d", Vec(d)},
+                             {"d_position_m", d.norm()}, {"d_rotation_deg", d_rotation}});
+      const Eigen::Vector3d sigma = CentreCovariance(st, pose).diagonal().cwiseMax(0.0).cwiseSqrt();
+      for (size_t k = 0; k < rig.cam_from_rig.size(); ++k) {
+        const Rigid3d cam_from_world = rig.cam_from_rig[k] * pose;
+        const Eigen::Vector3d c = CameraCentre(cam_from_world);
+        const Eigen::Quaterniond& q = cam_from_world.rotation;
+        poses << rig.frame_names[f] << "_" << rig.camera_names[k] << "," << rig.config->id << "," << std::setprecision(12)
+              << c.x() << "," << c.y() << "," << c.z() << "," << q.w() << "," << q.x() << "," << q.y() << "," << q.z()
+              << "," << Geo(s.plane, c) << "," << std::setprecision(6) << sigma.x() << "," << sigma.y() << ","
+              << sigma.z() << "," << d.norm() << "," << d_rotation << "\n";
+      }
+    }
+    // Rig calibration: cam_from_rig and intrinsics with σ, in the input schema.
+    std::ostringstream yaml;
+    json parameters = json::array();
+    yaml << "# mmba adjust: calibration of the camera rig '" << rig.config->id << "' (cam_from_rig "
+         << rig.config->cam_from_rig << "), sigma from the adjustment\nbody_from_rig: {qvec_wxyz: ["
+         << std::setprecision(10) << rig.body_from_rig.rotation.w() << ", " << rig.body_from_rig.rotation.x() << ", "
+         << rig.body_from_rig.rotation.y() << ", " << rig.body_from_rig.rotation.z() << "], tvec: ["
+         << rig.body_from_rig.translation.x() << ", " << rig.body_from_rig.translation.y() << ", "
+         << rig.body_from_rig.translation.z() << "]}\ncameras:\n";
+    for (size_t k = 0; k < rig.cameras.size(); ++k) {
+      const sensors::Camera& camera = s.scene.Camera(rig.cameras[k]);
+      const Rigid3d& cr = rig.cam_from_rig[k];
+      const std::vector<double> sigma = ParameterSigmas(st, s.builder->problem(), camera.params.data());
+      const std::vector<double> t_sigma = ParameterSigmas(st, s.builder->problem(), cr.translation.data());
+      yaml << "  - name: " << rig.camera_names[k] << "\n    model: " << camera.ModelName() << "\n    width: "
+           << camera.width << "\n    height: " << camera.height << "\n    params: [";
+      for (size_t i = 0; i < camera.params.size(); ++i) yaml << (i ? ", " : "") << std::setprecision(10) << camera.params[i];
+      yaml << "]\n    sigma: [";
+      for (size_t i = 0; i < sigma.size(); ++i) yaml << (i ? ", " : "") << std::setprecision(4) << sigma[i];
+      yaml << "]\n    cam_from_rig: {qvec_wxyz: [" << std::setprecision(10) << cr.rotation.w() << ", " << cr.rotation.x()
+           << ", " << cr.rotation.y() << ", " << cr.rotation.z() << "], tvec: [" << cr.translation.x() << ", "
+           << cr.translation.y() << ", " << cr.translation.z() << "]}\n    cam_from_rig_tvec_sigma: [" << std::setprecision(4)
+           << t_sigma[0] << ", " << t_sigma[1] << ", " << t_sigma[2] << "]\n";
+      parameters.push_back({{"name", rig.camera_names[k] + " f"}, {"initial", rig.initial_params[k][0]},
+                            {"adjusted", camera.params[0]}, {"sigma", sigma[0]}});
+      parameters.push_back({{"name", rig.camera_names[k] + " cam_from_rig shift [m]"}, {"initial", 0.0},
+                            {"adjusted", (CameraCentre(cr) - CameraCentre(rig.cam_from_rig_initial[k])).norm()},
+                            {"sigma", std::sqrt(t_sigma[0] * t_sigma[0] + t_sigma[1] * t_sigma[1] + t_sigma[2] * t_sigma[2])}});
+    }
+    WriteText(stage / "calibration" / (rig.config->id + "_rig.yaml"), yaml.str());
+    calibrations.push_back({{"name", rig.config->id + " camera rig"}, {"parameters", parameters}});
+  }
   WriteText(stage / "poses.csv", poses.str());
   report["pose_corrections"] = corrections;
   report["calibrations"] = calibrations;
@@ -462,6 +541,10 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
                             json{{"name", "report.json"}, {"description", "the report's data"}},
                             json{{"name", "poses.csv"}, {"description", "camera poses: local ENU, WGS84, UTM, sigma"}},
                             json{{"name", "observations.csv"}, {"description", "every residual with redundancy and studentized residual"}}});
+  if (s.rig) {
+    files.push_back({{"name", "calibration/" + s.rig->config->id + "_rig.yaml"},
+                     {"description", "rig calibration (cam_from_rig, intrinsics) with sigma"}});
+  }
   if (s.spheres) {
     files.push_back({{"name", "calibration/" + s.spheres->config->id + "_spherical.yaml"},
                      {"description", "line-scan calibration of the spherical pair with sigma"}});

@@ -158,9 +158,42 @@ class ProjectReader {
           return;
         }
       } else if (type == "camera_rig") {
-        r_.Map(n, f, {{"id", keep}, {"type", keep}, {"images", path(&ignored, true)},
-                      {"panoramas", path(&ignored, true)}, {"calibration", path(&ignored, false)},
-                      {"trajectory", path(&ignored, false)}, {"sigma_px", sigma_px}});
+        CameraRig p;
+        p.id = id;
+        p.line = line;
+        r_.Map(n, f, {{"id", keep}, {"type", keep}, {"images", path(&p.images, true)},
+                      {"panoramas", path(&p.panoramas, true)}, {"calibration", path(&p.calibration, false)},
+                      {"trajectory", path(&p.trajectory, false)}, {"frames_file", path(&p.frames_file, false)},
+                      {"observations", path(&p.observations, false)},
+                      {"tie_block", [&](Node v, Field g) { p.tie_block = r_.String(v, g); }},
+                      {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
+                      {"trajectory_sigma_m", [&](Node v, Field g) { p.trajectory_sigma_m = SigmaM(v, g, 10.0); }},
+                      {"trajectory_sigma_deg", [&](Node v, Field g) { p.trajectory_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
+                      {"cam_from_rig", [&](Node v, Field g) {
+                         p.cam_from_rig = r_.String(v, g);
+                         if (p.cam_from_rig != "fixed" && p.cam_from_rig != "weighted" && p.cam_from_rig != "free") {
+                           r_.Fail(v, g, "fixed, weighted or free", p.cam_from_rig);
+                         }
+                       }},
+                      {"cam_from_rig_sigma_m", [&](Node v, Field g) { p.cam_from_rig_sigma_m = SigmaM(v, g, 1.0); }},
+                      {"cam_from_rig_sigma_deg", [&](Node v, Field g) { p.cam_from_rig_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
+                      {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
+                      {"refine", [&](Node v, Field g) {
+                         p.refine = {false, false, false};
+                         const std::vector<std::string> list = r_.StringList(v, g);
+                         for (size_t i = 0; i < list.size(); ++i) {
+                           if (list[i] == "focal") p.refine.focal = true;
+                           else if (list[i] == "principal_point") p.refine.principal_point = true;
+                           else if (list[i] == "distortion") p.refine.distortion = true;
+                           else r_.Fail(v[i], g + "[" + std::to_string(i) + "]", "focal, principal_point or distortion", list[i]);
+                         }
+                       }}});
+        r_.Require(n, f, {"images", "calibration"});
+        if (!p.observations.empty() || !p.frames_file.empty()) {
+          r_.Require(n, f, {"observations", "frames_file", "trajectory", "tie_block"});
+          project_->rigs.push_back(p);
+          return;
+        }
       } else {
         r_.Map(n, f, {{"id", keep}, {"type", keep}, {"cloud", path(&ignored, false)},
                       {"trajectory", path(&ignored, false)}, {"calibration", path(&ignored, false)},
@@ -260,6 +293,11 @@ Project LoadProject(const std::string& path) {
     if (!found) {
       throw InputError(path, sphere.line, "tie_block", sphere.tie_block, "the id of a photo_collection sensor");
     }
+  }
+  for (const CameraRig& rig : project.rigs) {
+    bool found = false;
+    for (const PhotoCollection& p : project.photos) found = found || p.id == rig.tie_block;
+    if (!found) throw InputError(path, rig.line, "tie_block", rig.tie_block, "the id of a photo_collection sensor");
   }
   if (project.name.empty()) project.name = fs::path(path).parent_path().filename().string();
   return project;

@@ -597,6 +597,12 @@ void SimulateRig(Context* c, const Trajectory& trajectory) {
     rig_rays.push_back(MakeRayTable(camera, c->options.render.samples_per_axis, c->options.threads));
   }
   json frames = json::array();
+  internal::Rng observation_noise(c->options.seed, 0x1AD0);
+  std::ostringstream rig_observations, rig_frames;
+  rig_observations << "# mmba simulate: tie-point observations in the rig images (point ids of colmap/photos)\n"
+                      "image,point_id,x_px,y_px,sigma_px\n";
+  rig_frames << "# mmba simulate: rig frames and their times (s) on the GNSS/INS trajectory\nframe,time_s\n";
+  size_t num_rig_observations = 0;
   for (int f = 0; f < o.frames; ++f) {
     const double time = trajectory.duration_s() * (o.frames == 1 ? 0.5 : (0.1 + 0.8 * f / (o.frames - 1)));
     const Rigid3d world_from_rig = trajectory.WorldFromBodyTrue(time) * body_from_rig;
@@ -615,6 +621,25 @@ void SimulateRig(Context* c, const Trajectory& trajectory) {
     WritePng(panorama, (c->out / "images" / "rig_panoramas" / (frame_name.str() + ".png")).string());
     ++c->result.panoramas;
     frames.push_back({{"name", frame_name.str()}, {"time_s", time}, {"rig_from_world", PoseJson(rig_from_world)}});
+    // Tie-point observations of the rig images (true projection + N(0, 0.5 px)).
+    for (int k = 0; k < 6; ++k) {
+      const Rigid3d cam_from_world = cam_from_rig[k] * rig_from_world;
+      const Vector3d eye = cam_from_world.Inverse().translation;
+      for (const auto& [id, point] : c->tie_points) {
+        const auto xy = cameras[k].ImgFromCam(cam_from_world * point);
+        if (!xy || xy->x() < 0 || xy->y() < 0 || xy->x() >= width || xy->y() >= height) continue;
+        if (!SeesPoint(c->caster, eye, point)) continue;
+        const Vector2d measured = *xy + Vector2d(observation_noise.Normal(0.5), observation_noise.Normal(0.5));
+        rig_observations << frame_name.str() << "_cam" << k << ".png," << id << "," << Fmt(measured.x(), 3) << ","
+                         << Fmt(measured.y(), 3) << ",0.5\n";
+        ++num_rig_observations;
+      }
+    }
+    rig_frames << frame_name.str() << "," << Fmt(time, 3) << "\n";
+  }
+  if (!c->tie_points.empty()) {
+    WriteText(c->out / "observations" / "rig.csv", rig_observations.str());
+    WriteText(c->out / "rig_frames.csv", rig_frames.str());
   }
   json jcams = json::array();
   std::ostringstream yaml;
@@ -635,6 +660,11 @@ void SimulateRig(Context* c, const Trajectory& trajectory) {
   c->project_sensors << "  - id: ladybug\n    type: camera_rig\n    images: images/rig\n"
                         "    panoramas: images/rig_panoramas\n    calibration: calib/ladybug.yaml\n"
                         "    trajectory: trajectory_ins.csv\n    sigma_px: 0.5\n";
+  if (!c->tie_points.empty()) {
+    c->project_sensors << "    frames_file: rig_frames.csv\n    observations: observations/rig.csv  # "
+                       << num_rig_observations << " tie-point observations\n    tie_block: photos\n"
+                          "    trajectory_sigma_m: 0.1\n    trajectory_sigma_deg: 1.0\n";
+  }
 }
 
 // ---- LiDAR.

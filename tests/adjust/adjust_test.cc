@@ -1,5 +1,5 @@
 // The joint adjustment on a small simulated survey (gate scene: 20 photos, 2 spherical
-// stereo stations, 2 static scans,
+// stereo stations, 2 rig frames, 2 static scans,
 // 3 total-station setups, GNSS control): accuracy against the simulator's truth, blunders
 // injected into total-station, GNSS and image observations, and failures that keep an
 // earlier output.
@@ -44,7 +44,7 @@ class AdjustTest : public ::testing::Test {
     o.photos.tie_points = 600;
     o.spheres.stations = 2;
     o.spheres.width = 512;
-    o.rig.frames = 0;
+    o.rig.frames = 2;
     o.static_scans = 2;
     o.mobile_revolutions = 0;
     o.clouds.surface_samples = 0;
@@ -105,13 +105,20 @@ TEST_F(AdjustTest, RecoversTheSimulatedSurvey) {
   EXPECT_NEAR(std::hypot(spheres["baseline"]["adjusted"][0].get<double>(), spheres["baseline"]["adjusted"][1].get<double>(),
                          spheres["baseline"]["adjusted"][2].get<double>()),
               0.6, 0.003);
+  // The rig: frames from their GNSS/INS priors (several cm off) to within 2 cm, cam_from_rig
+  // kept by its prior.
+  const json& rig = truth["rig"];
+  EXPECT_LT(rig["max_frame_position_m"].get<double>(), 0.02);
+  EXPECT_LT(rig["max_frame_position_m"].get<double>(), rig["max_prior_position_m"].get<double>());
+  EXPECT_LT(rig["max_frame_rotation_deg"].get<double>(), 0.5);  // 2 frames, 8 free intrinsics per camera
+  EXPECT_LT(rig["max_cam_from_rig_position_m"].get<double>(), 0.005);
   for (const json& p : truth["survey_points"]) {
     EXPECT_LT(std::hypot(p["d"][0].get<double>(), p["d"][1].get<double>()), 0.01) << p["id"];
   }
   EXPECT_LE(r["blunders"].size(), 5u);  // no injected blunders: only the tail of the noise
   for (const char* f : {"report.html", "report.json", "poses.csv", "points.csv", "observations.csv",
                         "colmap/photos/images.txt", "calibration/photos_camera.yaml", "tie_points.ply",
-                        "calibration/spherical_spherical.yaml",
+                        "calibration/spherical_spherical.yaml", "calibration/ladybug_rig.yaml",
                         "error_map_lidar.ply"}) {
     EXPECT_TRUE(fs::exists(out / f)) << f;
   }

@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 
 #include "mmba/core/ids.h"
+#include "mmba/geometry/rigid3d.h"
 #include "mmba/problem/factor_group.h"
 #include "mmba/survey/network.h"
 
@@ -75,6 +76,47 @@ class VectorPriorGroup : public FactorGroup {
   Eigen::Vector3d* value_;
   Eigen::Vector3d prior_;
   double sigma_;
+};
+
+/// A tie-point observation in camera `camera` of a rig at frame `frame`:
+/// x = π(cam_from_rig[camera] · rig_from_world[frame] · X).
+struct RigObservation {
+  size_t frame = 0;
+  size_t camera = 0;
+  Point3DId point3D_id;
+  Eigen::Vector2d xy = Eigen::Vector2d::Zero();
+  double sigma_px = 0.5;
+};
+
+class RigReprojectionGroup : public FactorGroup {
+ public:
+  /// `rig_from_world` and `cam_from_rig` are the rig's parameter storage; `cameras` the Scene
+  /// camera of each rig camera.
+  RigReprojectionGroup(std::vector<RigObservation> observations, std::vector<Rigid3d>* rig_from_world,
+                       std::vector<Rigid3d>* cam_from_rig, std::vector<CameraId> cameras, LossOptions loss,
+                       std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+  const std::vector<RigObservation>& observations() const { return observations_; }
+
+ private:
+  std::vector<RigObservation> observations_;
+  std::vector<Rigid3d>* rig_from_world_;
+  std::vector<Rigid3d>* cam_from_rig_;
+  std::vector<CameraId> cameras_;
+};
+
+/// A prior on poses (target_from_source): 3 position residuals (the source origin in the
+/// target, σ_m) and 3 rotation residuals (angle-axis of prior⁻¹·pose, σ_rad) per pose.
+class PosePriorGroup : public FactorGroup {
+ public:
+  PosePriorGroup(std::vector<Rigid3d*> poses, std::vector<Rigid3d> priors, double sigma_m, double sigma_rad,
+                 LossOptions loss, std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+
+ private:
+  std::vector<Rigid3d*> poses_;
+  std::vector<Rigid3d> priors_;
+  double sigma_m_, sigma_rad_;
 };
 
 /// GNSS coordinates of a surveyed mark in the world ENU frame with σ per axis: three

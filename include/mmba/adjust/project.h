@@ -78,6 +78,30 @@ struct SphericalStereo {
   bool refine_focal = false;
 };
 
+/// A Ladybug-style multi-camera rig on a vehicle: per frame `rig_from_world`, per camera
+/// `cam_from_rig` shared by all frames (fixed, weighted by a prior, or free) and its fisheye
+/// intrinsics; each frame has a pose prior from the GNSS/INS trajectory through the lever arm
+/// and boresight `body_from_rig` of the calibration.
+struct CameraRig {
+  std::string id;
+  int line = 0;
+  std::string images;
+  std::string panoramas;
+  std::string calibration;     ///< rig YAML (calib/README.md)
+  std::string trajectory;      ///< CSV time_s,x_east_m,y_north_m,z_up_m,qw,qx,qy,qz (world_from_body)
+  std::string frames_file;     ///< CSV frame,time_s
+  std::string observations;    ///< CSV image,point_id,x_px,y_px[,sigma_px]; image = <frame>_<camera>.<ext>
+  std::string tie_block;
+  double sigma_px = 0.5;
+  double trajectory_sigma_m = 0.1;
+  double trajectory_sigma_deg = 1.0;
+  std::string cam_from_rig = "weighted";  ///< fixed | weighted | free
+  double cam_from_rig_sigma_m = 0.005;
+  double cam_from_rig_sigma_deg = 0.2;
+  LossOptions loss{LossType::kHuber, 3.0};
+  RefineIntrinsics refine;
+};
+
 /// A sensor the project may name that this version validates but does not adjust
 /// (camera_rig, lidar_mobile, spherical_stereo without observations): reported as not used.
 struct OtherSensor {
@@ -109,6 +133,7 @@ struct Project {
   std::vector<Gnss> gnss;
   std::vector<LidarStatic> lidar_static;
   std::vector<SphericalStereo> spherical;  ///< with observations (adjusted)
+  std::vector<CameraRig> rigs;             ///< with observations (adjusted)
   std::vector<OtherSensor> other_sensors;
   std::string truth;  ///< simulations: truth JSON (evaluation only, never used to adjust)
 };
