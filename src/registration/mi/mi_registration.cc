@@ -95,9 +95,9 @@ bool RegistrationOptions::Check(std::string* error) const {
     *error = "max_points_per_pixel must be > 0";
     return false;
   }
-  if (covariance_level < 0 || covariance_level >= pyramid_levels) {
-    *error = "covariance_level " + std::to_string(covariance_level) + " must be in 0.." +
-             std::to_string(pyramid_levels - 1) + " (pyramid_levels - 1)";
+  if (covariance_level < 0 || covariance_level > 5) {
+    *error = "covariance_level " + std::to_string(covariance_level) +
+             " must be in 0..5 (levels beyond the pyramid mean its coarsest)";
     return false;
   }
   if (!(max_sigma_px > 0) || !(restart_tolerance_px > 0)) {
@@ -105,14 +105,14 @@ bool RegistrationOptions::Check(std::string* error) const {
              std::to_string(max_sigma_px) + ", " + std::to_string(restart_tolerance_px) + ")";
     return false;
   }
-  if (finest_nelder_mead_level < 0 || finest_nelder_mead_level >= pyramid_levels) {
+  if (finest_nelder_mead_level < 0 || finest_nelder_mead_level > 5) {
     *error = "finest_nelder_mead_level " + std::to_string(finest_nelder_mead_level) +
-             " must be in 0.." + std::to_string(pyramid_levels - 1) + " (pyramid_levels - 1)";
+             " must be in 0..5 (levels beyond the pyramid mean its coarsest)";
     return false;
   }
-  if (restart_level < 0 || restart_level >= pyramid_levels) {
-    *error = "restart_level " + std::to_string(restart_level) + " must be in 0.." +
-             std::to_string(pyramid_levels - 1) + " (pyramid_levels - 1)";
+  if (restart_level < 0 || restart_level > 5) {
+    *error = "restart_level " + std::to_string(restart_level) +
+             " must be in 0..5 (levels beyond the pyramid mean its coarsest)";
     return false;
   }
   if (restarts < 0 || restarts > 32 || !(restart_offset_m > 0) || !(restart_offset_deg > 0)) {

@@ -37,6 +37,26 @@ TEST(Correction, ApplyAndRecoverRoundTrip) {
                                  forward_before).norm(), 1e-12);
 }
 
+TEST(Options, OnePyramidLevelIsValidAndBadValuesAreNamed) {
+  // Levels beyond the pyramid (restarts, covariance at level 1) mean its coarsest level, so
+  // a one-level run (the probe uses one) is valid.
+  RegistrationOptions options;
+  options.pyramid_levels = 1;
+  std::string error;
+  EXPECT_TRUE(options.Check(&error)) << error;
+  options.restart_level = 6;
+  EXPECT_FALSE(options.Check(&error));
+  EXPECT_NE(error.find("restart_level 6"), std::string::npos) << error;
+  options = RegistrationOptions();
+  options.threads = 0;
+  EXPECT_FALSE(options.Check(&error));
+  EXPECT_NE(error.find("threads 0"), std::string::npos) << error;
+  options = RegistrationOptions();
+  options.max_sigma_px = -1;
+  EXPECT_FALSE(options.Check(&error));
+  EXPECT_NE(error.find("max_sigma_px"), std::string::npos) << error;
+}
+
 class StreetTest : public ::testing::Test {
  protected:
   void SetUp() override {
