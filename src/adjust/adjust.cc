@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <type_traits>
 
@@ -341,6 +342,43 @@ void LoadPhotos(JointState* s, const std::string& work_dir) {
   } else {
     block.georeference = "as given (no control measurements; LiDAR surface ties)";
   }
+  // MI registration results (`mmba register-mi` OUT.json per image, LiDAR frame = world).
+  if (!p.mi_results.empty()) {
+    for (const auto& [name, id] : image_by_name) {
+      const fs::path file = fs::path(p.mi_results) / (fs::path(name).stem().string() + ".json");
+      if (!fs::exists(file)) continue;
+      nlohmann::json j;
+      try {
+        std::ifstream in(file);
+        j = nlohmann::json::parse(in);
+      } catch (const nlohmann::json::exception& e) {
+        throw InputError(file.string(), 0, "JSON", e.what(), "a register-mi result");
+      }
+      if (j.value("status", "") != "ok" || !j.value("covariance_valid", false)) {
+        s->warnings.push_back("MI result " + file.string() + " not used: status " + j.value("status", "?") +
+                              (j.value("covariance_valid", false) ? "" : ", no valid covariance"));
+        continue;
+      }
+      if (!j.contains("cam_from_lidar") || !j["cam_from_lidar"].is_array() || j["cam_from_lidar"].size() != 16 ||
+          !j.contains("covariance") || !j["covariance"].is_array() || j["covariance"].size() != 6) {
+        throw InputError(file.string(), 0, "cam_from_lidar/covariance", "missing or wrong size",
+                         "16 numbers (4x4 row-major) and a 6x6 covariance");
+      }
+      double m[16];
+      for (int k = 0; k < 16; ++k) m[k] = j["cam_from_lidar"][k].get<double>();
+      MiResult result;
+      result.image_id = id;
+      result.cam_from_world = io::RigidFromRowMajor4x4(m, file.string(), "cam_from_lidar");
+      for (int a = 0; a < 6; ++a) {
+        for (int b = 0; b < 6; ++b) result.covariance(a, b) = j["covariance"][a][b].get<double>();
+      }
+      result.source = file.string();
+      block.mi.push_back(result);
+    }
+    Note(s, "MI results: " + std::to_string(block.mi.size()) + " pose priors from " + p.mi_results);
+    // MI poses are in the LiDAR (= world) frame: the block is already georeferenced by them
+    // when it has no control (not handled: the control similarity above is applied first).
+  }
   for (const auto& [id, image] : s->scene.images()) block.initial_poses[id] = image.cam_from_world;
   block.initial_params = s->scene.cameras().begin()->second.params;
   Note(s, "photo block '" + p.id + "': " + std::to_string(block.model.images.size()) + " images, " +
@@ -662,6 +700,7 @@ const char* kSphereLower = "spheres: lower";
 const char* kSphereUpper = "spheres: upper";
 const char* kBaseline = "spheres: baseline prior";
 const char* kRig = "rig: tie points";
+const char* kMi = "photos: MI pose priors";
 const char* kRigPrior = "rig: GNSS/INS frame priors";
 const char* kRigCalibration = "rig: cam_from_rig priors";
 
@@ -695,6 +734,10 @@ void BuildProblem(JointState* s) {
     if (!s->photos->control.empty()) {
       s->builder->AddGroup(std::make_unique<TargetReprojectionGroup>(
           &*s->joint, scaled(kTargets, Without(s->photos->control, excluded(kTargets))), p.loss, kTargets));
+    }
+    if (!s->photos->mi.empty()) {
+      s->builder->AddGroup(std::make_unique<MiPriorGroup>(Without(s->photos->mi, excluded(kMi)),
+                                                          factor(kMi) * factor(kMi), p.loss, kMi));
     }
     if (!s->photos->check.empty()) {
       s->builder->AddGroup(std::make_unique<ReprojectionGroup>(s->photos->check, LossOptions(), kCheck));
@@ -899,6 +942,7 @@ std::string DescribeObservation(const JointState& s, const FactorGroup& group, s
     return "point " + std::to_string(o.point3D_id.value) + " in " + s.rig->frame_names[o.frame] + "_" +
            s.rig->camera_names[o.camera] + " (" + s.rig->sources[index] + ")";
   }
+  if (name == kMi && s.photos) return "MI pose of " + s.photos->model.images.at(s.photos->mi[index].image_id).name + " (" + s.photos->mi[index].source + ")";
   if (name == kRigPrior && s.rig) return "GNSS/INS prior of rig frame " + s.rig->frame_names[index];
   if (name == kRigCalibration && s.rig) return "cam_from_rig prior of " + s.rig->camera_names[index];
   if (name == kSphereLower && s.spheres) {

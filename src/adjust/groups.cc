@@ -4,6 +4,7 @@
 #include <ceres/rotation.h>
 
 #include "mmba/factors/reprojection_error.h"
+#include "mmba/registration/mi/mi_prior.h"
 
 namespace mmba::adjust {
 namespace {
@@ -321,6 +322,24 @@ void PosePriorGroup::AddResiduals(Scene&, ceres::Problem& problem) {
     AddBlock(problem,
              new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(new PosePriorCost(priors_[i], sigma_m_, sigma_rad_)),
              {poses_[i]->rotation.coeffs().data(), poses_[i]->translation.data()}, 1.0, i);
+  }
+}
+
+MiPriorGroup::MiPriorGroup(std::vector<MiResult> results, double covariance_scale, LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "whitened", loss), results_(std::move(results)), covariance_scale_(covariance_scale) {}
+
+void MiPriorGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
+  for (size_t i = 0; i < results_.size(); ++i) {
+    const MiResult& r = results_[i];
+    ceres::CostFunction* cost =
+        scene.HasImage(r.image_id) ? registration::mi::MiPosePrior::Create(r.cam_from_world, covariance_scale_ * r.covariance)
+                                   : nullptr;
+    if (cost == nullptr) {
+      Skip();
+      continue;
+    }
+    ImagePose& image = scene.Image(r.image_id);
+    AddBlock(problem, cost, {image.cam_from_world.rotation.coeffs().data(), image.cam_from_world.translation.data()}, 1.0, i);
   }
 }
 

@@ -32,6 +32,7 @@ struct PhotoBlock {
   std::vector<TargetMeasurement> control;      ///< measurements of control targets
   std::vector<ReprojectionObservation> check;  ///< measurements of check points (scene points)
   std::map<std::string, Point3DId> check_ids;  ///< check point → scene point
+  std::vector<MiResult> mi;                    ///< MI registration results (pose priors)
   std::map<ImageId, Rigid3d> initial_poses;    ///< after the initial georeference
   std::vector<double> initial_params;          ///< intrinsics after initialisation
   std::string georeference;                    ///< how the block was put into the world

@@ -70,6 +70,7 @@ class ProjectReader {
                     {"calibration", path(&p.calibration, false)},
                     {"colmap_model", path(&p.colmap_model, true)},
                     {"control_measurements", path(&p.control_measurements, false)},
+                    {"mi_results", path(&p.mi_results, true)},
                     {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
                     {"control_sigma_px", [&](Node v, Field g) { p.control_sigma_px = SigmaPx(v, g); }},
                     {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},

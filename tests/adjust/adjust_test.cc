@@ -10,6 +10,7 @@
 #include <regex>
 #include <sstream>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -164,19 +165,57 @@ TEST_F(AdjustTest, FlagsInjectedBlunders) {
   const std::string target_id = cells[0];
   targets.replace(header, line_end - header, cells[0] + "," + cells[1] + "," + cells[2] + "," + cells[3] + "," + cells[4]);
   std::ofstream(dir / "survey" / "image_points.csv") << targets;
+  // MI registration results for three photos (register-mi's OUT.json): two at the true pose
+  // within their covariance, one 0.3 m off.
+  fs::create_directories(dir / "mi");
+  std::ifstream truth_in(sim / "truth" / "truth.json");
+  const json truth = json::parse(truth_in);
+  std::string mi_blunder;
+  for (int i = 1; i <= 3; ++i) {
+    const json& image = truth["photos"]["images"][i];
+    const std::vector<double> q = image["cam_from_world"]["qvec_wxyz"], t = image["cam_from_world"]["tvec"];
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    m.topLeftCorner<3, 3>() = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
+    m.topRightCorner<3, 1>() = Eigen::Vector3d(t[0], t[1], t[2]) + (i == 3 ? Eigen::Vector3d(0.3, 0, 0) : Eigen::Vector3d(0.004, -0.003, 0.002));
+    json pose = json::array(), cov = json::array();
+    for (int r = 0; r < 4; ++r) {
+      for (int c = 0; c < 4; ++c) pose.push_back(m(r, c));
+    }
+    for (int r = 0; r < 6; ++r) {
+      json row = json::array();
+      for (int c = 0; c < 6; ++c) row.push_back(r == c ? (r < 3 ? 0.01 * 0.01 : 0.1 * 0.1) : 0.0);
+      cov.push_back(row);
+    }
+    const std::string name = image["name"];
+    std::ofstream(dir / "mi" / (fs::path(name).stem().string() + ".json"))
+        << json{{"status", "ok"}, {"cam_from_lidar", pose}, {"covariance", cov}, {"covariance_valid", true}}.dump();
+    if (i == 3) mi_blunder = name;
+  }
   // Everything else is the simulated project's own (symbolic links).
   for (const fs::directory_entry& entry : fs::directory_iterator(sim)) {
     const std::string name = entry.path().filename().string();
-    if (name != "survey" && name != "gnss.csv") fs::create_symlink(entry.path(), dir / name);
+    if (name != "survey" && name != "gnss.csv" && name != "project.yaml") fs::create_symlink(entry.path(), dir / name);
   }
+  std::string project = ReadText(sim / "project.yaml");
+  const size_t at = project.find("    colmap_model: colmap/photos\n");
+  ASSERT_NE(at, std::string::npos);
+  project.insert(at, "    mi_results: mi\n");
+  std::ofstream(dir / "project.yaml") << project;
   const AdjustOutcome outcome = Run((dir / "project.yaml").string(), (dir / "out").string());
   ASSERT_TRUE(outcome.ok) << outcome.reason;
-  bool ts = false, gnss_flagged = false, target = false;
+  bool ts = false, gnss_flagged = false, target = false, mi = false;
   for (const json& b : outcome.report["blunders"]) {
     const std::string what = b["observation"];
     ts = ts || (what.find("slope-distance") != std::string::npos && what.find(to) != std::string::npos);
     gnss_flagged = gnss_flagged || what.find("GNSS north of M4") != std::string::npos;
     target = target || what.find("target " + target_id) != std::string::npos;
+    mi = mi || what.find("MI pose of " + mi_blunder) != std::string::npos;
+  }
+  EXPECT_TRUE(mi) << outcome.report["blunders"].dump(1);
+  for (const json& b : outcome.report["blunders"]) {
+    // The two good MI priors are not flagged.
+    const std::string what = b["observation"];
+    if (what.find("MI pose of") != std::string::npos) EXPECT_NE(what.find(mi_blunder), std::string::npos) << what;
   }
   EXPECT_TRUE(ts) << outcome.report["blunders"].dump(1);
   EXPECT_TRUE(gnss_flagged) << outcome.report["blunders"].dump(1);

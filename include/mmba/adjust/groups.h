@@ -119,6 +119,27 @@ class PosePriorGroup : public FactorGroup {
   double sigma_m_, sigma_rad_;
 };
 
+/// A mutual-information registration result of an image against the (world-frame) LiDAR:
+/// the camera pose and its 6×6 covariance (m², deg²; tx ty tz roll pitch yaw), used as a
+/// weighted pose prior (registration/mi/mi_prior.h).
+struct MiResult {
+  ImageId image_id;
+  Rigid3d cam_from_world;
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
+  std::string source;
+};
+
+class MiPriorGroup : public FactorGroup {
+ public:
+  /// `covariance_scale` multiplies every covariance (variance-component factor²).
+  MiPriorGroup(std::vector<MiResult> results, double covariance_scale, LossOptions loss, std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+
+ private:
+  std::vector<MiResult> results_;
+  double covariance_scale_;
+};
+
 /// GNSS coordinates of a surveyed mark in the world ENU frame with σ per axis: three
 /// residual blocks (east, north, up) per mark.
 struct GnssPoint {

@@ -26,6 +26,9 @@ struct PhotoCollection {
   std::string calibration;            ///< camera YAML (model, width, height, params); "" = COLMAP's
   std::string colmap_model;           ///< COLMAP model folder; "" = run COLMAP on `images`
   std::string control_measurements;   ///< CSV point_id,image,x_px,y_px[,sigma_px]; "" = none
+  /// Folder of `mmba register-mi` results, <image stem>.json, LiDAR frame = world: weighted
+  /// pose priors (their covariance); "" = none.
+  std::string mi_results;
   double sigma_px = 1.0;              ///< σ of a tie-point image coordinate
   double control_sigma_px = 0.0;      ///< σ of a target measurement; 0 = the CSV's, else sigma_px
   LossOptions loss{LossType::kHuber, 3.0};
