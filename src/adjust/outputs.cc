@@ -356,11 +356,16 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
            << "\nheight: " << camera.height << "\nparams: [";
       std::ostringstream sigmas;
       const std::vector<double> camera_sigma = ParameterSigmas(st, s.builder->problem(), camera.params.data());
+      // Parameter names in the model's order ("fx, fy, cx, cy, k1, ...").
+      std::vector<std::string> names;
+      std::stringstream info(sensors::CameraModelParamsInfo(camera.model_id));
+      for (std::string name; std::getline(info, name, ',');) names.push_back(name.substr(name.find_first_not_of(' ')));
       for (size_t k = 0; k < camera.params.size(); ++k) {
         const double sigma = camera_sigma[k];
         yaml << (k ? ", " : "") << std::setprecision(10) << camera.params[k];
         sigmas << (k ? ", " : "") << std::setprecision(4) << sigma;
-        parameters.push_back({{"name", "p" + std::to_string(k)}, {"initial", s.photos->initial_params.at(k)},
+        parameters.push_back({{"name", k < names.size() ? names[k] : "p" + std::to_string(k)},
+                              {"initial", s.photos->initial_params.at(k)},
                               {"adjusted", camera.params[k]}, {"sigma", sigma}});
       }
       yaml << "]\nsigma: [" << sigmas.str() << "]\n";
