@@ -1,0 +1,72 @@
+#!/usr/bin/env python3
+"""Bench (issue 7): `mmba adjust` on a simulated scene with every sensor, then with one
+sensor group removed at a time — does each sensor add the information it should?
+
+  bench/adjust_sensors.py MMBA_BINARY SCENE PRESET WORK_DIR     e.g. build/apps/mmba cathedral small /tmp/adj
+
+Prints a Markdown table (check-point RMSE against the RMSE the propagated covariances
+predict, photo-pose and sphere-station errors against the simulator's truth, sigma0, time,
+peak memory) for bench/RESULTS.md.
+"""
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+
+import yaml
+
+mmba, scene, preset, work = sys.argv[1:5]
+sim = os.path.join(work, "sim")
+if not os.path.exists(os.path.join(sim, "project.yaml")):
+    subprocess.run([mmba, "simulate", "--scene", scene, "--preset", preset, "--out", sim, "-q"], check=True)
+base = yaml.safe_load(open(os.path.join(sim, "project.yaml")))
+
+
+def variant(name, drop_types=(), settings=None):
+    p = dict(base)
+    p["sensors"] = [s for s in base["sensors"] if s["type"] not in drop_types]
+    if settings:
+        p["adjustment"] = settings
+    path = os.path.join(sim, f"project_{name}.yaml")
+    with open(path, "w") as f:
+        yaml.safe_dump(p, f, sort_keys=False)
+    return path
+
+
+variants = [
+    ("all sensors", variant("all")),
+    ("without LiDAR surface", variant("nolidar", ["lidar_static"])),
+    ("without spherical stereo", variant("nosphere", ["spherical_stereo"])),
+    ("without camera rig", variant("norig", ["camera_rig"])),
+    ("without GNSS control", variant("nognss", ["gnss"])),
+    ("without total station (no control, no check points)", variant("nots", ["total_station"])),
+    ("all, no variance components", variant("novce", settings={"variance_components": False})),
+]
+print("| run | check RMSE 3D (expected) | photo pos RMSE / max | sphere max pos | rig frame max pos | sigma0 (given σ) | blunders | time | peak RSS |")
+print("|---|---|---|---|---|---|---|---|---|")
+for label, path in variants:
+    out = os.path.join(work, "out_" + os.path.basename(path)[8:-5])
+    start = time.time()
+    run = subprocess.run(["/usr/bin/time", "-v", mmba, "adjust", path, "--output", out, "-q"],
+                         capture_output=True, text=True)
+    seconds = time.time() - start
+    rss = re.search(r"Maximum resident set size \(kbytes\): (\d+)", run.stderr)
+    rss = f"{int(rss.group(1)) / 1024:.0f} MB" if rss else "?"
+    if run.returncode != 0:
+        reason = run.stderr.strip().splitlines()[0] if run.stderr.strip() else "?"
+        print(f"| {label} | failed (exit {run.returncode}): {reason} | | | | | | {seconds:.0f} s | {rss} |")
+        continue
+    r = json.load(open(os.path.join(out, "report.json")))
+    t = r.get("truth_evaluation", {})
+    c = r.get("check_summary", {})
+    check = f"{1000 * c['rmse_3d']:.1f} mm ({1000 * c['expected_rmse_3d']:.1f} mm, n={c['count']})" if c else "-"
+    pp = t.get("photo_positions", {})
+    photos = f"{1000 * pp['rmse_m']:.1f} / {1000 * pp['max_m']:.1f} mm" if pp else "-"
+    sp = t.get("spheres")
+    sphere = f"{1000 * sp['max_position_m']:.1f} mm" if sp else "-"
+    rg = t.get("rig")
+    rig = f"{1000 * rg['max_frame_position_m']:.1f} mm (prior {1000 * rg['max_prior_position_m']:.0f} mm)" if rg else "-"
+    s0 = f"{r['sigma0']['aposteriori']:.3f} ({r['sigma0_given_weights']['aposteriori']:.3f})"
+    print(f"| {label} | {check} | {photos} | {sphere} | {rig} | {s0} | {len(r['blunders'])} | {seconds:.0f} s | {rss} |")
