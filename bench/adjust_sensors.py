@@ -26,7 +26,11 @@ base = yaml.safe_load(open(os.path.join(sim, "project.yaml")))
 
 def variant(name, drop_types=(), settings=None):
     p = dict(base)
-    p["sensors"] = [s for s in base["sensors"] if s["type"] not in drop_types]
+    p["sensors"] = [dict(s) for s in base["sensors"] if s["type"] not in drop_types]
+    if "total_station" in drop_types:  # no control and no check points without the network
+        p.pop("check_points", None)
+        for s in p["sensors"]:
+            s.pop("control_measurements", None)
     if settings:
         p["adjustment"] = settings
     path = os.path.join(sim, f"project_{name}.yaml")

@@ -399,6 +399,7 @@ void SimulatePhotos(Context* c) {
       if (!SeesPoint(c->caster, poses[i].Inverse().translation, target.point_in_world)) continue;
       const Eigen::Vector2d measured = *xy + Eigen::Vector2d(target_noise.Normal(o.observation_sigma_px),
                                                              target_noise.Normal(o.observation_sigma_px));
+      if (measured.x() < 0 || measured.y() < 0 || measured.x() >= o.width || measured.y() >= o.height) continue;
       target_csv << target.id << "," << truth_model.images.at(ImageId(i + 1)).name << "," << Fmt(measured.x(), 3)
                  << "," << Fmt(measured.y(), 3) << "," << o.observation_sigma_px << "\n";
       ++target_measurements;
@@ -513,6 +514,7 @@ void SimulateSpheres(Context* c, const std::vector<SphereStation>& stations) {
         const auto xy = truth_cam[k].ImgFromCam(poses[k] * point);
         if (!xy || !SeesPoint(c->caster, eye, point)) continue;
         const Vector2d measured = *xy + Vector2d(noise.Normal(0.5), noise.Normal(0.5));
+        if (measured.x() < 0 || measured.y() < 0 || measured.x() >= w || measured.y() >= h) continue;
         observations << stations[s].name << "_" << which[k] << ".png," << id << "," << Fmt(measured.x(), 3) << ","
                      << Fmt(measured.y(), 3) << ",0.5\n";
         ++num_observations;
@@ -630,6 +632,7 @@ void SimulateRig(Context* c, const Trajectory& trajectory) {
         if (!xy || xy->x() < 0 || xy->y() < 0 || xy->x() >= width || xy->y() >= height) continue;
         if (!SeesPoint(c->caster, eye, point)) continue;
         const Vector2d measured = *xy + Vector2d(observation_noise.Normal(0.5), observation_noise.Normal(0.5));
+        if (measured.x() < 0 || measured.y() < 0 || measured.x() >= width || measured.y() >= height) continue;
         rig_observations << frame_name.str() << "_cam" << k << ".png," << id << "," << Fmt(measured.x(), 3) << ","
                          << Fmt(measured.y(), 3) << ",0.5\n";
         ++num_rig_observations;
