@@ -84,6 +84,23 @@ void LoadNetwork(JointState* s) {
                                                   project.check_points[i] + ", expected a point of " + ts.file);
     }
   }
+  for (const survey::SurveyPoint& p : network.points) {
+    if (p.xy == survey::CoordStatus::kFixed && p.z == survey::CoordStatus::kFixed) s->surveyed_ids.insert(p.id);
+  }
+  for (const survey::Cluster& cluster : network.clusters) {
+    for (const survey::Observation& o : cluster.observations) {
+      if (!o.active) continue;
+      for (const std::string* id : {&o.from, &o.to, &o.fs}) {
+        if (!id->empty()) s->surveyed_ids.insert(*id);
+      }
+    }
+  }
+  for (const survey::SurveyPoint& p : network.points) {
+    if (!s->surveyed_ids.count(p.id)) {
+      s->warnings.push_back("point " + p.id + " of " + ts.file +
+                            " has no total-station observation: not control, not a check point (its coordinates are approximate)");
+    }
+  }
   // Initialisation step 1: the network alone gives the control coordinates (and, for check
   // points, the surveyed coordinates they are compared with).
   s->surveyed = network;
@@ -290,7 +307,7 @@ void LoadPhotos(JointState* s, const std::string& work_dir) {
     std::vector<Eigen::Vector3d> from, to;
     std::vector<std::string> used;
     for (const auto& [id, rays] : MeasurementRays(s->scene, block.control)) {
-      if (rays.size() < 2) continue;
+      if (rays.size() < 2 || !s->surveyed_ids.count(id)) continue;
       from.push_back(Triangulate(rays));
       to.push_back(internal::WorldFromSurvey(*s->surveyed, *s->surveyed->Find(id)));
       used.push_back(id);
@@ -325,6 +342,7 @@ void LoadPhotos(JointState* s, const std::string& work_dir) {
     uint64_t next = internal::kCheckPointIdBase;
     const auto rays = MeasurementRays(s->scene, check_measurements);
     for (const auto& [id, point_rays] : rays) {
+      if (!s->surveyed_ids.count(id)) continue;  // warned above: nothing to compare with
       if (point_rays.size() < 2) {
         s->warnings.push_back("check point " + id + " is measured in fewer than 2 photos: not evaluated");
         continue;
@@ -809,12 +827,25 @@ void BuildProblem(JointState* s) {
         problem.SetParameterBlockConstant(pose.translation.data());
       }
     }
-    // The rig cameras' intrinsics: the rig's own refine list.
+    // The rig cameras' intrinsics: the rig's own refine list; a camera with fewer than
+    // kMinObservations observations keeps its calibration (its 8 fisheye parameters would be
+    // undetermined and let the solver drift).
+    constexpr size_t kMinObservations = 200;
+    std::vector<size_t> count(rig.cameras.size(), 0);
+    for (const RigObservation& o : rig.observations) ++count[o.camera];
     const RefineIntrinsics& refine = rig.config->refine;
-    for (CameraId id : rig.cameras) {
-      sensors::Camera& camera = s->scene.Camera(id);
+    for (size_t k = 0; k < rig.cameras.size(); ++k) {
+      sensors::Camera& camera = s->scene.Camera(rig.cameras[k]);
       double* params = camera.params.data();
       if (!problem.HasParameterBlock(params)) continue;
+      if (count[k] < kMinObservations) {
+        problem.SetParameterBlockConstant(params);
+        const std::string warning = "rig camera " + rig.camera_names[k] + ": " + std::to_string(count[k]) +
+                                    " observations, intrinsics held at the calibration (fewer than " +
+                                    std::to_string(kMinObservations) + ")";
+        if (std::find(s->warnings.begin(), s->warnings.end(), warning) == s->warnings.end()) s->warnings.push_back(warning);
+        continue;
+      }
       std::vector<int> constant;
       const auto hold = [&](const std::vector<int>& idxs) { constant.insert(constant.end(), idxs.begin(), idxs.end()); };
       if (!refine.focal) hold(sensors::CameraModelFocalIdxs(camera.model_id));
@@ -861,7 +892,11 @@ void SolveOnce(JointState* s, const AdjustOptions& options) {
   solve.max_iterations = s->project->settings.max_iterations;
   solve.num_threads = options.num_threads;
   solve.log_progress = options.log_progress;
-  solve.function_tolerance = 1e-8;
+  // Tight tolerances: poses, principal points and rotations are strongly correlated, and a
+  // relative cost change of 1e-8 stops Levenberg–Marquardt in that flat valley too early.
+  solve.function_tolerance = 1e-12;
+  solve.parameter_tolerance = 1e-12;
+  solve.gradient_tolerance = 1e-12;
   s->solve = Solve(*s->builder, solve);
   s->total_iterations += s->solve.iterations;
   if (!s->solve.converged) {

@@ -297,7 +297,10 @@ void RigReprojectionGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
     Rigid3d& cr = (*cam_from_rig_)[o.camera];
     sensors::Camera& camera = scene.Camera(cameras_[o.camera]);
     Eigen::Vector3d& point = scene.Point(o.point3D_id);
-    if (!camera.ImgFromCam(cr * (rw * point))) {
+    // Observations within 15° of a fisheye's 90° limit are left out: a point that crosses the
+    // limit during the solve makes the cost undefined and Ceres rejects the whole step.
+    const Eigen::Vector3d in_camera = cr * (rw * point);
+    if (!camera.ImgFromCam(in_camera) || (!camera.IsSpherical() && in_camera.z() < 0.26 * in_camera.norm())) {
       Skip();
       continue;
     }

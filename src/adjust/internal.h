@@ -84,6 +84,9 @@ struct JointState {
   geodesy::LocalTangentPlane plane{geodesy::Geodetic{}};
   std::optional<survey::SurveyNetwork> surveyed;     ///< network-only adjustment (control)
   survey::SurveyAdjustment surveyed_adjustment;
+  /// Points whose coordinates the network determines (fixed, or with an active observation):
+  /// only these serve as control or are compared as check points.
+  std::set<std::string> surveyed_ids;
   std::optional<survey::SurveyNetwork> joint;        ///< the network in the joint problem
   std::vector<GnssPoint> gnss_points;
   size_t gnss_trajectory_rows = 0;

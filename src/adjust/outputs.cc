@@ -282,7 +282,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     for (const survey::SurveyPoint& p : s.joint->points) {
       const survey::SurveyPoint* before = s.surveyed->Find(p.id);
       const bool check = s.photos && s.photos->check_ids.count(p.id);
-      if (!check && !measured.count(p.id)) continue;
+      if ((!check && !measured.count(p.id)) || !s.surveyed_ids.count(p.id)) continue;
       const Eigen::Vector3d surveyed = WorldFromSurvey(*s.surveyed, *before);
       const Eigen::Matrix3d surveyed_cov = SurveyPointCovariance(s.surveyed_adjustment.statistics, *s.surveyed, *before);
       Eigen::Vector3d adjusted;

@@ -106,10 +106,11 @@ TEST_F(AdjustTest, RecoversTheSimulatedSurvey) {
   EXPECT_NEAR(std::hypot(spheres["baseline"]["adjusted"][0].get<double>(), spheres["baseline"]["adjusted"][1].get<double>(),
                          spheres["baseline"]["adjusted"][2].get<double>()),
               0.6, 0.003);
-  // The rig: frames from their GNSS/INS priors (several cm off) to within 2 cm, cam_from_rig
+  // The rig: frames from their GNSS/INS priors (several cm off) to within 3 cm (2 frames; the
+  // fisheye distortion is held at the nominal calibration, k1 off by up to 0.005), cam_from_rig
   // kept by its prior.
   const json& rig = truth["rig"];
-  EXPECT_LT(rig["max_frame_position_m"].get<double>(), 0.02);
+  EXPECT_LT(rig["max_frame_position_m"].get<double>(), 0.03);
   EXPECT_LT(rig["max_frame_position_m"].get<double>(), rig["max_prior_position_m"].get<double>());
   EXPECT_LT(rig["max_frame_rotation_deg"].get<double>(), 0.5);  // 2 frames, 8 free intrinsics per camera
   EXPECT_LT(rig["max_cam_from_rig_position_m"].get<double>(), 0.005);

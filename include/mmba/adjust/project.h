@@ -102,7 +102,9 @@ struct CameraRig {
   double cam_from_rig_sigma_m = 0.005;
   double cam_from_rig_sigma_deg = 0.2;
   LossOptions loss{LossType::kHuber, 3.0};
-  RefineIntrinsics refine;
+  /// Fisheye distortion is held at the calibration by default: a rig's observations rarely
+  /// cover the field enough to determine k1–k4, and the solver drifts along them.
+  RefineIntrinsics refine{true, true, false};
 };
 
 /// A sensor the project may name that this version validates but does not adjust
