@@ -56,6 +56,8 @@ for label, path in variants:
     run = subprocess.run(["/usr/bin/time", "-v", mmba, "adjust", path, "--output", out, "-q"],
                          capture_output=True, text=True)
     seconds = time.time() - start
+    with open(out + ".summary.txt", "w") as f:
+        f.write(run.stdout)
     rss = re.search(r"Maximum resident set size \(kbytes\): (\d+)", run.stderr)
     rss = f"{int(rss.group(1)) / 1024:.0f} MB" if rss else "?"
     if run.returncode != 0:
