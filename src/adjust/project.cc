@@ -45,6 +45,20 @@ class ProjectReader {
     return loss;
   }
 
+  /// A `refine` list: focal, principal_point and (cameras with distortion) distortion.
+  RefineIntrinsics Refine(Node n, Field f, bool distortion) const {
+    RefineIntrinsics refine{false, false, false};
+    const std::vector<std::string> list = r_.StringList(n, f);
+    for (size_t i = 0; i < list.size(); ++i) {
+      if (list[i] == "focal") refine.focal = true;
+      else if (list[i] == "principal_point") refine.principal_point = true;
+      else if (list[i] == "distortion" && distortion) refine.distortion = true;
+      else r_.Fail(n[i], f + "[" + std::to_string(i) + "]",
+                   distortion ? "focal, principal_point or distortion" : "focal or principal_point", list[i]);
+    }
+    return refine;
+  }
+
   /// σ in pixels: inconsistent units (metres or micrometres given for pixels) fail here.
   double SigmaPx(Node n, Field f) const { return r_.Positive(n, f, 50.0, "px"); }
   /// σ in metres: a value above `hi` is almost certainly millimetres given as metres.
@@ -74,16 +88,7 @@ class ProjectReader {
                     {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
                     {"control_sigma_px", [&](Node v, Field g) { p.control_sigma_px = SigmaPx(v, g); }},
                     {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
-                    {"refine", [&](Node v, Field g) {
-                       p.refine = {false, false, false};
-                       const std::vector<std::string> list = r_.StringList(v, g);
-                       for (size_t i = 0; i < list.size(); ++i) {
-                         if (list[i] == "focal") p.refine.focal = true;
-                         else if (list[i] == "principal_point") p.refine.principal_point = true;
-                         else if (list[i] == "distortion") p.refine.distortion = true;
-                         else r_.Fail(v[i], g + "[" + std::to_string(i) + "]", "focal, principal_point or distortion", list[i]);
-                       }
-                     }}});
+                    {"refine", [&](Node v, Field g) { p.refine = Refine(v, g, true); }}});
       r_.Require(n, f, {"images"});
       project_->photos.push_back(p);
     } else if (type == "total_station") {
@@ -144,13 +149,9 @@ class ProjectReader {
                       {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
                       {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
                       {"refine", [&](Node v, Field g) {
-                         p.refine_principal_point = p.refine_focal = false;
-                         const std::vector<std::string> list = r_.StringList(v, g);
-                         for (size_t i = 0; i < list.size(); ++i) {
-                           if (list[i] == "focal") p.refine_focal = true;
-                           else if (list[i] == "principal_point") p.refine_principal_point = true;
-                           else r_.Fail(v[i], g + "[" + std::to_string(i) + "]", "focal or principal_point", list[i]);
-                         }
+                         const RefineIntrinsics refine = Refine(v, g, false);
+                         p.refine_focal = refine.focal;
+                         p.refine_principal_point = refine.principal_point;
                        }}});
         r_.Require(n, f, {"images", "calibration"});
         if (!p.observations.empty() || !p.stations_file.empty()) {
@@ -179,16 +180,7 @@ class ProjectReader {
                       {"cam_from_rig_sigma_m", [&](Node v, Field g) { p.cam_from_rig_sigma_m = SigmaM(v, g, 1.0); }},
                       {"cam_from_rig_sigma_deg", [&](Node v, Field g) { p.cam_from_rig_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
                       {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
-                      {"refine", [&](Node v, Field g) {
-                         p.refine = {false, false, false};
-                         const std::vector<std::string> list = r_.StringList(v, g);
-                         for (size_t i = 0; i < list.size(); ++i) {
-                           if (list[i] == "focal") p.refine.focal = true;
-                           else if (list[i] == "principal_point") p.refine.principal_point = true;
-                           else if (list[i] == "distortion") p.refine.distortion = true;
-                           else r_.Fail(v[i], g + "[" + std::to_string(i) + "]", "focal, principal_point or distortion", list[i]);
-                         }
-                       }}});
+                      {"refine", [&](Node v, Field g) { p.refine = Refine(v, g, true); }}});
         r_.Require(n, f, {"images", "calibration"});
         if (!p.observations.empty() || !p.frames_file.empty()) {
           r_.Require(n, f, {"observations", "frames_file", "trajectory", "tie_block"});
