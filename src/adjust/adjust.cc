@@ -850,7 +850,12 @@ void BuildProblem(JointState* s) {
       const auto hold = [&](const std::vector<int>& idxs) { constant.insert(constant.end(), idxs.begin(), idxs.end()); };
       if (!refine.focal) hold(sensors::CameraModelFocalIdxs(camera.model_id));
       if (!refine.principal_point) hold(sensors::CameraModelPrincipalIdxs(camera.model_id));
-      if (!refine.distortion) hold(sensors::CameraModelExtraIdxs(camera.model_id));
+      const std::vector<int> extra = sensors::CameraModelExtraIdxs(camera.model_id);
+      if (!refine.distortion) {
+        hold(extra);
+      } else if (refine.distortion_terms > 0 && static_cast<int>(extra.size()) > refine.distortion_terms) {
+        hold(std::vector<int>(extra.begin() + refine.distortion_terms, extra.end()));
+      }
       std::sort(constant.begin(), constant.end());
       if (constant.size() == camera.params.size()) {
         problem.SetParameterBlockConstant(params);

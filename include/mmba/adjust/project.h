@@ -17,6 +17,9 @@ struct RefineIntrinsics {
   bool focal = true;
   bool principal_point = true;
   bool distortion = true;
+  /// With `distortion`: how many of the model's distortion terms are free (the leading
+  /// ones, k1, k2, …); 0 = all.
+  int distortion_terms = 0;
 };
 
 struct PhotoCollection {
@@ -102,9 +105,10 @@ struct CameraRig {
   double cam_from_rig_sigma_m = 0.005;
   double cam_from_rig_sigma_deg = 0.2;
   LossOptions loss{LossType::kHuber, 3.0};
-  /// Fisheye distortion is held at the calibration by default: a rig's observations rarely
-  /// cover the field enough to determine k1–k4, and the solver drifts along them.
-  RefineIntrinsics refine{true, true, false};
+  /// By default only k1, k2 of the fisheye distortion are free: a rig's observations rarely
+  /// cover the field enough to determine k3, k4, and the solver drifts along them (`refine:
+  /// [focal, principal_point, distortion]` frees all).
+  RefineIntrinsics refine{true, true, true, 2};
 };
 
 /// A sensor the project may name that this version validates but does not adjust
