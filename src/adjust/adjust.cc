@@ -673,6 +673,9 @@ void LoadLidar(JointState* s) {
     hi = hi.cwiseMax(p);
   }
   s->surface = std::make_unique<LidarSurface>(l.reference_cloud, lo, hi, 1.0);
+  if (s->surface->num_read() == 0) {
+    throw InputError::Message(l.reference_cloud, "the reference cloud has no points (sensor '" + l.id + "')");
+  }
   Note(s, "LiDAR reference " + l.reference_cloud + ": " + std::to_string(s->surface->num_read()) +
                    " points read, " + std::to_string(s->surface->size()) + " near the photo block kept");
   if (s->surface->size() < 100) {
