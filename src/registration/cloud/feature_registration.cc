@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstdint>
 #include <iomanip>
+#include <limits>
+#include <memory>
 #include <numeric>
 #include <random>
 #include <sstream>
@@ -70,7 +72,13 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   if (max_keypoints < min_keypoints) return fail("max_keypoints", max_keypoints, ">= min_keypoints");
   if (max_points_features < 1000) return fail("max_points_features", max_points_features, ">= 1000");
   if (max_points_icp < 1000) return fail("max_points_icp", max_points_icp, ">= 1000");
+  if (!(larger_cloud_factor >= 1)) return fail("larger_cloud_factor", larger_cloud_factor, ">= 1");
+  if (!(inlier_sigma > 0)) return fail("inlier_sigma", inlier_sigma, "> 0");
   if (sac_ia_iterations < 1) return fail("sac_ia_iterations", sac_ia_iterations, ">= 1");
+  if (sac_ia_draws_per_iteration < 1) {
+    return fail("sac_ia_draws_per_iteration", sac_ia_draws_per_iteration, ">= 1");
+  }
+  if (num_cliques < 1) return fail("num_cliques", num_cliques, ">= 1");
   if (sac_ia_randomness < 1) return fail("sac_ia_randomness", sac_ia_randomness, ">= 1");
   if (num_hypotheses < 1) return fail("num_hypotheses", num_hypotheses, ">= 1");
   if (!(consistency_spacing > 0)) return fail("consistency_spacing", consistency_spacing, "> 0");
@@ -85,6 +93,7 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   if (!(min_normal_agreement >= 0 && min_normal_agreement <= 1)) {
     return fail("min_normal_agreement", min_normal_agreement, "0 <= x <= 1");
   }
+  if (!(max_conflict > 0 && max_conflict <= 1)) return fail("max_conflict", max_conflict, "0 < x <= 1");
   if (!(max_ambiguity > 0 && max_ambiguity <= 1)) {
     return fail("max_ambiguity", max_ambiguity, "0 < x <= 1");
   }
@@ -242,7 +251,7 @@ std::vector<int> GridMaxima(const std::vector<Eigen::Vector3d>& points,
 }
 
 std::vector<int> SelectKeypoints(const Level& level, double normal_radius,
-                                 const CloudRegistrationOptions& options,
+                                 const CloudRegistrationOptions& options, int max_keypoints,
                                  const std::string& which, std::vector<std::string>* notes) {
   const std::vector<float> response =
       internal::TomasiResponse(level.points, level.normals, normal_radius);
@@ -268,8 +277,8 @@ std::vector<int> SelectKeypoints(const Level& level, double normal_radius,
   }
   // Bound the descriptor cost: coarser grid cells until at most max_keypoints remain.
   double coarser = cell;
-  for (int k = 0; k < 10 && static_cast<int>(keypoints.size()) > options.max_keypoints; ++k) {
-    coarser *= std::max(1.1, std::sqrt(static_cast<double>(keypoints.size()) / options.max_keypoints));
+  for (int k = 0; k < 10 && static_cast<int>(keypoints.size()) > max_keypoints; ++k) {
+    coarser *= std::max(1.1, std::sqrt(static_cast<double>(keypoints.size()) / max_keypoints));
     keypoints = GridMaxima(level.points, response, threshold, coarser);
   }
   return keypoints;
@@ -284,6 +293,7 @@ struct Hypothesis {
   Eigen::Matrix4d transform = Eigen::Matrix4d::Identity();
   double cost = 0.0;  // SAC-IA cost (lower is better)
   double fitness = 0.0, rmse = 0.0, normal_agreement = 0.0, score = 0.0;
+  double conflict = 0.0;  // fine: of the points near a target surface, those not on it
   size_t inliers = 0;
 };
 
@@ -413,7 +423,13 @@ void SacIa(const Matching& m, const std::vector<Eigen::Vector3d>& score_sample,
   const double tolerance = options.consistency_spacing * spacing;
   std::uniform_int_distribution<int> pick(0, n - 1);
   const Eigen::Vector3d* up = options.gravity_aligned ? &options.up : nullptr;
-  for (int it = 0; it < options.sac_ia_iterations; ++it) {
+  // `sac_ia_iterations` samples that pass the edge-length pre-check are scored; with many
+  // wrong matches (repetitive structure) most draws fail it, so up to
+  // sac_ia_draws_per_iteration × as many are drawn.
+  int scored = 0;
+  const int64_t max_draws =
+      static_cast<int64_t>(options.sac_ia_iterations) * options.sac_ia_draws_per_iteration;
+  for (int64_t draw = 0; draw < max_draws && scored < options.sac_ia_iterations; ++draw) {
     int sample[3];
     bool ok = true;
     for (int s = 0; s < sample_size && ok; ++s) {
@@ -456,6 +472,7 @@ void SacIa(const Matching& m, const std::vector<Eigen::Vector3d>& score_sample,
     if (!ok) continue;
     Hypothesis h;
     h.transform = EstimateRigid(src, dst, up);
+    ++scored;
     h.cost = AlignmentCost(score_sample, target, h.transform, tau);
     h.origin = "sac-ia " + m.descriptor;
     h.descriptor = m.descriptor;
@@ -463,31 +480,45 @@ void SacIa(const Matching& m, const std::vector<Eigen::Vector3d>& score_sample,
   }
 }
 
-// Maximum clique of pairwise-consistent correspondences, then a least-squares fit.
-bool CliqueHypothesis(const Matching& m, const CloudRegistrationOptions& options,
-                      double spacing, Hypothesis* h, std::vector<std::string>* notes) {
-  if (m.best_pairs.size() < 3) return false;
-  std::vector<Eigen::Vector3d> src, dst;
-  for (const auto& [i, j] : m.best_pairs) {
-    src.push_back(m.src_kp[i]);
-    dst.push_back(m.tgt_kp[j]);
+// Maximum clique of pairwise-consistent correspondences, then a least-squares fit; then the
+// maximum clique of the remaining correspondences, and so on (`count` cliques): a
+// pseudo-symmetric object has one consistent set per symmetric pose, and the largest is not
+// always the true one.
+void CliqueHypotheses(const Matching& m, const CloudRegistrationOptions& options,
+                      double spacing, int count, std::vector<Hypothesis>* out,
+                      std::vector<std::string>* notes) {
+  std::vector<std::pair<int, int>> pairs = m.best_pairs;
+  for (int k = 0; k < count && pairs.size() >= 3; ++k) {
+    std::vector<Eigen::Vector3d> src, dst;
+    for (const auto& [i, j] : pairs) {
+      src.push_back(m.src_kp[i]);
+      dst.push_back(m.tgt_kp[j]);
+    }
+    CliqueOptions clique_options;
+    clique_options.tolerance_m = options.consistency_spacing * spacing;
+    bool exact = true;
+    const std::vector<int> clique = MaxConsistentClique(src, dst, clique_options, &exact);
+    if (!exact) notes->push_back("max-clique " + m.descriptor + ": search budget reached");
+    if (clique.size() < (options.gravity_aligned ? 3u : 4u)) return;
+    std::vector<Eigen::Vector3d> cs, cd;
+    for (int i : clique) {
+      cs.push_back(src[i]);
+      cd.push_back(dst[i]);
+    }
+    Hypothesis h;
+    h.transform = EstimateRigid(cs, cd, options.gravity_aligned ? &options.up : nullptr);
+    h.origin = "max-clique " + m.descriptor + " #" + std::to_string(k) + " (" +
+               std::to_string(clique.size()) + " of " + std::to_string(src.size()) + ")";
+    h.descriptor = m.descriptor;
+    out->push_back(h);
+    std::vector<bool> used(pairs.size(), false);
+    for (int i : clique) used[static_cast<size_t>(i)] = true;
+    std::vector<std::pair<int, int>> rest;
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      if (!used[i]) rest.push_back(pairs[i]);
+    }
+    pairs.swap(rest);
   }
-  CliqueOptions clique_options;
-  clique_options.tolerance_m = options.consistency_spacing * spacing;
-  bool exact = true;
-  const std::vector<int> clique = MaxConsistentClique(src, dst, clique_options, &exact);
-  if (!exact) notes->push_back("max-clique " + m.descriptor + ": search budget reached");
-  if (clique.size() < (options.gravity_aligned ? 2u : 3u)) return false;
-  std::vector<Eigen::Vector3d> cs, cd;
-  for (int i : clique) {
-    cs.push_back(src[i]);
-    cd.push_back(dst[i]);
-  }
-  h->transform = EstimateRigid(cs, cd, options.gravity_aligned ? &options.up : nullptr);
-  h->origin = "max-clique " + m.descriptor + " (" + std::to_string(clique.size()) + " of " +
-              std::to_string(src.size()) + ")";
-  h->descriptor = m.descriptor;
-  return true;
 }
 
 // ---------------------------------------------------------------------------------------
@@ -577,6 +608,105 @@ void Verify(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen::Ve
   h->score = h->fitness * h->normal_agreement;
 }
 
+// The target around one hypothesis: the target points inside the box of the transformed
+// source (grown by `margin`), thinned to `budget`, with normals and a kd-tree. A large
+// reference (a whole LiDAR model against one object) is verified at its own resolution
+// where the source lies rather than thinned as a whole.
+struct TargetCrop {
+  Level level;
+  std::unique_ptr<PointIndex> index;
+};
+
+TargetCrop CropTarget(const io::PointCloud& target, bool use_normals,
+                      const std::vector<Eigen::Vector3d>& src, const Eigen::Matrix4d& t,
+                      double margin, size_t budget, double min_voxel) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (const Eigen::Vector3d& p : src) {
+    const Eigen::Vector3d q = Apply(t, p);
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  lo.array() -= margin;
+  hi.array() += margin;
+  io::PointCloud crop;
+  for (size_t i = 0; i < target.size(); ++i) {
+    const Eigen::Vector3d& p = target.points[i];
+    if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+    crop.points.push_back(p);
+    if (use_normals) crop.normals.push_back(target.normals[i]);
+  }
+  TargetCrop out;
+  const double voxel = crop.size() > budget ? VoxelForBudget(crop, min_voxel, budget) : min_voxel;
+  out.level = VoxelDownsample(crop.points, crop.normals, voxel);
+  out.level.spacing = MedianSpacing(out.level.points, 20000);
+  out.index = std::make_unique<PointIndex>(out.level.points);
+  return out;
+}
+
+// Point-to-plane residuals of `src` under `t` against a target with normals: NaN where the
+// nearest target point is farther than `reach` (no overlap there). `agree[i]`: the normals
+// agree within 30° (Kim & Hilton's pseudo-symmetric failures, Sec. 5).
+void FineResiduals(const std::vector<Eigen::Vector3d>& src,
+                   const std::vector<Eigen::Vector3d>& src_n, const TargetCrop& target,
+                   const Eigen::Matrix4d& t, double reach, std::vector<double>* residuals,
+                   std::vector<bool>* agree) {
+  residuals->assign(src.size(), std::nan(""));
+  agree->assign(src.size(), false);
+  const double cos30 = std::cos(30.0 * M_PI / 180.0);
+  const Eigen::Matrix3d r = t.topLeftCorner<3, 3>();
+  int index;
+  double sq;
+  for (size_t i = 0; i < src.size(); ++i) {
+    const Eigen::Vector3d q = Apply(t, src[i]);
+    if (!target.index->Nearest(q, &index, &sq) || sq > reach * reach) continue;
+    const Eigen::Vector3d& n = target.level.normals[index];
+    if (!n.allFinite()) continue;
+    (*residuals)[i] = (q - target.level.points[index]).dot(n);
+    (*agree)[i] = src_n.empty() || !src_n[i].allFinite() || std::abs((r * src_n[i]).dot(n)) > cos30;
+  }
+}
+
+// Robust scale of the residuals: 1.4826 × median |r| (MAD about 0), NaN-free; +inf if none.
+double RobustScale(const std::vector<double>& residuals) {
+  std::vector<double> a;
+  a.reserve(residuals.size());
+  for (double r : residuals) {
+    if (std::isfinite(r)) a.push_back(std::abs(r));
+  }
+  if (a.size() < 10) return std::numeric_limits<double>::infinity();
+  std::nth_element(a.begin(), a.begin() + a.size() / 2, a.end());
+  return 1.4826 * a[a.size() / 2];
+}
+
+// Fine verification: inliers |r| < τ; score = Σ(1 − r²/τ²) over inliers with agreeing
+// normals, divided by all source points (a truncated quadratic, Black & Rangarajan 1996),
+// so a hypothesis a few σ off on part of the object loses against the one that fits it.
+void ScoreFine(const std::vector<double>& residuals, const std::vector<bool>& agree, double tau,
+               Hypothesis* h) {
+  size_t inliers = 0, agreeing = 0, near = 0;
+  double sum_sq = 0.0, score = 0.0;
+  for (size_t i = 0; i < residuals.size(); ++i) {
+    const double r = residuals[i];
+    if (!std::isfinite(r)) continue;
+    ++near;
+    if (std::abs(r) >= tau) continue;
+    ++inliers;
+    sum_sq += r * r;
+    if (agree[i]) {
+      ++agreeing;
+      score += 1.0 - (r * r) / (tau * tau);
+    }
+  }
+  const double n = static_cast<double>(std::max<size_t>(1, residuals.size()));
+  h->inliers = inliers;
+  h->fitness = static_cast<double>(inliers) / n;
+  h->rmse = inliers > 0 ? std::sqrt(sum_sq / inliers) : 0.0;
+  h->normal_agreement = inliers > 0 ? static_cast<double>(agreeing) / inliers : 0.0;
+  h->score = score / n;
+  h->conflict = near > 0 ? 1.0 - static_cast<double>(agreeing) / near : 1.0;
+}
+
 std::vector<size_t> StrideSample(size_t n, size_t max_count) {
   std::vector<size_t> out;
   const double step = n > max_count ? static_cast<double>(n) / max_count : 1.0;
@@ -636,24 +766,29 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   }
 
   // --- Levels: a common coarse voxel for the features (clouds of different density are
-  // matched at the density of the sparser one), a finer one for ICP.
+  // matched at the density of the sparser one; the larger cloud may keep
+  // larger_cloud_factor × as many points), a finer one for ICP (the target is cropped to each
+  // hypothesis there).
   const double s_src = EstimatePointSpacing(source), s_tgt = EstimatePointSpacing(target);
   if (s_src <= 0 || s_tgt <= 0) return fail("all points of a cloud coincide (spacing 0)");
+  const bool source_larger = source.size() > target.size();
+  const size_t small_budget = static_cast<size_t>(options.max_points_features);
+  const size_t large_budget =
+      static_cast<size_t>(options.larger_cloud_factor * options.max_points_features);
   double coarse_voxel = std::max(s_src, s_tgt);
-  coarse_voxel = std::max(coarse_voxel, VoxelForBudget(source, coarse_voxel, options.max_points_features));
-  coarse_voxel = std::max(coarse_voxel, VoxelForBudget(target, coarse_voxel, options.max_points_features));
+  coarse_voxel = std::max(coarse_voxel, VoxelForBudget(source, coarse_voxel,
+                                                       source_larger ? large_budget : small_budget));
+  coarse_voxel = std::max(coarse_voxel, VoxelForBudget(target, coarse_voxel,
+                                                       source_larger ? small_budget : large_budget));
   const bool src_normals = options.use_existing_normals && source.has_normals();
   const bool tgt_normals = options.use_existing_normals && target.has_normals();
   Level src_coarse = VoxelDownsample(source.points, src_normals ? source.normals : std::vector<Eigen::Vector3d>{}, coarse_voxel);
   Level tgt_coarse = VoxelDownsample(target.points, tgt_normals ? target.normals : std::vector<Eigen::Vector3d>{}, coarse_voxel);
   const double fine_voxel_src = VoxelForBudget(source, 0.0, options.max_points_icp);
-  const double fine_voxel_tgt = VoxelForBudget(target, 0.0, options.max_points_icp);
   Level src_fine = VoxelDownsample(source.points, src_normals ? source.normals : std::vector<Eigen::Vector3d>{}, fine_voxel_src);
-  Level tgt_fine = VoxelDownsample(target.points, tgt_normals ? target.normals : std::vector<Eigen::Vector3d>{}, fine_voxel_tgt);
+  const double src_fine_spacing = MedianSpacing(src_fine.points, 20000);
   const double spacing = std::max(MedianSpacing(src_coarse.points, 20000),
                                   MedianSpacing(tgt_coarse.points, 20000));
-  const double fine_spacing = std::max(MedianSpacing(src_fine.points, 20000),
-                                       MedianSpacing(tgt_fine.points, 20000));
   result.point_spacing_m = spacing;
   const double normal_radius = options.normal_radius_m > 0 ? options.normal_radius_m
                                                            : options.normal_radius_spacing * spacing;
@@ -662,10 +797,10 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
                                     : options.support_radius_spacing * spacing;
   result.normal_radius_m = normal_radius;
   result.support_radius_m = support_radius;
-  spdlog::debug("registration: spacing {:.4g} m (fine {:.4g}), R_n {:.4g} m, R_s {:.4g} m, "
-                "coarse {} / {} points, fine {} / {}",
-                spacing, fine_spacing, normal_radius, support_radius, src_coarse.points.size(),
-                tgt_coarse.points.size(), src_fine.points.size(), tgt_fine.points.size());
+  spdlog::debug("registration: spacing {:.4g} m (fine source {:.4g}), R_n {:.4g} m, R_s {:.4g} m, "
+                "coarse {} / {} points, fine source {}",
+                spacing, src_fine_spacing, normal_radius, support_radius, src_coarse.points.size(),
+                tgt_coarse.points.size(), src_fine.points.size());
   end_stage("downsample");
 
   // --- Normals within R_n (oriented towards each cloud's origin, the scanner of a scan).
@@ -684,21 +819,27 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
       return fail(s.str());
     }
   }
-  for (Level* level : {&src_fine, &tgt_fine}) {
-    if (level->normals.empty()) {
-      level->normals = internal::EstimateNormals(
-          level->points, std::max(options.normal_radius_spacing * fine_spacing,
-                                  std::min(normal_radius, 4.0 * fine_spacing)),
-          viewpoint);
-    }
+  if (src_fine.normals.empty()) {
+    src_fine.normals = internal::EstimateNormals(
+        src_fine.points, std::min(normal_radius, options.normal_radius_spacing * src_fine_spacing),
+        viewpoint);
   }
   end_stage("normals");
 
   // --- Keypoints.
+  // The larger cloud gets keypoints in proportion to its coarse size (at most
+  // larger_cloud_factor × max_keypoints), so the part the smaller one overlaps is not starved.
+  const double size_ratio = static_cast<double>(std::max(src_coarse.points.size(), tgt_coarse.points.size())) /
+                            static_cast<double>(std::max<size_t>(1, std::min(src_coarse.points.size(), tgt_coarse.points.size())));
+  const int max_kp_large = static_cast<int>(options.max_keypoints *
+                                            std::clamp(size_ratio, 1.0, options.larger_cloud_factor));
+  const bool src_is_large = src_coarse.points.size() > tgt_coarse.points.size();
   const std::vector<int> src_kp =
-      SelectKeypoints(src_coarse, normal_radius, options, "source", &result.notes);
+      SelectKeypoints(src_coarse, normal_radius, options,
+                      src_is_large ? max_kp_large : options.max_keypoints, "source", &result.notes);
   const std::vector<int> tgt_kp =
-      SelectKeypoints(tgt_coarse, normal_radius, options, "target", &result.notes);
+      SelectKeypoints(tgt_coarse, normal_radius, options,
+                      src_is_large ? options.max_keypoints : max_kp_large, "target", &result.notes);
   result.num_keypoints_source = src_kp.size();
   result.num_keypoints_target = tgt_kp.size();
   end_stage("keypoints");
@@ -764,8 +905,9 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   if (options.paper_only && hypotheses.size() > 1) hypotheses.resize(1);
   if (!options.paper_only && options.use_max_clique) {
     for (const Matching& m : matchings) {
-      Hypothesis h;
-      if (CliqueHypothesis(m, options, spacing, &h, &result.notes)) {
+      std::vector<Hypothesis> cliques;
+      CliqueHypotheses(m, options, spacing, options.num_cliques, &cliques, &result.notes);
+      for (Hypothesis& h : cliques) {
         h.cost = AlignmentCost(score_sample, tgt_coarse_index, h.transform, tau_coarse);
         hypotheses.push_back(h);
       }
@@ -796,42 +938,73 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   end_stage("icp+verify coarse");
 
   // --- Fine ICP and verification of the best distinct coarse hypotheses (coarse-to-fine:
-  // a loose coarse inlier distance cannot tell a shifted repetitive structure from the
-  // truth; the fine level can).
-  PointIndex tgt_fine_index(tgt_fine.points);
+  // a loose coarse inlier distance cannot tell a shifted repetitive structure or a
+  // pseudo-symmetric turn from the truth; the fine level can). The target is cropped to
+  // each hypothesis' footprint and kept at up to max_points_icp points there.
   const std::vector<size_t> fine_idx = StrideSample(src_fine.points.size(), 10000);
   const std::vector<Eigen::Vector3d> fine_src = Pick(src_fine.points, fine_idx);
   const std::vector<Eigen::Vector3d> fine_src_n = Pick(src_fine.normals, fine_idx);
-  const double fine_tau = options.inlier_distance_spacing * fine_spacing;
-  std::vector<Hypothesis> finalists;
+  struct Finalist {
+    Hypothesis h;
+    std::vector<double> residuals;
+    std::vector<bool> agree;
+    double sigma = 0.0, spacing = 0.0;
+  };
+  std::vector<Finalist> finalists;
+  const size_t max_finalists = options.paper_only ? 1 : 4;
   for (const Hypothesis& h : hypotheses) {
-    if (finalists.size() >= 3) break;
+    if (finalists.size() >= max_finalists) break;
     bool duplicate = false;
-    for (const Hypothesis& f : finalists) {
-      duplicate = duplicate || SameTransform(f.transform, h.transform, centre, 2.0, 2.0 * tau);
+    for (const Finalist& f : finalists) {
+      duplicate = duplicate || SameTransform(f.h.transform, h.transform, centre, 2.0, 2.0 * tau);
     }
     if (duplicate) continue;
-    Hypothesis f = h;
-    if (options.icp) {
-      f.transform = PointToPlaneIcp(fine_src, tgt_fine.points, tgt_fine.normals,
-                                    tgt_fine_index, f.transform,
-                                    options.icp_distance_spacing * spacing,
-                                    options.icp_distance_spacing * fine_spacing,
-                                    options.icp_iterations, nullptr);  // free: levelled ≠ exact
+    Finalist f;
+    f.h = h;
+    TargetCrop c = CropTarget(target, tgt_normals, fine_src, h.transform, support_radius,
+                                       static_cast<size_t>(options.max_points_icp),
+                                       0.5 * src_fine_spacing);
+    if (c.level.points.size() < 10) continue;  // the hypothesis puts the source off the target
+    f.spacing = std::max(src_fine_spacing, c.level.spacing);
+    if (c.level.normals.empty()) {
+      c.level.normals = internal::EstimateNormals(
+          c.level.points, std::min(normal_radius, options.normal_radius_spacing * c.level.spacing),
+          viewpoint);
     }
-    Verify(fine_src, fine_src_n, tgt_fine.normals, tgt_fine_index, f.transform, fine_tau, &f);
-    finalists.push_back(f);
-    if (options.paper_only) break;
+    if (options.icp) {
+      f.h.transform = PointToPlaneIcp(fine_src, c.level.points, c.level.normals, *c.index,
+                                      f.h.transform, options.icp_distance_spacing * spacing,
+                                      options.icp_distance_spacing * f.spacing,
+                                      options.icp_iterations, nullptr);  // free: levelled ≠ exact
+    }
+    const double reach = std::min(normal_radius, options.normal_radius_spacing * f.spacing);
+    FineResiduals(fine_src, fine_src_n, c, f.h.transform, reach, &f.residuals, &f.agree);
+    f.sigma = RobustScale(f.residuals);
+    finalists.push_back(std::move(f));
+  }
+  if (finalists.empty()) return fail("no hypothesis puts the source onto the target");
+  // One inlier threshold for all finalists: inlier_sigma × the smallest robust residual scale
+  // (the best-fitting hypothesis sees the clouds' noise; a wrong one sees its misfit too),
+  // at least a quarter of the fine spacing.
+  double fine_tau = std::numeric_limits<double>::infinity();
+  for (const Finalist& f : finalists) {
+    fine_tau = std::min(fine_tau, std::max(options.inlier_sigma * f.sigma, 0.25 * f.spacing));
+  }
+  if (!std::isfinite(fine_tau)) fine_tau = tau;
+  double fine_spacing = 0.0;
+  for (Finalist& f : finalists) {
+    ScoreFine(f.residuals, f.agree, fine_tau, &f.h);
+    fine_spacing = std::max(fine_spacing, f.spacing);
   }
   std::stable_sort(finalists.begin(), finalists.end(),
-                   [](const Hypothesis& a, const Hypothesis& b) { return a.score > b.score; });
+                   [](const Finalist& a, const Finalist& b) { return a.h.score > b.h.score; });
   // Finalists that converged to the same transform are one hypothesis.
   for (size_t i = 1; i < finalists.size();) {
     bool same = false;
     for (size_t j = 0; j < i; ++j) {
       // Noisy clouds leave ICP in slightly different spots of one basin.
-      same = same || SameTransform(finalists[i].transform, finalists[j].transform, centre, 10.0,
-                                   10.0 * fine_tau);
+      same = same || SameTransform(finalists[i].h.transform, finalists[j].h.transform, centre,
+                                   10.0, std::max(10.0 * fine_tau, 2.0 * fine_spacing));
     }
     if (same) {
       finalists.erase(finalists.begin() + static_cast<long>(i));
@@ -839,7 +1012,8 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
       ++i;
     }
   }
-  Hypothesis best = finalists.front();
+  spdlog::debug("registration: fine τ {:.4g} m, {} distinct finalists", fine_tau, finalists.size());
+  Hypothesis best = finalists.front().h;
   const Hypothesis fine_check = best;
   end_stage("icp+verify fine");
 
@@ -851,9 +1025,12 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   result.normal_agreement = fine_check.normal_agreement;
   result.num_inliers = static_cast<size_t>(
       std::llround(fine_check.fitness * static_cast<double>(src_fine.points.size())));
+  result.fine_inlier_distance_m = fine_tau;
+  result.conflict = fine_check.conflict;
   double runner_up = 0.0;
   const RegistrationHypothesis* runner = nullptr;
-  for (const Hypothesis& h : finalists) {
+  for (const Finalist& f : finalists) {
+    const Hypothesis& h = f.h;
     RegistrationHypothesis r;
     r.origin = h.origin + " (fine)";
     r.target_from_source = h.transform;
@@ -861,6 +1038,7 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     r.inlier_rmse = h.rmse;
     r.normal_agreement = h.normal_agreement;
     r.score = h.score;
+    r.conflict = h.conflict;
     result.hypotheses.push_back(r);
   }
   for (const Hypothesis& h : hypotheses) {
@@ -874,7 +1052,7 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     result.hypotheses.push_back(r);
   }
   if (finalists.size() > 1) {
-    runner_up = finalists[1].score;
+    runner_up = finalists[1].h.score;
     runner = &result.hypotheses[1];
   }
   const double best_score = best.score;
@@ -891,6 +1069,13 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     why << "normals disagree: only " << 100 * fine_check.normal_agreement
         << "% of the inliers have matching normals (need "
         << 100 * options.min_normal_agreement << "%)";
+    return fail(why.str());
+  }
+  if (!options.paper_only && fine_check.conflict > options.max_conflict) {
+    why << "surfaces cross: " << 100 * fine_check.conflict
+        << "% of the source points near a target surface lie off it (> " << fine_tau
+        << " m) or with a different normal (allowed " << 100 * options.max_conflict
+        << "%): no hypothesis explains the overlap";
     return fail(why.str());
   }
   if (!options.paper_only && runner != nullptr && runner_up > options.max_ambiguity * best_score) {

@@ -47,15 +47,26 @@ struct CloudRegistrationOptions {
   double keypoint_grid_spacing = 0.5;  ///< keypoint grid cell in units of R_n (> 0): one per cell
   int min_keypoints = 150;  ///< below this F_t is lowered, then uniform grid points are used (>= 3)
   int max_keypoints = 600;  ///< above this the keypoint grid is coarsened (>= min_keypoints)
-  int max_points_features = 40000;  ///< coarse level: voxel size grows until a cloud fits (>= 1000)
-  int max_points_icp = 200000;      ///< fine level for ICP (>= 1000)
+  int max_points_features = 40000;  ///< coarse level: voxel size grows until the smaller
+                                    ///< cloud fits (>= 1000)
+  /// The larger cloud (e.g. a whole LiDAR model against one object) may keep up to this
+  /// many times as many coarse points and keypoints, so both are matched at one resolution
+  /// (>= 1).
+  double larger_cloud_factor = 4.0;
+  int max_points_icp = 200000;      ///< fine level for ICP (>= 1000); the target is cropped
+                                    ///< to each hypothesis' footprint before it is thinned
   bool use_existing_normals = true;  ///< use normals stored in the clouds when present
 
   // Hypotheses.
-  int sac_ia_iterations = 2000;     ///< SAC-IA iterations (Rusu et al. 2009) (>= 1)
+  int sac_ia_iterations = 2000;     ///< SAC-IA samples scored (Rusu et al. 2009) (>= 1)
+  /// SAC-IA draws at most this many samples per scored one (most fail the edge-length
+  /// pre-check when few matches are right) (>= 1).
+  int sac_ia_draws_per_iteration = 50;
   int sac_ia_randomness = 3;        ///< SAC-IA: pick among this many nearest features (>= 1)
   int num_hypotheses = 8;           ///< hypotheses kept for ICP and verification (>= 1)
-  bool use_max_clique = true;       ///< add the maximum-consistent-clique hypothesis
+  bool use_max_clique = true;       ///< add the maximum-consistent-clique hypotheses
+  int num_cliques = 3;              ///< cliques per descriptor: the largest, then the largest
+                                    ///< of the remaining correspondences, … (>= 1)
   bool paper_only = false;          ///< SAC-IA best + ICP only, no verification (the paper);
                                     ///< status is then "unverified", never "ok"
   double consistency_spacing = 3.0;  ///< clique: pairwise-length tolerance in spacings (> 0)
@@ -74,9 +85,17 @@ struct CloudRegistrationOptions {
 
   // Verification and the verdict.
   double inlier_distance_spacing = 2.0;  ///< inlier: distance to target < this × s (> 0)
+  /// Fine verification: inlier when the point-to-plane residual is below this × σ̂, σ̂ the
+  /// robust (MAD) residual scale of the best hypothesis, but at least the coarse-free floor
+  /// 0.5 × fine spacing (> 0).
+  double inlier_sigma = 3.0;
   double min_fitness = 0.2;       ///< fraction of source points that must be inliers (0..1]
   double min_normal_agreement = 0.5;  ///< fraction of inliers with |n_s·n_t| > cos 30° (0..1]
   double max_ambiguity = 0.8;     ///< runner-up/best score above this = ambiguous = failed
+  /// Fine level: of the source points that have a target surface within reach (≈ R_n), the
+  /// fraction that lies off it (> τ) or with a normal more than 30° off; above this the
+  /// surfaces cross instead of coinciding = failed (0..1].
+  double max_conflict = 0.4;
   uint64_t seed = 42;             ///< random seed (results are deterministic)
 
   /// False with a message naming the field, the value and the constraint when invalid.
@@ -96,7 +115,9 @@ struct RegistrationHypothesis {
   double fitness = 0.0;        ///< inlier fraction of the source
   double inlier_rmse = 0.0;    ///< metres
   double normal_agreement = 0.0;
-  double score = 0.0;          ///< fitness × normal_agreement
+  double conflict = 0.0;       ///< fine only: see CloudRegistrationOptions::max_conflict
+  double score = 0.0;          ///< coarse: fitness × normal_agreement; fine: Σ(1 − r²/τ²) over
+                               ///< the inliers with agreeing normals / source points
 };
 
 /// Result of RegisterClouds.
@@ -108,11 +129,13 @@ struct CloudRegistrationResult {
   double fitness = 0.0;           ///< inlier ratio of the (fine) source
   double inlier_rmse = 0.0;       ///< metres
   double normal_agreement = 0.0;
+  double conflict = 0.0;          ///< see CloudRegistrationOptions::max_conflict
   double confidence = 0.0;        ///< 0..1: 1 − runner-up score / best score, times fitness checks
   size_t num_keypoints_source = 0, num_keypoints_target = 0;
   size_t num_correspondences = 0;  ///< descriptor matches
   size_t num_inliers = 0;          ///< fine source points within the inlier distance
   double point_spacing_m = 0.0;    ///< s
+  double fine_inlier_distance_m = 0.0;  ///< τ of the fine verification (inlier residual)
   double normal_radius_m = 0.0, support_radius_m = 0.0;
   std::vector<StageTime> runtime;  ///< seconds per stage, in order
   std::vector<RegistrationHypothesis> hypotheses;  ///< best first
