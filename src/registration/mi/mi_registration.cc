@@ -386,7 +386,8 @@ double FrameSetEvaluator::MedianPixelDistance(const std::vector<VisiblePoint>& s
   for (const VisiblePoint& point : sample) {
     Eigen::Vector2d pa, pb;
     if (!Project(point, a, &pa) || !Project(point, b, &pb)) continue;
-    distances.push_back(PixelDifference(pyramid_[0][point.frame][point.view], pa, pb).norm());
+    const View& view = pyramid_[0][point.frame][point.view];
+    distances.push_back(view.image_pixels_per_pixel * PixelDifference(view, pa, pb).norm());
   }
   return Median(distances);
 }
@@ -818,7 +819,11 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
               (2 * h[k]);
         }
       }
-      if (ok) sigmas.push_back(std::sqrt((jacobian * result.covariance * jacobian.transpose()).trace()));
+      // In the pixels of the frame's image (a perspective cut may be finer than its panorama).
+      if (ok) {
+        sigmas.push_back(evaluator.frames()[point.frame].views[point.view].image_pixels_per_pixel *
+                         std::sqrt((jacobian * result.covariance * jacobian.transpose()).trace()));
+      }
     }
     checks.sigma_px = Median(sigmas);
     if (!(checks.sigma_px <= options.max_sigma_px)) {

@@ -42,6 +42,11 @@ struct View {
   Eigen::Matrix3d view_from_cam = Eigen::Matrix3d::Identity();
   GrayImage image;
   std::string name;
+  /// Pixels of the frame's image spanned by one pixel of this view (at the view's centre):
+  /// 1 for the image itself, f_image / f_view for a perspective cut or cube face (< 1 when
+  /// the cut upsamples the panorama), doubled per pyramid level. Acceptance tolerances
+  /// (restart spread, predicted σ) are in the image's own pixels, not the cut's.
+  double image_pixels_per_pixel = 1.0;
 };
 
 /// How the views of a frame are cut from its image (item 1 of issue 6).

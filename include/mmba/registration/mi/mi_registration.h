@@ -71,13 +71,15 @@ struct RegistrationOptions {
   int covariance_level = 0;
   /// Acceptance: status "ok" needs every check below to pass (see AcceptanceChecks).
   /// Predicted 1-σ displacement of the visible LiDAR points in the image, px: median over
-  /// the points of sqrt(trace(J Σ Jᵀ)), J = ∂pixel/∂correction, Σ = the covariance.
+  /// the points of sqrt(trace(J Σ Jᵀ)), J = ∂pixel/∂correction, Σ = the covariance. Pixels
+  /// of the frame's image (View::image_pixels_per_pixel: a 940×452 cut of a 1024-wide
+  /// panorama has 2.9 cut pixels per panorama pixel).
   double max_sigma_px = 0.5;
   /// Restarts: Nelder–Mead at `restart_level` (simplex 2·offset, the main run's finest
   /// tolerance) from this many points around the optimum (offset ±restart_offset in each
   /// parameter, deterministic signs, in opposite pairs); each must end within
-  /// restart_tolerance_px (median full-resolution pixel distance of the visible points) of
-  /// the optimum. Level 1 costs a quarter of level 0.
+  /// restart_tolerance_px (median pixel distance of the visible points, in pixels of the
+  /// frame's image as for max_sigma_px) of the optimum. Level 1 costs a quarter of level 0.
   int restarts = 3;
   int restart_level = 1;
   double restart_offset_m = 0.05;
@@ -178,7 +180,8 @@ class FrameSetEvaluator {
   /// Full-resolution pixel of a visible point under a pose; false when it does not project.
   bool Project(const VisiblePoint& point, const Rigid3d& cam_from_lidar,
                Eigen::Vector2d* pixel) const;
-  /// Median pixel distance of the sample between two poses (seam-aware for panoramas).
+  /// Median pixel distance of the sample between two poses (seam-aware for panoramas), in
+  /// pixels of the frame's image (View::image_pixels_per_pixel).
   double MedianPixelDistance(const std::vector<VisiblePoint>& sample, const Rigid3d& a,
                              const Rigid3d& b) const;
   /// Fraction of view pixels covered by LiDAR at a pose (full resolution).

@@ -1,0 +1,432 @@
+// MI registration on simulated panoramas and rig images (issue 6, "what it must show"): a
+// folder written by `mmba simulate` gives the spherical panoramas (`spherical_stereo`
+// stations, lower and upper), the rig's stitched panoramas (`rig_panoramas`) and the rig's
+// fisheye images (`rig`), their true poses and camera models (truth/truth.json), and the
+// static LiDAR model (`clouds/lidar.ply`, world frame) and the mobile LiDAR
+// (`truth/mobile_lidar_true.ply`: the mobile scan at its true positions, world frame;
+// `clouds/mobile_lidar.ply` carries the GNSS/INS drift, so no rigid true pose exists for it).
+// Each view starts from its true pose perturbed by a random error (each of tx, ty, tz uniform
+// in ±A m, each of roll, pitch, yaw uniform in ±B°) for (A, B) = (0.1, 1) and (0.3, 2), is
+// registered with the default options, and is scored by the median pixel offset of the
+// true correspondences: the LiDAR points projected with the estimate against the truth,
+// (a) in the image's own pixels (every point within range that projects into the image) and
+// (b) in the pixels of the views that were registered (the paper's 940×452 perspective cuts).
+//
+//   mi_panoramas SIM_DIR OUT_DIR [CLOUD=mobile|static] [KINDS=spheres,rig_panoramas]
+//                [DRAWS=2] [VIEW=perspective] [SEED=1] [MAGNITUDES=both|small|large]
+//
+// KINDS: comma list of spheres, rig_panoramas, rig (the fisheye images). VIEW (panoramas only;
+// fisheye images are registered whole): perspective | equirect | cube.
+// Writes OUT_DIR/runs.csv (one row per registration), OUT_DIR/hist_views.csv and
+// hist_views.svg (per-view median offset before/after), OUT_DIR/hist_points.csv and
+// hist_points.svg (offsets of all points, pooled), and prints a summary.
+// MMBA_DEBUG=1 logs each stage.
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "mmba/core/logging.h"
+#include "mmba/core/progress.h"
+#include "mmba/io/point_cloud.h"
+#include "mmba/registration/mi/mi_registration.h"
+
+using namespace mmba;
+using namespace mmba::registration::mi;
+namespace fs = std::filesystem;
+
+namespace {
+
+double PeakRssMiB() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_maxrss / 1024.0;
+}
+
+double CpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_utime.tv_sec + 1e-6 * usage.ru_utime.tv_usec + usage.ru_stime.tv_sec +
+         1e-6 * usage.ru_stime.tv_usec;
+}
+
+sensors::Camera CameraFromJson(const nlohmann::json& j) {
+  sensors::Camera camera;
+  camera.model_id = sensors::CameraModelFromName(j.at("model").get<std::string>());
+  camera.width = j.at("width").get<int>();
+  camera.height = j.at("height").get<int>();
+  camera.params = j.at("params").get<std::vector<double>>();
+  return camera;
+}
+
+Rigid3d PoseFromJson(const nlohmann::json& j) {
+  Eigen::Matrix<double, 3, 4> m;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 4; ++c) m(r, c) = j.at("matrix").at(r).at(c).get<double>();
+  }
+  return Rigid3d::FromMatrix(m);
+}
+
+struct TrueView {
+  std::string kind;  // spheres | rig_panoramas | rig
+  std::string name;
+  std::string image_path;
+  sensors::Camera camera;
+  Rigid3d cam_from_world;
+};
+
+std::vector<TrueView> ReadViews(const fs::path& dir, const std::vector<std::string>& kinds) {
+  std::ifstream in(dir / "truth" / "truth.json");
+  if (!in) throw std::runtime_error("cannot read " + (dir / "truth" / "truth.json").string());
+  const nlohmann::json truth = nlohmann::json::parse(in);
+  std::vector<TrueView> views;
+  auto wanted = [&](const std::string& k) {
+    return std::find(kinds.begin(), kinds.end(), k) != kinds.end();
+  };
+  if (wanted("spheres")) {
+    const nlohmann::json& s = truth.at("spherical_stereo");
+    const sensors::Camera lower = CameraFromJson(s.at("lower_camera"));
+    const sensors::Camera upper = CameraFromJson(s.at("upper_camera"));
+    for (const nlohmann::json& station : s.at("stations")) {
+      const std::string name = station.at("name").get<std::string>();
+      const auto images = station.at("images").get<std::vector<std::string>>();
+      views.push_back({"spheres", name + "_lower", (dir / images.at(0)).string(), lower,
+                       PoseFromJson(station.at("lower_from_world"))});
+      views.push_back({"spheres", name + "_upper", (dir / images.at(1)).string(), upper,
+                       PoseFromJson(station.at("upper_from_world"))});
+    }
+  }
+  const nlohmann::json& rig = truth.at("rig");
+  if (wanted("rig_panoramas")) {
+    // The stitched panorama is in the rig frame (stitched at stitch_distance_m, so points
+    // nearer or farther than that carry a parallax of up to the cameras' 6–7 cm offset).
+    const sensors::Camera pano = CameraFromJson(rig.at("panorama_camera"));
+    for (const nlohmann::json& frame : rig.at("frames")) {
+      const std::string name = frame.at("name").get<std::string>();
+      views.push_back({"rig_panoramas", name, (dir / "images" / "rig_panoramas" /
+                                                (name + ".png")).string(),
+                       pano, PoseFromJson(frame.at("rig_from_world"))});
+    }
+  }
+  if (wanted("rig")) {
+    const nlohmann::json& cameras = rig.at("cameras");
+    for (const nlohmann::json& frame : rig.at("frames")) {
+      const std::string name = frame.at("name").get<std::string>();
+      const Rigid3d rig_from_world = PoseFromJson(frame.at("rig_from_world"));
+      for (size_t k = 0; k < cameras.size(); ++k) {
+        const std::string cam = name + "_cam" + std::to_string(k);
+        views.push_back({"rig", cam, (dir / "images" / "rig" / (cam + ".png")).string(),
+                         CameraFromJson(cameras[k].at("camera")),
+                         PoseFromJson(cameras[k].at("cam_from_rig")) * rig_from_world});
+      }
+    }
+  }
+  return views;
+}
+
+std::vector<std::string> Split(const std::string& text) {
+  std::vector<std::string> items;
+  std::stringstream list(text);
+  for (std::string item; std::getline(list, item, ',');) items.push_back(item);
+  return items;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return NAN;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+// Offsets in the registered views (pooled over the views of the frame).
+std::vector<double> ViewOffsets(const LidarPoints& points, const std::vector<View>& views,
+                                const Rigid3d& truth, const Rigid3d& estimate,
+                                const RenderOptions& render) {
+  std::vector<double> all;
+  for (const View& view : views) {
+    const PixelOffsetStats s = PixelOffsets(points, view, truth, estimate, render);
+    all.insert(all.end(), s.offsets_px.begin(), s.offsets_px.end());
+  }
+  return all;
+}
+
+// Histogram with the paper's presentation: counts per bin of width `width` px up to `max`,
+// the last bin holding everything beyond.
+std::vector<double> Histogram(const std::vector<double>& values, double width, int bins,
+                              bool normalise) {
+  std::vector<double> counts(bins, 0.0);
+  for (double v : values) {
+    if (!std::isfinite(v)) continue;
+    counts[std::min(bins - 1, static_cast<int>(v / width))] += 1;
+  }
+  if (normalise && !values.empty()) {
+    for (double& c : counts) c /= values.size();
+  }
+  return counts;
+}
+
+void WriteHistogram(const fs::path& csv, const fs::path& svg, const std::string& title,
+                    const std::string& unit, const std::vector<double>& before,
+                    const std::vector<double>& after, double width, int bins, bool normalise) {
+  const std::vector<double> hb = Histogram(before, width, bins, normalise);
+  const std::vector<double> ha = Histogram(after, width, bins, normalise);
+  {
+    std::ofstream out(csv);
+    out << "bin_from_px,bin_to_px," << unit << "_before," << unit << "_after\n";
+    for (int b = 0; b < bins; ++b) {
+      out << b * width << "," << (b + 1 == bins ? INFINITY : (b + 1) * width) << "," << hb[b]
+          << "," << ha[b] << "\n";
+    }
+  }
+  const double top = std::max(*std::max_element(hb.begin(), hb.end()),
+                              *std::max_element(ha.begin(), ha.end()));
+  constexpr double kW = 720, kH = 360, kLeft = 60, kBottom = 50, kTop = 40, kRight = 20;
+  const double plot_w = kW - kLeft - kRight, plot_h = kH - kTop - kBottom;
+  const double bar = plot_w / bins;
+  std::ofstream out(svg);
+  out << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << kW << "\" height=\"" << kH
+      << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
+      << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
+      << "<text x=\"" << kLeft << "\" y=\"20\" font-size=\"14\">" << title << "</text>\n";
+  for (int b = 0; b < bins; ++b) {
+    const double x = kLeft + b * bar;
+    const double h1 = top > 0 ? hb[b] / top * plot_h : 0;
+    const double h2 = top > 0 ? ha[b] / top * plot_h : 0;
+    out << "<rect x=\"" << x + 1 << "\" y=\"" << kTop + plot_h - h1 << "\" width=\""
+        << bar / 2 - 1 << "\" height=\"" << h1 << "\" fill=\"#d62728\"/>\n";
+    out << "<rect x=\"" << x + bar / 2 << "\" y=\"" << kTop + plot_h - h2 << "\" width=\""
+        << bar / 2 - 1 << "\" height=\"" << h2 << "\" fill=\"#1f77b4\"/>\n";
+    if (b % std::max(1, bins / 10) == 0) {
+      out << "<text x=\"" << x << "\" y=\"" << kTop + plot_h + 15 << "\">" << b * width
+          << "</text>\n";
+    }
+  }
+  out << "<line x1=\"" << kLeft << "\" y1=\"" << kTop + plot_h << "\" x2=\"" << kLeft + plot_w
+      << "\" y2=\"" << kTop + plot_h << "\" stroke=\"black\"/>\n"
+      << "<line x1=\"" << kLeft << "\" y1=\"" << kTop << "\" x2=\"" << kLeft << "\" y2=\""
+      << kTop + plot_h << "\" stroke=\"black\"/>\n"
+      << "<text x=\"" << kLeft - 55 << "\" y=\"" << kTop + 10 << "\">" << top << "</text>\n"
+      << "<text x=\"" << kLeft + plot_w / 2 - 120 << "\" y=\"" << kH - 12
+      << "\">pixel offset (px; last bin: ≥ " << (bins - 1) * width << ")</text>\n"
+      << "<rect x=\"" << kW - 200 << "\" y=\"30\" width=\"12\" height=\"12\" fill=\"#d62728\"/>"
+      << "<text x=\"" << kW - 182 << "\" y=\"41\">before (start)</text>\n"
+      << "<rect x=\"" << kW - 200 << "\" y=\"48\" width=\"12\" height=\"12\" fill=\"#1f77b4\"/>"
+      << "<text x=\"" << kW - 182 << "\" y=\"59\">after (registered)</text>\n</svg>\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 3) {
+    std::fprintf(stderr,
+                 "usage: mi_panoramas SIM_DIR OUT_DIR [CLOUD=mobile|static] "
+                 "[KINDS=spheres,rig_panoramas] [DRAWS=2] [VIEW=perspective] [SEED=1] "
+                 "[MAGNITUDES=both|small|large]\n");
+    return 2;
+  }
+  const fs::path dir = argv[1];
+  const fs::path out_dir = argv[2];
+  const std::string cloud_kind = argc > 3 ? argv[3] : "mobile";
+  const std::vector<std::string> kinds = Split(argc > 4 ? argv[4] : "spheres,rig_panoramas");
+  const int draws = argc > 5 ? std::atoi(argv[5]) : 2;
+  ViewOptions view_options;
+  if (argc > 6 && !ParseViewKind(argv[6], &view_options.kind)) return 2;
+  if (argc <= 6) view_options.kind = ViewKind::kPerspective;
+  const int seed = argc > 7 ? std::atoi(argv[7]) : 1;
+  const std::string magnitudes = argc > 8 ? argv[8] : "both";
+  if (std::getenv("MMBA_DEBUG") != nullptr) SetVerbosity(Verbosity::kVerbose);
+  else SetVerbosity(Verbosity::kQuiet);
+  fs::create_directories(out_dir);
+
+  const std::string cloud_path = cloud_kind == "static"
+                                     ? (dir / "clouds" / "lidar.ply").string()
+                                     : (dir / "truth" / "mobile_lidar_true.ply").string();
+  Timer setup;
+  LidarPoints points = PrepareLidarPoints(io::ReadPointCloud(cloud_path));
+  const std::vector<TrueView> views = ReadViews(dir, kinds);
+  std::printf("%s: %zu points, %zu views, setup %.1f s\n", cloud_path.c_str(), points.size(),
+              views.size(), setup.ElapsedSeconds());
+
+  std::vector<std::pair<double, double>> sizes;
+  if (magnitudes != "large") sizes.emplace_back(0.1, 1.0);
+  if (magnitudes != "small") sizes.emplace_back(0.3, 2.0);
+
+  RegistrationOptions options;
+  if (const char* v = std::getenv("MI_RESTART_LEVEL")) options.restart_level = std::atoi(v);
+  std::ofstream runs(out_dir / "runs.csv");
+  runs << "view,kind,max_m,max_deg,tx,ty,tz,roll,pitch,yaw,status,"
+          "image_px_before,image_px_after,view_px_before,view_px_after,sigma_px,"
+          "restart_spread_px,err_tx,err_ty,err_tz,err_roll,err_pitch,err_yaw,"
+          "sd_tx,sd_ty,sd_tz,sd_roll,sd_pitch,sd_yaw,mahalanobis2,evaluations,seconds,"
+          "cpu_seconds,reason\n";
+  struct Row {
+    std::string size;
+    bool ok;
+    double image_before, image_after, view_before, view_after, sigma, seconds;
+  };
+  std::vector<Row> rows;
+  std::map<std::string, std::vector<double>> pooled_before, pooled_after;
+  std::mt19937 rng(seed);
+  for (size_t v = 0; v < views.size(); ++v) {
+    const TrueView& tv = views[v];
+    Frame frame;
+    frame.name = tv.name;
+    ViewOptions vo = view_options;
+    if (!tv.camera.IsSpherical()) vo.kind = ViewKind::kImage;
+    const GrayImage image = ReadGrayImage(tv.image_path);
+    frame.views = MakeViews(image, tv.camera, vo, tv.image_path);
+    frame.points = &points;
+    View whole;
+    whole.camera = tv.camera;
+    whole.image = image;
+    if (const char* dump = std::getenv("MI_DUMP_DIR")) {
+      // Inspection: each registered view's photo and its LiDAR image at the true pose.
+      fs::create_directories(dump);
+      LidarImage lidar;
+      for (const View& view : frame.views) {
+        const std::string base = std::string(dump) + "/" + tv.name + "_" + view.name;
+        WriteGrayPng(view.image, base + "_photo.png");
+        RenderLidarImage(points, view, tv.cam_from_world, options.render, &lidar);
+        WriteGrayPng(LidarImageToGray(lidar), base + "_lidar.png");
+      }
+    }
+    if (std::getenv("MI_PROBE") != nullptr) {
+      // Inspection: where does the metric peak along each axis around the truth?
+      RegistrationOptions probe_options = options;
+      probe_options.bound_translation_m = 1.0;
+      probe_options.bound_rotation_deg = 2.0;
+      const FrameSetEvaluator evaluator({frame}, tv.cam_from_world, probe_options);
+      for (int level = 0; level < 2; ++level) {
+        const std::vector<ProbeSample> probe =
+            Probe(evaluator, tv.cam_from_world, 1.0, 0.05, level);
+        std::printf("%s probe level %d, argmax per axis (m / deg):", tv.name.c_str(), level);
+        for (int axis = 0; axis < 6; ++axis) {
+          const ProbeSample* best = nullptr;
+          for (const ProbeSample& s : probe) {
+            if (s.axis == axis && (best == nullptr || s.metric.value > best->metric.value)) {
+              best = &s;
+            }
+          }
+          std::printf(" %s %+.2f", ParameterName(axis), best->offset);
+        }
+        std::printf("\n");
+      }
+    }
+    for (const auto& [max_m, max_deg] : sizes) {
+      for (int d = 0; d < draws; ++d) {
+        std::uniform_real_distribution<double> um(-max_m, max_m), ud(-max_deg, max_deg);
+        Vector6d p;
+        p << um(rng), um(rng), um(rng), ud(rng), ud(rng), ud(rng);
+        const Rigid3d start = ApplyCorrection(tv.cam_from_world, p);
+        Timer timer;
+        const double cpu0 = CpuSeconds();
+        const RegistrationResult r = RegisterFrames({frame}, start, options);
+        const double seconds = timer.ElapsedSeconds();
+        const double cpu = CpuSeconds() - cpu0;
+        const PixelOffsetStats ib =
+            PixelOffsets(points, whole, tv.cam_from_world, start, options.render);
+        const PixelOffsetStats ia =
+            PixelOffsets(points, whole, tv.cam_from_world, r.cam_from_lidar, options.render);
+        const std::vector<double> vb =
+            ViewOffsets(points, frame.views, tv.cam_from_world, start, options.render);
+        const std::vector<double> va =
+            ViewOffsets(points, frame.views, tv.cam_from_world, r.cam_from_lidar, options.render);
+        // Error of the estimated correction (estimate − truth, both from the start).
+        const Vector6d truth_correction = CorrectionBetween(start, tv.cam_from_world);
+        const Vector6d error = r.correction - truth_correction;
+        Vector6d sd = Vector6d::Constant(NAN);
+        double mahalanobis2 = NAN;
+        if (r.covariance_valid) {
+          sd = r.covariance.diagonal().cwiseSqrt();
+          Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(r.covariance);
+          if (ldlt.info() == Eigen::Success) mahalanobis2 = error.dot(ldlt.solve(error));
+        }
+        const std::string size = max_m == 0.1 ? "0.1m/1deg" : "0.3m/2deg";
+        Row row{size,          r.ok(),     ib.median_px, ia.median_px, Median(vb),
+                Median(va),    r.checks.sigma_px,        seconds};
+        rows.push_back(row);
+        // Pooled point offsets: a thinned sample (every 50th point) of every registration.
+        for (size_t k = 0; k < ib.offsets_px.size(); k += 50) {
+          pooled_before[size].push_back(ib.offsets_px[k]);
+        }
+        for (size_t k = 0; k < ia.offsets_px.size(); k += 50) {
+          pooled_after[size].push_back(ia.offsets_px[k]);
+        }
+        std::string reason = r.reason;
+        std::replace(reason.begin(), reason.end(), ',', ';');
+        std::replace(reason.begin(), reason.end(), '\n', ' ');
+        runs << tv.name << "," << tv.kind << "," << max_m << "," << max_deg;
+        for (int i = 0; i < 6; ++i) runs << "," << p[i];
+        runs << "," << r.status << "," << ib.median_px << "," << ia.median_px << ","
+             << row.view_before << "," << row.view_after << "," << r.checks.sigma_px << ","
+             << r.checks.restart_spread_px;
+        for (int i = 0; i < 6; ++i) runs << "," << error[i];
+        for (int i = 0; i < 6; ++i) runs << "," << sd[i];
+        runs << "," << mahalanobis2 << "," << r.evaluations << "," << seconds << "," << cpu
+             << ",\"" << reason << "\"\n";
+        runs.flush();
+        std::printf("%-16s %-9s %-6s image %6.2f -> %6.2f px  views %6.2f -> %6.2f px  sigma "
+                    "%.2f px  restarts %.2f px  maha2 %.1f  %5.1f s (cpu %.1f)  %s\n",
+                    tv.name.c_str(), size.c_str(), r.status.c_str(), ib.median_px,
+                    ia.median_px, row.view_before, row.view_after, r.checks.sigma_px,
+                    r.checks.restart_spread_px, mahalanobis2, seconds, cpu, reason.c_str());
+        std::fflush(stdout);
+      }
+    }
+  }
+  // Summary per magnitude.
+  for (const auto& [max_m, max_deg] : sizes) {
+    const std::string size = max_m == 0.1 ? "0.1m/1deg" : "0.3m/2deg";
+    int n = 0, ok = 0, ok_below = 0, all_below = 0, wrong_ok = 0, false_fail = 0;
+    int ok_below_view = 0, all_below_view = 0;
+    std::vector<double> before, after, time;
+    for (const Row& r : rows) {
+      if (r.size != size) continue;
+      ++n;
+      before.push_back(r.image_before);
+      after.push_back(r.image_after);
+      time.push_back(r.seconds);
+      const bool below = r.image_after < 1.0;
+      all_below += below;
+      all_below_view += r.view_after < 1.0;
+      if (r.ok) {
+        ++ok;
+        ok_below += below;
+        ok_below_view += r.view_after < 1.0;
+        wrong_ok += !below;
+      } else {
+        false_fail += below;
+      }
+    }
+    if (n == 0) continue;
+    std::printf("%s: %d registrations; %d ok, of which %d < 1 px in the image's pixels (%.1f %%) "
+                "and %d < 1 px in the registered views' pixels; wrong ok (>= 1 px image): %d; "
+                "failed but < 1 px: %d; all runs < 1 px: %d image, %d views; median offset "
+                "before %.2f px, after %.2f px; median time %.1f s\n",
+                size.c_str(), n, ok, ok_below, ok > 0 ? 100.0 * ok_below / ok : 0.0,
+                ok_below_view, wrong_ok, false_fail, all_below, all_below_view, Median(before),
+                Median(after), Median(time));
+    std::string tag = max_m == 0.1 ? "small" : "large";
+    WriteHistogram(out_dir / ("hist_views_" + tag + ".csv"),
+                   out_dir / ("hist_views_" + tag + ".svg"),
+                   "Median pixel offset per view, start errors up to " + size + " (" +
+                       std::to_string(n) + " registrations)",
+                   "views", before, after, 0.5, 24, false);
+    WriteHistogram(out_dir / ("hist_points_" + tag + ".csv"),
+                   out_dir / ("hist_points_" + tag + ".svg"),
+                   "Pixel offsets of the LiDAR points (pooled), start errors up to " + size,
+                   "fraction", pooled_before[size], pooled_after[size], 0.5, 24, true);
+  }
+  std::printf("peak memory %.0f MiB\n", PeakRssMiB());
+  return 0;
+}
