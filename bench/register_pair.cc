@@ -45,7 +45,7 @@ int main(int argc, char** argv) {
     else if (key == "icp_iterations") options.icp_iterations = static_cast<int>(v);
     else if (key == "normal_radius_spacing") options.normal_radius_spacing = v;
     else if (key == "support_radius_spacing") options.support_radius_spacing = v;
-    else if (key == "max_conflict") options.max_conflict = v;
+    else if (key == "min_significance") options.min_significance = v;
     else if (key == "max_ambiguity") options.max_ambiguity = v;
     else if (key == "inlier_sigma") options.inlier_sigma = v;
     else if (key == "larger_cloud_factor") options.larger_cloud_factor = v;
@@ -65,8 +65,9 @@ int main(int argc, char** argv) {
   getrusage(RUSAGE_SELF, &usage);
   std::printf("points %zu / %zu, read %.3f s, %s\n", source.size(), target.size(), read_s,
               r.BriefReport().c_str());
-  std::printf("spacing %.4g m, R_n %.4g m, R_s %.4g m, fine tau %.4g m\n", r.point_spacing_m,
-              r.normal_radius_m, r.support_radius_m, r.fine_inlier_distance_m);
+  std::printf("spacing %.4g m, R_n %.4g m, R_s %.4g m, fine tau %.4g m, significance %.3g\n",
+              r.point_spacing_m, r.normal_radius_m, r.support_radius_m,
+              r.fine_inlier_distance_m, r.significance);
   for (const auto& h : r.hypotheses) {
     std::printf("  hypothesis %-32s fitness %.3f normals %.3f conflict %.3f score %.3f\n",
                 h.origin.c_str(), h.fitness, h.normal_agreement, h.conflict, h.score);

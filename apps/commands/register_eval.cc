@@ -48,7 +48,7 @@ std::function<int()> SetupRegisterEval(CLI::App& app, CommonOptions* common) {
   sub->add_option("--scene", args->scene, "scene folder (e.g. written by mmba simulate)")
       ->required();
   sub->add_option("--output", args->output, "output folder (default SCENE/registration_eval)");
-  sub->add_option("--methods", args->methods, "any of fpfh shot si sc3d mmba")
+  sub->add_option("--methods", args->methods, "any of fpfh shot si sc3d mmba mmba-g (robust + --gravity-aligned)")
       ->capture_default_str();
   sub->add_option("--success-fraction", args->success_fraction,
                   "success: RMS < this × scene extent (paper: 3 m / 30 m)")

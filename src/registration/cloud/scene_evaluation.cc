@@ -81,9 +81,9 @@ SceneEvaluation EvaluateScene(const std::string& dir, const SceneEvalOptions& op
   }
   for (const std::string& method : options.methods) {
     Descriptor d;
-    if (method != "mmba" && !ParseDescriptor(method, &d)) {
+    if (method != "mmba" && method != "mmba-g" && !ParseDescriptor(method, &d)) {
       throw InputError::Message("methods", "unknown method '" + method +
-                                               "', expected fpfh, shot, si, sc3d or mmba");
+                                               "', expected fpfh, shot, si, sc3d, mmba or mmba-g");
     }
   }
   std::map<std::string, io::PointCloud> clouds;
@@ -111,9 +111,10 @@ SceneEvaluation EvaluateScene(const std::string& dir, const SceneEvalOptions& op
     const Eigen::Matrix4d truth = Inverse(world_from.at(target)) * world_from.at(source);
     for (const std::string& method : options.methods) {
       CloudRegistrationOptions o = options.base;
-      if (method == "mmba") {
+      if (method == "mmba" || method == "mmba-g") {
         o.descriptor = Descriptor::kAuto;
         o.paper_only = false;
+        if (method == "mmba-g") o.gravity_aligned = true;
       } else {
         ParseDescriptor(method, &o.descriptor);
         o.paper_only = true;

@@ -47,23 +47,27 @@ struct CloudRegistrationOptions {
   double keypoint_grid_spacing = 0.5;  ///< keypoint grid cell in units of R_n (> 0): one per cell
   int min_keypoints = 150;  ///< below this F_t is lowered, then uniform grid points are used (>= 3)
   int max_keypoints = 600;  ///< above this the keypoint grid is coarsened (>= min_keypoints)
-  int max_points_features = 40000;  ///< coarse level: voxel size grows until the smaller
+  /// Coarse (feature) level: a voxel grid of at least this many times the larger of the two
+  /// clouds' point spacings — averaging a few points per voxel steadies the normals of noisy
+  /// reconstructions and quarters the descriptor work (>= 1).
+  double coarse_voxel_spacing = 2.0;
+  int max_points_features = 15000;  ///< coarse level: voxel size grows until the smaller
                                     ///< cloud fits (>= 1000)
   /// The larger cloud (e.g. a whole LiDAR model against one object) may keep up to this
-  /// many times as many coarse points and keypoints, so both are matched at one resolution
-  /// (>= 1).
-  double larger_cloud_factor = 4.0;
-  int max_points_icp = 200000;      ///< fine level for ICP (>= 1000); the target is cropped
+  /// many times as many coarse points, and up to 4 × as many keypoints, so both are matched
+  /// at one resolution (>= 1).
+  double larger_cloud_factor = 10.0;
+  int max_points_icp = 100000;      ///< fine level for ICP (>= 1000); the target is cropped
                                     ///< to each hypothesis' footprint before it is thinned
   bool use_existing_normals = true;  ///< use normals stored in the clouds when present
 
   // Hypotheses.
-  int sac_ia_iterations = 2000;     ///< SAC-IA samples scored (Rusu et al. 2009) (>= 1)
+  int sac_ia_iterations = 4000;     ///< SAC-IA samples scored (Rusu et al. 2009) (>= 1)
   /// SAC-IA draws at most this many samples per scored one (most fail the edge-length
   /// pre-check when few matches are right) (>= 1).
   int sac_ia_draws_per_iteration = 50;
   int sac_ia_randomness = 3;        ///< SAC-IA: pick among this many nearest features (>= 1)
-  int num_hypotheses = 8;           ///< hypotheses kept for ICP and verification (>= 1)
+  int num_hypotheses = 12;          ///< hypotheses kept for ICP and verification (>= 1)
   bool use_max_clique = true;       ///< add the maximum-consistent-clique hypotheses
   int num_cliques = 3;              ///< cliques per descriptor: the largest, then the largest
                                     ///< of the remaining correspondences, … (>= 1)
@@ -92,10 +96,9 @@ struct CloudRegistrationOptions {
   double min_fitness = 0.2;       ///< fraction of source points that must be inliers (0..1]
   double min_normal_agreement = 0.5;  ///< fraction of inliers with |n_s·n_t| > cos 30° (0..1]
   double max_ambiguity = 0.8;     ///< runner-up/best score above this = ambiguous = failed
-  /// Fine level: of the source points that have a target surface within reach (≈ R_n), the
-  /// fraction that lies off it (> τ) or with a normal more than 30° off; above this the
-  /// surfaces cross instead of coinciding = failed (0..1].
-  double max_conflict = 0.4;
+  /// ... unless the best beats the runner-up by at least this many standard errors of the
+  /// per-block score difference (blocks of R_s; a paired t statistic) (>= 0).
+  double min_significance = 4.0;
   uint64_t seed = 42;             ///< random seed (results are deterministic)
 
   /// False with a message naming the field, the value and the constraint when invalid.
@@ -115,7 +118,8 @@ struct RegistrationHypothesis {
   double fitness = 0.0;        ///< inlier fraction of the source
   double inlier_rmse = 0.0;    ///< metres
   double normal_agreement = 0.0;
-  double conflict = 0.0;       ///< fine only: see CloudRegistrationOptions::max_conflict
+  double conflict = 0.0;       ///< fine only: of the source points with a target surface
+                               ///< within reach, the fraction off it or with another normal
   double score = 0.0;          ///< coarse: fitness × normal_agreement; fine: Σ(1 − r²/τ²) over
                                ///< the inliers with agreeing normals / source points
 };
@@ -129,7 +133,8 @@ struct CloudRegistrationResult {
   double fitness = 0.0;           ///< inlier ratio of the (fine) source
   double inlier_rmse = 0.0;       ///< metres
   double normal_agreement = 0.0;
-  double conflict = 0.0;          ///< see CloudRegistrationOptions::max_conflict
+  double conflict = 0.0;          ///< see RegistrationHypothesis::conflict
+  double significance = 0.0;      ///< best vs runner-up in standard errors (inf: no runner-up)
   double confidence = 0.0;        ///< 0..1: 1 − runner-up score / best score, times fitness checks
   size_t num_keypoints_source = 0, num_keypoints_target = 0;
   size_t num_correspondences = 0;  ///< descriptor matches

@@ -22,7 +22,8 @@ namespace mmba::registration {
 struct SceneEvalOptions {
   /// Methods: "fpfh", "shot", "si", "sc3d" = the paper's pipeline with that descriptor
   /// (SAC-IA best + ICP); "mmba" = the robust pipeline (descriptor auto, hypotheses,
-  /// max-clique, verification).
+  /// max-clique, verification); "mmba-g" = the same with gravity_aligned (every cloud
+  /// levelled to a few degrees, `base.up` up).
   std::vector<std::string> methods = {"fpfh", "shot", "si", "sc3d", "mmba"};
   double success_fraction = 0.1;  ///< success: RMS < this × scene extent (paper: 3 m / 30 m)
   double accurate_m = 0.05;       ///< "accurate": RMS below this (metres)
