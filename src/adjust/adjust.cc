@@ -49,6 +49,9 @@ using internal::JointState;
 using internal::PhotoBlock;
 using internal::SphereBlock;
 using internal::RigBlock;
+using internal::AdjustFailure;
+using internal::ReadPose;
+using internal::InterpolateTrajectory;
 
 /// A stage's result: logged now and listed in the report.
 void Note(JointState* s, const std::string& text) {
@@ -56,15 +59,6 @@ void Note(JointState* s, const std::string& text) {
   s->log.push_back(text);
 }
 
-class AdjustFailure : public std::runtime_error {
- public:
-  AdjustFailure(std::string status, const std::string& reason)
-      : std::runtime_error(reason), status_(std::move(status)) {}
-  const std::string& status() const { return status_; }
-
- private:
-  std::string status_;
-};
 
 std::string ProjectKey(const Project& project, int line, const std::string& key) {
   return project.path + ":" + std::to_string(line) + ": " + key;
@@ -517,28 +511,6 @@ void LoadSpheres(JointState* s) {
 
 // ---- camera rig --------------------------------------------------------------------------
 
-Rigid3d ReadPose(const io::YamlReader& r, const YAML::Node& n, const std::string& f) {
-  std::vector<double> q, t;
-  r.Map(n, f, {{"qvec_wxyz", [&](const YAML::Node& v, const std::string& g) { q = r.NumberList(v, g); }},
-               {"tvec", [&](const YAML::Node& v, const std::string& g) { t = r.NumberList(v, g); }}});
-  if (q.size() != 4 || t.size() != 3) r.Fail(n, f, "{qvec_wxyz: [4 numbers], tvec: [3 numbers]}", "other sizes");
-  const Eigen::Quaterniond rotation(q[0], q[1], q[2], q[3]);
-  if (std::abs(rotation.norm() - 1.0) > 1e-3) r.Fail(n, f + ".qvec_wxyz", "a unit quaternion", "norm " + std::to_string(rotation.norm()));
-  return Rigid3d(rotation.normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
-}
-
-/// world_from_body at `time` from the trajectory rows (linear position, slerp rotation).
-Rigid3d InterpolateTrajectory(const std::vector<std::pair<double, Rigid3d>>& rows, double time) {
-  auto it = std::lower_bound(rows.begin(), rows.end(), time,
-                             [](const std::pair<double, Rigid3d>& row, double t) { return row.first < t; });
-  if (it == rows.begin()) return it->second;
-  if (it == rows.end()) return rows.back().second;
-  const auto& [t1, b] = *it;
-  const auto& [t0, a] = *(it - 1);
-  const double u = (time - t0) / (t1 - t0);
-  return Rigid3d(a.rotation.slerp(u, b.rotation), (1 - u) * a.translation + u * b.translation);
-}
-
 void LoadRig(JointState* s) {
   const Project& project = *s->project;
   if (project.rigs.empty()) return;
@@ -598,17 +570,7 @@ void LoadRig(JointState* s) {
   if (!have_body) r.Fail(root, "body_from_rig", "the key to be present", "nothing");
   rig.cam_from_rig_initial = rig.cam_from_rig;
   // Frames and their GNSS/INS pose priors.
-  std::vector<std::pair<double, Rigid3d>> trajectory;
-  const io::CsvTable ins = io::CsvTable::Read(config.trajectory, {"time_s", "x_east_m", "y_north_m", "z_up_m", "qw", "qx", "qy", "qz"});
-  for (const io::CsvTable::Row& row : ins.rows()) {
-    const Eigen::Quaterniond q(ins.Double(row, "qw"), ins.Double(row, "qx"), ins.Double(row, "qy"), ins.Double(row, "qz"));
-    if (std::abs(q.norm() - 1.0) > 1e-3) ins.Fail(row, "qw", std::to_string(q.norm()), "a unit quaternion (norm 1)");
-    const double time = ins.Double(row, "time_s");
-    if (!trajectory.empty() && !(time > trajectory.back().first)) ins.Fail(row, "time_s", ins.String(row, "time_s"), "increasing times");
-    trajectory.emplace_back(time, Rigid3d(q.normalized(), Eigen::Vector3d(ins.Double(row, "x_east_m"), ins.Double(row, "y_north_m"),
-                                                                          ins.Double(row, "z_up_m"))));
-  }
-  if (trajectory.size() < 2) throw InputError::Message(config.trajectory, "fewer than 2 trajectory rows");
+  const std::vector<std::pair<double, Rigid3d>> trajectory = internal::ReadTrajectory(config.trajectory);
   const io::CsvTable frames = io::CsvTable::Read(config.frames_file, {"frame", "time_s"});
   std::map<std::string, size_t> frame_index;
   for (const io::CsvTable::Row& row : frames.rows()) {
@@ -725,6 +687,15 @@ const char* kRig = "rig: tie points";
 const char* kMi = "photos: MI pose priors";
 const char* kRigPrior = "rig: GNSS/INS frame priors";
 const char* kRigCalibration = "rig: cam_from_rig priors";
+const char* kMobile = "mobile LiDAR: points on the static surface";
+const char* kTrajectoryPrior = "mobile: GNSS/INS trajectory prior";
+const char* kSmoothness = "mobile: trajectory smoothness";
+const char* kRigOnTrajectory = "rig: frames on the corrected trajectory";
+const char* kExtrinsicPrior = "mobile: camera-LiDAR extrinsic prior";
+/// Modelling constraints, not measurements: never re-weighted by variance components.
+bool IsConstraintGroup(const std::string& name) {
+  return name == kCheck || name == kSmoothness || name == kRigOnTrajectory;
+}
 
 void BuildProblem(JointState* s) {
   s->builder = std::make_unique<ProblemBuilder>(&s->scene);
@@ -746,6 +717,7 @@ void BuildProblem(JointState* s) {
       else if constexpr (std::is_same_v<std::decay_t<decltype(o)>, UpperSphereObservation>) o.sigma_px *= f;
       else if constexpr (std::is_same_v<std::decay_t<decltype(o)>, RigObservation>) o.sigma_px *= f;
       else if constexpr (std::is_same_v<std::decay_t<decltype(o)>, SurfacePlane>) o.sigma_m *= f;
+      else if constexpr (std::is_same_v<std::decay_t<decltype(o)>, MobilePoint>) o.sigma_m *= f;
       else o.sigma *= f;
     }
     return list;
@@ -784,11 +756,20 @@ void BuildProblem(JointState* s) {
     const CameraRig& c = *rig.config;
     s->builder->AddGroup(std::make_unique<RigReprojectionGroup>(scaled(kRig, Without(rig.observations, excluded(kRig))),
                                                                 &rig.rig_from_world, &rig.cam_from_rig, rig.cameras, c.loss, kRig));
-    std::vector<Rigid3d*> frames;
-    for (Rigid3d& pose : rig.rig_from_world) frames.push_back(&pose);
-    s->builder->AddGroup(std::make_unique<PosePriorGroup>(frames, rig.rig_prior, factor(kRigPrior) * c.trajectory_sigma_m,
-                                                          factor(kRigPrior) * c.trajectory_sigma_deg * M_PI / 180.0, c.loss,
-                                                          kRigPrior));
+    if (s->mobile && s->mobile->with_rig) {
+      // The frames ride on the mobile LiDAR's corrected trajectory (its nodes carry the
+      // GNSS/INS prior).
+      const LidarMobile& mc = *s->mobile->config;
+      s->builder->AddGroup(std::make_unique<RigTrajectoryGroup>(
+          s->mobile->frames, &rig.rig_from_world, &s->mobile->nodes, rig.body_from_rig, mc.frame_sigma_m,
+          mc.frame_sigma_deg * M_PI / 180.0, LossOptions(), kRigOnTrajectory));
+    } else {
+      std::vector<Rigid3d*> frames;
+      for (Rigid3d& pose : rig.rig_from_world) frames.push_back(&pose);
+      s->builder->AddGroup(std::make_unique<PosePriorGroup>(frames, rig.rig_prior, factor(kRigPrior) * c.trajectory_sigma_m,
+                                                            factor(kRigPrior) * c.trajectory_sigma_deg * M_PI / 180.0, c.loss,
+                                                            kRigPrior));
+    }
     if (c.cam_from_rig == "weighted") {
       std::vector<Rigid3d*> cameras;
       for (Rigid3d& pose : rig.cam_from_rig) cameras.push_back(&pose);
@@ -809,6 +790,27 @@ void BuildProblem(JointState* s) {
   if (!s->planes.empty()) {
     s->builder->AddGroup(std::make_unique<LidarSurfaceGroup>(scaled(kLidar, Without(s->planes, excluded(kLidar))),
                                                              s->project->lidar_static.front().loss, kLidar));
+  }
+  if (s->mobile) {
+    internal::MobileBlock& m = *s->mobile;
+    const LidarMobile& mc = *m.config;
+    s->builder->AddGroup(std::make_unique<TrajectoryPriorGroup>(&m.nodes, factor(kTrajectoryPrior) * mc.trajectory_sigma_m,
+                                                                factor(kTrajectoryPrior) * mc.trajectory_sigma_deg * M_PI / 180.0,
+                                                                mc.loss, kTrajectoryPrior));
+    if (m.nodes.size() > 2) {
+      s->builder->AddGroup(std::make_unique<TrajectorySmoothnessGroup>(&m.nodes, mc.smoothness_sigma_m,
+                                                                       mc.smoothness_sigma_deg * M_PI / 180.0, kSmoothness));
+    }
+    if (!m.points.empty()) {
+      s->builder->AddGroup(std::make_unique<MobileLidarGroup>(scaled(kMobile, Without(m.points, excluded(kMobile))), &m.nodes,
+                                                              &m.vehicle_from_lidar, m.body_from_vehicle, mc.loss, kMobile));
+    }
+    if (m.with_rig && mc.extrinsic == "weighted") {
+      s->builder->AddGroup(std::make_unique<PosePriorGroup>(
+          std::vector<Rigid3d*>{&m.vehicle_from_lidar}, std::vector<Rigid3d>{m.vehicle_from_lidar_initial},
+          factor(kExtrinsicPrior) * mc.extrinsic_sigma_m, factor(kExtrinsicPrior) * mc.extrinsic_sigma_deg * M_PI / 180.0,
+          LossOptions(), kExtrinsicPrior));
+    }
   }
   GaugeOptions gauge;
   gauge.kind = GaugeOptions::Kind::kNone;  // the datum comes from the control, GNSS and LiDAR
@@ -866,6 +868,17 @@ void BuildProblem(JointState* s) {
       } else {
         problem.SetParameterBlockVariable(params);
         problem.SetManifold(params, constant.empty() ? nullptr : new ceres::SubsetManifold(camera.params.size(), constant));
+      }
+    }
+  }
+  if (s->mobile) {
+    internal::MobileBlock& m = *s->mobile;
+    double* q = m.vehicle_from_lidar.rotation.coeffs().data();
+    if (problem.HasParameterBlock(q)) {
+      problem.SetManifold(q, new ceres::EigenQuaternionManifold);
+      if (!m.with_rig || m.config->extrinsic == "fixed") {
+        problem.SetParameterBlockConstant(q);
+        problem.SetParameterBlockConstant(m.vehicle_from_lidar.translation.data());
       }
     }
   }
@@ -935,6 +948,13 @@ stats::NetworkStatistics Statistics(JointState* s) {
       names[s->rig->cam_from_rig[k].translation.data()] = "cam_from_rig translation of " + s->rig->camera_names[k];
     }
   }
+  if (s->mobile) {
+    for (const TrajectoryNode& node : s->mobile->nodes) {
+      names[node.correction] = "trajectory correction at t = " + std::to_string(node.time_s) + " s";
+    }
+    names[s->mobile->vehicle_from_lidar.rotation.coeffs().data()] = "camera-LiDAR extrinsic rotation";
+    names[s->mobile->vehicle_from_lidar.translation.data()] = "camera-LiDAR extrinsic translation";
+  }
   std::map<ImageId, std::string> station_of;
   if (s->spheres) {
     for (const auto& [station, id] : s->spheres->lower_image) station_of[id] = "station " + station;
@@ -1000,6 +1020,13 @@ std::string DescribeObservation(const JointState& s, const FactorGroup& group, s
     return "GNSS " + std::string(index % 3 == 0 ? "east" : index % 3 == 1 ? "north" : "up") + " of " + p.point_id +
            " (" + p.source + ")";
   }
+  if (name == kMobile && s.mobile) {
+    const MobilePoint& p = s.mobile->points[index];
+    return "mobile LiDAR point " + std::to_string(p.source) + " of " + s.mobile->config->cloud + " (t = " +
+           std::to_string(s.mobile->cloud.time[p.source]) + " s)";
+  }
+  if (name == kTrajectoryPrior && s.mobile) return "GNSS/INS prior at t = " + std::to_string(s.mobile->nodes[index].time_s) + " s";
+  if (name == kRigOnTrajectory && s.rig) return "rig frame " + s.rig->frame_names[index] + " on the trajectory";
   if (name == kLidar) return "tie point " + std::to_string(s.planes[index].point3D_id.value) + " to the LiDAR surface";
   if (const auto* sg = dynamic_cast<const survey::SurveyGroup*>(&group)) {
     const survey::BlockSpec& spec = sg->added_specs()[block];
@@ -1025,7 +1052,7 @@ size_t Snoop(JointState* s, const stats::NetworkStatistics& st) {
   const auto& groups = s->builder->groups();
   for (const auto& [key, value] : worst) {
     const FactorGroup& group = *groups[key.first];
-    if (group.name() == kCheck) continue;  // check points are evaluated, not snooped
+    if (IsConstraintGroup(group.name())) continue;  // check points are evaluated, constraints not snooped
     const size_t index = group.block_observation_index()[key.second];
     s->blunders.push_back({group.name(), DescribeObservation(*s, group, key.second), value.second, value.first});
     if (const auto* sg = dynamic_cast<const survey::SurveyGroup*>(&group)) {
@@ -1054,7 +1081,7 @@ bool ApplyVarianceComponents(JointState* s, const stats::NetworkStatistics& st) 
   const auto& groups = s->builder->groups();
   for (size_t g = 0; g < groups.size(); ++g) {
     const stats::GroupStatistic& gs = st.groups.at(g);
-    if (groups[g]->name() == kCheck || gs.redundancy < 5 || !(gs.variance_component > 0)) continue;
+    if (IsConstraintGroup(groups[g]->name()) || gs.redundancy < 5 || !(gs.variance_component > 0)) continue;
     const double f = std::sqrt(gs.variance_component);
     if (std::abs(f - 1.0) < 0.01) continue;
     changed = true;
@@ -1091,6 +1118,7 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
     LoadSpheres(&s);
     LoadRig(&s);
     LoadLidar(&s);
+    internal::LoadMobile(&s);
     if (!project.other_sensors.empty()) {
       for (const OtherSensor& o : project.other_sensors) {
         s.warnings.push_back("sensor '" + o.id + "' (" + o.type + ") validated but not adjusted: not implemented in this version");
@@ -1112,8 +1140,23 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
           throw AdjustFailure("failed", "only " + std::to_string(n) + " tie points lie within " + std::to_string(gate) +
                                             " m of the LiDAR surface: no overlap, or the photo block is far from the LiDAR frame");
         }
-        if (k > 0 && n == previous && gate <= 3 * s.planes.front().sigma_m) break;
-        previous = n;
+        size_t associated = n;
+        if (s.mobile) {
+          // The mobile points: their own first gate (GNSS/INS errors), then the same schedule.
+          const double mobile_gate = std::max(gate, k == 0 ? s.mobile->config->max_distance_m : 0.0);
+          const size_t nm = internal::AssociateMobile(&s, mobile_gate);
+          Note(&s, "outer iteration " + std::to_string(k + 2) + ": " + std::to_string(nm) + " of " +
+                       std::to_string(s.mobile->sample.size()) + " mobile LiDAR points on the static surface (gate " +
+                       std::to_string(mobile_gate) + " m)");
+          if (nm < 100) {
+            throw AdjustFailure("failed", "lidar_mobile '" + s.mobile->config->id + "': only " + std::to_string(nm) +
+                                              " of its points lie within " + std::to_string(mobile_gate) +
+                                              " m of the static LiDAR surface: no overlap, or its trajectory/calibration is far off");
+          }
+          associated += nm;
+        }
+        if (k > 0 && associated == previous && gate <= 3 * s.planes.front().sigma_m) break;
+        previous = associated;
         SolveOnce(&s, options);
         s.outer_iterations = k + 2;
         gate = std::max(0.5 * gate, 3 * s.planes.front().sigma_m);
@@ -1144,7 +1187,14 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
   s.seconds = timer.ElapsedSeconds();
   outcome.status = "converged";
   outcome.ok = true;
-  WriteOutputs(s, options, &outcome);
+  try {
+    WriteOutputs(s, options, &outcome);
+  } catch (...) {
+    // Nothing half-written: the staging folder goes, an earlier output stays as it was.
+    std::error_code ignored;
+    fs::remove_all(options.output_dir + ".writing", ignored);
+    throw;
+  }
   std::error_code ignored;
   fs::remove_all(work_dir, ignored);
   return outcome;

@@ -13,6 +13,8 @@
 #include "mmba/adjust/groups.h"
 #include "mmba/geodesy/geodesy.h"
 #include "mmba/io/colmap_model.h"
+#include "mmba/io/point_cloud.h"
+#include "mmba/io/yaml_reader.h"
 #include "mmba/problem/problem_builder.h"
 #include "mmba/problem/reprojection_group.h"
 #include "mmba/problem/solve.h"
@@ -72,6 +74,27 @@ struct RigBlock {
   std::vector<std::string> sources;
 };
 
+/// The mobile LiDAR: a sample of its points in the LiDAR frame, the trajectory correction
+/// nodes and the extrinsic. `vehicle` = the rig frame when a rig shares the vehicle, else the
+/// GNSS/INS body.
+struct MobileBlock {
+  const LidarMobile* config = nullptr;
+  io::PointCloud cloud;                                ///< as delivered (world, with time)
+  std::vector<std::pair<double, Rigid3d>> trajectory;  ///< GNSS/INS world_from_body
+  Rigid3d body_from_lidar_nominal;
+  Rigid3d body_from_vehicle;                           ///< constant
+  Rigid3d vehicle_from_lidar;                          ///< estimated (the camera–LiDAR extrinsic with a rig)
+  Rigid3d vehicle_from_lidar_initial;
+  bool with_rig = false;
+  std::vector<TrajectoryNode> nodes;
+  std::vector<size_t> sample;                  ///< indices into `cloud`
+  std::vector<Eigen::Vector3d> sample_lidar;   ///< sample points in the LiDAR frame
+  std::vector<Rigid3d> sample_ins;             ///< GNSS/INS world_from_body at their times
+  std::vector<NodeWeight> sample_weight;
+  std::vector<MobilePoint> points;             ///< associated with the static surface
+  std::vector<FrameOnTrajectory> frames;       ///< rig frames on the trajectory
+};
+
 struct Blunder {
   std::string group;
   std::string observation;
@@ -93,6 +116,7 @@ struct JointState {
   std::optional<PhotoBlock> photos;
   std::optional<SphereBlock> spheres;
   std::optional<RigBlock> rig;
+  std::optional<MobileBlock> mobile;
   Scene scene;
   std::unique_ptr<LidarSurface> surface;
   std::vector<SurfacePlane> planes;
@@ -110,6 +134,31 @@ struct JointState {
   std::vector<std::string> warnings;
   std::vector<std::string> log;  ///< stages, for the report
 };
+
+/// Thrown when the adjustment cannot produce a result (exit 3): `status` and the reason.
+class AdjustFailure : public std::runtime_error {
+ public:
+  AdjustFailure(std::string status, const std::string& reason) : std::runtime_error(reason), status_(std::move(status)) {}
+  const std::string& status() const { return status_; }
+
+ private:
+  std::string status_;
+};
+
+/// A pose {qvec_wxyz, tvec} of a calibration YAML.
+Rigid3d ReadPose(const io::YamlReader& r, const YAML::Node& n, const std::string& field);
+/// A GNSS/INS trajectory CSV time_s,x_east_m,y_north_m,z_up_m,qw,qx,qy,qz (world_from_body),
+/// times increasing, at least two rows.
+std::vector<std::pair<double, Rigid3d>> ReadTrajectory(const std::string& path);
+/// world_from_body at `time` from the trajectory rows (linear position, slerp rotation).
+Rigid3d InterpolateTrajectory(const std::vector<std::pair<double, Rigid3d>>& rows, double time);
+
+/// Reads the mobile LiDAR (cloud, trajectory, calibration), samples its points evenly over
+/// time and places the trajectory nodes. Needs the rig loaded first when it shares the vehicle.
+void LoadMobile(JointState* s);
+/// Ties the sample points to planes of the static surface within `gate` metres at the current
+/// trajectory and extrinsic. Returns the number associated.
+size_t AssociateMobile(JointState* s, double gate);
 
 /// Writes every output file into options.output_dir (atomically, all or nothing) and fills
 /// outcome.report / summary.

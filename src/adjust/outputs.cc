@@ -83,6 +83,56 @@ Eigen::Matrix3d PointCovariance3(const stats::NetworkStatistics& st, const doubl
   return c;
 }
 
+/// Covariance of (rotation vector, translation) of the composed pose a·b (e.g. cam_from_lidar =
+/// cam_from_rig · rig_from_lidar) from the blocks' joint covariance, by numerical first-order
+/// propagation (rotation perturbations as on Ceres' quaternion manifold: Exp(δ)·R).
+Eigen::Matrix<double, 6, 6> ComposedPoseCovariance(const stats::NetworkStatistics& st, const Rigid3d& a, const Rigid3d& b) {
+  const double* blocks[4] = {a.rotation.coeffs().data(), a.translation.data(), b.rotation.coeffs().data(),
+                             b.translation.data()};
+  Eigen::Matrix<double, 12, 12> c;
+  for (int i = 0; i < 12; ++i) {
+    for (int j = 0; j < 12; ++j) c(i, j) = st.Covariance(blocks[i / 3], i % 3, blocks[j / 3], j % 3);
+  }
+  const Rigid3d base = a * b;
+  const auto perturbed = [&](int k, double h) {
+    Rigid3d pa = a, pb = b;
+    Eigen::Vector3d d = Eigen::Vector3d::Zero();
+    d[k % 3] = h;
+    const Eigen::Quaterniond turn(Eigen::AngleAxisd(d.norm(), d.normalized()));
+    if (k < 3) pa.rotation = turn * a.rotation;
+    else if (k < 6) pa.translation += d;
+    else if (k < 9) pb.rotation = turn * b.rotation;
+    else pb.translation += d;
+    const Rigid3d p = pa * pb;
+    const Eigen::AngleAxisd rot(p.rotation * base.rotation.conjugate());
+    Eigen::Matrix<double, 6, 1> out;
+    out << rot.angle() * rot.axis(), p.translation;
+    return out;
+  };
+  Eigen::Matrix<double, 6, 12> jacobian;
+  constexpr double h = 1e-6;
+  for (int k = 0; k < 12; ++k) jacobian.col(k) = (perturbed(k, h) - perturbed(k, -h)) / (2 * h);
+  return jacobian * c * jacobian.transpose();
+}
+
+/// Rotation error (deg) and translation error (m) of an estimated pose against the truth.
+std::pair<double, double> PoseError(const Rigid3d& estimate, const Rigid3d& truth) {
+  return {estimate.rotation.angularDistance(truth.rotation) * kDeg, (estimate.translation - truth.translation).norm()};
+}
+
+Rigid3d PoseFromJson(const json& j) {
+  const std::vector<double> q = j["qvec_wxyz"], t = j["tvec"];
+  return Rigid3d(Eigen::Quaterniond(q[0], q[1], q[2], q[3]), Eigen::Vector3d(t[0], t[1], t[2]));
+}
+
+std::string YamlPose(const Rigid3d& p) {
+  std::ostringstream o;
+  o << std::setprecision(10) << "{qvec_wxyz: [" << p.rotation.w() << ", " << p.rotation.x() << ", " << p.rotation.y()
+    << ", " << p.rotation.z() << "], tvec: [" << p.translation.x() << ", " << p.translation.y() << ", "
+    << p.translation.z() << "]}";
+  return o.str();
+}
+
 json Ellipse(const Eigen::Matrix3d& enu) {
   const stats::ErrorEllipse e = stats::StandardEllipse(enu.topLeftCorner<2, 2>());
   // StandardEllipse's angle is from axis 1 (east) towards axis 2 (north); azimuth is from north
@@ -195,6 +245,55 @@ json EvaluateTruth(const JointState& s) {
     out["rig"] = {{"max_frame_position_m", worst}, {"max_frame_rotation_deg", worst_rotation},
                   {"max_prior_position_m", worst_prior}, {"max_cam_from_rig_position_m", worst_cam_t},
                   {"max_cam_from_rig_rotation_deg", worst_cam_r}, {"max_focal_error_px", worst_focal}};
+  }
+  if (s.mobile && truth.contains("lidar") && truth["lidar"].contains("mobile") && truth["lidar"]["mobile"].contains("body_from_lidar")) {
+    const MobileBlock& m = *s.mobile;
+    const Rigid3d true_body_from_lidar = PoseFromJson(truth["lidar"]["mobile"]["body_from_lidar"]);
+    json mobile;
+    const Rigid3d body_from_lidar = m.body_from_vehicle * m.vehicle_from_lidar;
+    const auto [r0, t0] = PoseError(m.body_from_lidar_nominal, true_body_from_lidar);
+    const auto [r1, t1] = PoseError(body_from_lidar, true_body_from_lidar);
+    mobile["body_from_lidar"] = {{"initial_rotation_deg", r0}, {"initial_translation_m", t0},
+                                 {"adjusted_rotation_deg", r1}, {"adjusted_translation_m", t1}};
+    if (m.with_rig && s.rig && truth.contains("rig")) {
+      // The camera–LiDAR extrinsic of each rig camera: cam_from_lidar = cam_from_rig · rig_from_lidar.
+      const Rigid3d true_rig_from_lidar = PoseFromJson(truth["rig"]["body_from_rig"]).Inverse() * true_body_from_lidar;
+      double worst_r = 0.0, worst_t = 0.0, worst_r0 = 0.0, worst_t0 = 0.0;
+      for (size_t k = 0; k < s.rig->cameras.size() && k < truth["rig"]["cameras"].size(); ++k) {
+        const Rigid3d true_cam_from_lidar = PoseFromJson(truth["rig"]["cameras"][k]["cam_from_rig"]) * true_rig_from_lidar;
+        const auto [r, t] = PoseError(s.rig->cam_from_rig[k] * m.vehicle_from_lidar, true_cam_from_lidar);
+        const auto [ri, ti] = PoseError(s.rig->cam_from_rig_initial[k] * m.vehicle_from_lidar_initial, true_cam_from_lidar);
+        worst_r = std::max(worst_r, r);
+        worst_t = std::max(worst_t, t);
+        worst_r0 = std::max(worst_r0, ri);
+        worst_t0 = std::max(worst_t0, ti);
+      }
+      const auto [rr, rt] = PoseError(m.vehicle_from_lidar, true_rig_from_lidar);
+      mobile["cam_from_lidar"] = {{"max_rotation_deg", worst_r}, {"max_translation_m", worst_t},
+                                  {"initial_max_rotation_deg", worst_r0}, {"initial_max_translation_m", worst_t0}};
+      mobile["rig_from_lidar"] = {{"rotation_deg", rr}, {"translation_m", rt}};
+    }
+    // The corrected trajectory against the true one at the nodes (and the GNSS/INS before).
+    const fs::path true_file = fs::path(s.project->truth).parent_path() / "trajectory_true.csv";
+    if (fs::exists(true_file)) {
+      const auto true_trajectory = ReadTrajectory(true_file.string());
+      double sum = 0.0, sum_ins = 0.0, worst_r = 0.0, worst_r_ins = 0.0;
+      for (size_t k = 0; k < m.nodes.size(); ++k) {
+        const double t = m.nodes[k].time_s;
+        const Rigid3d ins = InterpolateTrajectory(m.trajectory, t);
+        const Rigid3d corrected = CorrectedPose(m.nodes, WeightAt(m.nodes, t), ins);
+        const Rigid3d truth_pose = InterpolateTrajectory(true_trajectory, t);
+        sum += (corrected.translation - truth_pose.translation).squaredNorm();
+        sum_ins += (ins.translation - truth_pose.translation).squaredNorm();
+        worst_r = std::max(worst_r, corrected.rotation.angularDistance(truth_pose.rotation) * kDeg);
+        worst_r_ins = std::max(worst_r_ins, ins.rotation.angularDistance(truth_pose.rotation) * kDeg);
+      }
+      const double n = static_cast<double>(m.nodes.size());
+      mobile["trajectory"] = {{"nodes", m.nodes.size()}, {"rmse_position_m", std::sqrt(sum / n)},
+                              {"max_rotation_deg", worst_r}, {"ins_rmse_position_m", std::sqrt(sum_ins / n)},
+                              {"ins_max_rotation_deg", worst_r_ins}};
+    }
+    out["mobile_lidar"] = mobile;
   }
   if (s.joint && truth.contains("survey")) {
     json points = json::array();
@@ -503,6 +602,90 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     WriteText(stage / "calibration" / (rig.config->id + "_rig.yaml"), yaml.str());
     calibrations.push_back({{"name", rig.config->id + " camera rig"}, {"parameters", parameters}});
   }
+  if (s.mobile) {
+    const MobileBlock& m = *s.mobile;
+    const Rigid3d body_from_lidar = m.body_from_vehicle * m.vehicle_from_lidar;
+    // Calibration: the extrinsic with σ (and, with a rig, cam_from_lidar of every camera).
+    const Eigen::Matrix<double, 6, 6> cov = ComposedPoseCovariance(st, Rigid3d(), m.vehicle_from_lidar);
+    const auto sigma_text = [](const Eigen::Matrix<double, 6, 6>& c) {
+      std::ostringstream o;
+      o << std::setprecision(3) << "rotation_sigma_deg: [" << std::sqrt(std::max(0.0, c(0, 0))) * kDeg << ", "
+        << std::sqrt(std::max(0.0, c(1, 1))) * kDeg << ", " << std::sqrt(std::max(0.0, c(2, 2))) * kDeg
+        << "], tvec_sigma_m: [" << std::sqrt(std::max(0.0, c(3, 3))) << ", " << std::sqrt(std::max(0.0, c(4, 4))) << ", "
+        << std::sqrt(std::max(0.0, c(5, 5))) << "]";
+      return o.str();
+    };
+    std::ostringstream yaml;
+    yaml << "# mmba adjust: camera-LiDAR calibration of '" << m.config->id << "' (extrinsic "
+         << (m.with_rig ? m.config->extrinsic : std::string("held: no rig on the vehicle"))
+         << "); sigma from the adjustment (rotation sigma about the target frame's axes)\n"
+         << "body_from_lidar: " << YamlPose(body_from_lidar) << "\n";
+    json parameters = json::array();
+    const auto [dr, dt] = PoseError(m.vehicle_from_lidar, m.vehicle_from_lidar_initial);
+    if (m.with_rig) {
+      yaml << "rig_from_lidar: " << YamlPose(m.vehicle_from_lidar) << "\nrig_from_lidar_sigma: {" << sigma_text(cov)
+           << "}\ncameras:\n";
+      for (size_t k = 0; k < s.rig->cameras.size(); ++k) {
+        const Rigid3d cam_from_lidar = s.rig->cam_from_rig[k] * m.vehicle_from_lidar;
+        yaml << "  - name: " << s.rig->camera_names[k] << "\n    cam_from_lidar: " << YamlPose(cam_from_lidar)
+             << "\n    cam_from_lidar_sigma: {"
+             << sigma_text(ComposedPoseCovariance(st, s.rig->cam_from_rig[k], m.vehicle_from_lidar)) << "}\n";
+      }
+    }
+    parameters.push_back({{"name", "extrinsic rotation change [deg]"}, {"initial", 0.0}, {"adjusted", dr},
+                          {"sigma", std::sqrt(std::max(0.0, cov.topLeftCorner<3, 3>().trace())) * kDeg}});
+    parameters.push_back({{"name", "extrinsic lever-arm change [m]"}, {"initial", 0.0}, {"adjusted", dt},
+                          {"sigma", std::sqrt(std::max(0.0, cov.bottomRightCorner<3, 3>().trace()))}});
+    WriteText(stage / "calibration" / (m.config->id + "_camera_lidar.yaml"), yaml.str());
+    calibrations.push_back({{"name", m.config->id + " camera-LiDAR extrinsic"}, {"parameters", parameters}});
+    // The trajectory corrections at the nodes, with σ.
+    std::ostringstream trajectory;
+    trajectory << "# mmba adjust: corrections of the GNSS/INS trajectory of '" << m.config->id
+               << "' at the nodes (linear in between): world_from_body = (Exp(omega) R_ins, p_ins + delta)\n"
+                  "time_s,omega_x_deg,omega_y_deg,omega_z_deg,delta_east_m,delta_north_m,delta_up_m,sigma_omega_deg,"
+                  "sigma_delta_m,east_m,north_m,up_m\n";
+    double worst = 0.0;
+    for (const TrajectoryNode& node : m.nodes) {
+      double var_omega = 0.0, var_delta = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        var_omega += st.Covariance(node.correction, k, node.correction, k);
+        var_delta += st.Covariance(node.correction, 3 + k, node.correction, 3 + k);
+      }
+      const Rigid3d corrected = CorrectedPose(m.nodes, WeightAt(m.nodes, node.time_s), InterpolateTrajectory(m.trajectory, node.time_s));
+      trajectory << std::setprecision(10) << node.time_s << std::setprecision(6);
+      for (int k = 0; k < 3; ++k) trajectory << "," << node.correction[k] * kDeg;
+      for (int k = 0; k < 3; ++k) trajectory << "," << node.correction[3 + k];
+      trajectory << "," << std::sqrt(std::max(0.0, var_omega)) * kDeg << "," << std::sqrt(std::max(0.0, var_delta))
+                 << std::setprecision(12) << "," << corrected.translation.x() << "," << corrected.translation.y() << ","
+                 << corrected.translation.z() << "\n";
+      worst = std::max(worst, Eigen::Vector3d(node.correction[3], node.correction[4], node.correction[5]).norm());
+    }
+    WriteText(stage / (m.config->id + "_trajectory.csv"), trajectory.str());
+    // The whole delivered cloud re-georeferenced with the corrected trajectory and extrinsic,
+    // and the error map of the points used (intensity = signed distance to the static surface).
+    io::PointCloud corrected;
+    corrected.points.resize(m.cloud.size());
+    corrected.intensity = m.cloud.intensity;
+    corrected.time = m.cloud.time;
+    const Rigid3d lidar_from_body_nominal = m.body_from_lidar_nominal.Inverse();
+    for (size_t i = 0; i < m.cloud.size(); ++i) {
+      const Rigid3d ins = InterpolateTrajectory(m.trajectory, m.cloud.time[i]);
+      const Eigen::Vector3d in_lidar = lidar_from_body_nominal * (ins.Inverse() * m.cloud.points[i]);
+      corrected.points[i] = CorrectedPose(m.nodes, WeightAt(m.nodes, m.cloud.time[i]), ins) * (body_from_lidar * in_lidar);
+    }
+    io::WritePly(corrected, (stage / (m.config->id + "_corrected.ply")).string());
+    io::PointCloud error_map;
+    for (const MobilePoint& p : m.points) {
+      const Eigen::Vector3d world = CorrectedPose(m.nodes, p.weight, p.ins) * (body_from_lidar * p.point_lidar);
+      error_map.points.push_back(world);
+      error_map.intensity.push_back(static_cast<float>(p.normal.dot(world - p.plane_point)));
+    }
+    io::WritePly(error_map, (stage / ("error_map_" + m.config->id + ".ply")).string());
+    report["mobile_lidar"] = {{"sensor", m.config->id}, {"points", m.cloud.size()}, {"used", m.sample.size()},
+                              {"on_surface", m.points.size()}, {"nodes", m.nodes.size()},
+                              {"max_position_correction_m", worst}, {"extrinsic", m.with_rig ? m.config->extrinsic : "held"},
+                              {"extrinsic_rotation_change_deg", dr}, {"extrinsic_translation_change_m", dt}};
+  }
   WriteText(stage / "poses.csv", poses.str());
   report["pose_corrections"] = corrections;
   report["calibrations"] = calibrations;
@@ -553,6 +736,13 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
   if (s.spheres) {
     files.push_back({{"name", "calibration/" + s.spheres->config->id + "_spherical.yaml"},
                      {"description", "line-scan calibration of the spherical pair with sigma"}});
+  }
+  if (s.mobile) {
+    const std::string id = s.mobile->config->id;
+    files.push_back({{"name", "calibration/" + id + "_camera_lidar.yaml"}, {"description", "camera-LiDAR extrinsic with sigma"}});
+    files.push_back({{"name", id + "_trajectory.csv"}, {"description", "trajectory corrections at the nodes with sigma"}});
+    files.push_back({{"name", id + "_corrected.ply"}, {"description", "the mobile cloud re-georeferenced (corrected trajectory and extrinsic)"}});
+    files.push_back({{"name", "error_map_" + id + ".ply"}, {"description", "mobile points used, intensity = signed distance to the static surface (m)"}});
   }
   if (s.joint) files.push_back({{"name", "points.csv"}, {"description", "surveyed points with sigma and error ellipses"}});
   if (s.photos) {

@@ -130,11 +130,46 @@ class ProjectReader {
                     {"loss", [&](Node v, Field g) { l.loss = Loss(v, g); }}});
       r_.Require(n, f, {"reference_cloud"});
       project_->lidar_static.push_back(l);
-    } else if (type == "spherical_stereo" || type == "camera_rig" || type == "lidar_mobile") {
+    } else if (type == "lidar_mobile") {
+      LidarMobile m;
+      m.id = id;
+      m.line = line;
+      const auto degrees = [&](double* out, double hi) {
+        return [this, out, hi](Node v, Field g) { *out = r_.Positive(v, g, hi, "degrees"); };
+      };
+      const auto metres = [&](double* out, double hi) {
+        return [this, out, hi](Node v, Field g) { *out = SigmaM(v, g, hi); };
+      };
+      r_.Map(n, f, {{"id", keep}, {"type", keep}, {"cloud", path(&m.cloud, false)},
+                    {"trajectory", path(&m.trajectory, false)}, {"calibration", path(&m.calibration, false)},
+                    {"rig", [&](Node v, Field g) { m.rig = r_.String(v, g); }},
+                    {"range_sigma_m", metres(&m.range_sigma_m, 0.5)},
+                    {"surface_sigma_m", metres(&m.surface_sigma_m, 0.5)},
+                    {"max_distance_m", metres(&m.max_distance_m, 10.0)},
+                    {"points", [&](Node v, Field g) {
+                       m.points = r_.Integer(v, g);
+                       if (m.points < 100 || m.points > 5000000) r_.Fail(v, g, "an integer in [100, 5000000]", r_.Text(v));
+                     }},
+                    {"node_spacing_s", [&](Node v, Field g) { m.node_spacing_s = r_.Positive(v, g, 600.0, "seconds"); }},
+                    {"trajectory_sigma_m", metres(&m.trajectory_sigma_m, 10.0)},
+                    {"trajectory_sigma_deg", degrees(&m.trajectory_sigma_deg, 30.0)},
+                    {"smoothness_sigma_m", metres(&m.smoothness_sigma_m, 1.0)},
+                    {"smoothness_sigma_deg", degrees(&m.smoothness_sigma_deg, 10.0)},
+                    {"frame_sigma_m", metres(&m.frame_sigma_m, 1.0)},
+                    {"frame_sigma_deg", degrees(&m.frame_sigma_deg, 10.0)},
+                    {"extrinsic", [&](Node v, Field g) {
+                       m.extrinsic = r_.String(v, g);
+                       if (m.extrinsic != "fixed" && m.extrinsic != "weighted" && m.extrinsic != "free") {
+                         r_.Fail(v, g, "fixed, weighted or free", m.extrinsic);
+                       }
+                     }},
+                    {"extrinsic_sigma_m", metres(&m.extrinsic_sigma_m, 1.0)},
+                    {"extrinsic_sigma_deg", degrees(&m.extrinsic_sigma_deg, 30.0)},
+                    {"loss", [&](Node v, Field g) { m.loss = Loss(v, g); }}});
+      r_.Require(n, f, {"cloud", "trajectory", "calibration"});
+      project_->lidar_mobile.push_back(m);
+    } else if (type == "spherical_stereo" || type == "camera_rig") {
       // Validated (keys, files, σ), not adjusted by this version (README "Limits").
-      std::string ignored;
-      const auto sigma_px = [&](Node v, Field g) { SigmaPx(v, g); };
-      const auto sigma_m = [&](Node v, Field g) { SigmaM(v, g, 0.5); };
       if (type == "spherical_stereo") {
         SphericalStereo p;
         p.id = id;
@@ -187,10 +222,6 @@ class ProjectReader {
           project_->rigs.push_back(p);
           return;
         }
-      } else {
-        r_.Map(n, f, {{"id", keep}, {"type", keep}, {"cloud", path(&ignored, false)},
-                      {"trajectory", path(&ignored, false)}, {"calibration", path(&ignored, false)},
-                      {"range_sigma_m", sigma_m}});
       }
       project_->other_sensors.push_back({id, type, line});
     } else {
@@ -291,6 +322,22 @@ Project LoadProject(const std::string& path) {
     bool found = false;
     for (const PhotoCollection& p : project.photos) found = found || p.id == rig.tie_block;
     if (!found) throw InputError(path, rig.line, "tie_block", rig.tie_block, "the id of a photo_collection sensor");
+  }
+  for (const LidarMobile& m : project.lidar_mobile) {
+    if (project.lidar_static.empty()) {
+      throw InputError(path, m.line, "type", "lidar_mobile",
+                       "a lidar_static sensor too: the mobile points are tied to its reference surface");
+    }
+    if (project.photos.empty()) {
+      throw InputError(path, m.line, "type", "lidar_mobile", "a photo_collection too (its block bounds the LiDAR surface)");
+    }
+    if (m.rig.empty()) continue;
+    bool found = false;
+    for (const CameraRig& rig : project.rigs) found = found || rig.id == m.rig;
+    if (!found) throw InputError(path, m.line, "rig", m.rig, "the id of a camera_rig sensor with observations");
+  }
+  if (project.lidar_mobile.size() > 1) {
+    throw InputError(path, project.lidar_mobile[1].line, "type", "lidar_mobile", "one lidar_mobile sensor in this version");
   }
   if (project.name.empty()) project.name = fs::path(path).parent_path().filename().string();
   return project;

@@ -45,18 +45,20 @@ double ReadScalar(const char* data, ScalarType type, bool swap) {
 }
 
 CloudBuilder::CloudBuilder(const std::string& file, const ReadOptions& options,
-                           bool normals, bool intensity, bool colors, size_t reserve)
+                           bool normals, bool intensity, bool colors, size_t reserve, bool time)
     : file_(file),
       options_(options),
       has_normals_(normals),
       has_intensity_(intensity),
-      has_colors_(colors) {
+      has_colors_(colors),
+      has_time_(time) {
   // Do not trust a header's count for the reservation beyond a sane size.
   reserve = std::min<size_t>(reserve, size_t{1} << 26);
   cloud_.points.reserve(reserve);
   if (normals) cloud_.normals.reserve(reserve);
   if (intensity) cloud_.intensity.reserve(reserve);
   if (colors) cloud_.colors.reserve(reserve);
+  if (time) cloud_.time.reserve(reserve);
 }
 
 PointCloud CloudBuilder::Finish(const std::string& format, ReadStats* stats) {

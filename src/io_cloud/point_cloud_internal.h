@@ -34,17 +34,18 @@ inline bool HostIsLittleEndian() {
 class CloudBuilder {
  public:
   CloudBuilder(const std::string& file, const ReadOptions& options, bool normals,
-               bool intensity, bool colors, size_t reserve);
+               bool intensity, bool colors, size_t reserve, bool time = false);
 
   /// Returns false if the point was skipped. `describe_location()` gives the error prefix.
   template <typename Describe>
   bool Add(const double xyz[3], const double* normal, float intensity, const uint8_t* rgb,
-           Describe describe_location) {
+           Describe describe_location, double time = 0.0) {
     bool finite = std::isfinite(xyz[0]) && std::isfinite(xyz[1]) && std::isfinite(xyz[2]);
     if (finite && normal != nullptr) {
       finite = std::isfinite(normal[0]) && std::isfinite(normal[1]) && std::isfinite(normal[2]);
     }
     if (finite && has_intensity_) finite = std::isfinite(intensity);
+    if (finite && has_time_) finite = std::isfinite(time);
     const size_t index = seen_++;
     if (!finite) {
       if (options_.skip_invalid_points) {
@@ -53,13 +54,14 @@ class CloudBuilder {
       }
       throw InputError::Message(describe_location(),
                                 "point " + std::to_string(index) +
-                                    ": non-finite coordinate, normal or intensity (NaN/Inf); "
+                                    ": non-finite coordinate, normal, intensity or time (NaN/Inf); "
                                     "expected finite values (or read with skip_invalid_points)");
     }
     cloud_.points.emplace_back(xyz[0], xyz[1], xyz[2]);
     if (has_normals_) cloud_.normals.emplace_back(normal[0], normal[1], normal[2]);
     if (has_intensity_) cloud_.intensity.push_back(intensity);
     if (has_colors_) cloud_.colors.push_back({rgb[0], rgb[1], rgb[2]});
+    if (has_time_) cloud_.time.push_back(time);
     return true;
   }
   /// Counts a point that is dropped without a check (e.g. PCD NaN padding).
@@ -70,7 +72,7 @@ class CloudBuilder {
  private:
   std::string file_;
   ReadOptions options_;
-  bool has_normals_, has_intensity_, has_colors_;
+  bool has_normals_, has_intensity_, has_colors_, has_time_;
   size_t seen_ = 0;
   size_t skipped_ = 0;
   PointCloud cloud_;

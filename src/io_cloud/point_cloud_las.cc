@@ -119,7 +119,10 @@ PointCloud ReadLas(const std::string& path, const ReadOptions& options, ReadStat
       }
     }
   }
-  CloudBuilder builder(path, options, false, true, has_rgb, count);
+  // GPS time (double): formats 1 and 3 at byte 20, formats 6–8 at byte 22.
+  const bool has_time = format == 1 || format == 3 || format >= 6;
+  const size_t time_offset = format >= 6 ? 22 : 20;
+  CloudBuilder builder(path, options, false, true, has_rgb, count, has_time);
   for (uint64_t i = 0; i < count; ++i) {
     const size_t r = offset_to_points + i * record_length;
     double xyz[3];
@@ -133,8 +136,8 @@ PointCloud ReadLas(const std::string& path, const ReadOptions& options, ReadStat
         rgb[k] = static_cast<uint8_t>(Get<uint16_t>(data, r + rgb_offset + 2 * k) >> color_shift);
       }
     }
-    builder.Add(xyz, nullptr, intensity, rgb,
-                [&] { return path + " (byte " + std::to_string(r) + ")"; });
+    builder.Add(xyz, nullptr, intensity, rgb, [&] { return path + " (byte " + std::to_string(r) + ")"; },
+                has_time ? Get<double>(data, r + time_offset) : 0.0);
   }
   return builder.Finish("las-" + version + "-fmt" + std::to_string(format), stats);
 }

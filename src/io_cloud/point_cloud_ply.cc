@@ -60,6 +60,7 @@ struct VertexLayout {
   int normal[3] = {-1, -1, -1};
   int intensity = -1;
   int rgb[3] = {-1, -1, -1};
+  int time = -1;
 };
 
 VertexLayout FindVertexLayout(const PlyElement& vertex) {
@@ -78,6 +79,8 @@ VertexLayout FindVertexLayout(const PlyElement& vertex) {
     else if ((n == "intensity" || n == "scalar_intensity" || n == "reflectance" ||
               n == "scalar_Intensity") && layout.intensity < 0) {
       layout.intensity = idx;
+    } else if ((n == "time" || n == "gps_time" || n == "timestamp") && layout.time < 0) {
+      layout.time = idx;
     } else if (n == "red" || n == "diffuse_red" || n == "r") layout.rgb[0] = idx;
     else if (n == "green" || n == "diffuse_green" || n == "g") layout.rgb[1] = idx;
     else if (n == "blue" || n == "diffuse_blue" || n == "b") layout.rgb[2] = idx;
@@ -188,7 +191,8 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
   const bool normals = layout.normal[0] >= 0 && layout.normal[1] >= 0 && layout.normal[2] >= 0;
   const bool colors = layout.rgb[0] >= 0 && layout.rgb[1] >= 0 && layout.rgb[2] >= 0;
   const bool intensity = layout.intensity >= 0;
-  CloudBuilder builder(path, options, normals, intensity, colors, vertex.count);
+  const bool time = layout.time >= 0;
+  CloudBuilder builder(path, options, normals, intensity, colors, vertex.count, time);
   std::vector<double> values(vertex.properties.size());
 
   auto emit = [&](auto describe) {
@@ -204,7 +208,7 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
       }
     }
     const float inten = intensity ? static_cast<float>(values[layout.intensity]) : 0.0f;
-    builder.Add(xyz, normals ? n : nullptr, inten, rgb, describe);
+    builder.Add(xyz, normals ? n : nullptr, inten, rgb, describe, time ? values[layout.time] : 0.0);
   };
 
   if (format == PlyFormat::kAscii) {
@@ -315,6 +319,7 @@ void WritePly(const PointCloud& cloud, const std::string& path, bool ascii) {
   check(cloud.normals.size(), "normals");
   check(cloud.intensity.size(), "intensity");
   check(cloud.colors.size(), "colors");
+  check(cloud.time.size(), "time");
   const bool little = internal::HostIsLittleEndian();
   WriteFileAtomically(
       path,
@@ -328,6 +333,7 @@ void WritePly(const PointCloud& cloud, const std::string& path, bool ascii) {
         if (cloud.has_colors()) {
           out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
         }
+        if (cloud.has_time()) out << "property double time\n";
         out << "end_header\n";
         if (ascii) {
           out << std::setprecision(17);
@@ -346,6 +352,7 @@ void WritePly(const PointCloud& cloud, const std::string& path, bool ascii) {
               out << ' ' << int(cloud.colors[i][0]) << ' ' << int(cloud.colors[i][1]) << ' '
                   << int(cloud.colors[i][2]);
             }
+            if (cloud.has_time()) out << ' ' << cloud.time[i];
             out << '\n';
           }
           return;
@@ -365,6 +372,7 @@ void WritePly(const PointCloud& cloud, const std::string& path, bool ascii) {
           }
           if (cloud.has_intensity()) put(&cloud.intensity[i], sizeof(float));
           if (cloud.has_colors()) put(cloud.colors[i].data(), 3);
+          if (cloud.has_time()) put(&cloud.time[i], sizeof(double));
           out.write(record.data(), static_cast<std::streamsize>(record.size()));
         }
       },

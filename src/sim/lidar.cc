@@ -281,6 +281,7 @@ io::PointCloud GeoreferenceMobileScan(const LidarScan& scan, const Trajectory& t
     cloud.points.push_back(world_from_body * (body_from_lidar * scan.cloud.points[i]));
   }
   cloud.intensity = scan.cloud.intensity;
+  cloud.time = scan.time_s;
   return cloud;
 }
 

@@ -703,17 +703,26 @@ void SimulateLidar(Context* c, const Trajectory& trajectory, const Rigid3d& body
     c->registration_truth["world_from_lidar"] = MatrixJson(Rigid3d());
   }
   json mobile;
+  // The delivered cloud is georeferenced as a mobile-mapping system would: with its GNSS/INS
+  // trajectory and its nominal mounting calibration, which is off by a typical residual
+  // boresight (0.15°, −0.2°, 0.3°) and lever-arm (2, −1.5, 1 cm) error. Each point keeps its time.
+  const Rigid3d body_from_lidar_nominal(
+      body_from_lidar.rotation * Eigen::Quaterniond(Eigen::AngleAxisd(0.3 * kDeg, Vector3d::UnitZ()) *
+                                                    Eigen::AngleAxisd(-0.2 * kDeg, Vector3d::UnitY()) *
+                                                    Eigen::AngleAxisd(0.15 * kDeg, Vector3d::UnitX())),
+      body_from_lidar.translation + Vector3d(0.02, -0.015, 0.01));
   if (o.mobile_revolutions > 0) {
     const LidarScan scan = SimulateMobileScan(c->caster, c->scene, trajectory, body_from_lidar, o.mobile_scan,
                                               o.mobile_revolutions, "mobile", o.seed, o.threads);
-    io::WritePly(GeoreferenceMobileScan(scan, trajectory, body_from_lidar, true),
+    io::WritePly(GeoreferenceMobileScan(scan, trajectory, body_from_lidar_nominal, true),
                  (c->out / "clouds" / "mobile_lidar.ply").string());
     io::WritePly(GeoreferenceMobileScan(scan, trajectory, body_from_lidar, false),
                  (c->out / "truth" / "mobile_lidar_true.ply").string());
     c->result.mobile_points = scan.cloud.size();
     c->result.ghost_points += scan.num_ghosts;
     mobile = {{"file", "clouds/mobile_lidar.ply"}, {"true_file", "truth/mobile_lidar_true.ply"},
-              {"body_from_lidar", PoseJson(body_from_lidar)}, {"points", scan.cloud.size()},
+              {"body_from_lidar", PoseJson(body_from_lidar)}, {"body_from_lidar_nominal", PoseJson(body_from_lidar_nominal)},
+              {"points", scan.cloud.size()},
               {"revolutions", o.mobile_revolutions}, {"ghosts", scan.num_ghosts}};
   }
   c->truth["lidar"] = {{"static_scans", scans}, {"mobile", mobile}};
@@ -726,9 +735,12 @@ void SimulateLidar(Context* c, const Trajectory& trajectory, const Rigid3d& body
     c->project_sensors << "  - id: mls\n    type: lidar_mobile\n    cloud: clouds/mobile_lidar.ply\n"
                           "    trajectory: trajectory_ins.csv\n    calibration: calib/mobile_lidar.yaml\n"
                           "    range_sigma_m: " << o.mobile_scan.noise.range_sigma_m << "\n";
+    if (c->truth.contains("rig") && !c->tie_points.empty()) {
+      c->project_sensors << "    rig: ladybug  # on the same vehicle: camera-LiDAR extrinsic estimated\n";
+    }
     WriteText(c->out / "calib" / "mobile_lidar.yaml",
               "# Mounting of the mobile LiDAR head on the vehicle (body: x forward, y left, z up).\n"
-              "body_from_lidar: " + YamlPose(body_from_lidar) + "\nbeams: " + std::to_string(o.mobile_scan.beams) +
+              "body_from_lidar: " + YamlPose(body_from_lidar_nominal) + "\nbeams: " + std::to_string(o.mobile_scan.beams) +
                   "\nelevation_deg: [" + Fmt(o.mobile_scan.elevation_min_deg, 2) + ", " +
                   Fmt(o.mobile_scan.elevation_max_deg, 2) + "]\nrotation_hz: " + Fmt(o.mobile_scan.rotation_hz, 2) + "\n");
   }

@@ -205,4 +205,100 @@ class LidarSurface {
   size_t num_read_ = 0;
 };
 
+// ---- mobile LiDAR and the vehicle trajectory ----------------------------------------------
+
+/// A node of the smooth correction of a GNSS/INS trajectory: rotation vector ω (world axes)
+/// and translation δ [m], applied as world_from_body = (Exp(ω)·R_ins, p_ins + δ) so that a
+/// rotation correction turns the vehicle about its own position. Between nodes ω and δ are
+/// interpolated linearly (corrections are small).
+struct TrajectoryNode {
+  double time_s = 0.0;
+  double correction[6] = {0, 0, 0, 0, 0, 0};  ///< ωx ωy ωz [rad], δx δy δz [m]
+};
+
+/// Where a time falls between nodes: node `node` and `node + 1`, weight `alpha` of the second.
+struct NodeWeight {
+  size_t node = 0;
+  double alpha = 0.0;
+};
+/// `nodes` sorted by time, at least two; times outside are clamped to the first/last interval.
+NodeWeight WeightAt(const std::vector<TrajectoryNode>& nodes, double time_s);
+/// The corrected world_from_body at a time whose GNSS/INS pose is `ins`.
+Rigid3d CorrectedPose(const std::vector<TrajectoryNode>& nodes, const NodeWeight& w, const Rigid3d& ins);
+
+/// A mobile LiDAR point (in the LiDAR frame) tied to a plane of the static surface:
+/// n·(world_from_body(t)·body_from_vehicle·vehicle_from_lidar·p − q) = 0.
+struct MobilePoint {
+  Eigen::Vector3d point_lidar = Eigen::Vector3d::Zero();
+  NodeWeight weight;
+  Rigid3d ins;  ///< GNSS/INS world_from_body at the point's time
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d plane_point = Eigen::Vector3d::Zero();
+  double sigma_m = 0.005;
+  size_t source = 0;  ///< index of the point in the delivered cloud
+};
+
+class MobileLidarGroup : public FactorGroup {
+ public:
+  /// `vehicle_from_lidar` is the estimated extrinsic (the rig frame when a rig shares the
+  /// vehicle, else the body); `body_from_vehicle` is constant.
+  MobileLidarGroup(std::vector<MobilePoint> points, std::vector<TrajectoryNode>* nodes, Rigid3d* vehicle_from_lidar,
+                   const Rigid3d& body_from_vehicle, LossOptions loss, std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+  const std::vector<MobilePoint>& points() const { return points_; }
+
+ private:
+  std::vector<MobilePoint> points_;
+  std::vector<TrajectoryNode>* nodes_;
+  Rigid3d* vehicle_from_lidar_;
+  Rigid3d body_from_vehicle_;
+};
+
+/// The GNSS/INS prior on each node (ω/σ_rad, δ/σ_m): the trajectory as delivered.
+class TrajectoryPriorGroup : public FactorGroup {
+ public:
+  TrajectoryPriorGroup(std::vector<TrajectoryNode>* nodes, double sigma_m, double sigma_rad, LossOptions loss,
+                       std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+
+ private:
+  std::vector<TrajectoryNode>* nodes_;
+  double sigma_m_, sigma_rad_;
+};
+
+/// Smoothness: the second difference of consecutive nodes' corrections (c₋ − 2c + c₊)/σ —
+/// GNSS/INS errors drift slowly, a correction that bends between nodes is penalised.
+class TrajectorySmoothnessGroup : public FactorGroup {
+ public:
+  TrajectorySmoothnessGroup(std::vector<TrajectoryNode>* nodes, double sigma_m, double sigma_rad, std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+
+ private:
+  std::vector<TrajectoryNode>* nodes_;
+  double sigma_m_, sigma_rad_;
+};
+
+/// A rig frame taken at a time on the corrected trajectory: rig_from_world[frame] ≈
+/// (world_from_body(t)·body_from_rig)⁻¹, σ of the time synchronisation (position, rotation).
+struct FrameOnTrajectory {
+  size_t frame = 0;
+  NodeWeight weight;
+  Rigid3d ins;
+};
+
+class RigTrajectoryGroup : public FactorGroup {
+ public:
+  RigTrajectoryGroup(std::vector<FrameOnTrajectory> frames, std::vector<Rigid3d>* rig_from_world,
+                     std::vector<TrajectoryNode>* nodes, const Rigid3d& body_from_rig, double sigma_m,
+                     double sigma_rad, LossOptions loss, std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+
+ private:
+  std::vector<FrameOnTrajectory> frames_;
+  std::vector<Rigid3d>* rig_from_world_;
+  std::vector<TrajectoryNode>* nodes_;
+  Rigid3d body_from_rig_;
+  double sigma_m_, sigma_rad_;
+};
+
 }  // namespace mmba::adjust

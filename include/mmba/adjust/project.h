@@ -111,8 +111,40 @@ struct CameraRig {
   RefineIntrinsics refine{true, true, true, 2};
 };
 
+/// A mobile LiDAR on a vehicle: the delivered cloud (world frame, georeferenced by the vehicle's
+/// GNSS/INS `trajectory` and the mounting `body_from_lidar` of `calibration`, with a time per
+/// point). The adjustment un-georeferences a sample of its points, corrects the trajectory
+/// smoothly (6-DoF corrections at nodes every `node_spacing_s`, linear in between, with the
+/// GNSS/INS σ as a prior and a second-difference smoothness prior) and ties the points to the
+/// static LiDAR surface (point-to-plane). With `rig` (a camera_rig on the same vehicle) the rig
+/// frames follow the same corrected trajectory and the camera–LiDAR extrinsic `rig_from_lidar`
+/// (lever arm and boresight, one block for all frames) is estimated.
+struct LidarMobile {
+  std::string id;
+  int line = 0;
+  std::string cloud;
+  std::string trajectory;          ///< CSV time_s,x_east_m,y_north_m,z_up_m,qw,qx,qy,qz (world_from_body)
+  std::string calibration;         ///< YAML with body_from_lidar
+  std::string rig;                 ///< id of a camera_rig on the same vehicle; "" = none
+  double range_sigma_m = 0.003;
+  double surface_sigma_m = 0.005;  ///< σ of the static surface's local plane
+  double max_distance_m = 0.5;     ///< association gate of the first outer iteration
+  int points = 20000;              ///< points used, evenly over time
+  double node_spacing_s = 1.0;
+  double trajectory_sigma_m = 0.1;     ///< GNSS/INS position σ (prior on each node's correction)
+  double trajectory_sigma_deg = 1.0;   ///< GNSS/INS attitude σ
+  double smoothness_sigma_m = 0.01;    ///< σ of the second difference of the corrections (per node step)
+  double smoothness_sigma_deg = 0.1;
+  double frame_sigma_m = 0.002;        ///< rig frame ↔ trajectory (time synchronisation)
+  double frame_sigma_deg = 0.01;
+  std::string extrinsic = "free";      ///< fixed | weighted | free (with `rig`)
+  double extrinsic_sigma_m = 0.05;
+  double extrinsic_sigma_deg = 1.0;
+  LossOptions loss{LossType::kHuber, 3.0};
+};
+
 /// A sensor the project may name that this version validates but does not adjust
-/// (camera_rig, lidar_mobile, spherical_stereo without observations): reported as not used.
+/// (camera_rig, spherical_stereo without observations): reported as not used.
 struct OtherSensor {
   std::string id;
   std::string type;
@@ -143,6 +175,7 @@ struct Project {
   std::vector<LidarStatic> lidar_static;
   std::vector<SphericalStereo> spherical;  ///< with observations (adjusted)
   std::vector<CameraRig> rigs;             ///< with observations (adjusted)
+  std::vector<LidarMobile> lidar_mobile;
   std::vector<OtherSensor> other_sensors;
   std::string truth;  ///< simulations: truth JSON (evaluation only, never used to adjust)
 };

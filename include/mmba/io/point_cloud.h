@@ -34,12 +34,16 @@ struct PointCloud {
   std::vector<Eigen::Vector3d> normals;             ///< unit, optional
   std::vector<float> intensity;                     ///< optional (LiDAR reflectance, 0..1 or raw)
   std::vector<std::array<uint8_t, 3>> colors;       ///< optional RGB
+  /// Optional acquisition time per point [s] (PLY `time` / `gps_time` / `timestamp`, LAS
+  /// GPS time): what a mobile-mapping cloud needs to be re-georeferenced along its trajectory.
+  std::vector<double> time;
 
   size_t size() const { return points.size(); }
   bool empty() const { return points.empty(); }
   bool has_normals() const { return !normals.empty(); }
   bool has_intensity() const { return !intensity.empty(); }
   bool has_colors() const { return !colors.empty(); }
+  bool has_time() const { return !time.empty(); }
 };
 
 /// How readers treat doubtful content.

@@ -1,0 +1,159 @@
+// The mobile LiDAR of `mmba adjust`: reading the delivered cloud, un-georeferencing a sample
+// of its points into the LiDAR frame, placing the trajectory-correction nodes, and tying the
+// points to the static LiDAR surface. The factor groups are in mobile_groups.cc.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+
+#include <spdlog/spdlog.h>
+
+#include "internal.h"
+#include "mmba/core/error.h"
+#include "mmba/io/csv_table.h"
+
+namespace mmba::adjust::internal {
+
+Rigid3d ReadPose(const io::YamlReader& r, const YAML::Node& n, const std::string& f) {
+  std::vector<double> q, t;
+  r.Map(n, f, {{"qvec_wxyz", [&](const YAML::Node& v, const std::string& g) { q = r.NumberList(v, g); }},
+               {"tvec", [&](const YAML::Node& v, const std::string& g) { t = r.NumberList(v, g); }}});
+  if (q.size() != 4 || t.size() != 3) r.Fail(n, f, "{qvec_wxyz: [4 numbers], tvec: [3 numbers]}", "other sizes");
+  const Eigen::Quaterniond rotation(q[0], q[1], q[2], q[3]);
+  if (std::abs(rotation.norm() - 1.0) > 1e-3) r.Fail(n, f + ".qvec_wxyz", "a unit quaternion", "norm " + std::to_string(rotation.norm()));
+  return Rigid3d(rotation.normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
+}
+
+std::vector<std::pair<double, Rigid3d>> ReadTrajectory(const std::string& path) {
+  std::vector<std::pair<double, Rigid3d>> trajectory;
+  const io::CsvTable ins = io::CsvTable::Read(path, {"time_s", "x_east_m", "y_north_m", "z_up_m", "qw", "qx", "qy", "qz"});
+  for (const io::CsvTable::Row& row : ins.rows()) {
+    const Eigen::Quaterniond q(ins.Double(row, "qw"), ins.Double(row, "qx"), ins.Double(row, "qy"), ins.Double(row, "qz"));
+    if (std::abs(q.norm() - 1.0) > 1e-3) ins.Fail(row, "qw", std::to_string(q.norm()), "a unit quaternion (norm 1)");
+    const double time = ins.Double(row, "time_s");
+    if (!trajectory.empty() && !(time > trajectory.back().first)) ins.Fail(row, "time_s", ins.String(row, "time_s"), "increasing times");
+    trajectory.emplace_back(time, Rigid3d(q.normalized(), Eigen::Vector3d(ins.Double(row, "x_east_m"), ins.Double(row, "y_north_m"),
+                                                                          ins.Double(row, "z_up_m"))));
+  }
+  if (trajectory.size() < 2) throw InputError::Message(path, "fewer than 2 trajectory rows");
+  return trajectory;
+}
+
+Rigid3d InterpolateTrajectory(const std::vector<std::pair<double, Rigid3d>>& rows, double time) {
+  auto it = std::lower_bound(rows.begin(), rows.end(), time,
+                             [](const std::pair<double, Rigid3d>& row, double t) { return row.first < t; });
+  if (it == rows.begin()) return it->second;
+  if (it == rows.end()) return rows.back().second;
+  const auto& [t1, b] = *it;
+  const auto& [t0, a] = *(it - 1);
+  const double u = (time - t0) / (t1 - t0);
+  return Rigid3d(a.rotation.slerp(u, b.rotation), (1 - u) * a.translation + u * b.translation);
+}
+
+void LoadMobile(JointState* s) {
+  if (s->project->lidar_mobile.empty()) return;
+  const LidarMobile& config = s->project->lidar_mobile.front();
+  MobileBlock m;
+  m.config = &config;
+  // Calibration: the mounting the delivered cloud was georeferenced with.
+  const io::YamlReader r(config.calibration);
+  const YAML::Node root = r.Load("mobile LiDAR calibration");
+  bool have_mounting = false;
+  const auto ignore = [](const YAML::Node&, const std::string&) {};
+  r.Map(root, "", {{"body_from_lidar", [&](const YAML::Node& n, const std::string& f) {
+                      m.body_from_lidar_nominal = ReadPose(r, n, f);
+                      have_mounting = true;
+                    }},
+                   {"beams", ignore}, {"elevation_deg", ignore}, {"rotation_hz", ignore}});
+  if (!have_mounting) r.Fail(root, "body_from_lidar", "the key to be present", "nothing");
+  m.trajectory = ReadTrajectory(config.trajectory);
+  io::ReadStats stats;
+  m.cloud = io::ReadPointCloud(config.cloud, io::ReadOptions{}, &stats);
+  if (m.cloud.empty()) throw InputError::Message(config.cloud, "the mobile LiDAR cloud has no points (sensor '" + config.id + "')");
+  if (!m.cloud.has_time()) {
+    throw InputError::Message(config.cloud, "no time per point (PLY property time / gps_time / timestamp, or LAS GPS time); "
+                                            "a mobile cloud cannot be re-georeferenced without it");
+  }
+  const double t0 = m.trajectory.front().first, t1 = m.trajectory.back().first;
+  for (size_t i = 0; i < m.cloud.size(); ++i) {
+    if (m.cloud.time[i] < t0 - 1e-6 || m.cloud.time[i] > t1 + 1e-6) {
+      throw InputError::Message(config.cloud, "point " + std::to_string(i) + " has time " + std::to_string(m.cloud.time[i]) +
+                                                  " s, outside the trajectory " + config.trajectory + " [" +
+                                                  std::to_string(t0) + ", " + std::to_string(t1) + "] s");
+    }
+  }
+  // The vehicle frame: the rig's frame when the rig rides on the same vehicle.
+  m.with_rig = !config.rig.empty() && s->rig && s->rig->config->id == config.rig;
+  m.body_from_vehicle = m.with_rig ? s->rig->body_from_rig : Rigid3d();
+  m.vehicle_from_lidar = m.body_from_vehicle.Inverse() * m.body_from_lidar_nominal;
+  m.vehicle_from_lidar_initial = m.vehicle_from_lidar;
+  // Sample evenly in point order (= time order for a scanner) and un-georeference.
+  std::vector<size_t> order(m.cloud.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return m.cloud.time[a] < m.cloud.time[b]; });
+  const size_t wanted = std::min<size_t>(config.points, m.cloud.size());
+  const Rigid3d lidar_from_body = m.body_from_lidar_nominal.Inverse();
+  for (size_t k = 0; k < wanted; ++k) {
+    const size_t i = order[k * m.cloud.size() / wanted];
+    const Rigid3d ins = InterpolateTrajectory(m.trajectory, m.cloud.time[i]);
+    m.sample.push_back(i);
+    m.sample_ins.push_back(ins);
+    m.sample_lidar.push_back(lidar_from_body * (ins.Inverse() * m.cloud.points[i]));
+  }
+  // Nodes every node_spacing_s over the time span of the sample and the rig frames.
+  double lo = m.cloud.time[order.front()], hi = m.cloud.time[order.back()];
+  if (m.with_rig) {
+    for (double t : s->rig->frame_times) {
+      lo = std::min(lo, t);
+      hi = std::max(hi, t);
+    }
+  }
+  const int intervals = std::max(1, static_cast<int>(std::ceil((hi - lo) / config.node_spacing_s - 1e-9)));
+  for (int k = 0; k <= intervals; ++k) {
+    TrajectoryNode node;
+    node.time_s = lo + (hi - lo) * k / intervals;
+    m.nodes.push_back(node);
+  }
+  if (hi <= lo) m.nodes.back().time_s = lo + config.node_spacing_s;
+  for (size_t k = 0; k < m.sample.size(); ++k) m.sample_weight.push_back(WeightAt(m.nodes, m.cloud.time[m.sample[k]]));
+  if (m.with_rig) {
+    for (size_t f = 0; f < s->rig->frame_times.size(); ++f) {
+      const double t = s->rig->frame_times[f];
+      m.frames.push_back({f, WeightAt(m.nodes, t), InterpolateTrajectory(m.trajectory, t)});
+    }
+  }
+  s->log.push_back("mobile LiDAR '" + config.id + "': " + std::to_string(m.cloud.size()) + " points (" + stats.format +
+                   "), " + std::to_string(m.sample.size()) + " used; trajectory corrected at " + std::to_string(m.nodes.size()) +
+                   " nodes over " + std::to_string(hi - lo) + " s" +
+                   (m.with_rig ? "; rig '" + config.rig + "' on the same vehicle, camera-LiDAR extrinsic " + config.extrinsic
+                               : "; no rig on the vehicle: body_from_lidar held at the calibration"));
+  spdlog::info("adjust: {}", s->log.back());
+  if (!config.rig.empty() && !m.with_rig) {
+    s->warnings.push_back("lidar_mobile '" + config.id + "': rig '" + config.rig + "' has no frames loaded; extrinsic held");
+  }
+  s->mobile = std::move(m);
+}
+
+size_t AssociateMobile(JointState* s, double gate) {
+  MobileBlock& m = *s->mobile;
+  const double sigma = std::hypot(m.config->range_sigma_m, m.config->surface_sigma_m);
+  m.points.clear();
+  const Rigid3d body_from_lidar = m.body_from_vehicle * m.vehicle_from_lidar;
+  for (size_t k = 0; k < m.sample.size(); ++k) {
+    const Rigid3d world_from_body = CorrectedPose(m.nodes, m.sample_weight[k], m.sample_ins[k]);
+    const Eigen::Vector3d world = world_from_body * (body_from_lidar * m.sample_lidar[k]);
+    Eigen::Vector3d n, c;
+    if (!s->surface->FitPlane(world, gate, 12, &n, &c)) continue;
+    MobilePoint p;
+    p.point_lidar = m.sample_lidar[k];
+    p.weight = m.sample_weight[k];
+    p.ins = m.sample_ins[k];
+    p.normal = n;
+    p.plane_point = c;
+    p.sigma_m = sigma;
+    p.source = m.sample[k];
+    m.points.push_back(p);
+  }
+  return m.points.size();
+}
+
+}  // namespace mmba::adjust::internal

@@ -1,0 +1,114 @@
+// The mobile LiDAR in the joint adjustment (small simulated gate: photos, a 6-camera rig on
+// the vehicle, a mobile LiDAR georeferenced with a drifting GNSS/INS trajectory and a mounting
+// calibration off by 0.3° / 2 cm, two static scans, total station, GNSS): the trajectory is
+// corrected, the camera–LiDAR extrinsic recovered, and a cloud without point times refused.
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "mmba/adjust/adjust.h"
+#include "mmba/core/error.h"
+#include "mmba/core/logging.h"
+#include "mmba/io/point_cloud.h"
+#include "mmba/sim/simulate.h"
+
+namespace mmba::adjust {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+fs::path Root() { return fs::path(testing::TempDir()) / ("mmba_adjust_mobile_" + std::to_string(::getpid())); }
+
+std::string ReadText(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+class MobileAdjustTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    SetVerbosity(Verbosity::kQuiet);
+    fs::remove_all(Root());
+    sim::SimulateOptions o;
+    o.scene = "gate";
+    o.seed = 5;
+    o.threads = 2;
+    o.photos.count = 20;
+    o.photos.tie_points = 600;
+    o.spheres.stations = 0;
+    o.rig.frames = 6;
+    o.static_scans = 2;
+    o.mobile_revolutions = 58;
+    o.clouds.surface_samples = 0;
+    o.render.samples_per_axis = 1;
+    sim::Simulate(o, (Root() / "sim").string());
+  }
+  static void TearDownTestSuite() {
+    if (!std::getenv("MMBA_KEEP_TEST_OUTPUT")) fs::remove_all(Root());
+  }
+
+  static AdjustOutcome Run(const std::string& project_path, const std::string& out) {
+    const Project project = LoadProject(project_path);
+    AdjustOptions options;
+    options.output_dir = out;
+    options.log_progress = false;
+    return RunAdjustment(project, options);
+  }
+};
+
+TEST_F(MobileAdjustTest, CorrectsTheTrajectoryAndRecoversTheCameraLidarExtrinsic) {
+  const fs::path out = Root() / "out";
+  const AdjustOutcome outcome = Run((Root() / "sim" / "project.yaml").string(), out.string());
+  ASSERT_TRUE(outcome.ok) << outcome.reason;
+  const json& r = outcome.report;
+  const json& mobile = r["truth_evaluation"]["mobile_lidar"];
+  // The target: the camera–LiDAR extrinsic within 1 cm and 0.05° (from 0.4° / 2.7 cm).
+  EXPECT_LT(mobile["cam_from_lidar"]["max_translation_m"].get<double>(), 0.01) << mobile.dump();
+  EXPECT_LT(mobile["cam_from_lidar"]["max_rotation_deg"].get<double>(), 0.05) << mobile.dump();
+  EXPECT_GT(mobile["cam_from_lidar"]["initial_max_rotation_deg"].get<double>(), 0.3);
+  // The trajectory: several times closer to the truth than the GNSS/INS.
+  EXPECT_LT(mobile["trajectory"]["rmse_position_m"].get<double>(),
+            0.3 * mobile["trajectory"]["ins_rmse_position_m"].get<double>());
+  EXPECT_LT(mobile["trajectory"]["max_rotation_deg"].get<double>(), 0.1);
+  EXPECT_GT(r["mobile_lidar"]["on_surface"].get<int>(), 2000);
+  for (const char* f : {"calibration/mls_camera_lidar.yaml", "mls_trajectory.csv", "mls_corrected.ply", "error_map_mls.ply"}) {
+    EXPECT_TRUE(fs::exists(out / f)) << f;
+  }
+  const std::string yaml = ReadText(out / "calibration" / "mls_camera_lidar.yaml");
+  EXPECT_NE(yaml.find("rig_from_lidar_sigma"), std::string::npos);
+  EXPECT_NE(yaml.find("cam_from_lidar"), std::string::npos);
+  // The corrected cloud keeps every point and its time.
+  const io::PointCloud corrected = io::ReadPointCloud((out / "mls_corrected.ply").string());
+  EXPECT_TRUE(corrected.has_time());
+  EXPECT_EQ(corrected.size(), io::ReadPointCloud((Root() / "sim" / "clouds" / "mobile_lidar.ply").string()).size());
+}
+
+TEST_F(MobileAdjustTest, RefusesACloudWithoutPointTimes) {
+  const fs::path sim = Root() / "sim", dir = Root() / "no_time";
+  fs::create_directories(dir);
+  io::PointCloud cloud = io::ReadPointCloud((sim / "clouds" / "mobile_lidar.ply").string());
+  cloud.time.clear();
+  io::WritePly(cloud, (dir / "mobile.ply").string());
+  std::string project = ReadText(sim / "project.yaml");
+  const std::string key = "cloud: clouds/mobile_lidar.ply";
+  ASSERT_NE(project.find(key), std::string::npos);
+  project.replace(project.find(key), key.size(), "cloud: " + (dir / "mobile.ply").string());
+  std::ofstream(sim / "project_no_time.yaml") << project;
+  try {
+    Run((sim / "project_no_time.yaml").string(), (dir / "out").string());
+    FAIL() << "expected an InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no time per point"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("mobile.ply"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+}  // namespace
+}  // namespace mmba::adjust
