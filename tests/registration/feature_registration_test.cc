@@ -160,6 +160,102 @@ TEST(FeatureRegistration, FailuresAreReportedNotGuessed) {
   EXPECT_THROW(RegisterClouds(bun0, bun0, bad), InputError);
 }
 
+// Uniform random points on the six faces of the box [lo, hi], one per spacing² on average.
+void SampleBox(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double spacing,
+               std::mt19937* rng, io::PointCloud* out) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const Eigen::Vector3d size = hi - lo;
+  for (int axis = 0; axis < 3; ++axis) {
+    const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+    const int n = static_cast<int>(size[a] * size[b] / (spacing * spacing));
+    for (double face : {lo[axis], hi[axis]}) {
+      for (int i = 0; i < n; ++i) {
+        Eigen::Vector3d p;
+        p[axis] = face;
+        p[a] = lo[a] + u(*rng) * size[a];
+        p[b] = lo[b] + u(*rng) * size[b];
+        out->points.push_back(p);
+      }
+    }
+  }
+}
+
+// A gate (two posts, a beam, a door panel) with optional relief blocks on its front and the
+// door off the posts' mid-plane: without them it is symmetric under a 180° turn about z.
+io::PointCloud Gate(double spacing, bool details, uint32_t seed) {
+  std::mt19937 rng(seed);
+  io::PointCloud gate;
+  SampleBox({-2.0, 0.0, 0.0}, {-1.5, 0.5, 2.5}, spacing, &rng, &gate);
+  SampleBox({1.5, 0.0, 0.0}, {2.0, 0.5, 2.5}, spacing, &rng, &gate);
+  SampleBox({-2.2, -0.05, 2.5}, {2.2, 0.55, 3.0}, spacing, &rng, &gate);
+  const double door_y = details ? 0.3 : 0.22;
+  SampleBox({-1.5, door_y, 0.0}, {1.5, door_y + 0.06, 2.5}, spacing, &rng, &gate);
+  if (details) {
+    const double blocks[][3] = {{-1.9, 0.6, 0.3}, {-1.85, 1.7, 0.25}, {1.6, 1.1, 0.3},
+                                {-0.9, 2.6, 0.35}, {0.7, 2.65, 0.3}, {-0.8, 1.2, 0.4},
+                                {0.5, 0.4, 0.3}};
+    for (const auto& b : blocks) {
+      const double y_front = b[1] > 2.5 ? -0.05 : (std::abs(b[0]) > 1.5 ? 0.0 : door_y);
+      SampleBox({b[0], y_front - 0.08, b[1]}, {b[0] + b[2], y_front, b[1] + b[2]}, spacing, &rng,
+                &gate);
+    }
+  }
+  return gate;
+}
+
+// A LiDAR-like reference: the room around the gate (10 × 10 × 4 m, coarser) plus the gate.
+io::PointCloud Room(const io::PointCloud& gate, uint32_t seed) {
+  std::mt19937 rng(seed);
+  io::PointCloud room;
+  SampleBox({-5, -5, 0}, {5, 5, 4}, 0.12, &rng, &room);
+  room.points.insert(room.points.end(), gate.points.begin(), gate.points.end());
+  return room;
+}
+
+Eigen::Matrix4d BlockPose() {
+  Eigen::Matrix4d t = Eigen::Matrix4d::Identity();
+  t.topLeftCorner<3, 3>() = (Eigen::AngleAxisd(2.3, Eigen::Vector3d::UnitZ()) *
+                             Eigen::AngleAxisd(0.05, Eigen::Vector3d::UnitX()))
+                                .toRotationMatrix();
+  t.topRightCorner<3, 1>() = Eigen::Vector3d(3.0, -2.0, 0.7);
+  return t;
+}
+
+TEST(FeatureRegistration, ObjectInsideALargeReference) {
+  // One object's reconstruction against a whole LiDAR model of its room: the coarse level must
+  // not thin the object away for the room's sake, and the fine check runs on the reference
+  // cropped to the object. Source and reference are independent samples of the surface.
+  const Eigen::Matrix4d source_from_world = BlockPose();
+  const io::PointCloud source = Transformed(Gate(0.05, true, 1), source_from_world);
+  const io::PointCloud reference = Room(Gate(0.05, true, 2), 3);
+  CloudRegistrationOptions options;
+  options.descriptor = Descriptor::kFpfh;
+  const CloudRegistrationResult r = RegisterClouds(source, reference, options);
+  ASSERT_TRUE(r.ok()) << r.BriefReport();
+  const Eigen::Matrix4d truth = source_from_world.inverse();
+  EXPECT_LT(TransformRmsOnCloud(source, r.target_from_source, truth), 0.02) << r.BriefReport();
+  EXPECT_GT(r.significance, options.min_significance);
+}
+
+TEST(FeatureRegistration, SymmetricObjectIsNotOkWithTheTurnedPose) {
+  // Without its details the gate fits its reference equally well turned by 180° about z: the
+  // result must say so (failed, ambiguous) — or, if only one pose was found, be the right one.
+  const Eigen::Matrix4d source_from_world = BlockPose();
+  const io::PointCloud source = Transformed(Gate(0.05, false, 1), source_from_world);
+  const io::PointCloud reference = Gate(0.05, false, 2);
+  CloudRegistrationOptions options;
+  options.descriptor = Descriptor::kFpfh;
+  const CloudRegistrationResult r = RegisterClouds(source, reference, options);
+  if (r.ok()) {
+    EXPECT_LT(TransformRmsOnCloud(source, r.target_from_source, source_from_world.inverse()),
+              0.02)
+        << r.BriefReport();
+  } else {
+    EXPECT_NE(r.reason.find("ambiguous"), std::string::npos) << r.reason;
+    EXPECT_LT(r.significance, options.min_significance);
+  }
+}
+
 TEST(FeatureRegistration, ErrorMapColoursByDistance) {
   io::PointCloud source, target;
   source.points = {{0, 0, 0}, {0, 0, 1}};

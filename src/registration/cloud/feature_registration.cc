@@ -73,6 +73,7 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   if (max_points_features < 1000) return fail("max_points_features", max_points_features, ">= 1000");
   if (max_points_icp < 1000) return fail("max_points_icp", max_points_icp, ">= 1000");
   if (!(coarse_voxel_spacing >= 1)) return fail("coarse_voxel_spacing", coarse_voxel_spacing, ">= 1");
+  if (min_points_coarse < 10) return fail("min_points_coarse", min_points_coarse, ">= 10");
   if (!(larger_cloud_factor >= 1)) return fail("larger_cloud_factor", larger_cloud_factor, ">= 1");
   if (!(inlier_sigma > 0)) return fail("inlier_sigma", inlier_sigma, "> 0");
   if (sac_ia_iterations < 1) return fail("sac_ia_iterations", sac_ia_iterations, ">= 1");
@@ -807,7 +808,16 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   const size_t small_budget = static_cast<size_t>(options.max_points_features);
   const size_t large_budget =
       static_cast<size_t>(options.larger_cloud_factor * options.max_points_features);
-  double coarse_voxel = options.coarse_voxel_spacing * std::max(s_src, s_tgt);
+  double coarse_voxel = std::max(s_src, s_tgt);
+  {
+    // Coarser by coarse_voxel_spacing while the smaller cloud keeps enough points to describe.
+    const io::PointCloud& smaller = source_larger ? target : source;
+    const double candidate = options.coarse_voxel_spacing * coarse_voxel;
+    if (VoxelDownsample(smaller.points, {}, candidate).points.size() >=
+        static_cast<size_t>(options.min_points_coarse)) {
+      coarse_voxel = candidate;
+    }
+  }
   coarse_voxel = std::max(coarse_voxel, VoxelForBudget(source, coarse_voxel,
                                                        source_larger ? large_budget : small_budget));
   coarse_voxel = std::max(coarse_voxel, VoxelForBudget(target, coarse_voxel,
@@ -1005,8 +1015,12 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
           viewpoint);
     }
     if (options.icp) {
+      // Levelled hypotheses were turned about `up` only: the tilt left to the free fine ICP
+      // needs a wider start.
+      const double start = options.gravity_aligned ? support_radius / 2.0
+                                                   : options.icp_distance_spacing * spacing;
       f.h.transform = PointToPlaneIcp(fine_src, c.level.points, c.level.normals, *c.index,
-                                      f.h.transform, options.icp_distance_spacing * spacing,
+                                      f.h.transform, start,
                                       options.icp_distance_spacing * f.spacing,
                                       options.icp_iterations, nullptr);  // free: levelled ≠ exact
     }

@@ -51,6 +51,7 @@ struct CloudRegistrationOptions {
   /// clouds' point spacings — averaging a few points per voxel steadies the normals of noisy
   /// reconstructions and quarters the descriptor work (>= 1).
   double coarse_voxel_spacing = 2.0;
+  int min_points_coarse = 3000;  ///< … unless the smaller cloud would keep fewer points (>= 10)
   int max_points_features = 15000;  ///< coarse level: voxel size grows until the smaller
                                     ///< cloud fits (>= 1000)
   /// The larger cloud (e.g. a whole LiDAR model against one object) may keep up to this
