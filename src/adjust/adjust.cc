@@ -168,8 +168,8 @@ void LoadGnss(JointState* s) {
   }
   if (s->gnss_trajectory_rows > 0) {
     s->warnings.push_back(std::to_string(s->gnss_trajectory_rows) +
-                          " GNSS trajectory rows of the GNSS file not used (the rig takes its priors from its "
-                          "trajectory file; no mobile sensor is adjusted in this version)");
+                          " GNSS trajectory rows of the GNSS file not used (the rig and the mobile LiDAR take "
+                          "their GNSS/INS poses from their trajectory files)");
   }
 }
 

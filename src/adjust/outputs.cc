@@ -268,9 +268,44 @@ json EvaluateTruth(const JointState& s) {
         worst_r0 = std::max(worst_r0, ri);
         worst_t0 = std::max(worst_t0, ti);
       }
+      // What the calibration is for: LiDAR points projected into each rig image with the
+      // adjusted intrinsics and cam_from_lidar against the true ones (median offset, px).
+      std::vector<double> offsets, offsets0;
+      for (size_t k = 0; k < s.rig->cameras.size() && k < truth["rig"]["cameras"].size(); ++k) {
+        const json& tc = truth["rig"]["cameras"][k];
+        sensors::Camera true_camera;
+        true_camera.model_id = sensors::CameraModelFromName(tc["camera"]["model"].get<std::string>());
+        true_camera.width = tc["camera"]["width"];
+        true_camera.height = tc["camera"]["height"];
+        true_camera.params = tc["camera"]["params"].get<std::vector<double>>();
+        sensors::Camera initial_camera = true_camera;
+        initial_camera.params = s.rig->initial_params[k];
+        const sensors::Camera& camera = s.scene.Camera(s.rig->cameras[k]);
+        const Rigid3d true_cam_from_lidar = PoseFromJson(tc["cam_from_rig"]) * true_rig_from_lidar;
+        const Rigid3d cam_from_lidar = s.rig->cam_from_rig[k] * m.vehicle_from_lidar;
+        const Rigid3d initial = s.rig->cam_from_rig_initial[k] * m.vehicle_from_lidar_initial;
+        for (size_t i = 0; i < m.sample_lidar.size(); i += 10) {
+          const auto truth_xy = true_camera.ImgFromCam(true_cam_from_lidar * m.sample_lidar[i]);
+          if (!truth_xy || truth_xy->x() < 0 || truth_xy->y() < 0 || truth_xy->x() >= true_camera.width ||
+              truth_xy->y() >= true_camera.height) {
+            continue;
+          }
+          const auto xy = camera.ImgFromCam(cam_from_lidar * m.sample_lidar[i]);
+          const auto xy0 = initial_camera.ImgFromCam(initial * m.sample_lidar[i]);
+          if (xy) offsets.push_back((*xy - *truth_xy).norm());
+          if (xy0) offsets0.push_back((*xy0 - *truth_xy).norm());
+        }
+      }
+      const auto median = [](std::vector<double> v) {
+        if (v.empty()) return 0.0;
+        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+        return v[v.size() / 2];
+      };
       const auto [rr, rt] = PoseError(m.vehicle_from_lidar, true_rig_from_lidar);
       mobile["cam_from_lidar"] = {{"max_rotation_deg", worst_r}, {"max_translation_m", worst_t},
-                                  {"initial_max_rotation_deg", worst_r0}, {"initial_max_translation_m", worst_t0}};
+                                  {"initial_max_rotation_deg", worst_r0}, {"initial_max_translation_m", worst_t0},
+                                  {"median_pixel_offset", median(offsets)}, {"initial_median_pixel_offset", median(offsets0)},
+                                  {"projected_points", offsets.size()}};
       mobile["rig_from_lidar"] = {{"rotation_deg", rr}, {"translation_m", rt}};
     }
     // The corrected trajectory against the true one at the nodes (and the GNSS/INS before).
