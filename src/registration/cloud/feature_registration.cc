@@ -385,6 +385,10 @@ class HypothesisPool {
     Sort();
   }
   const std::vector<Hypothesis>& hypotheses() const { return pool_; }
+  /// Cost a new hypothesis must beat to enter (infinite while the pool is not full).
+  double worst_cost() const {
+    return pool_.size() < capacity_ ? std::numeric_limits<double>::infinity() : pool_.back().cost;
+  }
 
  private:
   void Sort() {
@@ -398,17 +402,30 @@ class HypothesisPool {
 };
 
 // Truncated-quadratic alignment cost of `sample` under `t` (mean of min(d², τ²) / τ²).
+// Stops early (returns 1) once the cost must exceed `bound` (a hypothesis that cannot enter
+// the pool is not worth scoring to the end).
 double AlignmentCost(const std::vector<Eigen::Vector3d>& sample, const PointIndex& target,
-                     const Eigen::Matrix4d& t, double tau) {
+                     const Eigen::Matrix4d& t, double tau,
+                     double bound = std::numeric_limits<double>::infinity()) {
   double cost = 0.0;
   int index;
   double sq;
   const double tau2 = tau * tau;
-  for (const Eigen::Vector3d& p : sample) {
-    if (!target.Nearest(Apply(t, p), &index, &sq)) return 1.0;
+  const double n = static_cast<double>(std::max<size_t>(1, sample.size()));
+  const double limit = bound * tau2 * n;
+  // The sample is in random order: after the first kPreview points the mean cost already
+  // tells a hopeless hypothesis (preemptive scoring, as Nistér's preemptive RANSAC, 2005).
+  constexpr size_t kPreview = 64;
+  for (size_t i = 0; i < sample.size(); ++i) {
+    if (!target.Nearest(Apply(t, sample[i]), &index, &sq)) return 1.0;
     cost += std::min(sq, tau2);
+    if (cost > limit) return 1.0;
+    if (i + 1 == kPreview && sample.size() > 2 * kPreview &&
+        cost / (tau2 * kPreview) > std::min(1.0, 1.5 * bound + 0.1)) {
+      return 1.0;
+    }
   }
-  return cost / (tau2 * static_cast<double>(std::max<size_t>(1, sample.size())));
+  return cost / (tau2 * n);
 }
 
 // SAC-IA (Rusu, Blodow & Beetz, "Fast Point Feature Histograms for 3D Registration", ICRA
@@ -475,7 +492,7 @@ void SacIa(const Matching& m, const std::vector<Eigen::Vector3d>& score_sample,
     Hypothesis h;
     h.transform = EstimateRigid(src, dst, up);
     ++scored;
-    h.cost = AlignmentCost(score_sample, target, h.transform, tau);
+    h.cost = AlignmentCost(score_sample, target, h.transform, tau, pool->worst_cost());
     h.origin = "sac-ia " + m.descriptor;
     h.descriptor = m.descriptor;
     pool->Offer(h);
@@ -934,8 +951,9 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (const auto& p : src_coarse.points) centre += p;
   centre /= static_cast<double>(src_coarse.points.size());
-  const std::vector<size_t> score_idx = StrideSample(src_coarse.points.size(), 1000);
-  const std::vector<Eigen::Vector3d> score_sample = Pick(src_coarse.points, score_idx);
+  const std::vector<size_t> score_idx = StrideSample(src_coarse.points.size(), 300);
+  std::vector<Eigen::Vector3d> score_sample = Pick(src_coarse.points, score_idx);
+  std::shuffle(score_sample.begin(), score_sample.end(), std::mt19937_64(options.seed + 1));
   std::mt19937_64 rng(options.seed);
   const double tau_coarse = normal_radius;
   HypothesisPool pool(static_cast<size_t>(options.num_hypotheses), centre, normal_radius);
@@ -993,6 +1011,23 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     std::vector<bool> agree;
     double sigma = 0.0, spacing = 0.0;
   };
+  // The target around a hypothesis; a target within the budget is prepared once, whole.
+  std::shared_ptr<TargetCrop> whole_target;
+  auto crop_for = [&](const Eigen::Matrix4d& t) {
+    if (whole_target) return whole_target;
+    const bool whole = target.size() <= static_cast<size_t>(options.max_points_icp);
+    auto c = std::make_shared<TargetCrop>(CropTarget(
+        target, tgt_normals, fine_src, t,
+        whole ? std::numeric_limits<double>::infinity() : support_radius,
+        static_cast<size_t>(options.max_points_icp), 0.5 * src_fine_spacing));
+    if (c->level.normals.empty() && c->level.points.size() >= 10) {
+      c->level.normals = internal::EstimateNormals(
+          c->level.points,
+          std::min(normal_radius, options.normal_radius_spacing * c->level.spacing), viewpoint);
+    }
+    if (whole) whole_target = c;
+    return c;
+  };
   std::vector<Finalist> finalists;
   const size_t max_finalists = options.paper_only ? 1 : 4;
   for (const Hypothesis& h : hypotheses) {
@@ -1004,16 +1039,10 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     if (duplicate) continue;
     Finalist f;
     f.h = h;
-    TargetCrop c = CropTarget(target, tgt_normals, fine_src, h.transform, support_radius,
-                                       static_cast<size_t>(options.max_points_icp),
-                                       0.5 * src_fine_spacing);
+    const std::shared_ptr<TargetCrop> crop = crop_for(h.transform);
+    TargetCrop& c = *crop;
     if (c.level.points.size() < 10) continue;  // the hypothesis puts the source off the target
     f.spacing = std::max(src_fine_spacing, c.level.spacing);
-    if (c.level.normals.empty()) {
-      c.level.normals = internal::EstimateNormals(
-          c.level.points, std::min(normal_radius, options.normal_radius_spacing * c.level.spacing),
-          viewpoint);
-    }
     if (options.icp) {
       // Levelled hypotheses were turned about `up` only: the tilt left to the free fine ICP
       // needs a wider start.
