@@ -53,6 +53,36 @@ int main(int argc, char** argv) {
   frame.name = "kitti_000000";
   frame.views = MakeViews(image, kitti.camera, ViewOptions(), "image");
   frame.points = &points;
+  if (std::getenv("MI_PROBE") != nullptr) {
+    // Where does the metric peak around the calibration? Each axis ±1 unit (m, deg) in 0.02
+    // steps at every pyramid level: a peak away from 0 is a bias of the metric on this frame
+    // (data or rendering), not of the search.
+    RegistrationOptions probe_options = options;
+    probe_options.bound_translation_m = 1.0;
+    probe_options.bound_rotation_deg = 1.0;
+    const FrameSetEvaluator evaluator({frame}, kitti.cam_from_lidar, probe_options);
+    for (int level = 0; level < evaluator.levels(); ++level) {
+      const std::vector<ProbeSample> probe =
+          Probe(evaluator, kitti.cam_from_lidar, 1.0, 0.02, level);
+      std::printf("probe level %d (%s, %s), argmax:", level,
+                  RepresentationName(options.render.representation).c_str(),
+                  MetricName(options.metric.kind).c_str());
+      for (int axis = 0; axis < 6; ++axis) {
+        const ProbeSample* best = nullptr;
+        for (const ProbeSample& s : probe) {
+          if (s.axis == axis && (best == nullptr || s.metric.value > best->metric.value)) {
+            best = &s;
+          }
+        }
+        std::printf(" %s %+.2f", ParameterName(axis), best->offset);
+      }
+      std::printf("\n");
+      if (const char* dir_out = std::getenv("MI_PROBE_DIR")) {
+        WriteProbe(probe, std::string(dir_out) + "/level" + std::to_string(level));
+      }
+    }
+    return 0;
+  }
   // Known directions: each axis alone (+0.1 m or +1°), then combinations of both signs.
   std::vector<Vector6d> perturbations;
   for (int axis = 0; axis < 6; ++axis) {

@@ -240,8 +240,15 @@ int main(int argc, char** argv) {
   const std::vector<std::string> kinds = Split(argc > 4 ? argv[4] : "spheres,rig_panoramas");
   const int draws = argc > 5 ? std::atoi(argv[5]) : 2;
   ViewOptions view_options;
-  if (argc > 6 && !ParseViewKind(argv[6], &view_options.kind)) return 2;
-  if (argc <= 6) view_options.kind = ViewKind::kPerspective;
+  // perspective: the two cuts that see the most LiDAR at the start (SelectPerspectiveHeadings);
+  // perspective90: the paper's cuts at ±90° from the panorama's centre column.
+  const std::string view_arg = argc > 6 ? argv[6] : "perspective";
+  const bool auto_headings = view_arg == "perspective";
+  if (view_arg == "perspective90") {
+    view_options.kind = ViewKind::kPerspective;
+  } else if (!ParseViewKind(view_arg, &view_options.kind)) {
+    return 2;
+  }
   const int seed = argc > 7 ? std::atoi(argv[7]) : 1;
   const std::string magnitudes = argc > 8 ? argv[8] : "both";
   if (std::getenv("MMBA_DEBUG") != nullptr) SetVerbosity(Verbosity::kVerbose);
@@ -267,7 +274,8 @@ int main(int argc, char** argv) {
   runs << "view,kind,max_m,max_deg,tx,ty,tz,roll,pitch,yaw,status,"
           "image_px_before,image_px_after,view_px_before,view_px_after,sigma_px,"
           "restart_spread_px,err_tx,err_ty,err_tz,err_roll,err_pitch,err_yaw,"
-          "sd_tx,sd_ty,sd_tz,sd_roll,sd_pitch,sd_yaw,mahalanobis2,evaluations,seconds,"
+          "sd_tx,sd_ty,sd_tz,sd_roll,sd_pitch,sd_yaw,mahalanobis2,n_eff,inflation,evaluations,"
+          "seconds,"
           "cpu_seconds,reason\n";
   struct Row {
     std::string size;
@@ -279,13 +287,23 @@ int main(int argc, char** argv) {
   std::mt19937 rng(seed);
   for (size_t v = 0; v < views.size(); ++v) {
     const TrueView& tv = views[v];
-    Frame frame;
-    frame.name = tv.name;
-    ViewOptions vo = view_options;
-    if (!tv.camera.IsSpherical()) vo.kind = ViewKind::kImage;
     const GrayImage image = ReadGrayImage(tv.image_path);
-    frame.views = MakeViews(image, tv.camera, vo, tv.image_path);
-    frame.points = &points;
+    // The views are cut for each start (the headings depend on the start pose).
+    auto make_frame = [&](const Rigid3d& start) {
+      Frame frame;
+      frame.name = tv.name;
+      ViewOptions vo = view_options;
+      if (!tv.camera.IsSpherical()) {
+        vo.kind = ViewKind::kImage;
+      } else if (auto_headings && vo.kind == ViewKind::kPerspective) {
+        vo.perspective_yaw_deg =
+            SelectPerspectiveHeadings(points, tv.camera, start, vo, options.render, 2);
+      }
+      frame.views = MakeViews(image, tv.camera, vo, tv.image_path);
+      frame.points = &points;
+      return frame;
+    };
+    const Frame truth_frame = make_frame(tv.cam_from_world);
     View whole;
     whole.camera = tv.camera;
     whole.image = image;
@@ -293,7 +311,7 @@ int main(int argc, char** argv) {
       // Inspection: each registered view's photo and its LiDAR image at the true pose.
       fs::create_directories(dump);
       LidarImage lidar;
-      for (const View& view : frame.views) {
+      for (const View& view : truth_frame.views) {
         const std::string base = std::string(dump) + "/" + tv.name + "_" + view.name;
         WriteGrayPng(view.image, base + "_photo.png");
         RenderLidarImage(points, view, tv.cam_from_world, options.render, &lidar);
@@ -305,7 +323,7 @@ int main(int argc, char** argv) {
       RegistrationOptions probe_options = options;
       probe_options.bound_translation_m = 1.0;
       probe_options.bound_rotation_deg = 2.0;
-      const FrameSetEvaluator evaluator({frame}, tv.cam_from_world, probe_options);
+      const FrameSetEvaluator evaluator({truth_frame}, tv.cam_from_world, probe_options);
       for (int level = 0; level < 2; ++level) {
         const std::vector<ProbeSample> probe =
             Probe(evaluator, tv.cam_from_world, 1.0, 0.05, level);
@@ -330,6 +348,7 @@ int main(int argc, char** argv) {
         const Rigid3d start = ApplyCorrection(tv.cam_from_world, p);
         Timer timer;
         const double cpu0 = CpuSeconds();
+        const Frame frame = make_frame(start);
         const RegistrationResult r = RegisterFrames({frame}, start, options);
         const double seconds = timer.ElapsedSeconds();
         const double cpu = CpuSeconds() - cpu0;
@@ -372,14 +391,19 @@ int main(int argc, char** argv) {
              << r.checks.restart_spread_px;
         for (int i = 0; i < 6; ++i) runs << "," << error[i];
         for (int i = 0; i < 6; ++i) runs << "," << sd[i];
-        runs << "," << mahalanobis2 << "," << r.evaluations << "," << seconds << "," << cpu
+        runs << "," << mahalanobis2 << "," << r.checks.effective_samples << ","
+             << r.checks.sample_inflation << "," << r.evaluations << "," << seconds << "," << cpu
              << ",\"" << reason << "\"\n";
         runs.flush();
+        std::string headings;
+        for (const View& view : frame.views) headings += view.name.substr(view.name.rfind('_') + 1) + " ";
+        std::printf("[%s] ", headings.c_str());
         std::printf("%-16s %-9s %-6s image %6.2f -> %6.2f px  views %6.2f -> %6.2f px  sigma "
-                    "%.2f px  restarts %.2f px  maha2 %.1f  %5.1f s (cpu %.1f)  %s\n",
+                    "%.2f px  restarts %.2f px  maha2 %.1f  N_eff %.0f (/%.1f)  %5.1f s (cpu %.1f)  %s\n",
                     tv.name.c_str(), size.c_str(), r.status.c_str(), ib.median_px,
                     ia.median_px, row.view_before, row.view_after, r.checks.sigma_px,
-                    r.checks.restart_spread_px, mahalanobis2, seconds, cpu, reason.c_str());
+                    r.checks.restart_spread_px, mahalanobis2, r.checks.effective_samples,
+                    r.checks.sample_inflation, seconds, cpu, reason.c_str());
         std::fflush(stdout);
       }
     }

@@ -79,16 +79,23 @@ int main(int argc, char** argv) {
     const PixelOffsetStats after =
         PixelOffsets(points, frame.views[0], truth, result.cam_from_lidar, options.render);
     const AcceptanceChecks& c = result.checks;
+    // Covariance honesty: actual error of each parameter over its predicted σ.
+    const Vector6d error = result.correction - CorrectionBetween(start, truth);
+    Vector6d ratio = Vector6d::Constant(NAN);
+    if (result.covariance_valid) {
+      ratio = error.cwiseAbs().cwiseQuotient(result.covariance.diagonal().cwiseSqrt());
+    }
     std::printf("(%.2f %.2f %.2f m, %.1f %.1f %.1f deg) ", perturbation[0], perturbation[1],
                 perturbation[2], perturbation[3], perturbation[4], perturbation[5]);
     std::printf("%-9s %-6s %6.2f s  %4d evals  %5.1f ms/eval  median offset %.2f -> %.2f px "
                 "(p90 %.2f -> %.2f)  sigma %.3f px  restarts %.2f px  MI gain %.4f bits "
-                "(z %.0f)  peak %.0f MiB  %s\n",
+                "(z %.0f)  N_eff %.0f (/%.1f)  err/sd %.2f %.2f %.2f %.2f %.2f %.2f  peak %.0f MiB  %s\n",
                 RepresentationName(r).c_str(), result.status.c_str(), seconds,
                 result.evaluations, 1000 * seconds / std::max(1, result.evaluations),
                 before.median_px, after.median_px, before.p90_px, after.p90_px, c.sigma_px,
                 c.restart_spread_px, c.mi_bits - c.mi_shuffled_bits, c.mi_significance,
-                PeakRssMiB(), result.reason.c_str());
+                c.effective_samples, c.sample_inflation, ratio[0], ratio[1], ratio[2], ratio[3],
+                ratio[4], ratio[5], PeakRssMiB(), result.reason.c_str());
     for (const StageStat& stage : result.stages) {
       std::printf("    %-28s %4d evals %7.3f s\n", stage.name.c_str(), stage.evaluations,
                   stage.seconds);

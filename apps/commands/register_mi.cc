@@ -1,5 +1,7 @@
 // mmba register-mi: mutual-information registration of LiDAR to images and panoramas
 // (Wang, Ferrie & Macfarlane, CVPRW 2012), one frame or a rig over many frames (issue 6).
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -34,6 +36,7 @@ struct RegisterMiArgs {
   std::string smoothing = "bspline";
   std::string region = "overlap";
   std::string view = "image";
+  std::string headings = "-90,90";
   int bins = 64;
   int pyramid_levels = 3;
   double bound_m = 0.5;
@@ -45,6 +48,7 @@ struct RegisterMiArgs {
   int threads = 2;
   double restart_tolerance_px = 1.0;
   double max_sigma_px = 0.5;
+  int effective_sample_lag = 8;
   double point_radius_m = 0.03;
   int max_point_radius_px = 2;
   double max_range_m = 200.0;
@@ -138,6 +142,20 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     throw InputError::Message("--view", "found '" + args.view +
                                             "', expected image, equirect, perspective or cube");
   }
+  const bool auto_headings = args.headings == "auto";
+  if (!auto_headings) {
+    view_options.perspective_yaw_deg.clear();
+    std::stringstream list(args.headings);
+    for (std::string item; std::getline(list, item, ',');) {
+      char* end = nullptr;
+      const double yaw = std::strtod(item.c_str(), &end);
+      if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(yaw)) {
+        throw InputError::Message("--headings", "found '" + args.headings +
+                                                    "', expected 'auto' or degrees like -90,90");
+      }
+      view_options.perspective_yaw_deg.push_back(yaw);
+    }
+  }
   options.metric.bins = args.bins;
   options.pyramid_levels = args.pyramid_levels;
   options.bound_translation_m = args.bound_m;
@@ -149,6 +167,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.threads = args.threads;
   options.restart_tolerance_px = args.restart_tolerance_px;
   options.max_sigma_px = args.max_sigma_px;
+  options.effective_sample_max_lag = args.effective_sample_lag;
   options.render.point_radius_m = args.point_radius_m;
   options.render.max_point_radius_px = args.max_point_radius_px;
   options.render.max_range_m = args.max_range_m;
@@ -256,7 +275,18 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   for (size_t i = 0; i < pairs.size(); ++i) {
     mi::Frame frame;
     frame.name = pairs[i].first;
-    frame.views = mi::MakeViews(images[i], camera, view_options, pairs[i].first);
+    mi::ViewOptions frame_view_options = view_options;
+    if (auto_headings && view_options.kind == mi::ViewKind::kPerspective &&
+        camera.IsSpherical()) {
+      frame_view_options.perspective_yaw_deg =
+          mi::SelectPerspectiveHeadings(clouds[i], camera, start, view_options, options.render, 2);
+      std::string list;
+      for (double yaw : frame_view_options.perspective_yaw_deg) {
+        list += (list.empty() ? "" : ", ") + std::to_string(static_cast<int>(std::lround(yaw)));
+      }
+      spdlog::info("{}: perspective cuts at headings {} deg", pairs[i].first, list);
+    }
+    frame.views = mi::MakeViews(images[i], camera, frame_view_options, pairs[i].first);
     frame.points = &clouds[i];
     frames.push_back(std::move(frame));
   }
@@ -305,6 +335,8 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                    {"sigma_px", checks.sigma_px},
                    {"max_sigma_px", options.max_sigma_px},
                    {"weak_directions", checks.weak_directions},
+                   {"effective_samples", checks.effective_samples},
+                   {"sample_inflation", checks.sample_inflation},
                    {"restarts", checks.restarts_run},
                    {"restart_spread_px", checks.restart_spread_px},
                    {"restart_tolerance_px", options.restart_tolerance_px},
@@ -406,6 +438,11 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
   sub->add_option("--region", args->region, "whole | overlap")->capture_default_str();
   sub->add_option("--view", args->view, "image (= equirect for a panorama) | perspective | cube")
       ->capture_default_str();
+  sub->add_option("--headings", args->headings,
+                  "Perspective cuts: headings in degrees right of the panorama's centre column "
+                  "(the paper: -90,90), or 'auto': the two 90-degree cuts that see the most LiDAR "
+                  "at the start pose")
+      ->capture_default_str();
   sub->add_option("--pyramid-levels", args->pyramid_levels, "Coarse-to-fine levels")
       ->capture_default_str();
   sub->add_option("--bound-m", args->bound_m, "Search bound on the translation, m")
@@ -430,6 +467,10 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
       ->capture_default_str();
   sub->add_option("--max-sigma-px", args->max_sigma_px,
                   "Acceptance: largest predicted pixel sigma (from the covariance)")
+      ->capture_default_str();
+  sub->add_option("--effective-sample-lag", args->effective_sample_lag,
+                  "Covariance: correlated pixels counted by Bartlett's factor over lags within "
+                  "this many pixels (0 = every visible point independent)")
       ->capture_default_str();
   sub->add_option("--point-radius-m", args->point_radius_m,
                   "Point footprint: radius = this * f / range pixels")

@@ -266,6 +266,45 @@ std::vector<View> MakeViews(const GrayImage& image, const sensors::Camera& camer
   return views;
 }
 
+std::vector<double> SelectPerspectiveHeadings(const LidarPoints& points,
+                                              const sensors::Camera& panorama_camera,
+                                              const Rigid3d& cam_from_lidar,
+                                              const ViewOptions& options,
+                                              const RenderOptions& render, int count,
+                                              int candidates) {
+  CHECK(panorama_camera.IsSpherical()) << "heading selection needs an equirectangular camera";
+  CHECK_GT(candidates, 0);
+  const int width = std::max(8, options.perspective_width / 4);
+  const int height = std::max(8, options.perspective_height / 4);
+  const double f = 0.5 * width / std::tan(0.5 * options.perspective_hfov_deg * M_PI / 180.0);
+  std::vector<std::pair<double, double>> scored;  // (covered fraction, heading)
+  LidarImage lidar;
+  for (int k = 0; k < candidates; ++k) {
+    const double yaw = -180.0 + 360.0 * k / candidates;
+    View view;
+    view.camera.model_id = sensors::CameraModelId::kPinhole;
+    view.camera.width = width;
+    view.camera.height = height;
+    view.camera.params = {f, f, 0.5 * width, 0.5 * height};
+    view.view_from_cam = RotationAboutY(yaw * M_PI / 180.0).transpose();
+    RenderLidarImage(points, view, cam_from_lidar, render, &lidar);
+    scored.emplace_back(static_cast<double>(lidar.covered_pixels) / (width * height), yaw);
+  }
+  std::stable_sort(scored.begin(), scored.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<double> chosen;
+  for (const auto& [fraction, yaw] : scored) {
+    if (static_cast<int>(chosen.size()) >= count) break;
+    bool apart = true;
+    for (double c : chosen) {
+      const double d = std::abs(std::remainder(yaw - c, 360.0));
+      apart = apart && d >= options.perspective_hfov_deg - 1e-9;
+    }
+    if (apart) chosen.push_back(yaw);
+  }
+  return chosen;
+}
+
 View DownsampleView(const View& view) {
   View half;
   half.name = view.name;

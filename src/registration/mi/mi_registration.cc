@@ -95,6 +95,11 @@ bool RegistrationOptions::Check(std::string* error) const {
     *error = "max_points_per_pixel must be > 0";
     return false;
   }
+  if (effective_sample_max_lag < 0 || effective_sample_max_lag > 64) {
+    *error = "effective_sample_max_lag " + std::to_string(effective_sample_max_lag) +
+             " must be in 0..64 pixels";
+    return false;
+  }
   if (covariance_level < 0 || covariance_level > 5) {
     *error = "covariance_level " + std::to_string(covariance_level) +
              " must be in 0..5 (levels beyond the pyramid mean its coarsest)";
@@ -272,6 +277,71 @@ double FrameSetEvaluator::CoveredFraction(const Rigid3d& cam_from_lidar) const {
     }
   }
   return pixels > 0 ? covered / pixels : 0.0;
+}
+
+double FrameSetEvaluator::EffectiveSamples(const Rigid3d& cam_from_lidar, int level,
+                                           int max_lag, double* inflation) const {
+  LidarImage& buffer = ThreadBuffer();
+  double covered_pixels = 0, weighted = 0;
+  for (size_t f = 0; f < frames_.size(); ++f) {
+    for (const View& view : pyramid_[level][f]) {
+      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer);
+      const int w = buffer.width, h = buffer.height;
+      const size_t pixels = buffer.value.size();
+      auto covered = [&](size_t k) { return buffer.point_index[k] >= 0; };
+      // The pose is found from where the two images change: the score of a registration is a
+      // sum of gradient-weighted terms, so the correlation that matters is that of the
+      // gradient fields (central differences where both neighbours are covered).
+      std::vector<float> lx(pixels, 0.f), ly(pixels, 0.f), px(pixels, 0.f), py(pixels, 0.f);
+      std::vector<char> on(pixels, 0);
+      double n = 0, ll = 0, pp = 0;
+      for (int y = 1; y + 1 < h; ++y) {
+        for (int x = 1; x + 1 < w; ++x) {
+          const size_t k = static_cast<size_t>(y) * w + x;
+          if (!covered(k) || !covered(k - 1) || !covered(k + 1) || !covered(k - w) ||
+              !covered(k + w)) {
+            continue;
+          }
+          on[k] = 1;
+          lx[k] = buffer.value[k + 1] - buffer.value[k - 1];
+          ly[k] = buffer.value[k + w] - buffer.value[k - w];
+          px[k] = view.image.pixels[k + 1] - view.image.pixels[k - 1];
+          py[k] = view.image.pixels[k + w] - view.image.pixels[k - w];
+          n += 1;
+          ll += lx[k] * lx[k] + ly[k] * ly[k];
+          pp += px[k] * px[k] + py[k] * py[k];
+        }
+      }
+      if (n < 16 || !(ll > 0) || !(pp > 0)) continue;
+      // Σ over lags of ρ_L·ρ_P (Bartlett); ρ(−lag) = ρ(lag), so the half plane dy > 0 or
+      // (dy = 0, dx > 0) counts twice and lag 0 (ρ = 1) once.
+      double factor = 1.0;
+      for (int dy = 0; dy <= max_lag; ++dy) {
+        for (int dx = -max_lag; dx <= max_lag; ++dx) {
+          if (dy == 0 && dx <= 0) continue;
+          double pairs = 0, cl = 0, cp = 0;
+          for (int y = 0; y + dy < h; ++y) {
+            const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
+            const size_t row = static_cast<size_t>(y) * w, row2 = static_cast<size_t>(y + dy) * w;
+            for (int x = x0; x < x1; ++x) {
+              const size_t a = row + x, b = row2 + x + dx;
+              if (!on[a] || !on[b]) continue;
+              pairs += 1;
+              cl += lx[a] * lx[b] + ly[a] * ly[b];
+              cp += px[a] * px[b] + py[a] * py[b];
+            }
+          }
+          if (pairs < 16) continue;
+          factor += 2.0 * (cl / pairs) / (ll / n) * (cp / pairs) / (pp / n);
+        }
+      }
+      factor = std::max(1.0, factor);
+      covered_pixels += static_cast<double>(buffer.covered_pixels);
+      weighted += static_cast<double>(buffer.covered_pixels) / factor;
+    }
+  }
+  if (inflation != nullptr) *inflation = weighted > 0 ? covered_pixels / weighted : 1.0;
+  return weighted;
 }
 
 size_t FrameSetEvaluator::VisiblePoints(const Rigid3d& cam_from_lidar, int level) const {
@@ -732,8 +802,17 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   // correction is (N_eff · (−∇²MI))⁻¹ with N_eff the distinct LiDAR points seen at the level
   // of the fit.
   const int covariance_level = std::min(options.covariance_level, levels - 1);
-  const double n_eff =
+  // Correlated pixels are not independent samples: N_eff from Bartlett's inflation factor,
+  // never more than the distinct points seen.
+  const double visible_points =
       static_cast<double>(evaluator.VisiblePoints(result.cam_from_lidar, covariance_level));
+  double n_eff = visible_points;
+  if (options.effective_sample_max_lag > 0) {
+    n_eff = std::min(n_eff, evaluator.EffectiveSamples(result.cam_from_lidar, covariance_level,
+                                                       options.effective_sample_max_lag,
+                                                       &checks.sample_inflation));
+  }
+  checks.effective_samples = n_eff;
   int hessian_evaluations = 0;
   const Eigen::Matrix<double, 6, 6> hessian =
       MiHessian(evaluator, cam_from_lidar_start, x, options.metric, covariance_level,

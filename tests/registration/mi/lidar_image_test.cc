@@ -133,6 +133,54 @@ TEST(LidarImage, PerspectiveCutOfAPanoramaLooksWhereItShould) {
                InputError);
 }
 
+TEST(LidarImage, CutPixelsAreCountedInPanoramaPixels) {
+  sensors::Camera pano;
+  pano.model_id = sensors::CameraModelId::kEquirectangular;
+  pano.width = 720;
+  pano.height = 360;
+  const auto p = sensors::EquirectangularModel::DefaultParams(720, 360);
+  pano.params.assign(p.begin(), p.end());
+  ViewOptions options;
+  options.kind = ViewKind::kPerspective;
+  options.perspective_width = 400;  // 90°: f = 200 cut px/rad against 720/2π = 114.6
+  options.perspective_height = 200;
+  options.perspective_yaw_deg = {0.0};
+  const std::vector<View> views = MakeViews(GrayImage(720, 360), pano, options, "pano.png");
+  ASSERT_EQ(views.size(), 1u);
+  EXPECT_NEAR(views[0].image_pixels_per_pixel, (720 / (2 * M_PI)) / 200.0, 1e-9);
+  EXPECT_NEAR(DownsampleView(views[0]).image_pixels_per_pixel,
+              2 * views[0].image_pixels_per_pixel, 1e-12);
+  options.kind = ViewKind::kImage;
+  EXPECT_EQ(MakeViews(GrayImage(720, 360), pano, options, "pano.png")[0].image_pixels_per_pixel,
+            1.0);
+}
+
+TEST(LidarImage, HeadingsFollowTheLidar) {
+  sensors::Camera pano;
+  pano.model_id = sensors::CameraModelId::kEquirectangular;
+  pano.width = 360;
+  pano.height = 180;
+  const auto p = sensors::EquirectangularModel::DefaultParams(360, 180);
+  pano.params.assign(p.begin(), p.end());
+  // A wall 5 m to the left of the camera (x = −5, camera x right, z forward) and a smaller
+  // one behind it: the best cut looks left (−90°), the second behind (±180°); the ground
+  // alone would give nothing.
+  LidarPoints points;
+  for (float y = -3; y <= 3; y += 0.05f) {
+    for (float z = -6; z <= 6; z += 0.05f) points.points_in_lidar.emplace_back(-5.f, y, z);
+    for (float x = -2; x <= 2; x += 0.05f) points.points_in_lidar.emplace_back(x, y, -5.f);
+  }
+  ViewOptions options;
+  options.kind = ViewKind::kPerspective;
+  RenderOptions render;
+  render.representation = Representation::kPoints;
+  const std::vector<double> headings =
+      SelectPerspectiveHeadings(points, pano, Rigid3d(), options, render, 2);
+  ASSERT_EQ(headings.size(), 2u);
+  EXPECT_NEAR(headings[0], -90.0, 1e-9);
+  EXPECT_NEAR(std::abs(headings[1]), 180.0, 1e-9);
+}
+
 TEST(LidarImage, DownsampledViewProjectsAtHalfTheCoordinates) {
   const View view = ImageView(Pinhole(100, 80, 50.0));
   const View half = DownsampleView(view);

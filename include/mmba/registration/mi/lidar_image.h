@@ -49,6 +49,8 @@ struct View {
   double image_pixels_per_pixel = 1.0;
 };
 
+struct RenderOptions;
+
 /// How the views of a frame are cut from its image (item 1 of issue 6).
 enum class ViewKind {
   kImage,        ///< the image itself with its camera (pinhole, fisheye, or whole equirect)
@@ -75,6 +77,20 @@ struct ViewOptions {
 /// EQUIRECTANGULAR camera (InputError otherwise, naming `source`).
 std::vector<View> MakeViews(const GrayImage& image, const sensors::Camera& camera,
                             const ViewOptions& options, const std::string& source);
+
+/// Headings (degrees right of the panorama's centre column) for `count` perspective cuts that
+/// see the most LiDAR: `candidates` headings evenly spaced round the panorama, each scored by
+/// the fraction of its cut (options' size and field of view, rendered at a quarter of the
+/// resolution) covered by the cloud at `cam_from_lidar`; the best first, then the next best
+/// at least one field of view from those chosen. The paper's ±90° assumes the panorama's
+/// centre is the driving direction and the buildings are at the sides; a static station or a
+/// vehicle turning may face them anywhere. Needs an EQUIRECTANGULAR camera.
+std::vector<double> SelectPerspectiveHeadings(const LidarPoints& points,
+                                              const sensors::Camera& panorama_camera,
+                                              const Rigid3d& cam_from_lidar,
+                                              const ViewOptions& options,
+                                              const RenderOptions& render, int count,
+                                              int candidates = 8);
 
 /// Half-resolution copy of a view (image box-filtered, camera focal/principal halved).
 View DownsampleView(const View& view);

@@ -65,6 +65,11 @@ struct RegistrationOptions {
   bool check_multiple_peaks = true;
   /// Threads for independent evaluations (covariance fit, restarts, scans, gradient).
   int threads = 2;
+  /// Laplace covariance: the number of independent samples is the covered pixels over
+  /// Bartlett's inflation factor for correlated pixels, lags within ±this many pixels
+  /// (0 = the distinct LiDAR points seen, as if every point were independent: measured
+  /// 3–13× over-confident, bench/RESULTS.md).
+  int effective_sample_max_lag = 8;
   /// Pyramid level of the quadratic fit that gives the covariance (0 = full resolution; at
   /// level 1, a quarter of the cost, the fit was too noisy on the synthetic street: a
   /// spurious negative curvature made a 0.3 px result look undetermined).
@@ -113,6 +118,8 @@ struct AcceptanceChecks {
   bool on_bound = false;            ///< optimum at ≥ 90 % of the search bound in some parameter
   double sigma_px = -1;             ///< predicted pixel σ (median over visible points)
   int weak_directions = 0;          ///< no positive curvature / less than the box: box σ
+  double effective_samples = 0;     ///< N_eff of the Laplace covariance
+  double sample_inflation = 1;      ///< covered pixels / N_eff (correlated pixels)
   int restarts_run = 0;
   double restart_spread_px = -1;    ///< largest median pixel distance restart ↔ optimum
   double restart_best_gain = 0;     ///< best restart metric − optimum metric (> 0: higher)
@@ -184,6 +191,13 @@ class FrameSetEvaluator {
   /// pixels of the frame's image (View::image_pixels_per_pixel).
   double MedianPixelDistance(const std::vector<VisiblePoint>& sample, const Rigid3d& a,
                              const Rigid3d& b) const;
+  /// Effective number of independent samples at a pose and level: the covered pixels
+  /// divided by Bartlett's variance-inflation factor Σ_lag ρ_L(lag)·ρ_P(lag) of two
+  /// autocorrelated fields (Bartlett 1935; Bretherton et al. 1999, Eq. (31)), ρ_L and ρ_P
+  /// the autocorrelations of the LiDAR image and the photo over the covered pixels, lags
+  /// within ±max_lag pixels. `inflation` (optional) receives the factor (≥ 1).
+  double EffectiveSamples(const Rigid3d& cam_from_lidar, int level, int max_lag,
+                          double* inflation = nullptr) const;
   /// Fraction of view pixels covered by LiDAR at a pose (full resolution).
   double CoveredFraction(const Rigid3d& cam_from_lidar) const;
   size_t VisiblePoints(const Rigid3d& cam_from_lidar, int level = 0) const;
