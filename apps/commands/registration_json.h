@@ -1,6 +1,8 @@
 #pragma once
 // JSON of a cloud registration result, shared by register-cloud and register-eval.
 
+#include <cmath>
+
 #include <nlohmann/json.hpp>
 
 #include "mmba/registration/cloud/feature_registration.h"
@@ -28,6 +30,7 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
                           {"inlier_rmse", h.inlier_rmse},
                           {"normal_agreement", h.normal_agreement},
                           {"score", h.score},
+                          {"conflict", h.conflict},
                           {"target_from_source", MatrixJson(h.target_from_source)}});
   }
   return {{"status", result.status},
@@ -38,6 +41,12 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
           {"inlier_rmse", result.inlier_rmse},
           {"normal_agreement", result.normal_agreement},
           {"confidence", result.confidence},
+          // null when no distinct runner-up was left (JSON has no infinity)
+          {"significance", std::isfinite(result.significance)
+                               ? nlohmann::ordered_json(result.significance)
+                               : nlohmann::ordered_json(nullptr)},
+          {"conflict", result.conflict},
+          {"fine_inlier_distance_m", result.fine_inlier_distance_m},
           {"num_keypoints", {{"source", result.num_keypoints_source},
                              {"target", result.num_keypoints_target}}},
           {"num_correspondences", result.num_correspondences},

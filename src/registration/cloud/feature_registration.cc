@@ -934,10 +934,15 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   const Eigen::Vector3d* up = options.gravity_aligned ? &options.up : nullptr;
   std::vector<Matching> matchings;
   for (Descriptor d : descriptors) {
-    const Descriptors ds = internal::ComputeDescriptors(d, src_coarse.points, src_coarse.normals,
-                                                        src_kp, support_radius, up);
-    const Descriptors dt = internal::ComputeDescriptors(d, tgt_coarse.points, tgt_coarse.normals,
-                                                        tgt_kp, support_radius, up);
+    Descriptors ds, dt;
+    try {
+      ds = internal::ComputeDescriptors(d, src_coarse.points, src_coarse.normals, src_kp,
+                                        support_radius, up);
+      dt = internal::ComputeDescriptors(d, tgt_coarse.points, tgt_coarse.normals, tgt_kp,
+                                        support_radius, up);
+    } catch (const std::exception& e) {  // PCL reports degenerate input by exceptions
+      return fail("descriptor " + DescriptorName(d) + " could not be computed: " + e.what());
+    }
     end_stage("descriptors " + DescriptorName(d));
     matchings.push_back(MatchDescriptors(DescriptorName(d), src_coarse, tgt_coarse, src_kp,
                                          tgt_kp, ds, dt, options.sac_ia_randomness,

@@ -225,9 +225,29 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
       // 8 bins a side, support angle cosine 0.5, >= 16 neighbours (Kim & Hilton Sec. 3.2).
       // PCL 1.13 indexes the input normals with the neighbours' surface indices, so the
       // input is the whole surface and the keypoints are given as indices.
-      pcl::SpinImageEstimation<pcl::PointXYZ, pcl::Normal, pcl::Histogram<153>> est(8, 0.5, 16);
+      // PCL throws for a keypoint with fewer than 16 neighbours within the radius: those are
+      // left out (invalid) instead.
+      constexpr int kMinNeighbours = 16;
+      pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+      tree.setInputCloud(surface);
+      std::vector<int> kept;  // positions in `keypoints`
+      pcl::Indices nn;
+      std::vector<float> nn_sq;
+      for (size_t i = 0; i < keypoints.size(); ++i) {
+        if (tree.radiusSearch((*surface)[keypoints[i]], radius, nn, nn_sq) >= kMinNeighbours) {
+          kept.push_back(static_cast<int>(i));
+        }
+      }
+      out.dim = 153;
+      out.data.assign(keypoints.size() * 153, 0.0f);
+      out.valid.assign(keypoints.size(), false);
+      if (kept.empty()) break;
+      auto indices = pcl::IndicesPtr(new pcl::Indices());
+      for (int i : kept) indices->push_back(keypoints[i]);
+      pcl::SpinImageEstimation<pcl::PointXYZ, pcl::Normal, pcl::Histogram<153>> est(
+          8, 0.5, kMinNeighbours);
       est.setInputCloud(surface);
-      est.setIndices(pcl::IndicesPtr(new pcl::Indices(keypoints.begin(), keypoints.end())));
+      est.setIndices(indices);
       est.setInputNormals(surface_normals);
       if (up != nullptr) {
         pcl::Normal axis;
@@ -237,7 +257,13 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
       est.setRadiusSearch(radius);
       pcl::PointCloud<pcl::Histogram<153>> f;
       est.compute(f);
-      CopyDescriptors(f, 153, [](const pcl::Histogram<153>& s) { return s.histogram; }, &out);
+      Descriptors computed;
+      CopyDescriptors(f, 153, [](const pcl::Histogram<153>& s) { return s.histogram; }, &computed);
+      for (size_t k = 0; k < kept.size() && k < computed.valid.size(); ++k) {
+        out.valid[kept[k]] = computed.valid[k];
+        std::copy(computed.data.begin() + k * 153, computed.data.begin() + (k + 1) * 153,
+                  out.data.begin() + kept[k] * 153);
+      }
       break;
     }
     case Descriptor::kShapeContext: {
