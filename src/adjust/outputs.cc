@@ -813,7 +813,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
       << (given.chi2_passed ? "passed" : "FAILED") << (s.sigma_factor.empty() ? "" : "; groups re-weighted by variance components")
       << "\n";
   for (const json& g : groups) {
-    sum << "  " << std::left << std::setw(28) << g["name"].get<std::string>() << std::right << std::setw(7)
+    sum << "  " << std::left << std::setw(44) << g["name"].get<std::string>() << std::right << std::setw(7)
         << g["observations"].get<size_t>() << " obs  RMS " << std::setprecision(4) << g["rms"].get<double>() << " "
         << g["unit"].get<std::string>() << "  variance component " << std::setprecision(3)
         << g["variance_component_given_weights"].get<double>() << " (sigma x " << g["sigma_factor"].get<double>() << ")\n";

@@ -797,7 +797,8 @@ void SimulateSurvey(Context* c, const Trajectory& trajectory) {
   ins << "# GNSS/INS trajectory of the vehicle body (x forward, y left, z up) in the world ENU frame\n"
          "time_s,x_east_m,y_north_m,z_up_m,qw,qx,qy,qz\n" << std::setprecision(10);
   true_csv << ins.str();
-  const int samples = static_cast<int>(std::floor(trajectory.duration_s() * o.gnss.trajectory_rate_hz)) + 1;
+  // Rows up to (at least) the end of the drive: every LiDAR point time lies within them.
+  const int samples = static_cast<int>(std::ceil(trajectory.duration_s() * o.gnss.trajectory_rate_hz - 1e-9)) + 1;
   for (int i = 0; i < samples; ++i) {
     const double t = i / o.gnss.trajectory_rate_hz;
     const Rigid3d est = trajectory.WorldFromBodyIns(t);

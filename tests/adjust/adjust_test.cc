@@ -16,6 +16,7 @@
 
 #include "mmba/core/logging.h"
 #include "mmba/sim/simulate.h"
+#include "test_support.h"
 
 namespace mmba::adjust {
 namespace {
@@ -23,14 +24,9 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-fs::path Root() { return fs::path(testing::TempDir()) / ("mmba_adjust_" + std::to_string(::getpid())); }
+using testing_support::ReadText;
 
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+fs::path Root() { return testing_support::ScratchRoot("mmba_adjust"); }
 
 class AdjustTest : public ::testing::Test {
  protected:
@@ -57,11 +53,7 @@ class AdjustTest : public ::testing::Test {
   }
 
   static AdjustOutcome Run(const std::string& project_path, const std::string& out) {
-    const Project project = LoadProject(project_path);
-    AdjustOptions options;
-    options.output_dir = out;
-    options.log_progress = false;
-    return RunAdjustment(project, options);
+    return testing_support::RunProject(project_path, out);
   }
 };
 

@@ -14,6 +14,7 @@
 #include "mmba/core/logging.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/sim/simulate.h"
+#include "test_support.h"
 
 namespace mmba::adjust {
 namespace {
@@ -21,14 +22,9 @@ namespace {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-fs::path Root() { return fs::path(testing::TempDir()) / ("mmba_adjust_mobile_" + std::to_string(::getpid())); }
+using testing_support::ReadText;
 
-std::string ReadText(const fs::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+fs::path Root() { return testing_support::ScratchRoot("mmba_adjust_mobile"); }
 
 class MobileAdjustTest : public ::testing::Test {
  protected:
@@ -54,11 +50,7 @@ class MobileAdjustTest : public ::testing::Test {
   }
 
   static AdjustOutcome Run(const std::string& project_path, const std::string& out) {
-    const Project project = LoadProject(project_path);
-    AdjustOptions options;
-    options.output_dir = out;
-    options.log_progress = false;
-    return RunAdjustment(project, options);
+    return testing_support::RunProject(project_path, out);
   }
 };
 
