@@ -207,7 +207,7 @@ io::PointCloud Gate(double spacing, bool details, uint32_t seed) {
 io::PointCloud Room(const io::PointCloud& gate, uint32_t seed) {
   std::mt19937 rng(seed);
   io::PointCloud room;
-  SampleBox({-5, -5, 0}, {5, 5, 4}, 0.12, &rng, &room);
+  SampleBox({-5, -5, 0}, {5, 5, 4}, 0.2, &rng, &room);
   room.points.insert(room.points.end(), gate.points.begin(), gate.points.end());
   return room;
 }
@@ -226,8 +226,8 @@ TEST(FeatureRegistration, ObjectInsideALargeReference) {
   // not thin the object away for the room's sake, and the fine check runs on the reference
   // cropped to the object. Source and reference are independent samples of the surface.
   const Eigen::Matrix4d source_from_world = BlockPose();
-  const io::PointCloud source = Transformed(Gate(0.05, true, 1), source_from_world);
-  const io::PointCloud reference = Room(Gate(0.05, true, 2), 3);
+  const io::PointCloud source = Transformed(Gate(0.07, true, 1), source_from_world);
+  const io::PointCloud reference = Room(Gate(0.07, true, 2), 3);
   CloudRegistrationOptions options;
   options.descriptor = Descriptor::kFpfh;
   const CloudRegistrationResult r = RegisterClouds(source, reference, options);
@@ -241,8 +241,8 @@ TEST(FeatureRegistration, SymmetricObjectIsNotOkWithTheTurnedPose) {
   // Without its details the gate fits its reference equally well turned by 180° about z: the
   // result must say so (failed, ambiguous) — or, if only one pose was found, be the right one.
   const Eigen::Matrix4d source_from_world = BlockPose();
-  const io::PointCloud source = Transformed(Gate(0.05, false, 1), source_from_world);
-  const io::PointCloud reference = Gate(0.05, false, 2);
+  const io::PointCloud source = Transformed(Gate(0.07, false, 1), source_from_world);
+  const io::PointCloud reference = Gate(0.07, false, 2);
   CloudRegistrationOptions options;
   options.descriptor = Descriptor::kFpfh;
   const CloudRegistrationResult r = RegisterClouds(source, reference, options);

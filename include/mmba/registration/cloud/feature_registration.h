@@ -95,7 +95,10 @@ struct CloudRegistrationOptions {
   /// 0.5 × fine spacing (> 0).
   double inlier_sigma = 3.0;
   double min_fitness = 0.2;       ///< fraction of source points that must be inliers (0..1]
-  double min_normal_agreement = 0.5;  ///< fraction of inliers with |n_s·n_t| > cos 30° (0..1]
+  /// fraction of inliers with |n_s·n_t| > cos 30° (0..1]; 0.5 let a 177°-turned part of the
+  /// gate onto the noisy spherical-stereo cloud pass (0.53), axis-aligned scenes agree by
+  /// chance on about a third
+  double min_normal_agreement = 0.6;
   double max_ambiguity = 0.8;     ///< runner-up/best score above this = ambiguous = failed
   /// ... unless the best beats the runner-up by at least this many standard errors of the
   /// per-block score difference (blocks of R_s; a paired t statistic) (>= 0).
