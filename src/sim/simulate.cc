@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
+#include <set>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -976,10 +977,22 @@ std::string ProjectYaml(const Context& c) {
        "origin: {latitude_deg: " << std::setprecision(12) << o.origin.latitude_deg
     << ", longitude_deg: " << o.origin.longitude_deg << ", height_m: " << o.origin.height_m
     << "}  # world = local ENU tangent plane here\n";
-  // Every third surveyed target is withheld from the joint adjustment as a check point.
-  if (o.total_station.setups > 0 && c.scene.targets.size() >= 3) {
+  // Every third target the total station measures (a slope distance: its coordinates are
+  // determined) is withheld from the joint adjustment as a check point.
+  std::set<std::string> measured;
+  if (c.truth.contains("survey")) {
+    for (const auto& obs : c.truth["survey"]["observations"]) {
+      if (obs["kind"] == "s-distance") measured.insert(obs["to"].get<std::string>());
+    }
+  }
+  std::vector<std::string> checks;
+  size_t seen = 0;
+  for (const auto& target : c.scene.targets) {
+    if (measured.count(target.id) && ++seen % 3 == 0) checks.push_back(target.id);
+  }
+  if (o.total_station.setups > 0 && !checks.empty()) {
     y << "check_points: [";
-    for (size_t i = 2; i < c.scene.targets.size(); i += 3) y << (i > 2 ? ", " : "") << c.scene.targets[i].id;
+    for (size_t i = 0; i < checks.size(); ++i) y << (i ? ", " : "") << checks[i];
     y << "]  # surveyed targets withheld from the adjustment\n";
   }
   y << "sensors:\n" << c.project_sensors.str();
