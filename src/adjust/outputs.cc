@@ -179,8 +179,7 @@ json EvaluateTruth(const JointState& s) {
     for (const json& t : truth["photos"]["images"]) {
       const auto it = by_name.find(t["name"].get<std::string>());
       if (it == by_name.end()) continue;
-      const std::vector<double> q = t["cam_from_world"]["qvec_wxyz"], tv = t["cam_from_world"]["tvec"];
-      const Rigid3d true_pose(Eigen::Quaterniond(q[0], q[1], q[2], q[3]), Eigen::Vector3d(tv[0], tv[1], tv[2]));
+      const Rigid3d true_pose = PoseFromJson(t["cam_from_world"]);
       const Rigid3d& pose = s.scene.Image(it->second).cam_from_world;
       const double d = (CameraCentre(pose) - CameraCentre(true_pose)).norm();
       sum += d * d;
@@ -205,8 +204,7 @@ json EvaluateTruth(const JointState& s) {
     for (const json& station : t["stations"]) {
       const auto it = s.spheres->lower_image.find(station["name"].get<std::string>());
       if (it == s.spheres->lower_image.end()) continue;
-      const std::vector<double> q = station["lower_from_world"]["qvec_wxyz"], tv = station["lower_from_world"]["tvec"];
-      const Rigid3d true_pose(Eigen::Quaterniond(q[0], q[1], q[2], q[3]), Eigen::Vector3d(tv[0], tv[1], tv[2]));
+      const Rigid3d true_pose = PoseFromJson(station["lower_from_world"]);
       const Rigid3d& pose = s.scene.Image(it->second).cam_from_world;
       worst = std::max(worst, (CameraCentre(pose) - CameraCentre(true_pose)).norm());
       const Eigen::Quaterniond expected = Eigen::AngleAxisd(alpha, Eigen::Vector3d::UnitY()) * true_pose.rotation;
@@ -225,8 +223,7 @@ json EvaluateTruth(const JointState& s) {
     for (size_t f = 0; f < s.rig->frame_names.size(); ++f) {
       for (const json& frame : t["frames"]) {
         if (frame["name"] != s.rig->frame_names[f]) continue;
-        const std::vector<double> q = frame["rig_from_world"]["qvec_wxyz"], tv = frame["rig_from_world"]["tvec"];
-        const Rigid3d true_pose(Eigen::Quaterniond(q[0], q[1], q[2], q[3]), Eigen::Vector3d(tv[0], tv[1], tv[2]));
+        const Rigid3d true_pose = PoseFromJson(frame["rig_from_world"]);
         worst = std::max(worst, (CameraCentre(s.rig->rig_from_world[f]) - CameraCentre(true_pose)).norm());
         worst_prior = std::max(worst_prior, (CameraCentre(s.rig->rig_prior[f]) - CameraCentre(true_pose)).norm());
         worst_rotation = std::max(worst_rotation, s.rig->rig_from_world[f].rotation.angularDistance(true_pose.rotation) * kDeg);
@@ -235,8 +232,7 @@ json EvaluateTruth(const JointState& s) {
     double worst_cam_t = 0.0, worst_cam_r = 0.0, worst_focal = 0.0;
     for (size_t k = 0; k < s.rig->cameras.size() && k < t["cameras"].size(); ++k) {
       const json& c = t["cameras"][k];
-      const std::vector<double> q = c["cam_from_rig"]["qvec_wxyz"], tv = c["cam_from_rig"]["tvec"];
-      const Rigid3d true_pose(Eigen::Quaterniond(q[0], q[1], q[2], q[3]), Eigen::Vector3d(tv[0], tv[1], tv[2]));
+      const Rigid3d true_pose = PoseFromJson(c["cam_from_rig"]);
       worst_cam_t = std::max(worst_cam_t, (CameraCentre(s.rig->cam_from_rig[k]) - CameraCentre(true_pose)).norm());
       worst_cam_r = std::max(worst_cam_r, s.rig->cam_from_rig[k].rotation.angularDistance(true_pose.rotation) * kDeg);
       const std::vector<double> params = c["camera"]["params"];
@@ -309,8 +305,12 @@ json EvaluateTruth(const JointState& s) {
       mobile["rig_from_lidar"] = {{"rotation_deg", rr}, {"translation_m", rt}};
     }
     // The corrected trajectory against the true one at the nodes (and the GNSS/INS before).
-    const fs::path true_file = fs::path(s.project->truth).parent_path() / "trajectory_true.csv";
-    if (fs::exists(true_file)) {
+    // truth.json names the true trajectory relative to the simulation folder (its parent's parent).
+    const fs::path true_file = truth.contains("trajectory") && truth["trajectory"].contains("true")
+                                   ? fs::path(s.project->truth).parent_path().parent_path() /
+                                         truth["trajectory"]["true"].get<std::string>()
+                                   : fs::path();
+    if (!true_file.empty() && fs::exists(true_file)) {
       const auto true_trajectory = ReadTrajectory(true_file.string());
       double sum = 0.0, sum_ins = 0.0, worst_r = 0.0, worst_r_ins = 0.0;
       for (size_t k = 0; k < m.nodes.size(); ++k) {

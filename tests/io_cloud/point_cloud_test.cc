@@ -68,7 +68,8 @@ PointCloud MakeCloud() {
 }
 
 TEST_F(PointCloudIoTest, PlyRoundTripBinaryAndAscii) {
-  const PointCloud c = MakeCloud();
+  PointCloud c = MakeCloud();
+  c.time = {1234.000001, 0.5, 1e9 + 0.25};  // per-point acquisition time (GPS seconds)
   for (bool ascii : {false, true}) {
     const std::string path = (dir_ / (ascii ? "a.ply" : "b.ply")).string();
     WritePly(c, path, ascii);
@@ -82,6 +83,8 @@ TEST_F(PointCloudIoTest, PlyRoundTripBinaryAndAscii) {
       EXPECT_NEAR((r.normals[i] - c.normals[i]).norm(), 0.0, 1e-7);
       EXPECT_EQ(r.intensity[i], c.intensity[i]);
       EXPECT_EQ(r.colors[i], c.colors[i]);
+      ASSERT_TRUE(r.has_time());
+      EXPECT_EQ(r.time[i], c.time[i]);  // doubles survive exactly
     }
   }
   EXPECT_FALSE(fs::exists(dir_ / "b.ply.tmp"));
@@ -323,12 +326,12 @@ std::string MakeLas(int minor, int format, const std::vector<Eigen::Vector3i>& r
     if (format <= 5) {
       s.append(4, '\0');  // return bits, class, scan angle, user data
       Put<uint16_t>(&s, 0);
-      if (format == 1 || format == 3) Put<double>(&s, 0.0);
+      if (format == 1 || format == 3) Put<double>(&s, 10.5 + i);  // GPS time
     } else {
       s.append(4, '\0');
       Put<int16_t>(&s, 0);
       Put<uint16_t>(&s, 0);
-      Put<double>(&s, 0.0);
+      Put<double>(&s, 10.5 + i);  // GPS time
     }
     if (format == 2 || format == 3 || format == 7 || format == 8) {
       for (uint16_t c : {uint16_t(65535), uint16_t(256 * 10), uint16_t(0)}) Put<uint16_t>(&s, c);
@@ -358,6 +361,12 @@ TEST_F(PointCloudIoTest, LasFormatsAndVersions) {
     EXPECT_EQ(c.has_colors(), rgb);
     if (rgb) {
       EXPECT_EQ(c.colors[0], (std::array<uint8_t, 3>{255, 10, 0}));
+    }
+    const bool time = k.format == 1 || k.format == 3 || k.format >= 6;
+    ASSERT_EQ(c.has_time(), time);
+    if (time) {
+      EXPECT_EQ(c.time[0], 10.5);
+      EXPECT_EQ(c.time[1], 11.5);
     }
   }
 }
