@@ -47,6 +47,11 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
                                : nlohmann::ordered_json(nullptr)},
           {"conflict", result.conflict},
           {"fine_inlier_distance_m", result.fine_inlier_distance_m},
+          // null when the pose is not resolved up to R_s (or not tested: --paper)
+          {"resolution_m", std::isfinite(result.resolution_m)
+                               ? nlohmann::ordered_json(result.resolution_m)
+                               : nlohmann::ordered_json(nullptr)},
+          {"fine_spacing_m", result.fine_spacing_m},
           {"num_keypoints", {{"source", result.num_keypoints_source},
                              {"target", result.num_keypoints_target}}},
           {"num_correspondences", result.num_correspondences},

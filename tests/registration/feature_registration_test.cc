@@ -147,13 +147,16 @@ TEST(FeatureRegistration, FailuresAreReportedNotGuessed) {
       plane2.points.emplace_back(0.01 * i + 0.123, 0.01 * j - 0.05, 0.0);
     }
   }
+  // Overlap and normals agree at every in-plane shift: ambiguous; and without the
+  // ambiguity test (max_ambiguity 1), the pose is not resolved.
   r = RegisterClouds(plane, plane2, options);
-  if (r.ok()) {
-    // If it claims success the shift must be right.
-    Eigen::Matrix4d truth = Eigen::Matrix4d::Identity();
-    truth.topRightCorner<3, 1>() = Eigen::Vector3d(0.123, -0.05, 0);
-    EXPECT_LT(TransformRmsOnCloud(plane, r.target_from_source, truth), 0.02) << r.BriefReport();
-  }
+  EXPECT_EQ(r.status, "failed") << r.BriefReport();
+  CloudRegistrationOptions no_ambiguity = options;
+  no_ambiguity.max_ambiguity = 1.0;
+  r = RegisterClouds(plane, plane2, no_ambiguity);
+  EXPECT_EQ(r.status, "failed") << r.BriefReport();
+  EXPECT_NE(r.reason.find("not resolved"), std::string::npos) << r.reason;
+  EXPECT_FALSE(std::isfinite(r.resolution_m));
   // Bad options are an InputError.
   CloudRegistrationOptions bad = options;
   bad.min_fitness = 0;
@@ -235,6 +238,9 @@ TEST(FeatureRegistration, ObjectInsideALargeReference) {
   const Eigen::Matrix4d truth = source_from_world.inverse();
   EXPECT_LT(TransformRmsOnCloud(source, r.target_from_source, truth), 0.02) << r.BriefReport();
   EXPECT_GT(r.significance, options.min_significance);
+  // The pose is resolved to a few fine spacings, and the stated resolution bounds the error.
+  EXPECT_LE(r.resolution_m, options.max_resolution_spacing * r.fine_spacing_m);
+  EXPECT_LT(TransformRmsOnCloud(source, r.target_from_source, truth), r.resolution_m);
 }
 
 TEST(FeatureRegistration, SymmetricObjectIsNotOkWithTheTurnedPose) {

@@ -15,6 +15,7 @@
 #include <unordered_map>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include "mmba/core/error.h"
@@ -96,6 +97,10 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
     return fail("min_normal_agreement", min_normal_agreement, "0 <= x <= 1");
   }
   if (!(min_significance >= 0)) return fail("min_significance", min_significance, ">= 0");
+  if (!(resolution_t > 0)) return fail("resolution_t", resolution_t, "> 0");
+  if (!(max_resolution_spacing > 0)) {
+    return fail("max_resolution_spacing", max_resolution_spacing, "> 0");
+  }
   if (!(max_ambiguity > 0 && max_ambiguity <= 1)) {
     return fail("max_ambiguity", max_ambiguity, "0 < x <= 1");
   }
@@ -757,6 +762,76 @@ double ScoreSignificance(const std::vector<Eigen::Vector3d>& src, const std::vec
   return se > 0 ? mean / se : (mean > 0 ? std::numeric_limits<double>::infinity() : 0.0);
 }
 
+// How precisely do the data fix the pose? The chosen pose is displaced by δ (RMS over the
+// source sample) along each of 12 directions — ± a translation along, and ± a rotation about
+// (through the centroid), each principal axis of the registered source — and the displaced
+// fine score is compared with the chosen one by the paired block t statistic of
+// ScoreSignificance. The resolution is the smallest δ of the ladder δ_min·2^(k/2) at which every
+// displacement scores significantly worse (t >= t_min); a direction once resolved stays
+// resolved (the score falls off monotonically around a maximum). A pose that can slide,
+// tilt or turn by δ without losing score is only known to δ: a thick, noisy target (every
+// displaced point still has a noise point near it), a planar or linear overlap, or a pose
+// off the score's maximum. +inf when not resolved up to `max_delta`.
+double PoseResolution(const std::vector<Eigen::Vector3d>& src,
+                      const std::vector<Eigen::Vector3d>& src_n, const TargetCrop& crop,
+                      const Eigen::Matrix4d& t, const std::vector<double>& base_residuals,
+                      const std::vector<bool>& base_agree, double reach, double tau, double block,
+                      double min_delta, double max_delta, double t_min) {
+  if (src.size() < 10) return std::numeric_limits<double>::infinity();
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> q(src.size());
+  for (size_t i = 0; i < src.size(); ++i) {
+    q[i] = Apply(t, src[i]);
+    c += q[i];
+  }
+  c /= static_cast<double>(src.size());
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : q) cov += (p - c) * (p - c).transpose();
+  cov /= static_cast<double>(src.size());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  // RMS distance of the source from the axis a through c: sqrt(trace(cov) − aᵀ·cov·a).
+  struct Direction {
+    bool rotation;
+    Eigen::Vector3d axis;
+    double sign;
+    double rms_per_unit;  // RMS displacement per unit parameter (1 for translations)
+  };
+  std::vector<Direction> dirs;
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3d a = eig.eigenvectors().col(k);
+    const double radius = std::sqrt(std::max(0.0, cov.trace() - a.dot(cov * a)));
+    for (double sign : {1.0, -1.0}) {
+      dirs.push_back({false, a, sign, 1.0});
+      if (radius > 0) dirs.push_back({true, a, sign, radius});
+    }
+  }
+  std::vector<bool> resolved(dirs.size(), false);
+  std::vector<double> residuals;
+  std::vector<bool> agree;
+  for (double delta = min_delta; delta <= max_delta * 1.0001; delta *= std::sqrt(2.0)) {
+    bool all = true;
+    for (size_t d = 0; d < dirs.size(); ++d) {
+      if (resolved[d]) continue;
+      const Direction& dir = dirs[d];
+      Eigen::Matrix4d p = Eigen::Matrix4d::Identity();
+      if (dir.rotation) {
+        const Eigen::Matrix3d r =
+            Eigen::AngleAxisd(dir.sign * delta / dir.rms_per_unit, dir.axis).toRotationMatrix();
+        p.topLeftCorner<3, 3>() = r;
+        p.topRightCorner<3, 1>() = c - r * c;
+      } else {
+        p.topRightCorner<3, 1>() = dir.sign * delta * dir.axis;
+      }
+      FineResiduals(src, src_n, crop, p * t, reach, &residuals, &agree);
+      resolved[d] = ScoreSignificance(src, base_residuals, base_agree, residuals, agree, tau,
+                                      block) >= t_min;
+      all = all && resolved[d];
+    }
+    if (all) return delta;
+  }
+  return std::numeric_limits<double>::infinity();
+}
+
 std::vector<size_t> StrideSample(size_t n, size_t max_count) {
   std::vector<size_t> out;
   const double step = n > max_count ? static_cast<double>(n) / max_count : 1.0;
@@ -1015,6 +1090,7 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     std::vector<double> residuals;
     std::vector<bool> agree;
     double sigma = 0.0, spacing = 0.0;
+    std::shared_ptr<TargetCrop> crop;
   };
   // The target around a hypothesis; a target within the budget is prepared once, whole.
   std::shared_ptr<TargetCrop> whole_target;
@@ -1060,6 +1136,7 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     }
     const double reach = std::min(normal_radius, options.normal_radius_spacing * f.spacing);
     FineResiduals(fine_src, fine_src_n, c, f.h.transform, reach, &f.residuals, &f.agree);
+    f.crop = crop;
     f.sigma = RobustScale(f.residuals);
     finalists.push_back(std::move(f));
   }
@@ -1097,6 +1174,18 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   Hypothesis best = finalists.front().h;
   const Hypothesis fine_check = best;
   end_stage("icp+verify fine");
+  if (!options.paper_only) {
+    const Finalist& f = finalists.front();
+    result.fine_spacing_m = f.spacing;
+    const double reach = std::min(normal_radius, options.normal_radius_spacing * f.spacing);
+    result.resolution_m = PoseResolution(fine_src, fine_src_n, *f.crop, f.h.transform, f.residuals,
+                                         f.agree, reach, fine_tau, support_radius,
+                                         0.125 * f.spacing, support_radius,
+                                         options.resolution_t);
+    spdlog::debug("registration: pose resolution {:.4g} m (fine spacing {:.4g} m)",
+                  result.resolution_m, f.spacing);
+    end_stage("resolution");
+  }
 
   // --- Verdict.
   result.descriptor = best.descriptor;
@@ -1165,6 +1254,14 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
         << " and " << runner_up << ", " << RotationAngleDeg(r) << "° apart; the difference is "
         << result.significance << " standard errors, need " << options.min_significance
         << "); a (pseudo-)symmetric scene — give --gravity-aligned or more overlap";
+    return fail(why.str());
+  }
+  if (!options.paper_only &&
+      !(result.resolution_m <= options.max_resolution_spacing * result.fine_spacing_m)) {
+    why << "pose not resolved: the fine verification cannot tell it from displacements of "
+        << result.resolution_m << " m RMS (need <= " << options.max_resolution_spacing
+        << " x the fine spacing " << result.fine_spacing_m
+        << " m); a noisy, planar or featureless overlap";
     return fail(why.str());
   }
   if (options.paper_only) {

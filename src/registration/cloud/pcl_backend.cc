@@ -110,6 +110,9 @@ FeatureIndex::FeatureIndex(const std::vector<float>& data, int dim) : impl_(new 
   rows_ = dim > 0 ? data.size() / dim : 0;
   if (rows_ == 0) return;
   flann::Matrix<float> matrix(impl_->data.data(), rows_, dim);
+  // The randomised kd-trees draw split dimensions and point orders from std::rand: a fixed
+  // seed makes the matches (and so the registration) repeat from run to run.
+  flann::seed_random(1);
   impl_->index.reset(new flann::Index<flann::L2<float>>(matrix, flann::KDTreeIndexParams(4)));
   impl_->index->buildIndex();
 }

@@ -12,6 +12,7 @@
 // large clouds; a confidence from the margin between the best and the runner-up hypothesis.
 // PCL is used inside the implementation only.
 
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -105,6 +106,12 @@ struct CloudRegistrationOptions {
   /// ... unless the best beats the runner-up by at least this many standard errors of the
   /// per-block score difference (blocks of R_s; a paired t statistic) (>= 0).
   double min_significance = 4.0;
+  /// Pose resolution test: a displacement of the chosen pose counts as told apart when it
+  /// scores worse by at least this many standard errors (paired block t) (> 0).
+  double resolution_t = 3.0;
+  /// "ok" needs the pose resolved (every displacement of this RMS size over the source scores
+  /// significantly worse) to within this × the fine point spacing (> 0).
+  double max_resolution_spacing = 4.0;
   uint64_t seed = 42;             ///< random seed (results are deterministic)
 
   /// False with a message naming the field, the value and the constraint when invalid.
@@ -147,6 +154,10 @@ struct CloudRegistrationResult {
   size_t num_inliers = 0;          ///< fine source points within the inlier distance
   double point_spacing_m = 0.0;    ///< s
   double fine_inlier_distance_m = 0.0;  ///< τ of the fine verification (inlier residual)
+  /// Smallest RMS displacement of the source (any direction: translation or rotation) the
+  /// fine verification tells from the chosen pose; +inf when not resolved up to R_s.
+  double resolution_m = std::numeric_limits<double>::infinity();
+  double fine_spacing_m = 0.0;          ///< point spacing of the fine verification
   double normal_radius_m = 0.0, support_radius_m = 0.0;
   std::vector<StageTime> runtime;  ///< seconds per stage, in order
   std::vector<RegistrationHypothesis> hypotheses;  ///< best first
