@@ -114,12 +114,14 @@ int main(int argc, char** argv) {
     recovered += after.median_px < 1.0;
     const AcceptanceChecks& c = result.checks;
     std::printf("%5.2f %5.2f %5.2f %5.1f %5.1f %5.1f        %-6s %6.2fpx %6.2fpx  "
-                "%6.3f %6.3f %6.3f %6.2f %6.2f %6.2f  %5.1fs %6.2fpx %6.2fpx %6.4f %6.0f  %s\n",
+                "%6.3f %6.3f %6.3f %6.2f %6.2f %6.2f  %5.1fs %6.2fpx %6.2fpx %6.4f %6.0f  "
+                "calibrated sigma %.2f px, restart rms %.2f px, halves %.2f px  %s\n",
                 perturbation[0], perturbation[1], perturbation[2], perturbation[3],
                 perturbation[4], perturbation[5], result.status.c_str(), before.median_px,
                 after.median_px, error[0], error[1], error[2], error[3], error[4], error[5],
                 result.runtime_seconds, c.sigma_px, c.restart_spread_px,
-                c.mi_bits - c.mi_shuffled_bits, c.mi_significance, result.reason.c_str());
+                c.mi_bits - c.mi_shuffled_bits, c.mi_significance, c.sigma_px_calibrated,
+                c.restart_rms_px, c.split_spread_px, result.reason.c_str());
   }
   std::printf("median offset < 1 px after registration: %d of %zu starts\n", recovered,
               starts.size());

@@ -226,6 +226,21 @@ void WriteHistogram(const fs::path& csv, const fs::path& svg, const std::string&
 
 }  // namespace
 
+// MI_ONLY="NAME[:MAX_M],..." runs only the listed registrations (all sizes when MAX_M is
+// left out); the random starts are drawn as in the full run, so each keeps its start.
+bool Selected(const std::string& name, double max_m) {
+  const char* only = std::getenv("MI_ONLY");
+  if (only == nullptr) return true;
+  for (const std::string& item : Split(only)) {
+    const size_t colon = item.find(':');
+    if (item.substr(0, colon) != name) continue;
+    if (colon == std::string::npos || std::abs(std::atof(item.c_str() + colon + 1) - max_m) < 1e-9) {
+      return true;
+    }
+  }
+  return false;
+}
+
 int main(int argc, char** argv) {
   if (argc < 3) {
     std::fprintf(stderr,
@@ -270,11 +285,14 @@ int main(int argc, char** argv) {
 
   RegistrationOptions options;
   if (const char* v = std::getenv("MI_RESTART_LEVEL")) options.restart_level = std::atoi(v);
+  if (const char* v = std::getenv("MI_SPLIT_LEVEL")) options.split_level = std::atoi(v);
   std::ofstream runs(out_dir / "runs.csv");
   runs << "view,kind,max_m,max_deg,tx,ty,tz,roll,pitch,yaw,status,"
           "image_px_before,image_px_after,view_px_before,view_px_after,sigma_px,"
           "restart_spread_px,err_tx,err_ty,err_tz,err_roll,err_pitch,err_yaw,"
-          "sd_tx,sd_ty,sd_tz,sd_roll,sd_pitch,sd_yaw,mahalanobis2,n_eff,inflation,evaluations,"
+          "sd_tx,sd_ty,sd_tz,sd_roll,sd_pitch,sd_yaw,mahalanobis2,n_eff,inflation,"
+          "sigma_px_calibrated,restart_rms_px,split_spread_px,variance_factor_halves,"
+          "variance_factor_restarts,variance_factor,evaluations,"
           "seconds,"
           "cpu_seconds,reason\n";
   struct Row {
@@ -345,6 +363,7 @@ int main(int argc, char** argv) {
         std::uniform_real_distribution<double> um(-max_m, max_m), ud(-max_deg, max_deg);
         Vector6d p;
         p << um(rng), um(rng), um(rng), ud(rng), ud(rng), ud(rng);
+        if (!Selected(tv.name, max_m)) continue;
         const Rigid3d start = ApplyCorrection(tv.cam_from_world, p);
         Timer timer;
         const double cpu0 = CpuSeconds();
@@ -392,17 +411,21 @@ int main(int argc, char** argv) {
         for (int i = 0; i < 6; ++i) runs << "," << error[i];
         for (int i = 0; i < 6; ++i) runs << "," << sd[i];
         runs << "," << mahalanobis2 << "," << r.checks.effective_samples << ","
-             << r.checks.sample_inflation << "," << r.evaluations << "," << seconds << "," << cpu
+             << r.checks.sample_inflation << "," << r.checks.sigma_px_calibrated << ","
+             << r.checks.restart_rms_px << "," << r.checks.split_spread_px << ","
+             << r.checks.variance_factor_halves << "," << r.checks.variance_factor_restarts << ","
+             << r.checks.variance_factor << "," << r.evaluations << "," << seconds << "," << cpu
              << ",\"" << reason << "\"\n";
         runs.flush();
         std::string headings;
         for (const View& view : frame.views) headings += view.name.substr(view.name.rfind('_') + 1) + " ";
         std::printf("[%s] ", headings.c_str());
         std::printf("%-16s %-9s %-6s image %6.2f -> %6.2f px  views %6.2f -> %6.2f px  sigma "
-                    "%.2f px  restarts %.2f px  maha2 %.1f  N_eff %.0f (/%.1f)  %5.1f s (cpu %.1f)  %s\n",
+                    "%.2f px (calibrated %.2f, factor %.1f)  restarts %.2f px (rms %.2f)  halves %.2f px  maha2 %.1f  N_eff %.0f (/%.1f)  %5.1f s (cpu %.1f)  %s\n",
                     tv.name.c_str(), size.c_str(), r.status.c_str(), ib.median_px,
                     ia.median_px, row.view_before, row.view_after, r.checks.sigma_px,
-                    r.checks.restart_spread_px, mahalanobis2, r.checks.effective_samples,
+                    r.checks.sigma_px_calibrated, r.checks.variance_factor,
+                    r.checks.restart_spread_px, r.checks.restart_rms_px, r.checks.split_spread_px, mahalanobis2, r.checks.effective_samples,
                     r.checks.sample_inflation, seconds, cpu, reason.c_str());
         std::fflush(stdout);
       }

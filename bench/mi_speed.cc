@@ -88,12 +88,13 @@ int main(int argc, char** argv) {
     std::printf("(%.2f %.2f %.2f m, %.1f %.1f %.1f deg) ", perturbation[0], perturbation[1],
                 perturbation[2], perturbation[3], perturbation[4], perturbation[5]);
     std::printf("%-9s %-6s %6.2f s  %4d evals  %5.1f ms/eval  median offset %.2f -> %.2f px "
-                "(p90 %.2f -> %.2f)  sigma %.3f px  restarts %.2f px  MI gain %.4f bits "
+                "(p90 %.2f -> %.2f)  sigma %.3f px (calibrated %.3f)  restarts %.2f px (rms %.2f)  halves "
+                "%.2f px  MI gain %.4f bits "
                 "(z %.0f)  N_eff %.0f (/%.1f)  err/sd %.2f %.2f %.2f %.2f %.2f %.2f  peak %.0f MiB  %s\n",
                 RepresentationName(r).c_str(), result.status.c_str(), seconds,
                 result.evaluations, 1000 * seconds / std::max(1, result.evaluations),
                 before.median_px, after.median_px, before.p90_px, after.p90_px, c.sigma_px,
-                c.restart_spread_px, c.mi_bits - c.mi_shuffled_bits, c.mi_significance,
+                c.sigma_px_calibrated, c.restart_spread_px, c.restart_rms_px, c.split_spread_px, c.mi_bits - c.mi_shuffled_bits, c.mi_significance,
                 c.effective_samples, c.sample_inflation, ratio[0], ratio[1], ratio[2], ratio[3],
                 ratio[4], ratio[5], PeakRssMiB(), result.reason.c_str());
     for (const StageStat& stage : result.stages) {

@@ -48,6 +48,10 @@ struct RegisterMiArgs {
   int threads = 2;
   double restart_tolerance_px = 1.0;
   double max_sigma_px = 0.5;
+  bool halves = true;
+  int split_level = 0;
+  double split_tolerance_px = 1.0;
+  bool calibrate_covariance = true;
   int effective_sample_lag = 8;
   double point_radius_m = 0.03;
   int max_point_radius_px = 2;
@@ -167,6 +171,10 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.threads = args.threads;
   options.restart_tolerance_px = args.restart_tolerance_px;
   options.max_sigma_px = args.max_sigma_px;
+  options.split_check = args.halves;
+  options.split_level = args.split_level;
+  options.split_tolerance_px = args.split_tolerance_px;
+  options.calibrate_covariance = args.calibrate_covariance;
   options.effective_sample_max_lag = args.effective_sample_lag;
   options.render.point_radius_m = args.point_radius_m;
   options.render.max_point_radius_px = args.max_point_radius_px;
@@ -326,6 +334,13 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     cov.push_back(row);
   }
   out["covariance"] = cov;
+  nlohmann::json cov_laplace = nlohmann::json::array();
+  for (int r = 0; r < 6; ++r) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int c = 0; c < 6; ++c) row.push_back(result.covariance_laplace(r, c));
+    cov_laplace.push_back(row);
+  }
+  out["covariance_laplace"] = cov_laplace;
   out["covariance_units"] = "m^2, deg^2 in the order tx ty tz roll pitch yaw";
   out["covariance_valid"] = result.covariance_valid;
   out["trusted"] = result.trusted;
@@ -345,6 +360,15 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                    {"mi_shuffled_bits", checks.mi_shuffled_bits},
                    {"mi_shuffled_sd_bits", checks.mi_shuffled_sd_bits},
                    {"mi_significance", checks.mi_significance},
+                   {"restart_rms_px", checks.restart_rms_px},
+                   {"halves", checks.split_parts},
+                   {"halves_kind", checks.split_kind},
+                   {"halves_spread_px", checks.split_spread_px},
+                   {"halves_tolerance_px", options.split_tolerance_px},
+                   {"variance_factor", checks.variance_factor},
+                   {"variance_factor_halves", checks.variance_factor_halves},
+                   {"variance_factor_restarts", checks.variance_factor_restarts},
+                   {"sigma_px_calibrated", checks.sigma_px_calibrated},
                    {"axis_scans_passed", checks.scans_passed},
                    {"axis_scans_reason", checks.scans_reason}};
   nlohmann::json stages = nlohmann::json::array();
@@ -467,6 +491,22 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
       ->capture_default_str();
   sub->add_option("--max-sigma-px", args->max_sigma_px,
                   "Acceptance: largest predicted pixel sigma (from the covariance)")
+      ->capture_default_str();
+  sub->add_option("--halves", args->halves,
+                  "Acceptance: re-optimise two independent halves of the data (the views "
+                  "alternately, or the left/right halves of one image) alone; each must agree "
+                  "with the joint optimum (and they calibrate the covariance)")
+      ->capture_default_str();
+  sub->add_option("--split-level", args->split_level,
+                  "Pyramid level of the halves' re-optimisation (0 = full resolution)")
+      ->capture_default_str();
+  sub->add_option("--split-tolerance-px", args->split_tolerance_px,
+                  "Acceptance: largest median pixel distance of a half's own points between "
+                  "its optimum and the joint one")
+      ->capture_default_str();
+  sub->add_option("--calibrate-covariance", args->calibrate_covariance,
+                  "Scale the Laplace covariance by the scatter of the halves and restarts "
+                  "(checks.variance_factor; the Laplace one is covariance_laplace)")
       ->capture_default_str();
   sub->add_option("--effective-sample-lag", args->effective_sample_lag,
                   "Covariance: correlated pixels counted by Bartlett's factor over lags within "

@@ -10,6 +10,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <glog/logging.h>
 
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
@@ -128,6 +129,11 @@ bool RegistrationOptions::Check(std::string* error) const {
   }
   if (threads < 1 || threads > 256) {
     *error = "threads " + std::to_string(threads) + " must be in 1..256";
+    return false;
+  }
+  if (split_level < 0 || split_level > 5 || !(split_tolerance_px > 0)) {
+    *error = "split_level must be in 0..5 and split_tolerance_px > 0 (found " +
+             std::to_string(split_level) + ", " + std::to_string(split_tolerance_px) + ")";
     return false;
   }
   if (shuffles < 2 || shuffles > 100) {
@@ -462,6 +468,62 @@ double FrameSetEvaluator::MedianPixelDistance(const std::vector<VisiblePoint>& s
   return Median(distances);
 }
 
+View CropView(const View& view, int col0, int col1) {
+  CHECK(0 <= col0 && col0 < col1 && col1 <= view.image.width) << "crop columns out of range";
+  View crop;
+  crop.name = view.name + "[" + std::to_string(col0) + ":" + std::to_string(col1) + "]";
+  crop.view_from_cam = view.view_from_cam;
+  crop.image_pixels_per_pixel = view.image_pixels_per_pixel;
+  crop.image = GrayImage(col1 - col0, view.image.height);
+  for (int r = 0; r < view.image.height; ++r) {
+    for (int c = col0; c < col1; ++c) crop.image.at(c - col0, r) = view.image.at(c, r);
+  }
+  crop.camera = view.camera;
+  crop.camera.width = col1 - col0;
+  const std::vector<int> principal = sensors::CameraModelPrincipalIdxs(view.camera.model_id);
+  CHECK(!principal.empty()) << "camera model without a principal point";
+  crop.camera.params[principal[0]] -= col0;
+  return crop;
+}
+
+std::array<std::vector<Frame>, 2> SplitIntoHalves(const std::vector<Frame>& frames,
+                                                  std::string* kind) {
+  std::array<std::vector<Frame>, 2> halves;
+  size_t total = 0;
+  for (const Frame& frame : frames) total += frame.views.size();
+  if (total >= 2) {
+    size_t index = 0;
+    for (const Frame& frame : frames) {
+      std::array<Frame, 2> parts;
+      for (int h = 0; h < 2; ++h) {
+        parts[h].name = frame.name;
+        parts[h].points = frame.points;
+      }
+      for (const View& view : frame.views) parts[index++ % 2].views.push_back(view);
+      for (int h = 0; h < 2; ++h) {
+        if (!parts[h].views.empty()) halves[h].push_back(std::move(parts[h]));
+      }
+    }
+    if (kind != nullptr) *kind = "views";
+  } else if (total == 1) {
+    for (const Frame& frame : frames) {
+      if (frame.views.empty()) continue;
+      const View& view = frame.views.front();
+      const int middle = view.image.width / 2;
+      for (int h = 0; h < 2; ++h) {
+        Frame part;
+        part.name = frame.name;
+        part.points = frame.points;
+        part.views.push_back(h == 0 ? CropView(view, 0, middle)
+                                    : CropView(view, middle, view.image.width));
+        halves[h].push_back(std::move(part));
+      }
+    }
+    if (kind != nullptr) *kind = "left/right halves";
+  }
+  return halves;
+}
+
 // ---------------------------------------------------------------------------------------
 // Registration
 
@@ -697,6 +759,52 @@ SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
   return search;
 }
 
+// Per point of `sample`: the predicted pixel variance trace(J Σ Jᵀ) at correction x, in
+// pixels² of the frame's image (J = ∂pixel/∂correction by central differences); points that
+// do not project are left out.
+std::vector<double> PredictedPixelVariances(
+    const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x,
+    const std::vector<FrameSetEvaluator::VisiblePoint>& sample,
+    const Eigen::Matrix<double, 6, 6>& covariance) {
+  Vector6d h;
+  h << 1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2;
+  std::vector<double> variances;
+  for (const FrameSetEvaluator::VisiblePoint& point : sample) {
+    const View& view = evaluator.frames()[point.frame].views[point.view];
+    Eigen::Matrix<double, 2, 6> jacobian;
+    bool ok = true;
+    for (int k = 0; k < 6 && ok; ++k) {
+      Vector6d a = x, b = x;
+      a[k] += h[k];
+      b[k] -= h[k];
+      Eigen::Vector2d pa, pb;
+      ok = evaluator.Project(point, ApplyCorrection(start, a), &pa) &&
+           evaluator.Project(point, ApplyCorrection(start, b), &pb);
+      if (ok) jacobian.col(k) = PixelDifference(view, pa, pb) / (2 * h[k]);
+    }
+    if (!ok) continue;
+    const double scale = view.image_pixels_per_pixel;
+    variances.push_back(scale * scale * (jacobian * covariance * jacobian.transpose()).trace());
+  }
+  return variances;
+}
+
+// Per point of `sample`: the squared pixel distance between poses a and b, in pixels² of the
+// frame's image.
+std::vector<double> PixelDisplacements2(const FrameSetEvaluator& evaluator,
+                                        const std::vector<FrameSetEvaluator::VisiblePoint>& sample,
+                                        const Rigid3d& a, const Rigid3d& b) {
+  std::vector<double> d2;
+  for (const FrameSetEvaluator::VisiblePoint& point : sample) {
+    Eigen::Vector2d pa, pb;
+    if (!evaluator.Project(point, a, &pa) || !evaluator.Project(point, b, &pb)) continue;
+    const View& view = evaluator.frames()[point.frame].views[point.view];
+    d2.push_back(std::pow(view.image_pixels_per_pixel, 2) *
+                 PixelDifference(view, pa, pb).squaredNorm());
+  }
+  return d2;
+}
+
 // Second derivative of MI (nats per unit²) along a unit direction of the correction: a
 // parabola a + b·t + ½·c·t² fitted by least squares to 13 samples t ∈ [−0.3, 0.3].
 double CurvatureAlong(const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x,
@@ -871,46 +979,22 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
       break;
     }
   }
-  // (1) Predicted pixel σ: is the maximum well conditioned at the accuracy asked for?
+  // (1) Predicted pixel σ: is the maximum well conditioned at the accuracy asked for? (The
+  // check itself is made after the split below, on the calibrated covariance.)
   const std::vector<FrameSetEvaluator::VisiblePoint> sample =
       evaluator.SampleVisiblePoints(result.cam_from_lidar, 2000);
+  result.covariance_laplace = result.covariance;
+  double predicted_ms = 0;  // mean over the sample of trace(J Σ_L Jᵀ), px²
   if (!result.covariance_valid) {
     failures.push_back("no maximum: the metric's curvature is not negative in any direction "
                        "(information eigenvalues " + Fixed(min_eigen, 1) + " .. " +
                        Fixed(max_eigen, 1) + ")");
   } else {
-    Vector6d h;
-    h << 1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2;
-    std::vector<double> sigmas;
-    for (const FrameSetEvaluator::VisiblePoint& point : sample) {
-      Eigen::Matrix<double, 2, 6> jacobian;
-      bool ok = true;
-      for (int k = 0; k < 6 && ok; ++k) {
-        Vector6d a = x, b = x;
-        a[k] += h[k];
-        b[k] -= h[k];
-        Eigen::Vector2d pa, pb;
-        ok = evaluator.Project(point, ApplyCorrection(cam_from_lidar_start, a), &pa) &&
-             evaluator.Project(point, ApplyCorrection(cam_from_lidar_start, b), &pb);
-        if (ok) {
-          jacobian.col(k) =
-              PixelDifference(evaluator.frames()[point.frame].views[point.view], pa, pb) /
-              (2 * h[k]);
-        }
-      }
-      // In the pixels of the frame's image (a perspective cut may be finer than its panorama).
-      if (ok) {
-        sigmas.push_back(evaluator.frames()[point.frame].views[point.view].image_pixels_per_pixel *
-                         std::sqrt((jacobian * result.covariance * jacobian.transpose()).trace()));
-      }
-    }
+    std::vector<double> sigmas = PredictedPixelVariances(evaluator, cam_from_lidar_start, x,
+                                                         sample, result.covariance);
+    for (double v : sigmas) predicted_ms += v / sigmas.size();
+    for (double& v : sigmas) v = std::sqrt(v);
     checks.sigma_px = Median(sigmas);
-    if (!(checks.sigma_px <= options.max_sigma_px)) {
-      failures.push_back("pose not determined to the accuracy asked: predicted pixel sigma " +
-                         Fixed(checks.sigma_px, 2) + " px > " + Fixed(options.max_sigma_px, 2) +
-                         " px (" + std::to_string(checks.weak_directions) +
-                         " of 6 directions without curvature)");
-    }
   }
   // (2) Significance of the MI against the shuffled-pairing baseline (same samples, photo
   // values permuted: what MI a pose without any relation to the photo would show).
@@ -955,6 +1039,8 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
       if (k % 2 == 1) signs = -starts.back().cwiseQuotient(offset).cwiseSign();  // opposite pair
       starts.push_back(signs.cwiseProduct(offset));
     }
+    double restart_displacement2 = 0;
+    size_t restart_displacement_count = 0;
     std::vector<SearchResult> restarts(options.restarts);
     std::vector<double> restart_values(options.restarts);
     ParallelFor(options.restarts, options.threads, [&](int k) {
@@ -971,10 +1057,21 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
       const double distance = evaluator.MedianPixelDistance(sample, result.cam_from_lidar, pose);
       const double gain = restart_values[k] - result.metric_after.value;
       checks.restart_spread_px = std::max(checks.restart_spread_px, distance);
+      for (double d2 : PixelDisplacements2(evaluator, sample, result.cam_from_lidar, pose)) {
+        restart_displacement2 += d2;
+        ++restart_displacement_count;
+      }
       checks.restart_best_gain = std::max(checks.restart_best_gain, gain);
       ++checks.restarts_run;
       spdlog::debug("MI restart {}: {:.2f} px from the optimum, metric {:+.6f}", k, distance,
                     gain);
+    }
+    if (restart_displacement_count > 0) {
+      checks.restart_rms_px = std::sqrt(restart_displacement2 / restart_displacement_count);
+      if (predicted_ms > 0) {
+        checks.variance_factor_restarts =
+            checks.restart_rms_px * checks.restart_rms_px / predicted_ms;
+      }
     }
     if (checks.restarts_run > 0 && !(checks.restart_spread_px <= options.restart_tolerance_px)) {
       failures.push_back("restarts disagree: re-optimised from +-(" +
@@ -985,7 +1082,88 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     }
     clock.Mark("restarts", evaluations);
   }
-  // (4) Per-axis scans: flat or multi-peaked surfaces.
+  // (4) Independent halves: does each part of the data put its own points where the joint
+  // optimum puts them? And how far apart are they, against the Laplace covariance?
+  std::string split_kind;
+  const std::array<std::vector<Frame>, 2> halves = SplitIntoHalves(frames, &split_kind);
+  if (options.split_check && !halves[0].empty() && !halves[1].empty()) {
+    Vector6d offset;
+    offset << options.restart_offset_m, options.restart_offset_m, options.restart_offset_m,
+        options.restart_offset_deg, options.restart_offset_deg, options.restart_offset_deg;
+    const double tolerance =
+        options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1);
+    RegistrationOptions half_options = options;
+    half_options.pyramid_levels = std::min(options.pyramid_levels, options.split_level + 1);
+    const int split_level = std::min(options.split_level, levels - 1);
+    std::array<double, 2> distance{}, displacement2{}, predicted2{};
+    std::array<int, 2> half_evaluations{};
+    std::array<size_t, 2> own_points{};
+    std::array<Vector6d, 2> half_x;
+    // One half per thread; each half's own evaluations run on one thread then.
+    half_options.threads = std::max(1, options.threads / 2);
+    ParallelFor(2, options.threads, [&](int h) {
+      const FrameSetEvaluator half(halves[h], cam_from_lidar_start, half_options);
+      const SearchResult r = Search(half, cam_from_lidar_start, x, split_level, split_level,
+                                    2.0 * offset, tolerance, false, half_options, nullptr,
+                                    "half " + std::to_string(h) + " ");
+      half_x[h] = r.x;
+      half_evaluations[h] = r.evaluations;
+      const std::vector<FrameSetEvaluator::VisiblePoint> own =
+          half.SampleVisiblePoints(result.cam_from_lidar, 2000);
+      own_points[h] = own.size();
+      const Rigid3d pose = ApplyCorrection(cam_from_lidar_start, r.x);
+      distance[h] = half.MedianPixelDistance(own, result.cam_from_lidar, pose);
+      for (double d2 : PixelDisplacements2(half, own, result.cam_from_lidar, pose)) {
+        displacement2[h] += d2;
+      }
+      if (result.covariance_valid) {
+        for (double v : PredictedPixelVariances(half, cam_from_lidar_start, x, own,
+                                                result.covariance_laplace)) {
+          predicted2[h] += v;
+        }
+      }
+    });
+    checks.split_parts = 2;
+    checks.split_kind = split_kind;
+    checks.split_spread_px = std::max(distance[0], distance[1]);
+    if (result.covariance_valid && predicted2[0] + predicted2[1] > 0) {
+      checks.variance_factor_halves =
+          (displacement2[0] + displacement2[1]) / (predicted2[0] + predicted2[1]);
+    }
+    for (int h = 0; h < 2; ++h) {
+      spdlog::debug("MI half {} ({}): {:.2f} px from the optimum, correction [{:.3f} {:.3f} "
+                    "{:.3f} {:.3f} {:.3f} {:.3f}], rms {:.3f} px vs predicted {:.3f} px",
+                    h, split_kind, distance[h], half_x[h][0], half_x[h][1], half_x[h][2],
+                    half_x[h][3], half_x[h][4], half_x[h][5], std::sqrt(displacement2[h]),
+                    std::sqrt(predicted2[h]));
+    }
+    if (!(checks.split_spread_px <= options.split_tolerance_px)) {
+      failures.push_back("independent halves disagree (" + split_kind + "): one re-optimised "
+                         "alone puts its own points " + Fixed(checks.split_spread_px, 2) +
+                         " px from the joint optimum (tolerance " +
+                         Fixed(options.split_tolerance_px, 2) + " px)");
+    }
+    clock.Mark("independent halves", half_evaluations[0] + half_evaluations[1]);
+  }
+  // The σ check (conditioning: does the curvature determine the pose to the accuracy
+  // asked?) on the Laplace covariance; then the calibrated covariance that is reported.
+  if (result.covariance_valid) {
+    if (!(checks.sigma_px <= options.max_sigma_px)) {
+      failures.push_back("pose not determined to the accuracy asked: predicted pixel sigma " +
+                         Fixed(checks.sigma_px, 2) + " px > " + Fixed(options.max_sigma_px, 2) +
+                         " px (" + std::to_string(checks.weak_directions) +
+                         " of 6 directions without curvature)");
+    }
+    checks.sigma_px_calibrated = checks.sigma_px;
+    if (options.calibrate_covariance && std::isfinite(checks.variance_factor_halves) &&
+        std::isfinite(checks.variance_factor_restarts)) {
+      checks.variance_factor =
+          std::max(1.0, checks.variance_factor_halves + checks.variance_factor_restarts);
+      result.covariance = checks.variance_factor * result.covariance_laplace;
+      checks.sigma_px_calibrated = checks.sigma_px * std::sqrt(checks.variance_factor);
+    }
+  }
+  // (5) Per-axis scans: flat or multi-peaked surfaces.
   {
     int evaluations = 0;
     checks.scans_passed = CheckConfidence(evaluator, cam_from_lidar_start, x, options,
@@ -1022,6 +1200,7 @@ RegistrationResult RegisterRig(const std::vector<Frame>& frames,
   std::vector<int> candidates;
   RegistrationOptions frame_options = options.registration;
   frame_options.restarts = options.frame_restarts;
+  frame_options.split_check = false;  // screening: the frames' agreement plays its part
   for (size_t i = 0; i < frames.size(); ++i) {
     RegistrationResult r = RegisterFrames({frames[i]}, cam_from_lidar_start, frame_options);
     spdlog::info("frame {}: {}", frames[i].name, r.BriefReport());

@@ -12,8 +12,10 @@
 // where lidar_from_cam = [R | c] is the start. For KITTI (x forward, y left, z up) and for a
 // local east-north-up world this is the vehicle's roll/pitch/yaw and a shift of the camera.
 
+#include <array>
 #include <atomic>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -96,6 +98,20 @@ struct RegistrationOptions {
   int shuffles = 8;
   double min_mi_gain_bits = 0.02;
   double min_mi_significance = 10.0;
+  /// Independent halves (SplitIntoHalves: alternate views, or the left and right halves of
+  /// a single view): each half is re-optimised alone by Nelder–Mead at `split_level` from the
+  /// optimum (simplex 2·restart offset, the restarts' tolerance); each half's optimum must put
+  /// that half's own visible points within split_tolerance_px (median, pixels of the frame's
+  /// image) of where the joint optimum puts them. The restarts test the shape of one metric
+  /// surface; this tests whether independent parts of the data agree on the pose — a
+  /// systematic error that affects the parts differently (a stitched panorama's parallax, a
+  /// lens model error, a moving object) moves their optima apart.
+  bool split_check = true;
+  int split_level = 0;
+  double split_tolerance_px = 1.0;
+  /// Calibrate the covariance by the halves and the restarts (AcceptanceChecks::
+  /// variance_factor): `covariance` = factor · the Laplace one (kept as covariance_laplace).
+  bool calibrate_covariance = true;
   bool Check(std::string* error) const;
 };
 
@@ -122,6 +138,7 @@ struct AcceptanceChecks {
   double sample_inflation = 1;      ///< covered pixels / N_eff (correlated pixels)
   int restarts_run = 0;
   double restart_spread_px = -1;    ///< largest median pixel distance restart ↔ optimum
+  double restart_rms_px = -1;       ///< RMS pixel distance restart ↔ optimum, all points
   double restart_best_gain = 0;     ///< best restart metric − optimum metric (> 0: higher)
   double mi_bits = 0;               ///< MI at the optimum (pixel-centre samples)
   double mi_shuffled_bits = 0;      ///< mean MI of the shuffled pairings
@@ -129,6 +146,32 @@ struct AcceptanceChecks {
   double mi_significance = 0;       ///< (mi − shuffled mean) / shuffled sd
   bool scans_passed = false;        ///< per-axis scans: single peak, not flat
   std::string scans_reason;
+  /// Independent halves: number of halves re-optimised (0 = check off or not applicable),
+  /// the median pixel distance of each half's own points between its optimum and the
+  /// joint one (largest of the two), and how each half was formed.
+  int split_parts = 0;
+  double split_spread_px = -1;
+  std::string split_kind;
+  /// Calibration of the Laplace covariance Σ_L (`covariance` = variance_factor · Σ_L). The
+  /// error of the optimum has a statistical part and an optimisation part (the rendered
+  /// metric is piecewise constant at the pixel scale, so the optimum reached scatters);
+  /// independent, so their variances add, each measured in pixels against Σ_L's prediction:
+  /// * halves (a half-sample estimate, as the jackknife: Efron & Stein 1981; Shao & Tu
+  ///   1995, Ch. 5.2): each half's estimate x_h differs from the joint x by
+  ///   Var(x_h − x) = Σ_h − Σ ≈ Σ for two halves of equal information (Σ_h ≈ 2Σ), so
+  ///     variance_factor_halves = Σ_h Σ_p ‖pixel_p(x_h) − pixel_p(x)‖² / Σ_h Σ_p tr(J_p Σ_L J_pᵀ)
+  ///   over each half's own visible points p (J_p = ∂pixel/∂correction; in pixels, so the
+  ///   directions one half alone cannot see, and wanders along, do not count);
+  /// * restarts: variance_factor_restarts = mean_{k,p} ‖pixel_p(x_k) − pixel_p(x)‖² /
+  ///   mean_p tr(J_p Σ_L J_pᵀ) over the restarts k and the visible points p.
+  /// variance_factor = max(1, halves + restarts); NaN components when not measured (then
+  /// the covariance stays Σ_L and variance_factor is 1).
+  double variance_factor = 1;
+  double variance_factor_halves = std::numeric_limits<double>::quiet_NaN();
+  double variance_factor_restarts = std::numeric_limits<double>::quiet_NaN();
+  /// sigma_px of the calibrated covariance (sigma_px is the Laplace one, which the
+  /// acceptance checks: the conditioning of the maximum).
+  double sigma_px_calibrated = -1;
 };
 
 struct RegistrationResult {
@@ -136,7 +179,10 @@ struct RegistrationResult {
   std::string reason;
   Rigid3d cam_from_lidar;          ///< the corrected pose (the start when failed early)
   Vector6d correction = Vector6d::Zero();
-  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();  ///< m², deg²
+  /// m², deg²: the Laplace covariance times checks.variance_factor (calibrated).
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
+  /// The Laplace covariance (N_eff · −∇²MI)⁻¹ before the calibration.
+  Eigen::Matrix<double, 6, 6> covariance_laplace = Eigen::Matrix<double, 6, 6>::Zero();
   bool covariance_valid = false;
   bool trusted = false;            ///< confidence flag: single clear peak
   std::string confidence_reason;
@@ -214,6 +260,16 @@ class FrameSetEvaluator {
   mutable std::atomic<int64_t> render_ns_{0};
   mutable std::atomic<int64_t> histogram_ns_{0};
 };
+
+/// Two independent halves of a frame set (for the split check): with two or more views in
+/// all, the views alternately (a frame's two perspective cuts: one each; a cube's four faces:
+/// two opposite faces each); with a single view, its left and right halves (CropView).
+/// `kind` (optional) receives "views" or "left/right halves".
+std::array<std::vector<Frame>, 2> SplitIntoHalves(const std::vector<Frame>& frames,
+                                                  std::string* kind = nullptr);
+/// Columns [col0, col1) of a view: the image cropped and the principal point shifted (any
+/// model, including the equirectangular one, whose columns outside are then not drawn).
+View CropView(const View& view, int col0, int col1);
 
 /// Registers one frame (or several frames sharing one pose, treated as one image set).
 RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
