@@ -766,68 +766,83 @@ double ScoreSignificance(const std::vector<Eigen::Vector3d>& src, const std::vec
 // source sample) along each of 12 directions — ± a translation along, and ± a rotation about
 // (through the centroid), each principal axis of the registered source — and the displaced
 // fine score is compared with the chosen one by the paired block t statistic of
-// ScoreSignificance. The resolution is the smallest δ of the ladder δ_min·2^(k/2) at which every
-// displacement scores significantly worse (t >= t_min); a direction once resolved stays
-// resolved (the score falls off monotonically around a maximum). A pose that can slide,
-// tilt or turn by δ without losing score is only known to δ: a thick, noisy target (every
-// displaced point still has a noise point near it), a planar or linear overlap, or a pose
-// off the score's maximum. +inf when not resolved up to `max_delta`.
+// ScoreSignificance. The pose is resolved at δ when every displacement scores significantly
+// worse (t >= t_min). A pose that can slide, tilt or turn by δ without losing score is only
+// known to δ: a thick, noisy target (every displaced point still has a noise point near it),
+// a planar or linear overlap, or a pose off the score's maximum.
+// Tested first at `bound` (the verdict); if resolved there, at bound/2, bound/4, bound/8 until
+// some direction is not (the reported resolution is the last resolved δ); if not, at 2·bound,
+// 4·bound, … up to `max_delta` for the unresolved directions only (a direction resolved at δ
+// stays resolved at larger δ: the score falls off around its maximum); +inf beyond.
 double PoseResolution(const std::vector<Eigen::Vector3d>& src,
                       const std::vector<Eigen::Vector3d>& src_n, const TargetCrop& crop,
                       const Eigen::Matrix4d& t, const std::vector<double>& base_residuals,
                       const std::vector<bool>& base_agree, double reach, double tau, double block,
-                      double min_delta, double max_delta, double t_min) {
+                      double bound, double max_delta, double t_min) {
   if (src.size() < 10) return std::numeric_limits<double>::infinity();
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  std::vector<Eigen::Vector3d> q(src.size());
-  for (size_t i = 0; i < src.size(); ++i) {
-    q[i] = Apply(t, src[i]);
-    c += q[i];
-  }
+  for (const Eigen::Vector3d& p : src) c += Apply(t, p);
   c /= static_cast<double>(src.size());
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : q) cov += (p - c) * (p - c).transpose();
+  for (const Eigen::Vector3d& p : src) {
+    const Eigen::Vector3d d = Apply(t, p) - c;
+    cov += d * d.transpose();
+  }
   cov /= static_cast<double>(src.size());
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-  // RMS distance of the source from the axis a through c: sqrt(trace(cov) − aᵀ·cov·a).
   struct Direction {
     bool rotation;
     Eigen::Vector3d axis;
     double sign;
-    double rms_per_unit;  // RMS displacement per unit parameter (1 for translations)
+    double rms_per_unit;  // RMS displacement per radian (1 per metre for translations)
   };
   std::vector<Direction> dirs;
   for (int k = 0; k < 3; ++k) {
     const Eigen::Vector3d a = eig.eigenvectors().col(k);
+    // RMS distance of the source from the axis a through c: sqrt(trace(cov) − aᵀ·cov·a).
     const double radius = std::sqrt(std::max(0.0, cov.trace() - a.dot(cov * a)));
     for (double sign : {1.0, -1.0}) {
       dirs.push_back({false, a, sign, 1.0});
       if (radius > 0) dirs.push_back({true, a, sign, radius});
     }
   }
-  std::vector<bool> resolved(dirs.size(), false);
   std::vector<double> residuals;
   std::vector<bool> agree;
-  for (double delta = min_delta; delta <= max_delta * 1.0001; delta *= std::sqrt(2.0)) {
-    bool all = true;
-    for (size_t d = 0; d < dirs.size(); ++d) {
-      if (resolved[d]) continue;
-      const Direction& dir = dirs[d];
-      Eigen::Matrix4d p = Eigen::Matrix4d::Identity();
-      if (dir.rotation) {
-        const Eigen::Matrix3d r =
-            Eigen::AngleAxisd(dir.sign * delta / dir.rms_per_unit, dir.axis).toRotationMatrix();
-        p.topLeftCorner<3, 3>() = r;
-        p.topRightCorner<3, 1>() = c - r * c;
-      } else {
-        p.topRightCorner<3, 1>() = dir.sign * delta * dir.axis;
-      }
-      FineResiduals(src, src_n, crop, p * t, reach, &residuals, &agree);
-      resolved[d] = ScoreSignificance(src, base_residuals, base_agree, residuals, agree, tau,
-                                      block) >= t_min;
-      all = all && resolved[d];
+  auto resolved = [&](const Direction& dir, double delta) {
+    Eigen::Matrix4d p = Eigen::Matrix4d::Identity();
+    if (dir.rotation) {
+      const Eigen::Matrix3d r =
+          Eigen::AngleAxisd(dir.sign * delta / dir.rms_per_unit, dir.axis).toRotationMatrix();
+      p.topLeftCorner<3, 3>() = r;
+      p.topRightCorner<3, 1>() = c - r * c;
+    } else {
+      p.topRightCorner<3, 1>() = dir.sign * delta * dir.axis;
     }
-    if (all) return delta;
+    FineResiduals(src, src_n, crop, p * t, reach, &residuals, &agree);
+    return ScoreSignificance(src, base_residuals, base_agree, residuals, agree, tau, block) >=
+           t_min;
+  };
+  std::vector<size_t> open;
+  for (size_t d = 0; d < dirs.size(); ++d) {
+    if (!resolved(dirs[d], bound)) open.push_back(d);
+  }
+  if (open.empty()) {
+    double delta = bound;
+    for (int k = 0; k < 3; ++k) {
+      bool all = true;
+      for (size_t d = 0; d < dirs.size() && all; ++d) all = resolved(dirs[d], delta / 2.0);
+      if (!all) break;
+      delta /= 2.0;
+    }
+    return delta;
+  }
+  for (double delta = 2.0 * bound; delta <= max_delta * 1.0001; delta *= 2.0) {
+    std::vector<size_t> still;
+    for (size_t d : open) {
+      if (!resolved(dirs[d], delta)) still.push_back(d);
+    }
+    open.swap(still);
+    if (open.empty()) return delta;
   }
   return std::numeric_limits<double>::infinity();
 }
@@ -1180,8 +1195,8 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     const double reach = std::min(normal_radius, options.normal_radius_spacing * f.spacing);
     result.resolution_m = PoseResolution(fine_src, fine_src_n, *f.crop, f.h.transform, f.residuals,
                                          f.agree, reach, fine_tau, support_radius,
-                                         0.125 * f.spacing, support_radius,
-                                         options.resolution_t);
+                                         options.max_resolution_spacing * f.spacing,
+                                         support_radius, options.resolution_t);
     spdlog::debug("registration: pose resolution {:.4g} m (fine spacing {:.4g} m)",
                   result.resolution_m, f.spacing);
     end_stage("resolution");

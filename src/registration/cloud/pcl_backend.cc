@@ -3,10 +3,11 @@
 
 #include "registration/cloud/pcl_backend.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 
-#include <flann/flann.hpp>
 #include <pcl/features/3dsc.h>
 #include <pcl/features/fpfh_omp.h>
 #include <pcl/features/normal_3d_omp.h>
@@ -98,23 +99,20 @@ void PointIndex::Radius(const Eigen::Vector3d& query, double radius,
   indices->assign(idx.begin(), idx.end());
 }
 
+// Exact nearest neighbours by brute force: ‖a − b‖² = ‖a‖² + ‖b‖² − 2 a·b over all rows
+// (a few thousand descriptors: a matrix-vector product per query). FLANN's randomised
+// kd-trees were approximate (256 checks) and their matches varied from run to run.
 struct FeatureIndex::Impl {
-  std::vector<float> data;
-  int dim = 0;
-  std::unique_ptr<flann::Index<flann::L2<float>>> index;
+  Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> data;
+  Eigen::VectorXf squared_norms;
 };
 
 FeatureIndex::FeatureIndex(const std::vector<float>& data, int dim) : impl_(new Impl) {
-  impl_->data = data;
-  impl_->dim = dim;
   rows_ = dim > 0 ? data.size() / dim : 0;
   if (rows_ == 0) return;
-  flann::Matrix<float> matrix(impl_->data.data(), rows_, dim);
-  // The randomised kd-trees draw split dimensions and point orders from std::rand: a fixed
-  // seed makes the matches (and so the registration) repeat from run to run.
-  flann::seed_random(1);
-  impl_->index.reset(new flann::Index<flann::L2<float>>(matrix, flann::KDTreeIndexParams(4)));
-  impl_->index->buildIndex();
+  impl_->data = Eigen::Map<const Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic,
+                                               Eigen::RowMajor>>(data.data(), rows_, dim);
+  impl_->squared_norms = impl_->data.rowwise().squaredNorm();
 }
 FeatureIndex::~FeatureIndex() = default;
 
@@ -122,14 +120,20 @@ void FeatureIndex::KNearest(const float* query, int k, std::vector<int>* indices
                             std::vector<float>* squared_distances) const {
   indices->assign(k, -1);
   squared_distances->assign(k, std::numeric_limits<float>::infinity());
-  if (rows_ == 0) return;
-  k = std::min<int>(k, static_cast<int>(rows_));
-  indices->resize(k);
-  squared_distances->resize(k);
-  flann::Matrix<float> q(const_cast<float*>(query), 1, impl_->dim);
-  flann::Matrix<int> idx(indices->data(), 1, k);
-  flann::Matrix<float> dist(squared_distances->data(), 1, k);
-  impl_->index->knnSearch(q, idx, dist, k, flann::SearchParams(256));
+  if (rows_ == 0 || k <= 0) return;
+  const Eigen::Map<const Eigen::VectorXf> q(query, impl_->data.cols());
+  const Eigen::VectorXf d = (impl_->squared_norms - 2.0f * (impl_->data * q)).array() +
+                            q.squaredNorm();
+  std::vector<int> order(rows_);
+  std::iota(order.begin(), order.end(), 0);
+  const size_t kk = std::min<size_t>(static_cast<size_t>(k), rows_);
+  // Ties broken by index: the result does not depend on the sort's implementation.
+  std::partial_sort(order.begin(), order.begin() + static_cast<long>(kk), order.end(),
+                    [&d](int a, int b) { return d[a] < d[b] || (d[a] == d[b] && a < b); });
+  for (size_t i = 0; i < kk; ++i) {
+    (*indices)[i] = order[i];
+    (*squared_distances)[i] = std::max(0.0f, d[order[i]]);
+  }
 }
 
 std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>& points,

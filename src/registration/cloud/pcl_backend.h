@@ -30,7 +30,7 @@ class PointIndex {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Approximate nearest neighbours in descriptor space (FLANN, randomised kd-trees).
+/// Exact nearest neighbours in descriptor space (brute force; deterministic).
 class FeatureIndex {
  public:
   /// `rows` descriptors of `dim` floats each, row-major.

@@ -38,6 +38,7 @@ struct EvalRow {
   double rms_m = 0.0;      ///< RMS of ‖T·p − T_true·p‖ over the source points
   double runtime_s = 0.0;
   double fitness = 0.0, confidence = 0.0;
+  double resolution_m = 0.0;  ///< CloudRegistrationResult::resolution_m (inf: not resolved)
   bool success = false;    ///< rms < success threshold (status may still be "failed")
   bool accurate = false;   ///< rms < accurate_m
 };
