@@ -657,7 +657,8 @@ size_t Associate(JointState* s, double gate) {
   for (const auto& [id, p] : s->scene.points()) {
     if (id.value >= internal::kCheckPointIdBase) continue;
     Eigen::Vector3d n, c;
-    if (s->surface->FitPlane(p, gate, 12, &n, &c)) s->planes.push_back({id, n, c, sigma});
+    double roughness = 0.0;
+    if (s->surface->FitPlane(p, gate, 12, &n, &c, &roughness)) s->planes.push_back({id, n, c, std::hypot(sigma, roughness)});
   }
   std::sort(s->planes.begin(), s->planes.end(),
             [](const SurfacePlane& a, const SurfacePlane& b) { return a.point3D_id < b.point3D_id; });
@@ -768,7 +769,7 @@ void BuildProblem(JointState* s) {
       for (Rigid3d& pose : rig.rig_from_world) frames.push_back(&pose);
       s->builder->AddGroup(std::make_unique<PosePriorGroup>(frames, rig.rig_prior, factor(kRigPrior) * c.trajectory_sigma_m,
                                                             factor(kRigPrior) * c.trajectory_sigma_deg * M_PI / 180.0, c.loss,
-                                                            kRigPrior));
+                                                            kRigPrior, rig.frame_times, c.trajectory_correlation_s));
     }
     if (c.cam_from_rig == "weighted") {
       std::vector<Rigid3d*> cameras;
@@ -796,8 +797,8 @@ void BuildProblem(JointState* s) {
     const LidarMobile& mc = *m.config;
     s->builder->AddGroup(std::make_unique<TrajectoryPriorGroup>(&m.nodes, factor(kTrajectoryPrior) * mc.trajectory_sigma_m,
                                                                 factor(kTrajectoryPrior) * mc.trajectory_sigma_deg * M_PI / 180.0,
-                                                                mc.loss, kTrajectoryPrior));
-    if (m.nodes.size() > 2) {
+                                                                mc.trajectory_correlation_s, mc.loss, kTrajectoryPrior));
+    if (m.nodes.size() > 2 && (mc.smoothness_sigma_m > 0 || mc.smoothness_sigma_deg > 0)) {
       s->builder->AddGroup(std::make_unique<TrajectorySmoothnessGroup>(&m.nodes, mc.smoothness_sigma_m,
                                                                        mc.smoothness_sigma_deg * M_PI / 180.0, kSmoothness));
     }
@@ -1130,7 +1131,9 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
     SolveOnce(&s, options);
     s.outer_iterations = 1;
     if (s.surface) {
-      double gate = project.lidar_static.front().max_distance_m;
+      const LidarStatic& lidar = project.lidar_static.front();
+      double gate = lidar.max_distance_m;
+      const double final_gate = 3 * std::hypot(lidar.surface_sigma_m, lidar.range_sigma_m);
       size_t previous = 0;
       for (int k = 0; k < project.settings.outer_iterations; ++k) {
         const size_t n = Associate(&s, gate);
@@ -1155,11 +1158,11 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
           }
           associated += nm;
         }
-        if (k > 0 && associated == previous && gate <= 3 * s.planes.front().sigma_m) break;
+        if (k > 0 && associated == previous && gate <= final_gate) break;
         previous = associated;
         SolveOnce(&s, options);
         s.outer_iterations = k + 2;
-        gate = std::max(0.5 * gate, 3 * s.planes.front().sigma_m);
+        gate = std::max(0.5 * gate, final_gate);
       }
     }
     // Statistics, one round of data snooping, and the final solve and statistics.

@@ -1,5 +1,8 @@
 #include "mmba/adjust/groups.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 
@@ -153,6 +156,26 @@ struct PosePriorCost {
   Eigen::Vector3d prior_centre;
   Eigen::Quaterniond prior_rotation;
   double w_m, w_rad;
+};
+
+/// The Gauss–Markov innovation of two consecutive poses' prior errors e (PosePriorCost with
+/// unit σ): (e_k − φ e_{k−1}) / (σ √(1 − φ²)).
+struct GaussMarkovPosePriorCost {
+  GaussMarkovPosePriorCost(const Rigid3d& previous, const Rigid3d& current, double phi, double sigma_m, double sigma_rad)
+      : previous(previous, 1.0, 1.0),
+        current(current, 1.0, 1.0),
+        phi(phi),
+        w_m(1 / (sigma_m * std::sqrt(1 - phi * phi))),
+        w_rad(1 / (sigma_rad * std::sqrt(1 - phi * phi))) {}
+  template <typename T>
+  bool operator()(const T* q_previous, const T* t_previous, const T* q, const T* t, T* r) const {
+    T e_previous[6], e[6];
+    if (!previous(q_previous, t_previous, e_previous) || !current(q, t, e)) return false;
+    for (int k = 0; k < 6; ++k) r[k] = (e[k] - T(phi) * e_previous[k]) * T(k < 3 ? w_m : w_rad);
+    return true;
+  }
+  PosePriorCost previous, current;
+  double phi, w_m, w_rad;
 };
 
 class ScalarPriorCost : public ceres::SizedCostFunction<1, 3> {
@@ -312,19 +335,43 @@ void RigReprojectionGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
   }
 }
 
+double GaussMarkovFactor(double dt_s, double correlation_s) {
+  return correlation_s > 0 ? std::exp(-std::abs(dt_s) / correlation_s) : 0.0;
+}
+
 PosePriorGroup::PosePriorGroup(std::vector<Rigid3d*> poses, std::vector<Rigid3d> priors, double sigma_m,
-                               double sigma_rad, LossOptions loss, std::string name)
+                               double sigma_rad, LossOptions loss, std::string name, std::vector<double> times,
+                               double correlation_s)
     : FactorGroup(std::move(name), "whitened", loss),
       poses_(std::move(poses)),
       priors_(std::move(priors)),
       sigma_m_(sigma_m),
-      sigma_rad_(sigma_rad) {}
+      sigma_rad_(sigma_rad),
+      times_(std::move(times)),
+      correlation_s_(times_.size() == poses_.size() ? correlation_s : 0.0) {}
 
 void PosePriorGroup::AddResiduals(Scene&, ceres::Problem& problem) {
-  for (size_t i = 0; i < poses_.size(); ++i) {
+  // In time order (the Gauss–Markov innovations run along time); the residual keeps the
+  // pose's own index.
+  std::vector<size_t> order(poses_.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+  if (correlation_s_ > 0) std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return times_[a] < times_[b]; });
+  for (size_t k = 0; k < order.size(); ++k) {
+    const size_t i = order[k];
+    const double phi = k == 0 || correlation_s_ <= 0 ? 0.0 : GaussMarkovFactor(times_[i] - times_[order[k - 1]], correlation_s_);
+    if (phi == 0.0) {
+      AddBlock(problem,
+               new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(new PosePriorCost(priors_[i], sigma_m_, sigma_rad_)),
+               {poses_[i]->rotation.coeffs().data(), poses_[i]->translation.data()}, 1.0, i);
+      continue;
+    }
+    const size_t j = order[k - 1];
     AddBlock(problem,
-             new ceres::AutoDiffCostFunction<PosePriorCost, 6, 4, 3>(new PosePriorCost(priors_[i], sigma_m_, sigma_rad_)),
-             {poses_[i]->rotation.coeffs().data(), poses_[i]->translation.data()}, 1.0, i);
+             new ceres::AutoDiffCostFunction<GaussMarkovPosePriorCost, 6, 4, 3, 4, 3>(
+                 new GaussMarkovPosePriorCost(priors_[j], priors_[i], phi, sigma_m_, sigma_rad_)),
+             {poses_[j]->rotation.coeffs().data(), poses_[j]->translation.data(), poses_[i]->rotation.coeffs().data(),
+              poses_[i]->translation.data()},
+             1.0, i);
   }
 }
 

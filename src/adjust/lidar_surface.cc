@@ -36,13 +36,12 @@ LidarSurface::~LidarSurface() = default;
 size_t LidarSurface::size() const { return impl_->cloud->size(); }
 
 bool LidarSurface::FitPlane(const Eigen::Vector3d& query, double max_distance, int k,
-                            Eigen::Vector3d* normal, Eigen::Vector3d* centroid) const {
+                            Eigen::Vector3d* normal, Eigen::Vector3d* centroid, double* roughness) const {
   if (impl_->cloud->size() < static_cast<size_t>(k)) return false;
   const Eigen::Vector3f q = (query - impl_->offset).cast<float>();
   std::vector<int> index(k);
   std::vector<float> distance2(k);
   if (impl_->tree.nearestKSearch(pcl::PointXYZ(q.x(), q.y(), q.z()), k, index, distance2) < k) return false;
-  if (distance2[0] > max_distance * max_distance) return false;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (int i : index) mean += impl_->cloud->points[i].getVector3fMap().cast<double>();
   mean /= k;
@@ -53,9 +52,17 @@ bool LidarSurface::FitPlane(const Eigen::Vector3d& query, double max_distance, i
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(covariance / k);
   if (!(eig.eigenvalues()(0) <= 0.1 * eig.eigenvalues()(1))) return false;  // not planar
-  *normal = eig.eigenvectors().col(0);
+  const Eigen::Vector3d n = eig.eigenvectors().col(0);
+  const Eigen::Vector3d offset = query - impl_->offset - mean;
+  const double along = n.dot(offset);
+  if (std::abs(along) > max_distance) return false;
+  // Over the patch, not beyond it: a plane is not extrapolated past its own points (the query
+  // within the patch's RMS in-plane radius of its centroid).
+  if ((offset - along * n).squaredNorm() > eig.eigenvalues()(1) + eig.eigenvalues()(2)) return false;
+  *normal = n;
   *centroid = mean + impl_->offset;
-  return std::abs(normal->dot(query - *centroid)) <= max_distance;
+  if (roughness) *roughness = std::sqrt(std::max(0.0, eig.eigenvalues()(0)));
+  return true;
 }
 
 }  // namespace mmba::adjust

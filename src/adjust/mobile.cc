@@ -142,14 +142,15 @@ size_t AssociateMobile(JointState* s, double gate) {
     const Rigid3d world_from_body = CorrectedPose(m.nodes, m.sample_weight[k], m.sample_ins[k]);
     const Eigen::Vector3d world = world_from_body * (body_from_lidar * m.sample_lidar[k]);
     Eigen::Vector3d n, c;
-    if (!s->surface->FitPlane(world, gate, 12, &n, &c)) continue;
+    double roughness = 0.0;
+    if (!s->surface->FitPlane(world, gate, 12, &n, &c, &roughness)) continue;
     MobilePoint p;
     p.point_lidar = m.sample_lidar[k];
     p.weight = m.sample_weight[k];
     p.ins = m.sample_ins[k];
     p.normal = n;
     p.plane_point = c;
-    p.sigma_m = sigma;
+    p.sigma_m = std::hypot(sigma, roughness);
     p.source = m.sample[k];
     m.points.push_back(p);
   }

@@ -61,8 +61,23 @@ struct NodePriorCost {
   double w_m, w_rad;
 };
 
+/// The innovation of a first-order Gauss–Markov process between two nodes:
+/// (c_k − φ c_{k−1}) / (σ √(1 − φ²)).
+struct GaussMarkovNodeCost {
+  GaussMarkovNodeCost(double phi, double sigma_m, double sigma_rad)
+      : phi(phi), w_m(1 / (sigma_m * std::sqrt(1 - phi * phi))), w_rad(1 / (sigma_rad * std::sqrt(1 - phi * phi))) {}
+  template <typename T>
+  bool operator()(const T* previous, const T* c, T* r) const {
+    for (int k = 0; k < 6; ++k) r[k] = (c[k] - T(phi) * previous[k]) * T(k < 3 ? w_rad : w_m);
+    return true;
+  }
+  double phi, w_m, w_rad;
+};
+
 struct SecondDifferenceCost {
-  SecondDifferenceCost(double sigma_m, double sigma_rad) : w_m(1 / sigma_m), w_rad(1 / sigma_rad) {}
+  // σ = 0: that part is not constrained.
+  SecondDifferenceCost(double sigma_m, double sigma_rad)
+      : w_m(sigma_m > 0 ? 1 / sigma_m : 0.0), w_rad(sigma_rad > 0 ? 1 / sigma_rad : 0.0) {}
   template <typename T>
   bool operator()(const T* a, const T* b, const T* c, T* r) const {
     for (int k = 0; k < 6; ++k) r[k] = (a[k] - 2.0 * b[k] + c[k]) * T(k < 3 ? w_rad : w_m);
@@ -149,13 +164,24 @@ void MobileLidarGroup::AddResiduals(Scene&, ceres::Problem& problem) {
 }
 
 TrajectoryPriorGroup::TrajectoryPriorGroup(std::vector<TrajectoryNode>* nodes, double sigma_m, double sigma_rad,
-                                           LossOptions loss, std::string name)
-    : FactorGroup(std::move(name), "whitened", loss), nodes_(nodes), sigma_m_(sigma_m), sigma_rad_(sigma_rad) {}
+                                           double correlation_s, LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "whitened", loss),
+      nodes_(nodes),
+      sigma_m_(sigma_m),
+      sigma_rad_(sigma_rad),
+      correlation_s_(correlation_s) {}
 
 void TrajectoryPriorGroup::AddResiduals(Scene&, ceres::Problem& problem) {
   for (size_t i = 0; i < nodes_->size(); ++i) {
-    AddBlock(problem, new ceres::AutoDiffCostFunction<NodePriorCost, 6, 6>(new NodePriorCost(sigma_m_, sigma_rad_)),
-             {(*nodes_)[i].correction}, 1.0, i);
+    const double phi = i == 0 ? 0.0 : GaussMarkovFactor((*nodes_)[i].time_s - (*nodes_)[i - 1].time_s, correlation_s_);
+    if (phi == 0.0) {
+      AddBlock(problem, new ceres::AutoDiffCostFunction<NodePriorCost, 6, 6>(new NodePriorCost(sigma_m_, sigma_rad_)),
+               {(*nodes_)[i].correction}, 1.0, i);
+    } else {
+      AddBlock(problem,
+               new ceres::AutoDiffCostFunction<GaussMarkovNodeCost, 6, 6, 6>(new GaussMarkovNodeCost(phi, sigma_m_, sigma_rad_)),
+               {(*nodes_)[i - 1].correction, (*nodes_)[i].correction}, 1.0, i);
+    }
   }
 }
 

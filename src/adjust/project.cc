@@ -63,6 +63,20 @@ class ProjectReader {
   double SigmaPx(Node n, Field f) const { return r_.Positive(n, f, 50.0, "px"); }
   /// σ in metres: a value above `hi` is almost certainly millimetres given as metres.
   double SigmaM(Node n, Field f, double hi) const { return r_.Positive(n, f, hi, "m (metres)"); }
+  /// 0 (the term is off) or a number in (0, hi].
+  double ZeroOrPositive(Node n, Field f, double hi, const std::string& unit) const {
+    const double value = r_.Number(n, f);
+    if (!(value >= 0 && value <= hi)) {
+      r_.Fail(n, f, "0 (off) or a number in (0, " + io::YamlReader::Text(YAML::Node(hi)) + "] " + unit, io::YamlReader::Text(n));
+    }
+    return value;
+  }
+  /// A correlation time in seconds: 0 (independent epochs) or positive, at most a day.
+  double CorrelationTime(Node n, Field f) const {
+    const double value = r_.Number(n, f);
+    if (!(value >= 0 && value <= 86400.0)) r_.Fail(n, f, "seconds in [0, 86400] (0 = independent epochs)", io::YamlReader::Text(n));
+    return value;
+  }
 
   void Sensor(Node n, Field f, std::set<std::string>* ids) {
     if (!n.IsMap()) r_.Fail(n, f, "a mapping {id, type, ...}", io::YamlReader::Kind(n));
@@ -153,8 +167,9 @@ class ProjectReader {
                     {"node_spacing_s", [&](Node v, Field g) { m.node_spacing_s = r_.Positive(v, g, 600.0, "seconds"); }},
                     {"trajectory_sigma_m", metres(&m.trajectory_sigma_m, 10.0)},
                     {"trajectory_sigma_deg", degrees(&m.trajectory_sigma_deg, 30.0)},
-                    {"smoothness_sigma_m", metres(&m.smoothness_sigma_m, 1.0)},
-                    {"smoothness_sigma_deg", degrees(&m.smoothness_sigma_deg, 10.0)},
+                    {"trajectory_correlation_s", [&](Node v, Field g) { m.trajectory_correlation_s = CorrelationTime(v, g); }},
+                    {"smoothness_sigma_m", [&](Node v, Field g) { m.smoothness_sigma_m = ZeroOrPositive(v, g, 1.0, "m (metres)"); }},
+                    {"smoothness_sigma_deg", [&](Node v, Field g) { m.smoothness_sigma_deg = ZeroOrPositive(v, g, 10.0, "degrees"); }},
                     {"frame_sigma_m", metres(&m.frame_sigma_m, 1.0)},
                     {"frame_sigma_deg", degrees(&m.frame_sigma_deg, 10.0)},
                     {"extrinsic", [&](Node v, Field g) {
@@ -206,6 +221,7 @@ class ProjectReader {
                       {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
                       {"trajectory_sigma_m", [&](Node v, Field g) { p.trajectory_sigma_m = SigmaM(v, g, 10.0); }},
                       {"trajectory_sigma_deg", [&](Node v, Field g) { p.trajectory_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
+                      {"trajectory_correlation_s", [&](Node v, Field g) { p.trajectory_correlation_s = CorrelationTime(v, g); }},
                       {"cam_from_rig", [&](Node v, Field g) {
                          p.cam_from_rig = r_.String(v, g);
                          if (p.cam_from_rig != "fixed" && p.cam_from_rig != "weighted" && p.cam_from_rig != "free") {

@@ -85,6 +85,12 @@ TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {
       {"  - {id: p, type: photo_collection}\n", "", "sensors[0].images"},
       {photos_ + "  - {id: s, type: spherical_stereo, images: images, calibration: gnss.csv, observations: gnss.csv}\n", "",
        "sensors[1].stations_file"},
+      {ts_ + "  - {id: l, type: lidar_static, reference_cloud: lidar.ply}\n"
+             "  - {id: m, type: lidar_mobile, cloud: lidar.ply, trajectory: gnss.csv, calibration: gnss.csv, "
+             "trajectory_correlation_s: -5}\n", "", "sensors[2].trajectory_correlation_s"},
+      {ts_ + "  - {id: l, type: lidar_static, reference_cloud: lidar.ply}\n"
+             "  - {id: m, type: lidar_mobile, cloud: lidar.ply, trajectory: gnss.csv, calibration: gnss.csv, "
+             "smoothness_sigma_deg: -0.1}\n", "", "0 (off)"},
       {photos_ + "  - {id: s, type: spherical_stereo, images: images, calibration: gnss.csv, observations: gnss.csv, "
                  "stations_file: gnss.csv, tie_block: q}\n", "", "tie_block"},
   };

@@ -107,17 +107,28 @@ class RigReprojectionGroup : public FactorGroup {
 
 /// A prior on poses (target_from_source): 3 position residuals (the source origin in the
 /// target, σ_m) and 3 rotation residuals (angle-axis of prior⁻¹·pose, σ_rad) per pose.
+///
+/// With `times` and a correlation time τ > 0 the prior errors are a first-order Gauss–Markov
+/// process, as a GNSS/INS solution's drift is (Gelb 1974, Applied Optimal Estimation, §3.8):
+/// e_k = φ_k e_{k−1} + w_k, φ_k = exp(−(t_k − t_{k−1})/τ), Var(w_k) = σ²(1 − φ_k²). The
+/// residuals are then the whitened innovations e₀/σ and (e_k − φ_k e_{k−1})/(σ√(1 − φ_k²)), in
+/// time order: the poses' common offset from the prior counts once, not once per pose.
 class PosePriorGroup : public FactorGroup {
  public:
   PosePriorGroup(std::vector<Rigid3d*> poses, std::vector<Rigid3d> priors, double sigma_m, double sigma_rad,
-                 LossOptions loss, std::string name);
+                 LossOptions loss, std::string name, std::vector<double> times = {}, double correlation_s = 0.0);
   void AddResiduals(Scene& scene, ceres::Problem& problem) override;
 
  private:
   std::vector<Rigid3d*> poses_;
   std::vector<Rigid3d> priors_;
   double sigma_m_, sigma_rad_;
+  std::vector<double> times_;
+  double correlation_s_;
 };
+
+/// φ = exp(−Δt/τ) of a first-order Gauss–Markov process (0 when τ ≤ 0: independent epochs).
+double GaussMarkovFactor(double dt_s, double correlation_s);
 
 /// A mutual-information registration result of an image against the (world-frame) LiDAR:
 /// the camera pose and its 6×6 covariance (m², deg²; tx ty tz roll pitch yaw), used as a
@@ -193,11 +204,15 @@ class LidarSurface {
 
   size_t size() const;
   size_t num_read() const { return num_read_; }
-  /// The plane through the `k` nearest LiDAR points of `query` (PCA), when the nearest is
-  /// within `max_distance`, the neighbourhood is planar (smallest eigenvalue ≤ 10 % of the
-  /// middle one) and |n·(query − centroid)| ≤ max_distance.
+  /// The plane through the `k` nearest LiDAR points of `query` (PCA), when the neighbourhood
+  /// is planar (smallest eigenvalue ≤ 10 % of the middle one), |n·(query − centroid)| ≤
+  /// max_distance and the query lies over the patch (its in-plane distance from the centroid
+  /// ≤ the patch's RMS in-plane radius) — the gate is on the distance to the surface, not to the
+  /// nearest sample, so a sparse cloud (far from the scanner) keeps its valid associations.
+  /// `roughness` (optional): the RMS distance of the k points from their plane (√λ₀), the
+  /// plane's own uncertainty at the query, to be added to the residual's σ.
   bool FitPlane(const Eigen::Vector3d& query, double max_distance, int k, Eigen::Vector3d* normal,
-                Eigen::Vector3d* centroid) const;
+                Eigen::Vector3d* centroid, double* roughness = nullptr) const;
 
  private:
   struct Impl;
@@ -254,16 +269,19 @@ class MobileLidarGroup : public FactorGroup {
   Rigid3d body_from_vehicle_;
 };
 
-/// The GNSS/INS prior on each node (ω/σ_rad, δ/σ_m): the trajectory as delivered.
+/// The GNSS/INS prior on the nodes' corrections c = (ω, δ): the trajectory as delivered. The
+/// GNSS/INS error drifts, so the corrections are a first-order Gauss–Markov process with
+/// correlation time τ (Gelb 1974, §3.8): residuals c₀/σ and (c_k − φ c_{k−1})/(σ√(1 − φ²)),
+/// φ = exp(−Δt/τ); τ ≤ 0 gives an independent prior c_k/σ per node.
 class TrajectoryPriorGroup : public FactorGroup {
  public:
-  TrajectoryPriorGroup(std::vector<TrajectoryNode>* nodes, double sigma_m, double sigma_rad, LossOptions loss,
-                       std::string name);
+  TrajectoryPriorGroup(std::vector<TrajectoryNode>* nodes, double sigma_m, double sigma_rad, double correlation_s,
+                       LossOptions loss, std::string name);
   void AddResiduals(Scene& scene, ceres::Problem& problem) override;
 
  private:
   std::vector<TrajectoryNode>* nodes_;
-  double sigma_m_, sigma_rad_;
+  double sigma_m_, sigma_rad_, correlation_s_;
 };
 
 /// Smoothness: the second difference of consecutive nodes' corrections (c₋ − 2c + c₊)/σ —

@@ -101,6 +101,8 @@ struct CameraRig {
   double sigma_px = 0.5;
   double trajectory_sigma_m = 0.1;
   double trajectory_sigma_deg = 1.0;
+  /// Correlation time of the GNSS/INS error (first-order Gauss–Markov); 0 = independent frames.
+  double trajectory_correlation_s = 30.0;
   std::string cam_from_rig = "weighted";  ///< fixed | weighted | free
   double cam_from_rig_sigma_m = 0.005;
   double cam_from_rig_sigma_deg = 0.2;
@@ -115,7 +117,7 @@ struct CameraRig {
 /// GNSS/INS `trajectory` and the mounting `body_from_lidar` of `calibration`, with a time per
 /// point). The adjustment un-georeferences a sample of its points, corrects the trajectory
 /// smoothly (6-DoF corrections at nodes every `node_spacing_s`, linear in between, with the
-/// GNSS/INS σ as a prior and a second-difference smoothness prior) and ties the points to the
+/// GNSS/INS σ and drift as a Gauss–Markov prior, optionally a second-difference smoothness prior) and ties the points to the
 /// static LiDAR surface (point-to-plane). With `rig` (a camera_rig on the same vehicle) the rig
 /// frames follow the same corrected trajectory and the camera–LiDAR extrinsic `rig_from_lidar`
 /// (lever arm and boresight, one block for all frames) is estimated.
@@ -133,8 +135,11 @@ struct LidarMobile {
   double node_spacing_s = 1.0;
   double trajectory_sigma_m = 0.1;     ///< GNSS/INS position σ (prior on each node's correction)
   double trajectory_sigma_deg = 1.0;   ///< GNSS/INS attitude σ
-  double smoothness_sigma_m = 0.01;    ///< σ of the second difference of the corrections (per node step)
-  double smoothness_sigma_deg = 0.1;
+  double trajectory_correlation_s = 30.0;  ///< GNSS/INS error correlation time (Gauss–Markov); 0 = independent nodes
+  /// σ of the second difference of the corrections (per node step); 0 = off (the default: the
+  /// Gauss–Markov prior already models how the GNSS/INS error drifts).
+  double smoothness_sigma_m = 0.0;
+  double smoothness_sigma_deg = 0.0;
   double frame_sigma_m = 0.002;        ///< rig frame ↔ trajectory (time synchronisation)
   double frame_sigma_deg = 0.01;
   std::string extrinsic = "free";      ///< fixed | weighted | free (with `rig`)

@@ -1,0 +1,113 @@
+// Factor groups of the joint adjustment, unit by unit: the Gauss–Markov GNSS/INS priors and the
+// LiDAR surface's plane association.
+#include "mmba/adjust/groups.h"
+
+#include <cmath>
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "mmba/io/point_cloud.h"
+#include "mmba/problem/scene.h"
+
+namespace mmba::adjust {
+namespace {
+
+namespace fs = std::filesystem;
+
+double Cost(FactorGroup& group) {
+  Scene scene;
+  ceres::Problem problem;
+  group.AddResiduals(scene, problem);
+  double cost = 0.0;
+  problem.Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr, nullptr);
+  return 2.0 * cost;  // Ceres' cost is ½‖r‖²
+}
+
+TEST(GaussMarkovFactor, IsTheExponentialCorrelationAndZeroWithoutACorrelationTime) {
+  EXPECT_NEAR(GaussMarkovFactor(1.0, 30.0), std::exp(-1.0 / 30.0), 1e-15);
+  EXPECT_NEAR(GaussMarkovFactor(-2.0, 10.0), std::exp(-0.2), 1e-15);
+  EXPECT_EQ(GaussMarkovFactor(1.0, 0.0), 0.0);
+}
+
+// A constant correction c on all N nodes: independent priors weigh it N times; a Gauss–Markov
+// process once plus (N−1)·(1−φ)/(1+φ) — the drift's common offset is one observation.
+TEST(TrajectoryPriorGroup, ACommonOffsetCountsOnceWhenTheErrorsAreCorrelated) {
+  const int n = 13;
+  const double sigma_m = 0.1, sigma_rad = 1.0 * M_PI / 180.0, offset = 0.05, tau = 30.0, dt = 1.0;
+  std::vector<TrajectoryNode> nodes(n);
+  for (int i = 0; i < n; ++i) {
+    nodes[i].time_s = i * dt;
+    nodes[i].correction[3] = offset;  // δx
+  }
+  TrajectoryPriorGroup independent(&nodes, sigma_m, sigma_rad, 0.0, LossOptions(), "independent");
+  TrajectoryPriorGroup correlated(&nodes, sigma_m, sigma_rad, tau, LossOptions(), "correlated");
+  const double z2 = offset * offset / (sigma_m * sigma_m);
+  EXPECT_NEAR(Cost(independent), n * z2, 1e-12);
+  const double phi = std::exp(-dt / tau);
+  EXPECT_NEAR(Cost(correlated), z2 * (1 + (n - 1) * (1 - phi) / (1 + phi)), 1e-12);
+  EXPECT_LT(Cost(correlated), 1.3 * z2);
+}
+
+// A pure random walk step between two nodes costs (Δ)²/(σ²(1−φ²)): the innovation.
+TEST(TrajectoryPriorGroup, ResidualsAreTheWhitenedInnovations) {
+  std::vector<TrajectoryNode> nodes(2);
+  nodes[1].time_s = 5.0;
+  nodes[1].correction[2] = 0.01;  // ωz
+  const double sigma_rad = 0.02, tau = 20.0, phi = std::exp(-5.0 / 20.0);
+  TrajectoryPriorGroup group(&nodes, 0.1, sigma_rad, tau, LossOptions(), "prior");
+  EXPECT_NEAR(Cost(group), 0.01 * 0.01 / (sigma_rad * sigma_rad * (1 - phi * phi)), 1e-12);
+}
+
+// The rig's frame priors: same process over frames in time order (given in any order).
+TEST(PosePriorGroup, CorrelatedFramePriorsFollowTimeOrder) {
+  const double sigma_m = 0.1, sigma_rad = 0.02, tau = 30.0;
+  std::vector<Rigid3d> priors(3), poses(3);
+  const std::vector<double> times = {8.0, 0.0, 4.0};  // not sorted
+  for (int i = 0; i < 3; ++i) {
+    priors[i] = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(i, 0, 0));
+    // pose = X_from_world: a centre 0.03 m east of the prior's centre.
+    poses[i] = Rigid3d(Eigen::Quaterniond::Identity(), priors[i].translation - Eigen::Vector3d(0.03, 0, 0));
+  }
+  std::vector<Rigid3d*> pointers = {&poses[0], &poses[1], &poses[2]};
+  PosePriorGroup independent(pointers, priors, sigma_m, sigma_rad, LossOptions(), "independent");
+  PosePriorGroup correlated(pointers, priors, sigma_m, sigma_rad, LossOptions(), "correlated", times, tau);
+  const double z2 = 0.03 * 0.03 / (sigma_m * sigma_m);
+  EXPECT_NEAR(Cost(independent), 3 * z2, 1e-12);
+  const double phi = std::exp(-4.0 / tau);  // both gaps are 4 s once sorted
+  EXPECT_NEAR(Cost(correlated), z2 * (1 + 2 * (1 - phi) / (1 + phi)), 1e-12);
+}
+
+class LidarSurfaceTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    path_ = (fs::path(testing::TempDir()) / ("mmba_surface_" + std::to_string(::getpid()) + ".ply")).string();
+    // A 2 m × 2 m patch of the plane z = 0, sampled every 0.1 m, with ±2 mm of relief.
+    io::PointCloud cloud;
+    for (int i = 0; i <= 20; ++i) {
+      for (int j = 0; j <= 20; ++j) {
+        cloud.points.emplace_back(0.1 * i, 0.1 * j, ((i + j) % 2 ? 0.002 : -0.002));
+      }
+    }
+    io::WritePly(cloud, path_);
+  }
+  void TearDown() override { fs::remove(path_); }
+  std::string path_;
+};
+
+TEST_F(LidarSurfaceTest, GatesOnTheDistanceToThePlaneNotToTheNearestSample) {
+  const LidarSurface surface(path_, Eigen::Vector3d(-1, -1, -1), Eigen::Vector3d(3, 3, 1), 0.0);
+  Eigen::Vector3d n, c;
+  double roughness = -1;
+  // 2 cm above the plane between samples (7 cm from the nearest): associated at a 3 cm gate.
+  ASSERT_TRUE(surface.FitPlane(Eigen::Vector3d(1.05, 1.05, 0.02), 0.03, 12, &n, &c, &roughness));
+  EXPECT_NEAR(std::abs(n.z()), 1.0, 1e-6);
+  EXPECT_NEAR(roughness, 0.002, 2e-4);
+  // 4 cm above: outside the gate.
+  EXPECT_FALSE(surface.FitPlane(Eigen::Vector3d(1.05, 1.05, 0.04), 0.03, 12, &n, &c));
+  // On the plane's extension but 0.5 m beyond the patch's edge: not extrapolated.
+  EXPECT_FALSE(surface.FitPlane(Eigen::Vector3d(2.5, 1.0, 0.0), 0.03, 12, &n, &c));
+}
+
+}  // namespace
+}  // namespace mmba::adjust
