@@ -65,9 +65,10 @@ int main(int argc, char** argv) {
   getrusage(RUSAGE_SELF, &usage);
   std::printf("points %zu / %zu, read %.3f s, %s\n", source.size(), target.size(), read_s,
               r.BriefReport().c_str());
-  std::printf("spacing %.4g m, R_n %.4g m, R_s %.4g m, fine tau %.4g m, significance %.3g\n",
+  std::printf("spacing %.4g m, R_n %.4g m, R_s %.4g m, fine tau %.4g m, significance %.3g, "
+              "resolution %.4g m (fine spacing %.4g m)\n",
               r.point_spacing_m, r.normal_radius_m, r.support_radius_m,
-              r.fine_inlier_distance_m, r.significance);
+              r.fine_inlier_distance_m, r.significance, r.resolution_m, r.fine_spacing_m);
   for (const auto& h : r.hypotheses) {
     std::printf("  hypothesis %-32s fitness %.3f normals %.3f conflict %.3f score %.3f\n",
                 h.origin.c_str(), h.fitness, h.normal_agreement, h.conflict, h.score);

@@ -12,7 +12,7 @@
 
 namespace mmba::registration::internal {
 
-/// Kd-tree over 3-D points (PCL KdTreeFLANN).
+/// Exact kd-tree over 3-D points (nanoflann, float coordinates).
 class PointIndex {
  public:
   explicit PointIndex(const std::vector<Eigen::Vector3d>& points);
