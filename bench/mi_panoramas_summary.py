@@ -72,15 +72,19 @@ def summarise(rows, label):
     all_below = [r for r in rows if float(r["image_px_after"]) < 1.0]
     before = statistics.median(float(r["image_px_before"]) for r in rows)
     after = statistics.median(float(r["image_px_after"]) for r in rows)
-    ratio = [float(r["image_px_after"]) / float(r["sigma_px"]) for r in ok
-             if float(r["sigma_px"]) > 0]
-    ratio_text = (f"{min(ratio):.1f}–{max(ratio):.1f} (median {statistics.median(ratio):.1f})"
-                  if ratio else "–")
+    def ratio_text(column):
+        ratio = [float(r["image_px_after"]) / float(r[column]) for r in ok
+                 if column in r and float(r[column]) > 0]
+        return (f"{min(ratio):.1f}–{max(ratio):.1f} (median {statistics.median(ratio):.1f})"
+                if ratio else "–")
+    ratio = ratio_text("sigma_px")
+    if "sigma_px_calibrated" in rows[0]:
+        ratio = f"Laplace {ratio}; calibrated {ratio_text('sigma_px_calibrated')}"
     time = statistics.median(float(r["seconds"]) for r in rows)
     cpu = statistics.median(float(r["cpu_seconds"]) for r in rows)
     ok_frac = f"{len(ok_below)}/{len(ok)}" + (f" ({100 * len(ok_below) / len(ok):.0f} %)" if ok else "")
     return (f"| {label} | {n} | {len(ok)} | {ok_frac} | {len(wrong_ok)} | {len(failed_below)} | "
-            f"{len(all_below)}/{n} | {before:.2f} → {after:.2f} | {ratio_text} | "
+            f"{len(all_below)}/{n} | {before:.2f} → {after:.2f} | {ratio} | "
             f"{time:.0f} s / {cpu:.0f} s |\n")
 
 
@@ -102,6 +106,33 @@ def main():
                                 [float(r["image_px_after"]) for r in subset])
         for kind in sorted({r["kind"] for r in rows}):
             lines.append(summarise([r for r in rows if r["kind"] == kind], f"all, {kind}"))
+        if "sigma_px_calibrated" in rows[0]:
+            # Covariance honesty per ok result: actual median offset against the predicted
+            # pixel sigma, Laplace and calibrated, and the Mahalanobis² of the 6 parameters'
+            # error under the calibrated covariance (expected 6 on average).
+            lines += ["\n| view | start | actual median offset | σ Laplace | σ calibrated | "
+                      "actual / Laplace | actual / calibrated | factor (halves + restarts) | "
+                      "Mahalanobis² (calibrated) |\n", "|---|---|---|---|---|---|---|---|---|\n"]
+            for r in rows:
+                if r["status"] != "ok":
+                    continue
+                actual = float(r["image_px_after"])
+                sl, sc = float(r["sigma_px"]), float(r["sigma_px_calibrated"])
+                lines.append(
+                    f"| {r['view']} | {r['max_m']} m / {r['max_deg']}° | {actual:.2f} px | "
+                    f"{sl:.3f} px | {sc:.3f} px | {actual / sl:.1f} | {actual / sc:.2f} | "
+                    f"{float(r['variance_factor']):.0f} ({float(r['variance_factor_halves']):.0f} + "
+                    f"{float(r['variance_factor_restarts']):.0f}) | {float(r['mahalanobis2']):.1f} |\n")
+            # The same over every registration (ok or failed): does the calibrated σ track the
+            # actual error also where it is large?
+            def stats(column):
+                ratio = sorted(float(r["image_px_after"]) / float(r[column]) for r in rows
+                               if float(r[column]) > 0)
+                quart = statistics.quantiles(ratio, n=4) if len(ratio) > 1 else ratio * 3
+                return (f"median {statistics.median(ratio):.2f}, quartiles {quart[0]:.2f}–"
+                        f"{quart[2]:.2f}, range {ratio[0]:.2f}–{ratio[-1]:.2f}")
+            lines.append(f"\nAll {len(rows)} registrations, actual median offset / predicted σ: "
+                         f"Laplace {stats('sigma_px')}; calibrated {stats('sigma_px_calibrated')}.\n")
         (out_dir / "summary.md").write_text("".join(lines))
         print(out_dir)
         print("".join(lines))
