@@ -2,7 +2,8 @@
 // prints wall time and peak memory. Usage:
 //   register_pair SOURCE TARGET [descriptor=auto] [key=value ...]
 // keys: normal_radius, support_radius, max_points_features, max_points_icp, gravity (0/1),
-//       paper (0/1), icp (0/1), min_keypoints, sac_ia_iterations, keypoint_threshold
+//       paper (0/1), icp (0/1), min_keypoints, sac_ia_iterations, keypoint_threshold,
+//       min_fitness, min_normal_agreement, max_resolution_spacing, … (see below)
 #include <sys/resource.h>
 
 #include <cstdio>
@@ -50,6 +51,9 @@ int main(int argc, char** argv) {
     else if (key == "inlier_sigma") options.inlier_sigma = v;
     else if (key == "larger_cloud_factor") options.larger_cloud_factor = v;
     else if (key == "max_keypoints") options.max_keypoints = static_cast<int>(v);
+    else if (key == "min_fitness") options.min_fitness = v;
+    else if (key == "min_normal_agreement") options.min_normal_agreement = v;
+    else if (key == "max_resolution_spacing") options.max_resolution_spacing = v;
     else {
       std::cerr << "unknown key " << key << "\n";
       return 2;
