@@ -509,6 +509,7 @@ std::array<std::vector<Frame>, 2> SplitIntoHalves(const std::vector<Frame>& fram
     for (const Frame& frame : frames) {
       if (frame.views.empty()) continue;
       const View& view = frame.views.front();
+      if (view.image.width < 16) break;  // too narrow to halve: the check is not applicable
       const int middle = view.image.width / 2;
       for (int h = 0; h < 2; ++h) {
         Frame part;

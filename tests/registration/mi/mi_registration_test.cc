@@ -195,6 +195,13 @@ TEST(Split, HalvesAlternateViewsOrCutASingleView) {
   ASSERT_EQ(halves[0].size(), 1u);
   ASSERT_EQ(halves[1].size(), 1u);
   EXPECT_EQ(halves[0][0].views[0].camera.width + halves[1][0].views[0].camera.width, 40u);
+  // Too narrow to halve: no halves (the check is not applicable), no crash.
+  View narrow = a;
+  narrow.camera = StreetCamera(10, 30, 35.0);
+  narrow.image = GrayImage(10, 30);
+  halves = SplitIntoHalves({Frame{"narrow", {narrow}, &points}}, &kind);
+  EXPECT_TRUE(halves[0].empty());
+  EXPECT_TRUE(halves[1].empty());
 }
 
 TEST_F(StreetTest, ImageThatDoesNotOverlapTheCloudFails) {

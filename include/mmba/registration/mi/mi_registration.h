@@ -264,7 +264,8 @@ class FrameSetEvaluator {
 /// Two independent halves of a frame set (for the split check): with two or more views in
 /// all, the views alternately (a frame's two perspective cuts: one each; a cube's four faces:
 /// two opposite faces each); with a single view, its left and right halves (CropView).
-/// `kind` (optional) receives "views" or "left/right halves".
+/// `kind` (optional) receives "views" or "left/right halves". Both empty when there is
+/// nothing to halve (no view, or a single view narrower than 16 pixels).
 std::array<std::vector<Frame>, 2> SplitIntoHalves(const std::vector<Frame>& frames,
                                                   std::string* kind = nullptr);
 /// Columns [col0, col1) of a view: the image cropped and the principal point shifted (any
