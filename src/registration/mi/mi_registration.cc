@@ -1133,10 +1133,11 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     }
     for (int h = 0; h < 2; ++h) {
       spdlog::debug("MI half {} ({}): {:.2f} px from the optimum, correction [{:.3f} {:.3f} "
-                    "{:.3f} {:.3f} {:.3f} {:.3f}], rms {:.3f} px vs predicted {:.3f} px",
+                    "{:.3f} {:.3f} {:.3f} {:.3f}], pixel rms {:.3f} px vs predicted {:.3f} px",
                     h, split_kind, distance[h], half_x[h][0], half_x[h][1], half_x[h][2],
-                    half_x[h][3], half_x[h][4], half_x[h][5], std::sqrt(displacement2[h]),
-                    std::sqrt(predicted2[h]));
+                    half_x[h][3], half_x[h][4], half_x[h][5],
+                    std::sqrt(displacement2[h] / std::max<size_t>(1, own_points[h])),
+                    std::sqrt(predicted2[h] / std::max<size_t>(1, own_points[h])));
     }
     if (!(checks.split_spread_px <= options.split_tolerance_px)) {
       failures.push_back("independent halves disagree (" + split_kind + "): one re-optimised "
@@ -1156,10 +1157,13 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
                          " of 6 directions without curvature)");
     }
     checks.sigma_px_calibrated = checks.sigma_px;
-    if (options.calibrate_covariance && std::isfinite(checks.variance_factor_halves) &&
-        std::isfinite(checks.variance_factor_restarts)) {
+    // The parts measured (the halves or the restarts may be switched off) add up.
+    const bool halves_measured = std::isfinite(checks.variance_factor_halves);
+    const bool restarts_measured = std::isfinite(checks.variance_factor_restarts);
+    if (options.calibrate_covariance && (halves_measured || restarts_measured)) {
       checks.variance_factor =
-          std::max(1.0, checks.variance_factor_halves + checks.variance_factor_restarts);
+          std::max(1.0, (halves_measured ? checks.variance_factor_halves : 0.0) +
+                            (restarts_measured ? checks.variance_factor_restarts : 0.0));
       result.covariance = checks.variance_factor * result.covariance_laplace;
       checks.sigma_px_calibrated = checks.sigma_px * std::sqrt(checks.variance_factor);
     }

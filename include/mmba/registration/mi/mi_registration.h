@@ -164,8 +164,10 @@ struct AcceptanceChecks {
   ///   directions one half alone cannot see, and wanders along, do not count);
   /// * restarts: variance_factor_restarts = mean_{k,p} ‖pixel_p(x_k) − pixel_p(x)‖² /
   ///   mean_p tr(J_p Σ_L J_pᵀ) over the restarts k and the visible points p.
-  /// variance_factor = max(1, halves + restarts); NaN components when not measured (then
-  /// the covariance stays Σ_L and variance_factor is 1).
+  /// variance_factor = max(1, halves + restarts) — the halves' part stands for the whole
+  /// statistical error (it replaces Σ_L's own 1), the restarts' part adds the optimiser's.
+  /// A part not measured (halves or restarts off) is NaN and counts 0; with neither, the
+  /// covariance stays Σ_L and variance_factor is 1.
   double variance_factor = 1;
   double variance_factor_halves = std::numeric_limits<double>::quiet_NaN();
   double variance_factor_restarts = std::numeric_limits<double>::quiet_NaN();
