@@ -178,6 +178,36 @@ struct GaussMarkovPosePriorCost {
   double phi, w_m, w_rad;
 };
 
+/// n·(scan_from_world·X − q)/σ: a world point on a scan's local plane (n, q in the scan frame).
+struct ScanPointToPlaneCost {
+  ScanPointToPlaneCost(const Eigen::Vector3d& normal, const Eigen::Vector3d& point, double sigma)
+      : n(normal / sigma), q(point) {}
+  template <typename T>
+  bool operator()(const T* q_sw, const T* t_sw, const T* x, T* r) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> rotation(q_sw);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> translation(t_sw), world(x);
+    const Eigen::Matrix<T, 3, 1> in_scan = rotation * world + translation - q.cast<T>();
+    r[0] = n.cast<T>().dot(in_scan);
+    return true;
+  }
+  Eigen::Vector3d n, q;
+};
+
+/// A point p of one scan on another scan's plane (n, q): n·(S_to·S_from⁻¹·p − q)/σ, with
+/// S = scan_from_world.
+struct ScanToScanCost {
+  explicit ScanToScanCost(const ScanPairPoint& p) : p(p.point), n(p.normal / p.sigma_m), q(p.plane_point) {}
+  template <typename T>
+  bool operator()(const T* q_from, const T* t_from, const T* q_to, const T* t_to, T* r) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> r_from(q_from), r_to(q_to);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> tr_from(t_from), tr_to(t_to);
+    const Eigen::Matrix<T, 3, 1> world = r_from.conjugate() * (p.cast<T>() - tr_from);
+    r[0] = n.cast<T>().dot(r_to * world + tr_to - q.cast<T>());
+    return true;
+  }
+  Eigen::Vector3d p, n, q;
+};
+
 class ScalarPriorCost : public ceres::SizedCostFunction<1, 3> {
  public:
   ScalarPriorCost(int index, double prior, double sigma) : index_(index), prior_(prior), sigma_(sigma) {}
@@ -412,18 +442,44 @@ void GnssPointGroup::AddResiduals(Scene&, ceres::Problem& problem) {
   }
 }
 
-LidarSurfaceGroup::LidarSurfaceGroup(std::vector<SurfacePlane> planes, LossOptions loss, std::string name)
-    : FactorGroup(std::move(name), "m", loss), planes_(std::move(planes)) {}
+LidarSurfaceGroup::LidarSurfaceGroup(std::vector<SurfacePlane> planes, LossOptions loss, std::string name,
+                                     std::vector<Rigid3d>* scan_from_world)
+    : FactorGroup(std::move(name), "m", loss), planes_(std::move(planes)), scan_from_world_(scan_from_world) {}
 
 void LidarSurfaceGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
   for (size_t i = 0; i < planes_.size(); ++i) {
     const SurfacePlane& plane = planes_[i];
-    if (!scene.HasPoint(plane.point3D_id)) {
+    if (!scene.HasPoint(plane.point3D_id) ||
+        (plane.scan >= 0 && (!scan_from_world_ || static_cast<size_t>(plane.scan) >= scan_from_world_->size()))) {
       Skip();
       continue;
     }
-    AddBlock(problem, new PointToPlaneCost(plane.normal, plane.point, plane.sigma_m),
-             {scene.Point(plane.point3D_id).data()}, plane.sigma_m, i);
+    double* point = scene.Point(plane.point3D_id).data();
+    if (plane.scan < 0) {
+      AddBlock(problem, new PointToPlaneCost(plane.normal, plane.point, plane.sigma_m), {point}, plane.sigma_m, i);
+      continue;
+    }
+    Rigid3d& pose = (*scan_from_world_)[plane.scan];
+    AddBlock(problem,
+             new ceres::AutoDiffCostFunction<ScanPointToPlaneCost, 1, 4, 3, 3>(
+                 new ScanPointToPlaneCost(plane.normal, plane.point, plane.sigma_m)),
+             {pose.rotation.coeffs().data(), pose.translation.data(), point}, plane.sigma_m, i);
+  }
+}
+
+ScanToScanGroup::ScanToScanGroup(std::vector<ScanPairPoint> points, std::vector<Rigid3d>* scan_from_world,
+                                 LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "m", loss), points_(std::move(points)), scan_from_world_(scan_from_world) {}
+
+void ScanToScanGroup::AddResiduals(Scene&, ceres::Problem& problem) {
+  for (size_t i = 0; i < points_.size(); ++i) {
+    const ScanPairPoint& p = points_[i];
+    Rigid3d& from = (*scan_from_world_)[p.from];
+    Rigid3d& to = (*scan_from_world_)[p.to];
+    AddBlock(problem,
+             new ceres::AutoDiffCostFunction<ScanToScanCost, 1, 4, 3, 4, 3>(new ScanToScanCost(p)),
+             {from.rotation.coeffs().data(), from.translation.data(), to.rotation.coeffs().data(), to.translation.data()},
+             p.sigma_m, i);
   }
 }
 

@@ -102,6 +102,15 @@ struct Blunder {
   double studentized = 0.0;
 };
 
+/// A static scan adjusted on its own: its surface in its own frame, its registration.
+struct ScanBlock {
+  std::string name;
+  std::string file;
+  std::unique_ptr<LidarSurface> surface;  ///< scan frame, cropped to the photo block
+  Rigid3d prior;                          ///< scan_from_world of the registration
+  std::vector<Eigen::Vector3d> sample;    ///< scan frame: the scan-to-scan points
+};
+
 struct JointState {
   const Project* project = nullptr;
   geodesy::LocalTangentPlane plane{geodesy::Geodetic{}};
@@ -120,6 +129,9 @@ struct JointState {
   Scene scene;
   std::unique_ptr<LidarSurface> surface;
   std::vector<SurfacePlane> planes;
+  std::vector<ScanBlock> scans;               ///< static scans adjusted (empty: reference cloud fixed)
+  std::vector<Rigid3d> scan_from_world;       ///< one per scan, the parameter blocks
+  std::vector<ScanPairPoint> scan_pairs;      ///< scan-to-scan associations
   // Excluded by data snooping: group name → observation indices.
   std::map<std::string, std::set<size_t>> excluded;
   std::vector<Blunder> blunders;
@@ -134,6 +146,15 @@ struct JointState {
   std::vector<std::string> warnings;
   std::vector<std::string> log;  ///< stages, for the report
 };
+
+/// The LiDAR plane at a world point: the reference cloud's, or with adjusted scans the plane of
+/// the scan nearest to its scanner among those that see it there (in that scan's frame,
+/// `plane->scan` its index). False when no surface lies within `gate`.
+bool FitSurfacePlane(const JointState& s, const Eigen::Vector3d& world, double gate, double sigma, SurfacePlane* plane);
+/// Scan-to-scan associations (each scan's sample on every other scan's surface, within `gate`).
+size_t AssociateScans(JointState* s, double gate);
+/// Loads the static scans to be adjusted (lidar_static with world_from_scan on every scan).
+void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vector3d& roi_max);
 
 /// Thrown when the adjustment cannot produce a result (exit 3): `status` and the reason.
 class AdjustFailure : public std::runtime_error {

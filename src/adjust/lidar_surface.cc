@@ -16,15 +16,16 @@ struct LidarSurface::Impl {
 };
 
 LidarSurface::LidarSurface(const std::string& path, const Eigen::Vector3d& roi_min,
-                           const Eigen::Vector3d& roi_max, double margin)
+                           const Eigen::Vector3d& roi_max, double margin, const Rigid3d& roi_from_file)
     : impl_(std::make_unique<Impl>()) {
   const io::PointCloud cloud = io::ReadPointCloud(path);
   num_read_ = cloud.size();
   const Eigen::Vector3d lo = roi_min.array() - margin, hi = roi_max.array() + margin;
-  impl_->offset = 0.5 * (roi_min + roi_max);
+  impl_->offset = roi_from_file.Inverse() * (0.5 * (roi_min + roi_max));
   impl_->cloud->reserve(cloud.size());
   for (const Eigen::Vector3d& p : cloud.points) {
-    if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+    const Eigen::Vector3d r = roi_from_file * p;
+    if ((r.array() < lo.array()).any() || (r.array() > hi.array()).any()) continue;
     const Eigen::Vector3f q = (p - impl_->offset).cast<float>();
     impl_->cloud->push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
   }
@@ -34,6 +35,17 @@ LidarSurface::LidarSurface(const std::string& path, const Eigen::Vector3d& roi_m
 LidarSurface::~LidarSurface() = default;
 
 size_t LidarSurface::size() const { return impl_->cloud->size(); }
+
+std::vector<Eigen::Vector3d> LidarSurface::Sample(size_t n) const {
+  std::vector<Eigen::Vector3d> sample;
+  const size_t size = impl_->cloud->size();
+  if (size == 0 || n == 0) return sample;
+  const double step = std::max(1.0, static_cast<double>(size) / n);
+  for (double x = 0.5 * step; x < size; x += step) {
+    sample.push_back(impl_->cloud->points[static_cast<size_t>(x)].getVector3fMap().cast<double>() + impl_->offset);
+  }
+  return sample;
+}
 
 bool LidarSurface::FitPlane(const Eigen::Vector3d& query, double max_distance, int k,
                             Eigen::Vector3d* normal, Eigen::Vector3d* centroid, double* roughness) const {

@@ -141,16 +141,22 @@ size_t AssociateMobile(JointState* s, double gate) {
   for (size_t k = 0; k < m.sample.size(); ++k) {
     const Rigid3d world_from_body = CorrectedPose(m.nodes, m.sample_weight[k], m.sample_ins[k]);
     const Eigen::Vector3d world = world_from_body * (body_from_lidar * m.sample_lidar[k]);
-    Eigen::Vector3d n, c;
-    double roughness = 0.0;
-    if (!s->surface->FitPlane(world, gate, 12, &n, &c, &roughness)) continue;
+    SurfacePlane plane;
+    if (!FitSurfacePlane(*s, world, gate, sigma, &plane)) continue;
+    if (plane.scan >= 0) {
+      // An adjusted scan's plane, taken into the world at the scan's current pose (held for
+      // this outer iteration; re-associated in the next).
+      const Rigid3d world_from_scan = s->scan_from_world[plane.scan].Inverse();
+      plane.normal = world_from_scan.rotation * plane.normal;
+      plane.point = world_from_scan * plane.point;
+    }
     MobilePoint p;
     p.point_lidar = m.sample_lidar[k];
     p.weight = m.sample_weight[k];
     p.ins = m.sample_ins[k];
-    p.normal = n;
-    p.plane_point = c;
-    p.sigma_m = std::hypot(sigma, roughness);
+    p.normal = plane.normal;
+    p.plane_point = plane.point;
+    p.sigma_m = plane.sigma_m;
     p.source = m.sample[k];
     m.points.push_back(p);
   }

@@ -330,6 +330,21 @@ json EvaluateTruth(const JointState& s) {
     }
     out["mobile_lidar"] = mobile;
   }
+  if (!s.scans.empty() && truth.contains("lidar") && truth["lidar"].contains("static_scans")) {
+    double worst = 0.0, worst_r = 0.0, worst_prior = 0.0, worst_prior_r = 0.0;
+    for (size_t k = 0; k < s.scans.size(); ++k) {
+      for (const json& t : truth["lidar"]["static_scans"]) {
+        if (t.value("name", "") != s.scans[k].name) continue;
+        const Rigid3d true_pose = PoseFromJson(t["world_from_scan"]).Inverse();
+        worst = std::max(worst, (CameraCentre(s.scan_from_world[k]) - CameraCentre(true_pose)).norm());
+        worst_r = std::max(worst_r, s.scan_from_world[k].rotation.angularDistance(true_pose.rotation) * kDeg);
+        worst_prior = std::max(worst_prior, (CameraCentre(s.scans[k].prior) - CameraCentre(true_pose)).norm());
+        worst_prior_r = std::max(worst_prior_r, s.scans[k].prior.rotation.angularDistance(true_pose.rotation) * kDeg);
+      }
+    }
+    out["static_scans"] = {{"max_position_m", worst}, {"max_rotation_deg", worst_r},
+                           {"registration_max_position_m", worst_prior}, {"registration_max_rotation_deg", worst_prior_r}};
+  }
   if (s.joint && truth.contains("survey")) {
     json points = json::array();
     for (const json& t : truth["survey"]["points"]) {
@@ -511,7 +526,10 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     // Georeferenced tie points (coloured from the images) and the LiDAR error map.
     io::PointCloud ties, errors;
     std::map<Point3DId, double> distance;
-    for (const SurfacePlane& p : s.planes) distance[p.point3D_id] = p.normal.dot(s.scene.Point(p.point3D_id) - p.point);
+    for (const SurfacePlane& p : s.planes) {
+      const Eigen::Vector3d x = p.scan < 0 ? s.scene.Point(p.point3D_id) : s.scan_from_world[p.scan] * s.scene.Point(p.point3D_id);
+      distance[p.point3D_id] = p.normal.dot(x - p.point);
+    }
     for (const auto& [id, point] : model.points3D) {
       ties.points.push_back(point.xyz);
       ties.colors.push_back(point.color);
@@ -721,6 +739,37 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
                               {"max_position_correction_m", worst}, {"extrinsic", m.with_rig ? m.config->extrinsic : "held"},
                               {"extrinsic_rotation_change_deg", dr}, {"extrinsic_translation_change_m", dt}};
   }
+  // Adjusted static scans: world_from_scan with σ and the change from the registration.
+  if (!s.scans.empty()) {
+    std::ostringstream csv;
+    csv << std::setprecision(12)
+        << "# mmba adjust: static scans, world_from_scan (scanner position in the world, local ENU; q = scan_from_world "
+           "w, x, y, z); sigma from the adjustment; corrections from the registration given in the project\n"
+           "scan,east_m,north_m,up_m,qw,qx,qy,qz,sigma_east_m,sigma_north_m,sigma_up_m,sigma_rotation_deg,"
+           "d_position_m,d_rotation_deg\n";
+    json scans = json::array();
+    for (size_t k = 0; k < s.scans.size(); ++k) {
+      const Rigid3d& pose = s.scan_from_world[k];
+      const Eigen::Vector3d centre = CameraCentre(pose);
+      const Eigen::Vector3d sigma = CentreCovariance(st, pose).diagonal().cwiseMax(0.0).cwiseSqrt();
+      const double* q = pose.rotation.coeffs().data();
+      double rotation_variance = 0.0;
+      if (st.IsFree(q)) {
+        for (int a = 0; a < 3; ++a) rotation_variance += st.Covariance(q, a, q, a);
+      }
+      const double sigma_rotation = std::sqrt(std::max(0.0, rotation_variance)) * kDeg;  // of the rotation vector
+      const double dp = (centre - CameraCentre(s.scans[k].prior)).norm();
+      const double dr = pose.rotation.angularDistance(s.scans[k].prior.rotation) * kDeg;
+      csv << s.scans[k].name << "," << centre.x() << "," << centre.y() << "," << centre.z() << "," << pose.rotation.w()
+          << "," << pose.rotation.x() << "," << pose.rotation.y() << "," << pose.rotation.z() << "," << sigma.x() << ","
+          << sigma.y() << "," << sigma.z() << "," << sigma_rotation << "," << dp << "," << dr << "\n";
+      scans.push_back({{"name", s.scans[k].name}, {"file", s.scans[k].file}, {"position_m", Vec(centre)},
+                       {"sigma_position_m", Vec(sigma)}, {"sigma_rotation_deg", sigma_rotation},
+                       {"position_correction_m", dp}, {"rotation_correction_deg", dr}});
+    }
+    WriteText(stage / "scans.csv", csv.str());
+    report["static_scans"] = {{"scans", scans}, {"scan_to_scan_pairs", s.scan_pairs.size()}};
+  }
   WriteText(stage / "poses.csv", poses.str());
   report["pose_corrections"] = corrections;
   report["calibrations"] = calibrations;
@@ -785,6 +834,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     files.push_back({{"name", "calibration/" + s.photos->config->id + "_camera.yaml"}, {"description", "camera calibration with sigma"}});
     files.push_back({{"name", "tie_points.ply"}, {"description", "georeferenced tie points, coloured from the images"}});
     if (!s.planes.empty()) files.push_back({{"name", "error_map_lidar.ply"}, {"description", "tie points, intensity = signed distance to the LiDAR surface (m)"}});
+    if (!s.scans.empty()) files.push_back({{"name", "scans.csv"}, {"description", "adjusted static scans: world_from_scan with sigma and the correction of the registration"}});
   }
   report["files"] = files;
   json warnings = json::array();

@@ -5,6 +5,7 @@
 
 #include "mmba/core/error.h"
 #include "mmba/io/yaml_reader.h"
+#include "internal.h"
 
 namespace mmba::adjust {
 namespace {
@@ -132,17 +133,33 @@ class ProjectReader {
                        if (!v.IsSequence()) r_.Fail(v, g, "a list of {file}", io::YamlReader::Kind(v));
                        for (size_t i = 0; i < v.size(); ++i) {
                          const std::string gi = g + "[" + std::to_string(i) + "]";
-                         std::string file;
-                         r_.Map(v[i], gi, {{"file", path(&file, false)}});
+                         LidarScanFile scan;
+                         scan.line = v[i].Mark().line + 1;
+                         r_.Map(v[i], gi, {{"file", path(&scan.file, false)},
+                                           {"world_from_scan", [&](Node w, Field h) {
+                                              scan.world_from_scan = internal::ReadPose(r_, w, h);
+                                              scan.has_pose = true;
+                                            }}});
                          r_.Require(v[i], gi, {"file"});
-                         l.scans.push_back(file);
+                         l.scans.push_back(scan);
                        }
                      }},
                     {"range_sigma_m", [&](Node v, Field g) { l.range_sigma_m = SigmaM(v, g, 0.5); }},
                     {"surface_sigma_m", [&](Node v, Field g) { l.surface_sigma_m = SigmaM(v, g, 0.5); }},
                     {"max_distance_m", [&](Node v, Field g) { l.max_distance_m = SigmaM(v, g, 10.0); }},
+                    {"scan_sigma_m", [&](Node v, Field g) { l.scan_sigma_m = SigmaM(v, g, 10.0); }},
+                    {"scan_sigma_deg", [&](Node v, Field g) { l.scan_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
+                    {"scan_points", [&](Node v, Field g) {
+                       l.scan_points = r_.Integer(v, g);
+                       if (l.scan_points < 100 || l.scan_points > 1000000) r_.Fail(v, g, "an integer in [100, 1000000]", io::YamlReader::Text(v));
+                     }},
                     {"loss", [&](Node v, Field g) { l.loss = Loss(v, g); }}});
       r_.Require(n, f, {"reference_cloud"});
+      const size_t posed = std::count_if(l.scans.begin(), l.scans.end(), [](const LidarScanFile& s) { return s.has_pose; });
+      if (posed > 0 && posed < l.scans.size()) {
+        r_.Fail(n["scans"], f + ".scans", "world_from_scan on every scan (to adjust the scans) or on none",
+                std::to_string(posed) + " of " + std::to_string(l.scans.size()));
+      }
       project_->lidar_static.push_back(l);
     } else if (type == "lidar_mobile") {
       LidarMobile m;

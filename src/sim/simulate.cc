@@ -649,13 +649,24 @@ void SimulateRig(Context* c, const Trajectory& trajectory) {
   std::ostringstream yaml;
   yaml << "# Nominal calibration of the Ladybug-style rig: 6 OPENCV_FISHEYE cameras\n"
           "# (fx, fy, cx, cy, k1, k2, k3, k4) and cam_from_rig; rig frame x right, y down, z forward\n"
-          "# (vehicle forward). Nominal = design values; truth/truth.json holds the true ones.\n"
+          "# (vehicle forward). Intrinsics: design values; cam_from_rig: a factory calibration\n"
+          "# (0.02°, 1 mm per axis); truth/truth.json holds the true ones.\n"
           "body_from_rig: " << YamlPose(body_from_rig) << "\ncameras:\n";
+  // The rig's factory calibration of cam_from_rig: good to ~0.02° and 1 mm (σ per axis), the
+  // σ the project states; the truth keeps the true poses.
+  internal::Rng calibration_error(c->options.seed, 0x1ADC);
   for (int k = 0; k < 6; ++k) {
     jcams.push_back({{"camera", CameraJson(cameras[k])}, {"cam_from_rig", PoseJson(cam_from_rig[k])}});
+    const Vector3d rotation_error(calibration_error.Normal(0.02 * kDeg), calibration_error.Normal(0.02 * kDeg),
+                                  calibration_error.Normal(0.02 * kDeg));
+    const Vector3d position_error(calibration_error.Normal(0.001), calibration_error.Normal(0.001),
+                                  calibration_error.Normal(0.001));
+    const Rigid3d nominal(Eigen::Quaterniond(Eigen::AngleAxisd(rotation_error.norm(), rotation_error.normalized())) *
+                              cam_from_rig[k].rotation,
+                          cam_from_rig[k].translation + position_error);
     yaml << "  - name: cam" << k << "\n    model: OPENCV_FISHEYE\n    width: " << width << "\n    height: " << height
          << "\n    params: " << YamlList({o.focal_px, o.focal_px, 0.5 * width, 0.5 * height, 0.02, -0.005, 0.001, 0.0})
-         << "\n    cam_from_rig: " << YamlPose(cam_from_rig[k]) << "\n";
+         << "\n    cam_from_rig: " << YamlPose(nominal) << "\n";
   }
   WriteText(c->out / "calib" / "ladybug.yaml", yaml.str());
   c->truth["rig"] = {{"cameras", jcams}, {"body_from_rig", PoseJson(body_from_rig)},
@@ -667,7 +678,8 @@ void SimulateRig(Context* c, const Trajectory& trajectory) {
   if (!c->tie_points.empty()) {
     c->project_sensors << "    frames_file: rig_frames.csv\n    observations: observations/rig.csv  # "
                        << num_rig_observations << " tie-point observations\n    tie_block: photos\n"
-                          "    trajectory_sigma_m: 0.1\n    trajectory_sigma_deg: 1.0\n";
+                          "    trajectory_sigma_m: 0.1\n    trajectory_sigma_deg: 1.0\n"
+                          "    cam_from_rig_sigma_m: 0.001  # factory calibration\n    cam_from_rig_sigma_deg: 0.02\n";
   }
 }
 
@@ -677,6 +689,11 @@ void SimulateLidar(Context* c, const Trajectory& trajectory, const Rigid3d& body
   io::PointCloud merged;
   json scans = json::array();
   internal::Rng rng(o.seed, 0x5CA);
+  // The scans come registered as a scanner's software delivers them: a few millimetres and
+  // hundredths of a degree off (target or cloud-to-cloud registration); the merged reference
+  // cloud is built with these registrations, the truth keeps the true poses.
+  internal::Rng registration_error(o.seed, 0x5CB);
+  std::vector<Rigid3d> registrations;
   const double distance = std::max(5.0, 0.7 * c->framing.width);
   for (int s = 0; s < o.static_scans; ++s) {
     const double t = o.static_scans == 1 ? 0.5 : static_cast<double>(s) / (o.static_scans - 1);
@@ -688,14 +705,24 @@ void SimulateLidar(Context* c, const Trajectory& trajectory, const Rigid3d& body
     const std::string name = "scan_" + std::to_string(s + 1);
     const LidarScan scan = SimulateStaticScan(c->caster, c->scene, world_from_scan, o.static_scan, name, o.seed, o.threads);
     io::WritePly(scan.cloud, (c->out / "clouds" / "scans" / (name + ".ply")).string());
+    const Vector3d rotation_error(registration_error.Normal(0.015 * kDeg), registration_error.Normal(0.015 * kDeg),
+                                  registration_error.Normal(0.015 * kDeg));
+    const Vector3d position_error(registration_error.Normal(0.004), registration_error.Normal(0.004),
+                                  registration_error.Normal(0.004));
+    const Eigen::Quaterniond rotation_delta =
+        rotation_error.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(rotation_error.norm(), rotation_error.normalized()))
+                                  : Eigen::Quaterniond::Identity();
+    const Rigid3d registered(rotation_delta * world_from_scan.rotation, world_from_scan.translation + position_error);
+    registrations.push_back(registered);
     for (size_t i = 0; i < scan.cloud.size(); ++i) {
-      merged.points.push_back(world_from_scan * scan.cloud.points[i]);
+      merged.points.push_back(registered * scan.cloud.points[i]);
       merged.intensity.push_back(scan.cloud.intensity[i]);
     }
     c->result.static_points += scan.cloud.size();
     c->result.ghost_points += scan.num_ghosts;
     scans.push_back({{"name", name}, {"file", "clouds/scans/" + name + ".ply"},
-                     {"world_from_scan", PoseJson(world_from_scan)}, {"points", scan.cloud.size()},
+                     {"world_from_scan", PoseJson(world_from_scan)}, {"world_from_scan_registered", PoseJson(registered)},
+                     {"points", scan.cloud.size()},
                      {"rays", scan.num_rays}, {"dropouts", scan.num_dropouts},
                      {"glass_pass", scan.num_glass_pass}, {"ghosts", scan.num_ghosts}});
   }
@@ -728,10 +755,12 @@ void SimulateLidar(Context* c, const Trajectory& trajectory, const Rigid3d& body
   }
   c->truth["lidar"] = {{"static_scans", scans}, {"mobile", mobile}};
   c->project_sensors << "  - id: tls\n    type: lidar_static\n    reference_cloud: clouds/lidar.ply\n    scans:\n";
-  for (const auto& s : scans) {
-    c->project_sensors << "      - {file: " << s["file"].get<std::string>() << "}\n";
+  for (size_t k = 0; k < scans.size(); ++k) {
+    c->project_sensors << "      - {file: " << scans[k]["file"].get<std::string>()
+                       << ", world_from_scan: " << YamlPose(registrations[k]) << "}  # registration as delivered\n";
   }
-  c->project_sensors << "    range_sigma_m: " << o.static_scan.noise.range_sigma_m << "\n";
+  c->project_sensors << "    range_sigma_m: " << o.static_scan.noise.range_sigma_m << "\n"
+                     << "    scan_sigma_m: 0.004  # the registrations' accuracy\n    scan_sigma_deg: 0.015\n";
   if (o.mobile_revolutions > 0) {
     c->project_sensors << "  - id: mls\n    type: lidar_mobile\n    cloud: clouds/mobile_lidar.ply\n"
                           "    trajectory: trajectory_ins.csv\n    calibration: calib/mobile_lidar.yaml\n"

@@ -179,31 +179,62 @@ struct SurfacePlane {
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
   double sigma_m = 0.01;
+  int scan = -1;  ///< −1: the reference cloud (world frame); else a scan (normal, point in its frame)
 };
 
+/// Tie points on the LiDAR surface: n·(X − q)/σ against the reference cloud, or
+/// n·(scan_from_world·X − q)/σ against a scan's own plane, its pose a parameter block.
 class LidarSurfaceGroup : public FactorGroup {
  public:
-  LidarSurfaceGroup(std::vector<SurfacePlane> planes, LossOptions loss, std::string name);
+  LidarSurfaceGroup(std::vector<SurfacePlane> planes, LossOptions loss, std::string name,
+                    std::vector<Rigid3d>* scan_from_world = nullptr);
   void AddResiduals(Scene& scene, ceres::Problem& problem) override;
   const std::vector<SurfacePlane>& planes() const { return planes_; }
 
  private:
   std::vector<SurfacePlane> planes_;
+  std::vector<Rigid3d>* scan_from_world_;
+};
+
+/// A point of scan `from` (its own frame) on the local plane of scan `to` (that scan's frame).
+struct ScanPairPoint {
+  size_t from = 0, to = 0;
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d plane_point = Eigen::Vector3d::Zero();
+  double sigma_m = 0.005;
+};
+
+/// Scan-to-scan point-to-plane (Chen & Medioni 1992) between overlapping static scans:
+/// n_to·(scan_to_from_world · world_from_scan_from · p − q_to)/σ; both poses are blocks.
+class ScanToScanGroup : public FactorGroup {
+ public:
+  ScanToScanGroup(std::vector<ScanPairPoint> points, std::vector<Rigid3d>* scan_from_world, LossOptions loss,
+                  std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+  const std::vector<ScanPairPoint>& points() const { return points_; }
+
+ private:
+  std::vector<ScanPairPoint> points_;
+  std::vector<Rigid3d>* scan_from_world_;
 };
 
 /// The LiDAR surface near a set of points: a k-d tree over the reference cloud (cropped to
 /// the region of interest so memory stays bounded) and local plane fits.
 class LidarSurface {
  public:
-  /// Reads `path`, keeping points inside [min − margin, max + margin].
+  /// Reads `path`, keeping points p with roi_from_file·p inside [min − margin, max + margin];
+  /// the surface stays in the file's frame (a scan's own frame, or the world).
   LidarSurface(const std::string& path, const Eigen::Vector3d& roi_min,
-               const Eigen::Vector3d& roi_max, double margin);
+               const Eigen::Vector3d& roi_max, double margin, const Rigid3d& roi_from_file = Rigid3d());
   ~LidarSurface();
   LidarSurface(const LidarSurface&) = delete;
   LidarSurface& operator=(const LidarSurface&) = delete;
 
   size_t size() const;
   size_t num_read() const { return num_read_; }
+  /// `n` of the kept points, evenly spread over the cloud's order (file frame).
+  std::vector<Eigen::Vector3d> Sample(size_t n) const;
   /// The plane through the `k` nearest LiDAR points of `query` (PCA), when the neighbourhood
   /// is planar (smallest eigenvalue ≤ 10 % of the middle one), |n·(query − centroid)| ≤
   /// max_distance and the query lies over the patch (its in-plane distance from the centroid

@@ -4,10 +4,12 @@
 // file, line and key (InputError, exit 2).
 #pragma once
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
 #include "mmba/geodesy/geodesy.h"
+#include "mmba/geometry/rigid3d.h"
 #include "mmba/problem/factor_group.h"
 
 namespace mmba::adjust {
@@ -52,15 +54,35 @@ struct Gnss {
   LossOptions loss{LossType::kHuber, 3.0};
 };
 
+/// One static scan: its points in the scanner's own frame and, when it is to be adjusted, its
+/// registration world_from_scan (e.g. `mmba register-cloud`'s target_from_source, or the
+/// scanner software's registration).
+struct LidarScanFile {
+  std::string file;
+  int line = 0;
+  bool has_pose = false;
+  Rigid3d world_from_scan;
+};
+
+/// Static LiDAR: the registered `reference_cloud` (world frame) ties the photo block; when every
+/// scan of `scans` carries `world_from_scan`, the scans themselves are adjusted instead — one
+/// world_from_scan per scan with its registration as a prior (σ scan_sigma_m / _deg),
+/// scan-to-scan point-to-plane between overlapping scans, tie points on each scan's surface.
 struct LidarStatic {
   std::string id;
   int line = 0;
   std::string reference_cloud;        ///< registered cloud in the world frame
-  std::vector<std::string> scans;     ///< per-scan files (validated; see README limits)
+  std::vector<LidarScanFile> scans;   ///< per-scan files (adjusted when each has world_from_scan)
   double range_sigma_m = 0.003;
   double surface_sigma_m = 0.01;      ///< σ of a tie point's distance to the LiDAR surface
   double max_distance_m = 0.3;        ///< association gate of the first outer iteration
+  double scan_sigma_m = 0.01;         ///< σ of a scan's registration (prior on world_from_scan)
+  double scan_sigma_deg = 0.05;
+  int scan_points = 3000;             ///< points per scan sampled for scan-to-scan residuals
   LossOptions loss{LossType::kHuber, 3.0};
+  bool AdjustsScans() const {
+    return !scans.empty() && std::all_of(scans.begin(), scans.end(), [](const LidarScanFile& f) { return f.has_pose; });
+  }
 };
 
 /// A spherical line-scan stereo pair on a vertical mast (Wang et al.'s setup): per station the

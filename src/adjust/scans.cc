@@ -1,0 +1,93 @@
+// Static LiDAR scans adjusted on their own: one scan_from_world block per scan, its
+// registration as a prior, scan-to-scan point-to-plane, tie points on each scan's surface.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+#include <spdlog/spdlog.h>
+
+#include "internal.h"
+#include "mmba/core/error.h"
+
+namespace mmba::adjust::internal {
+
+namespace fs = std::filesystem;
+
+void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vector3d& roi_max) {
+  const LidarStatic& l = s->project->lidar_static.front();
+  if (!l.AdjustsScans()) return;
+  for (const LidarScanFile& file : l.scans) {
+    ScanBlock scan;
+    scan.file = file.file;
+    scan.name = fs::path(file.file).stem().string();
+    scan.surface = std::make_unique<LidarSurface>(file.file, roi_min, roi_max, 1.0, file.world_from_scan);
+    if (scan.surface->num_read() == 0) {
+      throw InputError::Message(file.file, "the scan has no points (sensor '" + l.id + "')");
+    }
+    scan.prior = file.world_from_scan.Inverse();
+    scan.sample = scan.surface->Sample(static_cast<size_t>(l.scan_points));
+    s->log.push_back("static scan " + scan.name + ": " + std::to_string(scan.surface->num_read()) + " points read, " +
+                     std::to_string(scan.surface->size()) + " near the photo block kept, " +
+                     std::to_string(scan.sample.size()) + " sampled for scan-to-scan");
+    spdlog::info("adjust: {}", s->log.back());
+    s->scan_from_world.push_back(scan.prior);
+    s->scans.push_back(std::move(scan));
+  }
+}
+
+bool FitSurfacePlane(const JointState& s, const Eigen::Vector3d& world, double gate, double sigma, SurfacePlane* plane) {
+  Eigen::Vector3d n, c;
+  double roughness = 0.0;
+  if (s.scans.empty()) {
+    if (!s.surface->FitPlane(world, gate, 12, &n, &c, &roughness)) return false;
+    plane->normal = n;
+    plane->point = c;
+    plane->sigma_m = std::hypot(sigma, roughness);
+    plane->scan = -1;
+    return true;
+  }
+  // The scan whose scanner is nearest (the smallest footprint and range noise) among those
+  // with a plane there.
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t k = 0; k < s.scans.size(); ++k) {
+    const Eigen::Vector3d in_scan = s.scan_from_world[k] * world;
+    if (in_scan.norm() >= best || !s.scans[k].surface->FitPlane(in_scan, gate, 12, &n, &c, &roughness)) continue;
+    best = in_scan.norm();
+    plane->normal = n;
+    plane->point = c;
+    plane->sigma_m = std::hypot(sigma, roughness);
+    plane->scan = static_cast<int>(k);
+  }
+  return std::isfinite(best);
+}
+
+size_t AssociateScans(JointState* s, double gate) {
+  s->scan_pairs.clear();
+  const LidarStatic& l = s->project->lidar_static.front();
+  // Both points carry range noise: σ = √2·σ_range, plus the target patch's roughness.
+  const double sigma = std::sqrt(2.0) * l.range_sigma_m;
+  for (size_t i = 0; i < s->scans.size(); ++i) {
+    const Rigid3d world_from_scan = s->scan_from_world[i].Inverse();
+    for (size_t j = 0; j < s->scans.size(); ++j) {
+      if (i == j) continue;
+      for (const Eigen::Vector3d& p : s->scans[i].sample) {
+        const Eigen::Vector3d in_to = s->scan_from_world[j] * (world_from_scan * p);
+        Eigen::Vector3d n, c;
+        double roughness = 0.0;
+        if (!s->scans[j].surface->FitPlane(in_to, gate, 12, &n, &c, &roughness)) continue;
+        ScanPairPoint pair;
+        pair.from = i;
+        pair.to = j;
+        pair.point = p;
+        pair.normal = n;
+        pair.plane_point = c;
+        pair.sigma_m = std::hypot(sigma, roughness);
+        s->scan_pairs.push_back(pair);
+      }
+    }
+  }
+  return s->scan_pairs.size();
+}
+
+}  // namespace mmba::adjust::internal
