@@ -41,15 +41,16 @@ def variant(name, drop_types=(), settings=None):
 
 variants = [
     ("all sensors", variant("all")),
-    ("without LiDAR surface", variant("nolidar", ["lidar_static"])),
+    ("without static LiDAR (and so without the mobile LiDAR)", variant("nolidar", ["lidar_static", "lidar_mobile"])),
+    ("without mobile LiDAR", variant("nomobile", ["lidar_mobile"])),
     ("without spherical stereo", variant("nosphere", ["spherical_stereo"])),
     ("without camera rig", variant("norig", ["camera_rig"])),
     ("without GNSS control", variant("nognss", ["gnss"])),
     ("without total station (no control, no check points)", variant("nots", ["total_station"])),
     ("all, no variance components", variant("novce", settings={"variance_components": False})),
 ]
-print("| run | check RMSE 3D (expected) | photo pos RMSE / max | sphere max pos | rig frame max pos | sigma0 (given σ) | blunders | time | peak RSS |")
-print("|---|---|---|---|---|---|---|---|---|")
+print("| run | check RMSE 3D (expected) | photo pos RMSE / max | sphere max pos | rig frame max pos | rig_from_lidar error | trajectory RMSE (GNSS/INS) | scans max pos / rot (registration) | sigma0 (given σ) | blunders | time | peak RSS |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|")
 for label, path in variants:
     out = os.path.join(work, "out_" + os.path.basename(path)[8:-5])
     start = time.time()
@@ -62,7 +63,7 @@ for label, path in variants:
     rss = f"{int(rss.group(1)) / 1024:.0f} MB" if rss else "?"
     if run.returncode != 0:
         reason = run.stderr.strip().splitlines()[0] if run.stderr.strip() else "?"
-        print(f"| {label} | failed (exit {run.returncode}): {reason} | | | | | | {seconds:.0f} s | {rss} |")
+        print(f"| {label} | failed (exit {run.returncode}): {reason} | | | | | | | | | {seconds:.0f} s | {rss} |")
         continue
     r = json.load(open(os.path.join(out, "report.json")))
     t = r.get("truth_evaluation", {})
@@ -75,4 +76,13 @@ for label, path in variants:
     rg = t.get("rig")
     rig = f"{1000 * rg['max_frame_position_m']:.1f} mm (prior {1000 * rg['max_prior_position_m']:.0f} mm)" if rg else "-"
     s0 = f"{r['sigma0']['aposteriori']:.3f} ({r['sigma0_given_weights']['aposteriori']:.3f})"
-    print(f"| {label} | {check} | {photos} | {sphere} | {rig} | {s0} | {len(r['blunders'])} | {seconds:.0f} s | {rss} |")
+    ml = t.get("mobile_lidar", {})
+    ext = (f"{1000 * ml['rig_from_lidar']['translation_m']:.1f} mm, {ml['rig_from_lidar']['rotation_deg']:.3f}°"
+           if "rig_from_lidar" in ml else "-")
+    tr = ml.get("trajectory")
+    traj = f"{1000 * tr['rmse_position_m']:.1f} mm ({1000 * tr['ins_rmse_position_m']:.0f} mm)" if tr else "-"
+    sc = t.get("static_scans")
+    scans = (f"{1000 * sc['max_position_m']:.1f} mm / {sc['max_rotation_deg']:.3f}° "
+             f"({1000 * sc['registration_max_position_m']:.1f} mm / {sc['registration_max_rotation_deg']:.3f}°)" if sc else "-")
+    print(f"| {label} | {check} | {photos} | {sphere} | {rig} | {ext} | {traj} | {scans} | {s0} | {len(r['blunders'])} | {seconds:.0f} s | {rss} |",
+          flush=True)

@@ -685,6 +685,7 @@ const char* kGnss = "GNSS control";
 const char* kLidar = "LiDAR surface (tie points)";
 const char* kScanToScan = "LiDAR: scan-to-scan";
 const char* kScanPrior = "LiDAR: scan registration priors";
+const char* kScanTargets = "LiDAR: targets in the scans";
 const char* kSphereLower = "spheres: lower";
 const char* kSphereUpper = "spheres: upper";
 const char* kBaseline = "spheres: baseline prior";
@@ -813,6 +814,10 @@ void BuildProblem(JointState* s) {
     if (!s->scan_pairs.empty()) {
       s->builder->AddGroup(std::make_unique<ScanToScanGroup>(scaled(kScanToScan, Without(s->scan_pairs, excluded(kScanToScan))),
                                                              &s->scan_from_world, l.loss, kScanToScan));
+    }
+    if (!s->scan_targets.empty()) {
+      s->builder->AddGroup(std::make_unique<ScanTargetGroup>(&*s->joint, scaled(kScanTargets, Without(s->scan_targets, excluded(kScanTargets))),
+                                                             &s->scan_from_world, l.loss, kScanTargets));
     }
     std::vector<Rigid3d*> poses;
     std::vector<Rigid3d> priors;
@@ -1071,6 +1076,7 @@ std::string DescribeObservation(const JointState& s, const FactorGroup& group, s
     return "a point of scan " + s.scans[p.from].name + " on scan " + s.scans[p.to].name;
   }
   if (name == kScanPrior) return "registration of scan " + s.scans[index].name;
+  if (name == kScanTargets) return "target " + s.scan_targets[index].point_id + " in scan " + s.scans[s.scan_targets[index].scan].name;
   if (const auto* sg = dynamic_cast<const survey::SurveyGroup*>(&group)) {
     const survey::BlockSpec& spec = sg->added_specs()[block];
     const survey::Cluster& c = s.joint->clusters[spec.cluster];

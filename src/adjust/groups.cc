@@ -208,6 +208,22 @@ struct ScanToScanCost {
   Eigen::Vector3d p, n, q;
 };
 
+/// (scan_from_world·X − x)/σ with X = (east, north) block and up block of a survey point.
+struct ScanTargetCost {
+  ScanTargetCost(const Eigen::Vector3d& measured, double sigma) : x(measured), w(1 / sigma) {}
+  template <typename T>
+  bool operator()(const T* q_sw, const T* t_sw, const T* en, const T* up, T* r) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> rotation(q_sw);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> translation(t_sw);
+    const Eigen::Matrix<T, 3, 1> world(en[0], en[1], up[0]);
+    const Eigen::Matrix<T, 3, 1> d = rotation * world + translation - x.cast<T>();
+    for (int k = 0; k < 3; ++k) r[k] = d[k] * T(w);
+    return true;
+  }
+  Eigen::Vector3d x;
+  double w;
+};
+
 class ScalarPriorCost : public ceres::SizedCostFunction<1, 3> {
  public:
   ScalarPriorCost(int index, double prior, double sigma) : index_(index), prior_(prior), sigma_(sigma) {}
@@ -464,6 +480,25 @@ void LidarSurfaceGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
              new ceres::AutoDiffCostFunction<ScanPointToPlaneCost, 1, 4, 3, 3>(
                  new ScanPointToPlaneCost(plane.normal, plane.point, plane.sigma_m)),
              {pose.rotation.coeffs().data(), pose.translation.data(), point}, plane.sigma_m, i);
+  }
+}
+
+ScanTargetGroup::ScanTargetGroup(survey::SurveyNetwork* network, std::vector<ScanTarget> targets,
+                                 std::vector<Rigid3d>* scan_from_world, LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "m", loss), network_(network), targets_(std::move(targets)), scan_from_world_(scan_from_world) {}
+
+void ScanTargetGroup::AddResiduals(Scene&, ceres::Problem& problem) {
+  for (size_t i = 0; i < targets_.size(); ++i) {
+    const ScanTarget& t = targets_[i];
+    survey::SurveyPoint* point = network_ ? network_->Find(t.point_id) : nullptr;
+    if (point == nullptr || t.scan >= scan_from_world_->size()) {
+      Skip();
+      continue;
+    }
+    Rigid3d& pose = (*scan_from_world_)[t.scan];
+    AddBlock(problem,
+             new ceres::AutoDiffCostFunction<ScanTargetCost, 3, 4, 3, 2, 1>(new ScanTargetCost(t.measured, t.sigma)),
+             {pose.rotation.coeffs().data(), pose.translation.data(), point->xy_block(), point->z_block()}, t.sigma, i);
   }
 }
 

@@ -132,6 +132,7 @@ struct JointState {
   std::vector<ScanBlock> scans;               ///< static scans adjusted (empty: reference cloud fixed)
   std::vector<Rigid3d> scan_from_world;       ///< one per scan, the parameter blocks
   std::vector<ScanPairPoint> scan_pairs;      ///< scan-to-scan associations
+  std::vector<ScanTarget> scan_targets;       ///< surveyed targets measured in the scans
   // Excluded by data snooping: group name → observation indices.
   std::map<std::string, std::set<size_t>> excluded;
   std::vector<Blunder> blunders;

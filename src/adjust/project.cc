@@ -147,6 +147,7 @@ class ProjectReader {
                     {"range_sigma_m", [&](Node v, Field g) { l.range_sigma_m = SigmaM(v, g, 0.5); }},
                     {"surface_sigma_m", [&](Node v, Field g) { l.surface_sigma_m = SigmaM(v, g, 0.5); }},
                     {"max_distance_m", [&](Node v, Field g) { l.max_distance_m = SigmaM(v, g, 10.0); }},
+                    {"targets", path(&l.targets, false)},
                     {"scan_sigma_m", [&](Node v, Field g) { l.scan_sigma_m = SigmaM(v, g, 10.0); }},
                     {"scan_sigma_deg", [&](Node v, Field g) { l.scan_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
                     {"scan_points", [&](Node v, Field g) {

@@ -9,6 +9,7 @@
 
 #include "internal.h"
 #include "mmba/core/error.h"
+#include "mmba/io/csv_table.h"
 
 namespace mmba::adjust::internal {
 
@@ -34,6 +35,35 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
     s->scan_from_world.push_back(scan.prior);
     s->scans.push_back(std::move(scan));
   }
+  if (l.targets.empty()) return;
+  if (!s->joint) {
+    s->warnings.push_back("lidar_static '" + l.id + "': targets " + l.targets + " not used (no total_station network)");
+    return;
+  }
+  const io::CsvTable table = io::CsvTable::Read(l.targets, {"scan", "point_id", "x_m", "y_m", "z_m", "sigma_m"});
+  size_t skipped = 0;
+  for (const io::CsvTable::Row& row : table.rows()) {
+    const std::string scan_name = table.String(row, "scan");
+    const auto scan = std::find_if(s->scans.begin(), s->scans.end(), [&](const ScanBlock& b) { return b.name == scan_name; });
+    if (scan == s->scans.end()) table.Fail(row, "scan", scan_name, "the name (file stem) of one of the lidar_static scans");
+    ScanTarget t;
+    t.scan = static_cast<size_t>(scan - s->scans.begin());
+    t.point_id = table.String(row, "point_id");
+    t.measured = Eigen::Vector3d(table.Double(row, "x_m"), table.Double(row, "y_m"), table.Double(row, "z_m"));
+    t.sigma = table.Double(row, "sigma_m");
+    if (!(t.sigma > 0)) table.Fail(row, "sigma_m", table.String(row, "sigma_m"), "a positive σ in metres");
+    t.source = l.targets + ":" + std::to_string(row.line);
+    // Only points the network determines; check points stay independent of the LiDAR.
+    const bool check = std::count(s->project->check_points.begin(), s->project->check_points.end(), t.point_id) > 0;
+    if (!s->surveyed_ids.count(t.point_id) || check) {
+      ++skipped;
+      continue;
+    }
+    s->scan_targets.push_back(t);
+  }
+  s->log.push_back("LiDAR targets " + l.targets + ": " + std::to_string(s->scan_targets.size()) + " measurements used (" +
+                   std::to_string(skipped) + " of check points or points the network does not determine left out)");
+  spdlog::info("adjust: {}", s->log.back());
 }
 
 bool FitSurfacePlane(const JointState& s, const Eigen::Vector3d& world, double gate, double sigma, SurfacePlane* plane) {

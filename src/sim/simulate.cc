@@ -694,6 +694,13 @@ void SimulateLidar(Context* c, const Trajectory& trajectory, const Rigid3d& body
   // cloud is built with these registrations, the truth keeps the true poses.
   internal::Rng registration_error(o.seed, 0x5CB);
   std::vector<Rigid3d> registrations;
+  // The surveyed targets each scan sees (in range, line of sight): their centres in the scan's
+  // frame as target-fitting software reports them, N(0, 2 mm) per axis.
+  internal::Rng target_noise(o.seed, 0x5CC);
+  std::ostringstream targets_csv;
+  targets_csv << "# mmba simulate: surveyed targets measured in the static scans (scan frame)\n"
+                 "scan,point_id,x_m,y_m,z_m,sigma_m\n";
+  size_t num_target_observations = 0;
   const double distance = std::max(5.0, 0.7 * c->framing.width);
   for (int s = 0; s < o.static_scans; ++s) {
     const double t = o.static_scans == 1 ? 0.5 : static_cast<double>(s) / (o.static_scans - 1);
@@ -705,6 +712,16 @@ void SimulateLidar(Context* c, const Trajectory& trajectory, const Rigid3d& body
     const std::string name = "scan_" + std::to_string(s + 1);
     const LidarScan scan = SimulateStaticScan(c->caster, c->scene, world_from_scan, o.static_scan, name, o.seed, o.threads);
     io::WritePly(scan.cloud, (c->out / "clouds" / "scans" / (name + ".ply")).string());
+    for (const ScenePoint& target : c->scene.targets) {
+      if (target.kind != "target") continue;
+      const Vector3d in_scan = world_from_scan.Inverse() * target.point_in_world;
+      if (in_scan.norm() < o.static_scan.noise.min_range_m || in_scan.norm() > o.static_scan.noise.max_range_m) continue;
+      if (!SeesPoint(c->caster, world_from_scan.translation, target.point_in_world)) continue;
+      const Vector3d measured = in_scan + Vector3d(target_noise.Normal(0.002), target_noise.Normal(0.002), target_noise.Normal(0.002));
+      targets_csv << name << "," << target.id << "," << Fmt(measured.x(), 5) << "," << Fmt(measured.y(), 5) << ","
+                  << Fmt(measured.z(), 5) << ",0.002\n";
+      ++num_target_observations;
+    }
     const Vector3d rotation_error(registration_error.Normal(0.015 * kDeg), registration_error.Normal(0.015 * kDeg),
                                   registration_error.Normal(0.015 * kDeg));
     const Vector3d position_error(registration_error.Normal(0.004), registration_error.Normal(0.004),
@@ -761,6 +778,12 @@ void SimulateLidar(Context* c, const Trajectory& trajectory, const Rigid3d& body
   }
   c->project_sensors << "    range_sigma_m: " << o.static_scan.noise.range_sigma_m << "\n"
                      << "    scan_sigma_m: 0.004  # the registrations' accuracy\n    scan_sigma_deg: 0.015\n";
+  if (num_target_observations > 0) {
+    fs::create_directories(c->out / "observations");
+    WriteText(c->out / "observations" / "scan_targets.csv", targets_csv.str());
+    c->project_sensors << "    targets: observations/scan_targets.csv  # " << num_target_observations
+                       << " surveyed targets measured in the scans\n";
+  }
   if (o.mobile_revolutions > 0) {
     c->project_sensors << "  - id: mls\n    type: lidar_mobile\n    cloud: clouds/mobile_lidar.ply\n"
                           "    trajectory: trajectory_ins.csv\n    calibration: calib/mobile_lidar.yaml\n"

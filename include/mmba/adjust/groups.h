@@ -196,6 +196,30 @@ class LidarSurfaceGroup : public FactorGroup {
   std::vector<Rigid3d>* scan_from_world_;
 };
 
+/// A surveyed target measured in a static scan (its centre in the scan's frame).
+struct ScanTarget {
+  size_t scan = 0;
+  std::string point_id;
+  Eigen::Vector3d measured = Eigen::Vector3d::Zero();
+  double sigma = 0.002;  ///< per axis [m]
+  std::string source;
+};
+
+/// LiDAR targets: (scan_from_world·X − x)/σ, X the survey point of the network (its east-north
+/// and up blocks), x the target's centre measured in the scan — the tie between the scans and
+/// the total-station control.
+class ScanTargetGroup : public FactorGroup {
+ public:
+  ScanTargetGroup(survey::SurveyNetwork* network, std::vector<ScanTarget> targets,
+                  std::vector<Rigid3d>* scan_from_world, LossOptions loss, std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+
+ private:
+  survey::SurveyNetwork* network_;
+  std::vector<ScanTarget> targets_;
+  std::vector<Rigid3d>* scan_from_world_;
+};
+
 /// A point of scan `from` (its own frame) on the local plane of scan `to` (that scan's frame).
 struct ScanPairPoint {
   size_t from = 0, to = 0;

@@ -79,6 +79,9 @@ struct LidarStatic {
   double scan_sigma_m = 0.01;         ///< σ of a scan's registration (prior on world_from_scan)
   double scan_sigma_deg = 0.05;
   int scan_points = 3000;             ///< points per scan sampled for scan-to-scan residuals
+  /// CSV scan,point_id,x_m,y_m,z_m,sigma_m: surveyed targets (total-station points) measured in
+  /// the scans' own frames (with adjusted scans).
+  std::string targets;
   LossOptions loss{LossType::kHuber, 3.0};
   bool AdjustsScans() const {
     return !scans.empty() && std::all_of(scans.begin(), scans.end(), [](const LidarScanFile& f) { return f.has_pose; });
