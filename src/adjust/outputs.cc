@@ -763,6 +763,16 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
       csv << s.scans[k].name << "," << centre.x() << "," << centre.y() << "," << centre.z() << "," << pose.rotation.w()
           << "," << pose.rotation.x() << "," << pose.rotation.y() << "," << pose.rotation.z() << "," << sigma.x() << ","
           << sigma.y() << "," << sigma.z() << "," << sigma_rotation << "," << dp << "," << dr << "\n";
+      // In the report's calibration tables: the scanner position and the rotation change.
+      const Eigen::Vector3d registered = CameraCentre(s.scans[k].prior);
+      json parameters = json::array();
+      const char* axes[3] = {"scanner east [m]", "scanner north [m]", "scanner up [m]"};
+      for (int a = 0; a < 3; ++a) {
+        parameters.push_back({{"name", axes[a]}, {"initial", registered[a]}, {"adjusted", centre[a]}, {"sigma", sigma[a]}});
+      }
+      parameters.push_back({{"name", "rotation change [deg]"}, {"initial", 0.0}, {"adjusted", dr}, {"sigma", sigma_rotation}});
+      calibrations.push_back({{"name", "static scan " + s.scans[k].name + " (world_from_scan; initial = the registration)"},
+                              {"parameters", parameters}});
       scans.push_back({{"name", s.scans[k].name}, {"file", s.scans[k].file}, {"position_m", Vec(centre)},
                        {"sigma_position_m", Vec(sigma)}, {"sigma_rotation_deg", sigma_rotation},
                        {"position_correction_m", dp}, {"rotation_correction_deg", dr}});
