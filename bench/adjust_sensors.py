@@ -31,6 +31,9 @@ def variant(name, drop_types=(), settings=None):
         p.pop("check_points", None)
         for s in p["sensors"]:
             s.pop("control_measurements", None)
+    if "camera_rig" in drop_types:  # the mobile LiDAR then has no rig: body_from_lidar held
+        for s in p["sensors"]:
+            s.pop("rig", None)
     if settings:
         p["adjustment"] = settings
     path = os.path.join(sim, f"project_{name}.yaml")
