@@ -841,7 +841,8 @@ void BuildProblem(JointState* s) {
     }
     if (!m.points.empty()) {
       s->builder->AddGroup(std::make_unique<MobileLidarGroup>(scaled(kMobile, Without(m.points, excluded(kMobile))), &m.nodes,
-                                                              &m.vehicle_from_lidar, m.body_from_vehicle, mc.loss, kMobile));
+                                                              &m.vehicle_from_lidar, m.body_from_vehicle, mc.loss, kMobile,
+                                                              &s->scan_from_world));
     }
     if (m.with_rig && mc.extrinsic == "weighted") {
       s->builder->AddGroup(std::make_unique<PosePriorGroup>(

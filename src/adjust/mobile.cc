@@ -143,14 +143,8 @@ size_t AssociateMobile(JointState* s, double gate) {
     const Eigen::Vector3d world = world_from_body * (body_from_lidar * m.sample_lidar[k]);
     SurfacePlane plane;
     if (!FitSurfacePlane(*s, world, gate, sigma, &plane)) continue;
-    if (plane.scan >= 0) {
-      // An adjusted scan's plane, taken into the world at the scan's current pose (held for
-      // this outer iteration; re-associated in the next).
-      const Rigid3d world_from_scan = s->scan_from_world[plane.scan].Inverse();
-      plane.normal = world_from_scan.rotation * plane.normal;
-      plane.point = world_from_scan * plane.point;
-    }
     MobilePoint p;
+    p.scan = plane.scan;  // an adjusted scan's plane stays in its frame; its pose is a block
     p.point_lidar = m.sample_lidar[k];
     p.weight = m.sample_weight[k];
     p.ins = m.sample_ins[k];

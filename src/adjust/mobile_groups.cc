@@ -33,19 +33,38 @@ Eigen::Matrix<T, 3, 1> CorrectedWorldPoint(const T* a, const T* b, double alpha,
 
 struct MobilePointCost {
   MobilePointCost(const MobilePoint& p, const Rigid3d& body_from_vehicle) : p(p), body_from_vehicle(body_from_vehicle) {}
+  /// The point in the world through the corrected trajectory (nodes a, b) and the extrinsic.
   template <typename T>
-  bool operator()(const T* a, const T* b, const T* q, const T* t, T* r) const {
+  Eigen::Matrix<T, 3, 1> World(const T* a, const T* b, const T* q, const T* t) const {
     const Eigen::Map<const Eigen::Quaternion<T>> rotation(q);
     const Eigen::Map<const Eigen::Matrix<T, 3, 1>> translation(t);
     const Eigen::Matrix<T, 3, 1> in_vehicle = rotation * p.point_lidar.cast<T>() + translation;
     const Eigen::Matrix<T, 3, 1> in_body =
         body_from_vehicle.rotation.cast<T>() * in_vehicle + body_from_vehicle.translation.cast<T>();
-    const Eigen::Matrix<T, 3, 1> world = CorrectedWorldPoint(a, b, p.weight.alpha, p.ins, in_body);
-    r[0] = p.normal.cast<T>().dot(world - p.plane_point.cast<T>()) / T(p.sigma_m);
+    return CorrectedWorldPoint(a, b, p.weight.alpha, p.ins, in_body);
+  }
+  template <typename T>
+  bool operator()(const T* a, const T* b, const T* q, const T* t, T* r) const {
+    r[0] = p.normal.cast<T>().dot(World(a, b, q, t) - p.plane_point.cast<T>()) / T(p.sigma_m);
     return true;
   }
   MobilePoint p;
   Rigid3d body_from_vehicle;
+};
+
+/// The same on an adjusted scan's plane (in the scan's frame): n·(S·world − q)/σ, S =
+/// scan_from_world a parameter block.
+struct MobileScanPointCost {
+  MobileScanPointCost(const MobilePoint& p, const Rigid3d& body_from_vehicle) : point(p, body_from_vehicle) {}
+  template <typename T>
+  bool operator()(const T* a, const T* b, const T* q, const T* t, const T* q_sw, const T* t_sw, T* r) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> rotation(q_sw);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> translation(t_sw);
+    const Eigen::Matrix<T, 3, 1> in_scan = rotation * point.World(a, b, q, t) + translation;
+    r[0] = point.p.normal.cast<T>().dot(in_scan - point.p.plane_point.cast<T>()) / T(point.p.sigma_m);
+    return true;
+  }
+  MobilePointCost point;
 };
 
 struct NodePriorCost {
@@ -145,16 +164,32 @@ Rigid3d CorrectedPose(const std::vector<TrajectoryNode>& nodes, const NodeWeight
 
 MobileLidarGroup::MobileLidarGroup(std::vector<MobilePoint> points, std::vector<TrajectoryNode>* nodes,
                                    Rigid3d* vehicle_from_lidar, const Rigid3d& body_from_vehicle, LossOptions loss,
-                                   std::string name)
+                                   std::string name, std::vector<Rigid3d>* scan_from_world)
     : FactorGroup(std::move(name), "m", loss),
       points_(std::move(points)),
       nodes_(nodes),
       vehicle_from_lidar_(vehicle_from_lidar),
-      body_from_vehicle_(body_from_vehicle) {}
+      body_from_vehicle_(body_from_vehicle),
+      scan_from_world_(scan_from_world) {}
 
 void MobileLidarGroup::AddResiduals(Scene&, ceres::Problem& problem) {
   for (size_t i = 0; i < points_.size(); ++i) {
     const MobilePoint& p = points_[i];
+    if (p.scan >= 0) {
+      if (!scan_from_world_ || static_cast<size_t>(p.scan) >= scan_from_world_->size()) {
+        Skip();
+        continue;
+      }
+      Rigid3d& scan = (*scan_from_world_)[p.scan];
+      AddBlock(problem,
+               new ceres::AutoDiffCostFunction<MobileScanPointCost, 1, 6, 6, 4, 3, 4, 3>(
+                   new MobileScanPointCost(p, body_from_vehicle_)),
+               {(*nodes_)[p.weight.node].correction, (*nodes_)[p.weight.node + 1].correction,
+                vehicle_from_lidar_->rotation.coeffs().data(), vehicle_from_lidar_->translation.data(),
+                scan.rotation.coeffs().data(), scan.translation.data()},
+               p.sigma_m, i);
+      continue;
+    }
     auto* cost = new ceres::AutoDiffCostFunction<MobilePointCost, 1, 6, 6, 4, 3>(new MobilePointCost(p, body_from_vehicle_));
     AddBlock(problem, cost,
              {(*nodes_)[p.weight.node].correction, (*nodes_)[p.weight.node + 1].correction,

@@ -731,7 +731,8 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     for (const MobilePoint& p : m.points) {
       const Eigen::Vector3d world = CorrectedPose(m.nodes, p.weight, p.ins) * (body_from_lidar * p.point_lidar);
       error_map.points.push_back(world);
-      error_map.intensity.push_back(static_cast<float>(p.normal.dot(world - p.plane_point)));
+      const Eigen::Vector3d on_plane = p.scan < 0 ? world : s.scan_from_world[p.scan] * world;
+      error_map.intensity.push_back(static_cast<float>(p.normal.dot(on_plane - p.plane_point)));
     }
     io::WritePly(error_map, (stage / ("error_map_" + m.config->id + ".ply")).string());
     report["mobile_lidar"] = {{"sensor", m.config->id}, {"points", m.cloud.size()}, {"used", m.sample.size()},

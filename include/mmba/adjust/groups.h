@@ -306,14 +306,17 @@ struct MobilePoint {
   Eigen::Vector3d plane_point = Eigen::Vector3d::Zero();
   double sigma_m = 0.005;
   size_t source = 0;  ///< index of the point in the delivered cloud
+  int scan = -1;      ///< −1: plane in the world (reference cloud); else an adjusted scan's plane in its frame
 };
 
 class MobileLidarGroup : public FactorGroup {
  public:
   /// `vehicle_from_lidar` is the estimated extrinsic (the rig frame when a rig shares the
   /// vehicle, else the body); `body_from_vehicle` is constant.
+  /// A point on an adjusted scan's plane (`scan` ≥ 0) has that scan's pose as a block too.
   MobileLidarGroup(std::vector<MobilePoint> points, std::vector<TrajectoryNode>* nodes, Rigid3d* vehicle_from_lidar,
-                   const Rigid3d& body_from_vehicle, LossOptions loss, std::string name);
+                   const Rigid3d& body_from_vehicle, LossOptions loss, std::string name,
+                   std::vector<Rigid3d>* scan_from_world = nullptr);
   void AddResiduals(Scene& scene, ceres::Problem& problem) override;
   const std::vector<MobilePoint>& points() const { return points_; }
 
@@ -322,6 +325,7 @@ class MobileLidarGroup : public FactorGroup {
   std::vector<TrajectoryNode>* nodes_;
   Rigid3d* vehicle_from_lidar_;
   Rigid3d body_from_vehicle_;
+  std::vector<Rigid3d>* scan_from_world_;
 };
 
 /// The GNSS/INS prior on the nodes' corrections c = (ω, δ): the trajectory as delivered. The
