@@ -49,11 +49,15 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
     ScanTarget t;
     t.scan = static_cast<size_t>(scan - s->scans.begin());
     t.point_id = table.String(row, "point_id");
+    if (s->joint->Find(t.point_id) == nullptr) {
+      table.Fail(row, "point_id", t.point_id, "a point of the total-station network");
+    }
     t.measured = Eigen::Vector3d(table.Double(row, "x_m"), table.Double(row, "y_m"), table.Double(row, "z_m"));
     t.sigma = table.Double(row, "sigma_m");
     if (!(t.sigma > 0)) table.Fail(row, "sigma_m", table.String(row, "sigma_m"), "a positive σ in metres");
     t.source = l.targets + ":" + std::to_string(row.line);
-    // Only points the network determines; check points stay independent of the LiDAR.
+    // Only points the network determines (a point without observations has approximate
+    // coordinates only); check points stay independent of the LiDAR.
     const bool check = std::count(s->project->check_points.begin(), s->project->check_points.end(), t.point_id) > 0;
     if (!s->surveyed_ids.count(t.point_id) || check) {
       ++skipped;
@@ -62,7 +66,7 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
     s->scan_targets.push_back(t);
   }
   s->log.push_back("LiDAR targets " + l.targets + ": " + std::to_string(s->scan_targets.size()) + " measurements used (" +
-                   std::to_string(skipped) + " of check points or points the network does not determine left out)");
+                   std::to_string(skipped) + " of check points or of points without total-station observations left out)");
   spdlog::info("adjust: {}", s->log.back());
 }
 

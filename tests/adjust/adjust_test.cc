@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "mmba/core/error.h"
 #include "mmba/core/logging.h"
 #include "mmba/sim/simulate.h"
 #include "test_support.h"
@@ -116,6 +117,9 @@ TEST_F(AdjustTest, RecoversTheSimulatedSurvey) {
   ASSERT_TRUE(r.contains("static_scans"));
   EXPECT_EQ(r["static_scans"]["scans"].size(), 2u);
   EXPECT_GT(r["static_scans"]["scan_to_scan_pairs"].get<int>(), 100);
+  bool targets = false;  // the simulator measures the surveyed targets in the scans
+  for (const json& g : r["groups"]) targets = targets || (g["name"] == "LiDAR: targets in the scans" && g["observations"].get<int>() > 0);
+  EXPECT_TRUE(targets) << r["groups"].dump(1);
   EXPECT_LT(truth["static_scans"]["max_position_m"].get<double>(), 0.02);
   EXPECT_LT(truth["static_scans"]["max_rotation_deg"].get<double>(), 0.05);
   for (const char* f : {"report.html", "report.json", "poses.csv", "points.csv", "observations.csv",
@@ -240,6 +244,28 @@ TEST_F(AdjustTest, FailureKeepsTheEarlierOutput) {
   EXPECT_NE(outcome.reason.find("no overlap"), std::string::npos) << outcome.reason;
   EXPECT_EQ(ReadText(dir / "out" / "marker.txt"), "earlier good output\n");
   EXPECT_FALSE(fs::exists(dir / "out" / "report.json"));
+}
+
+// A LiDAR target naming a point the network does not have: one input error naming the file,
+// line, column and value; nothing written.
+TEST_F(AdjustTest, UnknownTargetInAScanIsAnInputError) {
+  const fs::path sim = Root() / "sim", out = Root() / "badtarget_out";
+  std::string project = ReadText(sim / "project.yaml");
+  const size_t at = project.find("observations/scan_targets.csv");
+  ASSERT_NE(at, std::string::npos);
+  project.replace(at, std::string("observations/scan_targets.csv").size(), "observations/bad_targets.csv");
+  std::ofstream(sim / "project_badtarget.yaml") << project;
+  std::ofstream(sim / "observations" / "bad_targets.csv") << "scan,point_id,x_m,y_m,z_m,sigma_m\nscan_1,NOSUCH,1,2,3,0.002\n";
+  try {
+    Run((sim / "project_badtarget.yaml").string(), out.string());
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("bad_targets.csv"), std::string::npos) << message;
+    EXPECT_NE(message.find("point_id"), std::string::npos) << message;
+    EXPECT_NE(message.find("NOSUCH"), std::string::npos) << message;
+  }
+  EXPECT_FALSE(fs::exists(out));
 }
 
 }  // namespace
