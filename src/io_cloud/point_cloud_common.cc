@@ -101,6 +101,33 @@ PointCloud ReadPointCloud(const std::string& path, const ReadOptions& options,
                    "one of .ply .pcd .las .bin .xyz .txt .csv .pts");
 }
 
+void StreamPointCloud(const std::string& path, size_t chunk_points, const ChunkConsumer& consume,
+                      const ReadOptions& options, ReadStats* stats) {
+  chunk_points = std::max<size_t>(1, chunk_points);
+  if (ToLower(std::filesystem::path(path).extension().string()) == ".ply" &&
+      internal::StreamBinaryPly(path, chunk_points, consume, options, stats)) {
+    return;
+  }
+  const PointCloud cloud = ReadPointCloud(path, options, stats);
+  PointCloud chunk;
+  for (size_t first = 0; first < cloud.size(); first += chunk_points) {
+    const size_t end = std::min(cloud.size(), first + chunk_points);
+    const auto slice = [&](const auto& v, auto* out) {
+      if (v.empty()) {
+        out->clear();
+      } else {
+        out->assign(v.begin() + static_cast<std::ptrdiff_t>(first), v.begin() + static_cast<std::ptrdiff_t>(end));
+      }
+    };
+    slice(cloud.points, &chunk.points);
+    slice(cloud.normals, &chunk.normals);
+    slice(cloud.intensity, &chunk.intensity);
+    slice(cloud.colors, &chunk.colors);
+    slice(cloud.time, &chunk.time);
+    consume(chunk, first, cloud.size());
+  }
+}
+
 // ---------------------------------------------------------------------------------------
 // XYZ text.
 

@@ -36,6 +36,9 @@ class CloudBuilder {
   CloudBuilder(const std::string& file, const ReadOptions& options, bool normals,
                bool intensity, bool colors, size_t reserve, bool time = false);
 
+  /// Index of the next point in the whole file (a streamed chunk starts past 0).
+  void SetFirstIndex(size_t index) { seen_ = index; }
+
   /// Returns false if the point was skipped. `describe_location()` gives the error prefix.
   template <typename Describe>
   bool Add(const double xyz[3], const double* normal, float intensity, const uint8_t* rgb,
@@ -79,5 +82,11 @@ class CloudBuilder {
 };
 
 std::string ToLower(std::string_view s);
+
+/// Streams a binary PLY from disk chunk by chunk (StreamPointCloud). Returns false, having
+/// read nothing, when the file is not a binary PLY whose records up to the vertices have a
+/// fixed size (the caller then reads it whole).
+bool StreamBinaryPly(const std::string& path, size_t chunk_points, const ChunkConsumer& consume,
+                     const ReadOptions& options, ReadStats* stats);
 
 }  // namespace mmba::io::internal

@@ -3,6 +3,7 @@
 // Scanning Repository.
 
 #include <algorithm>
+#include <fstream>
 #include <iomanip>
 #include <limits>
 #include <sstream>
@@ -101,21 +102,28 @@ uint8_t ColorByte(double v, ScalarType type) {
   }
 }
 
-}  // namespace
+// The parsed header: format, elements, where the data start, how many lines the header has,
+// and which element holds the vertices.
+struct PlyHeader {
+  PlyFormat format = PlyFormat::kAscii;
+  std::vector<PlyElement> elements;
+  size_t header_end = 0;
+  int64_t header_lines = 0;
+  size_t vertex_index = 0;
+};
 
-PointCloud ReadPly(const std::string& path) { return ReadPly(path, {}); }
-
-PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStats* stats) {
-  const std::string data = ReadWholeFile(path);
-  // --- header
+// Parses the header at the start of `data` (the whole file or a prefix ending after
+// end_header).
+PlyHeader ParsePlyHeader(const std::string& path, std::string_view data) {
+  PlyHeader header;
   LineCursor cursor(data);
   std::string_view line;
   if (!cursor.Next(&line) || line != "ply") {
     throw InputError(path, 1, "magic", std::string(line.substr(0, 16)), "'ply'");
   }
-  PlyFormat format = PlyFormat::kAscii;
+  PlyFormat& format = header.format;
   bool have_format = false;
-  std::vector<PlyElement> elements;
+  std::vector<PlyElement>& elements = header.elements;
   size_t header_end = std::string::npos;
   while (cursor.Next(&line)) {
     TokenLine t(path, cursor.line_number(), line);
@@ -170,6 +178,8 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
   if (header_end == std::string::npos) {
     throw InputError::Message(path, "PLY header has no 'end_header' line (truncated file?)");
   }
+  header.header_end = header_end;
+  header.header_lines = cursor.line_number();
   size_t vertex_index = elements.size();
   for (size_t i = 0; i < elements.size(); ++i) {
     if (elements[i].name == "vertex") {
@@ -180,7 +190,12 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
   if (vertex_index == elements.size()) {
     throw InputError::Message(path, "PLY header declares no 'vertex' element");
   }
-  const PlyElement& vertex = elements[vertex_index];
+  header.vertex_index = vertex_index;
+  return header;
+}
+
+// The vertex layout of a header, with x, y, z required.
+VertexLayout RequireXyz(const std::string& path, const PlyElement& vertex) {
   const VertexLayout layout = FindVertexLayout(vertex);
   for (int k = 0; k < 3; ++k) {
     if (layout.xyz[k] < 0) {
@@ -188,32 +203,55 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
                        "vertex properties x, y and z (scalar)");
     }
   }
+  return layout;
+}
+
+// Hands one vertex's property values to the builder.
+template <typename Describe>
+void EmitVertex(const VertexLayout& layout, const PlyElement& vertex, const std::vector<double>& values,
+                CloudBuilder* builder, Describe describe) {
   const bool normals = layout.normal[0] >= 0 && layout.normal[1] >= 0 && layout.normal[2] >= 0;
   const bool colors = layout.rgb[0] >= 0 && layout.rgb[1] >= 0 && layout.rgb[2] >= 0;
-  const bool intensity = layout.intensity >= 0;
-  const bool time = layout.time >= 0;
-  CloudBuilder builder(path, options, normals, intensity, colors, vertex.count, time);
-  std::vector<double> values(vertex.properties.size());
+  double xyz[3], n[3];
+  uint8_t rgb[3] = {0, 0, 0};
+  for (int k = 0; k < 3; ++k) xyz[k] = values[layout.xyz[k]];
+  if (normals) {
+    for (int k = 0; k < 3; ++k) n[k] = values[layout.normal[k]];
+  }
+  if (colors) {
+    for (int k = 0; k < 3; ++k) rgb[k] = ColorByte(values[layout.rgb[k]], vertex.properties[layout.rgb[k]].type);
+  }
+  const float inten = layout.intensity >= 0 ? static_cast<float>(values[layout.intensity]) : 0.0f;
+  builder->Add(xyz, normals ? n : nullptr, inten, rgb, describe, layout.time >= 0 ? values[layout.time] : 0.0);
+}
 
-  auto emit = [&](auto describe) {
-    double xyz[3], n[3];
-    uint8_t rgb[3] = {0, 0, 0};
-    for (int k = 0; k < 3; ++k) xyz[k] = values[layout.xyz[k]];
-    if (normals) {
-      for (int k = 0; k < 3; ++k) n[k] = values[layout.normal[k]];
-    }
-    if (colors) {
-      for (int k = 0; k < 3; ++k) {
-        rgb[k] = ColorByte(values[layout.rgb[k]], vertex.properties[layout.rgb[k]].type);
-      }
-    }
-    const float inten = intensity ? static_cast<float>(values[layout.intensity]) : 0.0f;
-    builder.Add(xyz, normals ? n : nullptr, inten, rgb, describe, time ? values[layout.time] : 0.0);
-  };
+CloudBuilder MakeBuilder(const std::string& path, const ReadOptions& options, const VertexLayout& layout,
+                         size_t reserve) {
+  return CloudBuilder(path, options, layout.normal[0] >= 0 && layout.normal[1] >= 0 && layout.normal[2] >= 0,
+                      layout.intensity >= 0, layout.rgb[0] >= 0 && layout.rgb[1] >= 0 && layout.rgb[2] >= 0,
+                      reserve, layout.time >= 0);
+}
+
+}  // namespace
+
+PointCloud ReadPly(const std::string& path) { return ReadPly(path, {}); }
+
+PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStats* stats) {
+  const std::string data = ReadWholeFile(path);
+  const PlyHeader header = ParsePlyHeader(path, data);
+  const PlyFormat format = header.format;
+  const std::vector<PlyElement>& elements = header.elements;
+  const size_t header_end = header.header_end;
+  const size_t vertex_index = header.vertex_index;
+  const PlyElement& vertex = elements[vertex_index];
+  const VertexLayout layout = RequireXyz(path, vertex);
+  CloudBuilder builder = MakeBuilder(path, options, layout, vertex.count);
+  std::vector<double> values(vertex.properties.size());
+  auto emit = [&](auto describe) { EmitVertex(layout, vertex, values, &builder, describe); };
 
   if (format == PlyFormat::kAscii) {
     LineCursor body(std::string_view(data).substr(header_end));
-    const int64_t line_offset = cursor.line_number();
+    const int64_t line_offset = header.header_lines;
     std::string_view l;
     for (size_t e = 0; e <= vertex_index; ++e) {
       const PlyElement& element = elements[e];
@@ -307,6 +345,116 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
   return builder.Finish(file_le ? "ply-binary-le" : "ply-binary-be", stats);
 }
 
+namespace internal {
+
+bool StreamBinaryPly(const std::string& path, size_t chunk_points, const ChunkConsumer& consume,
+                     const ReadOptions& options, ReadStats* stats) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;  // the whole-file reader names the error
+  // The header, line by line up to end_header (bounded: a header is a few hundred bytes).
+  std::string header_text, line;
+  while (header_text.size() < (1u << 20) && std::getline(in, line)) {
+    header_text += line;
+    header_text += '\n';
+    if (line == "end_header" || line == "end_header\r") break;
+  }
+  if (!in) return false;
+  const PlyHeader header = ParsePlyHeader(path, header_text);
+  if (header.format == PlyFormat::kAscii) return false;
+  const bool swap = (header.format == PlyFormat::kBinaryLe) != HostIsLittleEndian();
+  size_t pos = static_cast<size_t>(in.tellg());
+  // Elements before the vertices must have fixed-size records to be skipped.
+  for (size_t e = 0; e <= header.vertex_index; ++e) {
+    size_t stride = 0;
+    for (const PlyProperty& p : header.elements[e].properties) {
+      if (p.is_list) return false;
+      stride += ScalarSize(p.type);
+    }
+    if (e < header.vertex_index) pos += stride * header.elements[e].count;
+  }
+  const PlyElement& vertex = header.elements[header.vertex_index];
+  const VertexLayout layout = RequireXyz(path, vertex);
+  size_t stride = 0;
+  std::vector<size_t> offset;
+  for (const PlyProperty& p : vertex.properties) {
+    offset.push_back(stride);
+    stride += ScalarSize(p.type);
+  }
+  in.seekg(static_cast<std::streamoff>(pos));
+  chunk_points = std::max<size_t>(1, chunk_points);
+  std::vector<char> buffer;
+  std::vector<double> values(vertex.properties.size());
+  size_t read = 0, skipped = 0;
+  for (uint64_t first = 0; first < vertex.count; first += chunk_points) {
+    const size_t count = static_cast<size_t>(std::min<uint64_t>(chunk_points, vertex.count - first));
+    buffer.resize(count * stride);
+    in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
+    if (static_cast<size_t>(in.gcount()) != buffer.size()) {
+      throw InputError::AtByte(path, pos + static_cast<size_t>(std::max<std::streamsize>(0, in.gcount())), vertex.name + " element",
+                               "end of file", std::to_string(buffer.size()) + " bytes for points " + std::to_string(first) +
+                                                  "–" + std::to_string(first + count - 1) + " (truncated file?)");
+    }
+    CloudBuilder builder = MakeBuilder(path, options, layout, count);
+    builder.SetFirstIndex(static_cast<size_t>(first));
+    for (size_t i = 0; i < count; ++i) {
+      const char* record = buffer.data() + i * stride;
+      for (size_t p = 0; p < values.size(); ++p) values[p] = ReadScalar(record + offset[p], vertex.properties[p].type, swap);
+      const size_t at = pos + i * stride;
+      EmitVertex(layout, vertex, values, &builder, [&] { return path + " (byte " + std::to_string(at) + ")"; });
+    }
+    ReadStats chunk_stats;
+    const PointCloud chunk = builder.Finish("", &chunk_stats);
+    read += chunk_stats.num_read;
+    skipped += chunk_stats.num_skipped;
+    pos += buffer.size();
+    consume(chunk, static_cast<size_t>(first), static_cast<size_t>(vertex.count));
+  }
+  if (stats != nullptr) {
+    stats->format = header.format == PlyFormat::kBinaryLe ? "ply-binary-le" : "ply-binary-be";
+    stats->num_read = read;
+    stats->num_skipped = skipped;
+  }
+  return true;
+}
+
+}  // namespace internal
+
+namespace {
+
+void WriteHeader(std::ostream& out, size_t n, const PointCloud& like, const char* format) {
+  out << "ply\nformat " << format << " 1.0\ncomment written by mmba\nelement vertex " << n
+      << "\nproperty double x\nproperty double y\nproperty double z\n";
+  if (like.has_normals()) out << "property float nx\nproperty float ny\nproperty float nz\n";
+  if (like.has_intensity()) out << "property float intensity\n";
+  if (like.has_colors()) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  if (like.has_time()) out << "property double time\n";
+  out << "end_header\n";
+}
+
+}  // namespace
+
+void WritePlyHeader(std::ostream& out, size_t n, const PointCloud& like) {
+  WriteHeader(out, n, like, internal::HostIsLittleEndian() ? "binary_little_endian" : "binary_big_endian");
+}
+
+void AppendPlyRecords(std::ostream& out, const PointCloud& cloud) {
+  std::string record;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    record.clear();
+    auto put = [&record](const void* v, size_t size) { record.append(static_cast<const char*>(v), size); };
+    put(cloud.points[i].data(), 3 * sizeof(double));
+    if (cloud.has_normals()) {
+      const float nf[3] = {static_cast<float>(cloud.normals[i].x()), static_cast<float>(cloud.normals[i].y()),
+                           static_cast<float>(cloud.normals[i].z())};
+      put(nf, sizeof(nf));
+    }
+    if (cloud.has_intensity()) put(&cloud.intensity[i], sizeof(float));
+    if (cloud.has_colors()) put(cloud.colors[i].data(), 3);
+    if (cloud.has_time()) put(&cloud.time[i], sizeof(double));
+    out.write(record.data(), static_cast<std::streamsize>(record.size()));
+  }
+}
+
 void WritePly(const PointCloud& cloud, const std::string& path, bool ascii) {
   const size_t n = cloud.size();
   auto check = [&](size_t size, const char* what) {
@@ -320,22 +468,16 @@ void WritePly(const PointCloud& cloud, const std::string& path, bool ascii) {
   check(cloud.intensity.size(), "intensity");
   check(cloud.colors.size(), "colors");
   check(cloud.time.size(), "time");
-  const bool little = internal::HostIsLittleEndian();
   WriteFileAtomically(
       path,
       [&](std::ostream& out) {
-        out << "ply\nformat "
-            << (ascii ? "ascii" : (little ? "binary_little_endian" : "binary_big_endian"))
-            << " 1.0\ncomment written by mmba\nelement vertex " << n
-            << "\nproperty double x\nproperty double y\nproperty double z\n";
-        if (cloud.has_normals()) out << "property float nx\nproperty float ny\nproperty float nz\n";
-        if (cloud.has_intensity()) out << "property float intensity\n";
-        if (cloud.has_colors()) {
-          out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+        if (!ascii) {
+          WritePlyHeader(out, n, cloud);
+          AppendPlyRecords(out, cloud);
+          return;
         }
-        if (cloud.has_time()) out << "property double time\n";
-        out << "end_header\n";
-        if (ascii) {
+        WriteHeader(out, n, cloud, "ascii");
+        {
           out << std::setprecision(17);
           for (size_t i = 0; i < n; ++i) {
             const auto& p = cloud.points[i];
@@ -356,24 +498,6 @@ void WritePly(const PointCloud& cloud, const std::string& path, bool ascii) {
             out << '\n';
           }
           return;
-        }
-        std::string record;
-        for (size_t i = 0; i < n; ++i) {
-          record.clear();
-          auto put = [&record](const void* v, size_t size) {
-            record.append(static_cast<const char*>(v), size);
-          };
-          put(cloud.points[i].data(), 3 * sizeof(double));
-          if (cloud.has_normals()) {
-            const float nf[3] = {static_cast<float>(cloud.normals[i].x()),
-                                 static_cast<float>(cloud.normals[i].y()),
-                                 static_cast<float>(cloud.normals[i].z())};
-            put(nf, sizeof(nf));
-          }
-          if (cloud.has_intensity()) put(&cloud.intensity[i], sizeof(float));
-          if (cloud.has_colors()) put(cloud.colors[i].data(), 3);
-          if (cloud.has_time()) put(&cloud.time[i], sizeof(double));
-          out.write(record.data(), static_cast<std::streamsize>(record.size()));
         }
       },
       /*binary=*/true);

@@ -20,6 +20,8 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
+#include <ostream>
 #include <string>
 #include <vector>
 
@@ -80,6 +82,23 @@ PointCloud ReadLas(const std::string& path, const ReadOptions& options = {},
                    ReadStats* stats = nullptr);
 PointCloud ReadKittiBin(const std::string& path, const ReadOptions& options = {},
                         ReadStats* stats = nullptr);
+
+/// Called with consecutive chunks of a cloud: `first_index` is the index of the chunk's first
+/// point in the file, `total` the number of points the file declares.
+using ChunkConsumer = std::function<void(const PointCloud& chunk, size_t first_index, size_t total)>;
+
+/// Reads a cloud in chunks of at most `chunk_points` points, in file order. Binary PLY with a
+/// fixed-size vertex record is read from disk one chunk at a time (memory bounded by the
+/// chunk, whatever the file's size); every other format is read whole first and then handed
+/// over in chunks. Same errors as ReadPointCloud; `stats` as for the whole file.
+void StreamPointCloud(const std::string& path, size_t chunk_points, const ChunkConsumer& consume,
+                      const ReadOptions& options = {}, ReadStats* stats = nullptr);
+
+/// The PLY header WritePly writes for `n` points with the attributes `like` has (its points
+/// are not written), and the binary records of `chunk`: a cloud written in pieces is
+/// WritePlyHeader(out, n, like) followed by AppendPlyRecords(out, chunk) for chunks totalling n.
+void WritePlyHeader(std::ostream& out, size_t n, const PointCloud& like);
+void AppendPlyRecords(std::ostream& out, const PointCloud& chunk);
 
 /// Writes PLY (binary little endian unless `ascii`), with every attribute the cloud has,
 /// atomically (temp + rename). Coordinates are written as `double x y z` (survey
