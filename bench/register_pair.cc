@@ -77,7 +77,9 @@ int main(int argc, char** argv) {
     std::printf("  hypothesis %-32s fitness %.3f normals %.3f conflict %.3f score %.3f\n",
                 h.origin.c_str(), h.fitness, h.normal_agreement, h.conflict, h.score);
   }
-  for (const auto& s : r.runtime) std::printf("  %-22s %8.3f s\n", s.stage.c_str(), s.seconds);
+  for (const auto& s : r.runtime) {
+    std::printf("  %-22s %8.3f s wall %8.3f s CPU\n", s.stage.c_str(), s.seconds, s.cpu_seconds);
+  }
   const double cpu_s = usage.ru_utime.tv_sec + usage.ru_utime.tv_usec * 1e-6 +
                       usage.ru_stime.tv_sec + usage.ru_stime.tv_usec * 1e-6;
   std::printf("wall %.3f s, CPU %.3f s, peak RSS %.1f MiB\n", wall.ElapsedSeconds(), cpu_s,

@@ -23,6 +23,13 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
     total += stage.seconds;
   }
   runtime["total"] = total;
+  nlohmann::ordered_json cpu = nlohmann::ordered_json::object();
+  double cpu_total = 0.0;
+  for (const auto& stage : result.runtime) {
+    cpu[stage.stage] = stage.cpu_seconds;
+    cpu_total += stage.cpu_seconds;
+  }
+  cpu["total"] = cpu_total;
   nlohmann::ordered_json hypotheses = nlohmann::ordered_json::array();
   for (const auto& h : result.hypotheses) {
     hypotheses.push_back({{"origin", h.origin},
@@ -60,6 +67,7 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
           {"normal_radius_m", result.normal_radius_m},
           {"support_radius_m", result.support_radius_m},
           {"runtime_seconds", runtime},
+          {"cpu_seconds", cpu},  // process CPU time per stage (all threads)
           {"hypotheses", hypotheses},
           {"notes", result.notes}};
 }

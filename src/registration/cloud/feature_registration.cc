@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <ctime>
 #include <iomanip>
 #include <limits>
 #include <memory>
@@ -83,6 +84,12 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   }
   if (num_cliques < 1) return fail("num_cliques", num_cliques, ">= 1");
   if (sac_ia_randomness < 1) return fail("sac_ia_randomness", sac_ia_randomness, ">= 1");
+  if (!(sac_ia_confidence > 0 && sac_ia_confidence <= 1)) {
+    return fail("sac_ia_confidence", sac_ia_confidence, "0 < x <= 1");
+  }
+  if (!(sac_ia_alternative_ratio > 0 && sac_ia_alternative_ratio <= 1)) {
+    return fail("sac_ia_alternative_ratio", sac_ia_alternative_ratio, "0 < x <= 1");
+  }
   if (num_hypotheses < 1) return fail("num_hypotheses", num_hypotheses, ">= 1");
   if (!(consistency_spacing > 0)) return fail("consistency_spacing", consistency_spacing, "> 0");
   if (max_correspondences < 3) return fail("max_correspondences", max_correspondences, ">= 3");
@@ -422,7 +429,7 @@ double AlignmentCost(const std::vector<Eigen::Vector3d>& sample, const PointInde
   // tells a hopeless hypothesis (preemptive scoring, as Nistér's preemptive RANSAC, 2005).
   constexpr size_t kPreview = 64;
   for (size_t i = 0; i < sample.size(); ++i) {
-    if (!target.Nearest(Apply(t, sample[i]), &index, &sq)) return 1.0;
+    if (!target.NearestWithin(Apply(t, sample[i]), tau2, &index, &sq)) sq = tau2;
     cost += std::min(sq, tau2);
     if (cost > limit) return 1.0;
     if (i + 1 == kPreview && sample.size() > 2 * kPreview &&
@@ -453,7 +460,43 @@ void SacIa(const Matching& m, const std::vector<Eigen::Vector3d>& score_sample,
   int scored = 0;
   const int64_t max_draws =
       static_cast<int64_t>(options.sac_ia_iterations) * options.sac_ia_draws_per_iteration;
-  for (int64_t draw = 0; draw < max_draws && scored < options.sac_ia_iterations; ++draw) {
+  // Adaptive stop (Fischler & Bolles 1981, Eq. for k; Hartley & Zisserman Sec. 4.7.1): with ε
+  // the probability that a draw for one source keypoint picks a correct target, a sample is
+  // all-correct with probability ε^m, and N = log(1 − p) / log(1 − ε^m) draws find one with
+  // probability p. ε is measured under the best pose so far: the fraction of the (keypoint,
+  // candidate) pairs it maps within the consistency tolerance; it is scaled by
+  // sac_ia_alternative_ratio so that a competing pose with that share of the matches is
+  // sampled with probability p as well. Re-estimated whenever the best pose changes.
+  int64_t needed_draws = max_draws;
+  // The paper's pipeline (paper_only) draws its fixed number of samples.
+  const bool adaptive = options.sac_ia_confidence < 1.0 && !options.paper_only;
+  Eigen::Matrix4d best_transform = Eigen::Matrix4d::Zero();
+  auto update_stop = [&]() {
+    if (!adaptive || pool->hypotheses().empty()) return;
+    const Hypothesis& best = pool->hypotheses().front();
+    if (best.transform == best_transform) return;
+    best_transform = best.transform;
+    double eps = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const std::vector<int>& candidates = m.src_to_tgt[i];
+      if (candidates.empty()) continue;
+      const Eigen::Vector3d q = Apply(best.transform, m.src_kp[i]);
+      int right = 0;
+      for (int j : candidates) right += j >= 0 && (m.tgt_kp[j] - q).norm() < tolerance;
+      eps += static_cast<double>(right) / static_cast<double>(candidates.size());
+    }
+    eps = options.sac_ia_alternative_ratio * eps / n;
+    const double all_right = std::pow(eps, sample_size);
+    if (all_right <= 0.0) return;
+    if (all_right >= 1.0) {
+      needed_draws = 1;
+      return;
+    }
+    const double draws = std::log(1.0 - options.sac_ia_confidence) / std::log1p(-all_right);
+    needed_draws = static_cast<int64_t>(std::min(static_cast<double>(max_draws), std::ceil(draws)));
+  };
+  for (int64_t draw = 0;
+       draw < max_draws && scored < options.sac_ia_iterations && draw < needed_draws; ++draw) {
     int sample[3];
     bool ok = true;
     for (int s = 0; s < sample_size && ok; ++s) {
@@ -501,6 +544,7 @@ void SacIa(const Matching& m, const std::vector<Eigen::Vector3d>& score_sample,
     h.origin = "sac-ia " + m.descriptor;
     h.descriptor = m.descriptor;
     pool->Offer(h);
+    update_stop();
   }
 }
 
@@ -565,7 +609,7 @@ Eigen::Matrix4d PointToPlaneIcp(const std::vector<Eigen::Vector3d>& src,
     const double d2 = distance * distance;
     for (const Eigen::Vector3d& p : src) {
       const Eigen::Vector3d q = Apply(transform, p);
-      if (!tgt_index.Nearest(q, &index, &sq) || sq > d2) continue;
+      if (!tgt_index.NearestWithin(q, d2, &index, &sq)) continue;
       const Eigen::Vector3d& n = tgt_normals[index];
       if (!n.allFinite()) continue;
       const double r = (q - tgt[index]).dot(n);
@@ -617,7 +661,7 @@ void Verify(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen::Ve
   const double cos30 = std::cos(30.0 * M_PI / 180.0);
   const Eigen::Matrix3d r = t.topLeftCorner<3, 3>();
   for (size_t i = 0; i < src.size(); ++i) {
-    if (!tgt_index.Nearest(Apply(t, src[i]), &index, &sq) || sq > tau * tau) continue;
+    if (!tgt_index.NearestWithin(Apply(t, src[i]), tau * tau, &index, &sq)) continue;
     ++inliers;
     sum_sq += sq;
     if (!src_n.empty() && !tgt_n.empty() && src_n[i].allFinite() && tgt_n[index].allFinite() &&
@@ -683,7 +727,7 @@ void FineResiduals(const std::vector<Eigen::Vector3d>& src,
   double sq;
   for (size_t i = 0; i < src.size(); ++i) {
     const Eigen::Vector3d q = Apply(t, src[i]);
-    if (!target.index->Nearest(q, &index, &sq) || sq > reach * reach) continue;
+    if (!target.index->NearestWithin(q, reach * reach, &index, &sq)) continue;
     const Eigen::Vector3d& n = target.level.normals[index];
     if (!n.allFinite()) continue;
     (*residuals)[i] = (q - target.level.points[index]).dot(n);
@@ -891,9 +935,13 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   if (!options.Check(&option_error)) throw InputError::Message("registration options", option_error);
   CloudRegistrationResult result;
   Timer stage_timer;
+  std::clock_t stage_cpu = std::clock();
   auto end_stage = [&](const std::string& name) {
-    result.runtime.push_back({name, stage_timer.ElapsedSeconds()});
+    const std::clock_t now = std::clock();
+    result.runtime.push_back({name, stage_timer.ElapsedSeconds(),
+                              static_cast<double>(now - stage_cpu) / CLOCKS_PER_SEC});
     stage_timer.Restart();
+    stage_cpu = now;
   };
   auto fail = [&](const std::string& reason) {
     result.status = "failed";

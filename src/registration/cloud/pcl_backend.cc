@@ -94,6 +94,43 @@ bool PointIndex::Nearest(const Eigen::Vector3d& query, int* index,
   return true;
 }
 
+namespace {
+// nanoflann result set for one neighbour closer than a bound (the bound is the initial
+// worst distance, so the tree search prunes every cell beyond it).
+struct BoundedNearestSet {
+  float worst;
+  uint32_t index = 0;
+  bool found = false;
+  size_t size() const { return found ? 1 : 0; }
+  bool full() const { return true; }
+  float worstDist() const { return worst; }
+  bool addPoint(float dist, uint32_t i) {
+    if (dist < worst) {
+      worst = dist;
+      index = i;
+      found = true;
+    }
+    return true;
+  }
+};
+}  // namespace
+
+bool PointIndex::NearestWithin(const Eigen::Vector3d& query, double max_squared_distance,
+                               int* index, double* squared_distance) const {
+  if (!impl_->tree || !(max_squared_distance >= 0)) return false;
+  const float q[3] = {static_cast<float>(query.x()), static_cast<float>(query.y()),
+                      static_cast<float>(query.z())};
+  // Strictly-less search: the bound is moved up by one float step so that a point at exactly
+  // the bound is found, then the float distance is tested against it as callers do.
+  BoundedNearestSet result{std::nextafter(static_cast<float>(max_squared_distance),
+                                          std::numeric_limits<float>::infinity())};
+  impl_->tree->findNeighbors(result, q, nanoflann::SearchParams());
+  if (!result.found || static_cast<double>(result.worst) > max_squared_distance) return false;
+  *index = static_cast<int>(result.index);
+  *squared_distance = result.worst;
+  return true;
+}
+
 void PointIndex::KNearest(const Eigen::Vector3d& query, int k, std::vector<int>* indices,
                           std::vector<float>* squared_distances) const {
   indices->clear();
@@ -122,6 +159,26 @@ void PointIndex::Radius(const Eigen::Vector3d& query, double radius,
                             nanoflann::SearchParams());
   indices->reserve(matches.size());
   for (const auto& [i, d] : matches) indices->push_back(static_cast<int>(i));
+}
+
+void PointIndex::RadiusWithDistances(const Eigen::Vector3d& query, double radius,
+                                     std::vector<int>* indices,
+                                     std::vector<float>* squared_distances,
+                                     bool sorted) const {
+  indices->clear();
+  squared_distances->clear();
+  if (!impl_->tree) return;
+  const float q[3] = {static_cast<float>(query.x()), static_cast<float>(query.y()),
+                      static_cast<float>(query.z())};
+  std::vector<std::pair<uint32_t, float>> matches;
+  impl_->tree->radiusSearch(q, static_cast<float>(radius * radius), matches,
+                            nanoflann::SearchParams(32, 0.0f, sorted));
+  indices->reserve(matches.size());
+  squared_distances->reserve(matches.size());
+  for (const auto& [i, d] : matches) {
+    indices->push_back(static_cast<int>(i));
+    squared_distances->push_back(d);
+  }
 }
 
 // Exact nearest neighbours by brute force: ‖a − b‖² = ‖a‖² + ‖b‖² − 2 a·b over all rows
@@ -231,17 +288,8 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
   auto input = ToPcl(kp_points);
   Descriptors out;
   switch (descriptor) {
-    case Descriptor::kFpfh: {
-      pcl::FPFHEstimationOMP<pcl::PointXYZ, pcl::Normal, pcl::FPFHSignature33> est(kThreads);
-      est.setInputCloud(input);
-      est.setSearchSurface(surface);
-      est.setInputNormals(surface_normals);
-      est.setRadiusSearch(radius);
-      pcl::PointCloud<pcl::FPFHSignature33> f;
-      est.compute(f);
-      CopyDescriptors(f, 33, [](const pcl::FPFHSignature33& s) { return s.histogram; }, &out);
-      break;
-    }
+    case Descriptor::kFpfh:
+      return ComputeFpfh(points, normals, keypoints, radius);
     case Descriptor::kShot: {
       pcl::SHOTEstimationOMP<pcl::PointXYZ, pcl::Normal, pcl::SHOT352> est(kThreads);
       est.setInputCloud(input);
@@ -316,6 +364,25 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
     case Descriptor::kAuto:
       break;
   }
+  return out;
+}
+
+Descriptors ComputeFpfhPcl(const std::vector<Eigen::Vector3d>& points,
+                           const std::vector<Eigen::Vector3d>& normals,
+                           const std::vector<int>& keypoints, double radius) {
+  auto surface = ToPcl(points);
+  auto surface_normals = ToPclNormals(normals);
+  std::vector<Eigen::Vector3d> kp_points;
+  for (int i : keypoints) kp_points.push_back(points[i]);
+  pcl::FPFHEstimationOMP<pcl::PointXYZ, pcl::Normal, pcl::FPFHSignature33> est(kThreads);
+  est.setInputCloud(ToPcl(kp_points));
+  est.setSearchSurface(surface);
+  est.setInputNormals(surface_normals);
+  est.setRadiusSearch(radius);
+  pcl::PointCloud<pcl::FPFHSignature33> f;
+  est.compute(f);
+  Descriptors out;
+  CopyDescriptors(f, 33, [](const pcl::FPFHSignature33& s) { return s.histogram; }, &out);
   return out;
 }
 

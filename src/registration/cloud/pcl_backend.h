@@ -21,9 +21,18 @@ class PointIndex {
   PointIndex& operator=(const PointIndex&) = delete;
   /// Nearest point; false if the tree is empty.
   bool Nearest(const Eigen::Vector3d& query, int* index, double* squared_distance) const;
+  /// Nearest point within `max_squared_distance` (inclusive); false if there is none. Same
+  /// answer as Nearest() followed by the distance test, but the search is pruned at the
+  /// bound: far queries (a wrong hypothesis puts the source off the target) cost little.
+  bool NearestWithin(const Eigen::Vector3d& query, double max_squared_distance, int* index,
+                     double* squared_distance) const;
   void KNearest(const Eigen::Vector3d& query, int k, std::vector<int>* indices,
                 std::vector<float>* squared_distances) const;
   void Radius(const Eigen::Vector3d& query, double radius, std::vector<int>* indices) const;
+  /// Points within `radius` (strictly) with their squared distances; nearest first when
+  /// `sorted`, else in the tree's order.
+  void RadiusWithDistances(const Eigen::Vector3d& query, double radius, std::vector<int>* indices,
+                           std::vector<float>* squared_distances, bool sorted = true) const;
 
  private:
   struct Impl;
@@ -70,5 +79,17 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
                                const std::vector<Eigen::Vector3d>& normals,
                                const std::vector<int>& keypoints, double radius,
                                const Eigen::Vector3d* up);
+
+/// FPFH of the keypoints (fpfh.cc): the descriptor of pcl::FPFHEstimation (33 bins; the
+/// same pair features, weights and normalisation), computed on the nanoflann index with
+/// 2 OpenMP threads. ComputeDescriptors(kFpfh, …) uses it.
+Descriptors ComputeFpfh(const std::vector<Eigen::Vector3d>& points,
+                        const std::vector<Eigen::Vector3d>& normals,
+                        const std::vector<int>& keypoints, double radius);
+
+/// PCL's FPFHEstimationOMP on the same input: the reference ComputeFpfh is tested against.
+Descriptors ComputeFpfhPcl(const std::vector<Eigen::Vector3d>& points,
+                           const std::vector<Eigen::Vector3d>& normals,
+                           const std::vector<int>& keypoints, double radius);
 
 }  // namespace mmba::registration::internal

@@ -60,81 +60,93 @@ double RotationAngleDeg(const Eigen::Matrix3d& rotation) {
 
 namespace {
 
-// Branch and bound maximum clique (MCQ, Tomita & Seki 2003) on adjacency lists as bitsets.
+// Bit-parallel branch and bound maximum clique (BBMC: San Segundo, Rodríguez-Losada & Jiménez,
+// "An exact bit-parallel algorithm for the maximum clique problem", Computers & OR 2011),
+// the MCQ scheme of Tomita & Seki 2003 with the candidate sets and the greedy colouring done
+// on bitsets: a colour class is grown by taking the lowest remaining vertex and removing its
+// neighbours (one AND-NOT over the adjacency words), so colouring a node costs
+// O(|candidates| × words) however many classes there are. Vertices are numbered in the
+// initial order (highest degree first); only vertices whose colour can still beat the best
+// clique are branched on (BBMC's k_min).
 class MaxCliqueSolver {
  public:
-  MaxCliqueSolver(int n, std::vector<std::vector<uint64_t>> adjacency, int64_t budget)
+  MaxCliqueSolver(int n, std::vector<uint64_t> adjacency, int64_t budget)
       : n_(n), words_((n + 63) / 64), adjacency_(std::move(adjacency)), budget_(budget) {}
 
-  bool Adjacent(int a, int b) const { return (adjacency_[a][b >> 6] >> (b & 63)) & 1ULL; }
-
-  std::vector<int> Solve(const std::vector<int>& initial_order, std::vector<int> lower_bound,
-                         bool* exact) {
-    best_ = std::move(lower_bound);
+  /// The largest clique with more than `known_size` vertices (a clique of that size is known
+  /// already); empty if there is none (or the budget ran out before one was found).
+  std::vector<int> Solve(size_t known_size, bool* exact) {
+    known_size_ = known_size;
+    best_.clear();
+    std::vector<uint64_t> all(static_cast<size_t>(words_), 0ULL);
+    for (int v = 0; v < n_; ++v) all[v >> 6] |= 1ULL << (v & 63);
     std::vector<int> clique;
-    Expand(initial_order, &clique);
+    Expand(all, &clique);
     if (exact != nullptr) *exact = expanded_ <= budget_;
     return best_;
   }
 
  private:
-  // Greedy colouring of `candidates`; returns them ordered by colour with the colour bound.
-  void ColourSort(const std::vector<int>& candidates, std::vector<int>* order,
-                  std::vector<int>* colours) const {
-    std::vector<std::vector<int>> classes;
-    for (int v : candidates) {
-      size_t k = 0;
-      for (; k < classes.size(); ++k) {
-        bool conflict = false;
-        for (int w : classes[k]) {
-          if (Adjacent(v, w)) {
-            conflict = true;
-            break;
+  size_t BestSize() const { return std::max(best_.size(), known_size_); }
+  const uint64_t* Row(int v) const { return &adjacency_[static_cast<size_t>(v) * words_]; }
+
+  void Expand(std::vector<uint64_t> candidates, std::vector<int>* clique) {
+    if (++expanded_ > budget_) return;
+    // Greedy colouring in vertex order; order/colours keep the vertices with colour > k_min.
+    const int k_min = static_cast<int>(BestSize()) - static_cast<int>(clique->size());
+    std::vector<int> order, colours;
+    std::vector<uint64_t> remaining = candidates, uncoloured(static_cast<size_t>(words_));
+    int colour = 0;
+    for (;;) {
+      bool any = false;
+      for (int w = 0; w < words_ && !any; ++w) any = remaining[w] != 0;
+      if (!any) break;
+      ++colour;
+      uncoloured = remaining;
+      for (int w = 0; w < words_; ++w) {
+        while (uncoloured[w] != 0) {
+          const int bit = __builtin_ctzll(uncoloured[w]);
+          const int v = w * 64 + bit;
+          remaining[w] &= ~(1ULL << bit);
+          uncoloured[w] &= ~(1ULL << bit);
+          const uint64_t* row = Row(v);
+          for (int x = w; x < words_; ++x) uncoloured[x] &= ~row[x];
+          if (colour > k_min) {
+            order.push_back(v);
+            colours.push_back(colour);
           }
         }
-        if (!conflict) break;
-      }
-      if (k == classes.size()) classes.emplace_back();
-      classes[k].push_back(v);
-    }
-    order->clear();
-    colours->clear();
-    for (size_t k = 0; k < classes.size(); ++k) {
-      for (int v : classes[k]) {
-        order->push_back(v);
-        colours->push_back(static_cast<int>(k) + 1);
       }
     }
-  }
-
-  void Expand(std::vector<int> candidates, std::vector<int>* clique) {
-    if (++expanded_ > budget_) return;
-    std::vector<int> order, colours;
-    ColourSort(candidates, &order, &colours);
+    std::vector<uint64_t> next(static_cast<size_t>(words_));
     for (int i = static_cast<int>(order.size()) - 1; i >= 0; --i) {
-      if (clique->size() + colours[i] <= best_.size()) return;
+      if (clique->size() + colours[i] <= BestSize()) return;
       if (expanded_ > budget_) return;
       const int v = order[i];
       clique->push_back(v);
-      std::vector<int> next;
-      for (int j = 0; j < i; ++j) {
-        if (Adjacent(v, order[j])) next.push_back(order[j]);
+      const uint64_t* row = Row(v);
+      bool any = false;
+      for (int w = 0; w < words_; ++w) {
+        next[w] = candidates[w] & row[w];
+        any = any || next[w] != 0;
       }
-      if (next.empty()) {
-        if (clique->size() > best_.size()) best_ = *clique;
+      if (!any) {
+        if (clique->size() > BestSize()) best_ = *clique;
       } else {
         Expand(next, clique);
       }
       clique->pop_back();
+      candidates[v >> 6] &= ~(1ULL << (v & 63));
     }
   }
 
   int n_;
   int words_;
-  std::vector<std::vector<uint64_t>> adjacency_;
+  std::vector<uint64_t> adjacency_;  // n_ rows of words_ words
   int64_t budget_;
   int64_t expanded_ = 0;
   std::vector<int> best_;
+  size_t known_size_ = 0;
 };
 
 }  // namespace
@@ -183,15 +195,30 @@ std::vector<int> MaxConsistentClique(const std::vector<Eigen::Vector3d>& src,
     }
     if (clique.size() > best.size()) best = clique;
   }
-  // Vertices that cannot beat the greedy clique are dropped (degree + 1 <= |best|).
+  // Vertices that cannot beat the greedy clique are dropped (degree + 1 <= |best|); the rest
+  // are renumbered highest degree first for the bit-parallel search.
   std::vector<int> candidates;
   for (int v : by_degree) {
     if (degree[v] + 1 > static_cast<int>(best.size())) candidates.push_back(v);
   }
-  // Lowest degree first so that the colour sort puts high-degree vertices last (tried first).
-  std::reverse(candidates.begin(), candidates.end());
-  MaxCliqueSolver solver(n, std::move(adjacency), options.max_nodes_expanded);
-  std::vector<int> result = solver.Solve(candidates, best, exact);
+  const int m = static_cast<int>(candidates.size());
+  const int m_words = (m + 63) / 64;
+  std::vector<uint64_t> sub(static_cast<size_t>(m) * m_words, 0ULL);
+  for (int a = 0; a < m; ++a) {
+    for (int b = a + 1; b < m; ++b) {
+      if (adjacent(candidates[a], candidates[b])) {
+        sub[static_cast<size_t>(a) * m_words + (b >> 6)] |= 1ULL << (b & 63);
+        sub[static_cast<size_t>(b) * m_words + (a >> 6)] |= 1ULL << (a & 63);
+      }
+    }
+  }
+  MaxCliqueSolver solver(m, std::move(sub), options.max_nodes_expanded);
+  const std::vector<int> found = solver.Solve(best.size(), exact);
+  std::vector<int> result = best;
+  if (found.size() > best.size()) {
+    result.clear();
+    for (int v : found) result.push_back(candidates[v]);
+  }
   std::sort(result.begin(), result.end());
   return result;
 }

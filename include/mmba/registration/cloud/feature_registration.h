@@ -69,6 +69,14 @@ struct CloudRegistrationOptions {
   /// pre-check when few matches are right) (>= 1).
   int sac_ia_draws_per_iteration = 50;
   int sac_ia_randomness = 3;        ///< SAC-IA: pick among this many nearest features (>= 1)
+  /// SAC-IA stops early once a sample of correct matches for any pose supported by at least
+  /// sac_ia_alternative_ratio × the matches of the best pose so far has been drawn with this
+  /// probability (the RANSAC bound, Fischler & Bolles 1981); 1 = always draw
+  /// sac_ia_iterations samples (0 < x <= 1).
+  double sac_ia_confidence = 0.999;
+  /// See sac_ia_confidence: competing poses (a pseudo-symmetric turn) with this fraction of
+  /// the best pose's correct matches are still sampled (0 < x <= 1).
+  double sac_ia_alternative_ratio = 0.5;
   int num_hypotheses = 12;          ///< hypotheses kept for ICP and verification (>= 1)
   bool use_max_clique = true;       ///< add the maximum-consistent-clique hypotheses
   int num_cliques = 3;              ///< cliques per descriptor: the largest, then the largest
@@ -118,10 +126,11 @@ struct CloudRegistrationOptions {
   bool Check(std::string* error) const;
 };
 
-/// One stage's wall-clock time.
+/// One stage's wall-clock time and the process CPU time it used (all threads).
 struct StageTime {
   std::string stage;
   double seconds = 0.0;
+  double cpu_seconds = 0.0;
 };
 
 /// A hypothesis after refinement and verification.

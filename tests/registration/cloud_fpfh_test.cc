@@ -1,0 +1,79 @@
+// FPFH of the cloud registration (src/registration/cloud/fpfh.cc) against PCL's
+// FPFHEstimationOMP, the reference it replaces (same pair features, weights, normalisation).
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "registration/cloud/pcl_backend.h"
+
+namespace mmba::registration::internal {
+namespace {
+
+// A wavy surface z = 0.3 sin(3x) cos(2y) sampled on a jittered grid, with exact normals.
+void WavySurface(std::vector<Eigen::Vector3d>* points, std::vector<Eigen::Vector3d>* normals) {
+  uint32_t state = 12345;
+  auto jitter = [&state]() {
+    state = state * 1664525u + 1013904223u;
+    return (static_cast<double>(state >> 8) / (1 << 24) - 0.5) * 0.01;
+  };
+  for (int i = 0; i < 60; ++i) {
+    for (int j = 0; j < 60; ++j) {
+      const double x = -1.5 + 0.05 * i + jitter(), y = -1.5 + 0.05 * j + jitter();
+      const double z = 0.3 * std::sin(3 * x) * std::cos(2 * y);
+      points->emplace_back(x, y, z);
+      const Eigen::Vector3d n(-0.9 * std::cos(3 * x) * std::cos(2 * y),
+                              0.6 * std::sin(3 * x) * std::sin(2 * y), 1.0);
+      normals->push_back(n.normalized());
+    }
+  }
+}
+
+TEST(CloudFpfh, MatchesPcl) {
+  std::vector<Eigen::Vector3d> points, normals;
+  WavySurface(&points, &normals);
+  std::vector<int> keypoints;
+  for (int k = 0; k < static_cast<int>(points.size()); k += 97) keypoints.push_back(k);
+  const double radius = 0.3;
+  const Descriptors ours = ComputeFpfh(points, normals, keypoints, radius);
+  const Descriptors pcl = ComputeFpfhPcl(points, normals, keypoints, radius);
+  ASSERT_EQ(ours.dim, 33);
+  ASSERT_EQ(pcl.dim, 33);
+  ASSERT_EQ(ours.valid.size(), keypoints.size());
+  double max_diff = 0.0, sum_diff = 0.0;
+  for (size_t k = 0; k < keypoints.size(); ++k) {
+    ASSERT_EQ(ours.valid[k], pcl.valid[k]) << "keypoint " << k;
+    ASSERT_TRUE(ours.valid[k]);
+    for (int b = 0; b < 33; ++b) {
+      const double d = std::abs(ours.data[k * 33 + b] - pcl.data[k * 33 + b]);
+      max_diff = std::max(max_diff, d);
+      sum_diff += d;
+    }
+  }
+  // Each sub-histogram sums to 100; only the order of float sums (and a pair exactly on a
+  // bin edge) may differ.
+  EXPECT_LT(max_diff, 0.05);
+  EXPECT_LT(sum_diff / (keypoints.size() * 33), 1e-3);
+}
+
+TEST(CloudFpfh, IsolatedKeypointIsInvalid) {
+  std::vector<Eigen::Vector3d> points, normals;
+  WavySurface(&points, &normals);
+  points.emplace_back(10.0, 10.0, 10.0);  // nothing within the radius
+  normals.emplace_back(0.0, 0.0, 1.0);
+  const std::vector<int> keypoints = {0, 1800, static_cast<int>(points.size()) - 1};
+  const Descriptors ours = ComputeFpfh(points, normals, keypoints, 0.3);
+  ASSERT_EQ(ours.valid.size(), 3u);
+  EXPECT_TRUE(ours.valid[0]);
+  EXPECT_TRUE(ours.valid[1]);
+  EXPECT_FALSE(ours.valid[2]);
+  // Sub-histograms of a valid descriptor sum to 100.
+  for (int f = 0; f < 3; ++f) {
+    double sum = 0.0;
+    for (int b = 0; b < 11; ++b) sum += ours.data[33 + f * 11 + b];
+    EXPECT_NEAR(sum, 100.0, 1e-3);
+  }
+}
+
+}  // namespace
+}  // namespace mmba::registration::internal
