@@ -12,10 +12,15 @@
 // out the SPFH of p itself), each of the three sub-histograms normalised to sum 100.
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <vector>
 
 #include "registration/cloud/pcl_backend.h"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 
 namespace mmba::registration::internal {
 namespace {
@@ -93,29 +98,55 @@ Descriptors ComputeFpfh(const std::vector<Eigen::Vector3d>& points,
       }
     }
   }
-  // SPFH of each of them (Eq. 2: the pair features of the point with its neighbours).
-  std::vector<float> spfh(spfh_points.size() * kDim, 0.0f);
+  // SPFH of each of them (Eq. 2: the pair features of the point with its neighbours). The
+  // pair features are symmetric (the source of a pair is the point whose normal makes the
+  // smaller angle with the line, whichever is queried), so each pair of two SPFH points is
+  // computed once and binned into both; bins are counted per thread and scaled at the end.
   const long num_spfh = static_cast<long>(spfh_points.size());
+  std::vector<int> num_neighbours(spfh_points.size(), 0);
+  std::vector<std::vector<int32_t>> counts(kThreads);
 #pragma omp parallel num_threads(kThreads)
   {
+#ifdef _OPENMP
+    const int thread = omp_get_thread_num();
+#else
+    const int thread = 0;
+#endif
+    std::vector<int32_t>& c = counts[thread];
+    c.assign(spfh_points.size() * kDim, 0);
     std::vector<int> nn;
     std::vector<float> sq;
+    auto add = [&c](int r, float f1, float f2, float f3) {
+      int32_t* h = &c[static_cast<size_t>(r) * kDim];
+      ++h[Bin((f1 + static_cast<float>(M_PI)) * static_cast<float>(0.5 / M_PI))];
+      ++h[kBins + Bin((f2 + 1.0f) * 0.5f)];
+      ++h[2 * kBins + Bin((f3 + 1.0f) * 0.5f)];
+    };
 #pragma omp for schedule(dynamic, 64)
     for (long r = 0; r < num_spfh; ++r) {
       const int i = spfh_points[r];
-      // Unsorted: every pair adds the same increment, so the order does not matter.
+      // Unsorted: the order of the pairs does not matter.
       index.RadiusWithDistances(points[i], radius, &nn, &sq, /*sorted=*/false);
-      if (nn.size() < 2) continue;
-      const float increment = 100.0f / static_cast<float>(nn.size() - 1);
-      float* h = &spfh[r * kDim];
+      num_neighbours[r] = static_cast<int>(nn.size());
       for (int j : nn) {
         if (j == i) continue;
+        const int rj = row[j];
+        if (rj >= 0 && rj < r) continue;  // done from j's side
         float f1, f2, f3;
         PairFeatures(p[i], n[i], p[j], n[j], &f1, &f2, &f3);
-        h[Bin((f1 + static_cast<float>(M_PI)) * static_cast<float>(0.5 / M_PI))] += increment;
-        h[kBins + Bin((f2 + 1.0f) * 0.5f)] += increment;
-        h[2 * kBins + Bin((f3 + 1.0f) * 0.5f)] += increment;
+        add(static_cast<int>(r), f1, f2, f3);
+        if (rj >= 0) add(rj, f1, f2, f3);
       }
+    }
+  }
+  std::vector<float> spfh(spfh_points.size() * kDim, 0.0f);
+  for (long r = 0; r < num_spfh; ++r) {
+    if (num_neighbours[r] < 2) continue;
+    const float increment = 100.0f / static_cast<float>(num_neighbours[r] - 1);
+    for (int b = 0; b < kDim; ++b) {
+      int32_t total = 0;
+      for (const std::vector<int32_t>& c : counts) total += c[static_cast<size_t>(r) * kDim + b];
+      spfh[static_cast<size_t>(r) * kDim + b] = static_cast<float>(total) * increment;
     }
   }
   // FPFH of the keypoints (Eq. 3).
