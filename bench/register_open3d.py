@@ -5,7 +5,9 @@ RANSAC on feature matches (mutual filter off, edge-length 0.9 + distance checker
 point-to-plane ICP (Open3D "Global registration" tutorial). Prints target_from_source and the
 whole-process wall time (reading included).
 
-usage: register_open3d.py SOURCE TARGET VOXEL_M [--seed N]
+usage: register_open3d.py SOURCE TARGET VOXEL_M [--seed N] [--conf FILE.conf]
+--conf: also print the error against a Stanford .conf alignment (p_common = R(q)^T p + t,
+as bench/register_pair conf=...; the clouds are looked up by file name).
 """
 import sys
 import time
@@ -14,7 +16,9 @@ t0 = time.perf_counter()
 import open3d as o3d  # noqa: E402
 
 src_path, tgt_path, voxel = sys.argv[1], sys.argv[2], float(sys.argv[3])
-seed = int(sys.argv[5]) if len(sys.argv) > 5 else 42
+args = sys.argv[4:]
+seed = int(args[args.index("--seed") + 1]) if "--seed" in args else 42
+conf = args[args.index("--conf") + 1] if "--conf" in args else None
 o3d.utility.random.seed(seed)
 t_import = time.perf_counter() - t0
 t1 = time.perf_counter()
@@ -53,3 +57,33 @@ print(f"open3d {o3d.__version__}: ransac fitness {ransac.fitness:.4f}, icp fitne
 print("target_from_source")
 for row in icp.transformation:
     print("  " + " ".join(f"{v:.9f}" for v in row))
+
+if conf:
+    import os
+    import numpy as np
+
+    def common_from_scan(name):
+        for line in open(conf):
+            f = line.split()
+            if len(f) == 9 and f[0] == "bmesh" and f[1] == name:
+                t = np.array([float(v) for v in f[2:5]])
+                qx, qy, qz, qw = (float(v) for v in f[5:9])
+                n = np.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+                qx, qy, qz, qw = qx / n, qy / n, qz / n, qw / n
+                r = np.array([
+                    [1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
+                    [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
+                    [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]])
+                m = np.eye(4)
+                m[:3, :3] = r.T
+                m[:3, 3] = t
+                return m
+        sys.exit(f"{conf} has no line for {name}")
+
+    truth = np.linalg.inv(common_from_scan(os.path.basename(tgt_path))) @ common_from_scan(
+        os.path.basename(src_path))
+    est = np.asarray(icp.transformation)
+    dr = est[:3, :3] @ truth[:3, :3].T
+    angle = np.degrees(np.arccos(np.clip((np.trace(dr) - 1) / 2, -1, 1)))
+    dt = np.linalg.norm(est[:3, 3] - truth[:3, 3])
+    print(f"error vs {conf}: rotation {angle:.4f} deg, translation {1000 * dt:.4f} mm")

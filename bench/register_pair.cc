@@ -3,17 +3,63 @@
 //   register_pair SOURCE TARGET [descriptor=auto] [key=value ...]
 // keys: normal_radius, support_radius, max_points_features, max_points_icp, gravity (0/1),
 //       paper (0/1), icp (0/1), min_keypoints, sac_ia_iterations, keypoint_threshold,
-//       min_fitness, min_normal_agreement, max_resolution_spacing, … (see below)
+//       min_fitness, min_normal_agreement, max_resolution_spacing, … (see below);
+//       conf=FILE.conf: also print the error against a Stanford .conf alignment (lines
+//       "bmesh NAME tx ty tz qx qy qz qw", p_common = R(q)ᵀ·p + t, as in bun.conf; the
+//       clouds are looked up by file name)
 #include <sys/resource.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <iostream>
+#include <map>
+#include <sstream>
 #include <string>
+
+#include <Eigen/Geometry>
 
 #include "mmba/core/progress.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/registration/cloud/feature_registration.h"
+
+namespace {
+
+// common_from_scan of every scan of a Stanford .conf file.
+std::map<std::string, Eigen::Matrix4d> ReadConf(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) {
+    std::cerr << "cannot read " << path << "\n";
+    std::exit(2);
+  }
+  std::map<std::string, Eigen::Matrix4d> out;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::istringstream s(line);
+    std::string kind, name;
+    double t[3], q[4];
+    if (!(s >> kind >> name) || kind != "bmesh") continue;
+    if (!(s >> t[0] >> t[1] >> t[2] >> q[0] >> q[1] >> q[2] >> q[3])) {
+      std::cerr << path << ": bad line '" << line << "'\n";
+      std::exit(2);
+    }
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    m.topLeftCorner<3, 3>() =
+        Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized().toRotationMatrix().transpose();
+    m.topRightCorner<3, 1>() = Eigen::Vector3d(t[0], t[1], t[2]);
+    out[name] = m;
+  }
+  return out;
+}
+
+std::string BaseName(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace mmba;
@@ -26,12 +72,14 @@ int main(int argc, char** argv) {
     std::cerr << "unknown descriptor " << argv[3] << "\n";
     return 2;
   }
+  std::string conf;
   for (int i = 4; i < argc; ++i) {
     const std::string kv = argv[i];
     const size_t eq = kv.find('=');
     const std::string key = kv.substr(0, eq);
     const double v = std::atof(kv.substr(eq + 1).c_str());
-    if (key == "normal_radius") options.normal_radius_m = v;
+    if (key == "conf") conf = kv.substr(eq + 1);
+    else if (key == "normal_radius") options.normal_radius_m = v;
     else if (key == "support_radius") options.support_radius_m = v;
     else if (key == "max_points_features") options.max_points_features = static_cast<int>(v);
     else if (key == "max_points_icp") options.max_points_icp = static_cast<int>(v);
@@ -90,5 +138,23 @@ int main(int argc, char** argv) {
                 r.target_from_source(i, 2), r.target_from_source(i, 3));
   }
   for (const auto& n : r.notes) std::printf("note: %s\n", n.c_str());
+  if (!conf.empty()) {
+    const std::map<std::string, Eigen::Matrix4d> scans = ReadConf(conf);
+    const auto a = scans.find(BaseName(argv[1])), b = scans.find(BaseName(argv[2]));
+    if (a == scans.end() || b == scans.end()) {
+      std::cerr << conf << " has no line for " << BaseName(argv[1]) << " or "
+                << BaseName(argv[2]) << "\n";
+      return 2;
+    }
+    const Eigen::Matrix4d truth = b->second.inverse() * a->second;
+    const Eigen::Matrix3d dr =
+        r.target_from_source.topLeftCorner<3, 3>() * truth.topLeftCorner<3, 3>().transpose();
+    const double angle =
+        std::acos(std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;
+    const double dt =
+        (r.target_from_source.topRightCorner<3, 1>() - truth.topRightCorner<3, 1>()).norm();
+    std::printf("error vs %s: rotation %.4f deg, translation %.4f mm\n", conf.c_str(), angle,
+                1000.0 * dt);
+  }
   return r.ok() ? 0 : 3;
 }
