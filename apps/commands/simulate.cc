@@ -30,7 +30,7 @@ int RunSimulate(const SimulateArgs& args) {
     return lower.size() >= suffix.size() && lower.compare(lower.size() - suffix.size(), suffix.size(), suffix) == 0;
   };
   if (!args.preset.empty() && !options.ApplyPreset(args.preset)) {
-    throw InputError::Message("--preset", "found '" + args.preset + "', expected small or full");
+    throw InputError::Message("--preset", "found '" + args.preset + "', expected small, full or drive");
   }
   if (args.scene == "gate" || args.scene == "cathedral") {
     options.scene = args.scene;
@@ -69,7 +69,7 @@ std::function<int()> SetupSimulate(CLI::App& app, CommonOptions* common) {
       ->capture_default_str();
   sub->add_option("--out", args->out, "Output folder (created)")->required();
   sub->add_option("--seed", args->seed, "Random seed (same seed, same bytes); default 1 or the scene file's");
-  sub->add_option("--preset", args->preset, "small (default, < 1 min on 2 cores) | full (paper-sized)");
+  sub->add_option("--preset", args->preset, "small (default, < 1 min on 2 cores) | full (paper-sized) | drive (100 m, 200 rig frames, >= 50 M mobile LiDAR points)");
   sub->add_option("--threads", args->threads, "Worker threads")->capture_default_str();
   sub->add_option("--photos", args->photos, "Number of photos (default 30)");
   AddCommonOptions(sub, common);

@@ -1067,7 +1067,7 @@ std::string DescribeObservation(const JointState& s, const FactorGroup& group, s
   if (name == kMobile && s.mobile) {
     const MobilePoint& p = s.mobile->points[index];
     return "mobile LiDAR point " + std::to_string(p.source) + " of " + s.mobile->config->cloud + " (t = " +
-           std::to_string(s.mobile->cloud.time[p.source]) + " s)";
+           std::to_string(p.time_s) + " s)";
   }
   if (name == kTrajectoryPrior && s.mobile) return "GNSS/INS prior at t = " + std::to_string(s.mobile->nodes[index].time_s) + " s";
   if (name == kRigOnTrajectory && s.rig) return "rig frame " + s.rig->frame_names[index] + " on the trajectory";

@@ -26,6 +26,8 @@ namespace mmba::adjust::internal {
 
 /// Check points live in the Scene as ordinary 3-D points with ids from here up.
 constexpr uint64_t kCheckPointIdBase = 4000000000ULL;
+/// Points per chunk when the mobile cloud is streamed (≈ 40 MB of PLY records).
+constexpr size_t kMobileChunkPoints = 1000000;
 
 struct PhotoBlock {
   const PhotoCollection* config = nullptr;
@@ -79,7 +81,9 @@ struct RigBlock {
 /// GNSS/INS body.
 struct MobileBlock {
   const LidarMobile* config = nullptr;
-  io::PointCloud cloud;                                ///< as delivered (world, with time)
+  size_t num_points = 0;                               ///< in the delivered cloud (streamed, never held)
+  std::string format;                                  ///< of the delivered cloud, for the log
+  bool has_intensity = false;
   std::vector<std::pair<double, Rigid3d>> trajectory;  ///< GNSS/INS world_from_body
   Rigid3d body_from_lidar_nominal;
   Rigid3d body_from_vehicle;                           ///< constant
@@ -87,7 +91,8 @@ struct MobileBlock {
   Rigid3d vehicle_from_lidar_initial;
   bool with_rig = false;
   std::vector<TrajectoryNode> nodes;
-  std::vector<size_t> sample;                  ///< indices into `cloud`
+  std::vector<size_t> sample;                  ///< point indices in the delivered cloud
+  std::vector<double> sample_time;             ///< their times
   std::vector<Eigen::Vector3d> sample_lidar;   ///< sample points in the LiDAR frame
   std::vector<Rigid3d> sample_ins;             ///< GNSS/INS world_from_body at their times
   std::vector<NodeWeight> sample_weight;

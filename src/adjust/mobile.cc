@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 
 #include <spdlog/spdlog.h>
 
@@ -66,41 +67,56 @@ void LoadMobile(JointState* s) {
                    {"beams", ignore}, {"elevation_deg", ignore}, {"rotation_hz", ignore}});
   if (!have_mounting) r.Fail(root, "body_from_lidar", "the key to be present", "nothing");
   m.trajectory = ReadTrajectory(config.trajectory);
-  io::ReadStats stats;
-  m.cloud = io::ReadPointCloud(config.cloud, io::ReadOptions{}, &stats);
-  if (m.cloud.empty()) throw InputError::Message(config.cloud, "the mobile LiDAR cloud has no points (sensor '" + config.id + "')");
-  if (!m.cloud.has_time()) {
-    throw InputError::Message(config.cloud, "no time per point (PLY property time / gps_time / timestamp, or LAS GPS time); "
-                                            "a mobile cloud cannot be re-georeferenced without it");
-  }
+  // One streamed pass over the cloud (memory: one chunk and the sample, whatever the cloud's
+  // size): check every point's time against the trajectory, and keep `points` of them evenly
+  // spaced in file order (= time order for a scanner's file), un-georeferenced into the LiDAR
+  // frame with the GNSS/INS pose at their time.
   const double t0 = m.trajectory.front().first, t1 = m.trajectory.back().first;
-  for (size_t i = 0; i < m.cloud.size(); ++i) {
-    if (m.cloud.time[i] < t0 - 1e-6 || m.cloud.time[i] > t1 + 1e-6) {
-      throw InputError::Message(config.cloud, "point " + std::to_string(i) + " has time " + std::to_string(m.cloud.time[i]) +
-                                                  " s, outside the trajectory " + config.trajectory + " [" +
-                                                  std::to_string(t0) + ", " + std::to_string(t1) + "] s");
+  const Rigid3d lidar_from_body = m.body_from_lidar_nominal.Inverse();
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  size_t wanted = 0, next = 0;  // next sample: the point index floor(next · total / wanted)
+  io::ReadStats stats;
+  io::StreamPointCloud(config.cloud, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t first, size_t total) {
+    if (first == 0) {
+      wanted = std::min<size_t>(config.points, total);
+      m.has_intensity = chunk.has_intensity();
     }
-  }
+    if (!chunk.has_time()) {
+      throw InputError::Message(config.cloud, "no time per point (PLY property time / gps_time / timestamp, or LAS GPS time); "
+                                              "a mobile cloud cannot be re-georeferenced without it");
+    }
+    for (size_t j = 0; j < chunk.size(); ++j) {
+      const size_t i = first + j;
+      const double time = chunk.time[j];
+      if (time < t0 - 1e-6 || time > t1 + 1e-6) {
+        throw InputError::Message(config.cloud, "point " + std::to_string(i) + " has time " + std::to_string(time) +
+                                                    " s, outside the trajectory " + config.trajectory + " [" +
+                                                    std::to_string(t0) + ", " + std::to_string(t1) + "] s");
+      }
+      lo = std::min(lo, time);
+      hi = std::max(hi, time);
+      if (next < wanted && i == next * total / wanted) {
+        const Rigid3d ins = InterpolateTrajectory(m.trajectory, time);
+        m.sample.push_back(i);
+        m.sample_time.push_back(time);
+        m.sample_ins.push_back(ins);
+        m.sample_lidar.push_back(lidar_from_body * (ins.Inverse() * chunk.points[j]));
+        ++next;
+      }
+    }
+    m.num_points = first + chunk.size();
+    if (m.num_points % (20 * kMobileChunkPoints) == 0) {
+      spdlog::info("adjust: mobile LiDAR '{}': {} of {} points read", config.id, m.num_points, total);
+    }
+  }, io::ReadOptions{}, &stats);
+  if (m.num_points == 0) throw InputError::Message(config.cloud, "the mobile LiDAR cloud has no points (sensor '" + config.id + "')");
+  m.format = stats.format;
   // The vehicle frame: the rig's frame when the rig rides on the same vehicle.
   m.with_rig = !config.rig.empty() && s->rig && s->rig->config->id == config.rig;
   m.body_from_vehicle = m.with_rig ? s->rig->body_from_rig : Rigid3d();
   m.vehicle_from_lidar = m.body_from_vehicle.Inverse() * m.body_from_lidar_nominal;
   m.vehicle_from_lidar_initial = m.vehicle_from_lidar;
-  // Sample evenly in point order (= time order for a scanner) and un-georeference.
-  std::vector<size_t> order(m.cloud.size());
-  for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return m.cloud.time[a] < m.cloud.time[b]; });
-  const size_t wanted = std::min<size_t>(config.points, m.cloud.size());
-  const Rigid3d lidar_from_body = m.body_from_lidar_nominal.Inverse();
-  for (size_t k = 0; k < wanted; ++k) {
-    const size_t i = order[k * m.cloud.size() / wanted];
-    const Rigid3d ins = InterpolateTrajectory(m.trajectory, m.cloud.time[i]);
-    m.sample.push_back(i);
-    m.sample_ins.push_back(ins);
-    m.sample_lidar.push_back(lidar_from_body * (ins.Inverse() * m.cloud.points[i]));
-  }
   // Nodes every node_spacing_s over the time span of the sample and the rig frames.
-  double lo = m.cloud.time[order.front()], hi = m.cloud.time[order.back()];
   if (m.with_rig) {
     for (double t : s->rig->frame_times) {
       lo = std::min(lo, t);
@@ -114,14 +130,14 @@ void LoadMobile(JointState* s) {
     m.nodes.push_back(node);
   }
   if (hi <= lo) m.nodes.back().time_s = lo + config.node_spacing_s;
-  for (size_t k = 0; k < m.sample.size(); ++k) m.sample_weight.push_back(WeightAt(m.nodes, m.cloud.time[m.sample[k]]));
+  for (double time : m.sample_time) m.sample_weight.push_back(WeightAt(m.nodes, time));
   if (m.with_rig) {
     for (size_t f = 0; f < s->rig->frame_times.size(); ++f) {
       const double t = s->rig->frame_times[f];
       m.frames.push_back({f, WeightAt(m.nodes, t), InterpolateTrajectory(m.trajectory, t)});
     }
   }
-  s->log.push_back("mobile LiDAR '" + config.id + "': " + std::to_string(m.cloud.size()) + " points (" + stats.format +
+  s->log.push_back("mobile LiDAR '" + config.id + "': " + std::to_string(m.num_points) + " points (" + m.format + ", streamed" +
                    "), " + std::to_string(m.sample.size()) + " used; trajectory corrected at " + std::to_string(m.nodes.size()) +
                    " nodes over " + std::to_string(hi - lo) + " s" +
                    (m.with_rig ? "; rig '" + config.rig + "' on the same vehicle, camera-LiDAR extrinsic " + config.extrinsic
@@ -152,6 +168,7 @@ size_t AssociateMobile(JointState* s, double gate) {
     p.plane_point = plane.point;
     p.sigma_m = plane.sigma_m;
     p.source = m.sample[k];
+    p.time_s = m.sample_time[k];
     m.points.push_back(p);
   }
   return m.points.size();

@@ -716,17 +716,23 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     WriteText(stage / (m.config->id + "_trajectory.csv"), trajectory.str());
     // The whole delivered cloud re-georeferenced with the corrected trajectory and extrinsic,
     // and the error map of the points used (intensity = signed distance to the static surface).
-    io::PointCloud corrected;
-    corrected.points.resize(m.cloud.size());
-    corrected.intensity = m.cloud.intensity;
-    corrected.time = m.cloud.time;
+    // Streamed: one chunk in memory at a time.
     const Rigid3d lidar_from_body_nominal = m.body_from_lidar_nominal.Inverse();
-    for (size_t i = 0; i < m.cloud.size(); ++i) {
-      const Rigid3d ins = InterpolateTrajectory(m.trajectory, m.cloud.time[i]);
-      const Eigen::Vector3d in_lidar = lidar_from_body_nominal * (ins.Inverse() * m.cloud.points[i]);
-      corrected.points[i] = CorrectedPose(m.nodes, WeightAt(m.nodes, m.cloud.time[i]), ins) * (body_from_lidar * in_lidar);
-    }
-    io::WritePly(corrected, (stage / (m.config->id + "_corrected.ply")).string());
+    WriteFileAtomically(stage / (m.config->id + "_corrected.ply"), [&](std::ostream& out) {
+      io::PointCloud corrected;
+      io::StreamPointCloud(m.config->cloud, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t first, size_t total) {
+        corrected.points.resize(chunk.size());
+        corrected.intensity = chunk.intensity;
+        corrected.time = chunk.time;
+        for (size_t i = 0; i < chunk.size(); ++i) {
+          const Rigid3d ins = InterpolateTrajectory(m.trajectory, chunk.time[i]);
+          const Eigen::Vector3d in_lidar = lidar_from_body_nominal * (ins.Inverse() * chunk.points[i]);
+          corrected.points[i] = CorrectedPose(m.nodes, WeightAt(m.nodes, chunk.time[i]), ins) * (body_from_lidar * in_lidar);
+        }
+        if (first == 0) io::WritePlyHeader(out, total, corrected);
+        io::AppendPlyRecords(out, corrected);
+      });
+    }, /*binary=*/true);
     io::PointCloud error_map;
     for (const MobilePoint& p : m.points) {
       const Eigen::Vector3d world = CorrectedPose(m.nodes, p.weight, p.ins) * (body_from_lidar * p.point_lidar);
@@ -735,7 +741,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
       error_map.intensity.push_back(static_cast<float>(p.normal.dot(on_plane - p.plane_point)));
     }
     io::WritePly(error_map, (stage / ("error_map_" + m.config->id + ".ply")).string());
-    report["mobile_lidar"] = {{"sensor", m.config->id}, {"points", m.cloud.size()}, {"used", m.sample.size()},
+    report["mobile_lidar"] = {{"sensor", m.config->id}, {"points", m.num_points}, {"used", m.sample.size()},
                               {"on_surface", m.points.size()}, {"nodes", m.nodes.size()},
                               {"max_position_correction_m", worst}, {"extrinsic", m.with_rig ? m.config->extrinsic : "held"},
                               {"extrinsic_rotation_change_deg", dr}, {"extrinsic_translation_change_m", dt}};

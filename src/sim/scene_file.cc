@@ -18,7 +18,7 @@ void ReadSceneFile(const std::string& path, SimulateOptions* o) {
   // The preset sets sizes first; the other keys then override it, whatever their order.
   if (root.IsMap() && root["preset"]) {
     const std::string preset = r.String(root["preset"], "preset");
-    if (!o->ApplyPreset(preset)) r.Fail(root["preset"], "preset", "small or full", preset);
+    if (!o->ApplyPreset(preset)) r.Fail(root["preset"], "preset", "small, full or drive", preset);
   }
   r.Map(root, "", {
       {"scene", [&](Node n, F f) {
@@ -83,7 +83,8 @@ void ReadSceneFile(const std::string& path, SimulateOptions* o) {
                       {"max_range_m", num(&o->static_scan.noise.max_range_m)},
                       {"mobile_revolutions", integer(&o->mobile_revolutions)},
                       {"mobile_azimuth_step_deg", num(&o->mobile_scan.azimuth_step_deg)},
-                      {"mobile_speed_mps", num(&o->mobile_speed_mps)}});
+                      {"mobile_speed_mps", num(&o->mobile_speed_mps)},
+                      {"mobile_drive_m", num(&o->mobile_drive_m)}});
        }},
       {"total_station", [&](Node n, F f) {
          r.Map(n, f, {{"setups", integer(&o->total_station.setups)},

@@ -306,6 +306,7 @@ struct MobilePoint {
   Eigen::Vector3d plane_point = Eigen::Vector3d::Zero();
   double sigma_m = 0.005;
   size_t source = 0;  ///< index of the point in the delivered cloud
+  double time_s = 0.0;  ///< its acquisition time
   int scan = -1;      ///< −1: plane in the world (reference cloud); else an adjusted scan's plane in its frame
 };
 

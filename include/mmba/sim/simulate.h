@@ -99,13 +99,17 @@ struct SimulateOptions {
   MobileScanOptions mobile_scan;
   int mobile_revolutions = 20;
   double mobile_speed_mps = 3.0;
+  /// Length of the drive past the object, centred on it (0: the object's width + 8 m). The
+  /// LiDAR turns `mobile_revolutions` times from the start; the rig frames spread over it.
+  double mobile_drive_m = 0.0;
   TotalStationOptions total_station;
   GnssOptions gnss;
   CloudOptions clouds;
 
   /// Sets image sizes and densities of a preset: "small" (the defaults: well under a minute
-  /// on 2 cores) or "full" (6284×3142 panoramas, ≥ 10 M LiDAR points, 1600×1200 photos).
-  /// Returns false for an unknown name.
+  /// on 2 cores), "full" (6284×3142 panoramas, ≥ 10 M LiDAR points, 1600×1200 photos) or
+  /// "drive" (the scale case: a 100 m drive with 200 rig frames and panoramas and ≥ 50 M
+  /// mobile LiDAR points, the other sensors as in "small"). Returns false for an unknown name.
   bool ApplyPreset(const std::string& name);
   bool Check(std::string* error) const;
 };
