@@ -27,6 +27,7 @@ struct RegisterCloudArgs {
   bool skip_invalid = false;
   double error_map_max_m = 0.0;
   uint64_t seed = 42;
+  double min_fitness = registration::CloudRegistrationOptions().min_fitness;
 };
 
 int RunRegisterCloud(const RegisterCloudArgs& args) {
@@ -45,6 +46,7 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   options.icp = !args.no_icp;
   options.paper_only = args.paper;
   options.seed = args.seed;
+  options.min_fitness = args.min_fitness;
   std::string error;
   if (!options.Check(&error)) throw InputError::Message("options", error);
 
@@ -120,6 +122,9 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_option("--error-map-max", args->error_map_max_m,
                   "distance shown red in metres (default 5 × point spacing)");
   sub->add_option("--seed", args->seed, "random seed")->capture_default_str();
+  sub->add_option("--min-fitness", args->min_fitness,
+                  "fraction of the source that must lie on the target for \"ok\" (0..1]")
+      ->capture_default_str();
   AddCommonOptions(sub, common);
   return [args] { return RunRegisterCloud(*args); };
 }

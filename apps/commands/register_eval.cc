@@ -15,6 +15,7 @@ struct RegisterEvalArgs {
   double accurate_m = 0.05;
   bool no_cross_modal = false;
   bool gravity_aligned = false;
+  double min_fitness = registration::CloudRegistrationOptions().min_fitness;
 };
 
 int RunRegisterEval(const RegisterEvalArgs& args) {
@@ -24,6 +25,9 @@ int RunRegisterEval(const RegisterEvalArgs& args) {
   options.accurate_m = args.accurate_m;
   options.cross_modal = !args.no_cross_modal;
   options.base.gravity_aligned = args.gravity_aligned;
+  options.base.min_fitness = args.min_fitness;
+  std::string error;
+  if (!options.base.Check(&error)) throw InputError::Message("--min-fitness", error);
   if (!(args.success_fraction > 0)) {
     throw InputError::Message("--success-fraction", "expected a number > 0");
   }
@@ -57,6 +61,9 @@ std::function<int()> SetupRegisterEval(CLI::App& app, CommonOptions* common) {
       ->capture_default_str();
   sub->add_flag("--no-cross-modal", args->no_cross_modal, "experiment I only");
   sub->add_flag("--gravity-aligned", args->gravity_aligned, "clouds are levelled (z up)");
+  sub->add_option("--min-fitness", args->min_fitness,
+                  "robust pipeline: fraction of the source that must fit the target (0..1]")
+      ->capture_default_str();
   AddCommonOptions(sub, common);
   return [args] { return RunRegisterEval(*args); };
 }

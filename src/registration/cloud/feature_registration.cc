@@ -108,8 +108,8 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   if (!(max_resolution_spacing > 0)) {
     return fail("max_resolution_spacing", max_resolution_spacing, "> 0");
   }
-  if (!(max_ambiguity > 0 && max_ambiguity <= 1)) {
-    return fail("max_ambiguity", max_ambiguity, "0 < x <= 1");
+  if (!(max_ambiguity >= 0 && max_ambiguity <= 1)) {
+    return fail("max_ambiguity", max_ambiguity, "0 <= x <= 1");
   }
   return true;
 }
@@ -1284,14 +1284,24 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     r.score = h.score;
     result.hypotheses.push_back(r);
   }
-  if (finalists.size() > 1) {
-    runner_up = finalists[1].h.score;
-    runner = &result.hypotheses[1];
-    result.significance = ScoreSignificance(fine_src, finalists[0].residuals, finalists[0].agree,
-                                            finalists[1].residuals, finalists[1].agree, fine_tau,
-                                            support_radius);
-  } else {
-    result.significance = std::numeric_limits<double>::infinity();
+  // Ambiguity: the best pose must beat every distinct finalist that scores above
+  // max_ambiguity × its score by at least min_significance standard errors of the paired block
+  // score difference — the test PoseResolution applies to small displacements, applied here to
+  // the distinct poses found: a pseudo-symmetric turn, or a shift by one period of a repeated
+  // structure (the runner-up need not score close to the best: a noisy source shifted by one
+  // bay may score 70 % of the truth and still not be told from it). `significance` is the
+  // smallest of these t statistics (+inf when no distinct finalist is left).
+  result.significance = std::numeric_limits<double>::infinity();
+  if (finalists.size() > 1) runner_up = finalists[1].h.score;
+  for (size_t k = 1; k < finalists.size(); ++k) {
+    if (!(finalists[k].h.score > options.max_ambiguity * best.score)) continue;
+    const double t = ScoreSignificance(fine_src, finalists[0].residuals, finalists[0].agree,
+                                       finalists[k].residuals, finalists[k].agree, fine_tau,
+                                       support_radius);
+    if (t < result.significance) {
+      result.significance = t;
+      runner = &result.hypotheses[k];
+    }
   }
   const double best_score = best.score;
   result.confidence = best_score > 0 ? std::clamp(1.0 - runner_up / best_score, 0.0, 1.0) : 0.0;
@@ -1309,14 +1319,17 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
         << 100 * options.min_normal_agreement << "%)";
     return fail(why.str());
   }
-  if (!options.paper_only && runner != nullptr && runner_up > options.max_ambiguity * best_score &&
-      result.significance < options.min_significance) {
+  if (!options.paper_only && runner != nullptr && result.significance < options.min_significance) {
     const Eigen::Matrix3d r = runner->target_from_source.topLeftCorner<3, 3>().transpose() *
                               best.transform.topLeftCorner<3, 3>();
-    why << "ambiguous: two different hypotheses fit almost equally (scores " << best_score
-        << " and " << runner_up << ", " << RotationAngleDeg(r) << "° apart; the difference is "
-        << result.significance << " standard errors, need " << options.min_significance
-        << "); a (pseudo-)symmetric scene — give --gravity-aligned or more overlap";
+    const double shift =
+        (Apply(runner->target_from_source, centre) - Apply(best.transform, centre)).norm();
+    why << "ambiguous: a different pose fits almost as well (scores " << best_score << " and "
+        << runner->score << "; " << RotationAngleDeg(r) << "° and " << shift
+        << " m apart at the source centre); the best is better by only " << result.significance
+        << " standard errors (need " << options.min_significance
+        << "): a (pseudo-)symmetric or repeated structure — give --gravity-aligned or more "
+           "overlap";
     return fail(why.str());
   }
   if (!options.paper_only &&

@@ -110,10 +110,15 @@ struct CloudRegistrationOptions {
   /// gate onto the noisy spherical-stereo cloud pass (0.53), axis-aligned scenes agree by
   /// chance on about a third
   double min_normal_agreement = 0.6;
-  double max_ambiguity = 0.8;     ///< runner-up/best score above this = ambiguous = failed
-  /// ... unless the best beats the runner-up by at least this many standard errors of the
-  /// per-block score difference (blocks of R_s; a paired t statistic) (>= 0).
-  double min_significance = 4.0;
+  /// Ambiguity test: every distinct finalist scoring above this fraction of the best is
+  /// compared with it (0 = every one; 1 = none: the test is off) (0..1).
+  double max_ambiguity = 0.0;
+  /// ... and "ok" needs the best to beat each of them by at least this many standard errors of
+  /// the per-block score difference (blocks of R_s; a paired t statistic), the same bar as
+  /// resolution_t for small displacements (>= 0). (Before: only a runner-up above 0.8 × the
+  /// best was tested, against 4; a stereo part shifted by one bay of the cathedral onto the
+  /// proxy scored 0.72 × with t 2.2 and was caught only by min_fitness.)
+  double min_significance = 3.0;
   /// Pose resolution test: a displacement of the chosen pose counts as told apart when it
   /// scores worse by at least this many standard errors (paired block t) (> 0).
   double resolution_t = 3.0;
@@ -156,7 +161,8 @@ struct CloudRegistrationResult {
   double inlier_rmse = 0.0;       ///< metres
   double normal_agreement = 0.0;
   double conflict = 0.0;          ///< see RegistrationHypothesis::conflict
-  double significance = 0.0;      ///< best vs runner-up in standard errors (inf: no runner-up)
+  double significance = 0.0;      ///< best vs the least distinguishable distinct finalist, in
+                                  ///< standard errors (inf: no distinct finalist)
   double confidence = 0.0;        ///< 0..1: 1 − runner-up score / best score, times fitness checks
   size_t num_keypoints_source = 0, num_keypoints_target = 0;
   size_t num_correspondences = 0;  ///< descriptor matches
