@@ -262,5 +262,43 @@ TEST(Simulate, ImpossibleParametersAreInputErrors) {
   fs::remove_all(dir);
 }
 
+// The drive preset is the scale case of issue 7: 200 rig frames, a 100 m drive the LiDAR turns
+// through from end to end at a density that gives >= 50 M points on the cathedral; a drive
+// leaving the scene's ground (or the gate's studio) is refused, naming the key.
+TEST(Simulate, DrivePresetCoversTheDriveAndStaysOnTheScene) {
+  SimulateOptions o;
+  o.scene = "cathedral";
+  ASSERT_TRUE(o.ApplyPreset("drive"));
+  EXPECT_EQ(o.rig.frames, 200);
+  EXPECT_DOUBLE_EQ(o.mobile_drive_m, 100.0);
+  EXPECT_GE(o.mobile_revolutions / o.mobile_scan.rotation_hz, o.mobile_drive_m / o.mobile_speed_mps);
+  EXPECT_LT(o.mobile_revolutions / o.mobile_scan.rotation_hz, o.mobile_drive_m / o.mobile_speed_mps + 0.2);
+  // Rays per second of drive × duration: the head's share that returns is ~70 % on the
+  // cathedral (measured: 53.7 M points), so the rays must be well above 50 M.
+  const double rays = 360.0 / o.mobile_scan.azimuth_step_deg * o.mobile_scan.beams * o.mobile_revolutions;
+  EXPECT_GT(rays, 50e6 / 0.7);
+  std::string error;
+  EXPECT_TRUE(o.Check(&error)) << error;
+  o.scene = "gate";
+  EXPECT_FALSE(o.Check(&error));
+  EXPECT_NE(error.find("lidar.mobile_drive_m"), std::string::npos) << error;
+  const fs::path dir = OutDir("drive");
+  fs::create_directories(dir);
+  std::ofstream(dir / "drive.yaml") << "scene: cathedral\npreset: drive\nlidar:\n  mobile_drive_m: 40\n";
+  SimulateOptions from_file;
+  ReadSceneFile((dir / "drive.yaml").string(), &from_file);
+  EXPECT_EQ(from_file.rig.frames, 200);
+  EXPECT_DOUBLE_EQ(from_file.mobile_drive_m, 40.0);
+  std::ofstream(dir / "off.yaml") << "scene: cathedral\nlidar:\n  mobile_drive_m: 500\n";
+  SimulateOptions off;
+  try {
+    ReadSceneFile((dir / "off.yaml").string(), &off);
+    FAIL() << "expected an InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("mobile_drive_m 500"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace mmba::sim
