@@ -24,6 +24,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -286,6 +287,21 @@ int main(int argc, char** argv) {
   RegistrationOptions options;
   if (const char* v = std::getenv("MI_RESTART_LEVEL")) options.restart_level = std::atoi(v);
   if (const char* v = std::getenv("MI_SPLIT_LEVEL")) options.split_level = std::atoi(v);
+  if (const char* v = std::getenv("MI_COARSE_STARTS")) options.coarse_starts = std::atoi(v);
+  if (const char* v = std::getenv("MI_COARSE_CANDIDATES")) options.coarse_candidates = std::atoi(v);
+  if (const char* v = std::getenv("MI_COARSE_SPREAD")) options.coarse_start_spread = std::atof(v);
+  if (const char* v = std::getenv("MI_REGION")) {
+    if (!ParseRegion(v, &options.metric.region)) return 2;
+  }
+  if (const char* v = std::getenv("MI_METRIC")) {
+    if (!ParseMetric(v, &options.metric.kind)) return 2;
+  }
+  // MI_SEARCH_ONLY=1: no restarts and no halves (the search and its end pose are unchanged;
+  // the status is then not the acceptance's) — for diagnosing the search quickly.
+  if (std::getenv("MI_SEARCH_ONLY") != nullptr) {
+    options.restarts = 0;
+    options.split_check = false;
+  }
   std::ofstream runs(out_dir / "runs.csv");
   runs << "view,kind,max_m,max_deg,tx,ty,tz,roll,pitch,yaw,status,"
           "image_px_before,image_px_after,view_px_before,view_px_after,sigma_px,"
@@ -293,7 +309,8 @@ int main(int argc, char** argv) {
           "sd_tx,sd_ty,sd_tz,sd_roll,sd_pitch,sd_yaw,mahalanobis2,n_eff,inflation,"
           "sigma_px_calibrated,restart_rms_px,split_spread_px,variance_factor_halves,"
           "variance_factor_restarts,variance_factor,evaluations,"
-          "seconds,"
+          "metric_true_l0,metric_est_l0,metric_true_l1,metric_est_l1,metric_true_l2,"
+          "metric_est_l2,seconds,"
           "cpu_seconds,reason\n";
   struct Row {
     std::string size;
@@ -389,6 +406,62 @@ int main(int argc, char** argv) {
           Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(r.covariance);
           if (ldlt.info() == Eigen::Success) mahalanobis2 = error.dot(ldlt.solve(error));
         }
+        // Does the metric itself prefer the truth (a search failure) or the estimate (a
+        // metric whose maximum is not at the truth)? Each pyramid level, the default metric.
+        std::array<double, 3> metric_true{NAN, NAN, NAN}, metric_est{NAN, NAN, NAN};
+        {
+          const FrameSetEvaluator evaluator({frame}, start, options);
+          for (int level = 0; level < std::min(3, evaluator.levels()); ++level) {
+            metric_true[level] = evaluator.Evaluate(tv.cam_from_world, level).value;
+            metric_est[level] = evaluator.Evaluate(r.cam_from_lidar, level).value;
+          }
+        }
+        if (std::getenv("MI_LINE_PROBE") != nullptr) {
+          // Inspection: the metric along the straight line truth → estimate (t = 0 truth,
+          // t = 1 estimate, in correction space) at each level, for several metric settings:
+          // which of them put the maximum of that line at the truth at every level?
+          const Vector6d c_est = r.correction;
+          const Vector6d c_true = truth_correction;
+          struct Setting {
+            const char* name;
+            MetricKind kind;
+            Region region;
+            int bins;
+          };
+          const Setting settings[] = {{"nmi overlap 64", MetricKind::kNmi, Region::kOverlap, 64},
+                                      {"nmi whole 64", MetricKind::kNmi, Region::kWholeImage, 64},
+                                      {"mi overlap 64", MetricKind::kMi, Region::kOverlap, 64},
+                                      {"mi whole 64", MetricKind::kMi, Region::kWholeImage, 64},
+                                      {"nmi overlap 32", MetricKind::kNmi, Region::kOverlap, 32}};
+          const FrameSetEvaluator evaluator({frame}, start, options);
+          for (const Setting& setting : settings) {
+            MetricOptions metric = options.metric;
+            metric.kind = setting.kind;
+            metric.region = setting.region;
+            metric.bins = setting.bins;
+            std::printf("  line %-16s", setting.name);
+            for (int level = 0; level < evaluator.levels(); ++level) {
+              double best = -INFINITY, best_t = 0, at_truth = 0, at_est = 0;
+              for (int k = -5; k <= 15; ++k) {
+                const double t = 0.1 * k;
+                const double value =
+                    evaluator
+                        .Evaluate(ApplyCorrection(start, c_true + t * (c_est - c_true)), level,
+                                  metric)
+                        .value;
+                if (k == 0) at_truth = value;
+                if (k == 10) at_est = value;
+                if (value > best) {
+                  best = value;
+                  best_t = t;
+                }
+              }
+              std::printf("  l%d argmax t=%+.1f (est-true %+.5f)", level, best_t,
+                          at_est - at_truth);
+            }
+            std::printf("\n");
+          }
+        }
         const std::string size = max_m == 0.1 ? "0.1m/1deg" : "0.3m/2deg";
         Row row{size,          r.ok(),     ib.median_px, ia.median_px, Median(vb),
                 Median(va),    r.checks.sigma_px,        seconds};
@@ -414,19 +487,25 @@ int main(int argc, char** argv) {
              << r.checks.sample_inflation << "," << r.checks.sigma_px_calibrated << ","
              << r.checks.restart_rms_px << "," << r.checks.split_spread_px << ","
              << r.checks.variance_factor_halves << "," << r.checks.variance_factor_restarts << ","
-             << r.checks.variance_factor << "," << r.evaluations << "," << seconds << "," << cpu
+             << r.checks.variance_factor << "," << r.evaluations;
+        for (int level = 0; level < 3; ++level) {
+          runs << "," << metric_true[level] << "," << metric_est[level];
+        }
+        runs << "," << seconds << "," << cpu
              << ",\"" << reason << "\"\n";
         runs.flush();
         std::string headings;
         for (const View& view : frame.views) headings += view.name.substr(view.name.rfind('_') + 1) + " ";
         std::printf("[%s] ", headings.c_str());
         std::printf("%-16s %-9s %-6s image %6.2f -> %6.2f px  views %6.2f -> %6.2f px  sigma "
-                    "%.2f px (calibrated %.2f, factor %.1f)  restarts %.2f px (rms %.2f)  halves %.2f px  maha2 %.1f  N_eff %.0f (/%.1f)  %5.1f s (cpu %.1f)  %s\n",
+                    "%.2f px (calibrated %.2f, factor %.1f)  restarts %.2f px (rms %.2f)  halves %.2f px  maha2 %.1f  N_eff %.0f (/%.1f)  metric est-true l0 %+.5f l1 %+.5f l2 %+.5f  %5.1f s (cpu %.1f)  %s\n",
                     tv.name.c_str(), size.c_str(), r.status.c_str(), ib.median_px,
                     ia.median_px, row.view_before, row.view_after, r.checks.sigma_px,
                     r.checks.sigma_px_calibrated, r.checks.variance_factor,
                     r.checks.restart_spread_px, r.checks.restart_rms_px, r.checks.split_spread_px, mahalanobis2, r.checks.effective_samples,
-                    r.checks.sample_inflation, seconds, cpu, reason.c_str());
+                    r.checks.sample_inflation, metric_est[0] - metric_true[0],
+                    metric_est[1] - metric_true[1], metric_est[2] - metric_true[2], seconds, cpu,
+                    reason.c_str());
         std::fflush(stdout);
       }
     }

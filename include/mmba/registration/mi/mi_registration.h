@@ -50,6 +50,13 @@ struct RegistrationOptions {
   /// Nelder–Mead runs from the coarsest level down to this one; finer levels get only the
   /// gradient refinement (0 = Nelder–Mead at full resolution too).
   int finest_nelder_mead_level = 0;
+  /// Coarse global stage: extra Nelder–Mead starts at the coarsest level, spread over
+  /// ±coarse_start_spread·bound (Halton points in opposite pairs; 0 = the paper's single
+  /// local search from the start). The `coarse_candidates` best distinct coarse optima are
+  /// carried down the pyramid and the best at the finest Nelder–Mead level wins.
+  int coarse_starts = 0;
+  double coarse_start_spread = 0.6;  ///< fraction of the bound, (0, 1]
+  int coarse_candidates = 3;
   bool gradient_refinement = true;   ///< after Nelder–Mead, on the B-spline histogram
   int gradient_max_iterations = 5;
   /// Points kept per view pixel at full resolution, doubled per coarser level (an even
