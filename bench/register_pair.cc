@@ -88,6 +88,8 @@ int main(int argc, char** argv) {
     else if (key == "icp") options.icp = v != 0;
     else if (key == "min_keypoints") options.min_keypoints = static_cast<int>(v);
     else if (key == "sac_ia_iterations") options.sac_ia_iterations = static_cast<int>(v);
+    else if (key == "sac_ia_confidence") options.sac_ia_confidence = v;
+    else if (key == "sac_ia_alternative_ratio") options.sac_ia_alternative_ratio = v;
     else if (key == "keypoint_threshold") options.keypoint_threshold = v;
     else if (key == "keypoint_grid_spacing") options.keypoint_grid_spacing = v;
     else if (key == "icp_distance_spacing") options.icp_distance_spacing = v;

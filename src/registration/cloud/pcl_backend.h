@@ -57,14 +57,10 @@ class FeatureIndex {
   size_t rows_ = 0;
 };
 
-/// Normals by PCA within `radius` (as PCL's NormalEstimation, on the nanoflann index with
-/// 2 OpenMP threads), oriented towards `viewpoint`. Points with fewer than 3 neighbours get a
-/// NaN normal.
+/// Normals by PCA within `radius` (PCL NormalEstimationOMP), oriented towards `viewpoint`.
+/// Points with too few neighbours get a NaN normal.
 std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>& points,
                                              double radius, const Eigen::Vector3d& viewpoint);
-/// PCL's NormalEstimationOMP on the same input: the reference EstimateNormals is tested against.
-std::vector<Eigen::Vector3d> EstimateNormalsPcl(const std::vector<Eigen::Vector3d>& points,
-                                                double radius, const Eigen::Vector3d& viewpoint);
 
 /// Kanade–Tomasi response per point: smallest eigenvalue of the mean of n·nᵀ over the
 /// neighbours within `radius` (PCL HarrisKeypoint3D, method TOMASI, no suppression).
