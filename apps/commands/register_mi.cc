@@ -43,6 +43,9 @@ struct RegisterMiArgs {
   double bound_deg = 3.0;
   double simplex = 1.0;
   int max_iterations = 200;
+  int coarse_starts = mi::RegistrationOptions().coarse_starts;
+  int coarse_candidates = mi::RegistrationOptions().coarse_candidates;
+  double coarse_spread = mi::RegistrationOptions().coarse_start_spread;
   int restarts = 3;
   int restart_level = 1;
   int threads = 2;
@@ -166,6 +169,9 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.bound_rotation_deg = args.bound_deg;
   options.nelder_mead.initial_step = mi::Vector6d::Constant(args.simplex);
   options.nelder_mead.max_iterations = args.max_iterations;
+  options.coarse_starts = args.coarse_starts;
+  options.coarse_candidates = args.coarse_candidates;
+  options.coarse_start_spread = args.coarse_spread;
   options.restarts = args.restarts;
   options.restart_level = args.restart_level;
   options.threads = args.threads;
@@ -476,6 +482,17 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
   sub->add_option("--simplex", args->simplex, "Initial simplex size, units (paper: 1)")
       ->capture_default_str();
   sub->add_option("--max-iterations", args->max_iterations, "Nelder-Mead iterations per level")
+      ->capture_default_str();
+  sub->add_option("--coarse-starts", args->coarse_starts,
+                  "Coarse global stage: extra Nelder-Mead starts at the coarsest level, spread "
+                  "over the bounds (0 = the paper's single local search)")
+      ->capture_default_str();
+  sub->add_option("--coarse-candidates", args->coarse_candidates,
+                  "Coarse global stage: distinct coarse optima (the start's always among them) "
+                  "carried to full resolution; the best there wins")
+      ->capture_default_str();
+  sub->add_option("--coarse-spread", args->coarse_spread,
+                  "Coarse global stage: starts within +-this fraction of the bounds")
       ->capture_default_str();
   sub->add_option("--restarts", args->restarts,
                   "Acceptance: re-optimisations from around the optimum that must agree")
