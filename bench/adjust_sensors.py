@@ -17,14 +17,7 @@ import time
 
 import yaml
 
-mmba, scene, preset, work = sys.argv[1:5]
-sim = os.path.join(work, "sim")
-if not os.path.exists(os.path.join(sim, "project.yaml")):
-    subprocess.run([mmba, "simulate", "--scene", scene, "--preset", preset, "--out", sim, "-q"], check=True)
-base = yaml.safe_load(open(os.path.join(sim, "project.yaml")))
-
-
-def variant(name, drop_types=(), settings=None):
+def variant(base, sim, name, drop_types=(), settings=None):
     p = dict(base)
     p["sensors"] = [dict(s) for s in base["sensors"] if s["type"] not in drop_types]
     if "total_station" in drop_types:  # no control and no check points without the network
@@ -42,32 +35,8 @@ def variant(name, drop_types=(), settings=None):
     return path
 
 
-variants = [
-    ("all sensors", variant("all")),
-    ("without static LiDAR (and so without the mobile LiDAR)", variant("nolidar", ["lidar_static", "lidar_mobile"])),
-    ("without mobile LiDAR", variant("nomobile", ["lidar_mobile"])),
-    ("without spherical stereo", variant("nosphere", ["spherical_stereo"])),
-    ("without camera rig", variant("norig", ["camera_rig"])),
-    ("without GNSS control", variant("nognss", ["gnss"])),
-    ("without total station (no control, no check points)", variant("nots", ["total_station"])),
-    ("all, no variance components", variant("novce", settings={"variance_components": False})),
-]
-print("| run | check RMSE 3D (expected) | photo pos RMSE / max | sphere max pos | rig frame max pos | rig_from_lidar error | trajectory RMSE (GNSS/INS) | scans max pos / rot (registration) | sigma0 (given σ) | blunders | time | peak RSS |")
-print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-for label, path in variants:
-    out = os.path.join(work, "out_" + os.path.basename(path)[8:-5])
-    start = time.time()
-    run = subprocess.run(["/usr/bin/time", "-v", mmba, "adjust", path, "--output", out, "-q"],
-                         capture_output=True, text=True)
-    seconds = time.time() - start
-    with open(out + ".summary.txt", "w") as f:
-        f.write(run.stdout)
-    rss = re.search(r"Maximum resident set size \(kbytes\): (\d+)", run.stderr)
-    rss = f"{int(rss.group(1)) / 1024:.0f} MB" if rss else "?"
-    if run.returncode != 0:
-        reason = run.stderr.strip().splitlines()[0] if run.stderr.strip() else "?"
-        print(f"| {label} | failed (exit {run.returncode}): {reason} | | | | | | | | | {seconds:.0f} s | {rss} |")
-        continue
+def summarise(out):
+    """The truth-evaluation columns of one adjustment's output folder, as Markdown cells."""
     r = json.load(open(os.path.join(out, "report.json")))
     t = r.get("truth_evaluation", {})
     c = r.get("check_summary", {})
@@ -87,5 +56,46 @@ for label, path in variants:
     sc = t.get("static_scans")
     scans = (f"{1000 * sc['max_position_m']:.1f} mm / {sc['max_rotation_deg']:.3f}° "
              f"({1000 * sc['registration_max_position_m']:.1f} mm / {sc['registration_max_rotation_deg']:.3f}°)" if sc else "-")
-    print(f"| {label} | {check} | {photos} | {sphere} | {rig} | {ext} | {traj} | {scans} | {s0} | {len(r['blunders'])} | {seconds:.0f} s | {rss} |",
-          flush=True)
+    return {"check": check, "photos": photos, "sphere": sphere, "rig": rig, "ext": ext, "traj": traj, "scans": scans,
+            "s0": s0, "blunders": len(r["blunders"]), "report": r}
+
+
+def main():
+    mmba, scene, preset, work = sys.argv[1:5]
+    sim = os.path.join(work, "sim")
+    if not os.path.exists(os.path.join(sim, "project.yaml")):
+        subprocess.run([mmba, "simulate", "--scene", scene, "--preset", preset, "--out", sim, "-q"], check=True)
+    base = yaml.safe_load(open(os.path.join(sim, "project.yaml")))
+    variants = [
+        ("all sensors", variant(base, sim, "all")),
+        ("without static LiDAR (and so without the mobile LiDAR)", variant(base, sim, "nolidar", ["lidar_static", "lidar_mobile"])),
+        ("without mobile LiDAR", variant(base, sim, "nomobile", ["lidar_mobile"])),
+        ("without spherical stereo", variant(base, sim, "nosphere", ["spherical_stereo"])),
+        ("without camera rig", variant(base, sim, "norig", ["camera_rig"])),
+        ("without GNSS control", variant(base, sim, "nognss", ["gnss"])),
+        ("without total station (no control, no check points)", variant(base, sim, "nots", ["total_station"])),
+        ("all, no variance components", variant(base, sim, "novce", settings={"variance_components": False})),
+    ]
+    print("| run | check RMSE 3D (expected) | photo pos RMSE / max | sphere max pos | rig frame max pos | rig_from_lidar error | trajectory RMSE (GNSS/INS) | scans max pos / rot (registration) | sigma0 (given σ) | blunders | time | peak RSS |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for label, path in variants:
+        out = os.path.join(work, "out_" + os.path.basename(path)[8:-5])
+        start = time.time()
+        run = subprocess.run(["/usr/bin/time", "-v", mmba, "adjust", path, "--output", out, "-q"],
+                             capture_output=True, text=True)
+        seconds = time.time() - start
+        with open(out + ".summary.txt", "w") as f:
+            f.write(run.stdout)
+        rss = re.search(r"Maximum resident set size \(kbytes\): (\d+)", run.stderr)
+        rss = f"{int(rss.group(1)) / 1024:.0f} MB" if rss else "?"
+        if run.returncode != 0:
+            reason = run.stderr.strip().splitlines()[0] if run.stderr.strip() else "?"
+            print(f"| {label} | failed (exit {run.returncode}): {reason} | | | | | | | | | {seconds:.0f} s | {rss} |")
+            continue
+        c = summarise(out)
+        print(f"| {label} | {c['check']} | {c['photos']} | {c['sphere']} | {c['rig']} | {c['ext']} | {c['traj']} | {c['scans']} | {c['s0']} | {c['blunders']} | {seconds:.0f} s | {rss} |",
+              flush=True)
+
+
+if __name__ == "__main__":
+    main()
