@@ -13,6 +13,7 @@
 #include <numeric>
 #include <random>
 #include <sstream>
+#include <tuple>
 #include <unordered_map>
 
 #include <Eigen/Cholesky>
@@ -104,6 +105,7 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
     return fail("min_normal_agreement", min_normal_agreement, "0 <= x <= 1");
   }
   if (!(min_significance >= 0)) return fail("min_significance", min_significance, ">= 0");
+  if (num_period_shifts < 0) return fail("num_period_shifts", num_period_shifts, ">= 0");
   if (!(resolution_t > 0)) return fail("resolution_t", resolution_t, "> 0");
   if (!(max_resolution_spacing > 0)) {
     return fail("max_resolution_spacing", max_resolution_spacing, "> 0");
@@ -1231,6 +1233,107 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
       finalists.erase(finalists.begin() + static_cast<long>(i));
     } else {
       ++i;
+    }
+  }
+  // Shifted copies of the best pose (a repeated structure: bays, windows, columns). The
+  // hypotheses need not contain the pose one period away, and then the ambiguity test has
+  // nothing to compare with. Under the best pose T every descriptor match (source keypoint
+  // s, candidate target keypoint t) votes for the displacement t − T·s (a Hough vote over
+  // translations, Ballard 1981): the right matches vote near 0, the matches to the same
+  // feature in a repeated unit vote for the period. The up-to-`num_period_shifts` strongest
+  // displacement cells beyond R_s (smaller shifts are the resolution test's) with at least 3
+  // votes give T moved by their mean displacement, refined by the fine ICP and scored like
+  // the other finalists; a distinct one then enters the ambiguity test.
+  if (!options.paper_only && options.num_period_shifts > 0 && !finalists.empty()) {
+    const Eigen::Matrix4d best_t = finalists.front().h.transform;
+    const double cell = 2.0 * normal_radius;
+    std::unordered_map<VoxelKey, std::pair<Eigen::Vector3d, int>, VoxelKeyHash> votes;
+    for (const Matching& m : matchings) {
+      for (size_t i = 0; i < m.src_to_tgt.size(); ++i) {
+        const Eigen::Vector3d q = Apply(best_t, m.src_kp[i]);
+        for (int j : m.src_to_tgt[i]) {
+          if (j < 0) continue;
+          const Eigen::Vector3d d = m.tgt_kp[j] - q;
+          const VoxelKey key{static_cast<int64_t>(std::floor(d.x() / cell)),
+                             static_cast<int64_t>(std::floor(d.y() / cell)),
+                             static_cast<int64_t>(std::floor(d.z() / cell))};
+          auto it = votes.try_emplace(key, Eigen::Vector3d::Zero(), 0).first;
+          it->second.first += d;
+          ++it->second.second;
+        }
+      }
+    }
+    // A displacement near a cell boundary splits its votes: each cell is scored with its 26
+    // neighbours (sum and mean over the 3×3×3 block), and only blocks whose centre cell has
+    // the most votes of its neighbourhood are kept (non-maximum suppression).
+    std::vector<std::pair<int, Eigen::Vector3d>> modes;  // (votes, mean displacement)
+    for (const auto& [key, v] : votes) {
+      int total = 0;
+      bool peak = true;
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (int dx = -1; dx <= 1; ++dx) {
+        for (int dy = -1; dy <= 1; ++dy) {
+          for (int dz = -1; dz <= 1; ++dz) {
+            const auto it = votes.find(VoxelKey{key.x + dx, key.y + dy, key.z + dz});
+            if (it == votes.end()) continue;
+            total += it->second.second;
+            sum += it->second.first;
+            const bool other = dx != 0 || dy != 0 || dz != 0;
+            if (other && (it->second.second > v.second ||
+                          (it->second.second == v.second &&
+                           std::make_tuple(it->first.x, it->first.y, it->first.z) <
+                               std::make_tuple(key.x, key.y, key.z)))) {
+              peak = false;
+            }
+          }
+        }
+      }
+      const Eigen::Vector3d mean = sum / total;
+      if (peak && total >= 3 && mean.norm() > support_radius) modes.emplace_back(total, mean);
+    }
+    std::sort(modes.begin(), modes.end(), [](const auto& a, const auto& b) {
+      return a.first > b.first ||
+             (a.first == b.first && std::make_tuple(a.second.x(), a.second.y(), a.second.z()) <
+                                        std::make_tuple(b.second.x(), b.second.y(), b.second.z()));
+    });
+    if (static_cast<int>(modes.size()) > options.num_period_shifts) {
+      modes.resize(static_cast<size_t>(options.num_period_shifts));
+    }
+    const size_t before_shifts = finalists.size();
+    for (const auto& [count, shift] : modes) {
+      Finalist f;
+      f.h = finalists.front().h;
+      f.h.transform.topRightCorner<3, 1>() += shift;
+      std::ostringstream origin;
+      origin << std::setprecision(3) << "period shift (" << shift.x() << ", " << shift.y() << ", "
+             << shift.z() << ") m, " << count << " votes";
+      f.h.origin = origin.str();
+      const std::shared_ptr<TargetCrop> crop = crop_for(f.h.transform);
+      if (crop->level.points.size() < 10) continue;
+      f.spacing = std::max(src_fine_spacing, crop->level.spacing);
+      if (options.icp) {
+        f.h.transform = PointToPlaneIcp(fine_src, crop->level.points, crop->level.normals,
+                                        *crop->index, f.h.transform,
+                                        options.icp_distance_spacing * spacing,
+                                        options.icp_distance_spacing * f.spacing,
+                                        options.icp_iterations, nullptr);
+      }
+      const double reach = std::min(normal_radius, options.normal_radius_spacing * f.spacing);
+      FineResiduals(fine_src, fine_src_n, *crop, f.h.transform, reach, &f.residuals, &f.agree);
+      f.crop = crop;
+      f.sigma = RobustScale(f.residuals);
+      ScoreFine(f.residuals, f.agree, fine_tau, &f.h);
+      bool same = false;
+      for (const Finalist& g : finalists) {
+        same = same || SameTransform(f.h.transform, g.h.transform, centre, 10.0,
+                                     std::max(10.0 * fine_tau, 2.0 * fine_spacing));
+      }
+      if (!same) finalists.push_back(std::move(f));
+    }
+    if (finalists.size() > before_shifts) {
+      std::stable_sort(finalists.begin(), finalists.end(), [](const Finalist& a, const Finalist& b) {
+        return a.h.score > b.h.score;
+      });
     }
   }
   spdlog::debug("registration: fine τ {:.4g} m, {} distinct finalists", fine_tau, finalists.size());

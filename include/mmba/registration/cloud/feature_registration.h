@@ -119,6 +119,10 @@ struct CloudRegistrationOptions {
   /// best was tested, against 4; a stereo part shifted by one bay of the cathedral onto the
   /// proxy scored 0.72 × with t 2.2 and was caught only by min_fitness.)
   double min_significance = 3.0;
+  /// Repeated structures: the best pose moved by this many of the strongest displacement
+  /// modes of the descriptor matches (beyond R_s) is refined and added to the ambiguity test
+  /// (0 = off) (>= 0).
+  int num_period_shifts = 4;
   /// Pose resolution test: a displacement of the chosen pose counts as told apart when it
   /// scores worse by at least this many standard errors (paired block t) (> 0).
   double resolution_t = 3.0;
