@@ -290,6 +290,7 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_COARSE_STARTS")) options.coarse_starts = std::atoi(v);
   if (const char* v = std::getenv("MI_COARSE_CANDIDATES")) options.coarse_candidates = std::atoi(v);
   if (const char* v = std::getenv("MI_COARSE_SPREAD")) options.coarse_start_spread = std::atof(v);
+  if (const char* v = std::getenv("MI_LEVELS")) options.pyramid_levels = std::atoi(v);
   if (const char* v = std::getenv("MI_REGION")) {
     if (!ParseRegion(v, &options.metric.region)) return 2;
   }
