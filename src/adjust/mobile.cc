@@ -95,13 +95,17 @@ void LoadMobile(JointState* s) {
       }
       lo = std::min(lo, time);
       hi = std::max(hi, time);
-      if (next < wanted && i == next * total / wanted) {
+      if (next < wanted && i >= next * total / wanted) {
+        // The pick, or the first point after it within max_range_m; picks passed over while
+        // looking are skipped (the sample stays evenly spread).
         const Rigid3d ins = InterpolateTrajectory(m.trajectory, time);
+        const Eigen::Vector3d in_lidar = lidar_from_body * (ins.Inverse() * chunk.points[j]);
+        if (config.max_range_m > 0 && in_lidar.norm() > config.max_range_m) continue;
         m.sample.push_back(i);
         m.sample_time.push_back(time);
         m.sample_ins.push_back(ins);
-        m.sample_lidar.push_back(lidar_from_body * (ins.Inverse() * chunk.points[j]));
-        ++next;
+        m.sample_lidar.push_back(in_lidar);
+        while (next < wanted && next * total / wanted <= i) ++next;
       }
     }
     m.num_points = first + chunk.size();

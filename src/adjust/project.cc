@@ -183,6 +183,7 @@ class ProjectReader {
                        if (m.points < 100 || m.points > 5000000) r_.Fail(v, g, "an integer in [100, 5000000]", r_.Text(v));
                      }},
                     {"node_spacing_s", [&](Node v, Field g) { m.node_spacing_s = r_.Positive(v, g, 600.0, "seconds"); }},
+                    {"max_range_m", [&](Node v, Field g) { m.max_range_m = ZeroOrPositive(v, g, 10000.0, "m (metres)"); }},
                     {"trajectory_sigma_m", metres(&m.trajectory_sigma_m, 10.0)},
                     {"trajectory_sigma_deg", degrees(&m.trajectory_sigma_deg, 30.0)},
                     {"trajectory_correlation_s", [&](Node v, Field g) { m.trajectory_correlation_s = CorrelationTime(v, g); }},

@@ -95,6 +95,9 @@ TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {
       {ts_ + "  - {id: l, type: lidar_static, reference_cloud: lidar.ply}\n"
              "  - {id: m, type: lidar_mobile, cloud: lidar.ply, trajectory: gnss.csv, calibration: gnss.csv, "
              "smoothness_sigma_deg: -0.1}\n", "", "0 (off)"},
+      {ts_ + "  - {id: l, type: lidar_static, reference_cloud: lidar.ply}\n"
+             "  - {id: m, type: lidar_mobile, cloud: lidar.ply, trajectory: gnss.csv, calibration: gnss.csv, "
+             "max_range_m: -40}\n", "", "sensors[2].max_range_m"},
       {photos_ + "  - {id: s, type: spherical_stereo, images: images, calibration: gnss.csv, observations: gnss.csv, "
                  "stations_file: gnss.csv, tie_block: q}\n", "", "tie_block"},
   };

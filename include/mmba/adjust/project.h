@@ -157,6 +157,10 @@ struct LidarMobile {
   double surface_sigma_m = 0.005;  ///< σ of the static surface's local plane
   double max_distance_m = 0.5;     ///< association gate of the first outer iteration
   int points = 20000;              ///< points used, evenly over time
+  /// Points farther than this from the scanner are not sampled (0 = no limit): far returns
+  /// meet the reference at grazing angles and, with a trajectory still degrees off, the
+  /// wrong planes within the first gate.
+  double max_range_m = 40.0;
   double node_spacing_s = 1.0;
   double trajectory_sigma_m = 0.1;     ///< GNSS/INS position σ (prior on each node's correction)
   double trajectory_sigma_deg = 1.0;   ///< GNSS/INS attitude σ
