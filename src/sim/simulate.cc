@@ -1077,7 +1077,7 @@ SimulateResult Simulate(const SimulateOptions& options, const std::string& out_d
   const geodesy::LocalTangentPlane plane(options.origin);
   fs::create_directories(out_dir);
   Context c{options, scene, caster, plane, fs::path(out_dir), FrameObject(scene), json::object(),
-            json::object(), {}, {}};
+            json::object(), {}, {}, {}};
   c.result.out_dir = out_dir;
   c.result.triangles = scene.mesh.NumTriangles();
   spdlog::info("simulate: scene {} ({} triangles), seed {}, preset {}", scene.name,

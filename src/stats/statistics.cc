@@ -4,6 +4,8 @@
 #include <cmath>
 #include <iomanip>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Dense>
 #include <Eigen/Sparse>
@@ -392,14 +394,27 @@ SchurInverse AnalyzeSchur(const Linearization& lin, const StatisticsOptions& opt
     }
     std::map<int, int> local;
     for (int i = 0; i < k; ++i) local[pb.cols[i]] = i;
+    // h = zᵀMz + bᵀV⁻¹b with z = a − gᵀb, expanded so that each row costs the square of its
+    // own few columns, not of all k columns of its point (k is every frame that sees the
+    // point): h = aᵀMa − 2aᵀ(Mgᵀ)b + bᵀ(gMgᵀ + V⁻¹)b, Mgᵀ (k×q) and gMgᵀ (q×q) once per point.
+    const Eigen::MatrixXd m_gt = m * pb.g.transpose();
+    const Eigen::MatrixXd inner = pb.g * m_gt + pb.v_inv;
+    const int q = static_cast<int>(pb.v_inv.rows());
+    std::vector<std::pair<int, double>> a;
     for (int r : rows_of_point.at(first)) {
-      Eigen::VectorXd a = Eigen::VectorXd::Zero(k), b = Eigen::VectorXd::Zero(pb.v_inv.rows());
+      Eigen::VectorXd b = Eigen::VectorXd::Zero(q);
+      a.clear();
       for (RowIt it(lin.jacobian, r); it; ++it) {
-        if (it.col() < nc) a(local.at(it.col())) = it.value();
+        if (it.col() < nc) a.emplace_back(local.at(it.col()), it.value());
         else b(it.col() - first) = it.value();
       }
-      const Eigen::VectorXd z = a - pb.g.transpose() * b;
-      out.h[r] = z.dot(m * z) + b.dot(pb.v_inv * b);
+      double ama = 0.0;
+      Eigen::VectorXd a_mgt = Eigen::VectorXd::Zero(q);
+      for (const auto& [i, vi] : a) {
+        for (const auto& [j, vj] : a) ama += vi * vj * m(i, j);
+        a_mgt += vi * m_gt.row(i).transpose();
+      }
+      out.h[r] = ama - 2.0 * a_mgt.dot(b) + b.dot(inner * b);
     }
   }
   for (int r = 0; r < lin.m; ++r) {
