@@ -18,17 +18,20 @@ struct LidarSurface::Impl {
 LidarSurface::LidarSurface(const std::string& path, const Eigen::Vector3d& roi_min,
                            const Eigen::Vector3d& roi_max, double margin, const Rigid3d& roi_from_file)
     : impl_(std::make_unique<Impl>()) {
-  const io::PointCloud cloud = io::ReadPointCloud(path);
-  num_read_ = cloud.size();
+  // Streamed: only the points inside the region of interest are held (a binary PLY is read a
+  // chunk at a time, whatever its size).
+  constexpr size_t kChunkPoints = 1000000;
   const Eigen::Vector3d lo = roi_min.array() - margin, hi = roi_max.array() + margin;
   impl_->offset = roi_from_file.Inverse() * (0.5 * (roi_min + roi_max));
-  impl_->cloud->reserve(cloud.size());
-  for (const Eigen::Vector3d& p : cloud.points) {
-    const Eigen::Vector3d r = roi_from_file * p;
-    if ((r.array() < lo.array()).any() || (r.array() > hi.array()).any()) continue;
-    const Eigen::Vector3f q = (p - impl_->offset).cast<float>();
-    impl_->cloud->push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
-  }
+  io::StreamPointCloud(path, kChunkPoints, [&](const io::PointCloud& chunk, size_t, size_t total) {
+    num_read_ = total;
+    for (const Eigen::Vector3d& p : chunk.points) {
+      const Eigen::Vector3d r = roi_from_file * p;
+      if ((r.array() < lo.array()).any() || (r.array() > hi.array()).any()) continue;
+      const Eigen::Vector3f q = (p - impl_->offset).cast<float>();
+      impl_->cloud->push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
+    }
+  });
   if (!impl_->cloud->empty()) impl_->tree.setInputCloud(impl_->cloud);
 }
 
