@@ -11,6 +11,7 @@
 #include "mmba/core/progress.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/registration/cloud/feature_registration.h"
+#include "mmba/registration/cloud/scene_evaluation.h"
 #include "registration_json.h"
 
 namespace mmba::app {
@@ -18,6 +19,7 @@ namespace {
 
 struct RegisterCloudArgs {
   std::string source, target, output, error_map;
+  std::string source_viewpoints, target_viewpoints;
   std::string descriptor = "auto";
   double normal_radius_m = 0.0, support_radius_m = 0.0;
   bool gravity_aligned = false;
@@ -47,6 +49,12 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   options.paper_only = args.paper;
   options.seed = args.seed;
   options.min_fitness = args.min_fitness;
+  if (!args.source_viewpoints.empty()) {
+    options.source_viewpoints = registration::ReadViewpoints(args.source_viewpoints);
+  }
+  if (!args.target_viewpoints.empty()) {
+    options.target_viewpoints = registration::ReadViewpoints(args.target_viewpoints);
+  }
   std::string error;
   if (!options.Check(&error)) throw InputError::Message("options", error);
 
@@ -125,6 +133,11 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_option("--min-fitness", args->min_fitness,
                   "fraction of the source that must lie on the target for \"ok\" (0..1]")
       ->capture_default_str();
+  sub->add_option("--source-viewpoints", args->source_viewpoints,
+                  "text file of the source's sensor positions in its frame (x y z a line): "
+                  "enables the free-space (visibility) test");
+  sub->add_option("--target-viewpoints", args->target_viewpoints,
+                  "the same for the target");
   AddCommonOptions(sub, common);
   return [args] { return RunRegisterCloud(*args); };
 }

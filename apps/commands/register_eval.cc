@@ -15,6 +15,7 @@ struct RegisterEvalArgs {
   double accurate_m = 0.05;
   bool no_cross_modal = false;
   bool gravity_aligned = false;
+  bool no_viewpoints = false;
   double min_fitness = registration::CloudRegistrationOptions().min_fitness;
 };
 
@@ -26,6 +27,7 @@ int RunRegisterEval(const RegisterEvalArgs& args) {
   options.cross_modal = !args.no_cross_modal;
   options.base.gravity_aligned = args.gravity_aligned;
   options.base.min_fitness = args.min_fitness;
+  options.use_viewpoints = !args.no_viewpoints;
   std::string error;
   if (!options.base.Check(&error)) throw InputError::Message("--min-fitness", error);
   if (!(args.success_fraction > 0)) {
@@ -64,6 +66,8 @@ std::function<int()> SetupRegisterEval(CLI::App& app, CommonOptions* common) {
   sub->add_option("--min-fitness", args->min_fitness,
                   "robust pipeline: fraction of the source that must fit the target (0..1]")
       ->capture_default_str();
+  sub->add_flag("--no-viewpoints", args->no_viewpoints,
+                "ignore clouds/<m>.viewpoints.txt (no free-space test)");
   AddCommonOptions(sub, common);
   return [args] { return RunRegisterEval(*args); };
 }

@@ -38,6 +38,7 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
                           {"normal_agreement", h.normal_agreement},
                           {"score", h.score},
                           {"conflict", h.conflict},
+                          {"violation", h.violation},
                           {"target_from_source", MatrixJson(h.target_from_source)}});
   }
   return {{"status", result.status},
@@ -53,6 +54,10 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
                                ? nlohmann::ordered_json(result.significance)
                                : nlohmann::ordered_json(nullptr)},
           {"conflict", result.conflict},
+          // the free-space test (sensor positions given): fraction of the source in space a
+          // sensor observed as empty
+          {"visibility_tested", result.visibility_tested},
+          {"violation", result.violation},
           {"fine_inlier_distance_m", result.fine_inlier_distance_m},
           // null when the pose is not resolved up to R_s (or not tested: --paper)
           {"resolution_m", std::isfinite(result.resolution_m)

@@ -134,5 +134,39 @@ TEST_F(SceneEvaluationTest, BadFolders) {
   }
 }
 
+TEST_F(SceneEvaluationTest, ViewpointSidecarsEnableTheVisibilityTest) {
+  // clouds/scan0.viewpoints.txt serves scan0 and, having none of its own, scan0_part.
+  std::ofstream(dir_ / "clouds" / "scan0.viewpoints.txt")
+      << "# the scanner\n0.0, 0.1, 0.5\n\n-0.2 0.1 0.4  # a second station\n";
+  const std::vector<Eigen::Vector3d> v =
+      ReadViewpoints((dir_ / "clouds" / "scan0.viewpoints.txt").string());
+  ASSERT_EQ(v.size(), 2u);
+  EXPECT_EQ(v[1], Eigen::Vector3d(-0.2, 0.1, 0.4));
+  SceneEvalOptions options;
+  options.methods = {"mmba"};
+  const SceneEvaluation eval = EvaluateScene(dir_.string(), options);
+  for (const EvalRow& r : eval.rows) {
+    SCOPED_TRACE(r.source + " -> " + r.target);
+    EXPECT_EQ(r.visibility, r.source == "scan0" || r.source == "scan0_part");
+    if (r.status == "ok") {
+      EXPECT_LT(r.rms_m, 0.01);  // never a wrong ok
+    }
+  }
+  options.use_viewpoints = false;
+  options.cross_modal = false;
+  for (const EvalRow& r : EvaluateScene(dir_.string(), options).rows) EXPECT_FALSE(r.visibility);
+  // Bad lines name the file, the line and the field.
+  for (const char* bad : {"1 2\n", "1 2 z\n", "1 2 nan\n", "0 0 0\n1 2 3 4\n"}) {
+    SCOPED_TRACE(bad);
+    std::ofstream(dir_ / "clouds" / "scan0.viewpoints.txt") << bad;
+    try {
+      ReadViewpoints((dir_ / "clouds" / "scan0.viewpoints.txt").string());
+      ADD_FAILURE() << "accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("scan0.viewpoints.txt"), std::string::npos) << e.what();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace mmba::registration

@@ -24,6 +24,7 @@
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
 #include "mmba/registration/cloud/robust_estimators.h"
+#include "registration/cloud/free_space.h"
 #include "registration/cloud/pcl_backend.h"
 
 namespace mmba::registration {
@@ -112,6 +113,19 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   }
   if (!(max_ambiguity >= 0 && max_ambiguity <= 1)) {
     return fail("max_ambiguity", max_ambiguity, "0 <= x <= 1");
+  }
+  if (!(max_violation_ratio >= 0)) return fail("max_violation_ratio", max_violation_ratio, ">= 0");
+  if (!(min_fitness_visible > 0 && min_fitness_visible <= 1)) {
+    return fail("min_fitness_visible", min_fitness_visible, "0 < x <= 1");
+  }
+  for (const auto* v : {&source_viewpoints, &target_viewpoints}) {
+    for (size_t i = 0; i < v->size(); ++i) {
+      if (!(*v)[i].allFinite()) {
+        return fail(std::string(v == &source_viewpoints ? "source" : "target") +
+                        "_viewpoints[" + std::to_string(i) + "] (a coordinate)",
+                    (*v)[i].sum(), "finite");
+      }
+    }
   }
   return true;
 }
@@ -310,6 +324,7 @@ struct Hypothesis {
   double cost = 0.0;  // SAC-IA cost (lower is better)
   double fitness = 0.0, rmse = 0.0, normal_agreement = 0.0, score = 0.0;
   double conflict = 0.0;  // fine: of the points near a target surface, those not on it
+  double violation = 0.0;  // fine: fraction of the source in observed free space
   size_t inliers = 0;
 };
 
@@ -737,6 +752,53 @@ void FineResiduals(const std::vector<Eigen::Vector3d>& src,
   }
 }
 
+// Visibility test of a pose `t` (target_from_source): per source point, true where the pose
+// contradicts what a sensor observed as empty space.
+//  - Target side: the registered source point has no target point within `near` and lies
+//    nearer to a target sensor than the first target surface along that sensor's ray by more
+//    than `margin` (the target's sensor saw through it).
+//  - Source side: a target point of the crop, taken into the source frame, inside the
+//    source's bounding box (the region the source describes; a cropped part says nothing
+//    beyond its crop) and with no source point within `near`, lies nearer to a source sensor
+//    than the first source surface along its ray; the violation is charged to the source
+//    point nearest to where that ray meets the surface (so the count scales with the
+//    target's points, as on the target side, not with the z-buffer's cells).
+// Points with a surface of the other cloud near them are never flagged (noise within `near`),
+// and space no sensor of the other cloud looked through is neutral (occluded or unobserved):
+// a partial overlap is not evidence against a pose, a point in observed free space is.
+std::vector<bool> FreeSpaceViolations(const std::vector<Eigen::Vector3d>& src,
+                                      const PointIndex& src_index,
+                                      const internal::FreeSpace* src_free,
+                                      const Eigen::AlignedBox3d& src_box,
+                                      const TargetCrop& crop,
+                                      const internal::FreeSpace* tgt_free,
+                                      const Eigen::Matrix4d& t, double near, double margin) {
+  std::vector<bool> out(src.size(), false);
+  int index;
+  double sq;
+  if (tgt_free != nullptr && !tgt_free->empty()) {
+    for (size_t i = 0; i < src.size(); ++i) {
+      const Eigen::Vector3d q = Apply(t, src[i]);
+      if (crop.index->NearestWithin(q, near * near, &index, &sq)) continue;
+      if (tgt_free->Violates(q, margin)) out[i] = true;
+    }
+  }
+  if (src_free != nullptr && !src_free->empty()) {
+    const Eigen::Matrix3d rt = t.topLeftCorner<3, 3>().transpose();
+    const Eigen::Vector3d tt = t.topRightCorner<3, 1>();
+    for (const Eigen::Vector3d& c : crop.level.points) {
+      const Eigen::Vector3d p = rt * (c - tt);
+      if (!src_box.contains(p)) continue;
+      if (src_index.NearestWithin(p, near * near, &index, &sq)) continue;
+      Eigen::Vector3d hit;
+      if (src_free->Violates(p, margin, nullptr, &hit) && src_index.Nearest(hit, &index, &sq)) {
+        out[static_cast<size_t>(index)] = true;
+      }
+    }
+  }
+  return out;
+}
+
 // Robust scale of the residuals: 1.4826 × median |r| (MAD about 0), NaN-free; +inf if none.
 double RobustScale(const std::vector<double>& residuals) {
   std::vector<double> a;
@@ -753,8 +815,9 @@ double RobustScale(const std::vector<double>& residuals) {
 // normals, divided by all source points (a truncated quadratic, Black & Rangarajan 1996),
 // so a hypothesis a few σ off on part of the object loses against the one that fits it.
 void ScoreFine(const std::vector<double>& residuals, const std::vector<bool>& agree, double tau,
-               Hypothesis* h) {
-  size_t inliers = 0, agreeing = 0, near = 0;
+               const std::vector<bool>& violates, Hypothesis* h) {
+  size_t inliers = 0, agreeing = 0, near = 0, violating = 0;
+  for (size_t i = 0; i < violates.size(); ++i) violating += violates[i] ? 1 : 0;
   double sum_sq = 0.0, score = 0.0;
   for (size_t i = 0; i < residuals.size(); ++i) {
     const double r = residuals[i];
@@ -773,7 +836,10 @@ void ScoreFine(const std::vector<double>& residuals, const std::vector<bool>& ag
   h->fitness = static_cast<double>(inliers) / n;
   h->rmse = inliers > 0 ? std::sqrt(sum_sq / inliers) : 0.0;
   h->normal_agreement = inliers > 0 ? static_cast<double>(agreeing) / inliers : 0.0;
-  h->score = score / n;
+  // A point in observed free space is evidence against the pose: −1 (the opposite of a
+  // perfect inlier), so a turn that puts asymmetric detail where a sensor saw through loses.
+  h->violation = static_cast<double>(violating) / n;
+  h->score = (score - static_cast<double>(violating)) / n;
   h->conflict = near > 0 ? 1.0 - static_cast<double>(agreeing) / near : 1.0;
 }
 
@@ -1156,7 +1222,28 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     std::vector<bool> agree;
     double sigma = 0.0, spacing = 0.0;
     std::shared_ptr<TargetCrop> crop;
+    std::vector<bool> violates;  // FreeSpaceViolations (empty: no sensor positions known)
   };
+  // Visibility: z-buffers of each cloud from its own sensors (given in its own frame), the
+  // whole target's (an occluder outside a hypothesis' crop still hides what lies behind it)
+  // and the fine source sample's.
+  const bool visibility = !options.paper_only &&
+                          (!options.source_viewpoints.empty() || !options.target_viewpoints.empty());
+  std::unique_ptr<internal::FreeSpace> src_free, tgt_free;
+  std::unique_ptr<PointIndex> fine_src_index;
+  Eigen::AlignedBox3d src_box;
+  if (visibility) {
+    fine_src_index = std::make_unique<PointIndex>(fine_src);
+    for (const Eigen::Vector3d& p : fine_src) src_box.extend(p);
+    if (!options.source_viewpoints.empty()) {
+      src_free = std::make_unique<internal::FreeSpace>(fine_src, options.source_viewpoints,
+                                                       MedianSpacing(fine_src, 20000));
+    }
+    if (!options.target_viewpoints.empty()) {
+      tgt_free = std::make_unique<internal::FreeSpace>(target.points, options.target_viewpoints,
+                                                       s_tgt);
+    }
+  }
   // The target around a hypothesis; a target within the budget is prepared once, whole.
   std::shared_ptr<TargetCrop> whole_target;
   auto crop_for = [&](const Eigen::Matrix4d& t) {
@@ -1214,9 +1301,19 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     fine_tau = std::min(fine_tau, std::max(options.inlier_sigma * f.sigma, 0.25 * f.spacing));
   }
   if (!std::isfinite(fine_tau)) fine_tau = tau;
+  auto violations_of = [&](const Finalist& f) -> std::vector<bool> {
+    if (!visibility) return {};
+    // A point counts as in free space only beyond the noise: two inlier distances (6 robust
+    // σ of the best fit) in front of the first surface, and no point of the other cloud
+    // within that distance.
+    const double margin = 2.0 * fine_tau;
+    return FreeSpaceViolations(fine_src, *fine_src_index, src_free.get(), src_box, *f.crop,
+                               tgt_free.get(), f.h.transform, margin, margin);
+  };
   double fine_spacing = 0.0;
   for (Finalist& f : finalists) {
-    ScoreFine(f.residuals, f.agree, fine_tau, &f.h);
+    f.violates = violations_of(f);
+    ScoreFine(f.residuals, f.agree, fine_tau, f.violates, &f.h);
     fine_spacing = std::max(fine_spacing, f.spacing);
   }
   std::stable_sort(finalists.begin(), finalists.end(),
@@ -1322,7 +1419,8 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
       FineResiduals(fine_src, fine_src_n, *crop, f.h.transform, reach, &f.residuals, &f.agree);
       f.crop = crop;
       f.sigma = RobustScale(f.residuals);
-      ScoreFine(f.residuals, f.agree, fine_tau, &f.h);
+      f.violates = violations_of(f);
+      ScoreFine(f.residuals, f.agree, fine_tau, f.violates, &f.h);
       bool same = false;
       for (const Finalist& g : finalists) {
         same = same || SameTransform(f.h.transform, g.h.transform, centre, 10.0,
@@ -1363,6 +1461,8 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
       std::llround(fine_check.fitness * static_cast<double>(src_fine.points.size())));
   result.fine_inlier_distance_m = fine_tau;
   result.conflict = fine_check.conflict;
+  result.visibility_tested = visibility;
+  result.violation = fine_check.violation;
   double runner_up = 0.0;
   const RegistrationHypothesis* runner = nullptr;
   for (const Finalist& f : finalists) {
@@ -1375,7 +1475,11 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     r.normal_agreement = h.normal_agreement;
     r.score = h.score;
     r.conflict = h.conflict;
+    r.violation = h.violation;
     result.hypotheses.push_back(r);
+    spdlog::debug("registration: finalist {}: score {:.4g}, fitness {:.3g}, normals {:.3g}, "
+                  "free-space violations {:.3g}",
+                  h.origin, h.score, h.fitness, h.normal_agreement, h.violation);
   }
   for (const Hypothesis& h : hypotheses) {
     RegistrationHypothesis r;
@@ -1396,8 +1500,16 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   // smallest of these t statistics (+inf when no distinct finalist is left).
   result.significance = std::numeric_limits<double>::infinity();
   if (finalists.size() > 1) runner_up = finalists[1].h.score;
+  // A finalist that the visibility test contradicts (the verdict below would fail it as the
+  // best) is no alternative. The t statistic itself is geometric (without the −1 terms): one
+  // region where a sensor sees through a real surface — glass for a LiDAR, which a camera
+  // reconstructs — would otherwise dominate the block variance.
+  auto contradicted = [&](const Hypothesis& h) {
+    return visibility && h.violation > options.max_violation_ratio * h.fitness;
+  };
   for (size_t k = 1; k < finalists.size(); ++k) {
     if (!(finalists[k].h.score > options.max_ambiguity * best.score)) continue;
+    if (contradicted(finalists[k].h)) continue;
     const double t = ScoreSignificance(fine_src, finalists[0].residuals, finalists[0].agree,
                                        finalists[k].residuals, finalists[k].agree, fine_tau,
                                        support_radius);
@@ -1410,10 +1522,28 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   result.confidence = best_score > 0 ? std::clamp(1.0 - runner_up / best_score, 0.0, 1.0) : 0.0;
   std::ostringstream why;
   why << std::setprecision(3);
-  if (fine_check.fitness < options.min_fitness) {
+  // With the target's sensors known, a small overlap is not by itself evidence against the
+  // pose: the source points off the target are checked against the target's free space
+  // (they must lie where its sensors did not look). The pose is contradicted when the points
+  // in observed free space exceed max_violation_ratio × the inliers, and then only a floor of
+  // min_fitness_visible remains for the statistics. Without the target's sensors (a plane
+  // proxy has none) the source's sensors test only the other direction — target points off
+  // the source — and the overlap floor min_fitness stays: a stereo part moved 30 m along the
+  // cathedral's bays onto the proxy (fitness 0.26) contradicts none of its stations' rays.
+  const double fitness_floor = visibility && !options.target_viewpoints.empty()
+                                   ? options.min_fitness_visible
+                                   : options.min_fitness;
+  if (fine_check.fitness < fitness_floor) {
     why << "best hypothesis (" << best.origin << ") makes only " << 100 * fine_check.fitness
         << "% of the source lie within " << fine_tau << " m of the target (need "
-        << 100 * options.min_fitness << "%): the clouds do not overlap or no hypothesis is right";
+        << 100 * fitness_floor << "%): the clouds do not overlap or no hypothesis is right";
+    return fail(why.str());
+  }
+  if (contradicted(fine_check)) {
+    why << "visibility: " << 100 * fine_check.violation
+        << "% of the source lies in space a sensor observed as empty (allowed: "
+        << options.max_violation_ratio << " x the " << 100 * fine_check.fitness
+        << "% inliers): the pose contradicts the data";
     return fail(why.str());
   }
   if (!options.paper_only && fine_check.normal_agreement < options.min_normal_agreement) {
@@ -1452,6 +1582,26 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   result.status = "ok";
   result.reason.clear();
   return result;
+}
+
+double FreeSpaceViolation(const io::PointCloud& source, const io::PointCloud& target,
+                          const std::vector<Eigen::Vector3d>& source_viewpoints,
+                          const std::vector<Eigen::Vector3d>& target_viewpoints,
+                          const Eigen::Matrix4d& target_from_source, double margin) {
+  if (source.empty() || target.empty()) return 0.0;
+  TargetCrop crop;
+  crop.level.points = target.points;
+  crop.index = std::make_unique<PointIndex>(crop.level.points);
+  const PointIndex src_index(source.points);
+  Eigen::AlignedBox3d box;
+  for (const Eigen::Vector3d& p : source.points) box.extend(p);
+  const internal::FreeSpace src_free(source.points, source_viewpoints,
+                                     EstimatePointSpacing(source));
+  const internal::FreeSpace tgt_free(target.points, target_viewpoints,
+                                     EstimatePointSpacing(target));
+  const std::vector<bool> v = FreeSpaceViolations(source.points, src_index, &src_free, box, crop,
+                                                  &tgt_free, target_from_source, margin, margin);
+  return static_cast<double>(std::count(v.begin(), v.end(), true)) / source.size();
 }
 
 std::vector<double> DistancesToTarget(const io::PointCloud& source, const io::PointCloud& target,

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <map>
+#include <cmath>
 #include <sstream>
 
 #include <Eigen/LU>
@@ -50,6 +51,44 @@ Eigen::Matrix4d Inverse(const Eigen::Matrix4d& m) {
 }
 
 }  // namespace
+
+std::vector<Eigen::Vector3d> ReadViewpoints(const std::string& path) {
+  std::istringstream in(io::ReadWholeFile(path));
+  std::vector<Eigen::Vector3d> out;
+  std::string line;
+  int64_t number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    const size_t hash = line.find('#');
+    if (hash != std::string::npos) line.erase(hash);
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream fields(line);
+    std::vector<std::string> tokens;
+    for (std::string t; fields >> t;) tokens.push_back(t);
+    if (tokens.empty()) continue;
+    if (tokens.size() != 3) {
+      throw InputError(path, number, "viewpoint", std::to_string(tokens.size()) + " fields",
+                       "3 numbers x y z");
+    }
+    Eigen::Vector3d v;
+    for (int k = 0; k < 3; ++k) {
+      const char* names[] = {"x", "y", "z"};
+      size_t used = 0;
+      double value = std::nan("");
+      try {
+        value = std::stod(tokens[k], &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used != tokens[k].size() || !std::isfinite(value)) {
+        throw InputError(path, number, names[k], tokens[k], "a finite number");
+      }
+      v[k] = value;
+    }
+    out.push_back(v);
+  }
+  return out;
+}
 
 SceneEvaluation EvaluateScene(const std::string& dir, const SceneEvalOptions& options) {
   SceneEvaluation eval;
@@ -106,6 +145,14 @@ SceneEvaluation EvaluateScene(const std::string& dir, const SceneEvalOptions& op
   eval.success_threshold_m = options.success_fraction * eval.extent_m;
   eval.accurate_m = options.accurate_m;
 
+  auto viewpoints = [&](const std::string& name) -> std::vector<Eigen::Vector3d> {
+    if (!options.use_viewpoints) return {};
+    fs::path file = fs::path(dir) / "clouds" / (name + ".viewpoints.txt");
+    if (!fs::exists(file) && name.size() > 5 && name.substr(name.size() - 5) == "_part") {
+      file = fs::path(dir) / "clouds" / (name.substr(0, name.size() - 5) + ".viewpoints.txt");
+    }
+    return fs::exists(file) ? ReadViewpoints(file.string()) : std::vector<Eigen::Vector3d>{};
+  };
   auto run = [&](const std::string& experiment, const std::string& source,
                  const std::string& target) {
     const Eigen::Matrix4d truth = Inverse(world_from.at(target)) * world_from.at(source);
@@ -115,6 +162,8 @@ SceneEvaluation EvaluateScene(const std::string& dir, const SceneEvalOptions& op
         o.descriptor = Descriptor::kAuto;
         o.paper_only = false;
         if (method == "mmba-g") o.gravity_aligned = true;
+        o.source_viewpoints = viewpoints(source);
+        o.target_viewpoints = viewpoints(target);
       } else {
         ParseDescriptor(method, &o.descriptor);
         o.paper_only = true;
@@ -132,6 +181,8 @@ SceneEvaluation EvaluateScene(const std::string& dir, const SceneEvalOptions& op
       row.fitness = r.fitness;
       row.confidence = r.confidence;
       row.resolution_m = r.resolution_m;
+      row.violation = r.violation;
+      row.visibility = r.visibility_tested;
       row.success = row.rms_m < eval.success_threshold_m;
       row.accurate = row.rms_m < options.accurate_m;
       spdlog::info("{} {} → {} [{}]: {} RMS {:.4g} m, {:.2f} s", experiment, source, target,
@@ -160,7 +211,7 @@ void WriteSceneEvaluation(const SceneEvaluation& eval, const std::string& out_di
   AtomicFileSet files;
   files.Add(fs::path(out_dir) / "results.csv", [&](std::ostream& out) {
     out << "experiment,source,target,method,status,rms_m,success,accurate,runtime_s,fitness,"
-           "confidence,resolution_m,reason\n";
+           "confidence,resolution_m,visibility,violation,reason\n";
     out << std::setprecision(6);
     for (const EvalRow& r : eval.rows) {
       std::string reason = r.reason;
@@ -168,7 +219,8 @@ void WriteSceneEvaluation(const SceneEvaluation& eval, const std::string& out_di
       out << r.experiment << ',' << r.source << ',' << r.target << ',' << r.method << ','
           << r.status << ',' << r.rms_m << ',' << (r.success ? 1 : 0) << ','
           << (r.accurate ? 1 : 0) << ',' << r.runtime_s << ',' << r.fitness << ','
-          << r.confidence << ',' << r.resolution_m << ",\"" << reason << "\"\n";
+          << r.confidence << ',' << r.resolution_m << ',' << (r.visibility ? 1 : 0) << ','
+          << r.violation << ",\"" << reason << "\"\n";
     }
   });
   files.Add(fs::path(out_dir) / "tables.md", [&](std::ostream& out) {

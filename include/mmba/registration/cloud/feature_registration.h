@@ -129,6 +129,23 @@ struct CloudRegistrationOptions {
   /// "ok" needs the pose resolved (every displacement of this RMS size over the source scores
   /// significantly worse) to within this × the fine point spacing (> 0).
   double max_resolution_spacing = 4.0;
+
+  // Visibility (free space). Sensor positions of each cloud in its own frame: scanner
+  // stations, camera centres, stereo stations (empty = unknown; a modelled cloud such as a
+  // plane proxy has none). When either is given, a source point that a pose puts in space a
+  // target sensor saw through (or a target point in space a source sensor saw through) counts
+  // −1 in the fine score and the ambiguity test, and the overlap floor min_fitness is
+  // replaced by the visibility verdict below.
+  std::vector<Eigen::Vector3d> source_viewpoints, target_viewpoints;
+  /// "ok" needs the fraction of the source in observed free space to be at most this × the
+  /// inlier fraction: the data must support the pose at least twice as much as they refute
+  /// it; a competing finalist above it is no alternative in the ambiguity test (>= 0).
+  /// (0.1 refused right cathedral poses: windows the LiDAR sees through, interiors behind
+  /// them, and the plane proxy spanning recesses put 6–11 % of the multi-view cloud in free
+  /// space at the true pose, 0.11–0.19 × its inliers.)
+  double max_violation_ratio = 0.5;
+  /// overlap floor when visibility is tested (0..1]
+  double min_fitness_visible = 0.1;
   uint64_t seed = 42;             ///< random seed (results are deterministic)
 
   /// False with a message naming the field, the value and the constraint when invalid.
@@ -151,6 +168,7 @@ struct RegistrationHypothesis {
   double normal_agreement = 0.0;
   double conflict = 0.0;       ///< fine only: of the source points with a target surface
                                ///< within reach, the fraction off it or with another normal
+  double violation = 0.0;      ///< fine only: fraction of the source in observed free space
   double score = 0.0;          ///< coarse: fitness × normal_agreement; fine: Σ(1 − r²/τ²) over
                                ///< the inliers with agreeing normals / source points
 };
@@ -165,6 +183,8 @@ struct CloudRegistrationResult {
   double inlier_rmse = 0.0;       ///< metres
   double normal_agreement = 0.0;
   double conflict = 0.0;          ///< see RegistrationHypothesis::conflict
+  bool visibility_tested = false;  ///< sensor positions were given (free-space test done)
+  double violation = 0.0;         ///< see RegistrationHypothesis::violation
   double significance = 0.0;      ///< best vs the least distinguishable distinct finalist, in
                                   ///< standard errors (inf: no distinct finalist)
   double confidence = 0.0;        ///< 0..1: 1 − runner-up score / best score, times fitness checks
@@ -193,6 +213,16 @@ struct CloudRegistrationResult {
 CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
                                        const io::PointCloud& target,
                                        const CloudRegistrationOptions& options);
+
+/// The visibility test of the verification on whole clouds: the fraction of `source` points
+/// that `target_from_source` puts in space observed as empty — nearer to a target sensor than
+/// the first target surface along its ray, or charged with a target point nearer to a source
+/// sensor than the first source surface — by more than `margin` and with no point of the
+/// other cloud within `margin`. Viewpoints are in each cloud's own frame (either may be empty).
+double FreeSpaceViolation(const io::PointCloud& source, const io::PointCloud& target,
+                          const std::vector<Eigen::Vector3d>& source_viewpoints,
+                          const std::vector<Eigen::Vector3d>& target_viewpoints,
+                          const Eigen::Matrix4d& target_from_source, double margin);
 
 /// Median nearest-neighbour distance over up to `max_samples` points (metres); 0 when the
 /// cloud has fewer than 2 points.

@@ -10,6 +10,10 @@
 //   DIR/clouds/lidar.ply      the reference model
 //   DIR/clouds/<m>.ply        each modality's full cloud, in its own frame
 //   DIR/clouds/<m>_part.ply   optional: a part of it, in the same frame as <m>
+//   DIR/clouds/<m>.viewpoints.txt  optional: the sensor positions of <m> in its own frame
+//                              (scanner stations, camera centres, stereo stations), one
+//                              "x y z" a line (# comments); a part uses its full cloud's
+//                              file unless it has its own. Used for the visibility test.
 // The ground truth of registering a onto b is  b_from_a = world_from_b⁻¹ · world_from_a.
 
 #include <string>
@@ -28,6 +32,7 @@ struct SceneEvalOptions {
   double success_fraction = 0.1;  ///< success: RMS < this × scene extent (paper: 3 m / 30 m)
   double accurate_m = 0.05;       ///< "accurate": RMS below this (metres)
   bool cross_modal = true;        ///< run experiment II
+  bool use_viewpoints = true;     ///< read clouds/<m>.viewpoints.txt when present
   CloudRegistrationOptions base;  ///< options shared by every run
 };
 
@@ -39,6 +44,8 @@ struct EvalRow {
   double runtime_s = 0.0;
   double fitness = 0.0, confidence = 0.0;
   double resolution_m = 0.0;  ///< CloudRegistrationResult::resolution_m (inf: not resolved)
+  double violation = 0.0;     ///< CloudRegistrationResult::violation (free-space test)
+  bool visibility = false;    ///< the free-space test was done (sensor positions known)
   bool success = false;    ///< rms < success threshold (status may still be "failed")
   bool accurate = false;   ///< rms < accurate_m
 };
@@ -51,6 +58,10 @@ struct SceneEvaluation {
   double accurate_m = 0.0;
   std::vector<EvalRow> rows;
 };
+
+/// Sensor positions, one "x y z" (spaces or commas) a line; blank lines and '#' comments are
+/// skipped. Throws InputError naming the file, line and field on anything else.
+std::vector<Eigen::Vector3d> ReadViewpoints(const std::string& path);
 
 /// Runs the experiments. Throws InputError on a bad folder (missing files, bad JSON).
 SceneEvaluation EvaluateScene(const std::string& dir, const SceneEvalOptions& options);
