@@ -4,8 +4,8 @@
 // ray) per sensor position, for the visibility test of registration hypotheses. A point of
 // the other cloud that a hypothesis puts in front of the first surface a sensor saw along its
 // ray lies in space that sensor observed as empty: the hypothesis contradicts the data
-// (the free-space / "space carving" argument of Huber & Hebert, "Fully automatic registration
-// of multiple 3D data sets", IVC 21(7), 2003, Sec. 4.2, and Kutulakos & Seitz 2000).
+// (the visibility consistency test of Huber & Hebert, "Fully automatic registration of
+// multiple 3D data sets", Image and Vision Computing 21(7), 2003).
 
 #include <cstdint>
 #include <unordered_map>
