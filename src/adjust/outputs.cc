@@ -10,6 +10,7 @@
 #include <spdlog/spdlog.h>
 
 #include "internal.h"
+#include "sphere_dense.h"
 #include "mmba/core/atomic_file.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/problem/colmap_scene.h"
@@ -164,6 +165,75 @@ void WriteText(const fs::path& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary);
   out << text;
   if (!out) throw std::runtime_error("cannot write " + path.string());
+}
+
+/// The file of `folder` whose stem is `stem` ("" when there is none).
+std::string FindImage(const std::string& folder, const std::string& stem) {
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(folder, error)) {
+    if (entry.is_regular_file() && entry.path().stem() == stem) return entry.path().string();
+  }
+  return "";
+}
+
+/// The dense cloud of every spherical station (vertical-baseline stereo on the adjusted pair:
+/// its calibration, baseline and pose), georeferenced, written as <id>_<station>_dense.ply
+/// with intensity from the lower panorama and the range σ; compared with the LiDAR surface
+/// where there is one. Returns the report's entry.
+json WriteSphereDense(const JointState& s, const fs::path& stage, json* files) {
+  json stations = json::array();
+  const SphereBlock& sb = *s.spheres;
+  for (const auto& [station, id] : sb.lower_image) {
+    const std::string lower_path = FindImage(sb.config->images, station + "_lower");
+    const std::string upper_path = FindImage(sb.config->images, station + "_upper");
+    if (lower_path.empty() || upper_path.empty()) {
+      stations.push_back({{"station", station}, {"status", "no panoramas " + station + "_lower/_upper in " + sb.config->images}});
+      continue;
+    }
+    spdlog::info("adjust: dense cloud of spherical station {}", station);
+    const DenseStereoCloud dense = DenseSphericalStereo(lower_path, upper_path, s.scene.Camera(sb.lower_camera),
+                                                        s.scene.Camera(sb.upper_camera), sb.baseline);
+    const Rigid3d world_from_lower = s.scene.Image(id).cam_from_world.Inverse();
+    io::PointCloud cloud = dense.cloud;
+    for (Eigen::Vector3d& p : cloud.points) p = world_from_lower * p;
+    std::vector<double> ranges;
+    for (const Eigen::Vector3d& p : dense.cloud.points) ranges.push_back(p.norm());
+    std::vector<double> sigmas = dense.range_sigma_m;
+    const auto median = [](std::vector<double> v) {
+      if (v.empty()) return 0.0;
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      return v[v.size() / 2];
+    };
+    json entry = {{"station", station}, {"status", "ok"}, {"points", cloud.size()}, {"match_width_px", dense.match_width},
+                  {"matched_pixels", dense.matched_pixels}, {"median_range_m", median(ranges)},
+                  {"median_range_sigma_m", median(sigmas)}};
+    if (s.surface && !cloud.empty()) {
+      // Distance along the LiDAR surface's normal for an even sample; |d|/σ_range should be
+      // about 0.67 at the median when the σ and the adjusted pose are right.
+      std::vector<double> distance, normalised;
+      const size_t step = std::max<size_t>(1, cloud.size() / 20000);
+      for (size_t i = 0; i < cloud.size(); i += step) {
+        Eigen::Vector3d n, c;
+        const double gate = std::max(0.1, 3 * dense.range_sigma_m[i]);
+        if (!s.surface->FitPlane(cloud.points[i], gate, 12, &n, &c, nullptr)) continue;
+        const double d = std::abs(n.dot(cloud.points[i] - c));
+        distance.push_back(d);
+        normalised.push_back(d / std::max(dense.range_sigma_m[i], 1e-6));
+      }
+      entry["lidar_compared"] = distance.size();  // points over the cropped LiDAR surface
+      if (!distance.empty()) {
+        entry["median_abs_distance_to_lidar_m"] = median(distance);
+        entry["median_abs_distance_over_sigma"] = median(normalised);
+      }
+    }
+    const std::string name = sb.config->id + "_" + station + "_dense.ply";
+    io::WritePly(cloud, (stage / name).string());
+    files->push_back({{"name", name},
+                      {"description", "dense cloud of spherical station " + station +
+                                          " (vertical-baseline stereo), georeferenced; intensity from the lower panorama"}});
+    stations.push_back(entry);
+  }
+  return stations;
 }
 
 /// Truth evaluation of a simulated project (never used by the adjustment itself).
@@ -853,6 +923,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     if (!s.planes.empty()) files.push_back({{"name", "error_map_lidar.ply"}, {"description", "tie points, intensity = signed distance to the LiDAR surface (m)"}});
     if (!s.scans.empty()) files.push_back({{"name", "scans.csv"}, {"description", "adjusted static scans: world_from_scan with sigma and the correction of the registration"}});
   }
+  if (s.spheres && s.spheres->config->dense_cloud) report["spherical_dense"] = WriteSphereDense(s, stage, &files);
   report["files"] = files;
   json warnings = json::array();
   for (const std::string& w : s.warnings) warnings.push_back(w);
@@ -891,6 +962,19 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
         << c["rmse_3d"].get<double>() << " m (expected " << c["expected_rmse_3d"].get<double>() << " m)\n";
   }
   sum << "  blunders flagged and excluded: " << s.blunders.size() << "\n";
+  if (report.contains("spherical_dense")) {
+    for (const json& d : report["spherical_dense"]) {
+      if (d["status"] != "ok") continue;
+      sum << "  dense cloud of station " << d["station"].get<std::string>() << ": " << d["points"].get<size_t>()
+          << " points, median range " << std::setprecision(3) << d["median_range_m"].get<double>() << " m (sigma "
+          << d["median_range_sigma_m"].get<double>() << " m)";
+      if (d.contains("median_abs_distance_to_lidar_m")) {
+        sum << ", " << d["lidar_compared"].get<size_t>() << " on the LiDAR surface: median |distance| "
+            << d["median_abs_distance_to_lidar_m"].get<double>() << " m";
+      }
+      sum << "\n";
+    }
+  }
   for (const std::string& w : s.warnings) sum << "  warning: " << w << "\n";
   sum << "  report: " << (out_dir / "report.html").string();
   outcome->summary = sum.str();

@@ -217,6 +217,7 @@ class ProjectReader {
                       {"baseline_sigma_m", [&](Node v, Field g) { p.baseline_sigma_m = SigmaM(v, g, 0.5); }},
                       {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
                       {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
+                      {"dense_cloud", [&](Node v, Field g) { p.dense_cloud = r_.Bool(v, g); }},
                       {"refine", [&](Node v, Field g) {
                          const RefineIntrinsics refine = Refine(v, g, false);
                          p.refine_focal = refine.focal;

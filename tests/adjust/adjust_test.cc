@@ -99,6 +99,19 @@ TEST_F(AdjustTest, RecoversTheSimulatedSurvey) {
   EXPECT_NEAR(std::hypot(spheres["baseline"]["adjusted"][0].get<double>(), spheres["baseline"]["adjusted"][1].get<double>(),
                          spheres["baseline"]["adjusted"][2].get<double>()),
               0.6, 0.003);
+  // Each station's dense cloud (vertical-baseline stereo on the adjusted pair), written out.
+  ASSERT_TRUE(r.contains("spherical_dense"));
+  size_t lower_panoramas = 0;
+  for (const auto& e : fs::directory_iterator(Root() / "sim" / "images" / "spherical")) {
+    lower_panoramas += e.path().stem().string().find("_lower") != std::string::npos ? 1 : 0;
+  }
+  EXPECT_EQ(r["spherical_dense"].size(), lower_panoramas);
+  for (const json& d : r["spherical_dense"]) {
+    ASSERT_EQ(d["status"], "ok") << d.dump();
+    EXPECT_GT(d["points"].get<size_t>(), 10000u) << d.dump();
+    EXPECT_LT(d["median_range_sigma_m"].get<double>(), 0.1 * d["median_range_m"].get<double>()) << d.dump();
+    EXPECT_TRUE(fs::exists(out / ("spherical_" + d["station"].get<std::string>() + "_dense.ply")));
+  }
   // The rig: frames from their GNSS/INS priors (several cm off) to within 3 cm (2 frames; the
   // fisheye distortion is held at the nominal calibration, k1 off by up to 0.005), cam_from_rig
   // kept by its prior.
@@ -220,11 +233,15 @@ TEST_F(AdjustTest, FlagsInjectedBlunders) {
   for (const json& b : outcome.report["blunders"]) {
     // The two good MI priors are not flagged.
     const std::string what = b["observation"];
-    if (what.find("MI pose of") != std::string::npos) EXPECT_NE(what.find(mi_blunder), std::string::npos) << what;
+    if (what.find("MI pose of") != std::string::npos) {
+      EXPECT_NE(what.find(mi_blunder), std::string::npos) << what;
+    }
   }
   EXPECT_TRUE(ts) << outcome.report["blunders"].dump(1);
   EXPECT_TRUE(gnss_flagged) << outcome.report["blunders"].dump(1);
-  if (target_id != "T3" && target_id != "T6") EXPECT_TRUE(target) << outcome.report["blunders"].dump(1);
+  if (target_id != "T3" && target_id != "T6") {
+    EXPECT_TRUE(target) << outcome.report["blunders"].dump(1);
+  }
   // After their exclusion the adjustment is as good as without them.
   EXPECT_LT(outcome.report["truth_evaluation"]["photo_positions"]["max_m"].get<double>(), 0.02);
 }

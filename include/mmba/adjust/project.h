@@ -107,6 +107,7 @@ struct SphericalStereo {
   LossOptions loss{LossType::kHuber, 3.0};
   bool refine_principal_point = true;
   bool refine_focal = false;
+  bool dense_cloud = true;     ///< write each station's dense stereo cloud (outputs)
 };
 
 /// A Ladybug-style multi-camera rig on a vehicle: per frame `rig_from_world`, per camera
