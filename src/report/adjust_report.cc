@@ -803,6 +803,34 @@ void RenderCalibrations(const json& report, std::ostringstream& html) {
   html << "</section>\n";
 }
 
+void RenderDenseClouds(const json& report, std::ostringstream& html) {
+  const json* array = OptArray(report, "spherical_dense", "");
+  if (array == nullptr || array->empty()) return;
+  html << "<section id=\"dense\">\n<h2>Dense clouds of the spherical stations</h2>\n"
+       << "<p class=\"note\">Vertical-baseline stereo of each adjusted pair; " << kSigma
+       << " of a point's range from 0.5 px of disparity. The distance to the LiDAR surface is taken "
+          "where the two overlap.</p>\n<table>\n<tr><th>station</th><th>points</th><th>median range (m)</th><th>median "
+       << kSigma << " range (m)</th><th>on the LiDAR surface</th><th>median |distance| (m)</th><th>median |distance|/"
+       << kSigma << "</th></tr>\n";
+  for (size_t i = 0; i < array->size(); ++i) {
+    const std::string path = Index("spherical_dense", i);
+    const json& d = ElementObject(*array, i, "spherical_dense");
+    const std::string station = Esc(ReqString(d, "station", path));
+    const std::string status = ReqString(d, "status", path);
+    if (status != "ok") {
+      html << "<tr>" << TdText(station) << "<td colspan=\"6\">" << Esc(status) << "</td></tr>\n";
+      continue;
+    }
+    const double compared = Num(d, "lidar_compared", path);
+    html << "<tr>" << TdText(station) << Td(FormatFixed(Num(d, "points", path), 0))
+         << Td(FormatFixed(Num(d, "median_range_m", path), 2)) << Td(FormatFixed(Num(d, "median_range_sigma_m", path), 3))
+         << Td(std::isnan(compared) ? kDash : FormatFixed(compared, 0))
+         << Td(FormatFixed(Num(d, "median_abs_distance_to_lidar_m", path), 3))
+         << Td(FormatFixed(Num(d, "median_abs_distance_over_sigma", path), 2)) << "</tr>\n";
+  }
+  html << "</table>\n</section>\n";
+}
+
 void RenderFiles(const json& report, std::ostringstream& html) {
   const json* array = OptArray(report, "files", "");
   if (array == nullptr || array->empty()) return;
@@ -864,6 +892,7 @@ std::string RenderAdjustReportHtml(const json& report) {
   RenderBlunders(report, html);
   RenderPoseCorrections(report, html);
   RenderCalibrations(report, html);
+  RenderDenseClouds(report, html);
   RenderFiles(report, html);
   html << "<footer>mmba adjust &middot; report schema " << kAdjustReportSchema;
   if (auto t = OptString(report, "generated_utc", "")) html << " &middot; " << Esc(*t) << " UTC";

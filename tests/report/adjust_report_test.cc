@@ -240,5 +240,25 @@ TEST(AdjustReport, NullsAndEmptyArraysRenderGracefully) {
   EXPECT_EQ(html.find("inf<"), std::string::npos);
 }
 
+TEST(AdjustReport, DenseStationCloudsAreTabulatedAndAStationWithoutPanoramasSaysWhy) {
+  json report = MinimalReport();
+  report["spherical_dense"] = json::array(
+      {json{{"station", "S1"}, {"status", "ok"}, {"points", 568646}, {"median_range_m", 4.8566},
+            {"median_range_sigma_m", 0.068}, {"lidar_compared", 1631}, {"median_abs_distance_to_lidar_m", 0.342},
+            {"median_abs_distance_over_sigma", 0.166}},
+       json{{"station", "S2"}, {"status", "ok"}, {"points", 1000}, {"median_range_m", 3.0}, {"median_range_sigma_m", 0.05}},
+       json{{"station", "S<3>"}, {"status", "no panoramas S3_lower/_upper in images"}}});
+  const std::string html = RenderAdjustReportHtml(report);
+  EXPECT_NE(html.find("id=\"dense\""), std::string::npos);
+  EXPECT_NE(html.find("<td class=\"num\">568646</td><td class=\"num\">4.86</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td class=\"num\">0.342</td><td class=\"num\">0.17</td>"), std::string::npos);
+  EXPECT_NE(html.find("S&lt;3&gt;"), std::string::npos);  // escaped
+  EXPECT_NE(html.find("no panoramas S3_lower/_upper in images"), std::string::npos);
+  EXPECT_EQ(html.find("nan"), std::string::npos);  // S2 has no LiDAR comparison: dashes
+  report["spherical_dense"][0]["points"] = "many";
+  EXPECT_NE(ErrorOf(report).find("spherical_dense[0].points"), std::string::npos) << ErrorOf(report);
+  EXPECT_EQ(RenderAdjustReportHtml(MinimalReport()).find("id=\"dense\""), std::string::npos);
+}
+
 }  // namespace
 }  // namespace mmba::report
