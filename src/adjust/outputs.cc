@@ -191,8 +191,16 @@ json WriteSphereDense(const JointState& s, const fs::path& stage, json* files) {
       continue;
     }
     spdlog::info("adjust: dense cloud of spherical station {}", station);
-    const DenseStereoCloud dense = DenseSphericalStereo(lower_path, upper_path, s.scene.Camera(sb.lower_camera),
-                                                        s.scene.Camera(sb.upper_camera), sb.baseline);
+    DenseStereoCloud dense;
+    try {
+      dense = DenseSphericalStereo(lower_path, upper_path, s.scene.Camera(sb.lower_camera), s.scene.Camera(sb.upper_camera),
+                                   sb.baseline);
+    } catch (const std::exception& e) {
+      // A by-product: a panorama that cannot be matched costs its cloud, not the adjustment.
+      stations.push_back({{"station", station}, {"status", std::string("failed: ") + e.what()}});
+      spdlog::warn("adjust: no dense cloud for spherical station {}: {}", station, e.what());
+      continue;
+    }
     const Rigid3d world_from_lower = s.scene.Image(id).cam_from_world.Inverse();
     io::PointCloud cloud = dense.cloud;
     for (Eigen::Vector3d& p : cloud.points) p = world_from_lower * p;
@@ -964,7 +972,11 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
   sum << "  blunders flagged and excluded: " << s.blunders.size() << "\n";
   if (report.contains("spherical_dense")) {
     for (const json& d : report["spherical_dense"]) {
-      if (d["status"] != "ok") continue;
+      if (d["status"] != "ok") {
+        sum << "  dense cloud of station " << d["station"].get<std::string>() << ": " << d["status"].get<std::string>()
+            << "\n";
+        continue;
+      }
       sum << "  dense cloud of station " << d["station"].get<std::string>() << ": " << d["points"].get<size_t>()
           << " points, median range " << std::setprecision(3) << d["median_range_m"].get<double>() << " m (sigma "
           << d["median_range_sigma_m"].get<double>() << " m)";
