@@ -774,9 +774,22 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     trajectory << "# mmba adjust: corrections of the GNSS/INS trajectory of '" << m.config->id
                << "' at the nodes (linear in between): world_from_body = (Exp(omega) R_ins, p_ins + delta)\n"
                   "time_s,omega_x_deg,omega_y_deg,omega_z_deg,delta_east_m,delta_north_m,delta_up_m,sigma_omega_deg,"
-                  "sigma_delta_m,east_m,north_m,up_m\n";
+                  "sigma_delta_m,east_m,north_m,up_m,points,rig_frames\n";
+    // What observes each node: the mobile points on the static surface and the rig frames whose
+    // time falls in the node's two intervals. A node with neither follows the GNSS/INS prior's
+    // model alone (extrapolated from its neighbours).
+    std::vector<size_t> node_points(m.nodes.size(), 0), node_frames(m.nodes.size(), 0);
+    const auto touch = [&](const NodeWeight& w, std::vector<size_t>* count) {
+      if (w.alpha < 1.0) ++(*count)[w.node];
+      if (w.alpha > 0.0 && w.node + 1 < count->size()) ++(*count)[w.node + 1];
+    };
+    for (const MobilePoint& p : m.points) touch(p.weight, &node_points);
+    for (const FrameOnTrajectory& f : m.frames) touch(f.weight, &node_frames);
+    json unobserved = json::array();
     double worst = 0.0;
-    for (const TrajectoryNode& node : m.nodes) {
+    for (size_t i = 0; i < m.nodes.size(); ++i) {
+      const TrajectoryNode& node = m.nodes[i];
+      if (node_points[i] == 0 && node_frames[i] == 0) unobserved.push_back(node.time_s);
       double var_omega = 0.0, var_delta = 0.0;
       for (int k = 0; k < 3; ++k) {
         var_omega += st.Covariance(node.correction, k, node.correction, k);
@@ -788,7 +801,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
       for (int k = 0; k < 3; ++k) trajectory << "," << node.correction[3 + k];
       trajectory << "," << std::sqrt(std::max(0.0, var_omega)) * kDeg << "," << std::sqrt(std::max(0.0, var_delta))
                  << std::setprecision(12) << "," << corrected.translation.x() << "," << corrected.translation.y() << ","
-                 << corrected.translation.z() << "\n";
+                 << corrected.translation.z() << "," << node_points[i] << "," << node_frames[i] << "\n";
       worst = std::max(worst, Eigen::Vector3d(node.correction[3], node.correction[4], node.correction[5]).norm());
     }
     WriteText(stage / (m.config->id + "_trajectory.csv"), trajectory.str());
@@ -822,7 +835,15 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     report["mobile_lidar"] = {{"sensor", m.config->id}, {"points", m.num_points}, {"used", m.sample.size()},
                               {"on_surface", m.points.size()}, {"nodes", m.nodes.size()},
                               {"max_position_correction_m", worst}, {"extrinsic", m.with_rig ? m.config->extrinsic : "held"},
-                              {"extrinsic_rotation_change_deg", dr}, {"extrinsic_translation_change_m", dt}};
+                              {"extrinsic_rotation_change_deg", dr}, {"extrinsic_translation_change_m", dt},
+                              {"unobserved_node_times_s", unobserved}};
+    if (!unobserved.empty()) {
+      s.warnings.push_back("lidar_mobile '" + m.config->id + "': " + std::to_string(unobserved.size()) + " of " +
+                           std::to_string(m.nodes.size()) + " trajectory nodes (t = " + unobserved.front().dump() + " to " +
+                           unobserved.back().dump() + " s) have no mobile point on the static surface and no rig frame: "
+                           "their corrections are the GNSS/INS prior's extrapolation, see the points and rig_frames "
+                           "columns of " + m.config->id + "_trajectory.csv");
+    }
   }
   // Adjusted static scans: world_from_scan with σ and the change from the registration.
   if (!s.scans.empty()) {

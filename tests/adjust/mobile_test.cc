@@ -82,6 +82,28 @@ TEST_F(MobileAdjustTest, CorrectsTheTrajectoryAndRecoversTheCameraLidarExtrinsic
   for (const char* f : {"calibration/mls_camera_lidar.yaml", "mls_trajectory.csv", "mls_corrected.ply", "error_map_mls.ply"}) {
     EXPECT_TRUE(fs::exists(out / f)) << f;
   }
+  // Every node says what observes it (points, rig frames); their sums are the associated points
+  // and frames counted once per node they touch, and the nodes without any are listed.
+  {
+    std::istringstream csv(ReadText(out / "mls_trajectory.csv"));
+    std::string line;
+    size_t rows = 0, unobserved = 0, points = 0;
+    while (std::getline(csv, line)) {
+      if (line.empty() || line[0] == '#' || line.rfind("time_s", 0) == 0) continue;
+      std::vector<std::string> cells;
+      std::stringstream cs(line);
+      for (std::string c; std::getline(cs, c, ',');) cells.push_back(c);
+      ASSERT_EQ(cells.size(), 14u) << line;
+      const size_t p = std::stoul(cells[12]), f = std::stoul(cells[13]);
+      points += p;
+      unobserved += p == 0 && f == 0 ? 1 : 0;
+      ++rows;
+    }
+    EXPECT_EQ(rows, r["mobile_lidar"]["nodes"].get<size_t>());
+    EXPECT_GE(points, r["mobile_lidar"]["on_surface"].get<size_t>());
+    EXPECT_LE(points, 2 * r["mobile_lidar"]["on_surface"].get<size_t>());
+    EXPECT_EQ(r["mobile_lidar"]["unobserved_node_times_s"].size(), unobserved);
+  }
   const std::string yaml = ReadText(out / "calibration" / "mls_camera_lidar.yaml");
   EXPECT_NE(yaml.find("rig_from_lidar_sigma"), std::string::npos);
   EXPECT_NE(yaml.find("cam_from_lidar"), std::string::npos);
