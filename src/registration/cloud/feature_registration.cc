@@ -1261,6 +1261,25 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     if (whole) whole_target = c;
     return c;
   };
+  // A finalist refined on its own crop of the target: fine ICP from `icp_start`, then its fine
+  // residuals and their robust scale. False when the pose puts the source off the target.
+  auto refine = [&](Finalist* f, double icp_start) {
+    const std::shared_ptr<TargetCrop> crop = crop_for(f->h.transform);
+    const TargetCrop& c = *crop;
+    if (c.level.points.size() < 10) return false;
+    f->spacing = std::max(src_fine_spacing, c.level.spacing);
+    if (options.icp) {
+      f->h.transform = PointToPlaneIcp(fine_src, c.level.points, c.level.normals, *c.index,
+                                       f->h.transform, icp_start,
+                                       options.icp_distance_spacing * f->spacing,
+                                       options.icp_iterations, nullptr);  // free: levelled ≠ exact
+    }
+    const double reach = std::min(normal_radius, options.normal_radius_spacing * f->spacing);
+    FineResiduals(fine_src, fine_src_n, c, f->h.transform, reach, &f->residuals, &f->agree);
+    f->crop = crop;
+    f->sigma = RobustScale(f->residuals);
+    return true;
+  };
   std::vector<Finalist> finalists;
   const size_t max_finalists = options.paper_only ? 1 : 4;
   for (const Hypothesis& h : hypotheses) {
@@ -1272,24 +1291,11 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     if (duplicate) continue;
     Finalist f;
     f.h = h;
-    const std::shared_ptr<TargetCrop> crop = crop_for(h.transform);
-    TargetCrop& c = *crop;
-    if (c.level.points.size() < 10) continue;  // the hypothesis puts the source off the target
-    f.spacing = std::max(src_fine_spacing, c.level.spacing);
-    if (options.icp) {
-      // Levelled hypotheses were turned about `up` only: the tilt left to the free fine ICP
-      // needs a wider start.
-      const double start = options.gravity_aligned ? support_radius / 2.0
-                                                   : options.icp_distance_spacing * spacing;
-      f.h.transform = PointToPlaneIcp(fine_src, c.level.points, c.level.normals, *c.index,
-                                      f.h.transform, start,
-                                      options.icp_distance_spacing * f.spacing,
-                                      options.icp_iterations, nullptr);  // free: levelled ≠ exact
-    }
-    const double reach = std::min(normal_radius, options.normal_radius_spacing * f.spacing);
-    FineResiduals(fine_src, fine_src_n, c, f.h.transform, reach, &f.residuals, &f.agree);
-    f.crop = crop;
-    f.sigma = RobustScale(f.residuals);
+    // Levelled hypotheses were turned about `up` only: the tilt left to the free fine ICP
+    // needs a wider start.
+    const double start = options.gravity_aligned ? support_radius / 2.0
+                                                 : options.icp_distance_spacing * spacing;
+    if (!refine(&f, start)) continue;
     finalists.push_back(std::move(f));
   }
   if (finalists.empty()) return fail("no hypothesis puts the source onto the target");
@@ -1405,20 +1411,7 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
       origin << std::setprecision(3) << "period shift (" << shift.x() << ", " << shift.y() << ", "
              << shift.z() << ") m, " << count << " votes";
       f.h.origin = origin.str();
-      const std::shared_ptr<TargetCrop> crop = crop_for(f.h.transform);
-      if (crop->level.points.size() < 10) continue;
-      f.spacing = std::max(src_fine_spacing, crop->level.spacing);
-      if (options.icp) {
-        f.h.transform = PointToPlaneIcp(fine_src, crop->level.points, crop->level.normals,
-                                        *crop->index, f.h.transform,
-                                        options.icp_distance_spacing * spacing,
-                                        options.icp_distance_spacing * f.spacing,
-                                        options.icp_iterations, nullptr);
-      }
-      const double reach = std::min(normal_radius, options.normal_radius_spacing * f.spacing);
-      FineResiduals(fine_src, fine_src_n, *crop, f.h.transform, reach, &f.residuals, &f.agree);
-      f.crop = crop;
-      f.sigma = RobustScale(f.residuals);
+      if (!refine(&f, options.icp_distance_spacing * spacing)) continue;
       f.violates = violations_of(f);
       ScoreFine(f.residuals, f.agree, fine_tau, f.violates, &f.h);
       bool same = false;
