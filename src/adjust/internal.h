@@ -83,7 +83,6 @@ struct MobileBlock {
   const LidarMobile* config = nullptr;
   size_t num_points = 0;                               ///< in the delivered cloud (streamed, never held)
   std::string format;                                  ///< of the delivered cloud, for the log
-  bool has_intensity = false;
   std::vector<std::pair<double, Rigid3d>> trajectory;  ///< GNSS/INS world_from_body
   Rigid3d body_from_lidar_nominal;
   Rigid3d body_from_vehicle;                           ///< constant

@@ -77,10 +77,7 @@ void LoadMobile(JointState* s) {
   size_t wanted = 0, next = 0;  // next sample: the point index floor(next · total / wanted)
   io::ReadStats stats;
   io::StreamPointCloud(config.cloud, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t first, size_t total) {
-    if (first == 0) {
-      wanted = std::min<size_t>(config.points, total);
-      m.has_intensity = chunk.has_intensity();
-    }
+    if (first == 0) wanted = std::min<size_t>(config.points, total);
     if (!chunk.has_time()) {
       throw InputError::Message(config.cloud, "no time per point (PLY property time / gps_time / timestamp, or LAS GPS time); "
                                               "a mobile cloud cannot be re-georeferenced without it");

@@ -178,8 +178,8 @@ std::string FindImage(const std::string& folder, const std::string& stem) {
 
 /// The dense cloud of every spherical station (vertical-baseline stereo on the adjusted pair:
 /// its calibration, baseline and pose), georeferenced, written as <id>_<station>_dense.ply
-/// with intensity from the lower panorama and the range σ; compared with the LiDAR surface
-/// where there is one. Returns the report's entry.
+/// with intensity from the lower panorama; compared with the LiDAR surface where there is
+/// one. Returns the report's entry (with the median range σ).
 json WriteSphereDense(const JointState& s, const fs::path& stage, json* files) {
   json stations = json::array();
   const SphereBlock& sb = *s.spheres;
@@ -206,7 +206,6 @@ json WriteSphereDense(const JointState& s, const fs::path& stage, json* files) {
     for (Eigen::Vector3d& p : cloud.points) p = world_from_lower * p;
     std::vector<double> ranges;
     for (const Eigen::Vector3d& p : dense.cloud.points) ranges.push_back(p.norm());
-    std::vector<double> sigmas = dense.range_sigma_m;
     const auto median = [](std::vector<double> v) {
       if (v.empty()) return 0.0;
       std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
@@ -214,7 +213,7 @@ json WriteSphereDense(const JointState& s, const fs::path& stage, json* files) {
     };
     json entry = {{"station", station}, {"status", "ok"}, {"points", cloud.size()}, {"match_width_px", dense.match_width},
                   {"matched_pixels", dense.matched_pixels}, {"median_range_m", median(ranges)},
-                  {"median_range_sigma_m", median(sigmas)}};
+                  {"median_range_sigma_m", median(dense.range_sigma_m)}};
     if (s.surface && !cloud.empty()) {
       // Distance along the LiDAR surface's normal for an even sample; |d|/σ_range should be
       // about 0.67 at the median when the σ and the adjusted pose are right.

@@ -3,31 +3,27 @@
 
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
 
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "mmba/core/error.h"
+#include "mmba/registration/mi/image.h"
 
 namespace mmba::adjust::internal {
 namespace {
 
+/// The panorama as 8-bit grey (read by the MI module's reader: its errors name the file), of
+/// the calibrated size.
 cv::Mat ReadGray(const std::string& path, const sensors::Camera& camera) {
-  if (!std::filesystem::exists(path)) throw InputError::Message(path, "panorama not found");
-  cv::Mat image;
-  try {
-    image = cv::imread(path, cv::IMREAD_GRAYSCALE);
-  } catch (const cv::Exception& e) {
-    throw InputError::Message(path, std::string("cannot decode image: ") + e.what());
-  }
-  if (image.empty()) throw InputError::Message(path, "cannot decode image (expected PNG, JPEG, TIFF, ...)");
-  if (static_cast<uint64_t>(image.cols) != camera.width || static_cast<uint64_t>(image.rows) != camera.height) {
-    throw InputError::Message(path, "found a " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+  registration::mi::GrayImage gray = registration::mi::ReadGrayImage(path);
+  if (static_cast<uint64_t>(gray.width) != camera.width || static_cast<uint64_t>(gray.height) != camera.height) {
+    throw InputError::Message(path, "found a " + std::to_string(gray.width) + "x" + std::to_string(gray.height) +
                                         " panorama, expected the calibrated " + std::to_string(camera.width) + "x" +
                                         std::to_string(camera.height));
   }
+  cv::Mat image;
+  cv::Mat(gray.height, gray.width, CV_32F, gray.pixels.data()).convertTo(image, CV_8U);
   return image;
 }
 
