@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <glog/logging.h>
+
 namespace mmba::registration::mi {
 
 std::string MetricName(MetricKind kind) {
@@ -74,7 +76,8 @@ JointHistogram::JointHistogram(const MetricOptions& options)
     : options_(options),
       bins_(options.bins),
       counts_(static_cast<size_t>(options.bins + 3) * (options.bins + 3), 0.0),
-      empty_counts_(options.bins + 3, 0.0) {}
+      empty_counts_(options.bins + 3, 0.0),
+      photo_scale_(static_cast<float>((options.bins - 1) / 255.0)) {}
 
 void JointHistogram::Clear() {
   std::fill(counts_.begin(), counts_.end(), 0.0);
@@ -85,17 +88,6 @@ void JointHistogram::Clear() {
 
 namespace {
 
-// Cubic B-spline weights of the four bins base−1 .. base+2 for a fractional position t
-// (Mattes et al. 2003, Eq. (4); Thévenaz & Unser 2000).
-inline void CubicBSplineWeights(float t, float w[4]) {
-  const float t2 = t * t, t3 = t2 * t;
-  const float u = 1.f - t;
-  w[0] = u * u * u * (1.f / 6.f);
-  w[1] = (3.f * t3 - 6.f * t2 + 4.f) * (1.f / 6.f);
-  w[2] = (-3.f * t3 + 3.f * t2 + 3.f * t + 1.f) * (1.f / 6.f);
-  w[3] = t3 * (1.f / 6.f);
-}
-
 double Entropy(const std::vector<double>& p, double total) {
   double h = 0;
   for (double c : p) {
@@ -105,22 +97,6 @@ double Entropy(const std::vector<double>& p, double total) {
     }
   }
   return h;
-}
-
-// Bilinear photo value at continuous pixel coordinates (x, y), clamped to the image: the
-// same as GrayImage::Sample inside, the nearest edge value outside (a point's sub-pixel
-// offset can reach half a pixel past the border).
-inline float SamplePhoto(const GrayImage& photo, float x, float y) {
-  const float u = std::clamp(x - 0.5f, 0.f, static_cast<float>(photo.width - 1));
-  const float v = std::clamp(y - 0.5f, 0.f, static_cast<float>(photo.height - 1));
-  const int c0 = std::min(static_cast<int>(u), std::max(0, photo.width - 2));
-  const int r0 = std::min(static_cast<int>(v), std::max(0, photo.height - 2));
-  const int c1 = std::min(c0 + 1, photo.width - 1);
-  const int r1 = std::min(r0 + 1, photo.height - 1);
-  const float a = u - c0, b = v - r0;
-  const float* row0 = &photo.pixels[static_cast<size_t>(r0) * photo.width];
-  const float* row1 = &photo.pixels[static_cast<size_t>(r1) * photo.width];
-  return (1 - b) * ((1 - a) * row0[c0] + a * row0[c1]) + b * ((1 - a) * row1[c0] + a * row1[c1]);
 }
 
 }  // namespace
@@ -136,7 +112,7 @@ inline void JointHistogram::AddSample(float lidar_pos, float photo_pos, bool lid
     }
     float wy[4];
     const int by = std::clamp(static_cast<int>(photo_pos), 0, bins - 1);
-    CubicBSplineWeights(photo_pos - by, wy);
+    JointHistogram::CubicBSplineWeights(photo_pos - by, wy);
     for (int j = 0; j < 4; ++j) empty_counts_[by + j] += wy[j];
     return;
   }
@@ -151,8 +127,8 @@ inline void JointHistogram::AddSample(float lidar_pos, float photo_pos, bool lid
   // Positions are within [0, bins − 1]; the clamp only guards rounding.
   const int bx = std::clamp(static_cast<int>(lidar_pos), 0, bins - 1);
   const int by = std::clamp(static_cast<int>(photo_pos), 0, bins - 1);
-  CubicBSplineWeights(lidar_pos - bx, wx);
-  CubicBSplineWeights(photo_pos - by, wy);
+  JointHistogram::CubicBSplineWeights(lidar_pos - bx, wx);
+  JointHistogram::CubicBSplineWeights(photo_pos - by, wy);
   // Padded index of bin (bx − 1 + i, by − 1 + j) is (bx + i) · stride + by + j.
   double* base = &counts_[static_cast<size_t>(bx) * stride + by];
   for (int i = 0; i < 4; ++i) {
@@ -181,7 +157,7 @@ void JointHistogram::Add(const LidarImage& lidar, const GrayImage& photo) {
       float photo_value = photo_row[c];
       if (spline && !empty) {
         // Sample the photo where the point really falls: smooth in the pose.
-        photo_value = SamplePhoto(photo, c + 0.5f + lidar.offset_x[k], r + 0.5f + lidar.offset_y[k]);
+        photo_value = SampleClamped(photo, c + 0.5f + lidar.offset_x[k], r + 0.5f + lidar.offset_y[k]);
       }
       AddSample(empty ? 0.f : lidar.value[k] * lidar_scale, photo_value * photo_scale, empty);
     }
@@ -190,16 +166,27 @@ void JointHistogram::Add(const LidarImage& lidar, const GrayImage& photo) {
 
 void JointHistogram::AddPairs(const std::vector<float>& lidar01,
                               const std::vector<float>& photo255) {
+  AddPairs(lidar01.data(), photo255.data(), std::min(lidar01.size(), photo255.size()));
+}
+
+void JointHistogram::AddPairs(const float* lidar01, const float* photo255, size_t count) {
   const bool whole = options_.region == Region::kWholeImage;
   const float lidar_scale = static_cast<float>(bins_ - 1);
   const float photo_scale = static_cast<float>((bins_ - 1) / 255.0);
-  const size_t n = std::min(lidar01.size(), photo255.size());
-  for (size_t k = 0; k < n; ++k) {
+  for (size_t k = 0; k < count; ++k) {
     const bool empty = lidar01[k] < 0;
     if (empty && !whole) continue;
     AddSample(empty ? 0.f : std::min(lidar01[k], 1.f) * lidar_scale,
               std::clamp(photo255[k], 0.f, 255.f) * photo_scale, empty);
   }
+}
+
+void JointHistogram::Merge(const JointHistogram& other) {
+  CHECK_EQ(counts_.size(), other.counts_.size()) << "histograms of different bins";
+  for (size_t k = 0; k < counts_.size(); ++k) counts_[k] += other.counts_[k];
+  for (size_t k = 0; k < empty_counts_.size(); ++k) empty_counts_[k] += other.empty_counts_[k];
+  total_ += other.total_;
+  lidar_total_ += other.lidar_total_;
 }
 
 MetricValue JointHistogram::Evaluate() const {

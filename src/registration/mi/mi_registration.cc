@@ -165,6 +165,10 @@ LidarImage& ThreadBuffer() {
 
 namespace {
 
+// True on the threads of a running ParallelFor (the caller's included): an evaluation made
+// there does not split itself over threads again.
+thread_local bool t_in_parallel_loop = false;
+
 // body(0) .. body(count − 1) on up to `threads` threads (the caller's included).
 void ParallelFor(int count, int threads, const std::function<void(int)>& body) {
   threads = std::max(1, std::min(threads, count));
@@ -174,7 +178,10 @@ void ParallelFor(int count, int threads, const std::function<void(int)>& body) {
   }
   std::atomic<int> next{0};
   auto worker = [&] {
+    const bool outer = t_in_parallel_loop;
+    t_in_parallel_loop = true;
     for (int i = next++; i < count; i = next++) body(i);
+    t_in_parallel_loop = outer;
   };
   std::vector<std::thread> pool;
   for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
@@ -276,6 +283,82 @@ MetricValue FrameSetEvaluator::Evaluate(const Rigid3d& cam_from_lidar, int level
   Timer fill;
   const MetricValue value = histogram.Evaluate();
   histogram_ns_ += static_cast<int64_t>(1e9 * fill.ElapsedSeconds());
+  return value;
+}
+
+bool FrameSetEvaluator::UsesSamples(const MetricOptions& metric) const {
+  return options_.point_samples && metric.smoothing == Smoothing::kBSpline &&
+         metric.region == Region::kOverlap;
+}
+
+FrameSetEvaluator::SampleSet FrameSetEvaluator::MakeSampleSet(const Rigid3d& cam_from_lidar,
+                                                              int level, bool per_point) const {
+  Timer timer;
+  LidarImage& buffer = ThreadBuffer();
+  SampleSet set;
+  set.level = level;
+  set.reference = cam_from_lidar;
+  for (size_t f = 0; f < frames_.size(); ++f) {
+    for (const View& view : pyramid_[level][f]) {
+      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer);
+      set.views.push_back(
+          MakeViewSamples(points_[level][f], buffer, options_.render, per_point));
+      set.samples += set.views.back().samples();
+    }
+  }
+  ++sample_sets_;
+  render_ns_ += static_cast<int64_t>(1e9 * timer.ElapsedSeconds());
+  return set;
+}
+
+double FrameSetEvaluator::SampleSetDisplacementPx(const SampleSet& set,
+                                                  const Rigid3d& cam_from_lidar) const {
+  double largest = 0;
+  size_t v = 0;
+  for (size_t f = 0; f < frames_.size(); ++f) {
+    for (const View& view : pyramid_[set.level][f]) {
+      largest = std::max(largest, ProbeDisplacementPx(set.views[v++], view, cam_from_lidar));
+    }
+  }
+  return largest;
+}
+
+MetricValue FrameSetEvaluator::Evaluate(const Rigid3d& cam_from_lidar, int level,
+                                        const MetricOptions& metric, const SampleSet* set) const {
+  if (set == nullptr || set->level != level || !UsesSamples(metric)) {
+    return Evaluate(cam_from_lidar, level, metric);
+  }
+  Timer timer;
+  MetricOptions level_metric = metric;
+  level_metric.bins = std::max(8, metric.bins >> level);
+  // Two partial histograms over the two halves of each view's points, merged: the same sums
+  // whether they were filled on one thread or two.
+  std::array<JointHistogram, 2> parts = {JointHistogram(level_metric),
+                                         JointHistogram(level_metric)};
+  auto fill = [&](int h) {
+    size_t v = 0;
+    for (size_t f = 0; f < frames_.size(); ++f) {
+      for (const View& view : pyramid_[level][f]) {
+        const ViewSamples& samples = set->views[v++];
+        const size_t half = samples.points() / 2;
+        AccumulateViewSamples(samples, view, cam_from_lidar, options_.render,
+                              h == 0 ? 0 : half, h == 0 ? half : samples.points(), &parts[h]);
+      }
+    }
+  };
+  // Splitting pays only above a few ten thousand samples (a thread costs tens of µs).
+  if (options_.threads >= 2 && !t_in_parallel_loop && set->samples >= 20000) {
+    std::thread other(fill, 1);
+    fill(0);
+    other.join();
+  } else {
+    fill(0);
+    fill(1);
+  }
+  parts[0].Merge(parts[1]);
+  const MetricValue value = parts[0].Evaluate();
+  ++sample_evaluations_;
+  sample_ns_ += static_cast<int64_t>(1e9 * timer.ElapsedSeconds());
   return value;
 }
 
@@ -596,7 +679,8 @@ bool CheckConfidence(const FrameSetEvaluator& evaluator, const Rigid3d& start,
 // a regression over many samples is far steadier than finite differences.
 Eigen::Matrix<double, 6, 6> MiHessian(const FrameSetEvaluator& evaluator, const Rigid3d& start,
                                       const Vector6d& x, const MetricOptions& metric, int level,
-                                      int threads, int* evaluations) {
+                                      const FrameSetEvaluator::SampleSet* samples, int threads,
+                                      int* evaluations) {
   Vector6d h;
   h << 0.04, 0.04, 0.04, 0.2, 0.2, 0.2;
   std::vector<Vector6d> offsets;  // in units of h
@@ -629,7 +713,7 @@ Eigen::Matrix<double, 6, 6> MiHessian(const FrameSetEvaluator& evaluator, const 
   }
   ParallelFor(static_cast<int>(offsets.size()), threads, [&](int k) {
     values[k] = evaluator.Evaluate(ApplyCorrection(start, x + offsets[k].cwiseProduct(h)), level,
-                                   metric)
+                                   metric, samples)
                     .mi *
                 M_LN2;
   });
@@ -649,7 +733,8 @@ Eigen::Matrix<double, 6, 6> MiHessian(const FrameSetEvaluator& evaluator, const 
 // Coarse-to-fine search from x0: Nelder–Mead at levels top_level .. bottom_level with the
 // simplex `top_step` at the top level, halved at each finer one, and the tolerances of the
 // main run at each level (`finest_tolerance` > 0 replaces the one of bottom_level); then
-// (optionally) gradient ascent on the B-spline histogram at level 0.
+// (optionally) gradient ascent on the B-spline histogram at level 0. With point samples, the
+// visibility of the first Nelder–Mead run is decided at `visibility_at` (default: x0).
 struct SearchResult {
   Vector6d x = Vector6d::Zero();
   double value = 0;
@@ -661,7 +746,7 @@ SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
                     int top_level, int bottom_level, const Vector6d& top_step,
                     double finest_tolerance, bool gradient,
                     const RegistrationOptions& options, class StageClock* clock,
-                    const std::string& stage_prefix);
+                    const std::string& stage_prefix, const Vector6d* visibility_at = nullptr);
 
 // Records the time and evaluations of consecutive stages into a result.
 class StageClock {
@@ -688,7 +773,7 @@ SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
                     int top_level, int bottom_level, const Vector6d& top_step,
                     double finest_tolerance, bool gradient,
                     const RegistrationOptions& options, StageClock* clock,
-                    const std::string& stage_prefix) {
+                    const std::string& stage_prefix, const Vector6d* visibility_at) {
   SearchResult search;
   const Vector6d bound = BoundVector(options);
   const int levels = evaluator.levels();
@@ -702,16 +787,49 @@ SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
     nm.parameter_tolerance =
         options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1 - level);
     if (level == bottom_level && finest_tolerance > 0) nm.parameter_tolerance = finest_tolerance;
-    const NelderMeadResult r = MaximizeNelderMead(
-        [&](const Vector6d& y) {
-          return evaluator.Evaluate(ApplyCorrection(start, y), level).value;
-        },
-        x, nm);
+    // Point samples with the visibility frozen at the pass's start: within one Nelder–Mead
+    // run the metric is one fixed function of the correction. When the run ends more than
+    // options.sample_rebuild_px (pixels of the level) from where the visibility was
+    // decided, it is decided again there and the run repeated from that point with half the
+    // simplex (at most kPasses runs per level).
+    constexpr int kPasses = 3;
+    const bool sampled = evaluator.UsesSamples(options.metric);
+    NelderMeadResult r;
+    int level_iterations = 0, level_evaluations = 0;
+    for (int pass = 0; pass < kPasses; ++pass) {
+      FrameSetEvaluator::SampleSet samples;
+      if (sampled) {
+        // The first pass at the top level may take its visibility elsewhere (the restarts:
+        // at the optimum they are expected to return to).
+        const Vector6d& at =
+            pass == 0 && level == top_level && visibility_at != nullptr ? *visibility_at : x;
+        samples = evaluator.MakeSampleSet(ApplyCorrection(start, at), level,
+                                          options.sample_per_point);
+      }
+      r = MaximizeNelderMead(
+          [&](const Vector6d& y) {
+            return evaluator
+                .Evaluate(ApplyCorrection(start, y), level, options.metric,
+                          sampled ? &samples : nullptr)
+                .value;
+          },
+          x, nm);
+      level_iterations += r.iterations;
+      level_evaluations += r.evaluations;
+      x = r.x;
+      if (!sampled ||
+          !(evaluator.SampleSetDisplacementPx(samples, ApplyCorrection(start, r.x)) >
+            options.sample_rebuild_px)) {
+        break;
+      }
+      nm.initial_step = (0.5 * nm.initial_step).cwiseMax(2.0 * nm.parameter_tolerance);
+    }
+    r.iterations = level_iterations;
+    r.evaluations = level_evaluations;
     spdlog::debug("MI {}level {}: {} iterations, metric {:.6f}, correction [{:.3f} {:.3f} {:.3f} "
                   "{:.3f} {:.3f} {:.3f}]",
                   stage_prefix, level, r.iterations, r.value, r.x[0], r.x[1], r.x[2], r.x[3],
                   r.x[4], r.x[5]);
-    x = r.x;
     search.value = r.value;
     search.iterations += r.iterations;
     search.evaluations += r.evaluations;
@@ -724,20 +842,35 @@ SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
     MetricOptions smooth = options.metric;
     smooth.smoothing = Smoothing::kBSpline;
     int evaluations = 0;
+    // Each iteration's samples have the visibility of its own start x.
+    const bool sampled = evaluator.UsesSamples(smooth);
+    FrameSetEvaluator::SampleSet samples;
     auto f = [&](const Vector6d& y) {
       ++evaluations;
-      return evaluator.Evaluate(ApplyCorrection(start, y), 0, smooth).value;
+      return evaluator
+          .Evaluate(ApplyCorrection(start, y), 0, smooth, sampled ? &samples : nullptr)
+          .value;
     };
     Vector6d h;
     h << 0.005, 0.005, 0.005, 0.02, 0.02, 0.02;
-    double fx = f(x);
+    double fx = 0;
     double alpha = 0.05;  // units per unit of normalised gradient
     for (int it = 0; it < options.gradient_max_iterations && alpha > 1e-3; ++it) {
+      if (sampled || it == 0) {
+        if (sampled) {
+          samples = evaluator.MakeSampleSet(ApplyCorrection(start, x), 0,
+                                            options.sample_per_point);
+        }
+        fx = f(x);
+      }
       Eigen::Matrix<double, 12, 1> sides;
       ParallelFor(12, options.threads, [&](int k) {
         Vector6d y = x;
         y[k / 2] += (k % 2 == 0 ? 1.0 : -1.0) * h[k / 2];
-        sides[k] = evaluator.Evaluate(ApplyCorrection(start, y), 0, smooth).value;
+        sides[k] = evaluator
+                       .Evaluate(ApplyCorrection(start, y), 0, smooth,
+                                 sampled ? &samples : nullptr)
+                       .value;
       });
       evaluations += 12;
       Vector6d g;
@@ -937,7 +1070,8 @@ std::vector<double> PixelDisplacements2(const FrameSetEvaluator& evaluator,
 // parabola a + b·t + ½·c·t² fitted by least squares to 13 samples t ∈ [−0.3, 0.3].
 double CurvatureAlong(const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x,
                       const Vector6d& direction, const MetricOptions& metric, int level,
-                      int threads, int* evaluations) {
+                      const FrameSetEvaluator::SampleSet* samples, int threads,
+                      int* evaluations) {
   constexpr int kSide = 6;
   constexpr double kStep = 0.05;
   Eigen::Matrix<double, 2 * kSide + 1, 3> design;
@@ -949,7 +1083,9 @@ double CurvatureAlong(const FrameSetEvaluator& evaluator, const Rigid3d& start, 
   ParallelFor(2 * kSide + 1, threads, [&](int k) {
     const double t = (k - kSide) * kStep;
     values[k] =
-        evaluator.Evaluate(ApplyCorrection(start, x + t * direction), level, metric).mi * M_LN2;
+        evaluator.Evaluate(ApplyCorrection(start, x + t * direction), level, metric, samples)
+            .mi *
+        M_LN2;
   });
   *evaluations += 2 * kSide + 1;
   return design.colPivHouseholderQr().solve(values)[2];
@@ -1046,9 +1182,16 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   }
   checks.effective_samples = n_eff;
   int hessian_evaluations = 0;
+  // The fit's samples: the visibility at the optimum (the fit spans ±0.08 m / ±0.4°), one
+  // sample per covered pixel — the rendered histogram's samples, so that the curvature is
+  // that of the rendered metric, whose N_eff is measured below.
+  FrameSetEvaluator::SampleSet covariance_samples;
+  if (evaluator.UsesSamples(options.metric)) {
+    covariance_samples = evaluator.MakeSampleSet(result.cam_from_lidar, covariance_level, false);
+  }
   const Eigen::Matrix<double, 6, 6> hessian =
       MiHessian(evaluator, cam_from_lidar_start, x, options.metric, covariance_level,
-                options.threads, &hessian_evaluations);
+                &covariance_samples, options.threads, &hessian_evaluations);
   const Eigen::Matrix<double, 6, 6> information = -n_eff * hessian;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(information);
   const double min_eigen = eigen.eigenvalues().minCoeff();
@@ -1069,7 +1212,8 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
         // The 28-term fit is noisiest in its weakest direction: measure the curvature along
         // that one direction alone, a parabola fitted to 13 samples over ±0.3 units.
         lambda = -n_eff * CurvatureAlong(evaluator, cam_from_lidar_start, x, direction,
-                                         options.metric, covariance_level, options.threads,
+                                         options.metric, covariance_level,
+                                         &covariance_samples, options.threads,
                                          &hessian_evaluations);
       }
       double variance;
@@ -1171,7 +1315,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
       const Vector6d x0 = (x + starts[k]).cwiseMax(-bound).cwiseMin(bound);
       restarts[k] = Search(evaluator, cam_from_lidar_start, x0, restart_level, restart_level,
                            2.0 * offset, tolerance, false, options, nullptr,
-                           "restart " + std::to_string(k) + " ");
+                           "restart " + std::to_string(k) + " ", &x);
       restart_values[k] =
           evaluator.Evaluate(ApplyCorrection(cam_from_lidar_start, restarts[k].x), 0).value;
     });
@@ -1315,8 +1459,11 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   result.status = result.trusted ? "ok" : "failed";
   result.reason = result.trusted ? "" : result.confidence_reason;
   result.runtime_seconds = timer.ElapsedSeconds();
-  spdlog::debug("MI evaluator: render {:.3f} s, histogram {:.3f} s", evaluator.render_seconds(),
-                evaluator.histogram_seconds());
+  spdlog::debug("MI evaluator: render {:.3f} s, histogram {:.3f} s; {} sample sets, {} "
+                "evaluations from samples {:.3f} s",
+                evaluator.render_seconds(), evaluator.histogram_seconds(),
+                evaluator.sample_sets_built(), evaluator.sample_evaluations(),
+                evaluator.sample_seconds());
   return result;
 }
 

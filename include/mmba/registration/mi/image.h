@@ -25,6 +25,23 @@ struct GrayImage {
   bool Sample(double x, double y, float* value) const;
 };
 
+/// Bilinear value at continuous pixel coordinates (x, y), clamped to the image: the same as
+/// GrayImage::Sample inside, the nearest edge value outside (a point's sub-pixel offset can
+/// reach half a pixel past the border). The photo sampler of the B-spline histogram.
+inline float SampleClamped(const GrayImage& photo, float x, float y) {
+  const float u = x - 0.5f < 0.f ? 0.f : (x - 0.5f > photo.width - 1 ? photo.width - 1 : x - 0.5f);
+  const float v = y - 0.5f < 0.f ? 0.f : (y - 0.5f > photo.height - 1 ? photo.height - 1 : y - 0.5f);
+  int c0 = static_cast<int>(u), r0 = static_cast<int>(v);
+  if (c0 > photo.width - 2) c0 = photo.width - 2 < 0 ? 0 : photo.width - 2;
+  if (r0 > photo.height - 2) r0 = photo.height - 2 < 0 ? 0 : photo.height - 2;
+  const int c1 = c0 + 1 < photo.width ? c0 + 1 : photo.width - 1;
+  const int r1 = r0 + 1 < photo.height ? r0 + 1 : photo.height - 1;
+  const float a = u - c0, b = v - r0;
+  const float* row0 = &photo.pixels[static_cast<size_t>(r0) * photo.width];
+  const float* row1 = &photo.pixels[static_cast<size_t>(r1) * photo.width];
+  return (1 - b) * ((1 - a) * row0[c0] + a * row0[c1]) + b * ((1 - a) * row1[c0] + a * row1[c1]);
+}
+
 /// Reads an image file (PNG, JPEG, TIFF, ... through OpenCV) as 8-bit grey (colour converted
 /// with the usual luma weights). Throws InputError naming the file when it is missing or not
 /// an image.

@@ -65,7 +65,49 @@ class JointHistogram {
   /// Adds samples given as pairs: LiDAR value in [0, 1] (negative = no LiDAR, counted only in
   /// whole-image mode) and photo grey level 0..255. Used for the shuffled-pairing baseline.
   void AddPairs(const std::vector<float>& lidar01, const std::vector<float>& photo255);
+  void AddPairs(const float* lidar01, const float* photo255, size_t count);
+  /// Adds the counts of another histogram with the same options (partial histograms filled
+  /// on several threads).
+  void Merge(const JointHistogram& other);
   MetricValue Evaluate() const;
+
+  /// Fast path of the point-sample evaluation (point_samples.cc), B-spline histogram of the
+  /// overlap region only: one LiDAR-covered sample whose LiDAR bin weights were computed
+  /// once for its point (bx = LiDAR bin, wx its four weights: LidarWeights) and whose photo
+  /// value is `photo255` (0..255). Same sums as Add/AddPairs of the same values.
+  void LidarWeights(float lidar01, int* bx, float wx[4]) const {
+    const float pos = lidar01 * static_cast<float>(bins_ - 1);
+    *bx = pos <= 0.f ? 0 : (pos >= bins_ - 1 ? bins_ - 1 : static_cast<int>(pos));
+    CubicBSplineWeights(pos - *bx, wx);
+  }
+  /// `weight`: the number of samples this one stands for (1, or a point's footprint pixels).
+  void AddCovered(int bx, const float wx[4], float photo255, float weight = 1.f) {
+    const float pos = photo255 * photo_scale_;
+    const int by = pos <= 0.f ? 0 : (pos >= bins_ - 1 ? bins_ - 1 : static_cast<int>(pos));
+    float wy[4];
+    CubicBSplineWeights(pos - by, wy);
+    for (float& w : wy) w *= weight;
+    total_ += weight;
+    lidar_total_ += weight;
+    double* base = &counts_[static_cast<size_t>(bx) * (bins_ + 3) + by];
+    for (int i = 0; i < 4; ++i) {
+      double* row = base + static_cast<size_t>(i) * (bins_ + 3);
+      row[0] += wx[i] * wy[0];
+      row[1] += wx[i] * wy[1];
+      row[2] += wx[i] * wy[2];
+      row[3] += wx[i] * wy[3];
+    }
+  }
+  /// Cubic B-spline weights of the four bins base−1 .. base+2 for a fractional position t
+  /// (Mattes et al. 2003, Eq. (4); Thévenaz & Unser 2000).
+  static void CubicBSplineWeights(float t, float w[4]) {
+    const float t2 = t * t, t3 = t2 * t;
+    const float u = 1.f - t;
+    w[0] = u * u * u * (1.f / 6.f);
+    w[1] = (3.f * t3 - 6.f * t2 + 4.f) * (1.f / 6.f);
+    w[2] = (-3.f * t3 + 3.f * t2 + 3.f * t + 1.f) * (1.f / 6.f);
+    w[3] = t3 * (1.f / 6.f);
+  }
 
  private:
   void AddSample(float lidar_pos, float photo_pos, bool lidar_empty);
@@ -78,6 +120,7 @@ class JointHistogram {
   std::vector<double> empty_counts_;  ///< photo histogram of samples without LiDAR (bins+3)
   double total_ = 0;
   double lidar_total_ = 0;
+  float photo_scale_ = 0;  ///< photo grey level → continuous bin
 };
 
 }  // namespace mmba::registration::mi

@@ -25,6 +25,7 @@
 #include "mmba/registration/mi/lidar_image.h"
 #include "mmba/registration/mi/metric.h"
 #include "mmba/registration/mi/nelder_mead.h"
+#include "mmba/registration/mi/point_samples.h"
 
 namespace mmba::registration::mi {
 
@@ -64,6 +65,18 @@ struct RegistrationOptions {
   /// every level → 0.75·2^level is ~15 % faster and as accurate; 0.75 at every level lost a
   /// 0.3 m / 2° start (sparse coarse images); 0.3 made the level-1 restarts too noisy.
   double max_points_per_pixel = 0.75;
+  /// Point-sample evaluation (point_samples.h; sample-based MI, Viola & Wells 1997): where
+  /// the histogram is the B-spline one over the overlap region (the default), the searches
+  /// render the z-buffer once at a reference pose and then move only the visible points'
+  /// samples, re-rendering when the pose has moved the image by more than
+  /// `sample_rebuild_px` pixels of the level (largest displacement of 16 probe points per
+  /// view). Whole-image histograms (the points-only representation) are always rendered:
+  /// their information is the coverage itself, which frozen samples cannot change.
+  bool point_samples = true;
+  double sample_rebuild_px = 1.0;
+  /// With point samples: one sample per visible point weighted by its footprint pixels
+  /// (true), or one per covered pixel (false: the rendered histogram's samples exactly).
+  bool sample_per_point = true;
   /// Failure checks.
   double min_covered_fraction = 0.02;  ///< of view pixels covered by LiDAR at the start
   double max_dark_or_saturated = 0.85; ///< fraction of photo pixels ≤5 or ≥250
@@ -227,6 +240,28 @@ class FrameSetEvaluator {
   MetricValue Evaluate(const Rigid3d& cam_from_lidar, int level) const {
     return Evaluate(cam_from_lidar, level, options_.metric);
   }
+  /// Visibility frozen at a reference pose for one pyramid level: each view rendered once
+  /// there, its covered pixels turned into samples of their winning points (point_samples.h).
+  struct SampleSet {
+    int level = -1;
+    Rigid3d reference;
+    std::vector<ViewSamples> views;  ///< frame-major, each frame's views in order
+    size_t samples = 0;
+  };
+  /// True when `metric` can be evaluated from samples (options.point_samples, B-spline
+  /// histogram, overlap region).
+  bool UsesSamples(const MetricOptions& metric) const;
+  /// `per_point`: one weighted sample per visible point (options.sample_per_point), or one
+  /// per covered pixel.
+  SampleSet MakeSampleSet(const Rigid3d& cam_from_lidar, int level, bool per_point) const;
+  /// Largest displacement of the set's probe points between its reference and a pose, in
+  /// pixels of the set's level.
+  double SampleSetDisplacementPx(const SampleSet& set, const Rigid3d& cam_from_lidar) const;
+  /// The metric from the samples of `set` when `set` is not null, of this level and
+  /// UsesSamples(metric); rendered otherwise. With samples, the work is split over two
+  /// threads unless called from a thread of a parallel loop.
+  MetricValue Evaluate(const Rigid3d& cam_from_lidar, int level, const MetricOptions& metric,
+                       const SampleSet* set) const;
   /// MI (bits) of the pixel-centre samples at a pose, and of `shuffles` random permutations
   /// of the photo values over the same samples (the no-information baseline).
   void EvaluateShuffled(const Rigid3d& cam_from_lidar, int level, int shuffles,
@@ -260,6 +295,9 @@ class FrameSetEvaluator {
   /// Time spent rendering and filling histograms since construction (profiling).
   double render_seconds() const { return 1e-9 * render_ns_.load(); }
   double histogram_seconds() const { return 1e-9 * histogram_ns_.load(); }
+  double sample_seconds() const { return 1e-9 * sample_ns_.load(); }
+  int sample_sets_built() const { return sample_sets_.load(); }
+  int sample_evaluations() const { return sample_evaluations_.load(); }
 
  private:
   std::vector<Frame> frames_;
@@ -268,6 +306,9 @@ class FrameSetEvaluator {
   std::vector<std::vector<LidarPoints>> points_;           ///< level → frame → culled points
   mutable std::atomic<int64_t> render_ns_{0};
   mutable std::atomic<int64_t> histogram_ns_{0};
+  mutable std::atomic<int64_t> sample_ns_{0};
+  mutable std::atomic<int> sample_sets_{0};
+  mutable std::atomic<int> sample_evaluations_{0};
 };
 
 /// Two independent halves of a frame set (for the split check): with two or more views in

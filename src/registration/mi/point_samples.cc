@@ -1,0 +1,208 @@
+#include "mmba/registration/mi/point_samples.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <glog/logging.h>
+
+namespace mmba::registration::mi {
+namespace {
+
+// The view's pose of the LiDAR frame, in float as the renderer uses it.
+struct ViewTransform {
+  Eigen::Matrix3f rotation;
+  Eigen::Vector3f translation;
+};
+
+ViewTransform MakeTransform(const View& view, const Rigid3d& cam_from_lidar) {
+  ViewTransform t;
+  t.rotation = (view.view_from_cam * cam_from_lidar.rotation.toRotationMatrix()).cast<float>();
+  t.translation = (view.view_from_cam * cam_from_lidar.translation).cast<float>();
+  return t;
+}
+
+// The renderer's projection (lidar_image.cc, SplatWithModel): in front of a perspective
+// camera, within the range limits, inside the image; the panorama's column wrapped at the
+// seam. Returns false where the renderer draws nothing.
+template <typename Model>
+inline bool ProjectLikeRenderer(const double* params, const Eigen::Vector3f& p, int width,
+                                int height, double period, float min_range2, float max_range2,
+                                double xy[2], float* range2) {
+  constexpr bool kPerspective = Model::kModelId != sensors::CameraModelId::kEquirectangular;
+  if (kPerspective && !(p.z() > 0.f)) return false;
+  *range2 = p.squaredNorm();
+  if (*range2 < min_range2 || *range2 > max_range2) return false;
+  const double point_in_view[3] = {p.x(), p.y(), p.z()};
+  if (!Model::ImgFromCam(params, point_in_view, xy)) return false;
+  if (!kPerspective) {
+    if (xy[0] >= width) xy[0] -= period;
+    if (xy[0] < 0) xy[0] += period;
+  }
+  return xy[0] >= 0 && xy[1] >= 0 && xy[0] < width && xy[1] < height;
+}
+
+template <typename Model>
+void AccumulateWithModel(const ViewSamples& samples, const View& view, const ViewTransform& t,
+                         const RenderOptions& options, size_t point_begin, size_t point_end,
+                         JointHistogram* histogram) {
+  const int width = static_cast<int>(view.camera.width);
+  const int height = static_cast<int>(view.camera.height);
+  const double* params = view.camera.params.data();
+  const double period = 2.0 * M_PI * params[0];
+  const float min_range2 = static_cast<float>(options.min_range_m * options.min_range_m);
+  const float max_range2 = static_cast<float>(options.max_range_m * options.max_range_m);
+  const bool depth = options.representation == Representation::kDepth;
+  const float log_min = static_cast<float>(std::log(options.min_range_m));
+  const float inv_log_span =
+      static_cast<float>(1.0 / (std::log(options.max_range_m) - std::log(options.min_range_m)));
+  const float* photo = view.image.pixels.data();
+  const int photo_width = view.image.width;
+  // The clamped bilinear sampler of the rendered path (SampleClamped), inlined: u, v are the
+  // sample position relative to the pixel centres, clamped to the image.
+  const float max_u = static_cast<float>(photo_width - 1);
+  const float max_v = static_cast<float>(view.image.height - 1);
+  const int max_c0 = std::max(0, photo_width - 2);
+  const int max_r0 = std::max(0, view.image.height - 2);
+  const int step_c = photo_width > 1 ? 1 : 0;
+  const size_t step_r = view.image.height > 1 ? static_cast<size_t>(photo_width) : 0;
+  for (size_t j = point_begin; j < point_end; ++j) {
+    const Eigen::Vector3f p = t.rotation * samples.points_in_lidar[j] + t.translation;
+    double xy[2];
+    float range2 = 0.f;
+    if (!ProjectLikeRenderer<Model>(params, p, width, height, period, min_range2, max_range2, xy,
+                                    &range2)) {
+      continue;
+    }
+    // The renderer's depth value: 1/range on a log scale (near bright).
+    const float value =
+        depth ? std::clamp(1.f - (0.5f * std::log(range2) - log_min) * inv_log_span, 0.f, 1.f)
+              : samples.value01[j];
+    int bx;
+    float wx[4];
+    histogram->LidarWeights(value, &bx, wx);
+    const float x = static_cast<float>(xy[0]), y = static_cast<float>(xy[1]);
+    for (uint32_t s = samples.sample_begin[j]; s < samples.sample_begin[j + 1]; ++s) {
+      const float sx = x + samples.sample_offset[s][0];
+      const float sy = y + samples.sample_offset[s][1];
+      if (!(sx >= 0.f && sy >= 0.f && sx < width && sy < height)) continue;
+      const float u = std::clamp(sx - 0.5f, 0.f, max_u);
+      const float v = std::clamp(sy - 0.5f, 0.f, max_v);
+      const int c0 = std::min(static_cast<int>(u), max_c0);
+      const int r0 = std::min(static_cast<int>(v), max_r0);
+      const float a = u - c0, b = v - r0;
+      const float* p00 = photo + static_cast<size_t>(r0) * photo_width + c0;
+      const float* p10 = p00 + step_r;
+      const float photo255 = (1 - b) * ((1 - a) * p00[0] + a * p00[step_c]) +
+                             b * ((1 - a) * p10[0] + a * p10[step_c]);
+      histogram->AddCovered(bx, wx, photo255, samples.sample_weight[s]);
+    }
+  }
+}
+
+}  // namespace
+
+ViewSamples MakeViewSamples(const LidarPoints& points, const LidarImage& rendered,
+                            const RenderOptions& options, bool per_point, int max_probes) {
+  ViewSamples samples;
+  const size_t pixels = rendered.point_index.size();
+  // Compact index of each winning point, in order of first appearance (row-major).
+  std::vector<int> compact(points.size(), -1);
+  std::vector<uint32_t> count;
+  std::vector<int> original;  // compact → index in `points`
+  for (size_t k = 0; k < pixels; ++k) {
+    const int i = rendered.point_index[k];
+    if (i < 0) continue;
+    if (compact[i] < 0) {
+      compact[i] = static_cast<int>(samples.points_in_lidar.size());
+      samples.points_in_lidar.push_back(points.points_in_lidar[i]);
+      samples.value01.push_back(options.representation == Representation::kIntensity
+                                    ? points.intensity01[i]
+                                    : 1.f);
+      count.push_back(0);
+      original.push_back(i);
+    }
+    ++count[compact[i]];
+  }
+  const size_t n = samples.points_in_lidar.size();
+  samples.sample_begin.assign(n + 1, 0);
+  for (size_t j = 0; j < n; ++j) samples.sample_begin[j + 1] = samples.sample_begin[j] + count[j];
+  samples.sample_offset.resize(samples.sample_begin[n]);
+  std::vector<uint32_t> fill(samples.sample_begin.begin(), samples.sample_begin.end() - 1);
+  for (size_t k = 0; k < pixels; ++k) {
+    const int i = rendered.point_index[k];
+    if (i < 0) continue;
+    const int c = static_cast<int>(k % rendered.width);
+    const int r = static_cast<int>(k / rendered.width);
+    const Eigen::Vector2f& xy = rendered.projected[i];
+    const int dc = c - static_cast<int>(std::floor(xy.x()));
+    const int dr = r - static_cast<int>(std::floor(xy.y()));
+    CHECK(std::abs(dc) <= 127 && std::abs(dr) <= 127) << "footprint wider than 127 pixels";
+    samples.sample_offset[fill[compact[i]]++] = {static_cast<int8_t>(dc), static_cast<int8_t>(dr)};
+  }
+  samples.sample_weight.assign(samples.sample_offset.size(), 1.f);
+  if (per_point) {
+    // One sample per point: its won pixel nearest the projection, weighted by the count.
+    std::vector<std::array<int8_t, 2>> offsets(n);
+    for (size_t j = 0; j < n; ++j) {
+      int best = -1, best_d2 = 0;
+      for (uint32_t s = samples.sample_begin[j]; s < samples.sample_begin[j + 1]; ++s) {
+        const int d2 = samples.sample_offset[s][0] * samples.sample_offset[s][0] +
+                       samples.sample_offset[s][1] * samples.sample_offset[s][1];
+        if (best < 0 || d2 < best_d2) {
+          best = static_cast<int>(s);
+          best_d2 = d2;
+        }
+      }
+      offsets[j] = samples.sample_offset[best];
+    }
+    samples.sample_weight.assign(n, 0.f);
+    for (size_t j = 0; j < n; ++j) samples.sample_weight[j] = static_cast<float>(count[j]);
+    samples.sample_offset = std::move(offsets);
+    for (size_t j = 0; j <= n; ++j) samples.sample_begin[j] = static_cast<uint32_t>(j);
+  }
+  const size_t probes = std::min<size_t>(n, static_cast<size_t>(std::max(0, max_probes)));
+  for (size_t q = 0; q < probes; ++q) {
+    const size_t j = (2 * q + 1) * n / (2 * probes);  // spread over the visible set
+    samples.probe_points.push_back(samples.points_in_lidar[j]);
+    samples.probe_pixels.push_back(rendered.projected[original[j]]);  // the renderer's pixel
+  }
+  return samples;
+}
+
+void AccumulateViewSamples(const ViewSamples& samples, const View& view,
+                           const Rigid3d& cam_from_lidar, const RenderOptions& options,
+                           size_t point_begin, size_t point_end, JointHistogram* histogram) {
+  CHECK_LE(point_end, samples.points());
+  const ViewTransform t = MakeTransform(view, cam_from_lidar);
+  switch (view.camera.model_id) {
+#define MMBA_ACCUMULATE_CASE(Model)                                                           \
+  case Model::kModelId:                                                                       \
+    AccumulateWithModel<Model>(samples, view, t, options, point_begin, point_end, histogram); \
+    break;
+    MMBA_FOR_EACH_CAMERA_MODEL(MMBA_ACCUMULATE_CASE)
+#undef MMBA_ACCUMULATE_CASE
+    default:
+      LOG(FATAL) << "unknown camera model";
+  }
+}
+
+double ProbeDisplacementPx(const ViewSamples& samples, const View& view,
+                           const Rigid3d& cam_from_lidar) {
+  const ViewTransform t = MakeTransform(view, cam_from_lidar);
+  const bool spherical = view.camera.IsSpherical();
+  const double period = 2.0 * M_PI * view.camera.params[0];
+  double largest = 0;
+  for (size_t q = 0; q < samples.probe_points.size(); ++q) {
+    const Eigen::Vector3f p = t.rotation * samples.probe_points[q] + t.translation;
+    if (!spherical && !(p.z() > 0.f)) return std::numeric_limits<double>::infinity();
+    const std::optional<Eigen::Vector2d> xy = view.camera.ImgFromCam(p.cast<double>());
+    if (!xy) return std::numeric_limits<double>::infinity();
+    Eigen::Vector2d d = *xy - samples.probe_pixels[q].cast<double>();
+    if (spherical) d.x() -= period * std::round(d.x() / period);
+    largest = std::max(largest, d.norm());
+  }
+  return largest;
+}
+
+}  // namespace mmba::registration::mi

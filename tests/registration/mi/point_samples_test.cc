@@ -1,0 +1,110 @@
+#include "mmba/registration/mi/point_samples.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "mmba/registration/mi/mi_registration.h"
+#include "synthetic_scene.h"
+
+namespace mmba::registration::mi {
+namespace {
+
+class PointSamplesTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    camera_ = testing::StreetCamera();
+    truth_ = testing::StreetCamFromLidar(Eigen::Vector3d(0.5, 0.3, 0.2), 4.0);
+    points_ = PrepareLidarPoints(testing::StreetCloud(0.06));
+    frame_.name = "street";
+    frame_.views = MakeViews(testing::StreetPhoto(camera_, truth_), camera_, ViewOptions(),
+                             "street.png");
+    frame_.points = &points_;
+  }
+  sensors::Camera camera_;
+  Rigid3d truth_;
+  LidarPoints points_;
+  Frame frame_;
+};
+
+// One sample per covered pixel at the reference pose is the rendered B-spline histogram (up to
+// float rounding: the depth value from log(range²)/2 instead of log(range), the sums in
+// another order; 1e-6 is far below the 1e-3 tolerance of the search).
+TEST_F(PointSamplesTest, PerPixelSamplesAtTheReferenceEqualTheRenderedMetric) {
+  for (Representation representation : {Representation::kIntensity, Representation::kDepth}) {
+    RegistrationOptions options;
+    options.render.representation = representation;
+    const FrameSetEvaluator evaluator({frame_}, truth_, options);
+    ASSERT_TRUE(evaluator.UsesSamples(options.metric));
+    for (int level = 0; level < evaluator.levels(); ++level) {
+      const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth_, level, false);
+      const MetricValue rendered = evaluator.Evaluate(truth_, level, options.metric);
+      const MetricValue sampled = evaluator.Evaluate(truth_, level, options.metric, &set);
+      EXPECT_GT(set.samples, 1000u);
+      EXPECT_DOUBLE_EQ(sampled.samples, rendered.samples) << "level " << level;
+      EXPECT_NEAR(sampled.value, rendered.value, 1e-6) << "level " << level;
+      EXPECT_NEAR(sampled.mi, rendered.mi, 1e-6) << "level " << level;
+    }
+  }
+}
+
+// One weighted sample per point: the weights add up to the covered pixels, and the metric
+// still peaks at the true pose along every parameter.
+TEST_F(PointSamplesTest, PerPointSamplesKeepThePixelWeightsAndThePeak) {
+  RegistrationOptions options;
+  const FrameSetEvaluator evaluator({frame_}, truth_, options);
+  const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth_, 0, true);
+  const FrameSetEvaluator::SampleSet pixels = evaluator.MakeSampleSet(truth_, 0, false);
+  double weight = 0;
+  for (const ViewSamples& view : set.views) {
+    ASSERT_EQ(view.samples(), view.points());
+    for (float w : view.sample_weight) weight += w;
+  }
+  EXPECT_DOUBLE_EQ(weight, static_cast<double>(pixels.samples));
+  EXPECT_LT(set.samples, pixels.samples);
+  const double at_truth = evaluator.Evaluate(truth_, 0, options.metric, &set).value;
+  for (int axis = 0; axis < 6; ++axis) {
+    for (double sign : {-1.0, 1.0}) {
+      Vector6d offset = Vector6d::Zero();
+      offset[axis] = sign * (axis < 3 ? 0.03 : 0.3);  // a few pixels
+      const double moved =
+          evaluator.Evaluate(ApplyCorrection(truth_, offset), 0, options.metric, &set).value;
+      EXPECT_LT(moved, at_truth) << ParameterName(axis) << " " << sign;
+    }
+  }
+}
+
+// The probe displacement measures how far a pose moves the image: zero at the reference,
+// f·angle pixels for a small yaw of the camera about its own axis.
+TEST_F(PointSamplesTest, ProbeDisplacementMeasuresTheImageMotion) {
+  RegistrationOptions options;
+  const FrameSetEvaluator evaluator({frame_}, truth_, options);
+  const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth_, 0, true);
+  EXPECT_NEAR(evaluator.SampleSetDisplacementPx(set, truth_), 0.0, 1e-3);
+  const double angle = 0.5 * M_PI / 180.0;
+  // Rotation of the camera about its own y axis (image columns move by ≈ f·angle).
+  const Rigid3d turned(Eigen::Quaterniond(Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitY())) *
+                           truth_.rotation,
+                       Eigen::AngleAxisd(angle, Eigen::Vector3d::UnitY()) * truth_.translation);
+  const double moved = evaluator.SampleSetDisplacementPx(set, turned);
+  EXPECT_GT(moved, 0.9 * camera_.params[0] * angle);
+  EXPECT_LT(moved, 1.5 * camera_.params[0] * angle);
+}
+
+// A set of another level, or a metric the samples cannot give, falls back to rendering.
+TEST_F(PointSamplesTest, OtherLevelOrWholeImageMetricIsRendered) {
+  RegistrationOptions options;
+  const FrameSetEvaluator evaluator({frame_}, truth_, options);
+  const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth_, 1, true);
+  EXPECT_EQ(evaluator.Evaluate(truth_, 0, options.metric, &set).value,
+            evaluator.Evaluate(truth_, 0, options.metric).value);
+  MetricOptions whole = options.metric;
+  whole.region = Region::kWholeImage;
+  EXPECT_FALSE(evaluator.UsesSamples(whole));
+  const FrameSetEvaluator::SampleSet level1 = evaluator.MakeSampleSet(truth_, 1, true);
+  EXPECT_EQ(evaluator.Evaluate(truth_, 1, whole, &level1).value,
+            evaluator.Evaluate(truth_, 1, whole).value);
+}
+
+}  // namespace
+}  // namespace mmba::registration::mi
