@@ -648,7 +648,8 @@ void LoadLidar(JointState* s) {
     internal::LoadScans(s, lo, hi);
   } else if (!l.scans.empty()) {
     s->warnings.push_back("lidar_static '" + l.id + "': the " + std::to_string(l.scans.size()) +
-                          " scans carry no world_from_scan: not adjusted (the registered reference cloud is used)");
+                          " scans carry no world_from_scan and no targets are given: not adjusted (the registered "
+                          "reference cloud is used)");
   }
 }
 
@@ -822,10 +823,11 @@ void BuildProblem(JointState* s) {
     std::vector<Rigid3d*> poses;
     std::vector<Rigid3d> priors;
     for (size_t k = 0; k < s->scans.size(); ++k) {
+      if (!s->scans[k].has_prior) continue;  // placed by targets or feature registration: no observation
       poses.push_back(&s->scan_from_world[k]);
       priors.push_back(s->scans[k].prior);
     }
-    s->builder->AddGroup(std::make_unique<PosePriorGroup>(poses, priors, factor(kScanPrior) * l.scan_sigma_m,
+    if (!poses.empty()) s->builder->AddGroup(std::make_unique<PosePriorGroup>(poses, priors, factor(kScanPrior) * l.scan_sigma_m,
                                                           factor(kScanPrior) * l.scan_sigma_deg * M_PI / 180.0, l.loss,
                                                           kScanPrior));
   }

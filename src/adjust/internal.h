@@ -107,11 +107,20 @@ struct Blunder {
 };
 
 /// A static scan adjusted on its own: its surface in its own frame, its registration.
+/// How a static scan's world_from_scan was first placed.
+struct ScanInitialisation {
+  std::string method;  ///< "given", "targets" or "feature registration"
+  std::string detail;  ///< counts, RMS, fitness … for the report
+};
+
 struct ScanBlock {
   std::string name;
   std::string file;
   std::unique_ptr<LidarSurface> surface;  ///< scan frame, cropped to the photo block
-  Rigid3d prior;                          ///< scan_from_world of the registration
+  Rigid3d prior;                          ///< scan_from_world initially (the registration given,
+                                          ///< or the targets' / feature registration's placement)
+  bool has_prior = true;                  ///< only a registration given is a prior observation
+  ScanInitialisation initialisation;
   std::vector<Eigen::Vector3d> sample;    ///< scan frame: the scan-to-scan points
 };
 
@@ -158,7 +167,9 @@ struct JointState {
 bool FitSurfacePlane(const JointState& s, const Eigen::Vector3d& world, double gate, double sigma, SurfacePlane* plane);
 /// Scan-to-scan associations (each scan's sample on every other scan's surface, within `gate`).
 size_t AssociateScans(JointState* s, double gate);
-/// Loads the static scans to be adjusted (lidar_static with world_from_scan on every scan).
+/// Loads the static scans to be adjusted (LidarStatic::AdjustsScans), placing those without a
+/// registration by their targets or by feature registration. Throws AdjustFailure when one
+/// cannot be placed.
 void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vector3d& roi_max);
 
 /// Thrown when the adjustment cannot produce a result (exit 3): `status` and the reason.

@@ -876,11 +876,15 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
         parameters.push_back({{"name", axes[a]}, {"initial", registered[a]}, {"adjusted", centre[a]}, {"sigma", sigma[a]}});
       }
       parameters.push_back({{"name", "rotation change [deg]"}, {"initial", 0.0}, {"adjusted", dr}, {"sigma", sigma_rotation}});
-      calibrations.push_back({{"name", "static scan " + s.scans[k].name + " (world_from_scan; initial = the registration)"},
+      const ScanInitialisation& init = s.scans[k].initialisation;
+      calibrations.push_back({{"name", "static scan " + s.scans[k].name + " (world_from_scan; initial = " +
+                                           (init.method == "given" ? std::string("the registration") : init.method) + ")"},
                               {"parameters", parameters}});
       scans.push_back({{"name", s.scans[k].name}, {"file", s.scans[k].file}, {"position_m", Vec(centre)},
                        {"sigma_position_m", Vec(sigma)}, {"sigma_rotation_deg", sigma_rotation},
-                       {"position_correction_m", dp}, {"rotation_correction_deg", dr}});
+                       {"position_correction_m", dp}, {"rotation_correction_deg", dr},
+                       {"initialisation", init.method}, {"initialisation_detail", init.detail},
+                       {"registration_prior", s.scans[k].has_prior}});
     }
     WriteText(stage / "scans.csv", csv.str());
     report["static_scans"] = {{"scans", scans}, {"scan_to_scan_pairs", s.scan_pairs.size()}};

@@ -139,7 +139,8 @@ class ProjectReader {
                                            {"world_from_scan", [&](Node w, Field h) {
                                               scan.world_from_scan = internal::ReadPose(r_, w, h);
                                               scan.has_pose = true;
-                                            }}});
+                                            }},
+                                           {"approximate", [&](Node w, Field h) { scan.approximate = r_.Bool(w, h); }}});
                          r_.Require(v[i], gi, {"file"});
                          l.scans.push_back(scan);
                        }
@@ -148,6 +149,7 @@ class ProjectReader {
                     {"surface_sigma_m", [&](Node v, Field g) { l.surface_sigma_m = SigmaM(v, g, 0.5); }},
                     {"max_distance_m", [&](Node v, Field g) { l.max_distance_m = SigmaM(v, g, 10.0); }},
                     {"targets", path(&l.targets, false)},
+                    {"scans_levelled", [&](Node v, Field g) { l.scans_levelled = r_.Bool(v, g); }},
                     {"scan_sigma_m", [&](Node v, Field g) { l.scan_sigma_m = SigmaM(v, g, 10.0); }},
                     {"scan_sigma_deg", [&](Node v, Field g) { l.scan_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
                     {"scan_points", [&](Node v, Field g) {
@@ -156,10 +158,10 @@ class ProjectReader {
                      }},
                     {"loss", [&](Node v, Field g) { l.loss = Loss(v, g); }}});
       r_.Require(n, f, {"reference_cloud"});
-      const size_t posed = std::count_if(l.scans.begin(), l.scans.end(), [](const LidarScanFile& s) { return s.has_pose; });
-      if (posed > 0 && posed < l.scans.size()) {
-        r_.Fail(n["scans"], f + ".scans", "world_from_scan on every scan (to adjust the scans) or on none",
-                std::to_string(posed) + " of " + std::to_string(l.scans.size()));
+      for (size_t i = 0; i < l.scans.size(); ++i) {
+        if (l.scans[i].approximate && !l.scans[i].has_pose) {
+          r_.Fail(n["scans"][i], f + ".scans[" + std::to_string(i) + "].approximate", "world_from_scan with it", "approximate without world_from_scan");
+        }
       }
       project_->lidar_static.push_back(l);
     } else if (type == "lidar_mobile") {

@@ -285,5 +285,63 @@ TEST_F(AdjustTest, UnknownTargetInAScanIsAnInputError) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+// A scan delivered without a registration: placed by its surveyed targets (a rigid fit), then
+// adjusted like the others, without a registration prior. Without the targets, feature
+// registration (issue 5's pipeline) to the one registered scan finds the gate's studio
+// ambiguous (its walls repeat at 90°): a reported failure, not a guess.
+TEST_F(AdjustTest, PlacesAnUnregisteredScan) {
+  const fs::path sim = Root() / "sim", out = Root() / "scanreg_out";
+  const std::string project = std::regex_replace(ReadText(sim / "project.yaml"),
+                                                 std::regex(R"(\{file: clouds/scans/scan_2\.ply[^\n]*)"), "{file: clouds/scans/scan_2.ply}");
+  std::ofstream(sim / "project_scanreg.yaml") << project;
+  const AdjustOutcome outcome = Run((sim / "project_scanreg.yaml").string(), out.string());
+  ASSERT_TRUE(outcome.ok) << outcome.reason;
+  const json& scans = outcome.report["static_scans"]["scans"];
+  ASSERT_EQ(scans.size(), 2u);
+  EXPECT_EQ(scans[0]["initialisation"], "given");
+  EXPECT_EQ(scans[1]["initialisation"], "targets") << scans[1].dump();
+  EXPECT_FALSE(scans[1]["registration_prior"].get<bool>());
+  const json& truth = outcome.report["truth_evaluation"]["static_scans"];
+  EXPECT_LT(truth["max_position_m"].get<double>(), 0.02);
+  EXPECT_LT(truth["max_rotation_deg"].get<double>(), 0.05);
+
+  std::string features = project;
+  const size_t at = features.find("observations/scan_targets.csv");
+  ASSERT_NE(at, std::string::npos);
+  features.replace(at, std::string("observations/scan_targets.csv").size(), "observations/scan_targets_1.csv");
+  features = std::regex_replace(features, std::regex("\n    targets:"), "\n    scans_levelled: true\n    targets:");
+  std::ofstream(sim / "project_scanfeat.yaml") << features;
+  std::ofstream targets(sim / "observations" / "scan_targets_1.csv");
+  std::istringstream all(ReadText(sim / "observations" / "scan_targets.csv"));
+  for (std::string line; std::getline(all, line);) {
+    if (line.rfind("scan_2,", 0) != 0) targets << line << "\n";
+  }
+  targets.close();
+  const AdjustOutcome ambiguous = Run((sim / "project_scanfeat.yaml").string(), (Root() / "scanfeat_out").string());
+  EXPECT_FALSE(ambiguous.ok);
+  EXPECT_NE(ambiguous.reason.find("scan_2 could not be registered"), std::string::npos) << ambiguous.reason;
+  EXPECT_NE(ambiguous.reason.find("ambiguous"), std::string::npos) << ambiguous.reason;
+}
+
+// No scan registered and too few targets to place any: a reported failure naming the scan.
+TEST_F(AdjustTest, ScansThatCannotBePlacedFail) {
+  const fs::path sim = Root() / "sim", out = Root() / "noplace_out";
+  std::string project = std::regex_replace(ReadText(sim / "project.yaml"),
+                                           std::regex(R"(\{file: (clouds/scans/scan_[0-9]+\.ply)[^\n]*)"), "{file: $1}");
+  const size_t at = project.find("observations/scan_targets.csv");
+  ASSERT_NE(at, std::string::npos);
+  project.replace(at, std::string("observations/scan_targets.csv").size(), "observations/scan_targets_2.csv");
+  std::ofstream(sim / "project_noplace.yaml") << project;
+  std::ofstream targets(sim / "observations" / "scan_targets_2.csv");
+  std::istringstream all(ReadText(sim / "observations" / "scan_targets.csv"));
+  std::string line;
+  for (int k = 0; k < 3 && std::getline(all, line); ++k) targets << line << "\n";  // header + 2 targets
+  targets.close();
+  const AdjustOutcome outcome = Run((sim / "project_noplace.yaml").string(), out.string());
+  EXPECT_FALSE(outcome.ok);
+  EXPECT_NE(outcome.reason.find("cannot be placed"), std::string::npos) << outcome.reason;
+  EXPECT_FALSE(fs::exists(out / "report.json"));
+}
+
 }  // namespace
 }  // namespace mmba::adjust

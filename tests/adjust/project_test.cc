@@ -83,8 +83,10 @@ TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {
       {ts_, "adjustment: {outer_iterations: 0}\n", "adjustment.outer_iterations"},
       {"  - {id: p, type: photo_collection, images: images, refine: [focus]}\n", "", "refine[0]"},
       {"  - {id: p, type: photo_collection}\n", "", "sensors[0].images"},
-      {ts_ + "  - {id: l, type: lidar_static, reference_cloud: lidar.ply, scans: [{file: lidar.ply, world_from_scan: "
-             "{qvec_wxyz: [1, 0, 0, 0], tvec: [0, 0, 0]}}, {file: lidar.ply}]}\n", "", "world_from_scan on every scan"},
+      {ts_ + "  - {id: l, type: lidar_static, reference_cloud: lidar.ply, scans_levelled: perhaps}\n", "",
+       "sensors[1].scans_levelled"},
+      {ts_ + "  - {id: l, type: lidar_static, reference_cloud: lidar.ply, scans: [{file: lidar.ply, approximate: true}]}\n",
+       "", "sensors[1].scans[0].approximate"},
       {ts_ + "  - {id: l, type: lidar_static, reference_cloud: lidar.ply, scans: [{file: lidar.ply, world_from_scan: "
              "{qvec_wxyz: [2, 0, 0, 0], tvec: [0, 0, 0]}}]}\n", "", "a unit quaternion"},
       {photos_ + "  - {id: s, type: spherical_stereo, images: images, calibration: gnss.csv, observations: gnss.csv}\n", "",

@@ -62,17 +62,24 @@ struct LidarScanFile {
   int line = 0;
   bool has_pose = false;
   Rigid3d world_from_scan;
+  /// world_from_scan is a rough placement (field notes, a quick manual alignment): an initial
+  /// value only, not a prior; the scan-to-scan association (gate max_distance_m) refines it.
+  bool approximate = false;
 };
 
-/// Static LiDAR: the registered `reference_cloud` (world frame) ties the photo block; when every
-/// scan of `scans` carries `world_from_scan`, the scans themselves are adjusted instead — one
-/// world_from_scan per scan with its registration as a prior (σ scan_sigma_m / _deg),
-/// scan-to-scan point-to-plane between overlapping scans, tie points on each scan's surface.
+/// Static LiDAR: the registered `reference_cloud` (world frame) ties the photo block. The scans
+/// of `scans` are adjusted themselves — one world_from_scan per scan, scan-to-scan
+/// point-to-plane between overlapping scans, tie points on each scan's surface — when at least
+/// one carries `world_from_scan` (its registration, a prior with σ scan_sigma_m / _deg, unless
+/// `approximate`) or
+/// `targets` are given. A scan without `world_from_scan` is placed first from its surveyed
+/// targets (3 or more: a rigid fit), else by feature registration (`mmba register-cloud`'s
+/// pipeline) to the scans already placed; it then has no prior.
 struct LidarStatic {
   std::string id;
   int line = 0;
   std::string reference_cloud;        ///< registered cloud in the world frame
-  std::vector<LidarScanFile> scans;   ///< per-scan files (adjusted when each has world_from_scan)
+  std::vector<LidarScanFile> scans;   ///< per-scan files (see above)
   double range_sigma_m = 0.003;
   double surface_sigma_m = 0.01;      ///< σ of a tie point's distance to the LiDAR surface
   double max_distance_m = 0.3;        ///< association gate of the first outer iteration
@@ -83,8 +90,12 @@ struct LidarStatic {
   /// the scans' own frames (with adjusted scans).
   std::string targets;
   LossOptions loss{LossType::kHuber, 3.0};
+  /// The scans stand upright (levelled scanner: z up in every scan frame): feature
+  /// registration searches the heading only (Kim & Hilton's failure cases, issue 5).
+  bool scans_levelled = false;
   bool AdjustsScans() const {
-    return !scans.empty() && std::all_of(scans.begin(), scans.end(), [](const LidarScanFile& f) { return f.has_pose; });
+    return !scans.empty() &&
+           (!targets.empty() || std::any_of(scans.begin(), scans.end(), [](const LidarScanFile& f) { return f.has_pose; }));
   }
 };
 
