@@ -31,13 +31,13 @@ int main(int argc, char** argv) {
   frame.points = &points;
   RegistrationOptions options;
   if (argc > 3) options.threads = std::atoi(argv[3]);
-  if (argc > 4) options.sample_per_point = std::atoi(argv[4]) != 0;
+  const bool per_point = argc > 4 ? std::atoi(argv[4]) != 0 : true;
   const FrameSetEvaluator evaluator({frame}, truth, options);
   std::printf("%.2f M points, threads %d, %s\n", points.size() / 1e6, options.threads,
-              options.sample_per_point ? "one sample per point" : "one sample per pixel");
+              per_point ? "one sample per point" : "one sample per pixel");
   for (int level = 0; level < evaluator.levels(); ++level) {
     Timer build;
-    const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth, level, options.sample_per_point);
+    const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth, level, per_point);
     const double build_ms = 1e3 * build.ElapsedSeconds();
     double max_difference = 0;
     double rendered_ms = 0, sampled_ms = 0;

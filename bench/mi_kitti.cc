@@ -36,6 +36,15 @@ int main(int argc, char** argv) {
   if (std::getenv("MMBA_DEBUG") != nullptr) SetVerbosity(Verbosity::kVerbose);
   // Experiments: the point footprint (radius = MI_POINT_RADIUS_M · f / range, at most
   // MI_MAX_POINT_RADIUS_PX) and the representation.
+  // Point-sample evaluator (0 = render every evaluation), per-point samples from this level,
+  // point samples in the restarts and halves.
+  if (const char* v = std::getenv("MI_POINT_SAMPLES")) options.point_samples = std::atoi(v) != 0;
+  if (const char* v = std::getenv("MI_PER_POINT_FROM_LEVEL")) {
+    options.per_point_samples_from_level = std::atoi(v);
+  }
+  if (const char* v = std::getenv("MI_SAMPLES_IN_CHECKS")) {
+    options.point_samples_in_checks = std::atoi(v) != 0;
+  }
   if (const char* v = std::getenv("MI_POINT_RADIUS_M")) {
     options.render.point_radius_m = std::atof(v);
   }

@@ -285,6 +285,15 @@ int main(int argc, char** argv) {
   if (magnitudes != "small") sizes.emplace_back(0.3, 2.0);
 
   RegistrationOptions options;
+  // Point-sample evaluator (0 = render every evaluation) and the level from which each
+  // point is one weighted sample (finer levels: one sample per covered pixel).
+  if (const char* v = std::getenv("MI_POINT_SAMPLES")) options.point_samples = std::atoi(v) != 0;
+  if (const char* v = std::getenv("MI_PER_POINT_FROM_LEVEL")) {
+    options.per_point_samples_from_level = std::atoi(v);
+  }
+  if (const char* v = std::getenv("MI_SAMPLES_IN_CHECKS")) {
+    options.point_samples_in_checks = std::atoi(v) != 0;
+  }
   if (const char* v = std::getenv("MI_RESTART_LEVEL")) options.restart_level = std::atoi(v);
   if (const char* v = std::getenv("MI_SPLIT_LEVEL")) options.split_level = std::atoi(v);
   if (const char* v = std::getenv("MI_COARSE_STARTS")) options.coarse_starts = std::atoi(v);

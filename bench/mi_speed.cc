@@ -67,6 +67,15 @@ int main(int argc, char** argv) {
     if (const char* level = std::getenv("MI_FINEST_NM_LEVEL")) {
       options.finest_nelder_mead_level = std::atoi(level);
     }
+    // Point-sample evaluator (0 = render every evaluation) and the level from which each
+    // point is one weighted sample (finer levels: one sample per covered pixel).
+    if (const char* v = std::getenv("MI_POINT_SAMPLES")) options.point_samples = std::atoi(v) != 0;
+    if (const char* v = std::getenv("MI_PER_POINT_FROM_LEVEL")) {
+      options.per_point_samples_from_level = std::atoi(v);
+    }
+    if (const char* v = std::getenv("MI_SAMPLES_IN_CHECKS")) {
+      options.point_samples_in_checks = std::atoi(v) != 0;
+    }
     if (const char* cap = std::getenv("MI_POINTS_PER_PIXEL")) {
       options.max_points_per_pixel = std::atof(cap);
     }

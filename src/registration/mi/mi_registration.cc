@@ -793,7 +793,7 @@ SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
     // decided, it is decided again there and the run repeated from that point with half the
     // simplex (at most kPasses runs per level).
     constexpr int kPasses = 3;
-    const bool sampled = evaluator.UsesSamples(options.metric);
+    const bool sampled = options.point_samples && evaluator.UsesSamples(options.metric);
     NelderMeadResult r;
     int level_iterations = 0, level_evaluations = 0;
     for (int pass = 0; pass < kPasses; ++pass) {
@@ -804,7 +804,7 @@ SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
         const Vector6d& at =
             pass == 0 && level == top_level && visibility_at != nullptr ? *visibility_at : x;
         samples = evaluator.MakeSampleSet(ApplyCorrection(start, at), level,
-                                          options.sample_per_point);
+                                          options.SamplePerPoint(level));
       }
       r = MaximizeNelderMead(
           [&](const Vector6d& y) {
@@ -843,7 +843,7 @@ SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
     smooth.smoothing = Smoothing::kBSpline;
     int evaluations = 0;
     // Each iteration's samples have the visibility of its own start x.
-    const bool sampled = evaluator.UsesSamples(smooth);
+    const bool sampled = options.point_samples && evaluator.UsesSamples(smooth);
     FrameSetEvaluator::SampleSet samples;
     auto f = [&](const Vector6d& y) {
       ++evaluations;
@@ -859,7 +859,7 @@ SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
       if (sampled || it == 0) {
         if (sampled) {
           samples = evaluator.MakeSampleSet(ApplyCorrection(start, x), 0,
-                                            options.sample_per_point);
+                                            options.SamplePerPoint(0));
         }
         fx = f(x);
       }
@@ -1311,10 +1311,12 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     size_t restart_displacement_count = 0;
     std::vector<SearchResult> restarts(options.restarts);
     std::vector<double> restart_values(options.restarts);
+    RegistrationOptions restart_options = options;
+    restart_options.point_samples = options.point_samples && options.point_samples_in_checks;
     ParallelFor(options.restarts, options.threads, [&](int k) {
       const Vector6d x0 = (x + starts[k]).cwiseMax(-bound).cwiseMin(bound);
       restarts[k] = Search(evaluator, cam_from_lidar_start, x0, restart_level, restart_level,
-                           2.0 * offset, tolerance, false, options, nullptr,
+                           2.0 * offset, tolerance, false, restart_options, nullptr,
                            "restart " + std::to_string(k) + " ", &x);
       restart_values[k] =
           evaluator.Evaluate(ApplyCorrection(cam_from_lidar_start, restarts[k].x), 0).value;
@@ -1361,6 +1363,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     const double tolerance =
         options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1);
     RegistrationOptions half_options = options;
+    half_options.point_samples = options.point_samples && options.point_samples_in_checks;
     half_options.pyramid_levels = std::min(options.pyramid_levels, options.split_level + 1);
     const int split_level = std::min(options.split_level, levels - 1);
     std::array<double, 2> distance{}, displacement2{}, predicted2{};

@@ -27,12 +27,18 @@ class PointSamplesTest : public ::testing::Test {
   Frame frame_;
 };
 
+RegistrationOptions SampledOptions() {
+  RegistrationOptions options;
+  options.point_samples = true;  // off by default
+  return options;
+}
+
 // One sample per covered pixel at the reference pose is the rendered B-spline histogram (up to
 // float rounding: the depth value from log(range²)/2 instead of log(range), the sums in
 // another order; 1e-6 is far below the 1e-3 tolerance of the search).
 TEST_F(PointSamplesTest, PerPixelSamplesAtTheReferenceEqualTheRenderedMetric) {
   for (Representation representation : {Representation::kIntensity, Representation::kDepth}) {
-    RegistrationOptions options;
+    RegistrationOptions options = SampledOptions();
     options.render.representation = representation;
     const FrameSetEvaluator evaluator({frame_}, truth_, options);
     ASSERT_TRUE(evaluator.UsesSamples(options.metric));
@@ -51,7 +57,7 @@ TEST_F(PointSamplesTest, PerPixelSamplesAtTheReferenceEqualTheRenderedMetric) {
 // One weighted sample per point: the weights add up to the covered pixels, and the metric
 // still peaks at the true pose along every parameter.
 TEST_F(PointSamplesTest, PerPointSamplesKeepThePixelWeightsAndThePeak) {
-  RegistrationOptions options;
+  RegistrationOptions options = SampledOptions();
   const FrameSetEvaluator evaluator({frame_}, truth_, options);
   const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth_, 0, true);
   const FrameSetEvaluator::SampleSet pixels = evaluator.MakeSampleSet(truth_, 0, false);
@@ -77,7 +83,7 @@ TEST_F(PointSamplesTest, PerPointSamplesKeepThePixelWeightsAndThePeak) {
 // The probe displacement measures how far a pose moves the image: zero at the reference,
 // f·angle pixels for a small yaw of the camera about its own axis.
 TEST_F(PointSamplesTest, ProbeDisplacementMeasuresTheImageMotion) {
-  RegistrationOptions options;
+  RegistrationOptions options = SampledOptions();
   const FrameSetEvaluator evaluator({frame_}, truth_, options);
   const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth_, 0, true);
   EXPECT_NEAR(evaluator.SampleSetDisplacementPx(set, truth_), 0.0, 1e-3);
@@ -91,9 +97,29 @@ TEST_F(PointSamplesTest, ProbeDisplacementMeasuresTheImageMotion) {
   EXPECT_LT(moved, 1.5 * camera_.params[0] * angle);
 }
 
+// Off by default: the evaluator renders even when handed a set.
+TEST_F(PointSamplesTest, OffByDefault) {
+  RegistrationOptions options;
+  EXPECT_FALSE(options.point_samples);
+  const FrameSetEvaluator evaluator({frame_}, truth_, options);
+  EXPECT_FALSE(evaluator.UsesSamples(options.metric));
+}
+
+// End to end with point samples: a 0.1 m / 1° start is recovered and reported ok.
+TEST_F(PointSamplesTest, RegistrationWithPointSamplesRecoversThePose) {
+  Vector6d perturbation;
+  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
+  const Rigid3d start = ApplyCorrection(truth_, perturbation);
+  const RegistrationResult result = RegisterFrames({frame_}, start, SampledOptions());
+  EXPECT_TRUE(result.ok()) << result.reason;
+  const PixelOffsetStats after = PixelOffsets(points_, frame_.views[0], truth_,
+                                              result.cam_from_lidar, RenderOptions());
+  EXPECT_LT(after.median_px, 0.5);
+}
+
 // A set of another level, or a metric the samples cannot give, falls back to rendering.
 TEST_F(PointSamplesTest, OtherLevelOrWholeImageMetricIsRendered) {
-  RegistrationOptions options;
+  RegistrationOptions options = SampledOptions();
   const FrameSetEvaluator evaluator({frame_}, truth_, options);
   const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth_, 1, true);
   EXPECT_EQ(evaluator.Evaluate(truth_, 0, options.metric, &set).value,
