@@ -3,6 +3,7 @@
 // Grey images for MI registration (library mmba_registration_mi). Plain float buffers so that
 // OpenCV stays inside two .cc files (image_io.cc, probe_plot.cc).
 
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -29,13 +30,12 @@ struct GrayImage {
 /// GrayImage::Sample inside, the nearest edge value outside (a point's sub-pixel offset can
 /// reach half a pixel past the border). The photo sampler of the B-spline histogram.
 inline float SampleClamped(const GrayImage& photo, float x, float y) {
-  const float u = x - 0.5f < 0.f ? 0.f : (x - 0.5f > photo.width - 1 ? photo.width - 1 : x - 0.5f);
-  const float v = y - 0.5f < 0.f ? 0.f : (y - 0.5f > photo.height - 1 ? photo.height - 1 : y - 0.5f);
-  int c0 = static_cast<int>(u), r0 = static_cast<int>(v);
-  if (c0 > photo.width - 2) c0 = photo.width - 2 < 0 ? 0 : photo.width - 2;
-  if (r0 > photo.height - 2) r0 = photo.height - 2 < 0 ? 0 : photo.height - 2;
-  const int c1 = c0 + 1 < photo.width ? c0 + 1 : photo.width - 1;
-  const int r1 = r0 + 1 < photo.height ? r0 + 1 : photo.height - 1;
+  const float u = std::clamp(x - 0.5f, 0.f, static_cast<float>(photo.width - 1));
+  const float v = std::clamp(y - 0.5f, 0.f, static_cast<float>(photo.height - 1));
+  const int c0 = std::min(static_cast<int>(u), std::max(0, photo.width - 2));
+  const int r0 = std::min(static_cast<int>(v), std::max(0, photo.height - 2));
+  const int c1 = std::min(c0 + 1, photo.width - 1);
+  const int r1 = std::min(r0 + 1, photo.height - 1);
   const float a = u - c0, b = v - r0;
   const float* row0 = &photo.pixels[static_cast<size_t>(r0) * photo.width];
   const float* row1 = &photo.pixels[static_cast<size_t>(r1) * photo.width];
