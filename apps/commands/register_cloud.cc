@@ -23,6 +23,7 @@ struct RegisterCloudArgs {
   std::string descriptor = "auto";
   double normal_radius_m = 0.0, support_radius_m = 0.0;
   bool gravity_aligned = false;
+  std::vector<double> search_window;
   std::vector<double> up = {0.0, 0.0, 1.0};
   bool no_icp = false;
   bool paper = false;
@@ -41,6 +42,14 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   options.normal_radius_m = args.normal_radius_m;
   options.support_radius_m = args.support_radius_m;
   options.gravity_aligned = args.gravity_aligned;
+  if (!args.search_window.empty()) {
+    if (args.search_window.size() != 2 || !(args.search_window[0] > 0) || !(args.search_window[1] > 0) ||
+        args.search_window[1] > 180) {
+      throw InputError::Message("--search-window", "expected two positive numbers: metres and degrees (<= 180)");
+    }
+    options.search_window_m = args.search_window[0];
+    options.search_window_deg = args.search_window[1];
+  }
   if (args.up.size() != 3) throw InputError::Message("--up", "expected three numbers x y z");
   Eigen::Vector3d up(args.up[0], args.up[1], args.up[2]);
   if (!(up.norm() > 0)) throw InputError::Message("--up", "expected a non-zero vector");
@@ -119,6 +128,10 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_flag("--gravity-aligned", args->gravity_aligned,
                 "both clouds are levelled: search the rotation about --up only");
   sub->add_option("--up", args->up, "up direction x y z (default 0 0 1)")->expected(3);
+  sub->add_option("--search-window", args->search_window,
+                  "M DEG: the source is already within M metres and DEG degrees of its place (an "
+                  "approximate pose applied): the identity is a hypothesis, poses outside are dropped")
+      ->expected(2);
   sub->add_flag("--no-icp", args->no_icp, "skip the ICP refinement");
   sub->add_flag("--paper", args->paper,
                 "the paper's pipeline only: best SAC-IA hypothesis + ICP, no verification "

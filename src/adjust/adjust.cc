@@ -464,7 +464,7 @@ void LoadSpheres(JointState* s) {
     const ImageId image_id(next_image++);
     s->scene.AddImage(image_id, block.lower_camera, Rigid3d(Eigen::Quaterniond(world_from_cam), centre).Inverse());
     block.lower_image[name] = image_id;
-    block.initial_poses[image_id] = s->scene.Image(image_id).cam_from_world;
+    block.initial_poses[image_id] = block.setup_poses[image_id] = s->scene.Image(image_id).cam_from_world;
   }
   for (const std::string& name : block.stations) {
     if (!block.lower_image.count(name)) {
@@ -1196,6 +1196,7 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
     LoadSpheres(&s);
     LoadRig(&s);
     LoadLidar(&s);
+    internal::RegisterSphereStations(&s);
     internal::LoadMobile(&s);
     if (!project.other_sensors.empty()) {
       for (const OtherSensor& o : project.other_sensors) {

@@ -2,12 +2,15 @@
 // outputs.cc (files and report). Private to mmba_adjust.
 #pragma once
 
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <optional>
 #include <set>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "mmba/adjust/adjust.h"
 #include "mmba/adjust/groups.h"
@@ -56,7 +59,11 @@ struct SphereBlock {
   std::vector<UpperSphereObservation> upper;
   std::vector<std::string> lower_source, upper_source;  ///< "file:line" per observation
   std::vector<double> initial_lower_params, initial_upper_params;
-  std::map<ImageId, Rigid3d> initial_poses;
+  std::map<ImageId, Rigid3d> initial_poses;   ///< the setups (or their registration to the LiDAR)
+  std::map<ImageId, Rigid3d> setup_poses;     ///< as given in stations_file
+  /// Per station: the dense cloud's registration to the LiDAR (report.json
+  /// `spherical_registration`), empty when not attempted.
+  std::map<std::string, nlohmann::json> registration;
 };
 
 /// The camera rig: its own pose storage (frames, cameras); intrinsics are Scene cameras.
@@ -200,6 +207,19 @@ size_t AssociateMobile(JointState* s, double gate);
 /// Writes every output file into options.output_dir (atomically, all or nothing) and fills
 /// outcome.report / summary.
 void WriteOutputs(JointState& state, const AdjustOptions& options, AdjustOutcome* outcome);
+
+/// The file of `folder` whose stem is `stem` ("" when there is none).
+std::string FindImage(const std::string& folder, const std::string& stem);
+
+/// Initialisation of the spherical stations from their dense clouds: each station's
+/// vertical-baseline stereo cloud registered to the static LiDAR (issue 5's pipeline) moves its
+/// setup pose when the registration is "ok"; the outcome per station is kept for the report.
+void RegisterSphereStations(JointState* s);
+
+/// Writes lidar_coloured.ply (the static LiDAR around the photo block coloured from the
+/// adjusted photos, with a z-buffer visibility test) into `stage`; returns the report entry
+/// (empty without photos or static LiDAR).
+nlohmann::json WriteColouredLidar(const JointState& s, const std::filesystem::path& stage, nlohmann::json* files);
 
 /// Camera centre in the world.
 inline Eigen::Vector3d CameraCentre(const Rigid3d& cam_from_world) {

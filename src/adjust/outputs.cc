@@ -167,14 +167,6 @@ void WriteText(const fs::path& path, const std::string& text) {
   if (!out) throw std::runtime_error("cannot write " + path.string());
 }
 
-/// The file of `folder` whose stem is `stem` ("" when there is none).
-std::string FindImage(const std::string& folder, const std::string& stem) {
-  std::error_code error;
-  for (const auto& entry : fs::directory_iterator(folder, error)) {
-    if (entry.is_regular_file() && entry.path().stem() == stem) return entry.path().string();
-  }
-  return "";
-}
 
 /// The dense cloud of every spherical station (vertical-baseline stereo on the adjusted pair:
 /// its calibration, baseline and pose), georeferenced, written as <id>_<station>_dense.ply
@@ -437,6 +429,14 @@ json EvaluateTruth(const JointState& s) {
 }
 
 }  // namespace
+
+std::string FindImage(const std::string& folder, const std::string& stem) {
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(folder, error)) {
+    if (entry.is_regular_file() && entry.path().stem() == stem) return entry.path().string();
+  }
+  return "";
+}
 
 void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* outcome) {
   const Project& project = *s.project;
@@ -956,6 +956,38 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     if (!s.scans.empty()) files.push_back({{"name", "scans.csv"}, {"description", "adjusted static scans: world_from_scan with sigma and the correction of the registration"}});
   }
   if (s.spheres && s.spheres->config->dense_cloud) report["spherical_dense"] = WriteSphereDense(s, stage, &files);
+  if (s.surface) {
+    const json coloured = WriteColouredLidar(s, stage, &files);
+    if (!coloured.empty()) report["lidar_coloured"] = coloured;
+  }
+  if (s.spheres && !s.spheres->registration.empty()) {
+    json registration = json::array();
+    for (const auto& [station, entry] : s.spheres->registration) {
+      json e = entry;
+      if (e["status"] == "ok") {
+        // Where the adjustment ended against where the registration put the station.
+        const ImageId id = s.spheres->lower_image.at(station);
+        const Rigid3d& adjusted = s.scene.Image(id).cam_from_world;
+        const Rigid3d& registered = s.spheres->initial_poses.at(id);
+        const double dp = (CameraCentre(adjusted) - CameraCentre(registered)).norm();
+        const double dr = adjusted.rotation.angularDistance(registered.rotation) * kDeg;
+        e["adjusted_minus_registered_m"] = dp;
+        e["adjusted_minus_registered_deg"] = dr;
+        // The registration is an initial value only; the adjustment (tie points, control) is
+        // the judge. A registration that ended far from it was wrong although it passed.
+        const double resolution = e["resolution_m"].is_number() ? e["resolution_m"].get<double>() : 0.0;
+        if (dp > std::max(0.05, 3 * resolution) || dr > 0.5) {
+          std::ostringstream w;
+          w << "spherical station " << station << ": its dense cloud's registration to the LiDAR (the initial pose) is "
+            << dp << " m, " << dr << " deg from the adjusted pose: that registration was wrong";
+          s.warnings.push_back(w.str());
+          e["disagrees_with_adjustment"] = true;
+        }
+      }
+      registration.push_back(e);
+    }
+    report["spherical_registration"] = registration;
+  }
   report["files"] = files;
   json warnings = json::array();
   for (const std::string& w : s.warnings) warnings.push_back(w);
@@ -994,6 +1026,17 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
         << c["rmse_3d"].get<double>() << " m (expected " << c["expected_rmse_3d"].get<double>() << " m)\n";
   }
   sum << "  blunders flagged and excluded: " << s.blunders.size() << "\n";
+  if (report.contains("spherical_registration")) {
+    for (const json& d : report["spherical_registration"]) {
+      sum << "  station " << d["station"].get<std::string>() << " initialised by its dense cloud on the LiDAR: "
+          << d["status"].get<std::string>();
+      if (d["status"] == "ok") {
+        sum << " (setup moved " << std::setprecision(3) << d["shift_from_setup_m"].get<double>() << " m, "
+            << d["rotation_from_setup_deg"].get<double>() << " deg)";
+      }
+      sum << "\n";
+    }
+  }
   if (report.contains("spherical_dense")) {
     for (const json& d : report["spherical_dense"]) {
       if (d["status"] != "ok") {

@@ -220,6 +220,9 @@ class ProjectReader {
                       {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
                       {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
                       {"dense_cloud", [&](Node v, Field g) { p.dense_cloud = r_.Bool(v, g); }},
+                      {"register_to_lidar", [&](Node v, Field g) { p.register_to_lidar = r_.Bool(v, g); }},
+                      {"setup_window_m", [&](Node v, Field g) { p.setup_window_m = ZeroOrPositive(v, g, 100.0, "m (metres)"); }},
+                      {"setup_window_deg", [&](Node v, Field g) { p.setup_window_deg = r_.Positive(v, g, 180.0, "degrees"); }},
                       {"refine", [&](Node v, Field g) {
                          const RefineIntrinsics refine = Refine(v, g, false);
                          p.refine_focal = refine.focal;

@@ -16,6 +16,7 @@
 
 #include "mmba/core/error.h"
 #include "mmba/core/logging.h"
+#include "mmba/io/point_cloud.h"
 #include "mmba/sim/simulate.h"
 #include "test_support.h"
 
@@ -138,9 +139,40 @@ TEST_F(AdjustTest, RecoversTheSimulatedSurvey) {
   for (const char* f : {"report.html", "report.json", "poses.csv", "points.csv", "observations.csv",
                         "colmap/photos/images.txt", "calibration/photos_camera.yaml", "tie_points.ply",
                         "calibration/spherical_spherical.yaml", "calibration/ladybug_rig.yaml",
-                        "error_map_lidar.ply", "scans.csv"}) {
+                        "error_map_lidar.ply", "scans.csv", "lidar_coloured.ply"}) {
     EXPECT_TRUE(fs::exists(out / f)) << f;
   }
+  // The LiDAR coloured from the photos: most points near the block seen, and the colours agree
+  // with the tie points' (COLMAP's, from the images) where a LiDAR point lies within 2 cm of a
+  // tie point — far better than with the pairing shuffled.
+  ASSERT_TRUE(r.contains("lidar_coloured"));
+  EXPECT_GT(r["lidar_coloured"]["coloured"].get<double>(), 0.5 * r["lidar_coloured"]["points"].get<double>());
+  const io::PointCloud lidar = io::ReadPly((out / "lidar_coloured.ply").string());
+  const io::PointCloud ties = io::ReadPly((out / "tie_points.ply").string());
+  ASSERT_EQ(lidar.colors.size(), lidar.size());
+  ASSERT_EQ(ties.colors.size(), ties.size());
+  const auto grey = [](const std::array<uint8_t, 3>& c) { return (c[0] + c[1] + c[2]) / 3.0; };
+  std::vector<std::pair<double, double>> pairs;  // (tie grey, LiDAR grey)
+  for (size_t t = 0; t < ties.size(); ++t) {
+    double best = 0.02 * 0.02;
+    long nearest = -1;
+    for (size_t i = 0; i < lidar.size(); ++i) {
+      const double d = (lidar.points[i] - ties.points[t]).squaredNorm();
+      if (d < best && lidar.colors[i] != std::array<uint8_t, 3>{128, 128, 128}) {
+        best = d;
+        nearest = static_cast<long>(i);
+      }
+    }
+    if (nearest >= 0) pairs.push_back({grey(ties.colors[t]), grey(lidar.colors[static_cast<size_t>(nearest)])});
+  }
+  ASSERT_GT(pairs.size(), 50u);
+  double matched = 0.0, shuffled = 0.0;
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    matched += std::abs(pairs[k].first - pairs[k].second);
+    shuffled += std::abs(pairs[k].first - pairs[(k + pairs.size() / 2) % pairs.size()].second);
+  }
+  EXPECT_LT(matched, 0.7 * shuffled) << "mean |grey difference| " << matched / pairs.size() << " vs shuffled "
+                                     << shuffled / pairs.size() << " over " << pairs.size() << " pairs";
   const std::string poses = ReadText(out / "poses.csv");
   EXPECT_NE(poses.find("photo_000.png,photos,"), std::string::npos);
   EXPECT_NE(poses.find(",18N,"), std::string::npos);  // UTM zone of the simulated origin
@@ -291,8 +323,10 @@ TEST_F(AdjustTest, UnknownTargetInAScanIsAnInputError) {
 // ambiguous (its walls repeat at 90°): a reported failure, not a guess.
 TEST_F(AdjustTest, PlacesAnUnregisteredScan) {
   const fs::path sim = Root() / "sim", out = Root() / "scanreg_out";
-  const std::string project = std::regex_replace(ReadText(sim / "project.yaml"),
-                                                 std::regex(R"(\{file: clouds/scans/scan_2\.ply[^\n]*)"), "{file: clouds/scans/scan_2.ply}");
+  std::string project = std::regex_replace(ReadText(sim / "project.yaml"),
+                                           std::regex(R"(\{file: clouds/scans/scan_2\.ply[^\n]*)"), "{file: clouds/scans/scan_2.ply}");
+  // The stations' dense clouds registered to the LiDAR for their initial poses, too.
+  project = std::regex_replace(project, std::regex("type: spherical_stereo\n"), "type: spherical_stereo\n    register_to_lidar: true\n");
   std::ofstream(sim / "project_scanreg.yaml") << project;
   const AdjustOutcome outcome = Run((sim / "project_scanreg.yaml").string(), out.string());
   ASSERT_TRUE(outcome.ok) << outcome.reason;
@@ -304,6 +338,13 @@ TEST_F(AdjustTest, PlacesAnUnregisteredScan) {
   const json& truth = outcome.report["truth_evaluation"]["static_scans"];
   EXPECT_LT(truth["max_position_m"].get<double>(), 0.02);
   EXPECT_LT(truth["max_rotation_deg"].get<double>(), 0.05);
+  // Each station's registration is reported; one that passed must agree with the adjustment.
+  ASSERT_TRUE(outcome.report.contains("spherical_registration"));
+  EXPECT_EQ(outcome.report["spherical_registration"].size(), 2u);
+  for (const json& station : outcome.report["spherical_registration"]) {
+    ASSERT_TRUE(station["status"].is_string()) << station.dump();
+    if (station["status"] == "ok") EXPECT_FALSE(station.value("disagrees_with_adjustment", false)) << station.dump();
+  }
 
   std::string features = project;
   const size_t at = features.find("observations/scan_targets.csv");

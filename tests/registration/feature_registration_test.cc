@@ -304,6 +304,35 @@ TEST(FeatureRegistration, RepeatedBaysGetPeriodShiftFinalists) {
   }
 }
 
+TEST(FeatureRegistration, SearchWindowPicksTheBayNearTheApproximatePose) {
+  // The arcade of four identical gates, the source already placed near bay 2 (0.3 m and 3°
+  // off, as a setup would place it): with a 1.5 m / 10° search window the other bays are no
+  // alternatives, the result is bay 2, and every hypothesis kept lies inside the window.
+  io::PointCloud arcade, at_bay2;
+  for (int bay = 0; bay < 4; ++bay) {
+    const io::PointCloud gate = Gate(0.07, true, 10 + bay);
+    for (const Eigen::Vector3d& p : gate.points) arcade.points.push_back(p + Eigen::Vector3d(6.0 * bay, 0.0, 0.0));
+  }
+  for (const Eigen::Vector3d& p : Gate(0.07, true, 1).points) at_bay2.points.push_back(p + Eigen::Vector3d(12.0, 0.0, 0.0));
+  Eigen::Matrix4d off = Eigen::Matrix4d::Identity();
+  off.topLeftCorner<3, 3>() = Eigen::AngleAxisd(3.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  off.topRightCorner<3, 1>() = Eigen::Vector3d(12.0, 0.0, 0.0) - off.topLeftCorner<3, 3>() * Eigen::Vector3d(12.0, 0.0, 0.0) +
+                               Eigen::Vector3d(0.2, -0.2, 0.1);
+  const io::PointCloud source = Transformed(at_bay2, off);
+  CloudRegistrationOptions options;
+  options.descriptor = Descriptor::kFpfh;
+  options.search_window_m = 1.5;
+  options.search_window_deg = 10.0;
+  const CloudRegistrationResult r = RegisterClouds(source, arcade, options);
+  ASSERT_TRUE(r.ok()) << r.BriefReport();
+  EXPECT_LT(TransformRmsOnCloud(source, r.target_from_source, off.inverse()), 0.02) << r.BriefReport();
+  // Invalid windows are option errors.
+  options.search_window_deg = 0.0;
+  std::string error;
+  EXPECT_FALSE(options.Check(&error));
+  EXPECT_NE(error.find("search_window_deg"), std::string::npos) << error;
+}
+
 TEST(FeatureRegistration, ErrorMapColoursByDistance) {
   io::PointCloud source, target;
   source.points = {{0, 0, 0}, {0, 0, 1}};

@@ -119,6 +119,14 @@ struct SphericalStereo {
   bool refine_principal_point = true;
   bool refine_focal = false;
   bool dense_cloud = true;     ///< write each station's dense stereo cloud (outputs)
+  /// Initialisation: each station's dense cloud registered to the static LiDAR (feature
+  /// registration, heading-only: the mast is levelled) replaces its setup when "ok". Off by
+  /// default: on the simulated scenes the stereo clouds (mostly paving, σ 7–27 cm) are refused
+  /// or, once, accepted 0.32 m / 1.9° off (README, Limits).
+  bool register_to_lidar = false;
+  /// ... within this distance and angle of the setup (the setup's uncertainty; 0 = anywhere).
+  double setup_window_m = 2.0;
+  double setup_window_deg = 10.0;
 };
 
 /// A Ladybug-style multi-camera rig on a vehicle: per frame `rig_from_world`, per camera

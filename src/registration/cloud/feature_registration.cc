@@ -93,6 +93,10 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
     return fail("sac_ia_alternative_ratio", sac_ia_alternative_ratio, "0 < x <= 1");
   }
   if (num_hypotheses < 1) return fail("num_hypotheses", num_hypotheses, ">= 1");
+  if (!(search_window_m >= 0.0)) return fail("search_window_m", search_window_m, ">= 0");
+  if (search_window_m > 0.0 && !(search_window_deg > 0.0 && search_window_deg <= 180.0)) {
+    return fail("search_window_deg", search_window_deg, "(0, 180] with a search window");
+  }
   if (!(consistency_spacing > 0)) return fail("consistency_spacing", consistency_spacing, "> 0");
   if (max_correspondences < 3) return fail("max_correspondences", max_correspondences, ">= 3");
   if (!(std::abs(up.norm() - 1.0) < 1e-6)) return fail("up (norm)", up.norm(), "a unit vector");
@@ -1186,6 +1190,22 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     }
     end_stage("max-clique");
   }
+  // A known approximate pose (search window): it is a hypothesis itself — descriptors may
+  // find nothing on a poor overlap — and every hypothesis outside the window is dropped.
+  const bool windowed = options.search_window_m > 0.0;
+  const auto inside = [&](const Eigen::Matrix4d& t) {
+    if (!windowed) return true;
+    const Eigen::Vector3d moved = t.topLeftCorner<3, 3>() * centre + t.topRightCorner<3, 1>() - centre;
+    const double angle = Eigen::AngleAxisd(Eigen::Matrix3d(t.topLeftCorner<3, 3>())).angle() * 180.0 / M_PI;
+    return moved.norm() <= options.search_window_m && angle <= options.search_window_deg;
+  };
+  if (windowed && !options.paper_only) {
+    Hypothesis h;
+    h.origin = "approximate pose";
+    h.descriptor = matchings.empty() ? "" : matchings.front().descriptor;
+    h.cost = AlignmentCost(score_sample, tgt_coarse_index, h.transform, tau_coarse);
+    hypotheses.push_back(h);
+  }
   if (hypotheses.empty()) {
     return fail("no hypothesis: no consistent descriptor matches (" +
                 std::to_string(result.num_correspondences) + " correspondences)");
@@ -1205,6 +1225,10 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     }
     Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, h.transform, tau, &h);
   }
+  hypotheses.erase(std::remove_if(hypotheses.begin(), hypotheses.end(),
+                                  [&](const Hypothesis& h) { return !inside(h.transform); }),
+                   hypotheses.end());
+  if (hypotheses.empty()) return fail("no hypothesis within the search window");
   std::stable_sort(hypotheses.begin(), hypotheses.end(),
                    [](const Hypothesis& a, const Hypothesis& b) { return a.score > b.score; });
   end_stage("icp+verify coarse");
@@ -1295,7 +1319,7 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     // needs a wider start.
     const double start = options.gravity_aligned ? support_radius / 2.0
                                                  : options.icp_distance_spacing * spacing;
-    if (!refine(&f, start)) continue;
+    if (!refine(&f, start) || !inside(f.h.transform)) continue;
     finalists.push_back(std::move(f));
   }
   if (finalists.empty()) return fail("no hypothesis puts the source onto the target");
@@ -1411,7 +1435,7 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
       origin << std::setprecision(3) << "period shift (" << shift.x() << ", " << shift.y() << ", "
              << shift.z() << ") m, " << count << " votes";
       f.h.origin = origin.str();
-      if (!refine(&f, options.icp_distance_spacing * spacing)) continue;
+      if (!refine(&f, options.icp_distance_spacing * spacing) || !inside(f.h.transform)) continue;
       f.violates = violations_of(f);
       ScoreFine(f.residuals, f.agree, fine_tau, f.violates, &f.h);
       bool same = false;

@@ -92,6 +92,14 @@ struct CloudRegistrationOptions {
   bool gravity_aligned = false;
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  ///< unit "up" in both frames
 
+  // Search window: the source is already near its place (an approximate pose applied, e.g. a
+  // station's setup). When search_window_m > 0 the identity is a hypothesis too, and only
+  // poses that move the source's centre by at most search_window_m and turn it by at most
+  // search_window_deg are kept — the ambiguity test then weighs only poses inside the window
+  // (a repeated facade bay farther away than the setup's error is no alternative).
+  double search_window_m = 0.0;     ///< 0 = no window (>= 0)
+  double search_window_deg = 10.0;  ///< (0, 180] when the window is on
+
   // ICP (point-to-plane, Chen & Medioni 1991).
   bool icp = true;                  ///< refine each hypothesis with ICP
   int icp_iterations = 40;          ///< per level (>= 1)
