@@ -35,12 +35,7 @@ io::PointCloud LidarInBox(const JointState& s, const Eigen::Vector3d& lo, const 
   } else {
     read(s.project->lidar_static.front().reference_cloud, Rigid3d());
   }
-  if (out.points.size() > cap) {
-    const size_t stride = (out.points.size() + cap - 1) / cap;
-    size_t n = 0;
-    for (size_t i = 0; i < out.points.size(); i += stride) out.points[n++] = out.points[i];
-    out.points.resize(n);
-  }
+  ThinEvenly(&out.points, cap);
   return out;
 }
 

@@ -221,6 +221,15 @@ void RegisterSphereStations(JointState* s);
 /// (empty without photos or static LiDAR).
 nlohmann::json WriteColouredLidar(const JointState& s, const std::filesystem::path& stage, nlohmann::json* files);
 
+/// Keeps every k-th point so that at most `cap` remain (evenly over the input order).
+inline void ThinEvenly(std::vector<Eigen::Vector3d>* points, size_t cap) {
+  if (points->size() <= cap) return;
+  const size_t stride = (points->size() + cap - 1) / cap;
+  size_t n = 0;
+  for (size_t i = 0; i < points->size(); i += stride) (*points)[n++] = (*points)[i];
+  points->resize(n);
+}
+
 /// Camera centre in the world.
 inline Eigen::Vector3d CameraCentre(const Rigid3d& cam_from_world) {
   return cam_from_world.Inverse().translation;

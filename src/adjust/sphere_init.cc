@@ -34,13 +34,7 @@ std::vector<io::PointCloud> CropAround(const std::string& path, const std::vecto
       }
     }
   });
-  for (io::PointCloud& cloud : out) {
-    if (cloud.points.size() <= cap) continue;
-    const size_t stride = (cloud.points.size() + cap - 1) / cap;
-    size_t n = 0;
-    for (size_t i = 0; i < cloud.points.size(); i += stride) cloud.points[n++] = cloud.points[i];
-    cloud.points.resize(n);
-  }
+  for (io::PointCloud& cloud : out) ThinEvenly(&cloud.points, cap);
   return out;
 }
 
