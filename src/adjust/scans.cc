@@ -57,10 +57,11 @@ bool PlaceByTargets(const JointState& s, const std::vector<ScanTarget>& targets,
     a.col(i) = from[i];
     b.col(i) = to[i];
   }
-  // Three targets in a line leave the rotation about that line open.
+  // Targets (nearly) in a line leave the rotation about that line open: the spread across the
+  // line must be at least 5 % of the spread along it.
   const Eigen::Vector3d mean = a.rowwise().mean();
   const Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(a.colwise() - mean);
-  if (svd.singularValues()(1) < 0.05 * svd.singularValues()(0) * std::sqrt(from.size() / 3.0)) return false;
+  if (svd.singularValues()(1) < 0.05 * svd.singularValues()(0)) return false;
   const Eigen::Matrix4d t = Eigen::umeyama(a, b, false);
   *world_from_scan = Rigid3d::FromMatrix(t.topRows<3>());
   double sum = 0.0;
