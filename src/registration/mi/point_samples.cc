@@ -6,6 +6,8 @@
 
 #include <glog/logging.h>
 
+#include "mmba/registration/mi/image.h"
+
 namespace mmba::registration::mi {
 namespace {
 
@@ -56,16 +58,6 @@ void AccumulateWithModel(const ViewSamples& samples, const View& view, const Vie
   const float log_min = static_cast<float>(std::log(options.min_range_m));
   const float inv_log_span =
       static_cast<float>(1.0 / (std::log(options.max_range_m) - std::log(options.min_range_m)));
-  const float* photo = view.image.pixels.data();
-  const int photo_width = view.image.width;
-  // The clamped bilinear sampler of the rendered path (SampleClamped), inlined: u, v are the
-  // sample position relative to the pixel centres, clamped to the image.
-  const float max_u = static_cast<float>(photo_width - 1);
-  const float max_v = static_cast<float>(view.image.height - 1);
-  const int max_c0 = std::max(0, photo_width - 2);
-  const int max_r0 = std::max(0, view.image.height - 2);
-  const int step_c = photo_width > 1 ? 1 : 0;
-  const size_t step_r = view.image.height > 1 ? static_cast<size_t>(photo_width) : 0;
   for (size_t j = point_begin; j < point_end; ++j) {
     const Eigen::Vector3f p = t.rotation * samples.points_in_lidar[j] + t.translation;
     double xy[2];
@@ -86,15 +78,8 @@ void AccumulateWithModel(const ViewSamples& samples, const View& view, const Vie
       const float sx = x + samples.sample_offset[s][0];
       const float sy = y + samples.sample_offset[s][1];
       if (!(sx >= 0.f && sy >= 0.f && sx < width && sy < height)) continue;
-      const float u = std::clamp(sx - 0.5f, 0.f, max_u);
-      const float v = std::clamp(sy - 0.5f, 0.f, max_v);
-      const int c0 = std::min(static_cast<int>(u), max_c0);
-      const int r0 = std::min(static_cast<int>(v), max_r0);
-      const float a = u - c0, b = v - r0;
-      const float* p00 = photo + static_cast<size_t>(r0) * photo_width + c0;
-      const float* p10 = p00 + step_r;
-      const float photo255 = (1 - b) * ((1 - a) * p00[0] + a * p00[step_c]) +
-                             b * ((1 - a) * p10[0] + a * p10[step_c]);
+      // The rendered path's photo sampler (clamped bilinear), so both fill the same histogram.
+      const float photo255 = SampleClamped(view.image, sx, sy);
       histogram->AddCovered(bx, wx, photo255, samples.sample_weight[s]);
     }
   }
