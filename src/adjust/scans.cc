@@ -136,6 +136,16 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
       Log(s, "static scan " + names[k] + " placed by its targets: " + detail);
     }
   }
+  // A scan that cannot be placed fails the run when the project registered some scans; when it
+  // registered none (the scans came with targets only), the registered reference cloud is held
+  // as the world instead, as without targets.
+  const bool any_given = std::any_of(l.scans.begin(), l.scans.end(), [](const LidarScanFile& f) { return f.has_pose; });
+  const auto unplaced = [&](const std::string& reason) {
+    const std::string message = "lidar_static '" + l.id + "': " + reason;
+    if (any_given) throw AdjustFailure("failed", message);
+    s->warnings.push_back(message + "; the scans are not adjusted (the registered reference cloud is used)");
+    s->scan_targets.clear();
+  };
   for (size_t k = 0; k < l.scans.size(); ++k) {
     if (world_from_scan[k]) continue;
     // Feature registration (issue 5's pipeline) to the scans placed so far, in the world frame,
@@ -154,9 +164,8 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
       placed += (placed.empty() ? "" : ", ") + names[j];
     }
     if (target.points.empty()) {
-      throw AdjustFailure("failed", "lidar_static '" + l.id + "': scan " + names[k] +
-                                        " cannot be placed: no scan has world_from_scan and it has fewer than 3 usable "
-                                        "surveyed targets (in a line counts as fewer)");
+      return unplaced("scan " + names[k] + " cannot be placed: no scan has world_from_scan and it has fewer than 3 usable "
+                      "surveyed targets (in a line counts as fewer)");
     }
     const io::PointCloud source = ReadThinned(l.scans[k].file, kScanCap);
     if (source.points.empty()) throw InputError::Message(l.scans[k].file, "the scan has no points (sensor '" + l.id + "')");
@@ -164,9 +173,8 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
                " and " + std::to_string(target.points.size()) + " points" + (l.scans_levelled ? ", levelled" : "") + ")");
     const registration::CloudRegistrationResult r = registration::RegisterClouds(source, target, options);
     if (!r.ok()) {
-      throw AdjustFailure("failed", "lidar_static '" + l.id + "': scan " + names[k] + " could not be registered to " + placed +
-                                        ": " + r.reason + " — give its world_from_scan (even a rough one) or measure 3 "
-                                        "surveyed targets in it");
+      return unplaced("scan " + names[k] + " could not be registered to " + placed + ": " + r.reason +
+                      " — give its world_from_scan (even a rough one) or measure 3 surveyed targets in it");
     }
     world_from_scan[k] = Rigid3d::FromMatrix(r.target_from_source.topRows<3>());
     std::ostringstream d;
