@@ -2,6 +2,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <string>
+
+#include <unistd.h>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -16,7 +19,8 @@ using ::testing::HasSubstr;
 const std::string kDubrovnik = std::string(MMBA_SOURCE_DIR) + "/data/bal/dubrovnik-3-7-pre.txt";
 
 std::string ErrorOf(const std::string& text) {
-  const fs::path path = fs::temp_directory_path() / "mmba_bal_test.txt";
+  // One file per process: ctest runs this binary's tests in parallel processes.
+  const fs::path path = fs::temp_directory_path() / ("mmba_bal_test_" + std::to_string(::getpid()) + ".txt");
   std::ofstream(path) << text;
   try {
     ReadBal(path.string());
