@@ -149,7 +149,9 @@ Descriptors ComputeFpfh(const std::vector<Eigen::Vector3d>& points,
       spfh[static_cast<size_t>(r) * kDim + b] = static_cast<float>(total) * increment;
     }
   }
-  // FPFH of the keypoints (Eq. 3).
+  // FPFH of the keypoints (Eq. 3). Validity is collected per keypoint in bytes: out.valid is a
+  // std::vector<bool>, whose bits share words, and must not be written from two threads.
+  std::vector<char> valid(keypoints.size(), 0);
 #pragma omp parallel for num_threads(kThreads) schedule(dynamic, 16)
   for (long k = 0; k < num_kp; ++k) {
     const std::vector<int>& nn = kp_nn[k];
@@ -174,9 +176,10 @@ Descriptors ComputeFpfh(const std::vector<Eigen::Vector3d>& points,
       nonzero = nonzero || dst[b] != 0.0f;
       finite = finite && std::isfinite(dst[b]);
     }
-    out.valid[k] = nonzero && finite;
-    if (!out.valid[k]) std::fill(dst, dst + kDim, 0.0f);
+    valid[k] = nonzero && finite;
+    if (!valid[k]) std::fill(dst, dst + kDim, 0.0f);
   }
+  for (size_t k = 0; k < keypoints.size(); ++k) out.valid[k] = valid[k] != 0;
   return out;
 }
 
