@@ -221,6 +221,33 @@ void RegisterSphereStations(JointState* s);
 /// (empty without photos or static LiDAR).
 nlohmann::json WriteColouredLidar(const JointState& s, const std::filesystem::path& stage, nlohmann::json* files);
 
+/// Colours the mobile cloud, streamed in chunks, from the adjusted rig images (the frames
+/// nearest the point's time: 2 before and 2 after, when the rig shares the vehicle) and the
+/// photos (points in the photo block's box), in two passes over the same chunks in the same
+/// order: AddDepths on every chunk (each image's coarse z-buffer of the cloud itself), then
+/// Colour on every chunk. Memory: the z-buffers of all images within 256 MB (their cell grows
+/// to fit), the images of 5 rig frames and one photo, per-chunk accumulators.
+class MobileColouring {
+ public:
+  explicit MobileColouring(const JointState& s);
+  ~MobileColouring();
+  MobileColouring(const MobileColouring&) = delete;
+  MobileColouring& operator=(const MobileColouring&) = delete;
+
+  /// False when there is no image to colour from (Colour then leaves the chunk uncoloured).
+  bool active() const;
+  /// Pass 1: enters the chunk's points (world frame, with times) into the z-buffers.
+  void AddDepths(const io::PointCloud& chunk);
+  /// Pass 2: fills chunk->colors (grey 128 where no image sees the point).
+  void Colour(io::PointCloud* chunk);
+  /// report.json entry: points, coloured, by rig images / photos, images used, timings.
+  nlohmann::json Report(const std::string& file) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
 /// Keeps every k-th point so that at most `cap` remain (evenly over the input order).
 inline void ThinEvenly(std::vector<Eigen::Vector3d>* points, size_t cap) {
   if (points->size() <= cap) return;

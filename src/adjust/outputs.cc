@@ -805,24 +805,39 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     }
     WriteText(stage / (m.config->id + "_trajectory.csv"), trajectory.str());
     // The whole delivered cloud re-georeferenced with the corrected trajectory and extrinsic,
-    // and the error map of the points used (intensity = signed distance to the static surface).
+    // coloured from the adjusted rig images and photos where seen (colourise.cc: a first pass
+    // builds the images' z-buffers from the cloud, the second colours), and the error map of
+    // the points used (intensity = signed distance to the static surface).
     // Streamed: one chunk in memory at a time.
     const Rigid3d lidar_from_body_nominal = m.body_from_lidar_nominal.Inverse();
+    const auto correct = [&](const io::PointCloud& chunk, io::PointCloud* corrected) {
+      corrected->points.resize(chunk.size());
+      corrected->intensity = chunk.intensity;
+      corrected->time = chunk.time;
+      for (size_t i = 0; i < chunk.size(); ++i) {
+        const Rigid3d ins = InterpolateTrajectory(m.trajectory, chunk.time[i]);
+        const Eigen::Vector3d in_lidar = lidar_from_body_nominal * (ins.Inverse() * chunk.points[i]);
+        corrected->points[i] = CorrectedPose(m.nodes, WeightAt(m.nodes, chunk.time[i]), ins) * (body_from_lidar * in_lidar);
+      }
+    };
+    MobileColouring colouring(s);
+    if (colouring.active()) {
+      io::PointCloud corrected;
+      io::StreamPointCloud(m.config->cloud, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t, size_t) {
+        correct(chunk, &corrected);
+        colouring.AddDepths(corrected);
+      });
+    }
     WriteFileAtomically(stage / (m.config->id + "_corrected.ply"), [&](std::ostream& out) {
       io::PointCloud corrected;
       io::StreamPointCloud(m.config->cloud, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t first, size_t total) {
-        corrected.points.resize(chunk.size());
-        corrected.intensity = chunk.intensity;
-        corrected.time = chunk.time;
-        for (size_t i = 0; i < chunk.size(); ++i) {
-          const Rigid3d ins = InterpolateTrajectory(m.trajectory, chunk.time[i]);
-          const Eigen::Vector3d in_lidar = lidar_from_body_nominal * (ins.Inverse() * chunk.points[i]);
-          corrected.points[i] = CorrectedPose(m.nodes, WeightAt(m.nodes, chunk.time[i]), ins) * (body_from_lidar * in_lidar);
-        }
+        correct(chunk, &corrected);
+        colouring.Colour(&corrected);
         if (first == 0) io::WritePlyHeader(out, total, corrected);
         io::AppendPlyRecords(out, corrected);
       });
     }, /*binary=*/true);
+    if (colouring.active()) report["mobile_lidar_coloured"] = colouring.Report(m.config->id + "_corrected.ply");
     io::PointCloud error_map;
     for (const MobilePoint& p : m.points) {
       const Eigen::Vector3d world = CorrectedPose(m.nodes, p.weight, p.ins) * (body_from_lidar * p.point_lidar);
@@ -944,7 +959,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     const std::string id = s.mobile->config->id;
     files.push_back({{"name", "calibration/" + id + "_camera_lidar.yaml"}, {"description", "camera-LiDAR extrinsic with sigma"}});
     files.push_back({{"name", id + "_trajectory.csv"}, {"description", "trajectory corrections at the nodes with sigma"}});
-    files.push_back({{"name", id + "_corrected.ply"}, {"description", "the mobile cloud re-georeferenced (corrected trajectory and extrinsic)"}});
+    files.push_back({{"name", id + "_corrected.ply"}, {"description", "the mobile cloud re-georeferenced (corrected trajectory and extrinsic), coloured from the adjusted rig images and photos where seen (grey: not seen)"}});
     files.push_back({{"name", "error_map_" + id + ".ply"}, {"description", "mobile points used, intensity = signed distance to the static surface (m)"}});
   }
   if (s.joint) files.push_back({{"name", "points.csv"}, {"description", "surveyed points with sigma and error ellipses"}});
