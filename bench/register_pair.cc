@@ -4,6 +4,8 @@
 // keys: normal_radius, support_radius, max_points_features, max_points_icp, gravity (0/1),
 //       paper (0/1), icp (0/1), min_keypoints, sac_ia_iterations, keypoint_threshold,
 //       min_fitness, min_normal_agreement, max_resolution_spacing, … (see below);
+//       truth=FILE (the true target_from_source, 16 numbers row-major: prints the error);
+//       source_viewpoints=FILE, target_viewpoints=FILE (sensor positions, x y z a line);
 //       conf=FILE.conf: also print the error against a Stanford .conf alignment (lines
 //       "bmesh NAME tx ty tz qx qy qz qw", p_common = R(q)ᵀ·p + t, as in bun.conf; the
 //       clouds are looked up by file name)
@@ -21,9 +23,11 @@
 
 #include <Eigen/Geometry>
 
+#include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/registration/cloud/feature_registration.h"
+#include "mmba/registration/cloud/scene_evaluation.h"
 
 namespace {
 
@@ -72,7 +76,7 @@ int main(int argc, char** argv) {
     std::cerr << "unknown descriptor " << argv[3] << "\n";
     return 2;
   }
-  std::string conf;
+  std::string conf, truth_file;
   for (int i = 4; i < argc; ++i) {
     const std::string kv = argv[i];
     const size_t eq = kv.find('=');
@@ -105,11 +109,18 @@ int main(int argc, char** argv) {
     else if (key == "min_fitness") options.min_fitness = v;
     else if (key == "min_normal_agreement") options.min_normal_agreement = v;
     else if (key == "max_resolution_spacing") options.max_resolution_spacing = v;
+    else if (key == "truth") truth_file = kv.substr(eq + 1);
+    else if (key == "probe_weak_motions") options.probe_weak_motions = v != 0;
+    else if (key == "search_window_m") options.search_window_m = v;
+    else if (key == "search_window_deg") options.search_window_deg = v;
+    else if (key == "source_viewpoints") options.source_viewpoints = registration::ReadViewpoints(kv.substr(eq + 1));
+    else if (key == "target_viewpoints") options.target_viewpoints = registration::ReadViewpoints(kv.substr(eq + 1));
     else {
       std::cerr << "unknown key " << key << "\n";
       return 2;
     }
   }
+  if (std::getenv("MMBA_DEBUG") != nullptr) spdlog::set_level(spdlog::level::debug);
   Timer wall;
   const io::PointCloud source = io::ReadPointCloud(argv[1]);
   const io::PointCloud target = io::ReadPointCloud(argv[2]);
@@ -124,6 +135,11 @@ int main(int argc, char** argv) {
               "resolution %.4g m (fine spacing %.4g m)\n",
               r.point_spacing_m, r.normal_radius_m, r.support_radius_m,
               r.fine_inlier_distance_m, r.significance, r.resolution_m, r.fine_spacing_m);
+  std::printf("sigma RMS %.4g m (constraint ratio %.3g), sigma translation %.4g %.4g %.4g m, "
+              "sigma rotation %.4g %.4g %.4g deg; weakest: %s\n",
+              r.sigma_rms_m, r.constraint_ratio, r.sigma_translation_m.x(),
+              r.sigma_translation_m.y(), r.sigma_translation_m.z(), r.sigma_rotation_deg.x(),
+              r.sigma_rotation_deg.y(), r.sigma_rotation_deg.z(), r.weakest_motion.c_str());
   for (const auto& h : r.hypotheses) {
     std::printf("  hypothesis %-32s fitness %.3f normals %.3f conflict %.3f score %.3f\n",
                 h.origin.c_str(), h.fitness, h.normal_agreement, h.conflict, h.score);
@@ -141,6 +157,24 @@ int main(int argc, char** argv) {
                 r.target_from_source(i, 2), r.target_from_source(i, 3));
   }
   for (const auto& n : r.notes) std::printf("note: %s\n", n.c_str());
+  if (!truth_file.empty()) {
+    // truth=FILE: the true target_from_source, 16 numbers row-major.
+    std::ifstream in(truth_file);
+    Eigen::Matrix4d truth;
+    for (int i = 0; i < 16; ++i) {
+      if (!(in >> truth(i / 4, i % 4))) {
+        std::cerr << truth_file << ": expected 16 numbers (a row-major 4x4)\n";
+        return 2;
+      }
+    }
+    const Eigen::Matrix3d dr =
+        r.target_from_source.topLeftCorner<3, 3>() * truth.topLeftCorner<3, 3>().transpose();
+    std::printf("error vs %s: RMS over the source %.4g m, rotation %.4f deg, translation %.4f m\n",
+                truth_file.c_str(),
+                registration::TransformRmsOnCloud(source, r.target_from_source, truth),
+                std::acos(std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI,
+                (r.target_from_source.topRightCorner<3, 1>() - truth.topRightCorner<3, 1>()).norm());
+  }
   if (!conf.empty()) {
     const std::map<std::string, Eigen::Matrix4d> scans = ReadConf(conf);
     const auto a = scans.find(BaseName(argv[1])), b = scans.find(BaseName(argv[2]));

@@ -16,6 +16,7 @@ struct RegisterEvalArgs {
   bool no_cross_modal = false;
   bool gravity_aligned = false;
   bool no_viewpoints = false;
+  std::vector<std::string> cells;
   double min_fitness = registration::CloudRegistrationOptions().min_fitness;
 };
 
@@ -28,6 +29,7 @@ int RunRegisterEval(const RegisterEvalArgs& args) {
   options.base.gravity_aligned = args.gravity_aligned;
   options.base.min_fitness = args.min_fitness;
   options.use_viewpoints = !args.no_viewpoints;
+  options.cells = args.cells;
   std::string error;
   if (!options.base.Check(&error)) throw InputError::Message("--min-fitness", error);
   if (!(args.success_fraction > 0)) {
@@ -66,6 +68,8 @@ std::function<int()> SetupRegisterEval(CLI::App& app, CommonOptions* common) {
   sub->add_option("--min-fitness", args->min_fitness,
                   "robust pipeline: fraction of the source that must fit the target (0..1]")
       ->capture_default_str();
+  sub->add_option("--cells", args->cells,
+                  "run only these cells, each SOURCE:TARGET (e.g. spherical_stereo_part:lidar)");
   sub->add_flag("--no-viewpoints", args->no_viewpoints,
                 "ignore clouds/<m>.viewpoints.txt (no free-space test)");
   AddCommonOptions(sub, common);

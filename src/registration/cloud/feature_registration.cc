@@ -32,6 +32,8 @@ namespace mmba::registration {
 using internal::Descriptors;
 using internal::FeatureIndex;
 using internal::PointIndex;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
 
 bool ParseDescriptor(const std::string& name, Descriptor* descriptor) {
   if (name == "fpfh") *descriptor = Descriptor::kFpfh;
@@ -878,14 +880,162 @@ double ScoreSignificance(const std::vector<Eigen::Vector3d>& src, const std::vec
   return se > 0 ? mean / se : (mean > 0 ? std::numeric_limits<double>::infinity() : 0.0);
 }
 
+// A small motion ξ = (ω, t) of registered points about a centre c: q ↦ c + Exp(ω)(q − c) + t
+// (ω a rotation vector, rad; t metres), as a 4×4 transform applied after the pose.
+Eigen::Matrix4d MotionAbout(const Vector6d& xi, const Eigen::Vector3d& c) {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  const Eigen::Vector3d omega = xi.head<3>();
+  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+  if (omega.norm() > 0) r = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix();
+  m.topLeftCorner<3, 3>() = r;
+  m.topRightCorner<3, 1>() = c - r * c + xi.tail<3>();
+  return m;
+}
+
+// RMS-displacement metric of the motions ξ about c over the registered points q:
+// (1/N) Σ ‖ω × (q − c) + t‖² = ξᵀ M ξ.
+Matrix6d DisplacementMetric(const std::vector<Eigen::Vector3d>& q, const Eigen::Vector3d& c) {
+  Matrix6d m = Matrix6d::Zero();
+  for (const Eigen::Vector3d& p : q) {
+    Eigen::Matrix<double, 3, 6> a;
+    const Eigen::Vector3d d = p - c;
+    a.leftCols<3>() << 0, d.z(), -d.y(), -d.z(), 0, d.x(), d.y(), -d.x(), 0;  // −[d]×
+    a.rightCols<3>().setIdentity();
+    m += a.transpose() * a;
+  }
+  return m / static_cast<double>(std::max<size_t>(1, q.size()));
+}
+
+// How well do the inliers of the fine fit determine the pose? The point-to-plane residual of
+// an inlier q with target normal n changes under ξ by Jᵀξ, J = ((q − c) × n, n) (Chen &
+// Medioni 1991; linearised as Low 2004, Eq. 6–8), so H = Σ J Jᵀ is the Gauss–Newton matrix of
+// the fit. A plane leaves the in-plane shifts and the turn about its normal in H's null space
+// (Gelfand et al., "Geometrically stable sampling for the ICP algorithm", 3DIM 2003, Sec. 3:
+// the eigenvectors of this matrix with small eigenvalues are the motions the points do not
+// constrain). The covariance of ξ is the cluster-robust sandwich H⁻¹ (Σ_b g_b g_bᵀ) H⁻¹
+// · B/(B − 1) over B blocks of `block` metres of the source, g_b = Σ_{i∈b} J_i r_i (Liang &
+// Zeger 1986; White 1980): a reconstruction's errors are correlated over its smoothing
+// window, and a block of such points is one observation, not hundreds. With fewer than 12
+// blocks (a 6×6 meat estimated from fewer than 2 blocks per parameter is rank-poor and would
+// claim certainty in the motions it does not see) the plain s² H⁻¹ is used, inflated by the
+// points per block. Everything is expressed in the RMS metric M of DisplacementMetric
+// (M = L Lᵀ, η = Lᵀ ξ: ‖η‖ is the RMS displacement of the source), where the eigenvalues of
+// H and of the covariance compare motions of equal size.
+struct FitUncertainty {
+  Matrix6d covariance = Matrix6d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  double sigma_rms = std::numeric_limits<double>::infinity();
+  double constraint_ratio = 0.0;
+  Vector6d weakest = Vector6d::Zero();  // the least-determined motion, unit RMS
+  std::vector<Vector6d> weak_directions;  // H's two weakest motions (unit RMS), for the probes
+  int blocks = 0;
+};
+
+FitUncertainty EstimateFitUncertainty(const std::vector<Eigen::Vector3d>& src,
+                                      const TargetCrop& crop, const Eigen::Matrix4d& t,
+                                      const std::vector<double>& residuals,
+                                      const std::vector<bool>& agree, double reach, double tau,
+                                      double block) {
+  FitUncertainty out;
+  std::vector<Eigen::Vector3d> q(src.size());
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < src.size(); ++i) {
+    q[i] = Apply(t, src[i]);
+    c += q[i];
+  }
+  if (src.empty()) return out;
+  c /= static_cast<double>(src.size());
+  out.centre = c;
+  Matrix6d h = Matrix6d::Zero();
+  std::unordered_map<VoxelKey, Vector6d, VoxelKeyHash> gradients;
+  double sum_sq = 0.0;
+  size_t m = 0;
+  int index;
+  double sq;
+  for (size_t i = 0; i < src.size(); ++i) {
+    const double r = residuals[i];
+    if (!std::isfinite(r) || !(std::abs(r) < tau) || !agree[i]) continue;
+    if (!crop.index->NearestWithin(q[i], reach * reach, &index, &sq)) continue;
+    const Eigen::Vector3d& n = crop.level.normals[index];
+    if (!n.allFinite()) continue;
+    Vector6d j;
+    j.head<3>() = (q[i] - c).cross(n);
+    j.tail<3>() = n;
+    h += j * j.transpose();
+    const VoxelKey key{static_cast<int64_t>(std::floor(src[i].x() / block)),
+                       static_cast<int64_t>(std::floor(src[i].y() / block)),
+                       static_cast<int64_t>(std::floor(src[i].z() / block))};
+    auto it = gradients.try_emplace(key, Vector6d::Zero()).first;
+    it->second += j * r;
+    sum_sq += r * r;
+    ++m;
+  }
+  out.blocks = static_cast<int>(gradients.size());
+  if (m < 12) return out;
+  const Eigen::LLT<Matrix6d> llt(DisplacementMetric(q, c));
+  if (llt.info() != Eigen::Success) return out;  // a degenerate (linear) source
+  const Matrix6d l = llt.matrixL();
+  const Matrix6d l_inv = l.inverse();
+  const Matrix6d h_eta = l_inv * h * l_inv.transpose();
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig_h(h_eta);
+  const double lambda_max = eig_h.eigenvalues()(5);
+  const double lambda_min = eig_h.eigenvalues()(0);
+  out.constraint_ratio = lambda_max > 0 ? std::max(0.0, lambda_min) / lambda_max : 0.0;
+  for (int k = 0; k < 2; ++k) {
+    out.weak_directions.push_back(l_inv.transpose() * eig_h.eigenvectors().col(k));
+  }
+  out.weakest = out.weak_directions.front();
+  if (!(out.constraint_ratio > 1e-9)) return out;  // a motion is free: infinite covariance
+  const Matrix6d h_inv = eig_h.eigenvectors() * eig_h.eigenvalues().cwiseInverse().asDiagonal() *
+                         eig_h.eigenvectors().transpose();
+  Matrix6d cov_eta;
+  const double b = static_cast<double>(out.blocks);
+  if (out.blocks >= 12) {
+    Matrix6d meat = Matrix6d::Zero();
+    for (const auto& [key, g] : gradients) {
+      const Vector6d g_eta = l_inv * g;
+      meat += g_eta * g_eta.transpose();
+    }
+    cov_eta = h_inv * meat * h_inv * (b / (b - 1.0));
+  } else {
+    const double s2 = sum_sq / static_cast<double>(m - 6);
+    cov_eta = s2 * (static_cast<double>(m) / b) * h_inv;
+  }
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig_c(cov_eta);
+  out.sigma_rms = std::sqrt(std::max(0.0, eig_c.eigenvalues()(5)));
+  out.weakest = l_inv.transpose() * eig_c.eigenvectors().col(5);
+  out.covariance = l_inv.transpose() * cov_eta * l_inv;
+  return out;
+}
+
+// "a turn of 1.9° about (0, 0, 1) and a shift of 0.35 m along (0.7, 0.7, 0)" for σ·ξ.
+std::string DescribeMotion(const Vector6d& xi, double sigma) {
+  std::ostringstream s;
+  s << std::setprecision(2) << std::fixed;
+  const Eigen::Vector3d omega = sigma * xi.head<3>(), shift = sigma * xi.tail<3>();
+  auto direction = [&s](const Eigen::Vector3d& v) {
+    const Eigen::Vector3d u = v.normalized();
+    s << "(" << u.x() << ", " << u.y() << ", " << u.z() << ")";
+  };
+  s << std::setprecision(3) << "a turn of " << omega.norm() * 180.0 / M_PI << " deg about ";
+  direction(omega);
+  s << " and a shift of " << shift.norm() << " m along ";
+  direction(shift);
+  return s.str();
+}
+
 // How precisely do the data fix the pose? The chosen pose is displaced by δ (RMS over the
 // source sample) along each of 12 directions — ± a translation along, and ± a rotation about
-// (through the centroid), each principal axis of the registered source — and the displaced
-// fine score is compared with the chosen one by the paired block t statistic of
-// ScoreSignificance. The pose is resolved at δ when every displacement scores significantly
-// worse (t >= t_min). A pose that can slide, tilt or turn by δ without losing score is only
-// known to δ: a thick, noisy target (every displaced point still has a noise point near it),
-// a planar or linear overlap, or a pose off the score's maximum.
+// (through the centroid), each principal axis of the registered source — and ± along the
+// two least-constrained motions of the fit (FitUncertainty::weak_directions: a wall and the
+// ground leave the shift along both and the turn about their common line nearly free, a
+// motion that need not lie along any principal axis of the source, so that each axis probe
+// also moves points across the wall and is told apart). Each displaced pose's fine score is
+// compared with the chosen one by the paired block t statistic of ScoreSignificance. The
+// pose is resolved at δ when every displacement scores significantly worse (t >= t_min). A
+// pose that can slide, tilt or turn by δ without losing score is only known to δ: a thick,
+// noisy target (every displaced point still has a noise point near it), a planar or linear
+// overlap, or a pose off the score's maximum.
 // Tested first at `bound` (the verdict); if resolved there, at bound/2, bound/4, bound/8 until
 // some direction is not (the reported resolution is the last resolved δ); if not, at 2·bound,
 // 4·bound, … up to `max_delta` for the unresolved directions only (a direction resolved at δ
@@ -894,7 +1044,8 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
                       const std::vector<Eigen::Vector3d>& src_n, const TargetCrop& crop,
                       const Eigen::Matrix4d& t, const std::vector<double>& base_residuals,
                       const std::vector<bool>& base_agree, double reach, double tau, double block,
-                      double bound, double max_delta, double t_min) {
+                      double bound, double max_delta, double t_min,
+                      const std::vector<Vector6d>& extra_directions) {
   if (src.size() < 10) return std::numeric_limits<double>::infinity();
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
   for (const Eigen::Vector3d& p : src) c += Apply(t, p);
@@ -906,35 +1057,32 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
   }
   cov /= static_cast<double>(src.size());
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-  struct Direction {
-    bool rotation;
-    Eigen::Vector3d axis;
-    double sign;
-    double rms_per_unit;  // RMS displacement per radian (1 per metre for translations)
-  };
-  std::vector<Direction> dirs;
+  // Motions ξ = (ω, t) about c with an RMS displacement of 1 m over the source.
+  std::vector<Vector6d> dirs;
   for (int k = 0; k < 3; ++k) {
     const Eigen::Vector3d a = eig.eigenvectors().col(k);
     // RMS distance of the source from the axis a through c: sqrt(trace(cov) − aᵀ·cov·a).
     const double radius = std::sqrt(std::max(0.0, cov.trace() - a.dot(cov * a)));
     for (double sign : {1.0, -1.0}) {
-      dirs.push_back({false, a, sign, 1.0});
-      if (radius > 0) dirs.push_back({true, a, sign, radius});
+      Vector6d shift = Vector6d::Zero();
+      shift.tail<3>() = sign * a;
+      dirs.push_back(shift);
+      if (radius > 0) {
+        Vector6d turn = Vector6d::Zero();
+        turn.head<3>() = sign * a / radius;
+        dirs.push_back(turn);
+      }
     }
+  }
+  for (const Vector6d& xi : extra_directions) {
+    if (!xi.allFinite() || xi.isZero()) continue;
+    dirs.push_back(xi);
+    dirs.push_back(-xi);
   }
   std::vector<double> residuals;
   std::vector<bool> agree;
-  auto resolved = [&](const Direction& dir, double delta) {
-    Eigen::Matrix4d p = Eigen::Matrix4d::Identity();
-    if (dir.rotation) {
-      const Eigen::Matrix3d r =
-          Eigen::AngleAxisd(dir.sign * delta / dir.rms_per_unit, dir.axis).toRotationMatrix();
-      p.topLeftCorner<3, 3>() = r;
-      p.topRightCorner<3, 1>() = c - r * c;
-    } else {
-      p.topRightCorner<3, 1>() = dir.sign * delta * dir.axis;
-    }
-    FineResiduals(src, src_n, crop, p * t, reach, &residuals, &agree);
+  auto resolved = [&](const Vector6d& xi, double delta) {
+    FineResiduals(src, src_n, crop, MotionAbout(delta * xi, c) * t, reach, &residuals, &agree);
     return ScoreSignificance(src, base_residuals, base_agree, residuals, agree, tau, block) >=
            t_min;
   };
@@ -1459,12 +1607,30 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     const Finalist& f = finalists.front();
     result.fine_spacing_m = f.spacing;
     const double reach = std::min(normal_radius, options.normal_radius_spacing * f.spacing);
-    result.resolution_m = PoseResolution(fine_src, fine_src_n, *f.crop, f.h.transform, f.residuals,
-                                         f.agree, reach, fine_tau, support_radius,
-                                         options.max_resolution_spacing * f.spacing,
-                                         support_radius, options.resolution_t);
-    spdlog::debug("registration: pose resolution {:.4g} m (fine spacing {:.4g} m)",
-                  result.resolution_m, f.spacing);
+    const FitUncertainty u = EstimateFitUncertainty(fine_src, *f.crop, f.h.transform, f.residuals,
+                                                    f.agree, reach, fine_tau, support_radius);
+    result.covariance = u.covariance;
+    result.covariance_centre = u.centre;
+    result.sigma_rms_m = u.sigma_rms;
+    result.constraint_ratio = u.constraint_ratio;
+    for (int k = 0; k < 3; ++k) {
+      result.sigma_rotation_deg(k) = std::sqrt(u.covariance(k, k)) * 180.0 / M_PI;
+      result.sigma_translation_m(k) = std::sqrt(u.covariance(3 + k, 3 + k));
+    }
+    if (!u.weakest.isZero()) {
+      result.weakest_motion =
+          DescribeMotion(u.weakest, std::isfinite(u.sigma_rms) ? u.sigma_rms : 1.0) +
+          (std::isfinite(u.sigma_rms) ? " (1 sigma)" : " (unconstrained; shown for 1 m RMS)");
+    }
+    result.resolution_m = PoseResolution(
+        fine_src, fine_src_n, *f.crop, f.h.transform, f.residuals, f.agree, reach, fine_tau,
+        support_radius, options.max_resolution_spacing * f.spacing, support_radius,
+        options.resolution_t,
+        options.probe_weak_motions ? u.weak_directions : std::vector<Vector6d>{});
+    spdlog::debug("registration: pose resolution {:.4g} m (fine spacing {:.4g} m), sigma {:.4g} m "
+                  "RMS over {} blocks, constraint ratio {:.3g}, weakest motion {}",
+                  result.resolution_m, f.spacing, u.sigma_rms, u.blocks, u.constraint_ratio,
+                  result.weakest_motion);
     end_stage("resolution");
   }
 
@@ -1588,6 +1754,14 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
         << result.resolution_m << " m RMS (need <= " << options.max_resolution_spacing
         << " x the fine spacing " << result.fine_spacing_m
         << " m); a noisy, planar or featureless overlap";
+    return fail(why.str());
+  }
+  if (!options.paper_only && !(options.resolution_t * result.sigma_rms_m <=
+                               options.max_resolution_spacing * result.fine_spacing_m)) {
+    why << "pose not determined: the inliers of the fit leave " << result.weakest_motion
+        << " (" << result.sigma_rms_m << " m RMS over the source; need " << options.resolution_t
+        << " sigma <= " << options.max_resolution_spacing << " x the fine spacing "
+        << result.fine_spacing_m << " m): a planar or featureless overlap";
     return fail(why.str());
   }
   if (options.paper_only) {

@@ -153,8 +153,18 @@ SceneEvaluation EvaluateScene(const std::string& dir, const SceneEvalOptions& op
     }
     return fs::exists(file) ? ReadViewpoints(file.string()) : std::vector<Eigen::Vector3d>{};
   };
+  std::vector<bool> cell_seen(options.cells.size(), false);
+  auto selected = [&](const std::string& source, const std::string& target) {
+    if (options.cells.empty()) return true;
+    bool any = false;
+    for (size_t i = 0; i < options.cells.size(); ++i) {
+      if (options.cells[i] == source + ":" + target) any = cell_seen[i] = true;
+    }
+    return any;
+  };
   auto run = [&](const std::string& experiment, const std::string& source,
                  const std::string& target) {
+    if (!selected(source, target)) return;
     const Eigen::Matrix4d truth = Inverse(world_from.at(target)) * world_from.at(source);
     for (const std::string& method : options.methods) {
       CloudRegistrationOptions o = options.base;
@@ -181,6 +191,7 @@ SceneEvaluation EvaluateScene(const std::string& dir, const SceneEvalOptions& op
       row.fitness = r.fitness;
       row.confidence = r.confidence;
       row.resolution_m = r.resolution_m;
+      row.sigma_rms_m = r.sigma_rms_m;
       row.violation = r.violation;
       row.visibility = r.visibility_tested;
       row.success = row.rms_m < eval.success_threshold_m;
@@ -204,6 +215,14 @@ SceneEvaluation EvaluateScene(const std::string& dir, const SceneEvalOptions& op
       }
     }
   }
+  for (size_t i = 0; i < options.cells.size(); ++i) {
+    if (!cell_seen[i]) {
+      throw InputError::Message("cells", "'" + options.cells[i] +
+                                             "' is no cell of " + dir +
+                                             " (expected SOURCE:TARGET, e.g. multi_view:lidar or "
+                                             "spherical_stereo_part:plane_proxy)");
+    }
+  }
   return eval;
 }
 
@@ -211,7 +230,7 @@ void WriteSceneEvaluation(const SceneEvaluation& eval, const std::string& out_di
   AtomicFileSet files;
   files.Add(fs::path(out_dir) / "results.csv", [&](std::ostream& out) {
     out << "experiment,source,target,method,status,rms_m,success,accurate,runtime_s,fitness,"
-           "confidence,resolution_m,visibility,violation,reason\n";
+           "confidence,resolution_m,sigma_rms_m,visibility,violation,reason\n";
     out << std::setprecision(6);
     for (const EvalRow& r : eval.rows) {
       std::string reason = r.reason;
@@ -219,7 +238,8 @@ void WriteSceneEvaluation(const SceneEvaluation& eval, const std::string& out_di
       out << r.experiment << ',' << r.source << ',' << r.target << ',' << r.method << ','
           << r.status << ',' << r.rms_m << ',' << (r.success ? 1 : 0) << ','
           << (r.accurate ? 1 : 0) << ',' << r.runtime_s << ',' << r.fitness << ','
-          << r.confidence << ',' << r.resolution_m << ',' << (r.visibility ? 1 : 0) << ','
+          << r.confidence << ',' << r.resolution_m << ',' << r.sigma_rms_m << ','
+          << (r.visibility ? 1 : 0) << ','
           << r.violation << ",\"" << reason << "\"\n";
     }
   });

@@ -135,8 +135,15 @@ struct CloudRegistrationOptions {
   /// scores worse by at least this many standard errors (paired block t) (> 0).
   double resolution_t = 3.0;
   /// "ok" needs the pose resolved (every displacement of this RMS size over the source scores
-  /// significantly worse) to within this × the fine point spacing (> 0).
+  /// significantly worse) to within this × the fine point spacing (> 0). The same bound holds
+  /// for the fit's uncertainty: "ok" also needs resolution_t × sigma_rms_m (the standard
+  /// deviation of the least-determined motion, from the covariance of the fine
+  /// point-to-plane fit) within it.
   double max_resolution_spacing = 4.0;
+  /// The resolution test also displaces the pose along the two least-constrained motions of
+  /// the fine fit (the weakest eigenvectors of its point-to-plane Gauss–Newton matrix), not
+  /// only along the source's principal axes.
+  bool probe_weak_motions = true;
 
   // Visibility (free space). Sensor positions of each cloud in its own frame: scanner
   // stations, camera centres, stereo stations (empty = unknown; a modelled cloud such as a
@@ -205,6 +212,31 @@ struct CloudRegistrationResult {
   /// fine verification tells from the chosen pose; +inf when not resolved up to R_s.
   double resolution_m = std::numeric_limits<double>::infinity();
   double fine_spacing_m = 0.0;          ///< point spacing of the fine verification
+  /// Uncertainty of the chosen pose from the fine point-to-plane fit of its inliers:
+  /// covariance of the correction ξ = (ω, t) — ω a rotation vector (rad), t a translation
+  /// (m), both in the target frame — that maps a registered point q to
+  /// c + Exp(ω)(q − c) + t, c = covariance_centre (the registered source's centroid).
+  /// Cluster-robust ("sandwich") estimate H⁻¹ (Σ_b g_b g_bᵀ) H⁻¹ over blocks of R_s (H the
+  /// Gauss–Newton matrix of the point-to-plane residuals, g_b a block's gradient): residuals
+  /// correlated within a block (a reconstruction's smooth noise) count once per block, not
+  /// once per point. Infinite (and pose_determined false) when the inliers leave a motion
+  /// free (a plane: in-plane shifts, the turn about its normal).
+  Eigen::Matrix<double, 6, 6> covariance =
+      Eigen::Matrix<double, 6, 6>::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d covariance_centre = Eigen::Vector3d::Zero();
+  /// Standard deviations of t (per target axis) and of ω (about each target axis, degrees).
+  Eigen::Vector3d sigma_translation_m =
+      Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d sigma_rotation_deg =
+      Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  /// Standard deviation of the RMS displacement of the source along its least-determined
+  /// motion (the largest eigenvalue of the covariance in the RMS-displacement metric), m.
+  double sigma_rms_m = std::numeric_limits<double>::infinity();
+  /// That motion, in words ("mostly a turn about (0, 0, 1)", "mostly a shift along …").
+  std::string weakest_motion;
+  /// Condition of the fit: the smallest over the largest eigenvalue of H in the RMS metric
+  /// (1: every motion of the source is constrained alike; 0: some motion is free).
+  double constraint_ratio = 0.0;
   double normal_radius_m = 0.0, support_radius_m = 0.0;
   std::vector<StageTime> runtime;  ///< seconds per stage, in order
   std::vector<RegistrationHypothesis> hypotheses;  ///< best first

@@ -33,6 +33,9 @@ struct SceneEvalOptions {
   double accurate_m = 0.05;       ///< "accurate": RMS below this (metres)
   bool cross_modal = true;        ///< run experiment II
   bool use_viewpoints = true;     ///< read clouds/<m>.viewpoints.txt when present
+  /// Run only these cells, each "source:target" (e.g. "spherical_stereo_part:lidar");
+  /// empty = every cell. A cell the scene does not have is an InputError.
+  std::vector<std::string> cells;
   CloudRegistrationOptions base;  ///< options shared by every run
 };
 
@@ -44,6 +47,7 @@ struct EvalRow {
   double runtime_s = 0.0;
   double fitness = 0.0, confidence = 0.0;
   double resolution_m = 0.0;  ///< CloudRegistrationResult::resolution_m (inf: not resolved)
+  double sigma_rms_m = 0.0;   ///< CloudRegistrationResult::sigma_rms_m (inf: a motion is free)
   double violation = 0.0;     ///< CloudRegistrationResult::violation (free-space test)
   bool visibility = false;    ///< the free-space test was done (sensor positions known)
   bool success = false;    ///< rms < success threshold (status may still be "failed")
