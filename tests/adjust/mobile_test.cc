@@ -1,10 +1,14 @@
 // The mobile LiDAR in the joint adjustment (small simulated gate: photos, a 6-camera rig on
 // the vehicle, a mobile LiDAR georeferenced with a drifting GNSS/INS trajectory and a mounting
 // calibration off by 0.3° / 2 cm, two static scans, total station, GNSS): the trajectory is
-// corrected, the camera–LiDAR extrinsic recovered, and a cloud without point times refused.
+// corrected, the camera–LiDAR extrinsic recovered, the corrected cloud coloured from the rig
+// images like the simulated scene's surfaces, and a cloud without point times refused.
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include <gtest/gtest.h>
@@ -14,7 +18,10 @@
 #include "mmba/core/error.h"
 #include "mmba/core/logging.h"
 #include "mmba/io/point_cloud.h"
+#include "mmba/sim/ray_caster.h"
+#include "mmba/sim/scenes.h"
 #include "mmba/sim/simulate.h"
+#include "mmba/sim/texture.h"
 #include "test_support.h"
 
 namespace mmba::adjust {
@@ -29,9 +36,7 @@ fs::path Root() { return testing_support::ScratchRoot("mmba_adjust_mobile"); }
 
 class MobileAdjustTest : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() {
-    SetVerbosity(Verbosity::kQuiet);
-    fs::remove_all(Root());
+  static sim::SimulateOptions Options() {
     sim::SimulateOptions o;
     o.scene = "gate";
     o.seed = 5;
@@ -44,7 +49,12 @@ class MobileAdjustTest : public ::testing::Test {
     o.mobile_revolutions = 58;
     o.clouds.surface_samples = 0;
     o.render.samples_per_axis = 1;
-    sim::Simulate(o, (Root() / "sim").string());
+    return o;
+  }
+  static void SetUpTestSuite() {
+    SetVerbosity(Verbosity::kQuiet);
+    fs::remove_all(Root());
+    sim::Simulate(Options(), (Root() / "sim").string());
   }
   static void TearDownTestSuite() {
     if (!std::getenv("MMBA_KEEP_TEST_OUTPUT")) fs::remove_all(Root());
@@ -53,6 +63,7 @@ class MobileAdjustTest : public ::testing::Test {
   static AdjustOutcome Run(const std::string& project_path, const std::string& out) {
     return testing_support::RunProject(project_path, out);
   }
+  static void ExpectColouredLikeTheScene(const json& r, const io::PointCloud& corrected, const io::PointCloud& truth);
 };
 
 TEST_F(MobileAdjustTest, CorrectsTheTrajectoryAndRecoversTheCameraLidarExtrinsic) {
@@ -122,6 +133,98 @@ TEST_F(MobileAdjustTest, CorrectsTheTrajectoryAndRecoversTheCameraLidarExtrinsic
   }
   EXPECT_LT(std::sqrt(after / truth.size()), 0.3 * std::sqrt(before / truth.size()))
       << "RMS to the truth: delivered " << std::sqrt(before / truth.size()) << " m, corrected " << std::sqrt(after / truth.size());
+  ExpectColouredLikeTheScene(r, corrected, truth);
+}
+
+// The corrected cloud's colours (from the rig images and the photos, with each image's
+// z-buffer) against the simulated scene itself: at the true position of a coloured point, the
+// surface a rig frame's ray hits there gives the grey the renderer put in the images — the
+// procedural albedo with the sun's Lambert shading, gamma 1/2.2 (src/sim/render.cc). Independent
+// of the images, the adjusted poses and the z-buffers; a colour from the wrong pixel, a wrong
+// pose or an occluding surface decorrelates it. Checked for all coloured points and for those
+// outside the photo block's box (the rig images alone).
+void MobileAdjustTest::ExpectColouredLikeTheScene(const json& r, const io::PointCloud& corrected, const io::PointCloud& truth) {
+  ASSERT_TRUE(r.contains("mobile_lidar_coloured")) << r.dump().substr(0, 2000);
+  const json& c = r["mobile_lidar_coloured"];
+  EXPECT_EQ(c["points"].get<size_t>(), corrected.size());
+  EXPECT_GT(c["coloured"].get<double>(), 0.9 * corrected.size()) << c.dump();
+  EXPECT_GT(c["coloured_by_rig_images"].get<double>(), 0.9 * corrected.size()) << c.dump();
+  EXPECT_GE(c["rig_images"].get<int>(), 18) << c.dump();  // 6 frames x 5 side cameras (the up camera sees sky)
+  ASSERT_EQ(corrected.colors.size(), corrected.size());
+  const sim::SimulateOptions o = Options();
+  const sim::SimScene scene = sim::MakeGateScene(o.gate, o.seed);
+  const sim::RayCaster caster(scene.mesh);
+  const Eigen::Vector3d sun = o.render.sun_direction.normalized();
+  // True rig frame centres and times.
+  const json truth_json = json::parse(ReadText(Root() / "sim" / "truth" / "truth.json"));
+  std::vector<std::pair<double, Eigen::Vector3d>> frames;
+  {
+    std::istringstream csv(ReadText(Root() / "sim" / "rig_frames.csv"));
+    std::string line;
+    std::map<std::string, double> times;
+    while (std::getline(csv, line)) {
+      if (line.empty() || line[0] == '#' || line.rfind("frame,", 0) == 0) continue;
+      times[line.substr(0, line.find(','))] = std::stod(line.substr(line.find(',') + 1));
+    }
+    for (const json& f : truth_json["rig"]["frames"]) {
+      const json& q = f["rig_from_world"]["qvec_wxyz"];
+      const json& t = f["rig_from_world"]["tvec"];
+      const Rigid3d rig_from_world(Eigen::Quaterniond(q[0], q[1], q[2], q[3]), Eigen::Vector3d(t[0], t[1], t[2]));
+      frames.push_back({times.at(f["name"].get<std::string>()), rig_from_world.Inverse().translation});
+    }
+  }
+  ASSERT_EQ(frames.size(), 6u);
+  // The photo block's box: the tie points, 1 m around.
+  const io::PointCloud ties = io::ReadPly((Root() / "out" / "tie_points.ply").string());
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e30), hi = -lo;
+  for (const Eigen::Vector3d& p : ties.points) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  lo.array() -= 1.0;
+  hi.array() += 1.0;
+  std::vector<std::pair<double, double>> all, rig_only;  // (expected grey, cloud grey)
+  const size_t stride = std::max<size_t>(1, corrected.size() / 6000);
+  size_t grey_points = 0;
+  for (size_t i = 0; i < corrected.size(); i += stride) {
+    const std::array<uint8_t, 3>& rgb = corrected.colors[i];
+    if (rgb == std::array<uint8_t, 3>{128, 128, 128}) {
+      ++grey_points;
+      continue;
+    }
+    const Eigen::Vector3d& p = truth.points[i];
+    const auto nearest = std::min_element(frames.begin(), frames.end(), [&](const auto& a, const auto& b) {
+      return std::abs(a.first - corrected.time[i]) < std::abs(b.first - corrected.time[i]);
+    });
+    const Eigen::Vector3d ray = p - nearest->second;
+    const sim::RayHit hit = caster.Intersect(nearest->second, ray, 0.0, ray.norm() + 0.1);
+    if (!hit.hit || (hit.point - p).norm() > 0.03) continue;  // hidden from that frame, or a ghost return
+    const sim::Material& material = scene.mesh.materials[scene.mesh.triangle_material[hit.triangle]];
+    if (material.material_class != sim::MaterialClass::kDiffuse) continue;  // mirrors the sky or a wall
+    const double albedo = sim::Albedo(material, hit.point, hit.normal, o.seed);
+    const double radiance = albedo * (o.render.ambient + (1.0 - o.render.ambient) * std::max(0.0, hit.normal.dot(sun)));
+    const double expected = 255.0 * std::pow(std::clamp(radiance * o.render.exposure, 0.0, 1.0), 1.0 / 2.2);
+    const double grey = (rgb[0] + rgb[1] + rgb[2]) / 3.0;
+    all.push_back({expected, grey});
+    if (!((p.array() >= lo.array()).all() && (p.array() <= hi.array()).all())) rig_only.push_back({expected, grey});
+  }
+  const auto pearson = [](const std::vector<std::pair<double, double>>& pairs) {
+    double ma = 0, mb = 0;
+    for (const auto& [a, b] : pairs) ma += a, mb += b;
+    ma /= pairs.size();
+    mb /= pairs.size();
+    double sab = 0, saa = 0, sbb = 0;
+    for (const auto& [a, b] : pairs) sab += (a - ma) * (b - mb), saa += (a - ma) * (a - ma), sbb += (b - mb) * (b - mb);
+    return sab / std::sqrt(saa * sbb);
+  };
+  ASSERT_GT(all.size(), 1000u);
+  ASSERT_GT(rig_only.size(), 500u);
+  std::vector<std::pair<double, double>> shuffled = all;
+  for (size_t k = 0; k < all.size(); ++k) shuffled[k].second = all[(k + all.size() / 2) % all.size()].second;
+  double mean_abs = 0.0;
+  for (const auto& [a, b] : all) mean_abs += std::abs(a - b);
+  std::printf("mobile cloud colours against the scene: r = %.3f over %zu points (%zu outside the photo block, r = %.3f), "
+              "mean |grey difference| %.1f, shuffled r = %.3f; %zu of the sample grey\n",
+              pearson(all), all.size(), rig_only.size(), pearson(rig_only), mean_abs / all.size(), pearson(shuffled), grey_points);
+  EXPECT_GT(pearson(all), 0.7);
+  EXPECT_GT(pearson(rig_only), 0.7);
 }
 
 TEST_F(MobileAdjustTest, RefusesACloudWithoutPointTimes) {
