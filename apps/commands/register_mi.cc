@@ -17,6 +17,7 @@
 #include "mmba/io/point_cloud.h"
 #include "mmba/io/text_reader.h"
 #include "mmba/registration/mi/mi_registration.h"
+#include "mmba/registration/mi/result_json.h"
 
 namespace mmba::app {
 namespace {
@@ -51,6 +52,7 @@ struct RegisterMiArgs {
   int threads = 2;
   double restart_tolerance_px = 1.0;
   double max_sigma_px = 0.5;
+  double max_calibrated_sigma_px = 1.0;
   bool halves = true;
   bool point_samples = false;
   int split_level = 0;
@@ -66,29 +68,6 @@ struct RegisterMiArgs {
   std::string output;
   std::string lidar_image;
 };
-
-nlohmann::json MetricJson(const mi::MetricValue& m) {
-  return {{"mi_bits", m.mi},
-          {"nmi", m.nmi},
-          {"nid", m.nid},
-          {"joint_entropy_bits", m.joint_entropy},
-          {"samples", m.samples},
-          {"lidar_samples", m.lidar_samples}};
-}
-
-nlohmann::json PoseJson(const Rigid3d& pose) {
-  const Eigen::Matrix4d m = pose.ToMatrix4();
-  nlohmann::json values = nlohmann::json::array();
-  for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) values.push_back(m(r, c));
-  }
-  return values;
-}
-
-nlohmann::json CorrectionJson(const mi::Vector6d& c) {
-  return {{"tx", c[0]}, {"ty", c[1]}, {"tz", c[2]},
-          {"roll", c[3]}, {"pitch", c[4]}, {"yaw", c[5]}};
-}
 
 nlohmann::json OffsetJson(const mi::PixelOffsetStats& s) {
   return {{"points", s.points},
@@ -178,6 +157,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.threads = args.threads;
   options.restart_tolerance_px = args.restart_tolerance_px;
   options.max_sigma_px = args.max_sigma_px;
+  options.max_calibrated_sigma_px = args.max_calibrated_sigma_px;
   options.split_check = args.halves;
   options.point_samples = args.point_samples;
   options.split_level = args.split_level;
@@ -326,76 +306,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     result = mi::RegisterRig(frames, start, rig);
   }
   // ---- Output.
-  nlohmann::json out;
-  out["status"] = result.status;
-  out["reason"] = result.reason;
-  out["cam_from_lidar"] = PoseJson(result.cam_from_lidar);
-  out["cam_from_lidar_start"] = PoseJson(start);
-  out["correction"] = CorrectionJson(result.correction);
-  out["correction_convention"] =
-      "lidar_from_cam' = [Rz(yaw) Ry(pitch) Rx(roll) R | c + t] about the camera centre, "
-      "axes of the LiDAR frame; metres and degrees";
-  nlohmann::json cov = nlohmann::json::array();
-  for (int r = 0; r < 6; ++r) {
-    nlohmann::json row = nlohmann::json::array();
-    for (int c = 0; c < 6; ++c) row.push_back(result.covariance(r, c));
-    cov.push_back(row);
-  }
-  out["covariance"] = cov;
-  nlohmann::json cov_laplace = nlohmann::json::array();
-  for (int r = 0; r < 6; ++r) {
-    nlohmann::json row = nlohmann::json::array();
-    for (int c = 0; c < 6; ++c) row.push_back(result.covariance_laplace(r, c));
-    cov_laplace.push_back(row);
-  }
-  out["covariance_laplace"] = cov_laplace;
-  out["covariance_units"] = "m^2, deg^2 in the order tx ty tz roll pitch yaw";
-  out["covariance_valid"] = result.covariance_valid;
-  out["trusted"] = result.trusted;
-  out["confidence_reason"] = result.confidence_reason;
-  const mi::AcceptanceChecks& checks = result.checks;
-  out["checks"] = {{"on_bound", checks.on_bound},
-                   {"sigma_px", checks.sigma_px},
-                   {"max_sigma_px", options.max_sigma_px},
-                   {"weak_directions", checks.weak_directions},
-                   {"effective_samples", checks.effective_samples},
-                   {"sample_inflation", checks.sample_inflation},
-                   {"restarts", checks.restarts_run},
-                   {"restart_spread_px", checks.restart_spread_px},
-                   {"restart_tolerance_px", options.restart_tolerance_px},
-                   {"restart_best_gain", checks.restart_best_gain},
-                   {"mi_bits", checks.mi_bits},
-                   {"mi_shuffled_bits", checks.mi_shuffled_bits},
-                   {"mi_shuffled_sd_bits", checks.mi_shuffled_sd_bits},
-                   {"mi_significance", checks.mi_significance},
-                   {"restart_rms_px", checks.restart_rms_px},
-                   {"halves", checks.split_parts},
-                   {"halves_kind", checks.split_kind},
-                   {"halves_spread_px", checks.split_spread_px},
-                   {"halves_tolerance_px", options.split_tolerance_px},
-                   {"variance_factor", checks.variance_factor},
-                   {"variance_factor_halves", checks.variance_factor_halves},
-                   {"variance_factor_restarts", checks.variance_factor_restarts},
-                   {"sigma_px_calibrated", checks.sigma_px_calibrated},
-                   {"axis_scans_passed", checks.scans_passed},
-                   {"axis_scans_reason", checks.scans_reason}};
-  nlohmann::json stages = nlohmann::json::array();
-  for (const mi::StageStat& stage : result.stages) {
-    stages.push_back({{"stage", stage.name},
-                      {"evaluations", stage.evaluations},
-                      {"seconds", stage.seconds}});
-  }
-  out["stages"] = stages;
-  out["metric"] = args.metric;
-  out["metric_before"] = options.metric.kind == mi::MetricKind::kNid ? -result.metric_before.value
-                                                                     : result.metric_before.value;
-  out["metric_after"] = options.metric.kind == mi::MetricKind::kNid ? -result.metric_after.value
-                                                                    : result.metric_after.value;
-  out["metrics_before"] = MetricJson(result.metric_before);
-  out["metrics_after"] = MetricJson(result.metric_after);
-  out["iterations"] = result.iterations;
-  out["evaluations"] = result.evaluations;
-  out["runtime_seconds"] = result.runtime_seconds;
+  nlohmann::json out = mi::ResultToJson(result, options, start);
   out["settings"] = {{"representation", args.representation}, {"view", args.view},
                      {"bins", args.bins},                     {"smoothing", args.smoothing},
                      {"region", args.region},                 {"pyramid_levels", args.pyramid_levels},
@@ -413,7 +324,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
       per_frame.push_back({{"frame", frames[i].name},
                            {"status", r.status},
                            {"reason", r.reason},
-                           {"correction", CorrectionJson(r.correction)}});
+                           {"correction", mi::CorrectionToJson(r.correction)}});
     }
     out["frames"] = per_frame;
   }
@@ -428,7 +339,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
            {"after", OffsetJson(mi::PixelOffsets(clouds[0], view, reference,
                                                  result.cam_from_lidar, options.render))}});
     }
-    out["perturbation"] = CorrectionJson(Eigen::Map<const mi::Vector6d>(args.perturb.data()));
+    out["perturbation"] = mi::CorrectionToJson(Eigen::Map<const mi::Vector6d>(args.perturb.data()));
     out["pixel_offset_vs_reference"] = offsets;
   }
   AtomicFileSet files;
@@ -510,6 +421,10 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
       ->capture_default_str();
   sub->add_option("--max-sigma-px", args->max_sigma_px,
                   "Acceptance: largest predicted pixel sigma (from the covariance)")
+      ->capture_default_str();
+  sub->add_option("--max-calibrated-sigma-px", args->max_calibrated_sigma_px,
+                  "Acceptance: largest pixel sigma of the calibrated covariance (the one "
+                  "reported: the halves' and restarts' scatter included)")
       ->capture_default_str();
   sub->add_option("--halves", args->halves,
                   "Acceptance: re-optimise two independent halves of the data (the views "

@@ -360,32 +360,13 @@ void LoadPhotos(JointState* s, const std::string& work_dir) {
     for (const auto& [name, id] : image_by_name) {
       const fs::path file = fs::path(p.mi_results) / (fs::path(name).stem().string() + ".json");
       if (!fs::exists(file)) continue;
-      nlohmann::json j;
-      try {
-        std::ifstream in(file);
-        j = nlohmann::json::parse(in);
-      } catch (const nlohmann::json::exception& e) {
-        throw InputError(file.string(), 0, "JSON", e.what(), "a register-mi result");
-      }
-      if (j.value("status", "") != "ok" || !j.value("covariance_valid", false)) {
-        s->warnings.push_back("MI result " + file.string() + " not used: status " + j.value("status", "?") +
-                              (j.value("covariance_valid", false) ? "" : ", no valid covariance"));
+      MiResult result;
+      std::string why;
+      if (!internal::ReadMiResultFile(file.string(), &result, &why)) {
+        s->warnings.push_back("MI result " + file.string() + " not used: " + why);
         continue;
       }
-      if (!j.contains("cam_from_lidar") || !j["cam_from_lidar"].is_array() || j["cam_from_lidar"].size() != 16 ||
-          !j.contains("covariance") || !j["covariance"].is_array() || j["covariance"].size() != 6) {
-        throw InputError(file.string(), 0, "cam_from_lidar/covariance", "missing or wrong size",
-                         "16 numbers (4x4 row-major) and a 6x6 covariance");
-      }
-      double m[16];
-      for (int k = 0; k < 16; ++k) m[k] = j["cam_from_lidar"][k].get<double>();
-      MiResult result;
       result.image_id = id;
-      result.cam_from_world = io::RigidFromRowMajor4x4(m, file.string(), "cam_from_lidar");
-      for (int a = 0; a < 6; ++a) {
-        for (int b = 0; b < 6; ++b) result.covariance(a, b) = j["covariance"][a][b].get<double>();
-      }
-      result.source = file.string();
       block.mi.push_back(result);
     }
     Note(s, "MI results: " + std::to_string(block.mi.size()) + " pose priors from " + p.mi_results);
@@ -693,6 +674,7 @@ const char* kBaseline = "spheres: baseline prior";
 const char* kRig = "rig: tie points";
 const char* kMi = "photos: MI pose priors";
 const char* kRigPrior = "rig: GNSS/INS frame priors";
+const char* kRigMi = "rig: MI frame priors";
 const char* kRigCalibration = "rig: cam_from_rig priors";
 const char* kMobile = "mobile LiDAR: points on the static surface";
 const char* kTrajectoryPrior = "mobile: GNSS/INS trajectory prior";
@@ -787,6 +769,11 @@ void BuildProblem(JointState* s) {
       s->builder->AddGroup(std::make_unique<PosePriorGroup>(frames, rig.rig_prior, factor(kRigPrior) * c.trajectory_sigma_m,
                                                             factor(kRigPrior) * c.trajectory_sigma_deg * M_PI / 180.0, c.loss,
                                                             kRigPrior, rig.frame_times, c.trajectory_correlation_s));
+    }
+    if (!rig.mi.empty()) {
+      std::vector<MiResult> mi = rig.mi;
+      for (size_t i = 0; i < mi.size(); ++i) mi[i].pose = &rig.rig_from_world[rig.mi_frame[i]];
+      s->builder->AddGroup(std::make_unique<MiPriorGroup>(Without(mi, excluded(kRigMi)), factor(kRigMi) * factor(kRigMi), c.loss, kRigMi));
     }
     if (c.cam_from_rig == "weighted") {
       std::vector<Rigid3d*> cameras;
@@ -1077,6 +1064,7 @@ std::string DescribeObservation(const JointState& s, const FactorGroup& group, s
   }
   if (name == kMi && s.photos) return "MI pose of " + s.photos->model.images.at(s.photos->mi[index].image_id).name + " (" + s.photos->mi[index].source + ")";
   if (name == kRigPrior && s.rig) return "GNSS/INS prior of rig frame " + s.rig->frame_names[index];
+  if (name == kRigMi && s.rig) return "MI pose of rig frame " + s.rig->frame_names[s.rig->mi_frame[index]] + " (" + s.rig->mi[index].source + ")";
   if (name == kRigCalibration && s.rig) return "cam_from_rig prior of " + s.rig->camera_names[index];
   if (name == kSphereLower && s.spheres) {
     return "point " + std::to_string(s.spheres->lower[index].point3D_id.value) + " (" + s.spheres->lower_source[index] + ")";
@@ -1198,6 +1186,7 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
     LoadLidar(&s);
     internal::RegisterSphereStations(&s);
     internal::LoadMobile(&s);
+    internal::RegisterImagesByMi(&s);
     if (!project.other_sensors.empty()) {
       for (const OtherSensor& o : project.other_sensors) {
         s.warnings.push_back("sensor '" + o.id + "' (" + o.type + ") validated but not adjusted: not implemented in this version");

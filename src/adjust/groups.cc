@@ -427,15 +427,14 @@ MiPriorGroup::MiPriorGroup(std::vector<MiResult> results, double covariance_scal
 void MiPriorGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
   for (size_t i = 0; i < results_.size(); ++i) {
     const MiResult& r = results_[i];
+    Rigid3d* pose = r.pose != nullptr ? r.pose : scene.HasImage(r.image_id) ? &scene.Image(r.image_id).cam_from_world : nullptr;
     ceres::CostFunction* cost =
-        scene.HasImage(r.image_id) ? registration::mi::MiPosePrior::Create(r.cam_from_world, covariance_scale_ * r.covariance)
-                                   : nullptr;
+        pose != nullptr ? registration::mi::MiPosePrior::Create(r.cam_from_world, covariance_scale_ * r.covariance) : nullptr;
     if (cost == nullptr) {
       Skip();
       continue;
     }
-    ImagePose& image = scene.Image(r.image_id);
-    AddBlock(problem, cost, {image.cam_from_world.rotation.coeffs().data(), image.cam_from_world.translation.data()}, 1.0, i);
+    AddBlock(problem, cost, {pose->rotation.coeffs().data(), pose->translation.data()}, 1.0, i);
   }
 }
 

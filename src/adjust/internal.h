@@ -79,6 +79,10 @@ struct RigBlock {
   std::vector<Rigid3d> cam_from_rig_initial;
   std::vector<std::vector<double>> initial_params;
   Rigid3d body_from_rig;
+  /// MI results of the frames' stitched panoramas (pose = nullptr here; BuildProblem points
+  /// each at rig_from_world[mi_frame[i]]).
+  std::vector<MiResult> mi;
+  std::vector<size_t> mi_frame;
   std::vector<RigObservation> observations;
   std::vector<std::string> sources;
 };
@@ -166,6 +170,11 @@ struct JointState {
   int total_iterations = 0;
   std::vector<std::string> warnings;
   std::vector<std::string> log;  ///< stages, for the report
+  /// MI registrations run by the adjustment (report.json `mi_registration`) and their
+  /// register-mi result files (written to mi/<name>.json).
+  nlohmann::json mi_registration = nlohmann::json::array();
+  std::vector<Rigid3d> mi_registered;  ///< per mi_registration entry: the pose it found
+  std::vector<std::pair<std::string, nlohmann::json>> mi_files;
 };
 
 /// The LiDAR plane at a world point: the reference cloud's, or with adjusted scans the plane of
@@ -215,6 +224,16 @@ std::string FindImage(const std::string& folder, const std::string& stem);
 /// vertical-baseline stereo cloud registered to the static LiDAR (issue 5's pipeline) moves its
 /// setup pose when the registration is "ok"; the outcome per station is kept for the report.
 void RegisterSphereStations(JointState* s);
+
+/// Reads a `mmba register-mi` result file as a pose prior. False (and `why` set) when it is not
+/// usable (status not "ok", no valid covariance); InputError when it is malformed.
+bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* why);
+/// The initialisation step "MI → camera corrections": with `mi_register`, each photo (at its
+/// initial pose) and each rig frame's stitched panorama (at its GNSS/INS pose) is registered
+/// to the static LiDAR's reference cloud by register-mi's library call with its default
+/// settings; "ok" results become MI pose priors (a rig frame also starts there). Reads the
+/// rig's `mi_results` files too.
+void RegisterImagesByMi(JointState* s);
 
 /// Writes lidar_coloured.ply (the static LiDAR around the photo block coloured from the
 /// adjusted photos, with a z-buffer visibility test) into `stage`; returns the report entry

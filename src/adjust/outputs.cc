@@ -975,6 +975,30 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     const json coloured = WriteColouredLidar(s, stage, &files);
     if (!coloured.empty()) report["lidar_coloured"] = coloured;
   }
+  if (!s.mi_registration.empty()) {
+    // The MI registrations the adjustment ran, and where the adjustment ended against them
+    // (the MI paper's camera-pose corrections, Fig. 13).
+    json registration = json::array();
+    for (size_t i = 0; i < s.mi_registration.size(); ++i) {
+      json e = s.mi_registration[i];
+      if (e.value("prior", false)) {
+        const Rigid3d adjusted = e.contains("frame") ? s.rig->rig_from_world.at(e["frame"].get<size_t>())
+                                                     : s.scene.Image(ImageId(e["image_id"].get<uint64_t>())).cam_from_world;
+        const Rigid3d& registered = s.mi_registered[i];
+        e["adjusted_minus_registered_m"] = (CameraCentre(adjusted) - CameraCentre(registered)).norm();
+        e["adjusted_minus_registered_deg"] = adjusted.rotation.angularDistance(registered.rotation) * kDeg;
+      }
+      e.erase("frame");
+      e.erase("image_id");
+      registration.push_back(e);
+    }
+    report["mi_registration"] = registration;
+    fs::create_directories(stage / "mi");
+    for (const auto& [name, result] : s.mi_files) WriteText(stage / "mi" / (name + ".json"), result.dump(2) + "\n");
+    if (!s.mi_files.empty()) {
+      files.push_back({{"name", "mi/"}, {"description", "the MI registrations run by the adjustment (mi_register), one register-mi result per image"}});
+    }
+  }
   if (s.spheres && !s.spheres->registration.empty()) {
     json registration = json::array();
     for (const auto& [station, entry] : s.spheres->registration) {

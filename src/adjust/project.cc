@@ -79,6 +79,17 @@ class ProjectReader {
     return value;
   }
 
+  /// `mi_register`: true, false, or a list of image/frame names (only those are registered).
+  void MiRegister(Node n, Field f, bool* on, std::vector<std::string>* only) const {
+    if (n.IsSequence()) {
+      *only = r_.StringList(n, f);
+      if (only->empty()) r_.Fail(n, f, "true, false or a non-empty list of image names", "an empty list");
+      *on = true;
+    } else {
+      *on = r_.Bool(n, f);
+    }
+  }
+
   void Sensor(Node n, Field f, std::set<std::string>* ids) {
     if (!n.IsMap()) r_.Fail(n, f, "a mapping {id, type, ...}", io::YamlReader::Kind(n));
     r_.Require(n, f, {"id", "type"});
@@ -100,6 +111,7 @@ class ProjectReader {
                     {"colmap_model", path(&p.colmap_model, true)},
                     {"control_measurements", path(&p.control_measurements, false)},
                     {"mi_results", path(&p.mi_results, true)},
+                    {"mi_register", [&](Node v, Field g) { MiRegister(v, g, &p.mi_register, &p.mi_only); }},
                     {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
                     {"control_sigma_px", [&](Node v, Field g) { p.control_sigma_px = SigmaPx(v, g); }},
                     {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
@@ -240,6 +252,8 @@ class ProjectReader {
         p.line = line;
         r_.Map(n, f, {{"id", keep}, {"type", keep}, {"images", path(&p.images, true)},
                       {"panoramas", path(&p.panoramas, true)}, {"calibration", path(&p.calibration, false)},
+                      {"mi_results", path(&p.mi_results, true)},
+                      {"mi_register", [&](Node v, Field g) { MiRegister(v, g, &p.mi_register, &p.mi_only); }},
                       {"trajectory", path(&p.trajectory, false)}, {"frames_file", path(&p.frames_file, false)},
                       {"observations", path(&p.observations, false)},
                       {"tie_block", [&](Node v, Field g) { p.tie_block = r_.String(v, g); }},
@@ -258,6 +272,7 @@ class ProjectReader {
                       {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
                       {"refine", [&](Node v, Field g) { p.refine = Refine(v, g, true); }}});
         r_.Require(n, f, {"images", "calibration"});
+        if (p.mi_register || !p.mi_results.empty()) r_.Require(n, f, {"panoramas"});
         if (!p.observations.empty() || !p.frames_file.empty()) {
           r_.Require(n, f, {"observations", "frames_file", "trajectory", "tie_block"});
           project_->rigs.push_back(p);
@@ -376,6 +391,17 @@ Project LoadProject(const std::string& path) {
     bool found = false;
     for (const CameraRig& rig : project.rigs) found = found || rig.id == m.rig;
     if (!found) throw InputError(path, m.line, "rig", m.rig, "the id of a camera_rig sensor with observations");
+  }
+  // MI registration runs against the static LiDAR (the world-frame cloud).
+  for (const PhotoCollection& p : project.photos) {
+    if (p.mi_register && project.lidar_static.empty()) {
+      throw InputError(path, p.line, "mi_register", "true", "a lidar_static sensor too: the photos are registered to its reference cloud");
+    }
+  }
+  for (const CameraRig& rig : project.rigs) {
+    if (rig.mi_register && project.lidar_static.empty()) {
+      throw InputError(path, rig.line, "mi_register", "true", "a lidar_static sensor too: the panoramas are registered to its reference cloud");
+    }
   }
   if (project.lidar_mobile.size() > 1) {
     throw InputError(path, project.lidar_mobile[1].line, "type", "lidar_mobile", "one lidar_mobile sensor in this version");

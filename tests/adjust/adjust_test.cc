@@ -252,6 +252,31 @@ TEST_F(AdjustTest, FlagsInjectedBlunders) {
         << json{{"status", "ok"}, {"cam_from_lidar", pose}, {"covariance", cov}, {"covariance_valid", true}}.dump();
     if (i == 3) mi_blunder = name;
   }
+  // MI results of the rig's stitched panoramas (cam_from_lidar = rig_from_world): the first
+  // frame at its true pose, the second 0.3 m off; a third file with status failed is ignored.
+  fs::create_directories(dir / "rig_mi");
+  ASSERT_GE(truth["rig"]["frames"].size(), 2u);
+  std::vector<std::string> rig_frames;
+  for (int i = 0; i < 2; ++i) {
+    const json& frame = truth["rig"]["frames"][i];
+    const std::vector<double> q = frame["rig_from_world"]["qvec_wxyz"], t = frame["rig_from_world"]["tvec"];
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    m.topLeftCorner<3, 3>() = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
+    m.topRightCorner<3, 1>() = Eigen::Vector3d(t[0], t[1], t[2]) + (i == 1 ? Eigen::Vector3d(0, 0.3, 0) : Eigen::Vector3d(0.003, 0.002, -0.004));
+    json pose = json::array(), cov = json::array();
+    for (int r = 0; r < 4; ++r) {
+      for (int c = 0; c < 4; ++c) pose.push_back(m(r, c));
+    }
+    for (int r = 0; r < 6; ++r) {
+      json row = json::array();
+      for (int c = 0; c < 6; ++c) row.push_back(r == c ? (r < 3 ? 0.01 * 0.01 : 0.1 * 0.1) : 0.0);
+      cov.push_back(row);
+    }
+    rig_frames.push_back(frame["name"]);
+    std::ofstream(dir / "rig_mi" / (rig_frames.back() + ".json"))
+        << json{{"status", "ok"}, {"cam_from_lidar", pose}, {"covariance", cov}, {"covariance_valid", true}}.dump();
+  }
+  std::ofstream(dir / "rig_mi" / "frame_999.json") << json{{"status", "failed"}, {"reason", "test"}}.dump();
   // Everything else is the simulated project's own (symbolic links).
   for (const fs::directory_entry& entry : fs::directory_iterator(sim)) {
     const std::string name = entry.path().filename().string();
@@ -261,6 +286,9 @@ TEST_F(AdjustTest, FlagsInjectedBlunders) {
   const size_t at = project.find("    colmap_model: colmap/photos\n");
   ASSERT_NE(at, std::string::npos);
   project.insert(at, "    mi_results: mi\n");
+  const size_t rig_at = project.find("    frames_file: rig_frames.csv\n");
+  ASSERT_NE(rig_at, std::string::npos);
+  project.insert(rig_at, "    mi_results: rig_mi\n");
   std::ofstream(dir / "project.yaml") << project;
   const AdjustOutcome outcome = Run((dir / "project.yaml").string(), (dir / "out").string());
   ASSERT_TRUE(outcome.ok) << outcome.reason;
@@ -273,13 +301,24 @@ TEST_F(AdjustTest, FlagsInjectedBlunders) {
     mi = mi || what.find("MI pose of " + mi_blunder) != std::string::npos;
   }
   EXPECT_TRUE(mi) << outcome.report["blunders"].dump(1);
+  bool rig_mi = false;
   for (const json& b : outcome.report["blunders"]) {
-    // The two good MI priors are not flagged.
+    // The good MI priors are not flagged.
     const std::string what = b["observation"];
+    rig_mi = rig_mi || what.find("MI pose of rig frame " + rig_frames[1]) != std::string::npos;
     if (what.find("MI pose of") != std::string::npos) {
-      EXPECT_NE(what.find(mi_blunder), std::string::npos) << what;
+      EXPECT_TRUE(what.find(mi_blunder) != std::string::npos || what.find("rig frame " + rig_frames[1]) != std::string::npos) << what;
     }
   }
+  EXPECT_TRUE(rig_mi) << outcome.report["blunders"].dump(1);
+  bool rig_group = false;
+  for (const json& g : outcome.report["groups"]) {
+    if (g["name"] == "rig: MI frame priors") {
+      rig_group = true;
+      EXPECT_EQ(g["observations"].get<int>(), 1) << g.dump();  // the blunder excluded
+    }
+  }
+  EXPECT_TRUE(rig_group);
   EXPECT_TRUE(ts) << outcome.report["blunders"].dump(1);
   EXPECT_TRUE(gnss_flagged) << outcome.report["blunders"].dump(1);
   if (target_id != "T3" && target_id != "T6") {

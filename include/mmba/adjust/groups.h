@@ -132,9 +132,12 @@ double GaussMarkovFactor(double dt_s, double correlation_s);
 
 /// A mutual-information registration result of an image against the (world-frame) LiDAR:
 /// the camera pose and its 6×6 covariance (m², deg²; tx ty tz roll pitch yaw), used as a
-/// weighted pose prior (registration/mi/mi_prior.h).
+/// weighted pose prior (registration/mi/mi_prior.h). The prior is on the Scene image
+/// `image_id`, or on `pose` when set (a camera pose stored outside the Scene: a rig frame's
+/// rig_from_world, whose stitched panorama is in the rig frame).
 struct MiResult {
   ImageId image_id;
+  Rigid3d* pose = nullptr;
   Rigid3d cam_from_world;
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
   std::string source;

@@ -34,6 +34,12 @@ struct PhotoCollection {
   /// Folder of `mmba register-mi` results, <image stem>.json, LiDAR frame = world: weighted
   /// pose priors (their covariance); "" = none.
   std::string mi_results;
+  /// Run the MI registration (register-mi's library call, its default settings) of every
+  /// photo against the static LiDAR's reference cloud at the photo's initial pose; the "ok"
+  /// results become weighted pose priors, as `mi_results` files do. `mi_register: [names]`
+  /// registers only those images (names or stems).
+  bool mi_register = false;
+  std::vector<std::string> mi_only;  ///< the list of `mi_register: [...]`; empty = every image
   double sigma_px = 1.0;              ///< σ of a tie-point image coordinate
   double control_sigma_px = 0.0;      ///< σ of a target measurement; 0 = the CSV's, else sigma_px
   LossOptions loss{LossType::kHuber, 3.0};
@@ -137,7 +143,15 @@ struct CameraRig {
   std::string id;
   int line = 0;
   std::string images;
-  std::string panoramas;
+  std::string panoramas;       ///< folder of the stitched panoramas <frame>.<ext>, in the rig frame
+  /// Folder of `mmba register-mi` results per panorama, <frame>.json (cam_from_lidar = the
+  /// frame's rig_from_world, LiDAR frame = world): weighted priors on the frames; "" = none.
+  std::string mi_results;
+  /// Run the MI registration of each frame's panorama against the static LiDAR's reference
+  /// cloud from the GNSS/INS pose; "ok" results start the frame there and are its priors.
+  /// `mi_register: [frames]` registers only those frames.
+  bool mi_register = false;
+  std::vector<std::string> mi_only;  ///< the list of `mi_register: [...]`; empty = every frame
   std::string calibration;     ///< rig YAML (calib/README.md)
   std::string trajectory;      ///< CSV time_s,x_east_m,y_north_m,z_up_m,qw,qx,qy,qz (world_from_body)
   std::string frames_file;     ///< CSV frame,time_s

@@ -106,9 +106,10 @@ bool RegistrationOptions::Check(std::string* error) const {
              " must be in 0..5 (levels beyond the pyramid mean its coarsest)";
     return false;
   }
-  if (!(max_sigma_px > 0) || !(restart_tolerance_px > 0)) {
-    *error = "max_sigma_px and restart_tolerance_px must be > 0 (found " +
-             std::to_string(max_sigma_px) + ", " + std::to_string(restart_tolerance_px) + ")";
+  if (!(max_sigma_px > 0) || !(restart_tolerance_px > 0) || !(max_calibrated_sigma_px > 0)) {
+    *error = "max_sigma_px, restart_tolerance_px and max_calibrated_sigma_px must be > 0 (found " +
+             std::to_string(max_sigma_px) + ", " + std::to_string(restart_tolerance_px) + ", " +
+             std::to_string(max_calibrated_sigma_px) + ")";
     return false;
   }
   if (finest_nelder_mead_level < 0 || finest_nelder_mead_level > 5) {
@@ -1436,6 +1437,13 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
                             (restarts_measured ? checks.variance_factor_restarts : 0.0));
       result.covariance = checks.variance_factor * result.covariance_laplace;
       checks.sigma_px_calibrated = checks.sigma_px * std::sqrt(checks.variance_factor);
+      if (!(checks.sigma_px_calibrated <= options.max_calibrated_sigma_px)) {
+        failures.push_back("the pose's own error estimate is too large: calibrated pixel sigma " +
+                           Fixed(checks.sigma_px_calibrated, 2) + " px > " +
+                           Fixed(options.max_calibrated_sigma_px, 2) + " px (the halves and the "
+                           "restarts scatter " + Fixed(std::sqrt(checks.variance_factor), 1) +
+                           "x more than the curvature predicts)");
+      }
     }
   }
   // (5) Per-axis scans: flat or multi-peaked surfaces.

@@ -113,6 +113,13 @@ struct RegistrationOptions {
   /// of the frame's image (View::image_pixels_per_pixel: a 940×452 cut of a 1024-wide
   /// panorama has 2.9 cut pixels per panorama pixel).
   double max_sigma_px = 0.5;
+  /// The same σ from the calibrated covariance (the one reported and used as a prior:
+  /// AcceptanceChecks::sigma_px_calibrated) must not exceed this: a result whose own error
+  /// estimate is above the paper's accuracy (< 1 px) is not "ok". Measured (bench/RESULTS.md,
+  /// "MI inside the adjustment"): a photo registered "ok" 0.21 m / 0.25° from its adjusted
+  /// pose had 1.35 px here (0.20 px Laplace); the 7 right "ok" of the simulated panoramas had
+  /// 0.38–1.11 px, so the two above 1 px (ending 0.88 px from the truth) are now refused too.
+  double max_calibrated_sigma_px = 1.0;
   /// Restarts: Nelder–Mead at `restart_level` (simplex 2·offset, the main run's finest
   /// tolerance) from this many points around the optimum (offset ±restart_offset in each
   /// parameter, deterministic signs, in opposite pairs); each must end within

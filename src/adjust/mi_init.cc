@@ -1,0 +1,297 @@
+// The initialisation step "MI → camera corrections" of issue 7: photos and the rig's stitched
+// panoramas registered to the static LiDAR by mutual information (Wang, Ferrie & Macfarlane,
+// CVPRW 2012; `mmba register-mi`'s library call with its default settings, not a copy), and
+// register-mi result files read as weighted pose priors (registration/mi/mi_prior.h).
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+
+#include <spdlog/spdlog.h>
+
+#include "internal.h"
+#include "mmba/core/error.h"
+#include "mmba/core/progress.h"
+#include "mmba/io/kitti.h"
+#include "mmba/registration/mi/mi_registration.h"
+#include "mmba/registration/mi/result_json.h"
+
+namespace mmba::adjust::internal {
+
+namespace fs = std::filesystem;
+namespace mi = registration::mi;
+using json = nlohmann::json;
+
+bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* why) {
+  json j;
+  try {
+    std::ifstream in(file);
+    j = json::parse(in);
+  } catch (const json::exception& e) {
+    throw InputError(file, 0, "JSON", e.what(), "a register-mi result");
+  }
+  if (!j.is_object()) throw InputError(file, 0, "JSON", j.type_name(), "a register-mi result (an object)");
+  if (j.value("status", "") != "ok" || !j.value("covariance_valid", false)) {
+    *why = "status " + j.value("status", std::string("?")) + (j.value("covariance_valid", false) ? "" : ", no valid covariance");
+    return false;
+  }
+  if (!j.contains("cam_from_lidar") || !j["cam_from_lidar"].is_array() || j["cam_from_lidar"].size() != 16 ||
+      !j.contains("covariance") || !j["covariance"].is_array() || j["covariance"].size() != 6) {
+    throw InputError(file, 0, "cam_from_lidar/covariance", "missing or wrong size", "16 numbers (4x4 row-major) and a 6x6 covariance");
+  }
+  try {
+    double m[16];
+    for (int k = 0; k < 16; ++k) m[k] = j["cam_from_lidar"][k].get<double>();
+    result->cam_from_world = io::RigidFromRowMajor4x4(m, file, "cam_from_lidar");
+    for (int a = 0; a < 6; ++a) {
+      if (!j["covariance"][a].is_array() || j["covariance"][a].size() != 6) {
+        throw InputError(file, 0, "covariance[" + std::to_string(a) + "]", "not 6 numbers", "a 6x6 covariance");
+      }
+      for (int b = 0; b < 6; ++b) result->covariance(a, b) = j["covariance"][a][b].get<double>();
+    }
+  } catch (const json::exception& e) {
+    throw InputError(file, 0, "cam_from_lidar/covariance", e.what(), "numbers");
+  }
+  result->source = file;
+  return true;
+}
+
+namespace {
+
+/// One image to register: its grey image, camera, start pose and where an "ok" goes.
+struct MiTask {
+  std::string name;   ///< image name (photos) or frame name (rig)
+  std::string kind;   ///< "photo" or "panorama"
+  std::string path;
+  sensors::Camera camera;
+  Rigid3d start;
+  ImageId image_id{0};  ///< photos
+  size_t frame = 0;     ///< rig
+};
+
+bool Wanted(const std::vector<std::string>& only, const std::string& name) {
+  if (only.empty()) return true;
+  const std::string stem = fs::path(name).stem().string();
+  return std::find(only.begin(), only.end(), name) != only.end() || std::find(only.begin(), only.end(), stem) != only.end();
+}
+
+/// The static LiDAR's reference cloud within `radius` of any of the cameras, streamed, at most
+/// `cap` points (an even subsample), with its intensity.
+io::PointCloud CloudNear(const std::string& path, const std::vector<Eigen::Vector3d>& centres, double radius, size_t cap) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (const Eigen::Vector3d& c : centres) {
+    lo = lo.cwiseMin(c);
+    hi = hi.cwiseMax(c);
+  }
+  lo.array() -= radius;
+  hi.array() += radius;
+  io::PointCloud out;
+  bool intensity = true;
+  io::StreamPointCloud(path, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t first, size_t) {
+    if (first == 0) intensity = chunk.has_intensity();
+    for (size_t i = 0; i < chunk.size(); ++i) {
+      const Eigen::Vector3d& p = chunk.points[i];
+      if (!((p.array() >= lo.array()).all() && (p.array() <= hi.array()).all())) continue;
+      bool near = false;
+      for (const Eigen::Vector3d& c : centres) near = near || (p - c).squaredNorm() <= radius * radius;
+      if (!near) continue;
+      out.points.push_back(p);
+      if (intensity) out.intensity.push_back(chunk.intensity[i]);
+    }
+  });
+  if (out.size() > cap) {
+    io::PointCloud thinned;
+    const double step = static_cast<double>(out.size()) / cap;
+    for (size_t k = 0; k < cap; ++k) {
+      const size_t i = static_cast<size_t>(k * step);
+      thinned.points.push_back(out.points[i]);
+      if (intensity) thinned.intensity.push_back(out.intensity[i]);
+    }
+    out = std::move(thinned);
+  }
+  return out;
+}
+
+/// The points of `cloud` within `radius` of `centre`.
+io::PointCloud Crop(const io::PointCloud& cloud, const Eigen::Vector3d& centre, double radius) {
+  io::PointCloud out;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if ((cloud.points[i] - centre).squaredNorm() > radius * radius) continue;
+    out.points.push_back(cloud.points[i]);
+    if (cloud.has_intensity()) out.intensity.push_back(cloud.intensity[i]);
+  }
+  return out;
+}
+
+}  // namespace
+
+void RegisterImagesByMi(JointState* s) {
+  const Project& project = *s->project;
+  // The rig's result files first (the photos' are read with the photo block).
+  if (s->rig && !s->rig->config->mi_results.empty()) {
+    RigBlock& rig = *s->rig;
+    for (size_t k = 0; k < rig.frame_names.size(); ++k) {
+      const fs::path file = fs::path(rig.config->mi_results) / (rig.frame_names[k] + ".json");
+      if (!fs::exists(file)) continue;
+      MiResult result;
+      std::string why;
+      if (!ReadMiResultFile(file.string(), &result, &why)) {
+        s->warnings.push_back("MI result " + file.string() + " not used: " + why);
+        continue;
+      }
+      rig.mi.push_back(result);
+      rig.mi_frame.push_back(k);
+    }
+    s->log.push_back("rig MI results: " + std::to_string(rig.mi.size()) + " frame priors from " + rig.config->mi_results);
+  }
+  // The registrations asked for.
+  std::vector<MiTask> tasks;
+  if (s->photos && s->photos->config->mi_register) {
+    const PhotoCollection& p = *s->photos->config;
+    for (const auto& [id, image] : s->photos->model.images) {
+      if (!Wanted(p.mi_only, image.name)) continue;
+      MiTask t;
+      t.name = image.name;
+      t.kind = "photo";
+      t.path = (fs::path(p.images) / image.name).string();
+      t.camera = s->scene.Camera(image.camera_id);
+      t.start = s->scene.Image(id).cam_from_world;
+      t.image_id = id;
+      tasks.push_back(t);
+    }
+  }
+  if (s->rig && s->rig->config->mi_register) {
+    const RigBlock& rig = *s->rig;
+    for (size_t k = 0; k < rig.frame_names.size(); ++k) {
+      if (!Wanted(rig.config->mi_only, rig.frame_names[k])) continue;
+      const std::string path = FindImage(rig.config->panoramas, rig.frame_names[k]);
+      if (path.empty()) {
+        s->warnings.push_back("rig frame " + rig.frame_names[k] + ": no panorama " + rig.frame_names[k] + ".* in " +
+                              rig.config->panoramas + ", not registered by MI");
+        continue;
+      }
+      MiTask t;
+      t.name = rig.frame_names[k];
+      t.kind = "panorama";
+      t.path = path;
+      t.start = rig.rig_from_world[k];
+      t.frame = k;
+      tasks.push_back(t);
+    }
+  }
+  for (const std::string& name : {std::string("photos"), std::string("rig")}) {
+    const std::vector<std::string>& only = name == "photos" ? (s->photos ? s->photos->config->mi_only : std::vector<std::string>())
+                                                             : (s->rig ? s->rig->config->mi_only : std::vector<std::string>());
+    for (const std::string& wanted : only) {
+      const bool found = std::any_of(tasks.begin(), tasks.end(), [&](const MiTask& t) {
+        return t.name == wanted || fs::path(t.name).stem().string() == wanted;
+      });
+      if (!found) s->warnings.push_back("mi_register of the " + name + ": '" + wanted + "' is not one of its images/frames");
+    }
+  }
+  if (tasks.empty()) return;
+  // Read every image first (a bad one is an input error before hours of work).
+  std::vector<mi::GrayImage> images;
+  for (MiTask& t : tasks) {
+    images.push_back(mi::ReadGrayImage(t.path));
+    const mi::GrayImage& g = images.back();
+    if (t.kind == "panorama") {
+      // A stitched panorama: EQUIRECTANGULAR in the rig frame, f = width / 2π (full sphere).
+      if (g.width != 2 * g.height) {
+        throw InputError::Message(t.path, "panorama is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
+                                              ", expected a full equirectangular panorama (width = 2 x height)");
+      }
+      t.camera.model_id = sensors::CameraModelId::kEquirectangular;
+      t.camera.width = g.width;
+      t.camera.height = g.height;
+      t.camera.params = {g.width / (2.0 * M_PI), g.width / 2.0, g.height / 2.0};
+    } else if (g.width != static_cast<int>(t.camera.width) || g.height != static_cast<int>(t.camera.height)) {
+      throw InputError::Message(t.path, "image is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
+                                            " but its camera is " + std::to_string(t.camera.width) + "x" +
+                                            std::to_string(t.camera.height));
+    }
+  }
+  // The cloud: the static LiDAR's reference cloud (world frame) near the cameras.
+  mi::RegistrationOptions options;  // register-mi's defaults
+  constexpr double kRadius = 60.0;  // m: what a street-level image sees of a building's LiDAR
+  constexpr size_t kMaxPoints = 8000000;
+  const std::string& cloud_path = project.lidar_static.front().reference_cloud;
+  std::vector<Eigen::Vector3d> centres;
+  for (const MiTask& t : tasks) centres.push_back(CameraCentre(t.start));
+  Timer timer;
+  const io::PointCloud cloud = CloudNear(cloud_path, centres, kRadius, kMaxPoints);
+  if (!cloud.has_intensity()) {
+    throw InputError::Message(cloud_path, "has no intensity, which the MI registration of mi_register compares with "
+                                          "the images (register-mi --representation intensity)");
+  }
+  spdlog::info("adjust: MI registration of {} image(s) to {} ({} points within {:.0f} m)", tasks.size(), cloud_path,
+               cloud.size(), kRadius);
+  size_t ok = 0;
+  for (size_t i = 0; i < tasks.size(); ++i) {
+    const MiTask& t = tasks[i];
+    const mi::LidarPoints points = mi::PrepareLidarPoints(Crop(cloud, CameraCentre(t.start), kRadius));
+    json entry = {{"image", t.name}, {"kind", t.kind}, {"file", "mi/" + fs::path(t.name).stem().string() + ".json"}};
+    if (t.kind == "photo") entry["image_id"] = t.image_id.value;
+    else entry["frame"] = t.frame;
+    if (points.size() < 1000) {
+      entry["status"] = "failed";
+      entry["reason"] = "only " + std::to_string(points.size()) + " LiDAR points within " + std::to_string(kRadius) + " m";
+      entry.erase("file");
+      s->mi_registration.push_back(entry);
+      s->mi_registered.push_back(t.start);
+      s->warnings.push_back("MI registration of " + t.name + " not attempted: " + entry["reason"].get<std::string>());
+      continue;
+    }
+    mi::Frame frame;
+    frame.name = t.name;
+    frame.points = &points;
+    mi::ViewOptions views;
+    if (t.camera.IsSpherical()) {
+      // As register-mi --view perspective --headings auto: two 940×452 cuts where the LiDAR is.
+      views.kind = mi::ViewKind::kPerspective;
+      views.perspective_yaw_deg = mi::SelectPerspectiveHeadings(points, t.camera, t.start, views, options.render, 2);
+    }
+    frame.views = mi::MakeViews(images[i], t.camera, views, t.path);
+    Timer one;
+    const mi::RegistrationResult result = mi::RegisterFrames({frame}, t.start, options);
+    json file = mi::ResultToJson(result, options, t.start);
+    file["image"] = t.path;
+    file["registered_by"] = "mmba adjust (mi_register), register-mi's default settings, LiDAR = " + cloud_path;
+    s->mi_files.emplace_back(fs::path(t.name).stem().string(), file);
+    entry["status"] = result.status;
+    entry["reason"] = result.reason;
+    entry["correction"] = mi::CorrectionToJson(result.correction);
+    entry["sigma_px"] = result.checks.sigma_px_calibrated;
+    entry["runtime_seconds"] = result.runtime_seconds;
+    const bool usable = result.ok() && result.covariance_valid;
+    entry["prior"] = usable;
+    s->mi_registration.push_back(entry);
+    s->mi_registered.push_back(result.cam_from_lidar);
+    spdlog::info("adjust: MI {}/{} {}: {} ({:.1f} s){}", i + 1, tasks.size(), t.name, result.status, one.ElapsedSeconds(),
+                 result.ok() ? "" : ": " + result.reason);
+    if (!usable) continue;
+    ++ok;
+    MiResult prior;
+    prior.cam_from_world = result.cam_from_lidar;
+    prior.covariance = result.covariance;
+    prior.source = "mi/" + fs::path(t.name).stem().string() + ".json (registered by the adjustment)";
+    if (t.kind == "photo") {
+      prior.image_id = t.image_id;
+      s->photos->mi.push_back(prior);
+    } else {
+      // The frame starts at the MI pose: closer than the GNSS/INS one when MI is "ok".
+      s->rig->rig_from_world[t.frame] = result.cam_from_lidar;
+      s->rig->mi.push_back(prior);
+      s->rig->mi_frame.push_back(t.frame);
+    }
+  }
+  s->log.push_back("MI registration: " + std::to_string(ok) + " of " + std::to_string(tasks.size()) +
+                   " images ok, used as pose priors (" + std::to_string(static_cast<int>(timer.ElapsedSeconds())) + " s)");
+  if (ok < tasks.size()) {
+    s->warnings.push_back("MI registration: " + std::to_string(tasks.size() - ok) + " of " + std::to_string(tasks.size()) +
+                          " images not registered (status failed; see report.json mi_registration): no prior from them");
+  }
+}
+
+}  // namespace mmba::adjust::internal

@@ -1,0 +1,103 @@
+#include "mmba/registration/mi/result_json.h"
+
+namespace mmba::registration::mi {
+
+using json = nlohmann::json;
+
+json PoseToJson(const Rigid3d& pose) {
+  const Eigen::Matrix4d m = pose.ToMatrix4();
+  json values = json::array();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) values.push_back(m(r, c));
+  }
+  return values;
+}
+
+json CorrectionToJson(const Vector6d& c) {
+  return {{"tx", c[0]}, {"ty", c[1]}, {"tz", c[2]}, {"roll", c[3]}, {"pitch", c[4]}, {"yaw", c[5]}};
+}
+
+json MetricToJson(const MetricValue& m) {
+  return {{"mi_bits", m.mi},
+          {"nmi", m.nmi},
+          {"nid", m.nid},
+          {"joint_entropy_bits", m.joint_entropy},
+          {"samples", m.samples},
+          {"lidar_samples", m.lidar_samples}};
+}
+
+namespace {
+
+json MatrixJson(const Eigen::Matrix<double, 6, 6>& m) {
+  json rows = json::array();
+  for (int r = 0; r < 6; ++r) {
+    json row = json::array();
+    for (int c = 0; c < 6; ++c) row.push_back(m(r, c));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+}  // namespace
+
+json ResultToJson(const RegistrationResult& result, const RegistrationOptions& options, const Rigid3d& start) {
+  json out;
+  out["status"] = result.status;
+  out["reason"] = result.reason;
+  out["cam_from_lidar"] = PoseToJson(result.cam_from_lidar);
+  out["cam_from_lidar_start"] = PoseToJson(start);
+  out["correction"] = CorrectionToJson(result.correction);
+  out["correction_convention"] =
+      "lidar_from_cam' = [Rz(yaw) Ry(pitch) Rx(roll) R | c + t] about the camera centre, "
+      "axes of the LiDAR frame; metres and degrees";
+  out["covariance"] = MatrixJson(result.covariance);
+  out["covariance_laplace"] = MatrixJson(result.covariance_laplace);
+  out["covariance_units"] = "m^2, deg^2 in the order tx ty tz roll pitch yaw";
+  out["covariance_valid"] = result.covariance_valid;
+  out["trusted"] = result.trusted;
+  out["confidence_reason"] = result.confidence_reason;
+  const AcceptanceChecks& checks = result.checks;
+  out["checks"] = {{"on_bound", checks.on_bound},
+                   {"sigma_px", checks.sigma_px},
+                   {"max_sigma_px", options.max_sigma_px},
+                   {"max_calibrated_sigma_px", options.max_calibrated_sigma_px},
+                   {"weak_directions", checks.weak_directions},
+                   {"effective_samples", checks.effective_samples},
+                   {"sample_inflation", checks.sample_inflation},
+                   {"restarts", checks.restarts_run},
+                   {"restart_spread_px", checks.restart_spread_px},
+                   {"restart_tolerance_px", options.restart_tolerance_px},
+                   {"restart_best_gain", checks.restart_best_gain},
+                   {"mi_bits", checks.mi_bits},
+                   {"mi_shuffled_bits", checks.mi_shuffled_bits},
+                   {"mi_shuffled_sd_bits", checks.mi_shuffled_sd_bits},
+                   {"mi_significance", checks.mi_significance},
+                   {"restart_rms_px", checks.restart_rms_px},
+                   {"halves", checks.split_parts},
+                   {"halves_kind", checks.split_kind},
+                   {"halves_spread_px", checks.split_spread_px},
+                   {"halves_tolerance_px", options.split_tolerance_px},
+                   {"variance_factor", checks.variance_factor},
+                   {"variance_factor_halves", checks.variance_factor_halves},
+                   {"variance_factor_restarts", checks.variance_factor_restarts},
+                   {"sigma_px_calibrated", checks.sigma_px_calibrated},
+                   {"axis_scans_passed", checks.scans_passed},
+                   {"axis_scans_reason", checks.scans_reason}};
+  json stages = json::array();
+  for (const StageStat& stage : result.stages) {
+    stages.push_back({{"stage", stage.name}, {"evaluations", stage.evaluations}, {"seconds", stage.seconds}});
+  }
+  out["stages"] = stages;
+  // NID is minimised: the library maximises −NID; the file gives NID itself.
+  const double sign = options.metric.kind == MetricKind::kNid ? -1.0 : 1.0;
+  out["metric_before"] = sign * result.metric_before.value;
+  out["metric_after"] = sign * result.metric_after.value;
+  out["metrics_before"] = MetricToJson(result.metric_before);
+  out["metrics_after"] = MetricToJson(result.metric_after);
+  out["iterations"] = result.iterations;
+  out["evaluations"] = result.evaluations;
+  out["runtime_seconds"] = result.runtime_seconds;
+  return out;
+}
+
+}  // namespace mmba::registration::mi
