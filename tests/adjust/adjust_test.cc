@@ -345,6 +345,83 @@ TEST_F(AdjustTest, FailureKeepsTheEarlierOutput) {
   EXPECT_FALSE(fs::exists(dir / "out" / "report.json"));
 }
 
+// MI registration inside the adjustment (mi_register): one photo registered to the static
+// LiDAR by register-mi's library call from its initial pose. Whatever the outcome, it is in
+// report.json and mi/<stem>.json; an "ok" must be the right pose (it becomes a prior), a
+// failure gives a reason and no prior.
+TEST_F(AdjustTest, RegistersAPhotoByMutualInformation) {
+  const fs::path sim = Root() / "sim", out = Root() / "mi_out";
+  std::ifstream truth_in(sim / "truth" / "truth.json");
+  const json truth = json::parse(truth_in);
+  const json& image = truth["photos"]["images"][4];
+  const std::string name = image["name"];
+  std::string project = ReadText(sim / "project.yaml");
+  const size_t at = project.find("    colmap_model: colmap/photos\n");
+  ASSERT_NE(at, std::string::npos);
+  project.insert(at, "    mi_register: [" + fs::path(name).stem().string() + "]\n");
+  std::ofstream(sim / "project_mi.yaml") << project;
+  const AdjustOutcome outcome = Run((sim / "project_mi.yaml").string(), out.string());
+  ASSERT_TRUE(outcome.ok) << outcome.reason;
+  const json& runs = outcome.report["mi_registration"];
+  ASSERT_EQ(runs.size(), 1u) << runs.dump(1);
+  const json& run = runs[0];
+  EXPECT_EQ(run["image"], name);
+  EXPECT_EQ(run["kind"], "photo");
+  std::ifstream file_in(out / "mi" / (fs::path(name).stem().string() + ".json"));
+  ASSERT_TRUE(file_in.good());
+  const json file = json::parse(file_in);
+  EXPECT_EQ(file["status"], run["status"]);
+  ASSERT_EQ(file["cam_from_lidar"].size(), 16u);
+  ASSERT_EQ(file["covariance"].size(), 6u);
+  bool group = false;
+  for (const json& g : outcome.report["groups"]) group = group || g["name"] == "photos: MI pose priors";
+  if (run["status"] == "ok") {
+    // The registered camera centre and rotation against the truth.
+    const std::vector<double> q = image["cam_from_world"]["qvec_wxyz"], t = image["cam_from_world"]["tvec"];
+    const Eigen::Quaterniond rq(q[0], q[1], q[2], q[3]);
+    const Eigen::Vector3d centre = -(rq.conjugate() * Eigen::Vector3d(t[0], t[1], t[2]));
+    Eigen::Matrix4d m;
+    for (int k = 0; k < 16; ++k) m(k / 4, k % 4) = file["cam_from_lidar"][k].get<double>();
+    const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
+    const Eigen::Vector3d registered = -(r.transpose() * m.topRightCorner<3, 1>());
+    EXPECT_LT((registered - centre).norm(), 0.05) << "a wrong MI pose reported ok";
+    EXPECT_LT(Eigen::AngleAxisd(r * rq.toRotationMatrix().transpose()).angle() * 180 / M_PI, 0.25);
+    EXPECT_TRUE(run["prior"].get<bool>());
+    EXPECT_TRUE(group);
+  } else {
+    EXPECT_FALSE(run["reason"].get<std::string>().empty());
+    EXPECT_FALSE(run["prior"].get<bool>());
+    EXPECT_FALSE(group);
+  }
+}
+
+// A rig "panorama" that is not a full equirectangular image: one input error naming the file,
+// before any registration.
+TEST_F(AdjustTest, APanoramaThatIsNotEquirectangularIsAnInputError) {
+  const fs::path sim = Root() / "sim", dir = Root() / "bad_panorama";
+  fs::create_directories(dir / "panoramas");
+  std::ifstream truth_in(sim / "truth" / "truth.json");
+  const json truth = json::parse(truth_in);
+  const std::string frame = truth["rig"]["frames"][0]["name"];
+  fs::copy_file(sim / "images" / "photos" / truth["photos"]["images"][0]["name"].get<std::string>(),
+                dir / "panoramas" / (frame + ".png"));
+  std::string project = ReadText(sim / "project.yaml");
+  const size_t at = project.find("    panoramas: images/rig_panoramas\n");
+  ASSERT_NE(at, std::string::npos);
+  project.replace(at, std::string("    panoramas: images/rig_panoramas\n").size(),
+                  "    panoramas: " + (dir / "panoramas").string() + "\n    mi_register: [" + frame + "]\n");
+  std::ofstream(sim / "project_badpano.yaml") << project;
+  try {
+    Run((sim / "project_badpano.yaml").string(), (dir / "out").string());
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find(frame + ".png"), std::string::npos) << message;
+    EXPECT_NE(message.find("equirectangular"), std::string::npos) << message;
+  }
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
 // A LiDAR target naming a point the network does not have: one input error naming the file,
 // line, column and value; nothing written.
 TEST_F(AdjustTest, UnknownTargetInAScanIsAnInputError) {

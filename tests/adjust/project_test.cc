@@ -102,6 +102,12 @@ TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {
              "max_range_m: -40}\n", "", "sensors[2].max_range_m"},
       {photos_ + "  - {id: s, type: spherical_stereo, images: images, calibration: gnss.csv, observations: gnss.csv, "
                  "stations_file: gnss.csv, tie_block: q}\n", "", "tie_block"},
+      // MI registration: a static LiDAR to register to, a rig's panoramas, a usable value.
+      {"  - {id: p, type: photo_collection, images: images, mi_register: true}\n" + ts_, "", "mi_register"},
+      {"  - {id: p, type: photo_collection, images: images, mi_register: []}\n" + ts_, "", "sensors[0].mi_register"},
+      {"  - {id: p, type: photo_collection, images: images, mi_register: maybe}\n" + ts_, "", "sensors[0].mi_register"},
+      {photos_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, mi_register: [f1]}\n", "",
+       "sensors[1].panoramas"},
   };
   for (const Case& c : cases) {
     const std::string message = Error(Write(c.sensors, c.extra));
