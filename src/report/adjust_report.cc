@@ -831,6 +831,40 @@ void RenderDenseClouds(const json& report, std::ostringstream& html) {
   html << "</table>\n</section>\n";
 }
 
+void RenderMiRegistrations(const json& report, std::ostringstream& html) {
+  const json* array = OptArray(report, "mi_registration", "");
+  if (array == nullptr || array->empty()) return;
+  html << "<section id=\"mi\">\n<h2>MI registration of the images to the LiDAR</h2>\n"
+       << "<p class=\"note\">Each image registered to the static LiDAR by mutual information (Wang, Ferrie "
+          "&amp; Macfarlane 2012) from its initial pose: the correction found, the pixel "
+       << kSigma << " of its calibrated covariance, and for an &ldquo;ok&rdquo; (used as a weighted pose "
+          "prior) how far the adjustment ended from it.</p>\n<table>\n<tr><th>image</th><th>kind</th><th>status</th>"
+          "<th>|t| [mm]</th><th>roll [&deg;]</th><th>pitch [&deg;]</th><th>yaw [&deg;]</th><th>"
+       << kSigma << " [px]</th><th>adjusted &minus; MI [mm]</th><th>[&deg;]</th><th>time [s]</th><th>reason</th></tr>\n";
+  for (size_t i = 0; i < array->size(); ++i) {
+    const std::string path = Index("mi_registration", i);
+    const json& m = ElementObject(*array, i, "mi_registration");
+    const std::string status = ReqString(m, "status", path);
+    double t = NAN, roll = NAN, pitch = NAN, yaw = NAN;
+    if (m.contains("correction") && m["correction"].is_object()) {
+      const json& c = m["correction"];
+      const std::string cp = Join(path, "correction");
+      t = Norm3({Num(c, "tx", cp), Num(c, "ty", cp), Num(c, "tz", cp)});
+      roll = Num(c, "roll", cp);
+      pitch = Num(c, "pitch", cp);
+      yaw = Num(c, "yaw", cp);
+    }
+    const double dm = Num(m, "adjusted_minus_registered_m", path), dd = Num(m, "adjusted_minus_registered_deg", path);
+    html << "<tr" << (status == "ok" ? "" : " class=\"flag\"") << ">" << TdText(Esc(ReqString(m, "image", path)))
+         << TdText(Esc(OptString(m, "kind", path).value_or(""))) << TdText(Esc(status)) << Td(Mm(t))
+         << Td(FormatFixed(roll, 3)) << Td(FormatFixed(pitch, 3)) << Td(FormatFixed(yaw, 3))
+         << Td(FormatFixed(Num(m, "sigma_px", path), 2)) << Td(std::isnan(dm) ? kDash : Mm(dm))
+         << Td(std::isnan(dd) ? kDash : FormatFixed(dd, 3)) << Td(FormatFixed(Num(m, "runtime_seconds", path), 1))
+         << TdText(Esc(OptString(m, "reason", path).value_or(""))) << "</tr>\n";
+  }
+  html << "</table>\n</section>\n";
+}
+
 void RenderFiles(const json& report, std::ostringstream& html) {
   const json* array = OptArray(report, "files", "");
   if (array == nullptr || array->empty()) return;
@@ -891,6 +925,7 @@ std::string RenderAdjustReportHtml(const json& report) {
   RenderControlPoints(points, check, html);
   RenderBlunders(report, html);
   RenderPoseCorrections(report, html);
+  RenderMiRegistrations(report, html);
   RenderCalibrations(report, html);
   RenderDenseClouds(report, html);
   RenderFiles(report, html);

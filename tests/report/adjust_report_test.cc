@@ -260,5 +260,26 @@ TEST(AdjustReport, DenseStationCloudsAreTabulatedAndAStationWithoutPanoramasSays
   EXPECT_EQ(RenderAdjustReportHtml(MinimalReport()).find("id=\"dense\""), std::string::npos);
 }
 
+TEST(AdjustReport, MiRegistrationsAreTabulatedWithTheirOutcome) {
+  json report = MinimalReport();
+  report["mi_registration"] = json::array(
+      {json{{"image", "frame_001"}, {"kind", "panorama"}, {"status", "ok"},
+            {"correction", {{"tx", -0.0215}, {"ty", 0.0306}, {"tz", 0.0979}, {"roll", -0.0019}, {"pitch", 0.1378}, {"yaw", 0.3118}}},
+            {"sigma_px", 0.587}, {"adjusted_minus_registered_m", 0.0512}, {"adjusted_minus_registered_deg", 0.313},
+            {"runtime_seconds", 45.0}, {"prior", true}},
+       json{{"image", "photo<0>.png"}, {"kind", "photo"}, {"status", "failed"}, {"reason", "restarts disagree"}, {"prior", false}}});
+  const std::string html = RenderAdjustReportHtml(report);
+  EXPECT_NE(html.find("id=\"mi\""), std::string::npos);
+  EXPECT_NE(html.find("<td class=\"num\">104.8</td>"), std::string::npos) << html;  // |t| in mm
+  EXPECT_NE(html.find("<td class=\"num\">51.2</td><td class=\"num\">0.313</td>"), std::string::npos);
+  EXPECT_NE(html.find("photo&lt;0&gt;.png"), std::string::npos);  // escaped
+  EXPECT_NE(html.find("<tr class=\"flag\"><td>photo&lt;0&gt;.png"), std::string::npos);  // the failure marked
+  EXPECT_NE(html.find("restarts disagree"), std::string::npos);
+  EXPECT_EQ(html.find("nan"), std::string::npos);
+  report["mi_registration"][0]["sigma_px"] = "small";
+  EXPECT_NE(ErrorOf(report).find("mi_registration[0].sigma_px"), std::string::npos) << ErrorOf(report);
+  EXPECT_EQ(RenderAdjustReportHtml(MinimalReport()).find("id=\"mi\""), std::string::npos);
+}
+
 }  // namespace
 }  // namespace mmba::report
