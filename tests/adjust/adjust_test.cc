@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <optional>
+#include <random>
 #include <regex>
 #include <sstream>
 
@@ -17,7 +19,9 @@
 
 #include "mmba/core/error.h"
 #include "mmba/core/logging.h"
+#include "mmba/io/colmap_model.h"
 #include "mmba/io/point_cloud.h"
+#include "mmba/sensors/camera.h"
 #include "mmba/sim/simulate.h"
 #include "test_support.h"
 
@@ -30,6 +34,25 @@ using json = nlohmann::json;
 using testing_support::ReadText;
 
 fs::path Root() { return testing_support::ScratchRoot("mmba_adjust"); }
+
+// A register-mi result with status ok: the pose {qvec_wxyz, tvec} of the truth with `offset`
+// added to its translation, σ 1 cm and 0.1° per axis.
+std::string OkMiResult(const json& truth_pose, const Eigen::Vector3d& offset) {
+  const std::vector<double> q = truth_pose["qvec_wxyz"], t = truth_pose["tvec"];
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topLeftCorner<3, 3>() = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
+  m.topRightCorner<3, 1>() = Eigen::Vector3d(t[0], t[1], t[2]) + offset;
+  json pose = json::array(), cov = json::array();
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) pose.push_back(m(r, c));
+  }
+  for (int r = 0; r < 6; ++r) {
+    json row = json::array();
+    for (int c = 0; c < 6; ++c) row.push_back(r == c ? (r < 3 ? 0.01 * 0.01 : 0.1 * 0.1) : 0.0);
+    cov.push_back(row);
+  }
+  return json{{"status", "ok"}, {"cam_from_lidar", pose}, {"covariance", cov}, {"covariance_valid", true}}.dump();
+}
 
 class AdjustTest : public ::testing::Test {
  protected:
@@ -234,22 +257,9 @@ TEST_F(AdjustTest, FlagsInjectedBlunders) {
   std::string mi_blunder;
   for (int i = 1; i <= 3; ++i) {
     const json& image = truth["photos"]["images"][i];
-    const std::vector<double> q = image["cam_from_world"]["qvec_wxyz"], t = image["cam_from_world"]["tvec"];
-    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-    m.topLeftCorner<3, 3>() = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
-    m.topRightCorner<3, 1>() = Eigen::Vector3d(t[0], t[1], t[2]) + (i == 3 ? Eigen::Vector3d(0.3, 0, 0) : Eigen::Vector3d(0.004, -0.003, 0.002));
-    json pose = json::array(), cov = json::array();
-    for (int r = 0; r < 4; ++r) {
-      for (int c = 0; c < 4; ++c) pose.push_back(m(r, c));
-    }
-    for (int r = 0; r < 6; ++r) {
-      json row = json::array();
-      for (int c = 0; c < 6; ++c) row.push_back(r == c ? (r < 3 ? 0.01 * 0.01 : 0.1 * 0.1) : 0.0);
-      cov.push_back(row);
-    }
     const std::string name = image["name"];
     std::ofstream(dir / "mi" / (fs::path(name).stem().string() + ".json"))
-        << json{{"status", "ok"}, {"cam_from_lidar", pose}, {"covariance", cov}, {"covariance_valid", true}}.dump();
+        << OkMiResult(image["cam_from_world"], i == 3 ? Eigen::Vector3d(0.3, 0, 0) : Eigen::Vector3d(0.004, -0.003, 0.002));
     if (i == 3) mi_blunder = name;
   }
   // MI results of the rig's stitched panoramas (cam_from_lidar = rig_from_world): the first
@@ -259,22 +269,9 @@ TEST_F(AdjustTest, FlagsInjectedBlunders) {
   std::vector<std::string> rig_frames;
   for (int i = 0; i < 2; ++i) {
     const json& frame = truth["rig"]["frames"][i];
-    const std::vector<double> q = frame["rig_from_world"]["qvec_wxyz"], t = frame["rig_from_world"]["tvec"];
-    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
-    m.topLeftCorner<3, 3>() = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).toRotationMatrix();
-    m.topRightCorner<3, 1>() = Eigen::Vector3d(t[0], t[1], t[2]) + (i == 1 ? Eigen::Vector3d(0, 0.3, 0) : Eigen::Vector3d(0.003, 0.002, -0.004));
-    json pose = json::array(), cov = json::array();
-    for (int r = 0; r < 4; ++r) {
-      for (int c = 0; c < 4; ++c) pose.push_back(m(r, c));
-    }
-    for (int r = 0; r < 6; ++r) {
-      json row = json::array();
-      for (int c = 0; c < 6; ++c) row.push_back(r == c ? (r < 3 ? 0.01 * 0.01 : 0.1 * 0.1) : 0.0);
-      cov.push_back(row);
-    }
     rig_frames.push_back(frame["name"]);
     std::ofstream(dir / "rig_mi" / (rig_frames.back() + ".json"))
-        << json{{"status", "ok"}, {"cam_from_lidar", pose}, {"covariance", cov}, {"covariance_valid", true}}.dump();
+        << OkMiResult(frame["rig_from_world"], i == 1 ? Eigen::Vector3d(0, 0.3, 0) : Eigen::Vector3d(0.003, 0.002, -0.004));
   }
   std::ofstream(dir / "rig_mi" / "frame_999.json") << json{{"status", "failed"}, {"reason", "test"}}.dump();
   // Everything else is the simulated project's own (symbolic links).
@@ -420,6 +417,75 @@ TEST_F(AdjustTest, APanoramaThatIsNotEquirectangularIsAnInputError) {
     EXPECT_NE(message.find("equirectangular"), std::string::npos) << message;
   }
   EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
+// A rig delivered as stitched panoramas only (issue 7: "stitched panoramas as equirectangular
+// cameras when that is what the user has"): one EQUIRECTANGULAR camera in the rig frame
+// (cam_from_rig identity, held; intrinsics held), tie points measured in the panoramas. The
+// frames must come out as accurate as with the fisheye cameras.
+TEST_F(AdjustTest, AdjustsARigOfStitchedPanoramas) {
+  const fs::path sim = Root() / "sim";
+  std::ifstream truth_in(sim / "truth" / "truth.json");
+  const json truth = json::parse(truth_in);
+  const json& pano = truth["rig"]["panorama_camera"];
+  sensors::Camera camera;
+  camera.model_id = sensors::CameraModelId::kEquirectangular;
+  camera.width = pano["width"];
+  camera.height = pano["height"];
+  camera.params = pano["params"].get<std::vector<double>>();
+  // Tie points of the true photo model, projected into each frame's panorama (within 30 m),
+  // with 0.5 px of noise.
+  const io::ColmapModel points = io::ReadColmapModel((sim / "truth" / "colmap_photos").string());
+  std::mt19937 random(11);
+  std::normal_distribution<double> noise(0.0, 0.5);
+  std::ostringstream csv;
+  csv << "image,point_id,x_px,y_px,sigma_px\n";
+  size_t rows = 0;
+  for (const json& frame : truth["rig"]["frames"]) {
+    const std::vector<double> q = frame["rig_from_world"]["qvec_wxyz"], t = frame["rig_from_world"]["tvec"];
+    const Eigen::Quaterniond rotation(q[0], q[1], q[2], q[3]);
+    for (const auto& [id, point] : points.points3D) {
+      const Eigen::Vector3d in_rig = rotation * point.xyz + Eigen::Vector3d(t[0], t[1], t[2]);
+      const std::optional<Eigen::Vector2d> uv = camera.ImgFromCam(in_rig);
+      if (!uv || in_rig.norm() > 30.0) continue;
+      csv << frame["name"].get<std::string>() << "_pano.png," << id.value << "," << uv->x() + noise(random) << ","
+          << uv->y() + noise(random) << ",0.5\n";
+      ++rows;
+    }
+  }
+  ASSERT_GT(rows, 200u);
+  std::ofstream(sim / "observations" / "rig_panoramas.csv") << csv.str();
+  const std::string ladybug = ReadText(sim / "calib" / "ladybug.yaml");
+  const size_t body = ladybug.find("body_from_rig:");
+  ASSERT_NE(body, std::string::npos);
+  std::ofstream(sim / "calib" / "panorama_rig.yaml")
+      << ladybug.substr(body, ladybug.find('\n', body) - body + 1) << "cameras:\n  - name: pano\n    model: EQUIRECTANGULAR\n"
+      << "    width: " << camera.width << "\n    height: " << camera.height << "\n    params: [" << camera.params[0] << ", "
+      << camera.params[1] << ", " << camera.params[2] << "]\n    cam_from_rig: {qvec_wxyz: [1, 0, 0, 0], tvec: [0, 0, 0]}\n";
+  std::string project = ReadText(sim / "project.yaml");
+  for (const auto& [from, to] : std::vector<std::pair<std::string, std::string>>{
+           {"    calibration: calib/ladybug.yaml\n", "    calibration: calib/panorama_rig.yaml\n    cam_from_rig: fixed\n    refine: []\n"},
+           {"    observations: observations/rig.csv", "    observations: observations/rig_panoramas.csv"},
+           {"    images: images/rig\n", "    images: images/rig_panoramas\n"}}) {
+    const size_t at = project.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    project.replace(at, from.size(), to);
+  }
+  project = std::regex_replace(project, std::regex("    cam_from_rig_sigma_[a-z]+: [0-9.]+[^\n]*\n"), "");
+  std::ofstream(sim / "project_panorama_rig.yaml") << project;
+  const AdjustOutcome outcome = Run((sim / "project_panorama_rig.yaml").string(), (Root() / "panorama_rig_out").string());
+  ASSERT_TRUE(outcome.ok) << outcome.reason;
+  const json& rig = outcome.report["truth_evaluation"]["rig"];
+  EXPECT_LT(rig["max_frame_position_m"].get<double>(), 0.02) << rig.dump();
+  EXPECT_LT(rig["max_frame_rotation_deg"].get<double>(), 0.1) << rig.dump();
+  bool group = false;
+  for (const json& g : outcome.report["groups"]) {
+    if (g["name"] != "rig: tie points") continue;
+    group = true;
+    EXPECT_GT(g["observations"].get<double>(), 0.9 * rows) << g["observations"];
+    EXPECT_LT(g["rms"].get<double>(), 0.8) << g["rms"];  // px, σ 0.5
+  }
+  EXPECT_TRUE(group);
 }
 
 // A LiDAR target naming a point the network does not have: one input error naming the file,
