@@ -111,6 +111,7 @@ int main(int argc, char** argv) {
     else if (key == "max_resolution_spacing") options.max_resolution_spacing = v;
     else if (key == "truth") truth_file = kv.substr(eq + 1);
     else if (key == "probe_weak_motions") options.probe_weak_motions = v != 0;
+    else if (key == "check_fit_uncertainty") options.check_fit_uncertainty = v != 0;
     else if (key == "search_window_m") options.search_window_m = v;
     else if (key == "search_window_deg") options.search_window_deg = v;
     else if (key == "source_viewpoints") options.source_viewpoints = registration::ReadViewpoints(kv.substr(eq + 1));
@@ -132,9 +133,10 @@ int main(int argc, char** argv) {
   std::printf("points %zu / %zu, read %.3f s, %s\n", source.size(), target.size(), read_s,
               r.BriefReport().c_str());
   std::printf("spacing %.4g m, R_n %.4g m, R_s %.4g m, fine tau %.4g m, significance %.3g, "
-              "resolution %.4g m (fine spacing %.4g m)\n",
+              "resolution %.4g m (weak motions %.4g m; fine spacing %.4g m)\n",
               r.point_spacing_m, r.normal_radius_m, r.support_radius_m,
-              r.fine_inlier_distance_m, r.significance, r.resolution_m, r.fine_spacing_m);
+              r.fine_inlier_distance_m, r.significance, r.resolution_m, r.weak_motion_resolution_m,
+              r.fine_spacing_m);
   std::printf("sigma RMS %.4g m (constraint ratio %.3g), sigma translation %.4g %.4g %.4g m, "
               "sigma rotation %.4g %.4g %.4g deg; weakest: %s\n",
               r.sigma_rms_m, r.constraint_ratio, r.sigma_translation_m.x(),

@@ -1,7 +1,8 @@
 // bench/register_scene: `mmba register-eval` without the mmba binary (links only the cloud
 // registration and io), for single cells while the rest of the tree builds. Usage:
 //   register_scene SCENE_DIR OUT_DIR [methods=mmba,mmba-g] [cells=src:tgt,src:tgt]
-//                  [viewpoints=0|1] [cross=0|1]
+//                  [viewpoints=0|1] [cross=0|1] [probe_weak_motions=0|1]
+//                  [check_fit_uncertainty=0|1]
 // Writes OUT_DIR/results.csv and tables.md as register-eval does, and prints one line per cell
 // (status, RMS to the truth, resolution, the new uncertainty figures) plus CPU time and RSS.
 #include <sys/resource.h>
@@ -44,6 +45,8 @@ int main(int argc, char** argv) {
     else if (key == "cells") options.cells = Split(value);
     else if (key == "viewpoints") options.use_viewpoints = value != "0";
     else if (key == "cross") options.cross_modal = value != "0";
+    else if (key == "probe_weak_motions") options.base.probe_weak_motions = value != "0";
+    else if (key == "check_fit_uncertainty") options.base.check_fit_uncertainty = value != "0";
     else {
       std::cerr << "unknown key " << key << "\n";
       return 2;

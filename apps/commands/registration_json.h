@@ -15,6 +15,15 @@ inline nlohmann::json MatrixJson(const Eigen::Matrix4d& m) {
   return rows;
 }
 
+// A number, or null when not finite (JSON has no infinity).
+inline nlohmann::ordered_json FiniteOrNull(double v) {
+  return std::isfinite(v) ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr);
+}
+
+inline nlohmann::ordered_json VectorJson(const Eigen::Vector3d& v) {
+  return {FiniteOrNull(v.x()), FiniteOrNull(v.y()), FiniteOrNull(v.z())};
+}
+
 inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistrationResult& result) {
   nlohmann::ordered_json runtime = nlohmann::ordered_json::object();
   double total = 0.0;
@@ -63,7 +72,27 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
           {"resolution_m", std::isfinite(result.resolution_m)
                                ? nlohmann::ordered_json(result.resolution_m)
                                : nlohmann::ordered_json(nullptr)},
+          {"weak_motion_resolution_m", FiniteOrNull(result.weak_motion_resolution_m)},
           {"fine_spacing_m", result.fine_spacing_m},
+          // uncertainty of the fine fit (see feature_registration.h): covariance of
+          // (rx, ry, rz [rad], tx, ty, tz [m]), a correction about covariance_centre in the
+          // target frame; null when the inliers leave a motion free
+          {"covariance", [&] {
+             if (!result.covariance.allFinite()) return nlohmann::ordered_json(nullptr);
+             nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+             for (int r = 0; r < 6; ++r) {
+               nlohmann::ordered_json row = nlohmann::ordered_json::array();
+               for (int c = 0; c < 6; ++c) row.push_back(result.covariance(r, c));
+               rows.push_back(row);
+             }
+             return rows;
+           }()},
+          {"covariance_centre", VectorJson(result.covariance_centre)},
+          {"sigma_translation_m", VectorJson(result.sigma_translation_m)},
+          {"sigma_rotation_deg", VectorJson(result.sigma_rotation_deg)},
+          {"sigma_rms_m", FiniteOrNull(result.sigma_rms_m)},
+          {"constraint_ratio", result.constraint_ratio},
+          {"weakest_motion", result.weakest_motion},
           {"num_keypoints", {{"source", result.num_keypoints_source},
                              {"target", result.num_keypoints_target}}},
           {"num_correspondences", result.num_correspondences},

@@ -1044,7 +1044,7 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
                       const std::vector<Eigen::Vector3d>& src_n, const TargetCrop& crop,
                       const Eigen::Matrix4d& t, const std::vector<double>& base_residuals,
                       const std::vector<bool>& base_agree, double reach, double tau, double block,
-                      double bound, double max_delta, double t_min,
+                      double bound, double max_delta, double t_min, bool principal_axes,
                       const std::vector<Vector6d>& extra_directions) {
   if (src.size() < 10) return std::numeric_limits<double>::infinity();
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
@@ -1059,7 +1059,7 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
   // Motions ξ = (ω, t) about c with an RMS displacement of 1 m over the source.
   std::vector<Vector6d> dirs;
-  for (int k = 0; k < 3; ++k) {
+  for (int k = 0; k < 3 && principal_axes; ++k) {
     const Eigen::Vector3d a = eig.eigenvectors().col(k);
     // RMS distance of the source from the axis a through c: sqrt(trace(cov) − aᵀ·cov·a).
     const double radius = std::sqrt(std::max(0.0, cov.trace() - a.dot(cov * a)));
@@ -1079,6 +1079,7 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
     dirs.push_back(xi);
     dirs.push_back(-xi);
   }
+  if (dirs.empty()) return 0.0;
   std::vector<double> residuals;
   std::vector<bool> agree;
   auto resolved = [&](const Vector6d& xi, double delta) {
@@ -1603,6 +1604,8 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   Hypothesis best = finalists.front().h;
   const Hypothesis fine_check = best;
   end_stage("icp+verify fine");
+  double axis_resolution = std::numeric_limits<double>::infinity();
+  std::string weak_motion;
   if (!options.paper_only) {
     const Finalist& f = finalists.front();
     result.fine_spacing_m = f.spacing;
@@ -1622,15 +1625,22 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
           DescribeMotion(u.weakest, std::isfinite(u.sigma_rms) ? u.sigma_rms : 1.0) +
           (std::isfinite(u.sigma_rms) ? " (1 sigma)" : " (unconstrained; shown for 1 m RMS)");
     }
-    result.resolution_m = PoseResolution(
-        fine_src, fine_src_n, *f.crop, f.h.transform, f.residuals, f.agree, reach, fine_tau,
-        support_radius, options.max_resolution_spacing * f.spacing, support_radius,
-        options.resolution_t,
-        options.probe_weak_motions ? u.weak_directions : std::vector<Vector6d>{});
-    spdlog::debug("registration: pose resolution {:.4g} m (fine spacing {:.4g} m), sigma {:.4g} m "
-                  "RMS over {} blocks, constraint ratio {:.3g}, weakest motion {}",
-                  result.resolution_m, f.spacing, u.sigma_rms, u.blocks, u.constraint_ratio,
-                  result.weakest_motion);
+    const double bound = options.max_resolution_spacing * f.spacing;
+    axis_resolution = PoseResolution(fine_src, fine_src_n, *f.crop, f.h.transform, f.residuals,
+                                     f.agree, reach, fine_tau, support_radius, bound,
+                                     support_radius, options.resolution_t, true, {});
+    if (options.probe_weak_motions && !u.weak_directions.empty()) {
+      result.weak_motion_resolution_m = PoseResolution(
+          fine_src, fine_src_n, *f.crop, f.h.transform, f.residuals, f.agree, reach, fine_tau,
+          support_radius, bound, support_radius, options.resolution_t, false, u.weak_directions);
+      weak_motion = DescribeMotion(u.weak_directions.front(), 1.0);
+    }
+    result.resolution_m = std::max(axis_resolution, result.weak_motion_resolution_m);
+    spdlog::debug("registration: pose resolution {:.4g} m (axes {:.4g} m, weak motions {:.4g} m; "
+                  "fine spacing {:.4g} m), sigma {:.4g} m RMS over {} blocks, constraint ratio "
+                  "{:.3g}, weakest motion {}",
+                  result.resolution_m, axis_resolution, result.weak_motion_resolution_m, f.spacing,
+                  u.sigma_rms, u.blocks, u.constraint_ratio, result.weakest_motion);
     end_stage("resolution");
   }
 
@@ -1749,14 +1759,23 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     return fail(why.str());
   }
   if (!options.paper_only &&
-      !(result.resolution_m <= options.max_resolution_spacing * result.fine_spacing_m)) {
+      !(axis_resolution <= options.max_resolution_spacing * result.fine_spacing_m)) {
     why << "pose not resolved: the fine verification cannot tell it from displacements of "
-        << result.resolution_m << " m RMS (need <= " << options.max_resolution_spacing
+        << axis_resolution << " m RMS (need <= " << options.max_resolution_spacing
         << " x the fine spacing " << result.fine_spacing_m
         << " m); a noisy, planar or featureless overlap";
     return fail(why.str());
   }
-  if (!options.paper_only && !(options.resolution_t * result.sigma_rms_m <=
+  // A motion of the fit that no displacement up to R_s tells apart: the data leave it free
+  // (or the pose is off the score's maximum along it).
+  if (!options.paper_only && !std::isfinite(result.weak_motion_resolution_m)) {
+    why << "pose not determined: the fit's least-constrained motion (per metre RMS: "
+        << weak_motion << ") is not told apart by the fine verification at any displacement "
+        << "up to R_s = " << support_radius << " m; a planar or featureless overlap";
+    return fail(why.str());
+  }
+  if (!options.paper_only && options.check_fit_uncertainty &&
+      !(options.resolution_t * result.sigma_rms_m <=
                                options.max_resolution_spacing * result.fine_spacing_m)) {
     why << "pose not determined: the inliers of the fit leave " << result.weakest_motion
         << " (" << result.sigma_rms_m << " m RMS over the source; need " << options.resolution_t

@@ -142,8 +142,12 @@ struct CloudRegistrationOptions {
   double max_resolution_spacing = 4.0;
   /// The resolution test also displaces the pose along the two least-constrained motions of
   /// the fine fit (the weakest eigenvectors of its point-to-plane Gauss–Newton matrix), not
-  /// only along the source's principal axes.
+  /// only along the source's principal axes; "ok" needs them told apart at some displacement
+  /// up to R_s (CloudRegistrationResult::weak_motion_resolution_m).
   bool probe_weak_motions = true;
+  /// "ok" also needs resolution_t × sigma_rms_m (the fit's covariance) within the resolution
+  /// bound; false: the covariance is only reported.
+  bool check_fit_uncertainty = true;
 
   // Visibility (free space). Sensor positions of each cloud in its own frame: scanner
   // stations, camera centres, stereo stations (empty = unknown; a modelled cloud such as a
@@ -209,8 +213,15 @@ struct CloudRegistrationResult {
   double point_spacing_m = 0.0;    ///< s
   double fine_inlier_distance_m = 0.0;  ///< τ of the fine verification (inlier residual)
   /// Smallest RMS displacement of the source (any direction: translation or rotation) the
-  /// fine verification tells from the chosen pose; +inf when not resolved up to R_s.
+  /// fine verification tells from the chosen pose; +inf when not resolved up to R_s. The
+  /// larger of the resolution along and about the source's principal axes ("ok" needs it
+  /// within max_resolution_spacing fine spacings) and weak_motion_resolution_m.
   double resolution_m = std::numeric_limits<double>::infinity();
+  /// The same along the fit's two least-constrained motions (probe_weak_motions); "ok" needs
+  /// it finite (told apart at some displacement up to R_s), not within the bound: a motion
+  /// fixed only by a few features (edges, steps) has few independent witnesses, and the
+  /// block t statistic grows as the square root of their number. 0 when not probed.
+  double weak_motion_resolution_m = 0.0;
   double fine_spacing_m = 0.0;          ///< point spacing of the fine verification
   /// Uncertainty of the chosen pose from the fine point-to-plane fit of its inliers:
   /// covariance of the correction ξ = (ω, t) — ω a rotation vector (rad), t a translation
