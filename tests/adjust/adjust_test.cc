@@ -345,8 +345,34 @@ TEST_F(AdjustTest, FailureKeepsTheEarlierOutput) {
 // MI registration inside the adjustment (mi_register): one photo registered to the static
 // LiDAR by register-mi's library call from its initial pose. Whatever the outcome, it is in
 // report.json and mi/<stem>.json; an "ok" must be the right pose (it becomes a prior), a
-// failure gives a reason and no prior.
+// failure gives a reason and no prior. A rig panorama of the wrong shape is an input error.
 TEST_F(AdjustTest, RegistersAPhotoByMutualInformation) {
+  {
+    // First a rig "panorama" that is not a full equirectangular image: one input error naming
+    // the file, before any registration (in this test to save a simulation).
+    const fs::path sim = Root() / "sim", dir = Root() / "bad_panorama";
+    fs::create_directories(dir / "panoramas");
+    std::ifstream truth_in(sim / "truth" / "truth.json");
+    const json truth = json::parse(truth_in);
+    const std::string frame = truth["rig"]["frames"][0]["name"];
+    fs::copy_file(sim / "images" / "photos" / truth["photos"]["images"][0]["name"].get<std::string>(),
+                  dir / "panoramas" / (frame + ".png"));
+    std::string project = ReadText(sim / "project.yaml");
+    const size_t at = project.find("    panoramas: images/rig_panoramas\n");
+    ASSERT_NE(at, std::string::npos);
+    project.replace(at, std::string("    panoramas: images/rig_panoramas\n").size(),
+                    "    panoramas: " + (dir / "panoramas").string() + "\n    mi_register: [" + frame + "]\n");
+    std::ofstream(sim / "project_badpano.yaml") << project;
+    try {
+      Run((sim / "project_badpano.yaml").string(), (dir / "out").string());
+      ADD_FAILURE() << "no error";
+    } catch (const InputError& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find(frame + ".png"), std::string::npos) << message;
+      EXPECT_NE(message.find("equirectangular"), std::string::npos) << message;
+    }
+    EXPECT_FALSE(fs::exists(dir / "out"));
+  }
   const fs::path sim = Root() / "sim", out = Root() / "mi_out";
   std::ifstream truth_in(sim / "truth" / "truth.json");
   const json truth = json::parse(truth_in);
@@ -392,32 +418,6 @@ TEST_F(AdjustTest, RegistersAPhotoByMutualInformation) {
   }
 }
 
-// A rig "panorama" that is not a full equirectangular image: one input error naming the file,
-// before any registration.
-TEST_F(AdjustTest, APanoramaThatIsNotEquirectangularIsAnInputError) {
-  const fs::path sim = Root() / "sim", dir = Root() / "bad_panorama";
-  fs::create_directories(dir / "panoramas");
-  std::ifstream truth_in(sim / "truth" / "truth.json");
-  const json truth = json::parse(truth_in);
-  const std::string frame = truth["rig"]["frames"][0]["name"];
-  fs::copy_file(sim / "images" / "photos" / truth["photos"]["images"][0]["name"].get<std::string>(),
-                dir / "panoramas" / (frame + ".png"));
-  std::string project = ReadText(sim / "project.yaml");
-  const size_t at = project.find("    panoramas: images/rig_panoramas\n");
-  ASSERT_NE(at, std::string::npos);
-  project.replace(at, std::string("    panoramas: images/rig_panoramas\n").size(),
-                  "    panoramas: " + (dir / "panoramas").string() + "\n    mi_register: [" + frame + "]\n");
-  std::ofstream(sim / "project_badpano.yaml") << project;
-  try {
-    Run((sim / "project_badpano.yaml").string(), (dir / "out").string());
-    ADD_FAILURE() << "no error";
-  } catch (const InputError& e) {
-    const std::string message = e.what();
-    EXPECT_NE(message.find(frame + ".png"), std::string::npos) << message;
-    EXPECT_NE(message.find("equirectangular"), std::string::npos) << message;
-  }
-  EXPECT_FALSE(fs::exists(dir / "out"));
-}
 
 // A rig delivered as stitched panoramas only (issue 7: "stitched panoramas as equirectangular
 // cameras when that is what the user has"): one EQUIRECTANGULAR camera in the rig frame
