@@ -118,6 +118,25 @@ TEST_F(SceneEvaluationTest, BothExperimentsAndTables) {
   EXPECT_NE(md.str().find("| scan0_part |"), std::string::npos);
 }
 
+TEST_F(SceneEvaluationTest, CellsSelectsRegistrations) {
+  // --cells: only the named source:target cells run (both experiments); a cell the scene does
+  // not have is an input error naming it.
+  SceneEvalOptions options;
+  options.methods = {"fpfh"};
+  options.cells = {"scan0_part:lidar", "moved:lidar"};
+  const SceneEvaluation eval = EvaluateScene(dir_.string(), options);
+  ASSERT_EQ(eval.rows.size(), 2u);
+  EXPECT_EQ(eval.rows[0].source + ":" + eval.rows[0].target, "moved:lidar");
+  EXPECT_EQ(eval.rows[1].source + ":" + eval.rows[1].target, "scan0_part:lidar");
+  options.cells = {"scan0:moved"};  // a full cloud is registered to the LiDAR only
+  try {
+    EvaluateScene(dir_.string(), options);
+    ADD_FAILURE() << "no InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("scan0:moved"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(SceneEvaluationTest, BadFolders) {
   std::ofstream(dir_ / "ground_truth.json") << "{\"world_from_lidar\": [[1,0,0,0]]}";
   EXPECT_THROW(EvaluateScene(dir_.string(), {}), InputError);
