@@ -221,8 +221,9 @@ void MobileAdjustTest::ExpectColouredLikeTheScene(const json& r, const io::Point
   double mean_abs = 0.0;
   for (const auto& [a, b] : all) mean_abs += std::abs(a - b);
   std::printf("mobile cloud colours against the scene: r = %.3f over %zu points (%zu outside the photo block, r = %.3f), "
-              "mean |grey difference| %.1f, shuffled r = %.3f; %zu of the sample grey\n",
-              pearson(all), all.size(), rig_only.size(), pearson(rig_only), mean_abs / all.size(), pearson(shuffled), grey_points);
+              "mean |grey difference| %.1f, shuffled r = %.3f; %zu of the sample grey; colouring %.1f + %.1f s CPU\n",
+              pearson(all), all.size(), rig_only.size(), pearson(rig_only), mean_abs / all.size(), pearson(shuffled), grey_points,
+              c.value("first_pass_cpu_seconds", 0.0), c.value("colour_cpu_seconds", 0.0));
   EXPECT_GT(pearson(all), 0.7);
   EXPECT_GT(pearson(rig_only), 0.7);
 }
