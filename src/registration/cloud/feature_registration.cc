@@ -1008,19 +1008,27 @@ FitUncertainty EstimateFitUncertainty(const std::vector<Eigen::Vector3d>& src,
   return out;
 }
 
-// "a turn of 1.9° about (0, 0, 1) and a shift of 0.35 m along (0.7, 0.7, 0)" for σ·ξ.
-std::string DescribeMotion(const Vector6d& xi, double sigma) {
+// "a turn of 1.9° about (0, 0, 1) and a shift of 0.35 m along (0.7, 0.7, 0)" for scale·ξ (a
+// part below 1e-6 of the other is left out).
+std::string DescribeMotion(const Vector6d& xi, double scale) {
   std::ostringstream s;
-  s << std::setprecision(2) << std::fixed;
-  const Eigen::Vector3d omega = sigma * xi.head<3>(), shift = sigma * xi.tail<3>();
+  s << std::setprecision(3) << std::fixed;
+  const Eigen::Vector3d omega = scale * xi.head<3>(), shift = scale * xi.tail<3>();
   auto direction = [&s](const Eigen::Vector3d& v) {
     const Eigen::Vector3d u = v.normalized();
     s << "(" << u.x() << ", " << u.y() << ", " << u.z() << ")";
   };
-  s << std::setprecision(3) << "a turn of " << omega.norm() * 180.0 / M_PI << " deg about ";
-  direction(omega);
-  s << " and a shift of " << shift.norm() << " m along ";
-  direction(shift);
+  const bool turn = omega.norm() > 1e-9, move = shift.norm() > 1e-9;
+  if (turn) {
+    s << "a turn of " << omega.norm() * 180.0 / M_PI << " deg about ";
+    direction(omega);
+  }
+  if (turn && move) s << " and ";
+  if (move) {
+    s << "a shift of " << shift.norm() << " m along ";
+    direction(shift);
+  }
+  if (!turn && !move) s << "no motion";
   return s.str();
 }
 
@@ -1620,12 +1628,15 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
       result.sigma_rotation_deg(k) = std::sqrt(u.covariance(k, k)) * 180.0 / M_PI;
       result.sigma_translation_m(k) = std::sqrt(u.covariance(3 + k, 3 + k));
     }
+    const double bound = options.max_resolution_spacing * f.spacing;
+    std::ostringstream at_bound;
+    at_bound << std::setprecision(3) << " (unconstrained; shown for " << bound
+             << " m RMS, the resolution bound)";
     if (!u.weakest.isZero()) {
       result.weakest_motion =
-          DescribeMotion(u.weakest, std::isfinite(u.sigma_rms) ? u.sigma_rms : 1.0) +
-          (std::isfinite(u.sigma_rms) ? " (1 sigma)" : " (unconstrained; shown for 1 m RMS)");
+          std::isfinite(u.sigma_rms) ? DescribeMotion(u.weakest, u.sigma_rms) + " (1 sigma)"
+                                     : DescribeMotion(u.weakest, bound) + at_bound.str();
     }
-    const double bound = options.max_resolution_spacing * f.spacing;
     axis_resolution = PoseResolution(fine_src, fine_src_n, *f.crop, f.h.transform, f.residuals,
                                      f.agree, reach, fine_tau, support_radius, bound,
                                      support_radius, options.resolution_t, true, {});
@@ -1633,7 +1644,7 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
       result.weak_motion_resolution_m = PoseResolution(
           fine_src, fine_src_n, *f.crop, f.h.transform, f.residuals, f.agree, reach, fine_tau,
           support_radius, bound, support_radius, options.resolution_t, false, u.weak_directions);
-      weak_motion = DescribeMotion(u.weak_directions.front(), 1.0);
+      weak_motion = DescribeMotion(u.weak_directions.front(), bound);
     }
     result.resolution_m = std::max(axis_resolution, result.weak_motion_resolution_m);
     spdlog::debug("registration: pose resolution {:.4g} m (axes {:.4g} m, weak motions {:.4g} m; "
@@ -1769,9 +1780,10 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   // A motion of the fit that no displacement up to R_s tells apart: the data leave it free
   // (or the pose is off the score's maximum along it).
   if (!options.paper_only && !std::isfinite(result.weak_motion_resolution_m)) {
-    why << "pose not determined: the fit's least-constrained motion (per metre RMS: "
-        << weak_motion << ") is not told apart by the fine verification at any displacement "
-        << "up to R_s = " << support_radius << " m; a planar or featureless overlap";
+    why << "pose not determined: the fit's least-constrained motion ("
+        << weak_motion << ", " << options.max_resolution_spacing * result.fine_spacing_m
+        << " m RMS over the source) is not told apart by the fine verification at any "
+        << "displacement up to R_s = " << support_radius << " m; a planar or featureless overlap";
     return fail(why.str());
   }
   if (!options.paper_only && options.check_fit_uncertainty &&
