@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
+#include <utility>
 
 #include <spdlog/spdlog.h>
 
@@ -86,6 +88,14 @@ io::PointCloud CloudNear(const std::string& path, const std::vector<Eigen::Vecto
   }
   lo.array() -= radius;
   hi.array() += radius;
+  // The cameras in a horizontal grid of cells of `radius`: a point is tested against the
+  // cameras of its cell and the 8 around it only (a drive has hundreds of frames).
+  const auto cell = [&](const Eigen::Vector3d& p) {
+    return std::make_pair(static_cast<int64_t>(std::floor((p.x() - lo.x()) / radius)),
+                          static_cast<int64_t>(std::floor((p.y() - lo.y()) / radius)));
+  };
+  std::map<std::pair<int64_t, int64_t>, std::vector<Eigen::Vector3d>> grid;
+  for (const Eigen::Vector3d& c : centres) grid[cell(c)].push_back(c);
   io::PointCloud out;
   bool intensity = true;
   io::StreamPointCloud(path, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t first, size_t) {
@@ -94,7 +104,14 @@ io::PointCloud CloudNear(const std::string& path, const std::vector<Eigen::Vecto
       const Eigen::Vector3d& p = chunk.points[i];
       if (!((p.array() >= lo.array()).all() && (p.array() <= hi.array()).all())) continue;
       bool near = false;
-      for (const Eigen::Vector3d& c : centres) near = near || (p - c).squaredNorm() <= radius * radius;
+      const auto [cx, cy] = cell(p);
+      for (int64_t dx = -1; dx <= 1 && !near; ++dx) {
+        for (int64_t dy = -1; dy <= 1 && !near; ++dy) {
+          const auto it = grid.find({cx + dx, cy + dy});
+          if (it == grid.end()) continue;
+          for (const Eigen::Vector3d& c : it->second) near = near || (p - c).squaredNorm() <= radius * radius;
+        }
+      }
       if (!near) continue;
       out.points.push_back(p);
       if (intensity) out.intensity.push_back(chunk.intensity[i]);
