@@ -19,6 +19,8 @@
 #include <limits>
 #include <list>
 #include <map>
+#include <mutex>
+#include <thread>
 
 #include <opencv2/imgcodecs.hpp>
 #include <spdlog/spdlog.h>
@@ -130,12 +132,15 @@ struct ColourView {
     }
   }
 
-  /// Adds the colour of the image at `points[i]` (i in `subset`, all when null) with its
-  /// weight to `sum` / `weight` where the point is visible; `seen[i] |= flag` for those.
-  void AddColours(const cv::Mat& image, const std::vector<Eigen::Vector3d>& points, const std::vector<uint32_t>* subset,
-                  std::vector<Eigen::Vector3f>* sum, std::vector<float>* weight, std::vector<uint8_t>* seen, uint8_t flag) {
-    const size_t n = subset ? subset->size() : points.size();
-    for (size_t j = 0; j < n; ++j) {
+  /// Adds the colour of the image at `points[i]` (i = subset[j] for j in [begin, end), i = j
+  /// when `subset` is null) with its weight to `sum` / `weight` where the point is visible;
+  /// `seen[i] |= flag` for those. Returns their number. Threads may share a view and the
+  /// accumulators as long as their j ranges hold different points.
+  size_t AddColours(const cv::Mat& image, const std::vector<Eigen::Vector3d>& points, const std::vector<uint32_t>* subset,
+                    size_t begin, size_t end, std::vector<Eigen::Vector3f>* sum, std::vector<float>* weight,
+                    std::vector<uint8_t>* seen, uint8_t flag) const {
+    size_t added = 0;
+    for (size_t j = begin; j < end; ++j) {
       const size_t i = subset ? (*subset)[j] : j;
       int u, v;
       float r;
@@ -152,8 +157,9 @@ struct ColourView {
       (*sum)[i] += w * rgb;
       (*weight)[i] += w;
       (*seen)[i] |= flag;
-      ++samples;
+      ++added;
     }
+    return added;
   }
 };
 
@@ -273,13 +279,25 @@ double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
 
-/// CPU time of the calling thread [s] (the colouring runs on one thread; wall times are
-/// inflated by whatever else the machine runs).
-double ThreadCpuSeconds() {
+/// CPU time of the process [s] (all its threads: while the outputs are written only the
+/// colouring's run; wall times are inflated by whatever else the machine runs).
+double CpuSeconds() {
   timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
   return t.tv_sec + 1e-9 * t.tv_nsec;
 }
+
+/// Runs fn(t, threads) for t = 0 .. threads-1: on threads-1 new threads and this one.
+template <typename F>
+void OnThreads(int threads, const F& fn) {
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back([&fn, t, threads] { fn(t, threads); });
+  fn(0, threads);
+  for (std::thread& th : pool) th.join();
+}
+
+/// Threads worth starting for `n` points (a thread per 20,000 at least).
+int ThreadsFor(size_t n, int threads) { return static_cast<int>(std::clamp<size_t>(n / 20000, 1, std::max(1, threads))); }
 
 }  // namespace
 
@@ -317,7 +335,7 @@ json WriteColouredLidar(const JointState& s, const fs::path& stage, json* files)
     // One image at a time: its z-buffer of the whole cloud, then its colours.
     view.ResetDepth(DepthCell(*view.camera));
     view.AddDepths(cloud.points, nullptr);
-    view.AddColours(image, cloud.points, nullptr, &sum, &weight, &seen, k < num_photos ? 1 : 2);
+    view.samples += view.AddColours(image, cloud.points, nullptr, 0, n, &sum, &weight, &seen, k < num_photos ? 1 : 2);
     view.depth = DepthGrid();
     ++(k < num_photos ? photos : rig_images);
   }
@@ -353,11 +371,13 @@ struct MobileColouring::Impl {
   std::vector<bool> unreadable;     ///< per view
   // Counts.
   size_t points = 0, coloured = 0, by_rig = 0, by_photos = 0, image_loads = 0;
-  double depth_cpu = 0.0, colour_cpu = 0.0;  ///< thread CPU seconds in AddDepths / Colour
+  int threads = 1;
+  double depth_cpu = 0.0, colour_cpu = 0.0;  ///< process CPU seconds in AddDepths / Colour
+  double colour_wall = 0.0;                  ///< wall seconds in Colour
   /// The first pass, from construction to the first Colour call (the stream's reading and
   /// georeferencing included): what the colouring adds besides colour_cpu. Wall and CPU.
   std::chrono::steady_clock::time_point created = std::chrono::steady_clock::now();
-  double created_cpu = ThreadCpuSeconds();
+  double created_cpu = CpuSeconds();
   double first_pass_seconds = -1.0, first_pass_cpu = -1.0;
   int cell = 2;
 
@@ -409,8 +429,9 @@ struct MobileColouring::Impl {
   }
 };
 
-MobileColouring::MobileColouring(const JointState& s) : impl_(std::make_unique<Impl>()) {
+MobileColouring::MobileColouring(const JointState& s, int threads) : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
+  m.threads = std::max(1, threads);
   // The rig's frames on the same vehicle (their times are the LiDAR's clock), in time order.
   if (s.rig && s.mobile && s.mobile->with_rig) {
     const RigBlock& rig = *s.rig;
@@ -445,23 +466,29 @@ bool MobileColouring::active() const { return !impl_->views.empty(); }
 void MobileColouring::AddDepths(const io::PointCloud& chunk) {
   Impl& m = *impl_;
   if (m.views.empty()) return;
-  const double start = ThreadCpuSeconds();
+  const double start = CpuSeconds();
   const std::vector<std::vector<uint32_t>> by_frame = m.PointsByFrame(chunk);
+  const std::vector<uint32_t> in_box = m.InPhotoBox(chunk);
+  // One z-buffer per task: the threads take every threads-th.
+  std::vector<std::pair<size_t, const std::vector<uint32_t>*>> tasks;
   for (size_t f = 0; f < by_frame.size(); ++f) {
     if (by_frame[f].empty()) continue;
-    for (size_t k = 0; k < m.cameras; ++k) m.views[f * m.cameras + k].AddDepths(chunk.points, &by_frame[f]);
+    for (size_t k = 0; k < m.cameras; ++k) tasks.push_back({f * m.cameras + k, &by_frame[f]});
   }
-  const std::vector<uint32_t> in_box = m.InPhotoBox(chunk);
   if (!in_box.empty()) {
-    for (size_t v = m.first_photo; v < m.views.size(); ++v) m.views[v].AddDepths(chunk.points, &in_box);
+    for (size_t v = m.first_photo; v < m.views.size(); ++v) tasks.push_back({v, &in_box});
   }
-  m.depth_cpu += ThreadCpuSeconds() - start;
+  OnThreads(ThreadsFor(chunk.size(), m.threads), [&](int t, int threads) {
+    for (size_t i = t; i < tasks.size(); i += threads) m.views[tasks[i].first].AddDepths(chunk.points, tasks[i].second);
+  });
+  m.depth_cpu += CpuSeconds() - start;
 }
 
 void MobileColouring::Colour(io::PointCloud* chunk) {
   Impl& m = *impl_;
   if (m.views.empty()) return;
-  const double start = ThreadCpuSeconds();
+  const double start = CpuSeconds();
+  const auto start_wall = std::chrono::steady_clock::now();
   if (m.first_pass_seconds < 0) {
     m.first_pass_seconds = Seconds(m.created);
     m.first_pass_cpu = start - m.created_cpu;
@@ -474,10 +501,20 @@ void MobileColouring::Colour(io::PointCloud* chunk) {
   for (size_t f = 0; f < by_frame.size(); ++f) {
     if (by_frame[f].empty()) continue;
     const std::vector<cv::Mat>& images = m.FrameImages(f);
-    for (size_t k = 0; k < m.cameras; ++k) {
-      if (images[k].empty()) continue;
-      m.views[f * m.cameras + k].AddColours(images[k], chunk->points, &by_frame[f], &sum, &weight, &seen, 1);
-    }
+    std::vector<size_t> added(m.cameras, 0);
+    std::mutex mutex;
+    // The threads split the frame's points (each point's accumulator has one writer).
+    const size_t np = by_frame[f].size();
+    OnThreads(ThreadsFor(np, m.threads), [&](int t, int threads) {
+      for (size_t k = 0; k < m.cameras; ++k) {
+        if (images[k].empty()) continue;
+        const size_t a = m.views[f * m.cameras + k].AddColours(images[k], chunk->points, &by_frame[f], np * t / threads,
+                                                               np * (t + 1) / threads, &sum, &weight, &seen, 1);
+        std::lock_guard<std::mutex> lock(mutex);
+        added[k] += a;
+      }
+    });
+    for (size_t k = 0; k < m.cameras; ++k) m.views[f * m.cameras + k].samples += added[k];
   }
   // The photos, one at a time, for the points in the photo block's box.
   const std::vector<uint32_t> in_box = m.InPhotoBox(*chunk);
@@ -490,7 +527,13 @@ void MobileColouring::Colour(io::PointCloud* chunk) {
         m.unreadable[v] = true;
         continue;
       }
-      m.views[v].AddColours(image, chunk->points, &in_box, &sum, &weight, &seen, 2);
+      std::mutex mutex;
+      OnThreads(ThreadsFor(in_box.size(), m.threads), [&](int t, int threads) {
+        const size_t a = m.views[v].AddColours(image, chunk->points, &in_box, in_box.size() * t / threads,
+                                               in_box.size() * (t + 1) / threads, &sum, &weight, &seen, 2);
+        std::lock_guard<std::mutex> lock(mutex);
+        m.views[v].samples += a;
+      });
     }
   }
   FinishColours(sum, weight, &chunk->colors, &m.coloured);
@@ -499,7 +542,8 @@ void MobileColouring::Colour(io::PointCloud* chunk) {
     m.by_photos += (b & 2) ? 1 : 0;
   }
   m.points += n;
-  m.colour_cpu += ThreadCpuSeconds() - start;
+  m.colour_cpu += CpuSeconds() - start;
+  m.colour_wall += Seconds(start_wall);
 }
 
 json MobileColouring::Report(const std::string& file) const {
@@ -518,14 +562,15 @@ json MobileColouring::Report(const std::string& file) const {
   size_t depth_bytes = 0;
   for (const ColourView& v : m.views) depth_bytes += v.depth.bytes();
   spdlog::info("adjust: mobile cloud coloured from {} rig images and {} photos: {} of {} points seen (first pass {:.1f} s "
-               "wall, {:.1f} s CPU; colours {:.1f} s CPU)", rig_images, photos, m.coloured, m.points, m.first_pass_seconds,
-               m.first_pass_cpu, m.colour_cpu);
+               "wall, {:.1f} s CPU; colours {:.1f} s wall, {:.1f} s CPU)", rig_images, photos, m.coloured, m.points,
+               m.first_pass_seconds, m.first_pass_cpu, m.colour_wall, m.colour_cpu);
   return {{"file", file}, {"points", m.points}, {"coloured", m.coloured}, {"coloured_by_rig_images", m.by_rig},
           {"coloured_by_photos", m.by_photos}, {"images", rig_images + photos}, {"rig_images", rig_images},
           {"rig_images_available", rig_available}, {"photos", photos}, {"frames_per_side", kFramesPerSide},
           {"depth_cell_px", m.cell}, {"depth_buffer_mb", depth_bytes / 1048576.0}, {"image_reads", m.image_loads},
           {"first_pass_seconds", m.first_pass_seconds}, {"first_pass_cpu_seconds", m.first_pass_cpu},
-          {"depth_cpu_seconds", m.depth_cpu}, {"colour_cpu_seconds", m.colour_cpu},
+          {"depth_cpu_seconds", m.depth_cpu}, {"colour_cpu_seconds", m.colour_cpu}, {"colour_seconds", m.colour_wall},
+          {"threads", m.threads},
           {"unreadable_images", unreadable}};
 }
 

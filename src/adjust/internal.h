@@ -245,10 +245,11 @@ nlohmann::json WriteColouredLidar(const JointState& s, const std::filesystem::pa
 /// photos (points in the photo block's box), in two passes over the same chunks in the same
 /// order: AddDepths on every chunk (each image's coarse z-buffer of the cloud itself), then
 /// Colour on every chunk. Memory: the z-buffers of all images within 256 MB (their cell grows
-/// to fit), the images of 5 rig frames and one photo, per-chunk accumulators.
+/// to fit), the images of 5 rig frames and one photo, per-chunk accumulators. `threads`
+/// split the z-buffers (pass 1) and the points (pass 2).
 class MobileColouring {
  public:
-  explicit MobileColouring(const JointState& s);
+  MobileColouring(const JointState& s, int threads);
   ~MobileColouring();
   MobileColouring(const MobileColouring&) = delete;
   MobileColouring& operator=(const MobileColouring&) = delete;

@@ -820,7 +820,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
         corrected->points[i] = CorrectedPose(m.nodes, WeightAt(m.nodes, chunk.time[i]), ins) * (body_from_lidar * in_lidar);
       }
     };
-    MobileColouring colouring(s);
+    MobileColouring colouring(s, options.num_threads);
     if (colouring.active()) {
       io::PointCloud corrected;
       io::StreamPointCloud(m.config->cloud, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t, size_t) {
