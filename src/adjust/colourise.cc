@@ -358,10 +358,9 @@ json WriteColouredLidar(const JointState& s, const fs::path& stage, json* files)
 // ---- the mobile cloud ----
 
 struct MobileColouring::Impl {
-  std::vector<ColourView> views;    ///< rig frame f camera k at order_index(f) * cameras + k, then the photos
+  std::vector<ColourView> views;    ///< frame f (in time order) camera k at f * cameras + k, then the photos
   size_t cameras = 0;
   std::vector<double> frame_time;   ///< rig frames sorted by time
-  std::vector<size_t> frame_index;  ///< their index in the RigBlock
   size_t first_photo = 0;
   bool has_box = false;
   Eigen::Vector3d lo, hi;           ///< photo block's box
@@ -442,7 +441,6 @@ MobileColouring::MobileColouring(const JointState& s, int threads) : impl_(std::
     m.cameras = rig.cameras.size();
     for (size_t f : order) {
       m.frame_time.push_back(rig.frame_times[f]);
-      m.frame_index.push_back(f);
       for (ColourView& v : RigFrameViews(s, f, files)) m.views.push_back(std::move(v));
     }
   }
