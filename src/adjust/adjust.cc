@@ -1186,7 +1186,7 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
     LoadLidar(&s);
     internal::RegisterSphereStations(&s);
     internal::LoadMobile(&s);
-    internal::RegisterImagesByMi(&s);
+    internal::RegisterImagesByMi(&s, internal::MiStage::kRigFrames);
     if (!project.other_sensors.empty()) {
       for (const OtherSensor& o : project.other_sensors) {
         s.warnings.push_back("sensor '" + o.id + "' (" + o.type + ") validated but not adjusted: not implemented in this version");
@@ -1197,6 +1197,7 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
     // shrinking from max_distance_m to 3σ), solve, until the association no longer changes.
     SolveOnce(&s, options, s.surface ? SolvePhase::kAssociation : SolvePhase::kFinal);
     s.outer_iterations = 1;
+    internal::RegisterImagesByMi(&s, internal::MiStage::kPhotos);
     if (s.surface) {
       const LidarStatic& lidar = project.lidar_static.front();
       double gate = lidar.max_distance_m;

@@ -143,10 +143,10 @@ io::PointCloud Crop(const io::PointCloud& cloud, const Eigen::Vector3d& centre, 
 
 }  // namespace
 
-void RegisterImagesByMi(JointState* s) {
+void RegisterImagesByMi(JointState* s, MiStage stage) {
   const Project& project = *s->project;
   // The rig's result files first (the photos' are read with the photo block).
-  if (s->rig && !s->rig->config->mi_results.empty()) {
+  if (stage == MiStage::kRigFrames && s->rig && !s->rig->config->mi_results.empty()) {
     RigBlock& rig = *s->rig;
     for (size_t k = 0; k < rig.frame_names.size(); ++k) {
       const fs::path file = fs::path(rig.config->mi_results) / (rig.frame_names[k] + ".json");
@@ -198,6 +198,7 @@ void RegisterImagesByMi(JointState* s) {
     }
   }
   for (const std::string& name : {std::string("photos"), std::string("rig")}) {
+    if ((name == "photos") != (stage == MiStage::kPhotos)) continue;
     const std::vector<std::string>& only = name == "photos" ? (s->photos ? s->photos->config->mi_only : std::vector<std::string>())
                                                              : (s->rig ? s->rig->config->mi_only : std::vector<std::string>());
     for (const std::string& wanted : only) {
@@ -207,8 +208,8 @@ void RegisterImagesByMi(JointState* s) {
       if (!found) s->warnings.push_back("mi_register of the " + name + ": '" + wanted + "' is not one of its images/frames");
     }
   }
-  if (tasks.empty()) return;
-  // Read every image first (a bad one is an input error before hours of work).
+  // Read every image first, photos and panoramas, at the first stage: a bad one is an input
+  // error before any work. Then keep this stage's.
   std::vector<mi::GrayImage> images;
   for (MiTask& t : tasks) {
     images.push_back(mi::ReadGrayImage(t.path));
@@ -229,6 +230,13 @@ void RegisterImagesByMi(JointState* s) {
                                             std::to_string(t.camera.height));
     }
   }
+  for (size_t i = tasks.size(); i-- > 0;) {
+    if ((tasks[i].kind == "photo") != (stage == MiStage::kPhotos)) {
+      tasks.erase(tasks.begin() + i);
+      images.erase(images.begin() + i);
+    }
+  }
+  if (tasks.empty()) return;
   // The cloud: the static LiDAR's reference cloud (world frame) near the cameras.
   mi::RegistrationOptions options;  // register-mi's defaults
   constexpr double kRadius = 60.0;  // m: what a street-level image sees of a building's LiDAR
