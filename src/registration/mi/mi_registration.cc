@@ -1240,6 +1240,15 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
 
   // ---- Acceptance. Every check is measured; status "ok" needs all of them.
   std::vector<std::string> failures;
+  // The optimum must not be below the start in the full-resolution metric: a search that left
+  // the start's maximum at a coarse level and ended on a lower one at full resolution has not
+  // found the maximum it reports (measured: a simulated photo registered from its true pose
+  // ended 10 cm / 0.19° away, NMI 1.03070 → 1.03009, and every other check passed).
+  checks.below_start = result.metric_after.value < result.metric_before.value;
+  if (checks.below_start) {
+    failures.push_back("the search ended below the start: metric " + Fixed(result.metric_before.value, 5) +
+                       " at the start, " + Fixed(result.metric_after.value, 5) + " at the optimum found");
+  }
   for (int i = 0; i < 6; ++i) {
     if (std::abs(x[i]) >= 0.9 * bound[i]) {
       checks.on_bound = true;

@@ -58,6 +58,7 @@ json ResultToJson(const RegistrationResult& result, const RegistrationOptions& o
   out["confidence_reason"] = result.confidence_reason;
   const AcceptanceChecks& checks = result.checks;
   out["checks"] = {{"on_bound", checks.on_bound},
+                   {"below_start", checks.below_start},
                    {"sigma_px", checks.sigma_px},
                    {"max_sigma_px", options.max_sigma_px},
                    {"max_calibrated_sigma_px", options.max_calibrated_sigma_px},

@@ -170,6 +170,7 @@ struct StageStat {
 /// The acceptance tests of one registration, all measured (also when an earlier one failed).
 struct AcceptanceChecks {
   bool on_bound = false;            ///< optimum at ≥ 90 % of the search bound in some parameter
+  bool below_start = false;         ///< optimum's full-resolution metric below the start's
   double sigma_px = -1;             ///< predicted pixel σ (median over visible points)
   int weak_directions = 0;          ///< no positive curvature / less than the box: box σ
   double effective_samples = 0;     ///< N_eff of the Laplace covariance
