@@ -197,13 +197,7 @@ TEST_F(AdjustTest, RecoversTheSimulatedSurvey) {
   }
   // Pearson correlation of the two greys (the test's measure: the pairs' grey levels vary over
   // the whole range, a wrong pose or pixel mapping decorrelates them).
-  double ma = 0, mb = 0;
-  for (const auto& [a, b] : pairs) ma += a, mb += b;
-  ma /= pairs.size();
-  mb /= pairs.size();
-  double sab = 0, saa = 0, sbb = 0;
-  for (const auto& [a, b] : pairs) sab += (a - ma) * (b - mb), saa += (a - ma) * (a - ma), sbb += (b - mb) * (b - mb);
-  const double correlation = sab / std::sqrt(saa * sbb);
+  const double correlation = testing_support::Pearson(pairs);
   std::printf("LiDAR colours: mean |grey difference| to the nearest tie point %.1f, shuffled %.1f, correlation %.3f, "
               "over %zu pairs\n", matched / pairs.size(), shuffled / pairs.size(), correlation, pairs.size());
   EXPECT_GT(correlation, 0.5);  // 0.80 measured; shuffled pairs give about 0 (± 0.06 at 300 pairs)

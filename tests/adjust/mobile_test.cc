@@ -205,15 +205,7 @@ void MobileAdjustTest::ExpectColouredLikeTheScene(const json& r, const io::Point
     all.push_back({expected, grey});
     if (!((p.array() >= lo.array()).all() && (p.array() <= hi.array()).all())) rig_only.push_back({expected, grey});
   }
-  const auto pearson = [](const std::vector<std::pair<double, double>>& pairs) {
-    double ma = 0, mb = 0;
-    for (const auto& [a, b] : pairs) ma += a, mb += b;
-    ma /= pairs.size();
-    mb /= pairs.size();
-    double sab = 0, saa = 0, sbb = 0;
-    for (const auto& [a, b] : pairs) sab += (a - ma) * (b - mb), saa += (a - ma) * (a - ma), sbb += (b - mb) * (b - mb);
-    return sab / std::sqrt(saa * sbb);
-  };
+  const auto pearson = testing_support::Pearson;
   ASSERT_GT(all.size(), 1000u);
   ASSERT_GT(rig_only.size(), 500u);
   std::vector<std::pair<double, double>> shuffled = all;

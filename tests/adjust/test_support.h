@@ -6,7 +6,10 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <cmath>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -24,6 +27,17 @@ inline std::string ReadText(const std::filesystem::path& p) {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+/// Pearson's correlation of the pairs (the colour tests' measure of agreement).
+inline double Pearson(const std::vector<std::pair<double, double>>& pairs) {
+  double ma = 0, mb = 0;
+  for (const auto& [a, b] : pairs) ma += a, mb += b;
+  ma /= pairs.size();
+  mb /= pairs.size();
+  double sab = 0, saa = 0, sbb = 0;
+  for (const auto& [a, b] : pairs) sab += (a - ma) * (b - mb), saa += (a - ma) * (a - ma), sbb += (b - mb) * (b - mb);
+  return sab / std::sqrt(saa * sbb);
 }
 
 /// Loads `project_path` and adjusts it into `out` (no progress output).
