@@ -16,6 +16,7 @@
 #include "mmba/core/error.h"
 #include "mmba/core/progress.h"
 #include "mmba/io/kitti.h"
+#include "mmba/registration/mi/mi_prior.h"
 #include "mmba/registration/mi/mi_registration.h"
 #include "mmba/registration/mi/result_json.h"
 
@@ -54,6 +55,11 @@ bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* wh
     }
   } catch (const json::exception& e) {
     throw InputError(file, 0, "cam_from_lidar/covariance", e.what(), "numbers");
+  }
+  Eigen::Matrix<double, 6, 6> sqrt_information;
+  if (!mi::MiPosePrior::SqrtInformation(result->covariance, &sqrt_information)) {
+    *why = "covariance not symmetric positive definite";
+    return false;
   }
   result->source = file;
   return true;
@@ -178,7 +184,8 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
       tasks.push_back(t);
     }
   }
-  if (s->rig && s->rig->config->mi_register) {
+  // The panoramas were read and checked, and registered, at the first stage.
+  if (stage == MiStage::kRigFrames && s->rig && s->rig->config->mi_register) {
     const RigBlock& rig = *s->rig;
     for (size_t k = 0; k < rig.frame_names.size(); ++k) {
       if (!Wanted(rig.config->mi_only, rig.frame_names[k])) continue;
@@ -208,8 +215,8 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
       if (!found) s->warnings.push_back("mi_register of the " + name + ": '" + wanted + "' is not one of its images/frames");
     }
   }
-  // Read every image first, photos and panoramas, at the first stage: a bad one is an input
-  // error before any work. Then keep this stage's.
+  // Read every image of this stage's tasks (at the first stage the photos too: a bad one is an
+  // input error before any work). Then keep this stage's.
   std::vector<mi::GrayImage> images;
   for (MiTask& t : tasks) {
     images.push_back(mi::ReadGrayImage(t.path));
