@@ -3,10 +3,19 @@
 // the LiDAR points projected with the result against the calibration's own, before/after.
 //   mi_kitti [DATA_DIR=data/kitti] [METRIC=nmi] [REGION=overlap] [BINS=64] [BOUND_M=0.5]
 //            [BOUND_DEG=3] [STARTS=0,1,...,7]
+// STARTS: indices 0..7 (the default) = each axis alone, then (+0.1, -0.1, +0.1; +1, -1, +1)
+// and its opposite; 8 = the calibration itself; 9..16 = 0.1 m and 1° in random directions.
 // MMBA_DEBUG=1 in the environment logs each stage (time, evaluations);
-// MI_POINT_RADIUS_M, MI_MAX_POINT_RADIUS_PX, MI_REPRESENTATION override the defaults.
+// MI_POINT_RADIUS_M, MI_MAX_POINT_RADIUS_PX, MI_REPRESENTATION, MI_LEVELS, MI_RESTART_LEVEL,
+// MI_SPLIT_LEVEL, MI_COARSE_STARTS, MI_POINT_SAMPLES override the defaults.
+// Diagnostics: MI_PROBE=1 (per-axis probe at every level, then exit); MI_COMPARE=1 (the
+// metric at the calibration, the start and the result at every level, and on the line from
+// the calibration to the result); MI_OVERLAY=PREFIX [MI_CROP=x0,y0,w,h] (PREFIX_<start>.png:
+// photo / LiDAR image at the calibration / at the result).
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <random>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -15,6 +24,7 @@
 #include "mmba/core/progress.h"
 #include "mmba/io/kitti.h"
 #include "mmba/io/point_cloud.h"
+#include "mmba/registration/mi/image.h"
 #include "mmba/registration/mi/mi_registration.h"
 
 using namespace mmba;
@@ -45,6 +55,12 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_SAMPLES_IN_CHECKS")) {
     options.point_samples_in_checks = std::atoi(v) != 0;
   }
+  // Search structure: pyramid levels, the levels of the restarts and of the halves, coarse
+  // starts (as in mi_panoramas).
+  if (const char* v = std::getenv("MI_LEVELS")) options.pyramid_levels = std::atoi(v);
+  if (const char* v = std::getenv("MI_RESTART_LEVEL")) options.restart_level = std::atoi(v);
+  if (const char* v = std::getenv("MI_SPLIT_LEVEL")) options.split_level = std::atoi(v);
+  if (const char* v = std::getenv("MI_COARSE_STARTS")) options.coarse_starts = std::atoi(v);
   if (const char* v = std::getenv("MI_POINT_RADIUS_M")) {
     options.render.point_radius_m = std::atof(v);
   }
@@ -103,13 +119,28 @@ int main(int argc, char** argv) {
   p << 0.1, -0.1, 0.1, 1.0, -1.0, 1.0;
   perturbations.push_back(p);
   perturbations.push_back(-p);
+  // Index 8 (only when asked for in STARTS): the calibration itself — does the search stay?
+  perturbations.push_back(Vector6d::Zero());
+  // Indices 9..16 (only when asked for): 0.1 m and 1° in random directions (the translation a
+  // random unit vector · 0.1 m, the rotation a random unit vector of (roll, pitch, yaw) · 1°;
+  // fixed seed) — more starts to look for a wrong "ok".
+  std::mt19937 rng(2026);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int k = 0; k < 8; ++k) {
+    Eigen::Vector3d t(normal(rng), normal(rng), normal(rng));
+    Eigen::Vector3d r(normal(rng), normal(rng), normal(rng));
+    Vector6d q;
+    q << 0.1 * t.normalized(), 1.0 * r.normalized();
+    perturbations.push_back(q);
+  }
+  const size_t kDefaultStarts = 8;
   std::printf("%-40s %-6s %8s %8s  %-44s %6s %7s %6s %6s %6s\n",
               "perturbation (tx ty tz m, r p y deg)", "status", "before", "after",
               "residual error (m, deg)", "time", "sigma", "restart", "MIgain", "z");
   std::setvbuf(stdout, nullptr, _IOLBF, 0);
   int recovered = 0;
   if (starts.empty()) {
-    for (size_t i = 0; i < perturbations.size(); ++i) starts.push_back(static_cast<int>(i));
+    for (size_t i = 0; i < kDefaultStarts; ++i) starts.push_back(static_cast<int>(i));
   }
   for (int index : starts) {
     const Vector6d& perturbation = perturbations.at(index);
@@ -121,6 +152,73 @@ int main(int argc, char** argv) {
                                                 result.cam_from_lidar, options.render);
     const Vector6d error = CorrectionBetween(kitti.cam_from_lidar, result.cam_from_lidar);
     recovered += after.median_px < 1.0;
+    if (const char* out = std::getenv("MI_OVERLAY")) {
+      // Diagnostic picture: the photo (top), the LiDAR image at the calibration (middle) and
+      // at the result (bottom), empty pixels showing the photo darkened; crop
+      // MI_CROP="x0,y0,w,h" magnified 3x.
+      int cx = 0, cy = 0, cw = image.width, ch = image.height;
+      if (const char* crop = std::getenv("MI_CROP")) {
+        std::sscanf(crop, "%d,%d,%d,%d", &cx, &cy, &cw, &ch);
+        cx = std::clamp(cx, 0, image.width - 1);
+        cy = std::clamp(cy, 0, image.height - 1);
+        cw = std::clamp(cw, 1, image.width - cx);
+        ch = std::clamp(ch, 1, image.height - cy);
+      }
+      const int zoom = 3;
+      GrayImage picture(cw * zoom, 3 * ch * zoom);
+      LidarImage rendered;
+      for (int panel = 0; panel < 3; ++panel) {
+        if (panel > 0) {
+          RenderLidarImage(points, frame.views[0],
+                           panel == 1 ? kitti.cam_from_lidar : result.cam_from_lidar,
+                           options.render, &rendered);
+        }
+        for (int r = 0; r < ch * zoom; ++r) {
+          for (int c = 0; c < cw * zoom; ++c) {
+            const int ic = cx + c / zoom, ir = cy + r / zoom;
+            float v = image.at(ic, ir);
+            if (panel > 0) {
+              const float l = rendered.value[size_t(ir) * image.width + ic];
+              v = l >= 0 ? 255.f * l : 0.3f * v;
+            }
+            picture.at(c, panel * ch * zoom + r) = v;
+          }
+        }
+      }
+      WriteGrayPng(picture, std::string(out) + "_" + std::to_string(index) + ".png");
+    }
+    if (std::getenv("MI_COMPARE") != nullptr) {
+      // Is the result's metric above the calibration's? (Then the metric, not the search,
+      // puts its maximum away from the calibration on this frame.) Every level, rendered
+      // histogram and B-spline one.
+      const FrameSetEvaluator evaluator({frame}, start, options);
+      MetricOptions smooth = options.metric;
+      smooth.smoothing = Smoothing::kBSpline;
+      MetricOptions hard = options.metric;
+      hard.smoothing = Smoothing::kNone;
+      // The full-resolution metric on the straight line (in the correction) from the
+      // calibration (t = 0) to the result (t = 1) and beyond.
+      const Vector6d to_result = CorrectionBetween(kitti.cam_from_lidar, result.cam_from_lidar);
+      std::printf("  line calibration->result, level 0 (%s):",
+                  SmoothingName(smooth.smoothing).c_str());
+      for (int k = 0; k <= 15; ++k) {
+        const double t = 0.1 * k;
+        std::printf(" %.1f:%.6f", t,
+                    evaluator.Evaluate(ApplyCorrection(kitti.cam_from_lidar, t * to_result), 0,
+                                       smooth).value);
+      }
+      std::printf("\n");
+      for (int level = 0; level < evaluator.levels(); ++level) {
+        std::printf("  level %d: %s calibration %.6f result %.6f start %.6f | none "
+                    "calibration %.6f result %.6f\n",
+                    level, SmoothingName(smooth.smoothing).c_str(),
+                    evaluator.Evaluate(kitti.cam_from_lidar, level, smooth).value,
+                    evaluator.Evaluate(result.cam_from_lidar, level, smooth).value,
+                    evaluator.Evaluate(start, level, smooth).value,
+                    evaluator.Evaluate(kitti.cam_from_lidar, level, hard).value,
+                    evaluator.Evaluate(result.cam_from_lidar, level, hard).value);
+      }
+    }
     const AcceptanceChecks& c = result.checks;
     std::printf("%5.2f %5.2f %5.2f %5.1f %5.1f %5.1f        %-6s %6.2fpx %6.2fpx  "
                 "%6.3f %6.3f %6.3f %6.2f %6.2f %6.2f  %5.1fs %6.2fpx %6.2fpx %6.4f %6.0f  "
