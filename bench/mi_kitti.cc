@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -73,7 +74,25 @@ int main(int argc, char** argv) {
   const GrayImage image = ReadGrayImage(dir + "/image_2/000000.png");
   const io::KittiCameraPose kitti = io::KittiCamera(
       io::ReadKittiCalibration(dir + "/calib/000000.txt"), 2, image.width, image.height);
-  const LidarPoints points = PrepareLidarPoints(io::ReadPointCloud(dir + "/velodyne/000000.bin"));
+  LidarPoints points = PrepareLidarPoints(io::ReadPointCloud(dir + "/velodyne/000000.bin"));
+  if (const char* mask = std::getenv("MI_MASK")) {
+    // Diagnostic: drop the points that project (with the calibration) into the image box
+    // "x0,y0,x1,y1" (e.g. a moving object), to see whether it pulls the metric.
+    double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+    std::sscanf(mask, "%lf,%lf,%lf,%lf", &x0, &y0, &x1, &y1);
+    LidarPoints kept;
+    for (size_t i = 0; i < points.size(); ++i) {
+      const Eigen::Vector3d p = kitti.cam_from_lidar * points.points_in_lidar[i].cast<double>();
+      const std::optional<Eigen::Vector2d> xy =
+          p.z() > 0 ? kitti.camera.ImgFromCam(p) : std::nullopt;
+      if (xy && (*xy)[0] >= x0 && (*xy)[0] <= x1 && (*xy)[1] >= y0 && (*xy)[1] <= y1) continue;
+      kept.points_in_lidar.push_back(points.points_in_lidar[i]);
+      if (points.has_intensity()) kept.intensity01.push_back(points.intensity01[i]);
+    }
+    std::printf("MI_MASK: %zu of %zu points dropped\n", points.size() - kept.size(),
+                points.size());
+    points = std::move(kept);
+  }
   Frame frame;
   frame.name = "kitti_000000";
   frame.views = MakeViews(image, kitti.camera, ViewOptions(), "image");
