@@ -675,6 +675,7 @@ const char* kRig = "rig: tie points";
 const char* kMi = "photos: MI pose priors";
 const char* kRigPrior = "rig: GNSS/INS frame priors";
 const char* kRigMi = "rig: MI frame priors";
+const char* kRigMiMobile = "rig: MI frame poses on the mobile LiDAR";
 const char* kRigCalibration = "rig: cam_from_rig priors";
 const char* kMobile = "mobile LiDAR: points on the static surface";
 const char* kTrajectoryPrior = "mobile: GNSS/INS trajectory prior";
@@ -832,6 +833,12 @@ void BuildProblem(JointState* s) {
       s->builder->AddGroup(std::make_unique<MobileLidarGroup>(scaled(kMobile, Without(m.points, excluded(kMobile))), &m.nodes,
                                                               &m.vehicle_from_lidar, m.body_from_vehicle, mc.loss, kMobile,
                                                               &s->scan_from_world));
+    }
+    if (m.with_rig && s->rig && !s->rig->mi_mobile.empty()) {
+      s->builder->AddGroup(std::make_unique<MobileMiPriorGroup>(
+          Without(s->rig->mi_mobile, excluded(kRigMiMobile)), &s->rig->rig_from_world, &m.nodes, &m.vehicle_from_lidar,
+          m.body_from_vehicle, m.body_from_lidar_nominal, factor(kRigMiMobile) * factor(kRigMiMobile), s->rig->config->loss,
+          kRigMiMobile));
     }
     if (m.with_rig && mc.extrinsic == "weighted") {
       s->builder->AddGroup(std::make_unique<PosePriorGroup>(
@@ -1065,6 +1072,10 @@ std::string DescribeObservation(const JointState& s, const FactorGroup& group, s
   if (name == kMi && s.photos) return "MI pose of " + s.photos->model.images.at(s.photos->mi[index].image_id).name + " (" + s.photos->mi[index].source + ")";
   if (name == kRigPrior && s.rig) return "GNSS/INS prior of rig frame " + s.rig->frame_names[index];
   if (name == kRigMi && s.rig) return "MI pose of rig frame " + s.rig->frame_names[s.rig->mi_frame[index]] + " (" + s.rig->mi[index].source + ")";
+  if (name == kRigMiMobile && s.rig) {
+    return "MI pose of rig frame " + s.rig->frame_names[s.rig->mi_mobile[index].frame] + " on the mobile LiDAR (" +
+           s.rig->mi_mobile[index].source + ")";
+  }
   if (name == kRigCalibration && s.rig) return "cam_from_rig prior of " + s.rig->camera_names[index];
   if (name == kSphereLower && s.spheres) {
     return "point " + std::to_string(s.spheres->lower[index].point3D_id.value) + " (" + s.spheres->lower_source[index] + ")";

@@ -83,6 +83,9 @@ struct RigBlock {
   /// each at rig_from_world[mi_frame[i]]).
   std::vector<MiResult> mi;
   std::vector<size_t> mi_frame;
+  /// With `mi_lidar: mobile`: the panoramas' MI poses against the mobile LiDAR's delivered
+  /// cloud (factors on the frame, the trajectory correction and the extrinsic).
+  std::vector<MobileMiFrame> mi_mobile;
   std::vector<RigObservation> observations;
   std::vector<std::string> sources;
 };

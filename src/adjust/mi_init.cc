@@ -76,6 +76,8 @@ struct MiTask {
   Rigid3d start;
   ImageId image_id{0};  ///< photos
   size_t frame = 0;     ///< rig
+  bool mobile = false;  ///< registered against the mobile LiDAR's delivered cloud (mi_lidar: mobile)
+  double time_s = 0.0;  ///< rig: the frame's time
 };
 
 bool Wanted(const std::vector<std::string>& only, const std::string& name) {
@@ -136,14 +138,60 @@ io::PointCloud CloudNear(const std::string& path, const std::vector<Eigen::Vecto
   return out;
 }
 
-/// The points of `cloud` within `radius` of `centre`.
-io::PointCloud Crop(const io::PointCloud& cloud, const Eigen::Vector3d& centre, double radius) {
+/// The points of `cloud` within `radius` of `centre` (and, when `window` > 0, captured
+/// within `window` seconds of `time`).
+io::PointCloud Crop(const io::PointCloud& cloud, const Eigen::Vector3d& centre, double radius, double time = 0.0,
+                    double window = 0.0) {
   io::PointCloud out;
   for (size_t i = 0; i < cloud.size(); ++i) {
     if ((cloud.points[i] - centre).squaredNorm() > radius * radius) continue;
+    if (window > 0 && std::abs(cloud.time[i] - time) > window) continue;
     out.points.push_back(cloud.points[i]);
     if (cloud.has_intensity()) out.intensity.push_back(cloud.intensity[i]);
   }
+  return out;
+}
+
+/// The mobile LiDAR's delivered cloud (world frame as georeferenced by the GNSS/INS) near a
+/// batch of rig frames: points within `radius` of a frame and captured within `window`
+/// seconds of its time, streamed, with time and intensity. At most 2·`cap` points are held:
+/// when that many are kept, every other one is dropped and from then on only every 2nd
+/// candidate is considered (an even subsample whatever the cloud's size).
+io::PointCloud MobileCloudNear(const std::string& path, const std::vector<std::pair<double, Eigen::Vector3d>>& frames,
+                               double radius, double window, size_t cap) {
+  io::PointCloud out;
+  bool intensity = true;
+  size_t stride = 1, candidates = 0;
+  io::StreamPointCloud(path, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t first, size_t) {
+    if (first == 0) intensity = chunk.has_intensity();
+    if (!chunk.has_time()) throw InputError::Message(path, "no time per point: the mobile cloud cannot be cut by frame time");
+    for (size_t i = 0; i < chunk.size(); ++i) {
+      const double t = chunk.time[i];
+      // `frames` sorted by time: the first frame that is not earlier than t − window.
+      auto it = std::lower_bound(frames.begin(), frames.end(), t - window,
+                                 [](const std::pair<double, Eigen::Vector3d>& f, double v) { return f.first < v; });
+      bool near = false;
+      for (; it != frames.end() && it->first <= t + window && !near; ++it) {
+        near = (chunk.points[i] - it->second).squaredNorm() <= radius * radius;
+      }
+      if (!near || candidates++ % stride != 0) continue;
+      out.points.push_back(chunk.points[i]);
+      out.time.push_back(t);
+      if (intensity) out.intensity.push_back(chunk.intensity[i]);
+      if (out.size() >= 2 * cap) {
+        size_t n = 0;
+        for (size_t k = 0; k < out.size(); k += 2, ++n) {
+          out.points[n] = out.points[k];
+          out.time[n] = out.time[k];
+          if (intensity) out.intensity[n] = out.intensity[k];
+        }
+        out.points.resize(n);
+        out.time.resize(n);
+        if (intensity) out.intensity.resize(n);
+        stride *= 2;
+      }
+    }
+  });
   return out;
 }
 
@@ -163,10 +211,20 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
         s->warnings.push_back("MI result " + file.string() + " not used: " + why);
         continue;
       }
+      if (rig.config->mi_lidar == "mobile") {
+        if (!s->mobile || !s->mobile->with_rig) {
+          s->warnings.push_back("MI result " + file.string() + " not used: mi_lidar mobile, but no mobile LiDAR on the rig's vehicle");
+          continue;
+        }
+        const FrameOnTrajectory& on = s->mobile->frames.at(k);
+        rig.mi_mobile.push_back({k, on.weight, on.ins, result.cam_from_world, result.covariance, result.source});
+        continue;
+      }
       rig.mi.push_back(result);
       rig.mi_frame.push_back(k);
     }
-    s->log.push_back("rig MI results: " + std::to_string(rig.mi.size()) + " frame priors from " + rig.config->mi_results);
+    s->log.push_back("rig MI results: " + std::to_string(rig.mi.size() + rig.mi_mobile.size()) + " frame priors from " +
+                     rig.config->mi_results + (rig.config->mi_lidar == "mobile" ? " (against the mobile LiDAR)" : ""));
   }
   // The registrations asked for.
   std::vector<MiTask> tasks;
@@ -201,6 +259,12 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
       t.path = path;
       t.start = rig.rig_from_world[k];
       t.frame = k;
+      t.mobile = rig.config->mi_lidar == "mobile";
+      t.time_s = rig.frame_times[k];
+      if (t.mobile && (!s->mobile || !s->mobile->with_rig)) {
+        s->warnings.push_back("rig frame " + t.name + ": mi_lidar mobile, but no mobile LiDAR on the rig's vehicle: not registered by MI");
+        continue;
+      }
       tasks.push_back(t);
     }
   }
@@ -244,36 +308,29 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     }
   }
   if (tasks.empty()) return;
-  // The cloud: the static LiDAR's reference cloud (world frame) near the cameras.
   mi::RegistrationOptions options;  // register-mi's defaults
   constexpr double kRadius = 60.0;  // m: what a street-level image sees of a building's LiDAR
   constexpr size_t kMaxPoints = 8000000;
-  const std::string& cloud_path = project.lidar_static.front().reference_cloud;
-  std::vector<Eigen::Vector3d> centres;
-  for (const MiTask& t : tasks) centres.push_back(CameraCentre(t.start));
   Timer timer;
-  const io::PointCloud cloud = CloudNear(cloud_path, centres, kRadius, kMaxPoints);
-  if (!cloud.has_intensity()) {
-    throw InputError::Message(cloud_path, "has no intensity, which the MI registration of mi_register compares with "
-                                          "the images (register-mi --representation intensity)");
-  }
-  spdlog::info("adjust: MI registration of {} image(s) to {} ({} points within {:.0f} m)", tasks.size(), cloud_path,
-               cloud.size(), kRadius);
-  size_t ok = 0;
-  for (size_t i = 0; i < tasks.size(); ++i) {
+  size_t ok = 0, done = 0;
+  // One task against the LiDAR points `cloud` (already cut to the task where it must be).
+  const auto register_one = [&](size_t i, const io::PointCloud& near, const std::string& cloud_path) {
     const MiTask& t = tasks[i];
-    const mi::LidarPoints points = mi::PrepareLidarPoints(Crop(cloud, CameraCentre(t.start), kRadius));
-    json entry = {{"image", t.name}, {"kind", t.kind}, {"file", "mi/" + fs::path(t.name).stem().string() + ".json"}};
+    const mi::LidarPoints points = mi::PrepareLidarPoints(near);
+    ++done;
+    json entry = {{"image", t.name}, {"kind", t.kind}, {"file", "mi/" + fs::path(t.name).stem().string() + ".json"},
+                  {"lidar", t.mobile ? "mobile" : "static"}};
     if (t.kind == "photo") entry["image_id"] = t.image_id.value;
     else entry["frame"] = t.frame;
     if (points.size() < 1000) {
       entry["status"] = "failed";
-      entry["reason"] = "only " + std::to_string(points.size()) + " LiDAR points within " + std::to_string(kRadius) + " m";
+      entry["reason"] = "only " + std::to_string(points.size()) + " LiDAR points within " + std::to_string(kRadius) + " m" +
+                        (t.mobile ? " captured within " + std::to_string(s->rig->config->mi_time_window_s) + " s" : "");
       entry.erase("file");
       s->mi_registration.push_back(entry);
       s->mi_registered.push_back(t.start);
       s->warnings.push_back("MI registration of " + t.name + " not attempted: " + entry["reason"].get<std::string>());
-      continue;
+      return;
     }
     mi::Frame frame;
     frame.name = t.name;
@@ -289,7 +346,10 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     const mi::RegistrationResult result = mi::RegisterFrames({frame}, t.start, options);
     json file = mi::ResultToJson(result, options, t.start);
     file["image"] = t.path;
-    file["registered_by"] = "mmba adjust (mi_register), register-mi's default settings, LiDAR = " + cloud_path;
+    file["registered_by"] = "mmba adjust (mi_register), register-mi's default settings, LiDAR = " + cloud_path +
+                            (t.mobile ? " (the mobile cloud as delivered, points within " +
+                                            std::to_string(s->rig->config->mi_time_window_s) + " s of the frame)"
+                                      : "");
     s->mi_files.emplace_back(fs::path(t.name).stem().string(), file);
     entry["status"] = result.status;
     entry["reason"] = result.reason;
@@ -300,9 +360,9 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     entry["prior"] = usable;
     s->mi_registration.push_back(entry);
     s->mi_registered.push_back(result.cam_from_lidar);
-    spdlog::info("adjust: MI {}/{} {}: {} ({:.1f} s){}", i + 1, tasks.size(), t.name, result.status, one.ElapsedSeconds(),
+    spdlog::info("adjust: MI {}/{} {}: {} ({:.1f} s){}", done, tasks.size(), t.name, result.status, one.ElapsedSeconds(),
                  result.ok() ? "" : ": " + result.reason);
-    if (!usable) continue;
+    if (!usable) return;
     ++ok;
     MiResult prior;
     prior.cam_from_world = result.cam_from_lidar;
@@ -311,11 +371,58 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     if (t.kind == "photo") {
       prior.image_id = t.image_id;
       s->photos->mi.push_back(prior);
+    } else if (t.mobile) {
+      // A pose relative to the mobile LiDAR: the frame keeps its start (the trajectory and the
+      // extrinsic take the correction in the solve).
+      const FrameOnTrajectory& on = s->mobile->frames.at(t.frame);
+      s->rig->mi_mobile.push_back({t.frame, on.weight, on.ins, prior.cam_from_world, prior.covariance, prior.source});
     } else {
       // The frame starts at the MI pose: closer than the GNSS/INS one when MI is "ok".
       s->rig->rig_from_world[t.frame] = result.cam_from_lidar;
       s->rig->mi.push_back(prior);
       s->rig->mi_frame.push_back(t.frame);
+    }
+  };
+  // Against the static LiDAR's reference cloud (world frame), near the cameras.
+  std::vector<size_t> fixed, moving;
+  for (size_t i = 0; i < tasks.size(); ++i) (tasks[i].mobile ? moving : fixed).push_back(i);
+  if (!fixed.empty()) {
+    const std::string& cloud_path = project.lidar_static.front().reference_cloud;
+    std::vector<Eigen::Vector3d> centres;
+    for (size_t i : fixed) centres.push_back(CameraCentre(tasks[i].start));
+    const io::PointCloud cloud = CloudNear(cloud_path, centres, kRadius, kMaxPoints);
+    if (!cloud.has_intensity()) {
+      throw InputError::Message(cloud_path, "has no intensity, which the MI registration of mi_register compares with "
+                                            "the images (register-mi --representation intensity)");
+    }
+    spdlog::info("adjust: MI registration of {} image(s) to {} ({} points within {:.0f} m)", fixed.size(), cloud_path,
+                 cloud.size(), kRadius);
+    for (size_t i : fixed) register_one(i, Crop(cloud, CameraCentre(tasks[i].start), kRadius), cloud_path);
+  }
+  // Against the mobile LiDAR's delivered cloud, in batches of frames close in time (one
+  // streamed pass per batch, at most kMaxPoints held).
+  if (!moving.empty()) {
+    const std::string& cloud_path = s->mobile->config->cloud;
+    const double window = s->rig->config->mi_time_window_s;
+    constexpr double kBatchSpan = 30.0;  // s of drive per streamed pass
+    std::sort(moving.begin(), moving.end(), [&](size_t a, size_t b) { return tasks[a].time_s < tasks[b].time_s; });
+    for (size_t first = 0; first < moving.size();) {
+      size_t last = first;
+      while (last + 1 < moving.size() && tasks[moving[last + 1]].time_s - tasks[moving[first]].time_s <= kBatchSpan) ++last;
+      std::vector<std::pair<double, Eigen::Vector3d>> frames;
+      for (size_t k = first; k <= last; ++k) frames.emplace_back(tasks[moving[k]].time_s, CameraCentre(tasks[moving[k]].start));
+      const io::PointCloud cloud = MobileCloudNear(cloud_path, frames, kRadius, window, kMaxPoints);
+      if (!cloud.has_intensity() && !cloud.points.empty()) {
+        throw InputError::Message(cloud_path, "has no intensity, which the MI registration of mi_register compares with "
+                                              "the panoramas (register-mi --representation intensity)");
+      }
+      spdlog::info("adjust: MI registration of {} panorama(s) to the mobile LiDAR {} ({} points within {:.0f} m and {:.1f} s)",
+                   last - first + 1, cloud_path, cloud.size(), kRadius, window);
+      for (size_t k = first; k <= last; ++k) {
+        const MiTask& t = tasks[moving[k]];
+        register_one(moving[k], Crop(cloud, CameraCentre(t.start), kRadius, t.time_s, window), cloud_path);
+      }
+      first = last + 1;
     }
   }
   s->log.push_back("MI registration: " + std::to_string(ok) + " of " + std::to_string(tasks.size()) +

@@ -7,6 +7,7 @@
 #include <ceres/rotation.h>
 
 #include "mmba/adjust/groups.h"
+#include "mmba/registration/mi/mi_prior.h"
 
 namespace mmba::adjust {
 namespace {
@@ -139,7 +140,94 @@ struct FrameOnTrajectoryCost {
   double w_m, w_rad;
 };
 
+/// MI pose of a rig frame against the mobile LiDAR's delivered cloud: the predicted
+/// rig_from_delivered = rig_from_world · C·T_ins·B_v·V·(T_ins·B_ln)⁻¹ (WorldFromDelivered),
+/// then registration/mi/mi_prior.h's whitened residual on that pose.
+/// Blocks: nodes a, b (6 each), vehicle_from_lidar (q 4, t 3), rig_from_world (q 4, t 3).
+struct MobileMiFrameCost {
+  MobileMiFrameCost(const MobileMiFrame& f, const Rigid3d& body_from_vehicle, const Rigid3d& body_from_lidar_nominal,
+                    const Eigen::Matrix<double, 6, 6>& sqrt_information)
+      : f(f), body_from_vehicle(body_from_vehicle),
+        delivered_from_lidar(f.ins * body_from_lidar_nominal), prior(f.rig_from_delivered, sqrt_information) {}
+  template <typename T>
+  bool operator()(const T* a, const T* b, const T* q_vl, const T* t_vl, const T* q_rw, const T* t_rw, T* r) const {
+    using Quaternion = Eigen::Quaternion<T>;
+    using Vector = Eigen::Matrix<T, 3, 1>;
+    const Eigen::Map<const Quaternion> vehicle_from_lidar(q_vl);
+    const Eigen::Map<const Vector> vehicle_from_lidar_t(t_vl);
+    const Eigen::Map<const Quaternion> rig_from_world(q_rw);
+    const Eigen::Map<const Vector> rig_from_world_t(t_rw);
+    // Corrected world_from_body: (Exp(ω)·R_ins, p_ins + δ), as CorrectedWorldPoint.
+    T omega[3], omega_q[4];
+    Vector delta;
+    for (int k = 0; k < 3; ++k) {
+      omega[k] = (1.0 - f.weight.alpha) * a[k] + f.weight.alpha * b[k];
+      delta[k] = (1.0 - f.weight.alpha) * a[3 + k] + f.weight.alpha * b[3 + k];
+    }
+    ceres::AngleAxisToQuaternion(omega, omega_q);  // w x y z
+    const Quaternion world_from_body = Quaternion(omega_q[0], omega_q[1], omega_q[2], omega_q[3]) * f.ins.rotation.cast<T>();
+    const Vector world_from_body_t = f.ins.translation.cast<T>() + delta;
+    // world_from_lidar = world_from_body · body_from_vehicle · vehicle_from_lidar.
+    const Quaternion body_from_lidar = body_from_vehicle.rotation.cast<T>() * vehicle_from_lidar;
+    const Vector body_from_lidar_t = body_from_vehicle.rotation.cast<T>() * vehicle_from_lidar_t + body_from_vehicle.translation.cast<T>();
+    const Quaternion world_from_lidar = world_from_body * body_from_lidar;
+    const Vector world_from_lidar_t = world_from_body * body_from_lidar_t + world_from_body_t;
+    // world_from_delivered = world_from_lidar · (delivered_from_lidar)⁻¹.
+    const Quaternion lidar_from_delivered = delivered_from_lidar.rotation.conjugate().cast<T>();
+    const Vector lidar_from_delivered_t = -(lidar_from_delivered * delivered_from_lidar.translation.cast<T>());
+    const Quaternion world_from_delivered = world_from_lidar * lidar_from_delivered;
+    const Vector world_from_delivered_t = world_from_lidar * lidar_from_delivered_t + world_from_lidar_t;
+    // rig_from_delivered = rig_from_world · world_from_delivered.
+    const Quaternion rig_from_delivered = rig_from_world * world_from_delivered;
+    const Vector rig_from_delivered_t = rig_from_world * world_from_delivered_t + rig_from_world_t;
+    return prior(rig_from_delivered.coeffs().data(), rig_from_delivered_t.data(), r);
+  }
+  MobileMiFrame f;
+  Rigid3d body_from_vehicle;
+  Rigid3d delivered_from_lidar;  ///< T_ins(t)·B_ln: how the delivered cloud placed the LiDAR at t
+  registration::mi::MiPosePrior prior;
+};
+
 }  // namespace
+
+Rigid3d WorldFromDelivered(const std::vector<TrajectoryNode>& nodes, const NodeWeight& w, const Rigid3d& ins,
+                           const Rigid3d& body_from_vehicle, const Rigid3d& vehicle_from_lidar,
+                           const Rigid3d& body_from_lidar_nominal) {
+  return CorrectedPose(nodes, w, ins) * body_from_vehicle * vehicle_from_lidar * (ins * body_from_lidar_nominal).Inverse();
+}
+
+MobileMiPriorGroup::MobileMiPriorGroup(std::vector<MobileMiFrame> frames, std::vector<Rigid3d>* rig_from_world,
+                                       std::vector<TrajectoryNode>* nodes, Rigid3d* vehicle_from_lidar,
+                                       const Rigid3d& body_from_vehicle, const Rigid3d& body_from_lidar_nominal,
+                                       double covariance_scale, LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "whitened", loss),
+      frames_(std::move(frames)),
+      rig_from_world_(rig_from_world),
+      nodes_(nodes),
+      vehicle_from_lidar_(vehicle_from_lidar),
+      body_from_vehicle_(body_from_vehicle),
+      body_from_lidar_nominal_(body_from_lidar_nominal),
+      covariance_scale_(covariance_scale) {}
+
+void MobileMiPriorGroup::AddResiduals(Scene&, ceres::Problem& problem) {
+  for (size_t i = 0; i < frames_.size(); ++i) {
+    const MobileMiFrame& f = frames_[i];
+    Eigen::Matrix<double, 6, 6> sqrt_information;
+    if (f.frame >= rig_from_world_->size() || f.weight.node + 1 >= nodes_->size() ||
+        !registration::mi::MiPosePrior::SqrtInformation(covariance_scale_ * f.covariance, &sqrt_information)) {
+      Skip();
+      continue;
+    }
+    Rigid3d& pose = (*rig_from_world_)[f.frame];
+    AddBlock(problem,
+             new ceres::AutoDiffCostFunction<MobileMiFrameCost, 6, 6, 6, 4, 3, 4, 3>(
+                 new MobileMiFrameCost(f, body_from_vehicle_, body_from_lidar_nominal_, sqrt_information)),
+             {(*nodes_)[f.weight.node].correction, (*nodes_)[f.weight.node + 1].correction,
+              vehicle_from_lidar_->rotation.coeffs().data(), vehicle_from_lidar_->translation.data(),
+              pose.rotation.coeffs().data(), pose.translation.data()},
+             1.0, i);
+  }
+}
 
 NodeWeight WeightAt(const std::vector<TrajectoryNode>& nodes, double time_s) {
   const auto it = std::upper_bound(nodes.begin(), nodes.end(), time_s,

@@ -1,5 +1,6 @@
 #include "mmba/adjust/project.h"
 
+#include <algorithm>
 #include <filesystem>
 #include <set>
 
@@ -254,6 +255,11 @@ class ProjectReader {
                       {"panoramas", path(&p.panoramas, true)}, {"calibration", path(&p.calibration, false)},
                       {"mi_results", path(&p.mi_results, true)},
                       {"mi_register", [&](Node v, Field g) { MiRegister(v, g, &p.mi_register, &p.mi_only); }},
+                      {"mi_lidar", [&](Node v, Field g) {
+                         p.mi_lidar = r_.String(v, g);
+                         if (p.mi_lidar != "static" && p.mi_lidar != "mobile") r_.Fail(v, g, "static or mobile", p.mi_lidar);
+                       }},
+                      {"mi_time_window_s", [&](Node v, Field g) { p.mi_time_window_s = r_.Positive(v, g, 60.0, "seconds"); }},
                       {"trajectory", path(&p.trajectory, false)}, {"frames_file", path(&p.frames_file, false)},
                       {"observations", path(&p.observations, false)},
                       {"tie_block", [&](Node v, Field g) { p.tie_block = r_.String(v, g); }},
@@ -399,7 +405,14 @@ Project LoadProject(const std::string& path) {
     }
   }
   for (const CameraRig& rig : project.rigs) {
-    if (rig.mi_register && project.lidar_static.empty()) {
+    if (rig.mi_lidar == "mobile") {
+      const bool carried = std::any_of(project.lidar_mobile.begin(), project.lidar_mobile.end(),
+                                       [&](const LidarMobile& m) { return m.rig == rig.id; });
+      if (!carried) {
+        throw InputError(path, rig.line, "mi_lidar", "mobile",
+                         "a lidar_mobile sensor with rig: " + rig.id + " (the panoramas are registered to its cloud)");
+      }
+    } else if (rig.mi_register && project.lidar_static.empty()) {
       throw InputError(path, rig.line, "mi_register", "true", "a lidar_static sensor too: the panoramas are registered to its reference cloud");
     }
   }

@@ -2,9 +2,11 @@
 // LiDAR surface's plane association.
 #include "mmba/adjust/groups.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 
+#include <ceres/ceres.h>
 #include <gtest/gtest.h>
 
 #include "mmba/io/point_cloud.h"
@@ -76,6 +78,68 @@ TEST(PosePriorGroup, CorrelatedFramePriorsFollowTimeOrder) {
   EXPECT_NEAR(Cost(independent), 3 * z2, 1e-12);
   const double phi = std::exp(-4.0 / tau);  // both gaps are 4 s once sorted
   EXPECT_NEAR(Cost(correlated), z2 * (1 + 2 * (1 - phi) / (1 + phi)), 1e-12);
+}
+
+// A rig frame's MI pose against the mobile LiDAR's delivered cloud (georeferenced with the
+// GNSS/INS pose and the nominal mounting): the map to the adjusted world is that of the
+// points themselves, and one frame's pose recovers the camera–LiDAR extrinsic.
+TEST(MobileMiPriorGroup, OneFramesMiPoseRecoversTheCameraLidarExtrinsic) {
+  const auto pose = [](double rx, double ry, double rz, double tx, double ty, double tz) {
+    const Eigen::Quaterniond q = Eigen::AngleAxisd(rz, Eigen::Vector3d::UnitZ()) *
+                                 Eigen::AngleAxisd(ry, Eigen::Vector3d::UnitY()) *
+                                 Eigen::AngleAxisd(rx, Eigen::Vector3d::UnitX());
+    return Rigid3d(q, Eigen::Vector3d(tx, ty, tz));
+  };
+  std::vector<TrajectoryNode> nodes(2);
+  nodes[1].time_s = 1.0;
+  const double correction_a[6] = {0.002, -0.001, 0.01, 0.05, -0.03, 0.02}, correction_b[6] = {0.001, 0.0, 0.012, 0.06, -0.02, 0.01};
+  std::copy(correction_a, correction_a + 6, nodes[0].correction);
+  std::copy(correction_b, correction_b + 6, nodes[1].correction);
+  const NodeWeight w = WeightAt(nodes, 0.25);
+  const Rigid3d ins = pose(0.01, -0.02, 1.2, 105.0, -40.0, 2.0);
+  const Rigid3d body_from_vehicle = pose(0.0, 0.0, M_PI / 2, 0.3, 0.0, 1.5);
+  const Rigid3d body_from_lidar_nominal = pose(0.0, 0.0, M_PI / 2, 0.1, 0.2, 1.9);
+  const Rigid3d vehicle_from_lidar_true = pose(0.004, -0.003, 0.007, -0.2, 0.12, 0.43);
+  // A LiDAR point at the frame's time: where the delivered cloud put it and where it is.
+  const Eigen::Vector3d x_lidar(7.0, -3.0, 1.0);
+  const Eigen::Vector3d delivered = ins * (body_from_lidar_nominal * x_lidar);
+  const Eigen::Vector3d world = CorrectedPose(nodes, w, ins) * (body_from_vehicle * (vehicle_from_lidar_true * x_lidar));
+  const Rigid3d world_from_delivered =
+      WorldFromDelivered(nodes, w, ins, body_from_vehicle, vehicle_from_lidar_true, body_from_lidar_nominal);
+  EXPECT_LT((world_from_delivered * delivered - world).norm(), 1e-9);
+  // With the nominal extrinsic and no correction the delivered cloud is the world.
+  const std::vector<TrajectoryNode> zero(2, TrajectoryNode{});
+  const Rigid3d identity = WorldFromDelivered(zero, w, ins, body_from_vehicle, body_from_vehicle.Inverse() * body_from_lidar_nominal,
+                                              body_from_lidar_nominal);
+  EXPECT_LT(identity.translation.norm() + identity.rotation.angularDistance(Eigen::Quaterniond::Identity()), 1e-9);
+
+  // The MI pose a perfect registration finds, then the extrinsic from a start 3 cm / 0.5° off.
+  std::vector<Rigid3d> rig_from_world = {pose(0.0, 0.01, -0.4, 3.0, 80.0, -2.0)};
+  MobileMiFrame frame;
+  frame.weight = w;
+  frame.ins = ins;
+  frame.rig_from_delivered = rig_from_world[0] * world_from_delivered;
+  frame.covariance = Eigen::Matrix<double, 6, 6>::Identity() * 1e-4;  // 1 cm, 0.01°
+  Rigid3d vehicle_from_lidar = pose(0.004 + 0.005, -0.003, 0.007 - 0.006, -0.2 + 0.02, 0.12 - 0.02, 0.43 + 0.01);
+  MobileMiPriorGroup group({frame}, &rig_from_world, &nodes, &vehicle_from_lidar, body_from_vehicle, body_from_lidar_nominal,
+                           1.0, LossOptions(), "mi");
+  EXPECT_GT(Cost(group), 100.0);
+  Scene scene;
+  ceres::Problem problem;
+  group.AddResiduals(scene, problem);
+  problem.SetManifold(vehicle_from_lidar.rotation.coeffs().data(), new ceres::EigenQuaternionManifold);
+  for (double* block : {nodes[0].correction, nodes[1].correction, rig_from_world[0].rotation.coeffs().data(),
+                        rig_from_world[0].translation.data()}) {
+    problem.SetParameterBlockConstant(block);
+  }
+  ceres::Solver::Options options;
+  options.function_tolerance = 1e-14;
+  options.parameter_tolerance = 1e-14;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  EXPECT_LT((vehicle_from_lidar.translation - vehicle_from_lidar_true.translation).norm(), 1e-6);
+  EXPECT_LT(vehicle_from_lidar.rotation.angularDistance(vehicle_from_lidar_true.rotation), 1e-8);
+  EXPECT_LT(Cost(group), 1e-10);
 }
 
 class LidarSurfaceTest : public ::testing::Test {

@@ -108,6 +108,12 @@ TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {
       {"  - {id: p, type: photo_collection, images: images, mi_register: maybe}\n" + ts_, "", "sensors[0].mi_register"},
       {photos_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, mi_register: [f1]}\n", "",
        "sensors[1].panoramas"},
+      {photos_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, mi_lidar: sideways}\n", "",
+       "sensors[1].mi_lidar"},
+      // Against the mobile LiDAR: one must carry the rig.
+      {photos_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, observations: gnss.csv, "
+                 "frames_file: gnss.csv, trajectory: gnss.csv, tie_block: p, panoramas: images, mi_register: true, "
+                 "mi_lidar: mobile}\n", "", "a lidar_mobile sensor with rig: r"},
   };
   for (const Case& c : cases) {
     const std::string message = Error(Write(c.sensors, c.extra));

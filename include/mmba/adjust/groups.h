@@ -382,4 +382,48 @@ class RigTrajectoryGroup : public FactorGroup {
   double sigma_m_, sigma_rad_;
 };
 
+/// The mobile LiDAR's delivered cloud near time t (georeferenced by the GNSS/INS pose `ins` at
+/// t and the nominal mounting) mapped into the adjusted world, as one rigid transform:
+/// world_from_delivered = C(t)·T_ins(t)·body_from_vehicle·vehicle_from_lidar·(T_ins(t)·
+/// body_from_lidar_nominal)⁻¹, C(t) the trajectory correction (`CorrectedPose`). Exact for
+/// points captured at t; for points captured near t, as far as the GNSS/INS error and the
+/// correction stay constant over that time.
+Rigid3d WorldFromDelivered(const std::vector<TrajectoryNode>& nodes, const NodeWeight& w, const Rigid3d& ins,
+                           const Rigid3d& body_from_vehicle, const Rigid3d& vehicle_from_lidar,
+                           const Rigid3d& body_from_lidar_nominal);
+
+/// A rig frame's stitched panorama registered by MI to the mobile LiDAR's delivered cloud
+/// (the MI paper's setting): `rig_from_delivered` with its 6×6 covariance (register-mi's
+/// convention, m and °).
+struct MobileMiFrame {
+  size_t frame = 0;
+  NodeWeight weight;   ///< the frame's time on the trajectory nodes
+  Rigid3d ins;         ///< GNSS/INS world_from_body at the frame's time
+  Rigid3d rig_from_delivered;
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
+  std::string source;
+};
+
+/// MI pose priors against the mobile cloud: the predicted rig_from_delivered =
+/// rig_from_world · world_from_delivered(nodes, vehicle_from_lidar) against the MI pose,
+/// whitened as registration/mi/mi_prior.h does. With the frames on the trajectory the
+/// correction cancels to first order and the residual constrains the camera–LiDAR extrinsic:
+/// the rig calibration of Wang, Ferrie & Macfarlane (CVPRW 2012) over many frames.
+class MobileMiPriorGroup : public FactorGroup {
+ public:
+  /// `covariance_scale` multiplies every covariance (variance-component factor²).
+  MobileMiPriorGroup(std::vector<MobileMiFrame> frames, std::vector<Rigid3d>* rig_from_world,
+                     std::vector<TrajectoryNode>* nodes, Rigid3d* vehicle_from_lidar, const Rigid3d& body_from_vehicle,
+                     const Rigid3d& body_from_lidar_nominal, double covariance_scale, LossOptions loss, std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+
+ private:
+  std::vector<MobileMiFrame> frames_;
+  std::vector<Rigid3d>* rig_from_world_;
+  std::vector<TrajectoryNode>* nodes_;
+  Rigid3d* vehicle_from_lidar_;
+  Rigid3d body_from_vehicle_, body_from_lidar_nominal_;
+  double covariance_scale_;
+};
+
 }  // namespace mmba::adjust

@@ -152,6 +152,17 @@ struct CameraRig {
   /// `mi_register: [frames]` registers only those frames.
   bool mi_register = false;
   std::vector<std::string> mi_only;  ///< the list of `mi_register: [...]`; empty = every frame
+  /// The cloud the panoramas' MI poses refer to (registered by `mi_register` or read from
+  /// `mi_results`): "static" = the static LiDAR's reference cloud (world frame: an absolute
+  /// prior on the frame), or "mobile" = the mobile LiDAR's delivered cloud (georeferenced by
+  /// the GNSS/INS and its nominal mounting; the MI paper's case): the pose relative to the
+  /// mobile LiDAR near the frame's time, a factor on the frame, the trajectory correction and
+  /// the camera–LiDAR extrinsic. Needs a lidar_mobile with `rig` = this rig.
+  std::string mi_lidar = "static";
+  /// With mi_lidar mobile: only mobile points captured within this many seconds of the frame
+  /// are registered against (the GNSS/INS error drifts; within the window it is one rigid
+  /// offset, the assumption of the factor).
+  double mi_time_window_s = 2.0;
   std::string calibration;     ///< rig YAML (calib/README.md)
   std::string trajectory;      ///< CSV time_s,x_east_m,y_north_m,z_up_m,qw,qx,qy,qz (world_from_body)
   std::string frames_file;     ///< CSV frame,time_s
