@@ -622,8 +622,10 @@ void LoadLidar(JointState* s) {
   Note(s, "LiDAR reference " + l.reference_cloud + ": " + std::to_string(s->surface->num_read()) +
                    " points read, " + std::to_string(s->surface->size()) + " near the photo block kept");
   if (s->surface->size() < 100) {
-    throw AdjustFailure("failed", "lidar_static '" + l.id + "': the reference cloud does not overlap the photo block (" +
-                                      std::to_string(s->surface->size()) + " points within 1 m of its tie points)");
+    const std::string hint = CoordinateHint(s->surface->read_min(), s->surface->read_max(), lo, hi);
+    throw AdjustFailure("failed", "lidar_static '" + l.id + "': the reference cloud " + l.reference_cloud +
+                                      " does not overlap the photo block (" + std::to_string(s->surface->size()) +
+                                      " points within 1 m of its tie points)" + (hint.empty() ? "" : ": " + hint));
   }
   if (l.AdjustsScans()) {
     internal::LoadScans(s, lo, hi);

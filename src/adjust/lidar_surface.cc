@@ -1,4 +1,7 @@
 // The only translation unit of mmba_adjust that includes PCL (its k-d tree).
+#include <algorithm>
+#include <string>
+
 #include <Eigen/Eigenvalues>
 #include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/point_cloud.h>
@@ -27,6 +30,8 @@ LidarSurface::LidarSurface(const std::string& path, const Eigen::Vector3d& roi_m
     num_read_ = total;
     for (const Eigen::Vector3d& p : chunk.points) {
       const Eigen::Vector3d r = roi_from_file * p;
+      read_min_ = read_min_.cwiseMin(r);
+      read_max_ = read_max_.cwiseMax(r);
       if ((r.array() < lo.array()).any() || (r.array() > hi.array()).any()) continue;
       const Eigen::Vector3f q = (p - impl_->offset).cast<float>();
       impl_->cloud->push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
@@ -78,6 +83,42 @@ bool LidarSurface::FitPlane(const Eigen::Vector3d& query, double max_distance, i
   *centroid = mean + impl_->offset;
   if (roughness) *roughness = std::sqrt(std::max(0.0, eig.eigenvalues()(0)));
   return true;
+}
+
+std::string CoordinateHint(const Eigen::Vector3d& cloud_min, const Eigen::Vector3d& cloud_max,
+                           const Eigen::Vector3d& block_min, const Eigen::Vector3d& block_max) {
+  if (!(cloud_min.array() <= cloud_max.array()).all()) return "";
+  // Intersection over union of the horizontal boxes of the scaled cloud and the block (each
+  // side at least 1 m): a cloud in other units has the block's place and size once scaled.
+  const auto iou = [&](double scale) {
+    double intersection = 1.0, a = 1.0, b = 1.0;
+    for (int k = 0; k < 2; ++k) {
+      const double c0 = scale * cloud_min[k], c1 = std::max(scale * cloud_max[k], c0 + 1.0);
+      const double b0 = block_min[k], b1 = std::max(block_max[k], b0 + 1.0);
+      intersection *= std::max(0.0, std::min(c1, b1) - std::max(c0, b0));
+      a *= c1 - c0;
+      b *= b1 - b0;
+    }
+    return intersection / (a + b - intersection);
+  };
+  const double as_given = iou(1.0);
+  const struct {
+    double scale;
+    const char* unit;
+  } units[] = {{0.001, "millimetres"}, {0.01, "centimetres"}, {0.3048, "feet (international or US survey)"}};
+  for (const auto& u : units) {
+    if (iou(u.scale) > 0.1 && iou(u.scale) > 10 * as_given) {
+      return std::string("its coordinates look like ") + u.unit +
+             " (scaled to metres its extent would match the block's); the project's world is in metres";
+    }
+  }
+  const Eigen::Vector3d centre = 0.5 * (cloud_min + cloud_max);
+  if (centre.head<2>().norm() > 1.0e5) {
+    return "its coordinates (centre " + std::to_string(centre.x()) + ", " + std::to_string(centre.y()) +
+           ") look projected (UTM or a national grid) or geocentric; the project's world is the local ENU tangent plane "
+           "at the origin, in metres";
+  }
+  return "";
 }
 
 }  // namespace mmba::adjust

@@ -336,6 +336,26 @@ TEST_F(AdjustTest, FailureKeepsTheEarlierOutput) {
   EXPECT_FALSE(fs::exists(dir / "out" / "report.json"));
 }
 
+// Inconsistent units: the reference cloud delivered in millimetres misses the block, and the
+// failure says so (exit 3, the cloud named), rather than a generic "no overlap".
+TEST_F(AdjustTest, ACloudInMillimetresIsReportedAsSuch) {
+  const fs::path sim = Root() / "sim", dir = Root() / "millimetres";
+  fs::create_directories(dir);
+  io::PointCloud cloud = io::ReadPointCloud((sim / "clouds" / "lidar.ply").string());
+  for (Eigen::Vector3d& p : cloud.points) p *= 1000.0;
+  io::WritePly(cloud, (dir / "lidar_mm.ply").string());
+  std::string project = ReadText(sim / "project.yaml");
+  const std::string key = "reference_cloud: clouds/lidar.ply";
+  ASSERT_NE(project.find(key), std::string::npos);
+  project.replace(project.find(key), key.size(), "reference_cloud: " + (dir / "lidar_mm.ply").string());
+  std::ofstream(sim / "project_mm.yaml") << project;
+  const AdjustOutcome outcome = Run((sim / "project_mm.yaml").string(), (dir / "out").string());
+  EXPECT_FALSE(outcome.ok);
+  EXPECT_NE(outcome.reason.find("lidar_mm.ply does not overlap"), std::string::npos) << outcome.reason;
+  EXPECT_NE(outcome.reason.find("millimetres"), std::string::npos) << outcome.reason;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
 // MI registration inside the adjustment (mi_register): one photo registered to the static
 // LiDAR by register-mi's library call from its initial pose. Whatever the outcome, it is in
 // report.json and mi/<stem>.json; an "ok" must be the right pose (it becomes a prior), a

@@ -142,6 +142,21 @@ TEST(MobileMiPriorGroup, OneFramesMiPoseRecoversTheCameraLidarExtrinsic) {
   EXPECT_LT(Cost(group), 1e-10);
 }
 
+// A cloud that misses the block: a units or frame mistake is named when one explains it.
+TEST(CoordinateHint, NamesTheUnitOrFrameThatWouldMakeTheCloudOverlap) {
+  const Eigen::Vector3d block_min(-20, -15, 0), block_max(25, 30, 12);
+  const Eigen::Vector3d cloud_min(-30, -25, -2), cloud_max(35, 40, 20);
+  EXPECT_EQ(CoordinateHint(cloud_min, cloud_max, block_min, block_max), "");
+  EXPECT_NE(CoordinateHint(1000 * cloud_min, 1000 * cloud_max, block_min, block_max).find("millimetres"), std::string::npos);
+  EXPECT_NE(CoordinateHint(cloud_min / 0.3048, cloud_max / 0.3048, block_min, block_max).find("feet"),
+            std::string::npos);
+  const Eigen::Vector3d utm(611000, 5041000, 0);
+  EXPECT_NE(CoordinateHint(utm + cloud_min, utm + cloud_max, block_min, block_max).find("projected"), std::string::npos);
+  // Elsewhere in the same frame: no guess.
+  EXPECT_EQ(CoordinateHint(cloud_min + Eigen::Vector3d(500, 0, 0), cloud_max + Eigen::Vector3d(500, 0, 0), block_min, block_max),
+            "");
+}
+
 class LidarSurfaceTest : public ::testing::Test {
  protected:
   void SetUp() override {

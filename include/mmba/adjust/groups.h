@@ -260,6 +260,9 @@ class LidarSurface {
 
   size_t size() const;
   size_t num_read() const { return num_read_; }
+  /// Bounding box of every point read (in the region-of-interest frame), kept or not.
+  const Eigen::Vector3d& read_min() const { return read_min_; }
+  const Eigen::Vector3d& read_max() const { return read_max_; }
   /// `n` of the kept points, evenly spread over the cloud's order (file frame).
   std::vector<Eigen::Vector3d> Sample(size_t n) const;
   /// The plane through the `k` nearest LiDAR points of `query` (PCA), when the neighbourhood
@@ -276,7 +279,15 @@ class LidarSurface {
   struct Impl;
   std::unique_ptr<Impl> impl_;
   size_t num_read_ = 0;
+  Eigen::Vector3d read_min_ = Eigen::Vector3d::Constant(1e300), read_max_ = Eigen::Vector3d::Constant(-1e300);
 };
+
+/// Why a cloud with bounding box [cloud_min, cloud_max] may miss the region [block_min,
+/// block_max] of the project's world (local ENU, metres): "" when no simple cause fits, else
+/// e.g. "its coordinates look like millimetres" (scaled by 0.001, 0.01 or 0.3048 (foot) its
+/// horizontal box matches the block's far better than as given) or "… look projected (UTM …)".
+std::string CoordinateHint(const Eigen::Vector3d& cloud_min, const Eigen::Vector3d& cloud_max,
+                           const Eigen::Vector3d& block_min, const Eigen::Vector3d& block_max);
 
 // ---- mobile LiDAR and the vehicle trajectory ----------------------------------------------
 
