@@ -1239,9 +1239,26 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
                        std::to_string(s.mobile->sample.size()) + " mobile LiDAR points on the static surface (gate " +
                        std::to_string(mobile_gate) + " m)");
           if (nm < 100) {
+            // A units or frame mistake in the trajectory or the cloud shows in where the
+            // sample lands against the photo block.
+            const internal::MobileBlock& m = *s.mobile;
+            Eigen::Vector3d cloud_lo = Eigen::Vector3d::Constant(1e300), cloud_hi = -cloud_lo;
+            for (size_t i = 0; i < m.sample.size(); ++i) {
+              const Eigen::Vector3d p = m.sample_ins[i] * (m.body_from_lidar_nominal * m.sample_lidar[i]);
+              cloud_lo = cloud_lo.cwiseMin(p);
+              cloud_hi = cloud_hi.cwiseMax(p);
+            }
+            Eigen::Vector3d block_lo = Eigen::Vector3d::Constant(1e300), block_hi = -block_lo;
+            for (const auto& [id, p] : s.scene.points()) {
+              if (id.value >= internal::kCheckPointIdBase) continue;
+              block_lo = block_lo.cwiseMin(p);
+              block_hi = block_hi.cwiseMax(p);
+            }
+            const std::string hint = CoordinateHint(cloud_lo, cloud_hi, block_lo, block_hi);
             throw AdjustFailure("failed", "lidar_mobile '" + s.mobile->config->id + "': only " + std::to_string(nm) +
                                               " of its points lie within " + std::to_string(mobile_gate) +
-                                              " m of the static LiDAR surface: no overlap, or its trajectory/calibration is far off");
+                                              " m of the static LiDAR surface: no overlap, or its trajectory/calibration is far off" +
+                                              (hint.empty() ? "" : " (" + m.config->trajectory + " with " + m.config->cloud + ": " + hint + ")"));
           }
           associated += nm;
         }
