@@ -678,6 +678,7 @@ const char* kMi = "photos: MI pose priors";
 const char* kRigPrior = "rig: GNSS/INS frame priors";
 const char* kRigMi = "rig: MI frame priors";
 const char* kRigMiMobile = "rig: MI frame poses on the mobile LiDAR";
+const char* kMiExtrinsic = "mobile: MI camera-LiDAR calibration";
 const char* kRigCalibration = "rig: cam_from_rig priors";
 const char* kMobile = "mobile LiDAR: points on the static surface";
 const char* kTrajectoryPrior = "mobile: GNSS/INS trajectory prior";
@@ -841,6 +842,12 @@ void BuildProblem(JointState* s) {
           Without(s->rig->mi_mobile, excluded(kRigMiMobile)), &s->rig->rig_from_world, &m.nodes, &m.vehicle_from_lidar,
           m.body_from_vehicle, m.body_from_lidar_nominal, factor(kRigMiMobile) * factor(kRigMiMobile), s->rig->config->loss,
           kRigMiMobile));
+    }
+    if (m.with_rig && !m.mi_extrinsic.empty()) {
+      std::vector<MiResult> mi = m.mi_extrinsic;
+      for (MiResult& r : mi) r.pose = &m.vehicle_from_lidar;
+      s->builder->AddGroup(std::make_unique<MiPriorGroup>(Without(mi, excluded(kMiExtrinsic)),
+                                                          factor(kMiExtrinsic) * factor(kMiExtrinsic), mc.loss, kMiExtrinsic));
     }
     if (m.with_rig && mc.extrinsic == "weighted") {
       s->builder->AddGroup(std::make_unique<PosePriorGroup>(
@@ -1074,6 +1081,7 @@ std::string DescribeObservation(const JointState& s, const FactorGroup& group, s
   if (name == kMi && s.photos) return "MI pose of " + s.photos->model.images.at(s.photos->mi[index].image_id).name + " (" + s.photos->mi[index].source + ")";
   if (name == kRigPrior && s.rig) return "GNSS/INS prior of rig frame " + s.rig->frame_names[index];
   if (name == kRigMi && s.rig) return "MI pose of rig frame " + s.rig->frame_names[s.rig->mi_frame[index]] + " (" + s.rig->mi[index].source + ")";
+  if (name == kMiExtrinsic && s.mobile) return "MI rig calibration rig_from_lidar (" + s.mobile->mi_extrinsic[index].source + ")";
   if (name == kRigMiMobile && s.rig) {
     return "MI pose of rig frame " + s.rig->frame_names[s.rig->mi_mobile[index].frame] + " on the mobile LiDAR (" +
            s.rig->mi_mobile[index].source + ")";

@@ -111,6 +111,9 @@ struct MobileBlock {
   std::vector<NodeWeight> sample_weight;
   std::vector<MobilePoint> points;             ///< associated with the static surface
   std::vector<FrameOnTrajectory> frames;       ///< rig frames on the trajectory
+  /// The MI rig calibration (mi_lidar: mobile): rig_from_lidar with its covariance from the
+  /// rig's panoramas registered jointly to the mobile cloud; empty when not run or not "ok".
+  std::vector<MiResult> mi_extrinsic;
 };
 
 struct Blunder {

@@ -319,13 +319,12 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     const mi::LidarPoints points = mi::PrepareLidarPoints(near);
     ++done;
     json entry = {{"image", t.name}, {"kind", t.kind}, {"file", "mi/" + fs::path(t.name).stem().string() + ".json"},
-                  {"lidar", t.mobile ? "mobile" : "static"}};
+                  {"lidar", "static"}};
     if (t.kind == "photo") entry["image_id"] = t.image_id.value;
     else entry["frame"] = t.frame;
     if (points.size() < 1000) {
       entry["status"] = "failed";
-      entry["reason"] = "only " + std::to_string(points.size()) + " LiDAR points within " + std::to_string(kRadius) + " m" +
-                        (t.mobile ? " captured within " + std::to_string(s->rig->config->mi_time_window_s) + " s" : "");
+      entry["reason"] = "only " + std::to_string(points.size()) + " LiDAR points within " + std::to_string(kRadius) + " m";
       entry.erase("file");
       s->mi_registration.push_back(entry);
       s->mi_registered.push_back(t.start);
@@ -346,10 +345,7 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     const mi::RegistrationResult result = mi::RegisterFrames({frame}, t.start, options);
     json file = mi::ResultToJson(result, options, t.start);
     file["image"] = t.path;
-    file["registered_by"] = "mmba adjust (mi_register), register-mi's default settings, LiDAR = " + cloud_path +
-                            (t.mobile ? " (the mobile cloud as delivered, points within " +
-                                            std::to_string(s->rig->config->mi_time_window_s) + " s of the frame)"
-                                      : "");
+    file["registered_by"] = "mmba adjust (mi_register), register-mi's default settings, LiDAR = " + cloud_path;
     s->mi_files.emplace_back(fs::path(t.name).stem().string(), file);
     entry["status"] = result.status;
     entry["reason"] = result.reason;
@@ -371,11 +367,6 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     if (t.kind == "photo") {
       prior.image_id = t.image_id;
       s->photos->mi.push_back(prior);
-    } else if (t.mobile) {
-      // A pose relative to the mobile LiDAR: the frame keeps its start (the trajectory and the
-      // extrinsic take the correction in the solve).
-      const FrameOnTrajectory& on = s->mobile->frames.at(t.frame);
-      s->rig->mi_mobile.push_back({t.frame, on.weight, on.ins, prior.cam_from_world, prior.covariance, prior.source});
     } else {
       // The frame starts at the MI pose: closer than the GNSS/INS one when MI is "ok".
       s->rig->rig_from_world[t.frame] = result.cam_from_lidar;
@@ -399,30 +390,116 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
                  cloud.size(), kRadius);
     for (size_t i : fixed) register_one(i, Crop(cloud, CameraCentre(tasks[i].start), kRadius), cloud_path);
   }
-  // Against the mobile LiDAR's delivered cloud, in batches of frames close in time (one
-  // streamed pass per batch, at most kMaxPoints held).
+  // Against the mobile LiDAR's delivered cloud: the rig calibration of the MI paper. Each
+  // frame's points near it (in time and space) are expressed in the LiDAR's own frame at the
+  // frame's time, (T_ins(t)·B_lidar,nominal)⁻¹ · delivered, where the panorama's pose is the
+  // camera–LiDAR extrinsic rig_from_lidar, the same for every frame: register-mi's multi-frame
+  // calibration (RegisterRig: each frame alone, the failed and disagreeing rejected, the rest
+  // jointly) gives it with its covariance, a prior on the extrinsic. At most kJointFrames
+  // frames, evenly spread over those asked for (the joint metric costs every frame's render).
   if (!moving.empty()) {
-    const std::string& cloud_path = s->mobile->config->cloud;
+    const MobileBlock& m = *s->mobile;
+    const std::string& cloud_path = m.config->cloud;
     const double window = s->rig->config->mi_time_window_s;
+    constexpr size_t kJointFrames = 8;
     constexpr double kBatchSpan = 30.0;  // s of drive per streamed pass
     std::sort(moving.begin(), moving.end(), [&](size_t a, size_t b) { return tasks[a].time_s < tasks[b].time_s; });
+    if (moving.size() > kJointFrames) {
+      std::vector<size_t> spread;
+      for (size_t k = 0; k < kJointFrames; ++k) spread.push_back(moving[k * (moving.size() - 1) / (kJointFrames - 1)]);
+      s->warnings.push_back("MI rig calibration: " + std::to_string(kJointFrames) + " of the " + std::to_string(moving.size()) +
+                            " panoramas asked for used, evenly over time");
+      moving = spread;
+    }
+    std::vector<mi::LidarPoints> points;  // one per frame, kept for the joint registration
+    points.reserve(moving.size());
+    std::vector<mi::Frame> frames;
+    std::vector<size_t> frame_task;
+    const Rigid3d start = m.vehicle_from_lidar;  // rig_from_lidar (the rig frame is the vehicle's)
     for (size_t first = 0; first < moving.size();) {
       size_t last = first;
       while (last + 1 < moving.size() && tasks[moving[last + 1]].time_s - tasks[moving[first]].time_s <= kBatchSpan) ++last;
-      std::vector<std::pair<double, Eigen::Vector3d>> frames;
-      for (size_t k = first; k <= last; ++k) frames.emplace_back(tasks[moving[k]].time_s, CameraCentre(tasks[moving[k]].start));
-      const io::PointCloud cloud = MobileCloudNear(cloud_path, frames, kRadius, window, kMaxPoints);
+      std::vector<std::pair<double, Eigen::Vector3d>> near;
+      for (size_t k = first; k <= last; ++k) near.emplace_back(tasks[moving[k]].time_s, CameraCentre(tasks[moving[k]].start));
+      const io::PointCloud cloud = MobileCloudNear(cloud_path, near, kRadius, window, kMaxPoints);
       if (!cloud.has_intensity() && !cloud.points.empty()) {
         throw InputError::Message(cloud_path, "has no intensity, which the MI registration of mi_register compares with "
                                               "the panoramas (register-mi --representation intensity)");
       }
-      spdlog::info("adjust: MI registration of {} panorama(s) to the mobile LiDAR {} ({} points within {:.0f} m and {:.1f} s)",
-                   last - first + 1, cloud_path, cloud.size(), kRadius, window);
       for (size_t k = first; k <= last; ++k) {
         const MiTask& t = tasks[moving[k]];
-        register_one(moving[k], Crop(cloud, CameraCentre(t.start), kRadius, t.time_s, window), cloud_path);
+        io::PointCloud local = Crop(cloud, CameraCentre(t.start), kRadius, t.time_s, window);
+        const Rigid3d lidar_from_delivered = (m.frames.at(t.frame).ins * m.body_from_lidar_nominal).Inverse();
+        for (Eigen::Vector3d& p : local.points) p = lidar_from_delivered * p;
+        spdlog::info("adjust: MI rig calibration: frame {} sees {} mobile points within {:.0f} m and {:.1f} s", t.name,
+                     local.size(), kRadius, window);
+        if (local.size() < 1000) {
+          json entry = {{"image", t.name}, {"kind", t.kind}, {"lidar", "mobile"}, {"status", "failed"},
+                        {"reason", "only " + std::to_string(local.size()) + " mobile LiDAR points within " +
+                                       std::to_string(kRadius) + " m captured within " + std::to_string(window) + " s"}};
+          s->mi_registration.push_back(entry);
+          s->mi_registered.push_back(t.start);
+          s->warnings.push_back("MI rig calibration: frame " + t.name + " not used: " + entry["reason"].get<std::string>());
+          continue;
+        }
+        points.push_back(mi::PrepareLidarPoints(local));
+        mi::Frame frame;
+        frame.name = t.name;
+        frame.points = &points.back();
+        mi::ViewOptions views;
+        views.kind = mi::ViewKind::kPerspective;
+        views.perspective_yaw_deg = mi::SelectPerspectiveHeadings(points.back(), t.camera, start, views, options.render, 2);
+        frame.views = mi::MakeViews(images[moving[k]], t.camera, views, t.path);
+        frames.push_back(std::move(frame));
+        frame_task.push_back(moving[k]);
       }
       first = last + 1;
+    }
+    if (!frames.empty()) {
+      mi::RigOptions rig_options;
+      rig_options.registration = options;
+      spdlog::info("adjust: MI rig calibration: {} panorama(s) jointly against the mobile LiDAR {}", frames.size(), cloud_path);
+      const mi::RegistrationResult result = mi::RegisterRig(frames, start, rig_options);
+      // Each frame's own screening registration, reported (not a prior: the joint one is).
+      for (size_t i = 0; i < result.frame_results.size(); ++i) {
+        const MiTask& t = tasks[frame_task[i]];
+        const mi::RegistrationResult& r = result.frame_results[i];
+        std::string rejected;
+        for (const auto& [name, why] : result.rejected_frames) {
+          if (name == t.name) rejected = why;
+        }
+        json entry = {{"image", t.name}, {"kind", t.kind}, {"lidar", "mobile"},
+                      {"status", rejected.empty() ? "used" : "rejected"}, {"reason", rejected},
+                      {"correction", mi::CorrectionToJson(r.correction)}, {"sigma_px", r.checks.sigma_px_calibrated},
+                      {"runtime_seconds", r.runtime_seconds}, {"prior", false}};
+        s->mi_registration.push_back(entry);
+        s->mi_registered.push_back(t.start);
+      }
+      json file = mi::ResultToJson(result, options, start);
+      file["registered_by"] = "mmba adjust (mi_register, mi_lidar: mobile): register-mi's multi-frame rig calibration, "
+                              "cam_from_lidar = rig_from_lidar, LiDAR = " + cloud_path + " (points within " +
+                              std::to_string(window) + " s of each frame, in the LiDAR frame at that time)";
+      s->mi_files.emplace_back("rig_calibration", file);
+      const bool usable = result.ok() && result.covariance_valid;
+      json entry = {{"image", "rig_from_lidar (" + std::to_string(result.used_frames.size()) + " of " +
+                              std::to_string(frames.size()) + " frames)"},
+                    {"kind", "rig calibration"}, {"lidar", "mobile"}, {"file", "mi/rig_calibration.json"},
+                    {"status", result.status}, {"reason", result.reason}, {"correction", mi::CorrectionToJson(result.correction)},
+                    {"sigma_px", result.checks.sigma_px_calibrated}, {"runtime_seconds", result.runtime_seconds},
+                    {"prior", usable}, {"extrinsic", true}};
+      s->mi_registration.push_back(entry);
+      s->mi_registered.push_back(result.cam_from_lidar);
+      spdlog::info("adjust: MI rig calibration: {} ({:.1f} s){}", result.status, result.runtime_seconds,
+                   result.ok() ? "" : ": " + result.reason);
+      done += frames.size();
+      if (usable) {
+        ok += result.used_frames.size();
+        MiResult prior;
+        prior.cam_from_world = result.cam_from_lidar;
+        prior.covariance = result.covariance;
+        prior.source = "mi/rig_calibration.json (registered by the adjustment)";
+        s->mobile->mi_extrinsic.push_back(prior);
+      }
     }
   }
   s->log.push_back("MI registration: " + std::to_string(ok) + " of " + std::to_string(tasks.size()) +

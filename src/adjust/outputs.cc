@@ -982,21 +982,17 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     for (size_t i = 0; i < s.mi_registration.size(); ++i) {
       json e = s.mi_registration[i];
       if (e.value("prior", false)) {
-        Rigid3d adjusted = e.contains("frame") ? s.rig->rig_from_world.at(e["frame"].get<size_t>())
-                                               : s.scene.Image(ImageId(e["image_id"].get<uint64_t>())).cam_from_world;
-        if (e.value("lidar", "") == "mobile" && s.mobile) {
-          // Registered against the delivered mobile cloud: the adjusted frame in that cloud.
-          const MobileBlock& m = *s.mobile;
-          const FrameOnTrajectory& on = m.frames.at(e["frame"].get<size_t>());
-          adjusted = adjusted * WorldFromDelivered(m.nodes, on.weight, on.ins, m.body_from_vehicle, m.vehicle_from_lidar,
-                                                   m.body_from_lidar_nominal);
-        }
+        // The MI rig calibration found rig_from_lidar: against the adjusted extrinsic.
+        const Rigid3d adjusted = e.value("extrinsic", false) ? s.mobile->vehicle_from_lidar
+                                 : e.contains("frame")       ? s.rig->rig_from_world.at(e["frame"].get<size_t>())
+                                                             : s.scene.Image(ImageId(e["image_id"].get<uint64_t>())).cam_from_world;
         const Rigid3d& registered = s.mi_registered[i];
         e["adjusted_minus_registered_m"] = (CameraCentre(adjusted) - CameraCentre(registered)).norm();
         e["adjusted_minus_registered_deg"] = adjusted.rotation.angularDistance(registered.rotation) * kDeg;
       }
       e.erase("frame");
       e.erase("image_id");
+      e.erase("extrinsic");
       registration.push_back(e);
     }
     report["mi_registration"] = registration;

@@ -835,10 +835,12 @@ void RenderMiRegistrations(const json& report, std::ostringstream& html) {
   const json* array = OptArray(report, "mi_registration", "");
   if (array == nullptr || array->empty()) return;
   html << "<section id=\"mi\">\n<h2>MI registration of the images to the LiDAR</h2>\n"
-       << "<p class=\"note\">Each image registered to the static LiDAR by mutual information (Wang, Ferrie "
+       << "<p class=\"note\">Each image registered to the LiDAR by mutual information (Wang, Ferrie "
           "&amp; Macfarlane 2012) from its initial pose: the correction found, the pixel "
        << kSigma << " of its calibrated covariance, and for an &ldquo;ok&rdquo; (used as a weighted pose "
-          "prior) how far the adjustment ended from it.</p>\n<table>\n<tr><th>image</th><th>kind</th><th>status</th>"
+          "prior) how far the adjustment ended from it. Against the mobile LiDAR the rig's panoramas are registered "
+          "jointly (the rig calibration: one rig_from_lidar for all frames, each frame &ldquo;used&rdquo; or "
+          "&ldquo;rejected&rdquo; by its own screening registration).</p>\n<table>\n<tr><th>image</th><th>kind</th><th>LiDAR</th><th>status</th>"
           "<th>|t| [mm]</th><th>roll [&deg;]</th><th>pitch [&deg;]</th><th>yaw [&deg;]</th><th>"
        << kSigma << " [px]</th><th>adjusted &minus; MI [mm]</th><th>[&deg;]</th><th>time [s]</th><th>reason</th></tr>\n";
   for (size_t i = 0; i < array->size(); ++i) {
@@ -855,8 +857,9 @@ void RenderMiRegistrations(const json& report, std::ostringstream& html) {
       yaw = Num(c, "yaw", cp);
     }
     const double dm = Num(m, "adjusted_minus_registered_m", path), dd = Num(m, "adjusted_minus_registered_deg", path);
-    html << "<tr" << (status == "ok" ? "" : " class=\"flag\"") << ">" << TdText(Esc(ReqString(m, "image", path)))
-         << TdText(Esc(OptString(m, "kind", path).value_or(""))) << TdText(Esc(status)) << Td(Mm(t))
+    html << "<tr" << (status == "ok" || status == "used" ? "" : " class=\"flag\"") << ">" << TdText(Esc(ReqString(m, "image", path)))
+         << TdText(Esc(OptString(m, "kind", path).value_or(""))) << TdText(Esc(OptString(m, "lidar", path).value_or("static")))
+         << TdText(Esc(status)) << Td(Mm(t))
          << Td(FormatFixed(roll, 3)) << Td(FormatFixed(pitch, 3)) << Td(FormatFixed(yaw, 3))
          << Td(FormatFixed(Num(m, "sigma_px", path), 2)) << Td(std::isnan(dm) ? kDash : Mm(dm))
          << Td(std::isnan(dd) ? kDash : FormatFixed(dd, 3)) << Td(FormatFixed(Num(m, "runtime_seconds", path), 1))

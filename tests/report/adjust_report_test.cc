@@ -267,8 +267,12 @@ TEST(AdjustReport, MiRegistrationsAreTabulatedWithTheirOutcome) {
             {"correction", {{"tx", -0.0215}, {"ty", 0.0306}, {"tz", 0.0979}, {"roll", -0.0019}, {"pitch", 0.1378}, {"yaw", 0.3118}}},
             {"sigma_px", 0.587}, {"adjusted_minus_registered_m", 0.0512}, {"adjusted_minus_registered_deg", 0.313},
             {"runtime_seconds", 45.0}, {"prior", true}},
-       json{{"image", "photo<0>.png"}, {"kind", "photo"}, {"status", "failed"}, {"reason", "restarts disagree"}, {"prior", false}}});
+       json{{"image", "photo<0>.png"}, {"kind", "photo"}, {"status", "failed"}, {"reason", "restarts disagree"}, {"prior", false}},
+       json{{"image", "frame_004"}, {"kind", "panorama"}, {"lidar", "mobile"}, {"status", "used"}, {"prior", false}}});
   const std::string html = RenderAdjustReportHtml(report);
+  // The cloud each was registered to; a frame used by the rig calibration is not a failure.
+  EXPECT_NE(html.find("<tr><td>frame_004</td><td>panorama</td><td>mobile</td><td>used</td>"), std::string::npos) << html;
+  EXPECT_NE(html.find("<td>frame_001</td><td>panorama</td><td>static</td>"), std::string::npos);
   EXPECT_NE(html.find("id=\"mi\""), std::string::npos);
   EXPECT_NE(html.find("<td class=\"num\">104.8</td>"), std::string::npos) << html;  // |t| in mm
   EXPECT_NE(html.find("<td class=\"num\">51.2</td><td class=\"num\">0.313</td>"), std::string::npos);
