@@ -7,7 +7,7 @@
 // and its opposite; 8 = the calibration itself; 9..16 = 0.1 m and 1° in random directions.
 // MMBA_DEBUG=1 in the environment logs each stage (time, evaluations);
 // MI_POINT_RADIUS_M, MI_MAX_POINT_RADIUS_PX, MI_REPRESENTATION, MI_LEVELS, MI_RESTART_LEVEL,
-// MI_SPLIT_LEVEL, MI_COARSE_STARTS, MI_POINT_SAMPLES override the defaults.
+// MI_SPLIT_LEVEL, MI_PYRAMID_PATHS, MI_COARSE_STARTS, MI_POINT_SAMPLES override the defaults.
 // Diagnostics: MI_PROBE=1 (per-axis probe at every level, then exit); MI_COMPARE=1 (the
 // metric at the calibration, the start and the result at every level, and on the line from
 // the calibration to the result); MI_OVERLAY=PREFIX [MI_CROP=x0,y0,w,h] (PREFIX_<start>.png:
@@ -61,6 +61,7 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_LEVELS")) options.pyramid_levels = std::atoi(v);
   if (const char* v = std::getenv("MI_RESTART_LEVEL")) options.restart_level = std::atoi(v);
   if (const char* v = std::getenv("MI_SPLIT_LEVEL")) options.split_level = std::atoi(v);
+  if (const char* v = std::getenv("MI_PYRAMID_PATHS")) options.pyramid_paths = std::atoi(v);
   if (const char* v = std::getenv("MI_COARSE_STARTS")) options.coarse_starts = std::atoi(v);
   if (const char* v = std::getenv("MI_POINT_RADIUS_M")) {
     options.render.point_radius_m = std::atof(v);

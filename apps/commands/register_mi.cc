@@ -44,6 +44,7 @@ struct RegisterMiArgs {
   double bound_deg = 3.0;
   double simplex = 1.0;
   int max_iterations = 200;
+  int pyramid_paths = mi::RegistrationOptions().pyramid_paths;
   int coarse_starts = mi::RegistrationOptions().coarse_starts;
   int coarse_candidates = mi::RegistrationOptions().coarse_candidates;
   double coarse_spread = mi::RegistrationOptions().coarse_start_spread;
@@ -149,6 +150,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.bound_rotation_deg = args.bound_deg;
   options.nelder_mead.initial_step = mi::Vector6d::Constant(args.simplex);
   options.nelder_mead.max_iterations = args.max_iterations;
+  options.pyramid_paths = args.pyramid_paths;
   options.coarse_starts = args.coarse_starts;
   options.coarse_candidates = args.coarse_candidates;
   options.coarse_start_spread = args.coarse_spread;
@@ -395,6 +397,10 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
   sub->add_option("--simplex", args->simplex, "Initial simplex size, units (paper: 1)")
       ->capture_default_str();
   sub->add_option("--max-iterations", args->max_iterations, "Nelder-Mead iterations per level")
+      ->capture_default_str();
+  sub->add_option("--pyramid-paths", args->pyramid_paths,
+                  "Coarse-to-fine searches entering the pyramid at the coarsest level and at "
+                  "each of the next N-1 finer ones; the best at full resolution wins")
       ->capture_default_str();
   sub->add_option("--coarse-starts", args->coarse_starts,
                   "Coarse global stage: extra Nelder-Mead starts at the coarsest level, spread "

@@ -128,6 +128,10 @@ bool RegistrationOptions::Check(std::string* error) const {
              std::to_string(restart_offset_deg) + " deg)";
     return false;
   }
+  if (pyramid_paths < 1 || pyramid_paths > 6) {
+    *error = "pyramid_paths " + std::to_string(pyramid_paths) + " must be in 1..6";
+    return false;
+  }
   if (coarse_starts < 0 || coarse_starts > 256 || coarse_candidates < 1 ||
       coarse_candidates > 32 || !(coarse_start_spread > 0 && coarse_start_spread <= 1)) {
     *error = "coarse_starts must be in 0..256, coarse_candidates in 1..32 and "
@@ -940,8 +944,48 @@ SearchResult MainSearch(const FrameSetEvaluator& evaluator, const Rigid3d& start
   const int bottom = std::min(options.finest_nelder_mead_level, top);
   const Vector6d top_step = options.nelder_mead.initial_step.cwiseMin(bound);
   if (options.coarse_starts <= 0) {
-    return Search(evaluator, start, Vector6d::Zero(), top, bottom, top_step, -1.0,
-                  options.gradient_refinement, options, clock, "");
+    // Paths entering the pyramid at top, top − 1, ..., each with the full simplex (the
+    // start's uncertainty does not depend on the level), ranked at `bottom`.
+    const int paths = std::min(options.pyramid_paths, top - bottom + 1);
+    if (paths <= 1) {
+      return Search(evaluator, start, Vector6d::Zero(), top, bottom, top_step, -1.0,
+                    options.gradient_refinement, options, clock, "");
+    }
+    std::vector<SearchResult> path(paths);
+    std::vector<double> ranked(paths);
+    ParallelFor(paths, options.threads, [&](int k) {
+      path[k] = Search(evaluator, start, Vector6d::Zero(), top - k, bottom, top_step, -1.0,
+                       false, options, nullptr, "path " + std::to_string(k) + " ");
+      ranked[k] = evaluator.Evaluate(ApplyCorrection(start, path[k].x), bottom).value;
+    });
+    SearchResult result;
+    int evaluations = 0, best = 0;
+    for (int k = 0; k < paths; ++k) {
+      evaluations += path[k].evaluations + 1;
+      result.iterations += path[k].iterations;
+      spdlog::debug("MI path from level {}: metric {:.6f} at level {}, correction [{:.3f} {:.3f} "
+                    "{:.3f} {:.3f} {:.3f} {:.3f}]",
+                    top - k, ranked[k], bottom, path[k].x[0], path[k].x[1], path[k].x[2],
+                    path[k].x[3], path[k].x[4], path[k].x[5]);
+      if (ranked[k] > ranked[best]) best = k;
+    }
+    if (clock != nullptr) {
+      clock->Mark("pyramid paths levels " + std::to_string(top) + ".." +
+                      std::to_string(top - paths + 1) + " (best from level " +
+                      std::to_string(top - best) + ")",
+                  evaluations);
+    }
+    result.x = path[best].x;
+    result.value = ranked[best];
+    if (options.gradient_refinement) {
+      const SearchResult g = Search(evaluator, start, result.x, -1, 0, top_step, -1.0, true,
+                                    options, clock, "");
+      result.x = g.x;
+      result.iterations += g.iterations;
+      result.evaluations += g.evaluations;
+    }
+    result.evaluations += evaluations;
+    return result;
   }
   std::vector<Vector6d> starts = {Vector6d::Zero()};
   for (const Vector6d& x : SpreadStarts(options.coarse_starts, bound, options.coarse_start_spread)) {

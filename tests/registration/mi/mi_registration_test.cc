@@ -60,6 +60,10 @@ TEST(Options, OnePyramidLevelIsValidAndBadValuesAreNamed) {
   EXPECT_FALSE(options.Check(&error));
   EXPECT_NE(error.find("coarse_start_spread"), std::string::npos) << error;
   options = RegistrationOptions();
+  options.pyramid_paths = 0;
+  EXPECT_FALSE(options.Check(&error));
+  EXPECT_NE(error.find("pyramid_paths 0"), std::string::npos) << error;
+  options = RegistrationOptions();
   options.max_sigma_px = -1;
   EXPECT_FALSE(options.Check(&error));
   EXPECT_NE(error.find("max_sigma_px"), std::string::npos) << error;
@@ -159,6 +163,41 @@ TEST_F(StreetTest, CoarseStartsKeepTheTruePoseAndRecordTheirStages) {
   }
   EXPECT_TRUE(coarse);
   EXPECT_TRUE(candidates);
+}
+
+// Pyramid paths: the searches entering at levels 2, 1 and 0 are ranked by the metric at full
+// resolution and the best one is refined. The winner's full-resolution metric is at least that
+// of the single coarse-to-fine path (which is among them), the stage is recorded with the
+// entry level of the winner, and from the paper's 0.1 m / 1° the pose ends < 1 px.
+TEST_F(StreetTest, PyramidPathsRankAtFullResolution) {
+  const Frame frame = MakeFrame(photo_, &points_);
+  Vector6d perturbation;
+  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
+  const Rigid3d start = ApplyCorrection(truth_, perturbation);
+  RegistrationOptions options = Options();
+  options.restarts = 0;  // the search is under test here, not the acceptance
+  options.split_check = false;
+  options.gradient_refinement = false;  // compare the Nelder–Mead ends themselves
+  RegistrationOptions single = options;
+  single.pyramid_paths = 1;
+  options.pyramid_paths = 3;
+  const RegistrationResult one = RegisterFrames({frame}, start, single);
+  const RegistrationResult three = RegisterFrames({frame}, start, options);
+  SCOPED_TRACE(three.BriefReport());
+  EXPECT_GE(three.metric_after.value, one.metric_after.value);
+  const PixelOffsetStats after =
+      PixelOffsets(points_, frame.views[0], truth_, three.cam_from_lidar, RenderOptions());
+  EXPECT_LT(after.median_px, 1.0);
+  bool recorded = false;
+  for (const StageStat& stage : three.stages) {
+    recorded = recorded || (stage.name.rfind("pyramid paths levels 2..0 (best from level ", 0) ==
+                                0 &&
+                            stage.evaluations > 3);
+  }
+  EXPECT_TRUE(recorded);
+  for (const StageStat& stage : one.stages) {
+    EXPECT_EQ(stage.name.find("pyramid paths"), std::string::npos) << stage.name;
+  }
 }
 
 // A photo whose right half was taken from another pose (0.8° of yaw: ~3.6 px here) — data
