@@ -7,12 +7,14 @@
 // and its opposite; 8 = the calibration itself; 9..16 = 0.1 m and 1° in random directions.
 // MMBA_DEBUG=1 in the environment logs each stage (time, evaluations);
 // MI_POINT_RADIUS_M, MI_MAX_POINT_RADIUS_PX, MI_REPRESENTATION, MI_LEVELS, MI_RESTART_LEVEL,
-// MI_SPLIT_LEVEL, MI_PYRAMID_PATHS, MI_COARSE_STARTS, MI_POINT_SAMPLES override the defaults.
+// MI_SPLIT_LEVEL, MI_PYRAMID_PATHS, MI_COARSE_STARTS, MI_POINT_SAMPLES override the defaults;
+// MI_PHOTO_BLUR=SIGMA_PX smooths the photo (diagnostic).
 // Diagnostics: MI_PROBE=1 (per-axis probe at every level, then exit); MI_COMPARE=1 (the
 // metric at the calibration, the start and the result at every level, and on the line from
 // the calibration to the result); MI_OVERLAY=PREFIX [MI_CROP=x0,y0,w,h] (PREFIX_<start>.png:
 // photo / LiDAR image at the calibration / at the result).
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <optional>
@@ -72,7 +74,32 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_REPRESENTATION")) {
     if (!ParseRepresentation(v, &options.render.representation)) return 2;
   }
-  const GrayImage image = ReadGrayImage(dir + "/image_2/000000.png");
+  GrayImage image = ReadGrayImage(dir + "/image_2/000000.png");
+  if (const char* v = std::getenv("MI_PHOTO_BLUR")) {
+    // Diagnostic: the photo smoothed by a Gaussian of this sigma (px), separable, clamped
+    // edges — does a smoother photo move the metric's maximum?
+    const double sigma = std::atof(v);
+    const int radius = static_cast<int>(std::ceil(3 * sigma));
+    std::vector<double> kernel(2 * radius + 1);
+    double sum = 0;
+    for (int k = -radius; k <= radius; ++k) sum += kernel[k + radius] = std::exp(-0.5 * k * k / (sigma * sigma));
+    for (double& w : kernel) w /= sum;
+    for (int pass = 0; pass < 2; ++pass) {
+      GrayImage out = image;
+      for (int r = 0; r < image.height; ++r) {
+        for (int c = 0; c < image.width; ++c) {
+          double acc = 0;
+          for (int k = -radius; k <= radius; ++k) {
+            const int cc = pass == 0 ? std::clamp(c + k, 0, image.width - 1) : c;
+            const int rr = pass == 1 ? std::clamp(r + k, 0, image.height - 1) : r;
+            acc += kernel[k + radius] * image.at(cc, rr);
+          }
+          out.at(c, r) = static_cast<float>(acc);
+        }
+      }
+      image = std::move(out);
+    }
+  }
   const io::KittiCameraPose kitti = io::KittiCamera(
       io::ReadKittiCalibration(dir + "/calib/000000.txt"), 2, image.width, image.height);
   LidarPoints points = PrepareLidarPoints(io::ReadPointCloud(dir + "/velodyne/000000.bin"));
