@@ -312,7 +312,8 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   out["settings"] = {{"representation", args.representation}, {"view", args.view},
                      {"bins", args.bins},                     {"smoothing", args.smoothing},
                      {"region", args.region},                 {"pyramid_levels", args.pyramid_levels},
-                     {"bound_m", args.bound_m},               {"bound_deg", args.bound_deg}};
+                     {"bound_m", args.bound_m},               {"bound_deg", args.bound_deg},
+                     {"pyramid_paths", args.pyramid_paths}};
   if (frames.size() > 1) {
     out["used_frames"] = result.used_frames;
     nlohmann::json rejected = nlohmann::json::array();
