@@ -1247,26 +1247,30 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
                        std::to_string(s.mobile->sample.size()) + " mobile LiDAR points on the static surface (gate " +
                        std::to_string(mobile_gate) + " m)");
           if (nm < 100) {
-            // A units or frame mistake in the trajectory or the cloud shows in where the
-            // sample lands against the photo block.
+            // A units mistake in the trajectory and the cloud: the sample, scaled to metres
+            // about the world origin, would lie on the static surface.
             const internal::MobileBlock& m = *s.mobile;
-            Eigen::Vector3d cloud_lo = Eigen::Vector3d::Constant(1e300), cloud_hi = -cloud_lo;
-            for (size_t i = 0; i < m.sample.size(); ++i) {
-              const Eigen::Vector3d p = m.sample_ins[i] * (m.body_from_lidar_nominal * m.sample_lidar[i]);
-              cloud_lo = cloud_lo.cwiseMin(p);
-              cloud_hi = cloud_hi.cwiseMax(p);
+            const double sigma = std::hypot(m.config->range_sigma_m, m.config->surface_sigma_m);
+            std::string hint;
+            size_t best = nm;
+            for (const auto& [scale, unit] : {std::pair<double, const char*>{0.001, "millimetres"}, {0.01, "centimetres"},
+                                              {0.3048, "feet (international or US survey)"}}) {
+              size_t on = 0;
+              for (size_t i = 0; i < m.sample.size(); ++i) {
+                SurfacePlane plane;
+                const Eigen::Vector3d delivered = m.sample_ins[i] * (m.body_from_lidar_nominal * m.sample_lidar[i]);
+                on += internal::FitSurfacePlane(s, scale * delivered, mobile_gate, sigma, &plane) ? 1 : 0;
+              }
+              if (on >= 100 && on > 10 * best) {
+                best = on;
+                hint = std::string(" (") + m.config->cloud + " with " + m.config->trajectory + ": its coordinates look like " +
+                       unit + ": scaled to metres, " + std::to_string(on) + " of the points would lie on the surface)";
+              }
             }
-            Eigen::Vector3d block_lo = Eigen::Vector3d::Constant(1e300), block_hi = -block_lo;
-            for (const auto& [id, p] : s.scene.points()) {
-              if (id.value >= internal::kCheckPointIdBase) continue;
-              block_lo = block_lo.cwiseMin(p);
-              block_hi = block_hi.cwiseMax(p);
-            }
-            const std::string hint = CoordinateHint(cloud_lo, cloud_hi, block_lo, block_hi);
             throw AdjustFailure("failed", "lidar_mobile '" + s.mobile->config->id + "': only " + std::to_string(nm) +
                                               " of its points lie within " + std::to_string(mobile_gate) +
                                               " m of the static LiDAR surface: no overlap, or its trajectory/calibration is far off" +
-                                              (hint.empty() ? "" : " (" + m.config->trajectory + " with " + m.config->cloud + ": " + hint + ")"));
+                                              hint);
           }
           associated += nm;
         }

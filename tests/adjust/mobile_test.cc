@@ -326,6 +326,49 @@ TEST_F(MobileAdjustTest, MiPosesOnTheMobileLidarAreFactorsOnTheExtrinsic) {
   EXPECT_LT(extrinsic["translation_m"].get<double>(), 0.01) << extrinsic.dump();
 }
 
+// Inconsistent units: the mobile cloud and its trajectory delivered in feet miss the static
+// surface, and the failure says feet (exit 3) rather than only "no overlap".
+TEST_F(MobileAdjustTest, AMobileLidarInFeetIsReportedAsSuch) {
+  const fs::path sim = Root() / "sim", dir = Root() / "feet";
+  fs::create_directories(dir);
+  constexpr double kFoot = 0.3048;
+  io::PointCloud cloud = io::ReadPointCloud((sim / "clouds" / "mobile_lidar.ply").string());
+  for (Eigen::Vector3d& p : cloud.points) p /= kFoot;
+  io::WritePly(cloud, (dir / "mobile_ft.ply").string());
+  {
+    std::istringstream csv(ReadText(sim / "trajectory_ins.csv"));
+    std::ofstream out(dir / "trajectory_ft.csv");
+    for (std::string line; std::getline(csv, line);) {
+      if (line.empty() || line[0] == '#' || line.rfind("time_s", 0) == 0) {
+        out << line << "\n";
+        continue;
+      }
+      std::vector<std::string> cells;
+      std::stringstream cs(line);
+      for (std::string c; std::getline(cs, c, ',');) cells.push_back(c);
+      ASSERT_EQ(cells.size(), 8u) << line;
+      for (int k = 1; k <= 3; ++k) cells[k] = std::to_string(std::stod(cells[k]) / kFoot);
+      for (size_t k = 0; k < cells.size(); ++k) out << (k ? "," : "") << cells[k];
+      out << "\n";
+    }
+  }
+  std::string project = ReadText(sim / "project.yaml");
+  const size_t block = project.find("type: lidar_mobile");
+  ASSERT_NE(block, std::string::npos);
+  for (const auto& [from, to] : {std::pair<std::string, std::string>{"cloud: clouds/mobile_lidar.ply", "cloud: " + (dir / "mobile_ft.ply").string()},
+                                 {"trajectory: trajectory_ins.csv", "trajectory: " + (dir / "trajectory_ft.csv").string()}}) {
+    const size_t at = project.find(from, block);
+    ASSERT_NE(at, std::string::npos) << from;
+    project.replace(at, from.size(), to);
+  }
+  std::ofstream(sim / "project_feet.yaml") << project;
+  const AdjustOutcome outcome = Run((sim / "project_feet.yaml").string(), (dir / "out").string());
+  EXPECT_FALSE(outcome.ok);
+  EXPECT_NE(outcome.reason.find("feet"), std::string::npos) << outcome.reason;
+  EXPECT_NE(outcome.reason.find("mobile_ft.ply"), std::string::npos) << outcome.reason;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
 TEST_F(MobileAdjustTest, RefusesACloudWithoutPointTimes) {
   const fs::path sim = Root() / "sim", dir = Root() / "no_time";
   fs::create_directories(dir);
