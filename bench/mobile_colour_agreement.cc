@@ -27,8 +27,10 @@
 #include "mmba/sim/render.h"
 #include "mmba/sim/scenes.h"
 #include "mmba/sim/texture.h"
+#include "mmba/stats/correlation.h"
 
 using json = nlohmann::json;
+using mmba::stats::Pearson;
 
 namespace {
 
@@ -41,16 +43,6 @@ std::string ReadText(const std::string& path) {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
-}
-
-double Pearson(const std::vector<std::pair<double, double>>& pairs) {
-  double ma = 0, mb = 0;
-  for (const auto& [a, b] : pairs) ma += a, mb += b;
-  ma /= pairs.size();
-  mb /= pairs.size();
-  double sab = 0, saa = 0, sbb = 0;
-  for (const auto& [a, b] : pairs) sab += (a - ma) * (b - mb), saa += (a - ma) * (a - ma), sbb += (b - mb) * (b - mb);
-  return sab / std::sqrt(saa * sbb);
 }
 
 }  // namespace

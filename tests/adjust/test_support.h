@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "mmba/adjust/adjust.h"
+#include "mmba/stats/correlation.h"
 
 namespace mmba::adjust::testing_support {
 
@@ -29,16 +30,7 @@ inline std::string ReadText(const std::filesystem::path& p) {
   return s.str();
 }
 
-/// Pearson's correlation of the pairs (the colour tests' measure of agreement).
-inline double Pearson(const std::vector<std::pair<double, double>>& pairs) {
-  double ma = 0, mb = 0;
-  for (const auto& [a, b] : pairs) ma += a, mb += b;
-  ma /= pairs.size();
-  mb /= pairs.size();
-  double sab = 0, saa = 0, sbb = 0;
-  for (const auto& [a, b] : pairs) sab += (a - ma) * (b - mb), saa += (a - ma) * (a - ma), sbb += (b - mb) * (b - mb);
-  return sab / std::sqrt(saa * sbb);
-}
+using stats::Pearson;  ///< the colour tests' measure of agreement
 
 /// Loads `project_path` and adjusts it into `out` (no progress output).
 inline AdjustOutcome RunProject(const std::string& project_path, const std::string& out) {
