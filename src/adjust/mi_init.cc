@@ -152,8 +152,8 @@ io::PointCloud Crop(const io::PointCloud& cloud, const Eigen::Vector3d& centre, 
   return out;
 }
 
-/// The mobile LiDAR's delivered cloud (world frame as georeferenced by the GNSS/INS) near a
-/// batch of rig frames: points within `radius` of a frame and captured within `window`
+/// The mobile LiDAR's delivered cloud (world frame as georeferenced by the GNSS/INS) near
+/// rig frames (sorted by time): points within `radius` of a frame and captured within `window`
 /// seconds of its time, streamed, with time and intensity. At most 2·`cap` points are held:
 /// when that many are kept, every other one is dropped and from then on only every 2nd
 /// candidate is considered (an even subsample whatever the cloud's size).
@@ -402,7 +402,7 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     const std::string& cloud_path = m.config->cloud;
     const double window = s->rig->config->mi_time_window_s;
     constexpr size_t kJointFrames = 8;
-    constexpr double kBatchSpan = 30.0;  // s of drive per streamed pass
+    // Sorted by time (MobileCloudNear looks frames up by time).
     std::sort(moving.begin(), moving.end(), [&](size_t a, size_t b) { return tasks[a].time_s < tasks[b].time_s; });
     if (moving.size() > kJointFrames) {
       std::vector<size_t> spread;
@@ -416,44 +416,40 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     std::vector<mi::Frame> frames;
     std::vector<size_t> frame_task;
     const Rigid3d start = m.vehicle_from_lidar;  // rig_from_lidar (the rig frame is the vehicle's)
-    for (size_t first = 0; first < moving.size();) {
-      size_t last = first;
-      while (last + 1 < moving.size() && tasks[moving[last + 1]].time_s - tasks[moving[first]].time_s <= kBatchSpan) ++last;
-      std::vector<std::pair<double, Eigen::Vector3d>> near;
-      for (size_t k = first; k <= last; ++k) near.emplace_back(tasks[moving[k]].time_s, CameraCentre(tasks[moving[k]].start));
-      const io::PointCloud cloud = MobileCloudNear(cloud_path, near, kRadius, window, kMaxPoints);
-      if (!cloud.has_intensity() && !cloud.points.empty()) {
-        throw InputError::Message(cloud_path, "has no intensity, which the MI registration of mi_register compares with "
-                                              "the panoramas (register-mi --representation intensity)");
+    // One streamed pass for all of them (≤ kJointFrames frames, ≤ 2·kMaxPoints points held).
+    std::vector<std::pair<double, Eigen::Vector3d>> near;
+    for (size_t i : moving) near.emplace_back(tasks[i].time_s, CameraCentre(tasks[i].start));
+    const io::PointCloud cloud = MobileCloudNear(cloud_path, near, kRadius, window, kMaxPoints);
+    if (!cloud.has_intensity() && !cloud.points.empty()) {
+      throw InputError::Message(cloud_path, "has no intensity, which the MI registration of mi_register compares with "
+                                            "the panoramas (register-mi --representation intensity)");
+    }
+    for (size_t i : moving) {
+      const MiTask& t = tasks[i];
+      io::PointCloud local = Crop(cloud, CameraCentre(t.start), kRadius, t.time_s, window);
+      const Rigid3d lidar_from_delivered = (m.frames.at(t.frame).ins * m.body_from_lidar_nominal).Inverse();
+      for (Eigen::Vector3d& p : local.points) p = lidar_from_delivered * p;
+      spdlog::info("adjust: MI rig calibration: frame {} sees {} mobile points within {:.0f} m and {:.1f} s", t.name,
+                   local.size(), kRadius, window);
+      if (local.size() < 1000) {
+        json entry = {{"image", t.name}, {"kind", t.kind}, {"lidar", "mobile"}, {"status", "failed"},
+                      {"reason", "only " + std::to_string(local.size()) + " mobile LiDAR points within " +
+                                     std::to_string(kRadius) + " m captured within " + std::to_string(window) + " s"}};
+        s->mi_registration.push_back(entry);
+        s->mi_registered.push_back(t.start);
+        s->warnings.push_back("MI rig calibration: frame " + t.name + " not used: " + entry["reason"].get<std::string>());
+        continue;
       }
-      for (size_t k = first; k <= last; ++k) {
-        const MiTask& t = tasks[moving[k]];
-        io::PointCloud local = Crop(cloud, CameraCentre(t.start), kRadius, t.time_s, window);
-        const Rigid3d lidar_from_delivered = (m.frames.at(t.frame).ins * m.body_from_lidar_nominal).Inverse();
-        for (Eigen::Vector3d& p : local.points) p = lidar_from_delivered * p;
-        spdlog::info("adjust: MI rig calibration: frame {} sees {} mobile points within {:.0f} m and {:.1f} s", t.name,
-                     local.size(), kRadius, window);
-        if (local.size() < 1000) {
-          json entry = {{"image", t.name}, {"kind", t.kind}, {"lidar", "mobile"}, {"status", "failed"},
-                        {"reason", "only " + std::to_string(local.size()) + " mobile LiDAR points within " +
-                                       std::to_string(kRadius) + " m captured within " + std::to_string(window) + " s"}};
-          s->mi_registration.push_back(entry);
-          s->mi_registered.push_back(t.start);
-          s->warnings.push_back("MI rig calibration: frame " + t.name + " not used: " + entry["reason"].get<std::string>());
-          continue;
-        }
-        points.push_back(mi::PrepareLidarPoints(local));
-        mi::Frame frame;
-        frame.name = t.name;
-        frame.points = &points.back();
-        mi::ViewOptions views;
-        views.kind = mi::ViewKind::kPerspective;
-        views.perspective_yaw_deg = mi::SelectPerspectiveHeadings(points.back(), t.camera, start, views, options.render, 2);
-        frame.views = mi::MakeViews(images[moving[k]], t.camera, views, t.path);
-        frames.push_back(std::move(frame));
-        frame_task.push_back(moving[k]);
-      }
-      first = last + 1;
+      points.push_back(mi::PrepareLidarPoints(local));
+      mi::Frame frame;
+      frame.name = t.name;
+      frame.points = &points.back();
+      mi::ViewOptions views;
+      views.kind = mi::ViewKind::kPerspective;
+      views.perspective_yaw_deg = mi::SelectPerspectiveHeadings(points.back(), t.camera, start, views, options.render, 2);
+      frame.views = mi::MakeViews(images[i], t.camera, views, t.path);
+      frames.push_back(std::move(frame));
+      frame_task.push_back(i);
     }
     if (!frames.empty()) {
       mi::RigOptions rig_options;
