@@ -324,14 +324,9 @@ void LoadPhotos(JointState* s, const std::string& work_dir) {
       std::ostringstream g;
       g << "similarity from " << from.size() << " control targets: scale " << scale << ", RMS " << rms << " m";
       block.georeference = g.str();
-    } else if (!project.lidar_static.empty()) {
-      block.georeference = "as given (fewer than 3 control targets measured in 2+ photos; LiDAR surface ties)";
-      s->warnings.push_back("photo collection '" + p.id + "': " + std::to_string(from.size()) +
-                            " control targets measured in 2+ photos; the block is taken as roughly georeferenced");
     } else {
-      throw AdjustFailure("failed", "photo collection '" + p.id + "' has no overlap with the control: " +
-                                        std::to_string(from.size()) + " surveyed targets measured in 2+ photos, 3 needed "
-                                        "(or a lidar_static sensor)");
+      block.georeference = "as given (fewer than 3 control targets measured in 2+ photos)";
+      block.control_targets_intersected = from.size();
     }
     // Check points: image-only points of the scene, intersected after the georeference.
     uint64_t next = internal::kCheckPointIdBase;
@@ -349,11 +344,8 @@ void LoadPhotos(JointState* s, const std::string& work_dir) {
     for (const TargetMeasurement& m : check_measurements) {
       if (block.check_ids.count(m.point_id)) block.check.push_back({m.image_id, block.check_ids.at(m.point_id), m.xy, m.sigma_px});
     }
-  } else if (project.lidar_static.empty()) {
-    throw AdjustFailure("failed", "photo collection '" + p.id + "' has no overlap with any other sensor: no "
-                                  "control_measurements and no lidar_static sensor");
   } else {
-    block.georeference = "as given (no control measurements; LiDAR surface ties)";
+    block.georeference = "as given (no control measurements)";
   }
   // MI registration results (`mmba register-mi` OUT.json per image, LiDAR frame = world).
   if (!p.mi_results.empty()) {
@@ -602,6 +594,27 @@ void LoadRig(JointState* s) {
 }
 
 // ---- LiDAR -------------------------------------------------------------------------------
+
+// A photo block without control: placed by the tie points the rig and the spherical stations
+// see; else taken as given when a LiDAR can tie it (its surface association then needs it
+// roughly in place), else it has no overlap with any other sensor (exit 3).
+void PlacePhotoBlock(JointState* s) {
+  if (!s->photos || s->photos->georeference.rfind("as given", 0) != 0) return;
+  PhotoBlock& block = *s->photos;
+  const Project& project = *s->project;
+  const std::string& id = block.config->id;
+  if (internal::PlacePhotoBlockByTiePoints(s)) return;
+  if (project.lidar_static.empty()) {
+    throw AdjustFailure("failed", "photo collection '" + id + "' has no overlap with the control: " +
+                                      std::to_string(block.control_targets_intersected) +
+                                      " surveyed targets measured in 2+ photos (3 needed), no tie points intersected by "
+                                      "a camera rig or spherical stations, and no lidar_static sensor");
+  }
+  block.georeference += "; LiDAR surface ties";
+  s->warnings.push_back("photo collection '" + id + "': " + std::to_string(block.control_targets_intersected) +
+                        " control targets measured in 2+ photos and no tie points placed by other sensors; the block "
+                        "is taken as roughly georeferenced");
+}
 
 void LoadLidar(JointState* s) {
   if (s->project->lidar_static.empty() || !s->photos) return;
@@ -1204,6 +1217,7 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
     LoadPhotos(&s, work_dir);
     LoadSpheres(&s);
     LoadRig(&s);
+    PlacePhotoBlock(&s);
     LoadLidar(&s);
     internal::RegisterSphereStations(&s);
     internal::LoadMobile(&s);

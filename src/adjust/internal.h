@@ -43,6 +43,7 @@ struct PhotoBlock {
   std::map<ImageId, Rigid3d> initial_poses;    ///< after the initial georeference
   std::vector<double> initial_params;          ///< intrinsics after initialisation
   std::string georeference;                    ///< how the block was put into the world
+  size_t control_targets_intersected = 0;      ///< control targets seen in 2+ photos (< 3: no similarity)
 };
 
 /// The spherical stereo pair: lower poses are Scene images, the upper sphere follows from
@@ -230,6 +231,14 @@ std::string FindImage(const std::string& folder, const std::string& stem);
 /// vertical-baseline stereo cloud registered to the static LiDAR (issue 5's pipeline) moves its
 /// setup pose when the registration is "ok"; the outcome per station is kept for the report.
 void RegisterSphereStations(JointState* s);
+
+/// Initialisation of a photo block without control (fewer than 3 surveyed targets measured):
+/// its tie points observed by the rig (at the frames' GNSS/INS poses) and the spherical
+/// stations (at their setups) are intersected in the world from those rays alone, and the
+/// similarity block → world (Umeyama inside a RANSAC over triples) moves the block's images
+/// and points. False (the block left as it is, a note logged) when fewer than 3 such points
+/// intersect or they agree on no similarity.
+bool PlacePhotoBlockByTiePoints(JointState* s);
 
 /// Reads a `mmba register-mi` result file as a pose prior. False (and `why` set) when it is not
 /// usable (status not "ok", no valid covariance); InputError when it is malformed.

@@ -463,6 +463,12 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
   report["solver"] = {{"iterations", s.total_iterations}, {"outer_iterations", s.outer_iterations},
                       {"initial_cost", s.solve.initial_cost}, {"final_cost", s.solve.final_cost},
                       {"seconds", s.seconds}};
+  if (s.photos) {
+    report["photo_block"] = {{"id", s.photos->config->id},
+                             {"images", s.photos->model.images.size()},
+                             {"tie_points", s.photos->model.points3D.size()},
+                             {"georeference", s.photos->georeference}};
+  }
   report["sigma0"] = {{"apriori", 1.0}, {"aposteriori", st.sigma0_ratio}, {"dof", st.degrees_of_freedom},
                       {"confidence", st.confidence}, {"chi2_lower", st.chi2_lower}, {"chi2_upper", st.chi2_upper},
                       {"passed", st.chi2_passed}};

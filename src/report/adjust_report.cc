@@ -714,6 +714,11 @@ void RenderPoseCorrections(const json& report, std::ostringstream& html) {
     poses.push_back(p);
   }
   html << "<section id=\"poses\">\n<h2>Camera pose corrections</h2>\n";
+  if (report.contains("photo_block") && report["photo_block"].is_object() &&
+      report["photo_block"].contains("georeference") && report["photo_block"]["georeference"].is_string()) {
+    html << "<p>Initial georeference of the photo block: " << Esc(report["photo_block"]["georeference"].get<std::string>())
+         << ". The corrections below are from that initial pose.</p>\n";
+  }
   // Per sensor: count, RMS and max of the position and rotation corrections.
   struct Stat {
     size_t n = 0, n_pos = 0, n_rot = 0;

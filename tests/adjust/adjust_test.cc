@@ -19,6 +19,7 @@
 
 #include "mmba/core/error.h"
 #include "mmba/core/logging.h"
+#include "mmba/geometry/sim3d.h"
 #include "mmba/io/colmap_model.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/sensors/camera.h"
@@ -571,6 +572,37 @@ TEST_F(AdjustTest, PlacesAnUnregisteredScan) {
   EXPECT_FALSE(ambiguous.ok);
   EXPECT_NE(ambiguous.reason.find("scan_2 could not be registered"), std::string::npos) << ambiguous.reason;
   EXPECT_NE(ambiguous.reason.find("ambiguous"), std::string::npos) << ambiguous.reason;
+}
+
+// A photo block as COLMAP delivers it — in a frame and scale of its own — with no surveyed
+// target measured in it: the tie points the rig (at its GNSS/INS poses) and the spherical
+// stations (at their setups) also see give the similarity into the world, and the adjustment
+// recovers the block as well as with its control. (Before, such a block was taken "as given"
+// and the LiDAR, 0 points near it, failed the run.)
+TEST_F(AdjustTest, PlacesABlockWithoutControlByTheOtherSensorsTiePoints) {
+  const fs::path sim = Root() / "sim", dir = Root() / "nocontrol";
+  io::ColmapModel model = io::ReadColmapModel((sim / "colmap" / "photos").string());
+  const Sim3d block_from_world(0.37, Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.2, 0.3, 1).normalized())),
+                               Eigen::Vector3d(12, -30, 5));
+  for (auto& [id, image] : model.images) image.cam_from_world = block_from_world.TransformCamFromSource(image.cam_from_world);
+  for (auto& [id, point] : model.points3D) point.xyz = block_from_world * point.xyz;
+  fs::create_directories(dir / "colmap");
+  io::WriteColmapModel(model, (dir / "colmap").string(), io::ColmapFormat::kText);
+  std::string project = std::regex_replace(ReadText(sim / "project.yaml"), std::regex("\n *control_measurements:[^\n]*"), "");
+  project = std::regex_replace(project, std::regex("colmap_model: colmap/photos"), "colmap_model: " + (dir / "colmap").string());
+  ASSERT_EQ(project.find("control_measurements"), std::string::npos);
+  std::ofstream(sim / "project_nocontrol.yaml") << project;
+  const AdjustOutcome outcome = Run((sim / "project_nocontrol.yaml").string(), (dir / "out").string());
+  ASSERT_TRUE(outcome.ok) << outcome.reason;
+  const std::string georeference = outcome.report["photo_block"]["georeference"];
+  EXPECT_NE(georeference.find("tie points intersected by rig"), std::string::npos) << georeference;
+  std::smatch scale;
+  ASSERT_TRUE(std::regex_search(georeference, scale, std::regex("scale ([0-9.]+)"))) << georeference;
+  EXPECT_NEAR(std::stod(scale[1].str()), 1 / 0.37, 0.05) << georeference;  // the sensors' poses are approximate
+  const json& truth = outcome.report["truth_evaluation"];
+  EXPECT_LT(truth["photo_positions"]["max_m"].get<double>(), 0.02);
+  EXPECT_LT(truth["photo_positions"]["max_rotation_deg"].get<double>(), 0.3);
+  EXPECT_LT(truth["rig"]["max_frame_position_m"].get<double>(), 0.03);
 }
 
 // No scan registered and too few targets to place any: the registered reference cloud is held

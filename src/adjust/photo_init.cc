@@ -1,0 +1,173 @@
+// Initialisation of a photo block that has no control (issue 7, step 3: "GNSS/INS → approximate
+// poses; COLMAP → photo block"): a COLMAP reconstruction comes in a frame and scale of its own.
+// When fewer than 3 surveyed targets are measured in it, the block's tie points that the
+// georeferenced sensors also observe — the rig frames at their GNSS/INS poses, the spherical
+// stations at their setups — are intersected in the world from those sensors' rays alone, and
+// the similarity block → world (Umeyama 1991, inside a RANSAC over point triples, Fischler &
+// Bolles 1981) moves the whole block there. The joint solve then refines everything.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <set>
+#include <random>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <spdlog/spdlog.h>
+
+#include "internal.h"
+
+namespace mmba::adjust::internal {
+
+namespace {
+
+using Ray = std::pair<Eigen::Vector3d, Eigen::Vector3d>;  // centre, unit direction (world)
+
+void Note(JointState* s, const std::string& text) {
+  spdlog::info("adjust: {}", text);
+  s->log.push_back(text);
+}
+
+// Least-squares intersection of rays; false when they are nearly parallel (largest angle
+// between any two below `min_angle_rad`) or the point lies behind one of them.
+bool Intersect(const std::vector<Ray>& rays, double min_angle_rad, Eigen::Vector3d* point) {
+  if (rays.size() < 2) return false;
+  double widest = 0.0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    for (size_t j = i + 1; j < rays.size(); ++j) {
+      widest = std::max(widest, std::acos(std::clamp(rays[i].second.dot(rays[j].second), -1.0, 1.0)));
+    }
+  }
+  if (widest < min_angle_rad) return false;
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (const auto& [c, d] : rays) {
+    const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - d * d.transpose();
+    a += p;
+    b += p * c;
+  }
+  *point = a.ldlt().solve(b);
+  for (const auto& [c, d] : rays) {
+    if ((*point - c).dot(d) <= 0) return false;
+  }
+  return point->allFinite();
+}
+
+Sim3d SimilarityFrom(const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to,
+                     const std::vector<size_t>& use) {
+  Eigen::Matrix3Xd a(3, use.size()), b(3, use.size());
+  for (size_t k = 0; k < use.size(); ++k) {
+    a.col(k) = from[use[k]];
+    b.col(k) = to[use[k]];
+  }
+  const Eigen::Matrix4d t = Eigen::umeyama(a, b, true);
+  const double scale = t.topLeftCorner<3, 3>().col(0).norm();
+  return Sim3d(scale, Eigen::Quaterniond(Eigen::Matrix3d(t.topLeftCorner<3, 3>() / scale)), t.topRightCorner<3, 1>());
+}
+
+}  // namespace
+
+bool PlacePhotoBlockByTiePoints(JointState* s) {
+  if (!s->photos) return false;
+  PhotoBlock& block = *s->photos;
+  const std::string& id = block.config->id;
+  // Rays of the georeferenced sensors per photo tie point, in the world.
+  std::map<Point3DId, std::vector<Ray>> rays;
+  std::set<std::string> sensors;
+  if (s->rig && s->rig->config->tie_block == id) {
+    const RigBlock& rig = *s->rig;
+    for (const RigObservation& o : rig.observations) {
+      const Rigid3d world_from_cam = (rig.cam_from_rig[o.camera] * rig.rig_from_world[o.frame]).Inverse();
+      const Eigen::Vector3d d = world_from_cam.rotation * s->scene.Camera(rig.cameras[o.camera]).CamFromImg(o.xy);
+      if (d.allFinite() && d.norm() > 0) rays[o.point3D_id].emplace_back(world_from_cam.translation, d.normalized());
+    }
+    sensors.insert("rig '" + rig.config->id + "' at its GNSS/INS poses");
+  }
+  if (s->spheres && s->spheres->config->tie_block == id) {
+    const SphereBlock& sb = *s->spheres;
+    for (const ReprojectionObservation& o : sb.lower) {
+      const Rigid3d world_from_cam = s->scene.Image(o.image_id).cam_from_world.Inverse();
+      const Eigen::Vector3d d = world_from_cam.rotation * s->scene.Camera(sb.lower_camera).CamFromImg(o.xy);
+      if (d.allFinite() && d.norm() > 0) rays[o.point3D_id].emplace_back(world_from_cam.translation, d.normalized());
+    }
+    for (const UpperSphereObservation& o : sb.upper) {
+      const Rigid3d world_from_lower = s->scene.Image(o.lower_image_id).cam_from_world.Inverse();
+      const Eigen::Vector3d centre = world_from_lower * sb.baseline;
+      const Eigen::Vector3d d = world_from_lower.rotation * s->scene.Camera(sb.upper_camera).CamFromImg(o.xy);
+      if (d.allFinite() && d.norm() > 0) rays[o.point3D_id].emplace_back(centre, d.normalized());
+    }
+    sensors.insert("spherical stations '" + sb.config->id + "' at their setups");
+  }
+  if (sensors.empty()) return false;
+  // Intersections: at least two rays crossing at ≥ 2° (a GNSS/INS pose is good to ~1°).
+  std::vector<Eigen::Vector3d> from, to;
+  std::vector<double> tolerance;
+  for (const auto& [point_id, point_rays] : rays) {
+    if (!s->scene.HasPoint(point_id)) continue;
+    Eigen::Vector3d world;
+    if (!Intersect(point_rays, 2.0 * M_PI / 180.0, &world)) continue;
+    double range = std::numeric_limits<double>::infinity();
+    for (const Ray& ray : point_rays) range = std::min(range, (world - ray.first).norm());
+    from.push_back(s->scene.Point(point_id));
+    to.push_back(world);
+    tolerance.push_back(std::max(0.5, 0.05 * range));
+  }
+  std::string sensor_list;
+  for (const std::string& name : sensors) sensor_list += (sensor_list.empty() ? "" : ", ") + name;
+  if (from.size() < 3) {
+    Note(s, "photo block '" + id + "': " + std::to_string(from.size()) + " tie points intersected by " + sensor_list +
+                " (3 needed): not placed by them");
+    return false;
+  }
+  // RANSAC over triples: an intersection counts when it lies within max(0.5 m, 5 % of its range
+  // from the nearest sensor) of the transformed block point — the sensors' poses are
+  // approximate, so far points carry proportionally larger errors.
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<size_t> pick(0, from.size() - 1);
+  std::vector<size_t> best;
+  const int trials = std::min<int>(2000, static_cast<int>(from.size() * from.size()));
+  for (int trial = 0; trial < trials; ++trial) {
+    std::vector<size_t> triple = {pick(rng), pick(rng), pick(rng)};
+    if (triple[0] == triple[1] || triple[1] == triple[2] || triple[0] == triple[2]) continue;
+    // A triple spanning too little of the block gives no usable rotation.
+    const double spread = ((from[triple[1]] - from[triple[0]]).cross(from[triple[2]] - from[triple[0]])).norm();
+    if (!(spread > 0)) continue;
+    const Sim3d candidate = SimilarityFrom(from, to, triple);
+    if (!(candidate.scale > 0) || !std::isfinite(candidate.scale)) continue;
+    std::vector<size_t> inliers;
+    for (size_t i = 0; i < from.size(); ++i) {
+      if ((candidate * from[i] - to[i]).norm() < tolerance[i]) inliers.push_back(i);
+    }
+    if (inliers.size() > best.size()) best = std::move(inliers);
+  }
+  if (best.size() < 3 || best.size() < 0.5 * from.size()) {
+    std::ostringstream m;
+    m << "photo block '" << id << "': the " << from.size() << " tie points intersected by " << sensor_list
+      << " agree on no similarity (largest consistent set " << best.size() << "): not placed by them";
+    Note(s, m.str());
+    return false;
+  }
+  const Sim3d world_from_block = SimilarityFrom(from, to, best);
+  double sum = 0.0;
+  for (size_t i : best) sum += (world_from_block * from[i] - to[i]).squaredNorm();
+  const double rms = std::sqrt(sum / best.size());
+  // Move the photo block only (the scene also holds the spherical stations).
+  for (const auto& [image_id, image] : block.model.images) {
+    ImagePose& pose = s->scene.Image(image_id);
+    pose.cam_from_world = world_from_block.TransformCamFromSource(pose.cam_from_world);
+    block.initial_poses[image_id] = pose.cam_from_world;
+  }
+  for (const auto& [point_id, point] : block.model.points3D) {
+    if (s->scene.HasPoint(point_id)) s->scene.Point(point_id) = world_from_block * s->scene.Point(point_id);
+  }
+  for (const auto& [name, point_id] : block.check_ids) s->scene.Point(point_id) = world_from_block * s->scene.Point(point_id);
+  std::ostringstream g;
+  g << "similarity from " << best.size() << " of " << from.size() << " tie points intersected by " << sensor_list
+    << ": scale " << world_from_block.scale << ", RMS " << rms << " m";
+  block.georeference = g.str();
+  Note(s, "photo block '" + id + "': " + block.georeference);
+  return true;
+}
+
+}  // namespace mmba::adjust::internal
