@@ -1,0 +1,173 @@
+#!/usr/bin/python3
+"""Robustness sweep of `mmba register-cloud` on real clouds with a known answer.
+
+Each case cuts two overlapping pieces out of one real cloud (or takes two real scans with a
+known alignment), moves the source by a random rigid transform (any rotation, a shift of the
+order of the cloud's extent), runs `mmba register-cloud` with its default settings and
+compares the result with the truth: RMS of ||T·p − T_true·p|| over the source. A case is
+"right" when that RMS is below `--right-spacings` × the source's point spacing, else
+"wrong". A "wrong ok" is the failure the issue forbids; "failed" is an honest refusal.
+
+Usage (Debian's python3 with numpy and open3d, for reading PCD/PLY and writing PLY):
+  /usr/bin/python3 bench/register_real_sweep.py MMBA OUTDIR [--draws N] [--seed S]
+      [--cases office1,table,milk,bunny_mm,...] [--data DIR]
+Writes OUTDIR/sweep.csv (one row per registration) and prints a summary table.
+"""
+import argparse
+import csv
+import json
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import open3d as o3d
+
+
+def random_rotation(rng):
+    q = rng.normal(size=4)
+    q /= np.linalg.norm(q)
+    w, x, y, z = q
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def load(path):
+    cloud = o3d.io.read_point_cloud(path, remove_nan_points=True, remove_infinite_points=True)
+    return np.asarray(cloud.points, dtype=np.float64)
+
+
+def spacing(points):
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    d = np.asarray(cloud.compute_nearest_neighbor_distance())
+    return float(np.median(d))
+
+
+def write_ply(path, points):
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
+    o3d.io.write_point_cloud(path, cloud, write_ascii=False)
+
+
+def split(points, axis, overlap):
+    """Two pieces along `axis` that share `overlap` of the extent around the median."""
+    c = points[:, axis]
+    lo, hi = np.percentile(c, 1), np.percentile(c, 99)
+    mid = np.median(c)
+    half = 0.5 * overlap * (hi - lo)
+    return points[c <= mid + half], points[c >= mid - half]
+
+
+def stanford_conf(conf_path):
+    poses = {}
+    for line in open(conf_path):
+        f = line.split()
+        if len(f) == 9 and f[0] == 'bmesh':
+            t = np.array([float(v) for v in f[2:5]])
+            qx, qy, qz, qw = [float(v) for v in f[5:9]]
+            r = o3d.geometry.get_rotation_matrix_from_quaternion([qw, qx, qy, qz])
+            m = np.eye(4)
+            m[:3, :3] = r.T  # p_common = R(q)^T p + t
+            m[:3, 3] = t
+            poses[f[1]] = m
+    return poses
+
+
+def make_cases(data, names, rng):
+    """(name, source points, target points, target_from_source before the random move)."""
+    pcl = os.path.join(data, 'pcl_test')
+    bunny = os.path.join(data, 'stanford_bunny')
+    out = []
+    for name in names:
+        if name in ('office1', 'table', 'milk', 'pclbunny'):
+            file = {'office1': 'office1.pcd', 'table': 'table_scene_mug_stereo_textured.pcd',
+                    'milk': 'milk.pcd', 'pclbunny': 'bunny.pcd'}[name]
+            p = load(os.path.join(pcl, file))
+            for axis, overlap in ((0, 0.5), (1, 0.4)):
+                s, t = split(p, axis, overlap)
+                # different samplings, as two scans of one surface have
+                s = s[rng.random(len(s)) < 0.7]
+                t = t[rng.random(len(t)) < 0.7]
+                out.append((f'{name}_ax{axis}_ov{overlap}', s, t, np.eye(4)))
+        elif name in ('bun045_bun000', 'bun045_bun000_mm'):
+            conf = stanford_conf(os.path.join(bunny, 'bun.conf'))
+            s = load(os.path.join(bunny, 'bun045.ply'))
+            t = load(os.path.join(bunny, 'bun000.ply'))
+            truth = np.linalg.inv(conf['bun000.ply']) @ conf['bun045.ply']
+            if name.endswith('_mm'):
+                s, t = s * 1000.0, t * 1000.0
+                truth = truth.copy()
+                truth[:3, 3] *= 1000.0
+            out.append((name, s, t, truth))
+        else:
+            sys.exit(f'unknown case {name}')
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument('mmba')
+    ap.add_argument('outdir')
+    ap.add_argument('--draws', type=int, default=3)
+    ap.add_argument('--seed', type=int, default=2026)
+    ap.add_argument('--cases', default='office1,table,milk,pclbunny,bun045_bun000,bun045_bun000_mm')
+    ap.add_argument('--data', default=os.path.join(os.path.dirname(__file__), '..', '..',
+                                                   'shared', 'data', 'pointclouds'))
+    ap.add_argument('--right-spacings', type=float, default=2.0)
+    ap.add_argument('--extra', default='', help='extra register-cloud arguments')
+    args = ap.parse_args()
+    os.makedirs(args.outdir, exist_ok=True)
+    rng = np.random.default_rng(args.seed)
+    rows = []
+    for name, src, tgt, base_truth in make_cases(args.data, args.cases.split(','), rng):
+        s_spacing = spacing(src)
+        extent = float(np.linalg.norm(np.ptp(src, axis=0)))
+        target_path = os.path.join(args.outdir, f'{name}_target.ply')
+        write_ply(target_path, tgt)
+        for k in range(args.draws):
+            move = np.eye(4)
+            move[:3, :3] = random_rotation(rng) if k > 0 else np.eye(3)
+            move[:3, 3] = rng.normal(size=3) * 0.5 * extent if k > 0 else 0.0
+            moved = src @ move[:3, :3].T + move[:3, 3]
+            truth = base_truth @ np.linalg.inv(move)
+            source_path = os.path.join(args.outdir, f'{name}_{k}_source.ply')
+            write_ply(source_path, moved)
+            out_json = os.path.join(args.outdir, f'{name}_{k}.json')
+            t0 = time.time()
+            r = subprocess.run([args.mmba, 'register-cloud', '--source', source_path,
+                                '--target', target_path, '--output', out_json, '--quiet'] +
+                               args.extra.split(), capture_output=True, text=True)
+            wall = time.time() - t0
+            if r.returncode == 2 or not os.path.exists(out_json):
+                rows.append(dict(case=name, draw=k, status='input-error', rms_m=float('nan'),
+                                 spacing_m=s_spacing, verdict='error', wall_s=wall,
+                                 reason=r.stderr.strip()[:200]))
+                continue
+            res = json.load(open(out_json))
+            est = np.array(res['target_from_source'], dtype=np.float64).reshape(4, 4)
+            rms = float(np.sqrt(np.mean(np.sum(
+                (moved @ (est[:3, :3] - truth[:3, :3]).T + (est[:3, 3] - truth[:3, 3])) ** 2,
+                axis=1))))
+            right = rms < args.right_spacings * s_spacing
+            status = res['status']
+            verdict = ('right ok' if right else 'WRONG OK') if status == 'ok' else (
+                'failed (was right)' if right else 'failed')
+            rows.append(dict(case=name, draw=k, status=status, rms_m=rms, spacing_m=s_spacing,
+                             verdict=verdict, wall_s=wall, reason=res.get('reason', '')[:200]))
+            print(f'{name:28s} draw {k}: {status:7s} rms {rms:.4g} m (spacing {s_spacing:.3g}) '
+                  f'{verdict:18s} {wall:5.1f} s  {res.get("reason", "")[:90]}', flush=True)
+    with open(os.path.join(args.outdir, 'sweep.csv'), 'w', newline='') as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+    counts = {}
+    for row in rows:
+        counts[row['verdict']] = counts.get(row['verdict'], 0) + 1
+    print('summary:', ', '.join(f'{k} {v}' for k, v in sorted(counts.items())))
+
+
+if __name__ == '__main__':
+    main()
