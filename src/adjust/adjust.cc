@@ -1159,7 +1159,8 @@ size_t Snoop(JointState* s, const stats::NetworkStatistics& st) {
         s->joint->clusters[spec.cluster].observations[o].passive_reason = "blunder (data snooping)";
       }
     } else if (group.name() == kGnss) {
-      for (int axis = 0; axis < 3; ++axis) s->excluded[kGnss].insert(3 * (index / 3) + axis);
+      // The group's observation index is 3·mark + axis; the list it is rebuilt from holds marks.
+      s->excluded[kGnss].insert(index / 3);
     } else {
       s->excluded[group.name()].insert(index);
     }

@@ -313,6 +313,17 @@ TEST_F(AdjustTest, FlagsInjectedBlunders) {
   EXPECT_TRUE(rig_group);
   EXPECT_TRUE(ts) << outcome.report["blunders"].dump(1);
   EXPECT_TRUE(gnss_flagged) << outcome.report["blunders"].dump(1);
+  // The flagged mark leaves with its three coordinates, the other marks stay.
+  size_t marks = 0;
+  for (size_t at = gnss.find(",control,"); at != std::string::npos; at = gnss.find(",control,", at + 1)) ++marks;
+  bool gnss_group = false;
+  for (const json& g : outcome.report["groups"]) {
+    if (g["name"] == "GNSS control") {
+      gnss_group = true;
+      EXPECT_EQ(g["observations"].get<size_t>(), 3 * (marks - 1)) << g.dump();
+    }
+  }
+  EXPECT_TRUE(gnss_group || marks == 1) << outcome.report["groups"].dump(1);
   if (target_id != "T3" && target_id != "T6") {
     EXPECT_TRUE(target) << outcome.report["blunders"].dump(1);
   }
