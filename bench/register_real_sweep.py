@@ -92,11 +92,17 @@ def make_cases(data, names, rng):
                 s = s[rng.random(len(s)) < 0.7]
                 t = t[rng.random(len(t)) < 0.7]
                 out.append((f'{name}_ax{axis}_ov{overlap}', s, t, np.eye(4)))
-        elif name in ('bun045_bun000', 'bun045_bun000_mm'):
+        elif name.startswith('bun') or name.startswith('zipper'):
+            # SOURCE_TARGET[_mm] of the Stanford scans, aligned by bun.conf (the zipper
+            # reconstruction is in bun000's frame)
             conf = stanford_conf(os.path.join(bunny, 'bun.conf'))
-            s = load(os.path.join(bunny, 'bun045.ply'))
-            t = load(os.path.join(bunny, 'bun000.ply'))
-            truth = np.linalg.inv(conf['bun000.ply']) @ conf['bun045.ply']
+            conf['zipper'] = conf['bun000.ply']
+            parts = name.split('_')
+            files = {'bun000': 'bun000.ply', 'bun045': 'bun045.ply', 'zipper': 'bun_zipper_res2.ply'}
+            s = load(os.path.join(bunny, files[parts[0]]))
+            t = load(os.path.join(bunny, files[parts[1]]))
+            key = lambda n: 'zipper' if n == 'zipper' else files[n]
+            truth = np.linalg.inv(conf[key(parts[1])]) @ conf[key(parts[0])]
             if name.endswith('_mm'):
                 s, t = s * 1000.0, t * 1000.0
                 truth = truth.copy()
