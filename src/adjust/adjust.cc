@@ -136,7 +136,7 @@ void LoadGnss(JointState* s) {
         ++s->gnss_trajectory_rows;
         continue;
       }
-      if (kind != "control") table.Fail(row, "kind", kind, "control or trajectory");
+      if (kind != "control" && kind != "camera") table.Fail(row, "kind", kind, "control, camera or trajectory");
       geodesy::Geodetic geo{table.Double(row, "latitude_deg"), table.Double(row, "longitude_deg"),
                             table.Double(row, "height_m")};
       if (std::abs(geo.latitude_deg) > 90) table.Fail(row, "latitude_deg", table.String(row, "latitude_deg"), "[-90, 90] degrees");
@@ -156,6 +156,15 @@ void LoadGnss(JointState* s) {
         }
       }
       p.source = g.file + ":" + std::to_string(row.line);
+      if (kind == "camera") {  // the antenna position of a photo (id = image name)
+        GnssCamera c;
+        c.image = p.point_id;
+        c.enu = p.enu;
+        c.sigma = p.sigma;
+        c.source = p.source;
+        s->gnss_camera_rows.push_back(c);
+        continue;
+      }
       if (!s->joint || !s->joint->Find(p.point_id)) {
         s->warnings.push_back("GNSS point " + p.point_id + " (" + p.source + ") is not a point of the survey network: not used");
         continue;
@@ -235,7 +244,13 @@ std::map<std::string, std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>> 
 
 void LoadPhotos(JointState* s, const std::string& work_dir) {
   const Project& project = *s->project;
-  if (project.photos.empty()) return;
+  if (project.photos.empty()) {
+    if (!s->gnss_camera_rows.empty()) {
+      s->warnings.push_back(std::to_string(s->gnss_camera_rows.size()) + " GNSS camera rows (" +
+                            s->gnss_camera_rows.front().source + ", ...) not used: the project has no photo_collection");
+    }
+    return;
+  }
   if (project.photos.size() > 1) {
     throw InputError::Message(ProjectKey(project, project.photos[1].line, "sensors"),
                               "found a second photo_collection, expected one (this version adjusts one photo block)");
@@ -269,6 +284,16 @@ void LoadPhotos(JointState* s, const std::string& work_dir) {
   block.ties = SceneFromColmap(block.model, p.sigma_px, &s->scene);
   std::map<std::string, ImageId> image_by_name;
   for (const auto& [id, image] : block.model.images) image_by_name[image.name] = id;
+  for (GnssCamera c : s->gnss_camera_rows) {
+    const auto image = image_by_name.find(c.image);
+    if (image == image_by_name.end()) {
+      throw InputError::Message(c.source, "field 'id': found '" + c.image + "', expected the name of an image of photo "
+                                          "collection '" + p.id + "' (a camera row gives a photo's GNSS antenna position)");
+    }
+    c.image_id = image->second;
+    c.lever_arm = p.gnss_lever_arm_m;
+    block.gnss.push_back(c);
+  }
   if (!p.control_measurements.empty()) {
     if (!s->joint) {
       throw InputError::Message(ProjectKey(project, p.line, "control_measurements"),
@@ -603,12 +628,13 @@ void PlacePhotoBlock(JointState* s) {
   PhotoBlock& block = *s->photos;
   const Project& project = *s->project;
   const std::string& id = block.config->id;
-  if (internal::PlacePhotoBlockByTiePoints(s)) return;
+  if (internal::PlacePhotoBlockByGnss(s) || internal::PlacePhotoBlockByTiePoints(s)) return;
   if (project.lidar_static.empty()) {
     throw AdjustFailure("failed", "photo collection '" + id + "' has no overlap with the control: " +
                                       std::to_string(block.control_targets_intersected) +
-                                      " surveyed targets measured in 2+ photos (3 needed), no tie points intersected by "
-                                      "a camera rig or spherical stations, and no lidar_static sensor");
+                                      " surveyed targets measured in 2+ photos (3 needed), fewer than 3 photos with GNSS "
+                                      "positions, no tie points intersected by a camera rig or spherical stations, and no "
+                                      "lidar_static sensor");
   }
   block.georeference += "; LiDAR surface ties";
   s->warnings.push_back("photo collection '" + id + "': " + std::to_string(block.control_targets_intersected) +
@@ -679,6 +705,7 @@ const char* kTies = "photos: tie points";
 const char* kTargets = "photos: control targets";
 const char* kCheck = "photos: check points";
 const char* kGnss = "GNSS control";
+const char* kGnssCamera = "photos: GNSS camera positions";
 const char* kLidar = "LiDAR surface (tie points)";
 const char* kScanToScan = "LiDAR: scan-to-scan";
 const char* kScanPrior = "LiDAR: scan registration priors";
@@ -752,6 +779,10 @@ void BuildProblem(JointState* s) {
     }
     if (!s->photos->check.empty()) {
       s->builder->AddGroup(std::make_unique<ReprojectionGroup>(s->photos->check, LossOptions(), kCheck));
+    }
+    if (!s->photos->gnss.empty()) {
+      s->builder->AddGroup(std::make_unique<GnssCameraGroup>(scaled(kGnssCamera, Without(s->photos->gnss, excluded(kGnssCamera))),
+                                                             s->project->gnss.front().loss, kGnssCamera));
     }
     ParameterOptions parameters;
     parameters.refine_focal = p.refine.focal;
@@ -1106,6 +1137,11 @@ std::string DescribeObservation(const JointState& s, const FactorGroup& group, s
   if (name == kSphereUpper && s.spheres) {
     return "point " + std::to_string(s.spheres->upper[index].point3D_id.value) + " (" + s.spheres->upper_source[index] + ")";
   }
+  if (name == kGnssCamera && s.photos) {
+    const GnssCamera& c = s.photos->gnss[index / 3];
+    return "GNSS " + std::string(index % 3 == 0 ? "east" : index % 3 == 1 ? "north" : "up") + " of photo " + c.image +
+           " (" + c.source + ")";
+  }
   if (name == kGnss) {
     const GnssPoint& p = s.gnss_points[index / 3];
     return "GNSS " + std::string(index % 3 == 0 ? "east" : index % 3 == 1 ? "north" : "up") + " of " + p.point_id +
@@ -1161,6 +1197,8 @@ size_t Snoop(JointState* s, const stats::NetworkStatistics& st) {
     } else if (group.name() == kGnss) {
       // The group's observation index is 3·mark + axis; the list it is rebuilt from holds marks.
       s->excluded[kGnss].insert(index / 3);
+    } else if (group.name() == kGnssCamera) {
+      s->excluded[kGnssCamera].insert(index / 3);  // the photo's antenna position, all 3 axes
     } else {
       s->excluded[group.name()].insert(index);
     }

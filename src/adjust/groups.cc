@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Geometry>
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 
@@ -453,6 +454,47 @@ void GnssPointGroup::AddResiduals(Scene&, ceres::Problem& problem) {
       AddBlock(problem,
                new GnssAxisCost(axis, points_[i].enu(axis), points_[i].sigma(axis)),
                {axis < 2 ? point->xy_block() : point->z_block()}, points_[i].sigma(axis), 3 * i + axis);
+    }
+  }
+}
+
+namespace {
+
+/// One axis of the antenna position of a camera: (R(q)ᵀ·(lever − t))[axis] − value, over σ.
+struct GnssCameraAxisCost {
+  GnssCameraAxisCost(int axis, const Eigen::Vector3d& lever, double value, double sigma)
+      : axis(axis), lever(lever), value(value), sigma(sigma) {}
+  template <typename T>
+  bool operator()(const T* q_xyzw, const T* t, T* r) const {
+    const Eigen::Quaternion<T> q = Eigen::Quaternion<T>(q_xyzw[3], q_xyzw[0], q_xyzw[1], q_xyzw[2]).normalized();
+    const Eigen::Matrix<T, 3, 1> d = lever.cast<T>() - Eigen::Map<const Eigen::Matrix<T, 3, 1>>(t);
+    const Eigen::Matrix<T, 3, 1> antenna = q.conjugate() * d;
+    r[0] = (antenna[axis] - T(value)) / T(sigma);
+    return true;
+  }
+  int axis;
+  Eigen::Vector3d lever;
+  double value, sigma;
+};
+
+}  // namespace
+
+GnssCameraGroup::GnssCameraGroup(std::vector<GnssCamera> cameras, LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "m", loss), cameras_(std::move(cameras)) {}
+
+void GnssCameraGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
+  for (size_t i = 0; i < cameras_.size(); ++i) {
+    const GnssCamera& c = cameras_[i];
+    for (int axis = 0; axis < 3; ++axis) {
+      if (!scene.HasImage(c.image_id)) {
+        Skip();
+        continue;
+      }
+      Rigid3d& pose = scene.Image(c.image_id).cam_from_world;
+      AddBlock(problem,
+               new ceres::AutoDiffCostFunction<GnssCameraAxisCost, 1, 4, 3>(
+                   new GnssCameraAxisCost(axis, c.lever_arm, c.enu(axis), c.sigma(axis))),
+               {pose.rotation.coeffs().data(), pose.translation.data()}, c.sigma(axis), 3 * i + axis);
     }
   }
 }

@@ -44,6 +44,7 @@ struct PhotoBlock {
   std::vector<double> initial_params;          ///< intrinsics after initialisation
   std::string georeference;                    ///< how the block was put into the world
   size_t control_targets_intersected = 0;      ///< control targets seen in 2+ photos (< 3: no similarity)
+  std::vector<GnssCamera> gnss;                ///< GNSS antenna positions of photos (the GNSS CSV's camera rows)
 };
 
 /// The spherical stereo pair: lower poses are Scene images, the upper sphere follows from
@@ -152,6 +153,7 @@ struct JointState {
   std::set<std::string> surveyed_ids;
   std::optional<survey::SurveyNetwork> joint;        ///< the network in the joint problem
   std::vector<GnssPoint> gnss_points;
+  std::vector<GnssCamera> gnss_camera_rows;  ///< `camera` rows of the GNSS files (image = id), resolved by LoadPhotos
   size_t gnss_trajectory_rows = 0;
   std::optional<PhotoBlock> photos;
   std::optional<SphereBlock> spheres;
@@ -239,6 +241,9 @@ void RegisterSphereStations(JointState* s);
 /// and points. False (the block left as it is, a note logged) when fewer than 3 such points
 /// intersect or they agree on no similarity.
 bool PlacePhotoBlockByTiePoints(JointState* s);
+/// The same from the photos' GNSS antenna positions (≥ 3 photos, camera centres → GNSS,
+/// the lever arm left to the adjustment). False (block unchanged) when too few or inconsistent.
+bool PlacePhotoBlockByGnss(JointState* s);
 
 /// Reads a `mmba register-mi` result file as a pose prior. False (and `why` set) when it is not
 /// usable (status not "ok", no valid covariance); InputError when it is malformed.

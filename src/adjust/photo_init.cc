@@ -66,6 +66,47 @@ Sim3d SimilarityFrom(const std::vector<Eigen::Vector3d>& from, const std::vector
   return Sim3d(scale, Eigen::Quaterniond(Eigen::Matrix3d(t.topLeftCorner<3, 3>() / scale)), t.topRightCorner<3, 1>());
 }
 
+// RANSAC over triples (Fischler & Bolles 1981), each triple's similarity by Umeyama (1991); the
+// largest set of pairs within their tolerance, then the similarity refitted on it.
+Sim3d RansacSimilarity(const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to,
+                       const std::vector<double>& tolerance, std::vector<size_t>* best) {
+  best->clear();
+  if (from.size() < 3) return Sim3d();
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<size_t> pick(0, from.size() - 1);
+  const int trials = std::min<int>(2000, static_cast<int>(from.size() * from.size()));
+  for (int trial = 0; trial < trials; ++trial) {
+    const std::vector<size_t> triple = {pick(rng), pick(rng), pick(rng)};
+    if (triple[0] == triple[1] || triple[1] == triple[2] || triple[0] == triple[2]) continue;
+    // Collinear points fix no rotation about their line.
+    if (!(((from[triple[1]] - from[triple[0]]).cross(from[triple[2]] - from[triple[0]])).norm() > 0)) continue;
+    const Sim3d candidate = SimilarityFrom(from, to, triple);
+    if (!(candidate.scale > 0) || !std::isfinite(candidate.scale)) continue;
+    std::vector<size_t> inliers;
+    for (size_t i = 0; i < from.size(); ++i) {
+      if ((candidate * from[i] - to[i]).norm() < tolerance[i]) inliers.push_back(i);
+    }
+    if (inliers.size() > best->size()) *best = std::move(inliers);
+  }
+  return best->size() >= 3 ? SimilarityFrom(from, to, *best) : Sim3d();
+}
+
+// Moves the photo block's images and points only (the scene also holds the spherical stations).
+void MoveBlock(JointState* s, const Sim3d& world_from_block, const std::string& georeference) {
+  PhotoBlock& block = *s->photos;
+  for (const auto& [image_id, image] : block.model.images) {
+    ImagePose& pose = s->scene.Image(image_id);
+    pose.cam_from_world = world_from_block.TransformCamFromSource(pose.cam_from_world);
+    block.initial_poses[image_id] = pose.cam_from_world;
+  }
+  for (const auto& [point_id, point] : block.model.points3D) {
+    if (s->scene.HasPoint(point_id)) s->scene.Point(point_id) = world_from_block * s->scene.Point(point_id);
+  }
+  for (const auto& [name, point_id] : block.check_ids) s->scene.Point(point_id) = world_from_block * s->scene.Point(point_id);
+  block.georeference = georeference;
+  Note(s, "photo block '" + block.config->id + "': " + georeference);
+}
+
 }  // namespace
 
 bool PlacePhotoBlockByTiePoints(JointState* s) {
@@ -120,27 +161,11 @@ bool PlacePhotoBlockByTiePoints(JointState* s) {
                 " (3 needed): not placed by them");
     return false;
   }
-  // RANSAC over triples: an intersection counts when it lies within max(0.5 m, 5 % of its range
-  // from the nearest sensor) of the transformed block point — the sensors' poses are
-  // approximate, so far points carry proportionally larger errors.
-  std::mt19937 rng(7);
-  std::uniform_int_distribution<size_t> pick(0, from.size() - 1);
+  // An intersection counts when it lies within max(0.5 m, 5 % of its range from the nearest
+  // sensor) of the transformed block point: the sensors' poses are approximate, so far points
+  // carry proportionally larger errors.
   std::vector<size_t> best;
-  const int trials = std::min<int>(2000, static_cast<int>(from.size() * from.size()));
-  for (int trial = 0; trial < trials; ++trial) {
-    std::vector<size_t> triple = {pick(rng), pick(rng), pick(rng)};
-    if (triple[0] == triple[1] || triple[1] == triple[2] || triple[0] == triple[2]) continue;
-    // A triple spanning too little of the block gives no usable rotation.
-    const double spread = ((from[triple[1]] - from[triple[0]]).cross(from[triple[2]] - from[triple[0]])).norm();
-    if (!(spread > 0)) continue;
-    const Sim3d candidate = SimilarityFrom(from, to, triple);
-    if (!(candidate.scale > 0) || !std::isfinite(candidate.scale)) continue;
-    std::vector<size_t> inliers;
-    for (size_t i = 0; i < from.size(); ++i) {
-      if ((candidate * from[i] - to[i]).norm() < tolerance[i]) inliers.push_back(i);
-    }
-    if (inliers.size() > best.size()) best = std::move(inliers);
-  }
+  const Sim3d world_from_block = RansacSimilarity(from, to, tolerance, &best);
   if (best.size() < 3 || best.size() < 0.5 * from.size()) {
     std::ostringstream m;
     m << "photo block '" << id << "': the " << from.size() << " tie points intersected by " << sensor_list
@@ -148,25 +173,40 @@ bool PlacePhotoBlockByTiePoints(JointState* s) {
     Note(s, m.str());
     return false;
   }
-  const Sim3d world_from_block = SimilarityFrom(from, to, best);
   double sum = 0.0;
   for (size_t i : best) sum += (world_from_block * from[i] - to[i]).squaredNorm();
-  const double rms = std::sqrt(sum / best.size());
-  // Move the photo block only (the scene also holds the spherical stations).
-  for (const auto& [image_id, image] : block.model.images) {
-    ImagePose& pose = s->scene.Image(image_id);
-    pose.cam_from_world = world_from_block.TransformCamFromSource(pose.cam_from_world);
-    block.initial_poses[image_id] = pose.cam_from_world;
-  }
-  for (const auto& [point_id, point] : block.model.points3D) {
-    if (s->scene.HasPoint(point_id)) s->scene.Point(point_id) = world_from_block * s->scene.Point(point_id);
-  }
-  for (const auto& [name, point_id] : block.check_ids) s->scene.Point(point_id) = world_from_block * s->scene.Point(point_id);
   std::ostringstream g;
   g << "similarity from " << best.size() << " of " << from.size() << " tie points intersected by " << sensor_list
-    << ": scale " << world_from_block.scale << ", RMS " << rms << " m";
-  block.georeference = g.str();
-  Note(s, "photo block '" + id + "': " + block.georeference);
+    << ": scale " << world_from_block.scale << ", RMS " << std::sqrt(sum / best.size()) << " m";
+  MoveBlock(s, world_from_block, g.str());
+  return true;
+}
+
+bool PlacePhotoBlockByGnss(JointState* s) {
+  if (!s->photos || s->photos->gnss.size() < 3) return false;
+  const PhotoBlock& block = *s->photos;
+  std::vector<Eigen::Vector3d> from, to;
+  std::vector<double> tolerance;
+  for (const GnssCamera& c : block.gnss) {
+    from.push_back(CameraCentre(s->scene.Image(c.image_id).cam_from_world));
+    to.push_back(c.enu);
+    // The antenna is off the camera centre by the lever arm (turned by the unknown rotation).
+    tolerance.push_back(std::max(0.5, 3 * c.sigma.norm() + c.lever_arm.norm()));
+  }
+  std::vector<size_t> best;
+  const Sim3d world_from_block = RansacSimilarity(from, to, tolerance, &best);
+  if (best.size() < 3 || best.size() < 0.5 * from.size()) {
+    Note(s, "photo block '" + block.config->id + "': the GNSS positions of " + std::to_string(from.size()) +
+                " photos agree on no similarity (largest consistent set " + std::to_string(best.size()) +
+                "): not placed by them");
+    return false;
+  }
+  double sum = 0.0;
+  for (size_t i : best) sum += (world_from_block * from[i] - to[i]).squaredNorm();
+  std::ostringstream g;
+  g << "similarity from the GNSS positions of " << best.size() << " of " << from.size() << " photos: scale "
+    << world_from_block.scale << ", RMS " << std::sqrt(sum / best.size()) << " m";
+  MoveBlock(s, world_from_block, g.str());
   return true;
 }
 

@@ -1,6 +1,7 @@
 #include "mmba/adjust/project.h"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <set>
 
@@ -115,6 +116,14 @@ class ProjectReader {
                     {"mi_register", [&](Node v, Field g) { MiRegister(v, g, &p.mi_register, &p.mi_only); }},
                     {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
                     {"control_sigma_px", [&](Node v, Field g) { p.control_sigma_px = SigmaPx(v, g); }},
+                    {"gnss_lever_arm_m", [&](Node v, Field g) {
+                       const std::vector<double> lever = r_.NumberList(v, g);
+                       if (lever.size() != 3) r_.Fail(v, g, "[x, y, z] in metres (the antenna in the camera frame)", io::YamlReader::Text(v));
+                       for (double c : lever) {
+                         if (!(std::abs(c) <= 10)) r_.Fail(v, g, "a lever arm within 10 m (in metres)", io::YamlReader::Text(v));
+                       }
+                       p.gnss_lever_arm_m = Eigen::Vector3d(lever[0], lever[1], lever[2]);
+                     }},
                     {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
                     {"refine", [&](Node v, Field g) { p.refine = Refine(v, g, true); }}});
       r_.Require(n, f, {"images"});

@@ -19,6 +19,7 @@
 
 #include "mmba/core/error.h"
 #include "mmba/core/logging.h"
+#include "mmba/geodesy/geodesy.h"
 #include "mmba/geometry/sim3d.h"
 #include "mmba/io/colmap_model.h"
 #include "mmba/io/point_cloud.h"
@@ -614,6 +615,81 @@ TEST_F(AdjustTest, PlacesABlockWithoutControlByTheOtherSensorsTiePoints) {
   EXPECT_LT(truth["photo_positions"]["max_m"].get<double>(), 0.02);
   EXPECT_LT(truth["photo_positions"]["max_rotation_deg"].get<double>(), 0.3);
   EXPECT_LT(truth["rig"]["max_frame_position_m"].get<double>(), 0.03);
+}
+
+// Photos with GNSS antenna positions (a drone's RTK fixes; the GNSS CSV's `camera` rows) and
+// no control, no rig, no spherical stations: the positions put the block (in a COLMAP frame)
+// into the world and stay in the adjustment as the group "photos: GNSS camera positions"; a
+// position 0.5 m off is flagged and leaves with its 3 coordinates. An unknown image name is an
+// input error naming the row.
+TEST_F(AdjustTest, PhotosWithGnssPositionsNeedNoControl) {
+  const fs::path sim = Root() / "sim", dir = Root() / "gnsscam";
+  fs::create_directories(dir / "colmap");
+  io::ColmapModel model = io::ReadColmapModel((sim / "colmap" / "photos").string());
+  const Sim3d block_from_world(2.5, Eigen::Quaterniond(Eigen::AngleAxisd(-2.0, Eigen::Vector3d(0.1, -0.4, 1).normalized())),
+                               Eigen::Vector3d(-3, 40, 7));
+  for (auto& [id, image] : model.images) image.cam_from_world = block_from_world.TransformCamFromSource(image.cam_from_world);
+  for (auto& [id, point] : model.points3D) point.xyz = block_from_world * point.xyz;
+  io::WriteColmapModel(model, (dir / "colmap").string(), io::ColmapFormat::kText);
+  const io::ColmapModel truth = io::ReadColmapModel((sim / "truth" / "colmap_photos").string());
+  const geodesy::LocalTangentPlane plane(geodesy::Geodetic{45.5048, -73.5772, 60});
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  std::ostringstream csv;
+  csv << "id,kind,time_s,latitude_deg,longitude_deg,height_m,sigma_east_m,sigma_north_m,sigma_up_m\n";
+  csv.precision(12);
+  std::string blunder;
+  for (const auto& [id, image] : truth.images) {
+    Eigen::Vector3d enu = image.cam_from_world.Inverse().translation + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    if (blunder.empty() && id.value == 5) {
+      blunder = image.name;
+      enu.x() += 0.5;
+    }
+    const geodesy::Geodetic g = plane.GeodeticFromEnu(enu);
+    csv << image.name << ",camera,," << g.latitude_deg << "," << g.longitude_deg << "," << g.height_m << ",0.02,0.02,0.02\n";
+  }
+  ASSERT_FALSE(blunder.empty());
+  std::ofstream(dir / "gnss.csv") << csv.str();
+  const auto write_project = [&](const fs::path& gnss) {
+    std::ofstream(dir / "project.yaml")
+        << "mmba_project: 1\norigin: {latitude_deg: 45.5048, longitude_deg: -73.5772, height_m: 60}\n"
+        << "simulated: {seed: 7, preset: small, truth: " << (sim / "truth/truth.json").string() << "}\nsensors:\n"
+        << "  - {id: photos, type: photo_collection, images: " << (sim / "images/photos").string()
+        << ", calibration: " << (sim / "calib/photo_camera.yaml").string() << ", colmap_model: " << (dir / "colmap").string()
+        << ", sigma_px: 0.5}\n"
+        << "  - {id: ts, type: total_station, file: " << (sim / "survey/network.xml").string() << "}\n"
+        << "  - {id: gnss, type: gnss, file: " << gnss.string() << "}\n"
+        << "  - {id: tls, type: lidar_static, reference_cloud: " << (sim / "clouds/lidar.ply").string() << "}\n";
+  };
+  write_project(dir / "gnss.csv");
+  const AdjustOutcome outcome = Run((dir / "project.yaml").string(), (dir / "out").string());
+  ASSERT_TRUE(outcome.ok) << outcome.reason;
+  const std::string georeference = outcome.report["photo_block"]["georeference"];
+  EXPECT_NE(georeference.find("GNSS positions of"), std::string::npos) << georeference;
+  const json& photos = outcome.report["truth_evaluation"]["photo_positions"];
+  EXPECT_LT(photos["max_m"].get<double>(), 0.03) << photos.dump();
+  bool group = false, flagged = false;
+  for (const json& g : outcome.report["groups"]) {
+    if (g["name"] == "photos: GNSS camera positions") {
+      group = true;
+      EXPECT_EQ(g["observations"].get<size_t>(), 3 * (truth.images.size() - 1)) << g.dump();
+    }
+  }
+  for (const json& b : outcome.report["blunders"]) {
+    flagged = flagged || b["observation"].get<std::string>().find("GNSS east of photo " + blunder) != std::string::npos;
+  }
+  EXPECT_TRUE(group) << outcome.report["groups"].dump(1);
+  EXPECT_TRUE(flagged) << outcome.report["blunders"].dump(1);
+
+  std::ofstream(dir / "gnss_bad.csv") << csv.str() << "nosuch.png,camera,,45.5,-73.57,60,0.02,0.02,0.02\n";
+  write_project(dir / "gnss_bad.csv");
+  try {
+    Run((dir / "project.yaml").string(), (dir / "out_bad").string());
+    ADD_FAILURE() << "an unknown image name was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("gnss_bad.csv:" + std::to_string(truth.images.size() + 2)), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("nosuch.png"), std::string::npos) << e.what();
+  }
 }
 
 // No scan registered and too few targets to place any: the registered reference cloud is held

@@ -176,6 +176,30 @@ class GnssPointGroup : public FactorGroup {
   std::vector<GnssPoint> points_;
 };
 
+/// A GNSS antenna position of a photo (the GNSS CSV's `camera` rows; id = image name), in
+/// the local ENU frame, with the antenna's lever arm in the camera frame.
+struct GnssCamera {
+  ImageId image_id;
+  std::string image;
+  Eigen::Vector3d enu = Eigen::Vector3d::Zero();
+  Eigen::Vector3d sigma = Eigen::Vector3d::Ones();  ///< east, north, up [m]
+  Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();  ///< antenna in the camera frame [m]
+  std::string source;
+};
+
+/// (R_camᵀ·(lever − t_cam) − enu)/σ per axis: the antenna of a photo (its camera centre plus
+/// the lever arm turned into the world) against its GNSS position. Observation index of a
+/// block = 3·camera + axis.
+class GnssCameraGroup : public FactorGroup {
+ public:
+  GnssCameraGroup(std::vector<GnssCamera> cameras, LossOptions loss, std::string name);
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override;
+  const std::vector<GnssCamera>& cameras() const { return cameras_; }
+
+ private:
+  std::vector<GnssCamera> cameras_;
+};
+
 /// A tie point's plane on the LiDAR surface: n·(X − p) = 0.
 struct SurfacePlane {
   Point3DId point3D_id;

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "mmba/geodesy/geodesy.h"
 #include "mmba/geometry/rigid3d.h"
 #include "mmba/problem/factor_group.h"
@@ -42,6 +44,9 @@ struct PhotoCollection {
   std::vector<std::string> mi_only;  ///< the list of `mi_register: [...]`; empty = every image
   double sigma_px = 1.0;              ///< σ of a tie-point image coordinate
   double control_sigma_px = 0.0;      ///< σ of a target measurement; 0 = the CSV's, else sigma_px
+  /// GNSS antenna in the camera frame (x right, y down, z forward; metres) for the GNSS CSV's
+  /// `camera` rows (the antenna position of a photo, id = image name).
+  Eigen::Vector3d gnss_lever_arm_m = Eigen::Vector3d::Zero();
   LossOptions loss{LossType::kHuber, 3.0};
   RefineIntrinsics refine;
 };
