@@ -6,6 +6,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include <Eigen/Geometry>
 #include <ceres/ceres.h>
 #include <gtest/gtest.h>
 
@@ -24,6 +25,35 @@ double Cost(FactorGroup& group) {
   double cost = 0.0;
   problem.Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr, nullptr);
   return 2.0 * cost;  // Ceres' cost is ½‖r‖²
+}
+
+// A photo's GNSS antenna: the camera centre plus the lever arm turned into the world. At the
+// true antenna the residual is zero; 6 cm east is 3 σ on the east axis only.
+TEST(GnssCameraGroup, TheLeverArmTurnsWithTheCamera) {
+  const Rigid3d cam_from_world(Eigen::Quaterniond(Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 2, 3).normalized())),
+                               Eigen::Vector3d(0.4, -2.0, 5.0));
+  const Eigen::Vector3d lever(0.05, -0.12, 0.02);  // antenna in the camera frame
+  const Rigid3d world_from_cam = cam_from_world.Inverse();
+  const Eigen::Vector3d antenna = world_from_cam.translation + world_from_cam.rotation * lever;
+  const auto cost = [&](const Eigen::Vector3d& enu) {
+    GnssCamera c;
+    c.image_id = ImageId(1);
+    c.enu = enu;
+    c.sigma = Eigen::Vector3d(0.02, 0.02, 0.03);
+    c.lever_arm = lever;
+    GnssCameraGroup group({c}, LossOptions(), "gnss cameras");
+    Scene scene;
+    scene.AddImage(ImageId(1), CameraId(1), cam_from_world);
+    ceres::Problem problem;
+    group.AddResiduals(scene, problem);
+    double value = 0.0;
+    problem.Evaluate(ceres::Problem::EvaluateOptions(), &value, nullptr, nullptr, nullptr);
+    return 2.0 * value;
+  };
+  EXPECT_NEAR(cost(antenna), 0.0, 1e-18);
+  EXPECT_NEAR(cost(antenna + Eigen::Vector3d(0.06, 0, 0)), 9.0, 1e-9);
+  // Without the lever arm the camera centre would be 0.13 m off: the arm is not ignored.
+  EXPECT_GT(cost(world_from_cam.translation), 10.0);
 }
 
 TEST(GaussMarkovFactor, IsTheExponentialCorrelationAndZeroWithoutACorrelationTime) {
