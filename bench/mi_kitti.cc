@@ -65,6 +65,7 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_SPLIT_LEVEL")) options.split_level = std::atoi(v);
   if (const char* v = std::getenv("MI_PYRAMID_PATHS")) options.pyramid_paths = std::atoi(v);
   if (const char* v = std::getenv("MI_COARSE_STARTS")) options.coarse_starts = std::atoi(v);
+  if (const char* v = std::getenv("MI_THREADS")) options.threads = std::atoi(v);
   if (const char* v = std::getenv("MI_POINT_RADIUS_M")) {
     options.render.point_radius_m = std::atof(v);
   }
@@ -276,6 +277,10 @@ int main(int argc, char** argv) {
                 result.runtime_seconds, c.sigma_px, c.restart_spread_px,
                 c.mi_bits - c.mi_shuffled_bits, c.mi_significance, c.sigma_px_calibrated,
                 c.restart_rms_px, c.split_spread_px, result.reason.c_str());
+    // The result bit for bit: equal digests = a reproduced registration.
+    std::printf("  digest %016llx  metric %a  iterations %d  evaluations %d\n",
+                static_cast<unsigned long long>(result.Digest()), result.metric_after.value,
+                result.iterations, result.evaluations);
   }
   std::printf("median offset < 1 px after registration: %d of %zu starts\n", recovered,
               starts.size());

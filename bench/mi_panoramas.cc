@@ -20,7 +20,11 @@
 // Writes OUT_DIR/runs.csv (one row per registration), OUT_DIR/hist_views.csv and
 // hist_views.svg (per-view median offset before/after), OUT_DIR/hist_points.csv and
 // hist_points.svg (offsets of all points, pooled), and prints a summary.
-// MMBA_DEBUG=1 logs each stage.
+// MMBA_DEBUG=1 logs each stage. MI_ONLY selects registrations (below), MI_PERTURB sets their
+// start, MI_THREADS the registration's threads (default 2), MI_RESTARTS / MI_RESTART_OFFSET
+// ("m,deg") the restarts, MI_WHOLE_IMAGE_CHECKS=0 switches the whole-panorama check off; each
+// registration prints its whole-image checks and a `digest` line (RegistrationResult::Digest,
+// pose and metric in hex floats) to compare runs.
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -280,9 +284,14 @@ int main(int argc, char** argv) {
   std::printf("%s: %zu points, %zu views, setup %.1f s\n", cloud_path.c_str(), points.size(),
               views.size(), setup.ElapsedSeconds());
 
-  std::vector<std::pair<double, double>> sizes;
-  if (magnitudes != "large") sizes.emplace_back(0.1, 1.0);
-  if (magnitudes != "small") sizes.emplace_back(0.3, 2.0);
+  // Both sizes are always drawn (in this order), MAGNITUDES only selects which are run: a
+  // start does not depend on which sizes are run. (Before 1 Dec 2026, "small"/"large" drew
+  // only their own size, so their starts differed from those of "both" for every view but
+  // the first.)
+  const std::vector<std::pair<double, double>> sizes = {{0.1, 1.0}, {0.3, 2.0}};
+  auto size_selected = [&](double max_m) {
+    return magnitudes == "both" || (magnitudes == "small") == (max_m == 0.1);
+  };
 
   RegistrationOptions options;
   // Point-sample evaluator (0 = render every evaluation) and the level from which each
@@ -301,6 +310,14 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_COARSE_CANDIDATES")) options.coarse_candidates = std::atoi(v);
   if (const char* v = std::getenv("MI_COARSE_SPREAD")) options.coarse_start_spread = std::atof(v);
   if (const char* v = std::getenv("MI_LEVELS")) options.pyramid_levels = std::atoi(v);
+  if (const char* v = std::getenv("MI_THREADS")) options.threads = std::atoi(v);
+  if (const char* v = std::getenv("MI_RESTART_OFFSET")) {  // "m,deg"
+    std::sscanf(v, "%lf,%lf", &options.restart_offset_m, &options.restart_offset_deg);
+  }
+  if (const char* v = std::getenv("MI_RESTARTS")) options.restarts = std::atoi(v);
+  if (const char* v = std::getenv("MI_WHOLE_IMAGE_CHECKS")) {
+    options.whole_image_checks = std::atoi(v) != 0;
+  }
   if (const char* v = std::getenv("MI_REGION")) {
     if (!ParseRegion(v, &options.metric.region)) return 2;
   }
@@ -391,7 +408,17 @@ int main(int argc, char** argv) {
         std::uniform_real_distribution<double> um(-max_m, max_m), ud(-max_deg, max_deg);
         Vector6d p;
         p << um(rng), um(rng), um(rng), ud(rng), ud(rng), ud(rng);
-        if (!Selected(tv.name, max_m)) continue;
+        if (!size_selected(max_m) || !Selected(tv.name, max_m)) continue;
+        // MI_PERTURB="tx,ty,tz,roll,pitch,yaw" (m, deg) replaces the drawn start of every
+        // registration run (with MI_ONLY: one chosen start).
+        if (const char* v = std::getenv("MI_PERTURB")) {
+          const std::vector<std::string> items = Split(v);
+          if (items.size() != 6) {
+            std::fprintf(stderr, "MI_PERTURB needs 6 numbers\n");
+            return 2;
+          }
+          for (int i = 0; i < 6; ++i) p[i] = std::atof(items[i].c_str());
+        }
         const Rigid3d start = ApplyCorrection(tv.cam_from_world, p);
         Timer timer;
         const double cpu0 = CpuSeconds();
@@ -517,6 +544,22 @@ int main(int argc, char** argv) {
                     r.checks.sample_inflation, metric_est[0] - metric_true[0],
                     metric_est[1] - metric_true[1], metric_est[2] - metric_true[2], seconds, cpu,
                     reason.c_str());
+        if (r.covariance_valid) {
+          std::printf("  restart best gain %+.6f\n", r.checks.restart_best_gain);
+          std::printf("  image checks: sigma %.3f px, restarts %.2f px, halves %.2f px, factor "
+                      "%.1f, calibrated sigma %.3f px\n",
+                      r.checks.image_sigma_px, r.checks.image_restart_spread_px,
+                      r.checks.image_split_spread_px, r.checks.image_variance_factor,
+                      r.checks.image_sigma_px_calibrated);
+        }
+        // The result bit for bit: equal digests = a reproduced registration.
+        std::printf("  digest %016llx  pose %a %a %a %a %a %a %a  metric %a  iterations %d  "
+                    "evaluations %d\n",
+                    static_cast<unsigned long long>(r.Digest()), r.cam_from_lidar.rotation.w(),
+                    r.cam_from_lidar.rotation.x(), r.cam_from_lidar.rotation.y(),
+                    r.cam_from_lidar.rotation.z(), r.cam_from_lidar.translation.x(),
+                    r.cam_from_lidar.translation.y(), r.cam_from_lidar.translation.z(),
+                    r.metric_after.value, r.iterations, r.evaluations);
         std::fflush(stdout);
       }
     }

@@ -79,6 +79,7 @@ int main(int argc, char** argv) {
     if (const char* cap = std::getenv("MI_POINTS_PER_PIXEL")) {
       options.max_points_per_pixel = std::atof(cap);
     }
+    if (const char* v = std::getenv("MI_THREADS")) options.threads = std::atoi(v);
     // Points-only images carry information only against the empty background.
     if (r == Representation::kPoints) options.metric.region = Region::kWholeImage;
     Timer one;
@@ -110,6 +111,10 @@ int main(int argc, char** argv) {
       std::printf("    %-28s %4d evals %7.3f s\n", stage.name.c_str(), stage.evaluations,
                   stage.seconds);
     }
+    // The result bit for bit: equal digests = a reproduced registration.
+    std::printf("    digest %016llx  metric %a  iterations %d  evaluations %d\n",
+                static_cast<unsigned long long>(result.Digest()), result.metric_after.value,
+                result.iterations, result.evaluations);
     }
   }
   return 0;

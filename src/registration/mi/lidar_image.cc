@@ -135,6 +135,7 @@ View CutPerspective(const GrayImage& pano, const sensors::Camera& pano_camera, i
   const Eigen::Matrix3d cam_from_view = RotationAboutY(yaw_deg * M_PI / 180.0);
   view.view_from_cam = cam_from_view.transpose();
   view.image_pixels_per_pixel = pano_camera.params[0] / f;  // equirect f = columns per radian
+  view.image_camera = pano_camera;
   view.image = GrayImage(width, height);
   const double* params = pano_camera.params.data();
   const double period = 2.0 * M_PI * params[0];
@@ -310,6 +311,7 @@ View DownsampleView(const View& view) {
   half.name = view.name;
   half.view_from_cam = view.view_from_cam;
   half.image_pixels_per_pixel = 2.0 * view.image_pixels_per_pixel;
+  half.image_camera = view.image_camera;
   half.image = Downsample2(view.image);
   half.camera = view.camera;
   half.camera.width = half.image.width;

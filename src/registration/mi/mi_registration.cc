@@ -569,6 +569,7 @@ View CropView(const View& view, int col0, int col1) {
   crop.name = view.name + "[" + std::to_string(col0) + ":" + std::to_string(col1) + "]";
   crop.view_from_cam = view.view_from_cam;
   crop.image_pixels_per_pixel = view.image_pixels_per_pixel;
+  crop.image_camera = view.image_camera;
   crop.image = GrayImage(col1 - col0, view.image.height);
   for (int r = 0; r < view.image.height; ++r) {
     for (int c = col0; c < col1; ++c) crop.image.at(c - col0, r) = view.image.at(c, r);
@@ -1111,6 +1112,117 @@ std::vector<double> PixelDisplacements2(const FrameSetEvaluator& evaluator,
   return d2;
 }
 
+// A point of a frame's own image (the panorama its views were cut from).
+struct ImagePoint {
+  const sensors::Camera* camera;
+  Eigen::Vector3d point_in_lidar;
+};
+
+// Up to `max_points` of the frames' cloud points, within range, that project into their own
+// image at `cam_from_lidar` (frames whose views are cuts, View::image_camera; none otherwise),
+// an even subsample in cloud order.
+std::vector<ImagePoint> SampleImagePoints(const std::vector<Frame>& frames,
+                                          const Rigid3d& cam_from_lidar,
+                                          const RenderOptions& render, size_t max_points) {
+  std::vector<ImagePoint> all;
+  for (const Frame& frame : frames) {
+    if (frame.views.empty() || !frame.views.front().image_camera) continue;
+    const sensors::Camera* camera = &*frame.views.front().image_camera;
+    const LidarPoints& points = *frame.points;
+    for (size_t i = 0; i < points.size(); ++i) {
+      const Eigen::Vector3d p = points.points_in_lidar[i].cast<double>();
+      const Eigen::Vector3d c = cam_from_lidar * p;
+      const double range = c.norm();
+      if (range < render.min_range_m || range > render.max_range_m) continue;
+      if (!camera->IsSpherical() && c.z() <= 0) continue;
+      const std::optional<Eigen::Vector2d> xy = camera->ImgFromCam(c);
+      if (!xy || (*xy)[0] < 0 || (*xy)[1] < 0 || (*xy)[0] >= camera->width ||
+          (*xy)[1] >= camera->height) {
+        continue;
+      }
+      all.push_back({camera, p});
+    }
+  }
+  if (all.size() <= max_points) return all;
+  std::vector<ImagePoint> sample;
+  const double stride = static_cast<double>(all.size()) / max_points;
+  for (double k = 0; k < all.size() && sample.size() < max_points; k += stride) {
+    sample.push_back(all[static_cast<size_t>(k)]);
+  }
+  return sample;
+}
+
+// Pixel of an image point at a pose; false when it does not project.
+bool ProjectImagePoint(const ImagePoint& point, const Rigid3d& cam_from_lidar,
+                       Eigen::Vector2d* xy) {
+  const Eigen::Vector3d c = cam_from_lidar * point.point_in_lidar;
+  if (!point.camera->IsSpherical() && c.z() <= 0) return false;
+  const std::optional<Eigen::Vector2d> projected = point.camera->ImgFromCam(c);
+  if (!projected) return false;
+  *xy = *projected;
+  return true;
+}
+
+// a − b in the image's pixels; across a panorama's ±180° seam the shorter way round.
+Eigen::Vector2d ImagePixelDifference(const sensors::Camera& camera, const Eigen::Vector2d& a,
+                                     const Eigen::Vector2d& b) {
+  Eigen::Vector2d d = a - b;
+  if (camera.IsSpherical()) {
+    const double period = 2 * M_PI * camera.params[0];
+    d.x() -= period * std::round(d.x() / period);
+  }
+  return d;
+}
+
+// Per image point: squared pixel distance between poses a and b.
+std::vector<double> ImageDisplacements2(const std::vector<ImagePoint>& sample, const Rigid3d& a,
+                                        const Rigid3d& b) {
+  std::vector<double> d2;
+  for (const ImagePoint& point : sample) {
+    Eigen::Vector2d pa, pb;
+    if (!ProjectImagePoint(point, a, &pa) || !ProjectImagePoint(point, b, &pb)) continue;
+    d2.push_back(ImagePixelDifference(*point.camera, pa, pb).squaredNorm());
+  }
+  return d2;
+}
+
+// Per image point: trace(J Σ Jᵀ) at correction x (J by central differences), pixels².
+std::vector<double> ImagePredictedVariances(const std::vector<ImagePoint>& sample,
+                                            const Rigid3d& start, const Vector6d& x,
+                                            const Eigen::Matrix<double, 6, 6>& covariance) {
+  Vector6d h;
+  h << 1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2;
+  std::array<Rigid3d, 12> poses;
+  for (int k = 0; k < 12; ++k) {
+    Vector6d y = x;
+    y[k / 2] += (k % 2 == 0 ? 1.0 : -1.0) * h[k / 2];
+    poses[k] = ApplyCorrection(start, y);
+  }
+  std::vector<double> variances;
+  for (const ImagePoint& point : sample) {
+    Eigen::Matrix<double, 2, 6> jacobian;
+    bool ok = true;
+    for (int k = 0; k < 6 && ok; ++k) {
+      Eigen::Vector2d pa, pb;
+      ok = ProjectImagePoint(point, poses[2 * k], &pa) &&
+           ProjectImagePoint(point, poses[2 * k + 1], &pb);
+      if (ok) jacobian.col(k) = ImagePixelDifference(*point.camera, pa, pb) / (2 * h[k]);
+    }
+    if (ok) variances.push_back((jacobian * covariance * jacobian.transpose()).trace());
+  }
+  return variances;
+}
+
+double MeanOf(const std::vector<double>& values) {
+  return values.empty() ? 0.0
+                        : std::accumulate(values.begin(), values.end(), 0.0) / values.size();
+}
+
+double MedianSqrtOf(std::vector<double> squares) {
+  for (double& v : squares) v = std::sqrt(v);
+  return Median(std::move(squares));
+}
+
 // Second derivative of MI (nats per unit²) along a unit direction of the correction: a
 // parabola a + b·t + ½·c·t² fitted by least squares to 13 samples t ∈ [−0.3, 0.3].
 double CurvatureAlong(const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x,
@@ -1137,6 +1249,83 @@ double CurvatureAlong(const FrameSetEvaluator& evaluator, const Rigid3d& start, 
 }
 
 }  // namespace
+
+namespace {
+
+// FNV-1a over raw bytes (Fowler, Noll & Vo).
+class Fnv1a {
+ public:
+  void Bytes(const void* data, size_t size) {
+    const unsigned char* p = static_cast<const unsigned char*>(data);
+    for (size_t i = 0; i < size; ++i) hash_ = (hash_ ^ p[i]) * 1099511628211ull;
+  }
+  void Double(double v) { Bytes(&v, sizeof(v)); }
+  void Int(int64_t v) { Bytes(&v, sizeof(v)); }
+  void String(const std::string& s) {
+    Int(static_cast<int64_t>(s.size()));
+    Bytes(s.data(), s.size());
+  }
+  template <typename Derived>
+  void Matrix(const Eigen::MatrixBase<Derived>& m) {
+    for (int r = 0; r < m.rows(); ++r) {
+      for (int c = 0; c < m.cols(); ++c) Double(m(r, c));
+    }
+  }
+  void Metric(const MetricValue& m) {
+    for (double v : {m.mi, m.nmi, m.nid, m.joint_entropy, m.samples, m.lidar_samples, m.value}) {
+      Double(v);
+    }
+  }
+  uint64_t value() const { return hash_; }
+
+ private:
+  uint64_t hash_ = 14695981039346656037ull;
+};
+
+}  // namespace
+
+uint64_t RegistrationResult::Digest() const {
+  Fnv1a h;
+  h.String(status);
+  h.String(reason);
+  h.Matrix(cam_from_lidar.ToMatrix4());
+  h.Matrix(correction);
+  h.Matrix(covariance);
+  h.Matrix(covariance_laplace);
+  h.Int(covariance_valid);
+  h.Int(trusted);
+  h.String(confidence_reason);
+  const AcceptanceChecks& c = checks;
+  h.Int(c.on_bound);
+  h.Int(c.below_start);
+  h.Int(c.weak_directions);
+  h.Int(c.restarts_run);
+  h.Int(c.scans_passed);
+  h.Int(c.split_parts);
+  for (double v : {c.sigma_px, c.effective_samples, c.sample_inflation, c.restart_spread_px,
+                   c.restart_rms_px, c.restart_best_gain, c.mi_bits, c.mi_shuffled_bits,
+                   c.mi_shuffled_sd_bits, c.mi_significance, c.split_spread_px,
+                   c.variance_factor, c.variance_factor_halves, c.variance_factor_restarts,
+                   c.sigma_px_calibrated, c.image_sigma_px, c.image_restart_spread_px,
+                   c.image_split_spread_px, c.image_variance_factor,
+                   c.image_sigma_px_calibrated}) {
+    h.Double(v);
+  }
+  h.String(c.scans_reason);
+  h.String(c.split_kind);
+  h.Metric(metric_before);
+  h.Metric(metric_after);
+  h.Int(iterations);
+  h.Int(evaluations);
+  for (const StageStat& stage : stages) h.Int(stage.evaluations);
+  for (const std::string& name : used_frames) h.String(name);
+  for (const auto& [name, why] : rejected_frames) {
+    h.String(name);
+    h.String(why);
+  }
+  for (const RegistrationResult& frame : frame_results) h.Int(static_cast<int64_t>(frame.Digest()));
+  return h.value();
+}
 
 std::string RegistrationResult::BriefReport() const {
   std::ostringstream out;
@@ -1318,6 +1507,18 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     for (double& v : sigmas) v = std::sqrt(v);
     checks.sigma_px = Median(sigmas);
   }
+  // The same over the whole image when the views are cuts of it.
+  const std::vector<ImagePoint> image_sample =
+      SampleImagePoints(frames, result.cam_from_lidar, options.render, 2000);
+  double image_predicted_ms = 0;  // mean over the image sample of trace(J Σ_L Jᵀ), px²
+  double image_factor_halves = std::numeric_limits<double>::quiet_NaN();
+  double image_factor_restarts = std::numeric_limits<double>::quiet_NaN();
+  if (!image_sample.empty() && result.covariance_valid) {
+    const std::vector<double> variances =
+        ImagePredictedVariances(image_sample, cam_from_lidar_start, x, result.covariance);
+    image_predicted_ms = MeanOf(variances);
+    checks.image_sigma_px = MedianSqrtOf(variances);
+  }
   // (2) Significance of the MI against the shuffled-pairing baseline (same samples, photo
   // values permuted: what MI a pose without any relation to the photo would show).
   {
@@ -1390,6 +1591,23 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
       spdlog::debug("MI restart {}: {:.2f} px from the optimum, metric {:+.6f}", k, distance,
                     gain);
     }
+    if (!image_sample.empty() && options.restarts > 0) {
+      double sum2 = 0;
+      size_t count = 0;
+      checks.image_restart_spread_px = 0;
+      for (int k = 0; k < options.restarts; ++k) {
+        const std::vector<double> d2 = ImageDisplacements2(
+            image_sample, result.cam_from_lidar,
+            ApplyCorrection(cam_from_lidar_start, restarts[k].x));
+        checks.image_restart_spread_px =
+            std::max(checks.image_restart_spread_px, MedianSqrtOf(d2));
+        sum2 += std::accumulate(d2.begin(), d2.end(), 0.0);
+        count += d2.size();
+      }
+      if (count > 0 && image_predicted_ms > 0) {
+        image_factor_restarts = sum2 / count / image_predicted_ms;
+      }
+    }
     if (restart_displacement_count > 0) {
       checks.restart_rms_px = std::sqrt(restart_displacement2 / restart_displacement_count);
       if (predicted_ms > 0) {
@@ -1448,6 +1666,18 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
         }
       }
     });
+    if (!image_sample.empty()) {
+      double mean2 = 0;
+      checks.image_split_spread_px = 0;
+      for (int h = 0; h < 2; ++h) {
+        const std::vector<double> d2 =
+            ImageDisplacements2(image_sample, result.cam_from_lidar,
+                                ApplyCorrection(cam_from_lidar_start, half_x[h]));
+        checks.image_split_spread_px = std::max(checks.image_split_spread_px, MedianSqrtOf(d2));
+        mean2 += 0.5 * MeanOf(d2);
+      }
+      if (image_predicted_ms > 0) image_factor_halves = mean2 / image_predicted_ms;
+    }
     checks.split_parts = 2;
     checks.split_kind = split_kind;
     checks.split_spread_px = std::max(distance[0], distance[1]);
@@ -1497,6 +1727,23 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
                            "restarts scatter " + Fixed(std::sqrt(checks.variance_factor), 1) +
                            "x more than the curvature predicts)");
       }
+    }
+  }
+  // The calibrated σ over the whole image (the views' cuts of it).
+  if (image_predicted_ms > 0) {
+    double factor = 0;
+    if (std::isfinite(image_factor_halves)) factor += image_factor_halves;
+    if (std::isfinite(image_factor_restarts)) factor += image_factor_restarts;
+    checks.image_variance_factor = options.calibrate_covariance ? std::max(1.0, factor) : 1.0;
+    checks.image_sigma_px_calibrated =
+        checks.image_sigma_px * std::sqrt(checks.image_variance_factor);
+    if (options.whole_image_checks &&
+        !(checks.image_sigma_px_calibrated <= options.max_calibrated_sigma_px)) {
+      failures.push_back("over the whole image the pose's own error estimate is too large: "
+                         "calibrated pixel sigma " + Fixed(checks.image_sigma_px_calibrated, 3) +
+                         " px > " + Fixed(options.max_calibrated_sigma_px, 2) + " px (restarts " +
+                         Fixed(checks.image_restart_spread_px, 2) + " px, halves " +
+                         Fixed(checks.image_split_spread_px, 2) + " px apart there)");
     }
   }
   // (5) Per-axis scans: flat or multi-peaked surfaces.

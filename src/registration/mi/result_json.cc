@@ -82,6 +82,11 @@ json ResultToJson(const RegistrationResult& result, const RegistrationOptions& o
                    {"variance_factor_halves", checks.variance_factor_halves},
                    {"variance_factor_restarts", checks.variance_factor_restarts},
                    {"sigma_px_calibrated", checks.sigma_px_calibrated},
+                   {"image_sigma_px", checks.image_sigma_px},
+                   {"image_restart_spread_px", checks.image_restart_spread_px},
+                   {"image_halves_spread_px", checks.image_split_spread_px},
+                   {"image_variance_factor", checks.image_variance_factor},
+                   {"image_sigma_px_calibrated", checks.image_sigma_px_calibrated},
                    {"axis_scans_passed", checks.scans_passed},
                    {"axis_scans_reason", checks.scans_reason}};
   json stages = json::array();

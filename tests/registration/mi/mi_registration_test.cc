@@ -136,6 +136,110 @@ TEST_F(StreetTest, RecoversThePoseFromPerturbedStarts) {
               1e-9);
 }
 
+// Reproducibility: the same input gives the same result bit for bit, run after run and with 1
+// or 2 threads — every parallel loop writes its own slots and is combined in index order, and
+// an evaluation from point samples sums the same two partial histograms in the same order
+// whether they were filled on one thread or two (the 320×240 street has more than the 20,000
+// samples above which they are). Checked with the rendered evaluator and with point samples.
+TEST_F(StreetTest, ResultIsReproducibleAndIndependentOfTheThreads) {
+  const Frame frame = MakeFrame(photo_, &points_);
+  Vector6d perturbation;
+  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
+  const Rigid3d start = ApplyCorrection(truth_, perturbation);
+  for (const bool samples : {false, true}) {
+    SCOPED_TRACE(samples ? "point samples" : "rendered");
+    RegistrationOptions options = Options();
+    options.point_samples = samples;
+    options.point_samples_in_checks = samples;
+    options.threads = 2;
+    const RegistrationResult first = RegisterFrames({frame}, start, options);
+    const RegistrationResult again = RegisterFrames({frame}, start, options);
+    options.threads = 1;
+    const RegistrationResult one_thread = RegisterFrames({frame}, start, options);
+    SCOPED_TRACE(first.BriefReport());
+    EXPECT_GT(first.evaluations, 100);
+    EXPECT_EQ(first.checks.image_sigma_px, -1);  // the view is the image: nothing more to judge
+    for (const RegistrationResult* other : {&again, &one_thread}) {
+      SCOPED_TRACE(other == &again ? "run again, 2 threads" : "1 thread");
+      const Eigen::Matrix4d a = first.cam_from_lidar.ToMatrix4();
+      const Eigen::Matrix4d b = other->cam_from_lidar.ToMatrix4();
+      for (int r = 0; r < 4; ++r) {
+        for (int c = 0; c < 4; ++c) EXPECT_EQ(a(r, c), b(r, c)) << "pose entry " << r << c;
+      }
+      EXPECT_EQ(first.metric_after.value, other->metric_after.value);
+      EXPECT_EQ(first.metric_after.mi, other->metric_after.mi);
+      EXPECT_EQ(first.status, other->status);
+      EXPECT_EQ(first.reason, other->reason);
+      EXPECT_EQ(first.iterations, other->iterations);
+      EXPECT_EQ(first.evaluations, other->evaluations);
+      for (int i = 0; i < 6; ++i) {
+        EXPECT_EQ(first.covariance(i, i), other->covariance(i, i)) << "covariance " << i;
+      }
+      EXPECT_EQ(first.checks.restart_spread_px, other->checks.restart_spread_px);
+      EXPECT_EQ(first.checks.split_spread_px, other->checks.split_spread_px);
+      EXPECT_EQ(first.Digest(), other->Digest());
+    }
+  }
+}
+
+// A panorama registered on two perspective cuts: the cuts carry the panorama's camera
+// (through the pyramid and into the halves), and the pose's accuracy is also judged over the
+// whole panorama, whose pose it is: the calibrated σ there, from the halves' and restarts'
+// scatter over all its pixels, must be within max_calibrated_sigma_px too.
+TEST_F(StreetTest, PanoramaCutsAreAlsoJudgedOverTheWholePanorama) {
+  sensors::Camera pano;
+  pano.model_id = sensors::CameraModelId::kEquirectangular;
+  pano.width = 720;
+  pano.height = 360;
+  const auto params = sensors::EquirectangularModel::DefaultParams(720, 360);
+  pano.params.assign(params.begin(), params.end());
+  const GrayImage photo = StreetPhoto(pano, truth_);
+  Vector6d perturbation;
+  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
+  const Rigid3d start = ApplyCorrection(truth_, perturbation);
+  ViewOptions view_options;
+  view_options.kind = ViewKind::kPerspective;
+  view_options.perspective_width = 320;
+  view_options.perspective_height = 240;
+  view_options.perspective_yaw_deg =
+      SelectPerspectiveHeadings(points_, pano, start, view_options, RenderOptions(), 2);
+  Frame frame;
+  frame.name = "pano";
+  frame.views = MakeViews(photo, pano, view_options, "pano.png");
+  frame.points = &points_;
+  ASSERT_EQ(frame.views.size(), 2u);
+  for (const View& view : frame.views) {
+    ASSERT_TRUE(view.image_camera.has_value());
+    EXPECT_EQ(view.image_camera->width, 720u);
+    EXPECT_TRUE(DownsampleView(view).image_camera.has_value());
+    EXPECT_TRUE(CropView(view, 0, 100).image_camera.has_value());
+  }
+  const RegistrationResult result = RegisterFrames({frame}, start, Options());
+  SCOPED_TRACE(result.BriefReport());
+  const AcceptanceChecks& c = result.checks;
+  EXPECT_GT(c.image_sigma_px, 0.0);
+  EXPECT_GE(c.image_restart_spread_px, 0.0);
+  EXPECT_GE(c.image_split_spread_px, 0.0);
+  EXPECT_GE(c.image_variance_factor, 1.0);
+  EXPECT_DOUBLE_EQ(c.image_sigma_px_calibrated, c.image_sigma_px * std::sqrt(c.image_variance_factor));
+  View whole;
+  whole.camera = pano;
+  const PixelOffsetStats after =
+      PixelOffsets(points_, whole, truth_, result.cam_from_lidar, RenderOptions());
+  EXPECT_LT(after.median_px, 1.0);
+  // A limit below the whole panorama's calibrated σ refuses the result and names the check;
+  // without the whole-image check that reason is absent (the pose itself is the same).
+  RegistrationOptions strict = Options();
+  strict.max_calibrated_sigma_px = 0.5 * c.image_sigma_px_calibrated;
+  const RegistrationResult refused = RegisterFrames({frame}, start, strict);
+  EXPECT_EQ(refused.status, "failed");
+  EXPECT_NE(refused.reason.find("over the whole image"), std::string::npos) << refused.reason;
+  strict.whole_image_checks = false;
+  const RegistrationResult unchecked = RegisterFrames({frame}, start, strict);
+  EXPECT_EQ(unchecked.reason.find("over the whole image"), std::string::npos) << unchecked.reason;
+  EXPECT_EQ(unchecked.correction, refused.correction);
+}
+
 // The coarse global stage: Nelder–Mead from the start and from points spread over the box at
 // the coarsest level, the best distinct coarse optima (the start's always among them) carried
 // down, the best at full resolution kept. From the paper's typical 0.1 m / 1° error it must

@@ -5,6 +5,7 @@
 // footprint shrinks with range so that the far side of a wall does not show through.
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -47,6 +48,11 @@ struct View {
   /// the cut upsamples the panorama), doubled per pyramid level. Acceptance tolerances
   /// (restart spread, predicted σ) are in the image's own pixels, not the cut's.
   double image_pixels_per_pixel = 1.0;
+  /// The camera of the frame's own image when this view was cut from it (a panorama's
+  /// perspective cuts and cube faces); unset when the view is the image itself. The
+  /// acceptance then also measures the pose's accuracy over the whole image, whose pose it is,
+  /// not only over the cuts registered.
+  std::optional<sensors::Camera> image_camera;
 };
 
 struct RenderOptions;

@@ -159,6 +159,11 @@ struct RegistrationOptions {
   /// Calibrate the covariance by the halves and the restarts (AcceptanceChecks::
   /// variance_factor): `covariance` = factor · the Laplace one (kept as covariance_laplace).
   bool calibrate_covariance = true;
+  /// Views cut from the frame's own image (a panorama's perspective cuts or cube faces,
+  /// View::image_camera): the calibrated σ must also be ≤ max_calibrated_sigma_px over the
+  /// whole image (AcceptanceChecks::image_sigma_px_calibrated) — the pose is the image's,
+  /// not the cuts'.
+  bool whole_image_checks = true;
   bool Check(std::string* error) const;
 };
 
@@ -222,6 +227,19 @@ struct AcceptanceChecks {
   /// sigma_px of the calibrated covariance (sigma_px is the Laplace one, which the
   /// acceptance checks: the conditioning of the maximum).
   double sigma_px_calibrated = -1;
+  /// The same measured over the WHOLE image of frames whose views were cut from it
+  /// (View::image_camera: a panorama registered on perspective cuts or cube faces) — the
+  /// pose is the image's, and an error the cuts barely see (a turn about their axis offset by
+  /// a shift) moves the rest of the image: on up to 2000 of the cloud's points that project
+  /// anywhere into the image at the optimum (within range), in the image's pixels, the
+  /// Laplace σ, the restarts' largest median distance, the halves' (each half's optimum
+  /// against the joint one), the variance factor from the halves' and restarts' scatter as
+  /// above, and the calibrated σ. −1 when no view is a cut (the views are the image).
+  double image_sigma_px = -1;
+  double image_restart_spread_px = -1;
+  double image_split_spread_px = -1;
+  double image_variance_factor = -1;
+  double image_sigma_px_calibrated = -1;
 };
 
 struct RegistrationResult {
@@ -250,6 +268,11 @@ struct RegistrationResult {
 
   bool ok() const { return status == "ok"; }
   std::string BriefReport() const;
+  /// A 64-bit FNV-1a digest of everything the registration decided, bit for bit: status,
+  /// reason, pose, correction, both covariances, the metrics before/after, the numbers of the
+  /// acceptance checks, iterations and evaluations (not the times, not the stage names), and
+  /// those of the frame results. Equal digests = reproduced results (for tests and benches).
+  uint64_t Digest() const;
 };
 
 /// Evaluates the metric of a set of frames (sharing one pose) at a pose, at pyramid level
