@@ -1257,6 +1257,7 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
     LoadSpheres(&s);
     LoadRig(&s);
     PlacePhotoBlock(&s);
+    internal::RegisterPhotoBlockToLidar(&s);
     LoadLidar(&s);
     internal::RegisterSphereStations(&s);
     internal::LoadMobile(&s);

@@ -45,6 +45,7 @@ struct PhotoBlock {
   std::string georeference;                    ///< how the block was put into the world
   size_t control_targets_intersected = 0;      ///< control targets seen in 2+ photos (< 3: no similarity)
   std::vector<GnssCamera> gnss;                ///< GNSS antenna positions of photos (the GNSS CSV's camera rows)
+  nlohmann::json registration;                 ///< register_to_lidar: the tie points' registration (report.json)
 };
 
 /// The spherical stereo pair: lower poses are Scene images, the upper sphere follows from
@@ -244,6 +245,11 @@ bool PlacePhotoBlockByTiePoints(JointState* s);
 /// The same from the photos' GNSS antenna positions (≥ 3 photos, camera centres → GNSS,
 /// the lever arm left to the adjustment). False (block unchanged) when too few or inconsistent.
 bool PlacePhotoBlockByGnss(JointState* s);
+/// register_to_lidar: the placed block's tie points registered to the static LiDAR's reference
+/// cloud (register-cloud's pipeline, levelled, inside the registration window, the photos'
+/// centres as viewpoints); an "ok" moves the block rigidly. The outcome goes to
+/// PhotoBlock::registration either way.
+void RegisterPhotoBlockToLidar(JointState* s);
 
 /// Reads a `mmba register-mi` result file as a pose prior. False (and `why` set) when it is not
 /// usable (status not "ok", no valid covariance); InputError when it is malformed.

@@ -468,6 +468,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
                              {"images", s.photos->model.images.size()},
                              {"tie_points", s.photos->model.points3D.size()},
                              {"georeference", s.photos->georeference}};
+    if (!s.photos->registration.is_null()) report["photo_block"]["registration_to_lidar"] = s.photos->registration;
   }
   report["sigma0"] = {{"apriori", 1.0}, {"aposteriori", st.sigma0_ratio}, {"dof", st.degrees_of_freedom},
                       {"confidence", st.confidence}, {"chi2_lower", st.chi2_lower}, {"chi2_upper", st.chi2_upper},

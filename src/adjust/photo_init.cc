@@ -17,6 +17,7 @@
 #include <spdlog/spdlog.h>
 
 #include "internal.h"
+#include "mmba/registration/cloud/feature_registration.h"
 
 namespace mmba::adjust::internal {
 
@@ -208,6 +209,78 @@ bool PlacePhotoBlockByGnss(JointState* s) {
     << world_from_block.scale << ", RMS " << std::sqrt(sum / best.size()) << " m";
   MoveBlock(s, world_from_block, g.str());
   return true;
+}
+
+void RegisterPhotoBlockToLidar(JointState* s) {
+  if (!s->photos || !s->photos->config->register_to_lidar || s->project->lidar_static.empty()) return;
+  PhotoBlock& block = *s->photos;
+  const PhotoCollection& p = *block.config;
+  const LidarStatic& lidar = s->project->lidar_static.front();
+  io::PointCloud source;
+  std::vector<Eigen::Vector3d> centres;
+  for (const auto& [point_id, point] : block.model.points3D) {
+    if (s->scene.HasPoint(point_id)) source.points.push_back(s->scene.Point(point_id));
+  }
+  for (const auto& [image_id, image] : block.model.images) centres.push_back(CameraCentre(s->scene.Image(image_id).cam_from_world));
+  nlohmann::json& entry = block.registration;
+  entry = {{"tie_points", source.size()}};
+  if (source.size() < 100) {
+    entry["status"] = "failed: " + std::to_string(source.size()) + " tie points (100 needed); the block is kept as placed";
+    Note(s, "photo block '" + p.id + "': not registered to the LiDAR (" + std::to_string(source.size()) + " tie points)");
+    return;
+  }
+  // The reference cloud around the tie points (their box grown by the window), streamed.
+  Eigen::Vector3d lo = source.points.front(), hi = lo;
+  for (const Eigen::Vector3d& x : source.points) {
+    lo = lo.cwiseMin(x);
+    hi = hi.cwiseMax(x);
+  }
+  const double margin = p.registration_window_m + 1.0;
+  lo.array() -= margin;
+  hi.array() += margin;
+  io::PointCloud target;
+  io::StreamPointCloud(lidar.reference_cloud, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t, size_t) {
+    for (const Eigen::Vector3d& x : chunk.points) {
+      if ((x.array() >= lo.array()).all() && (x.array() <= hi.array()).all()) target.points.push_back(x);
+    }
+  });
+  ThinEvenly(&target.points, 2000000);
+  entry["lidar_points"] = target.size();
+  if (target.size() < 100) {
+    entry["status"] = "failed: " + std::to_string(target.size()) + " LiDAR points around the block; the block is kept as placed";
+    Note(s, "photo block '" + p.id + "': not registered to the LiDAR (no LiDAR around it)");
+    return;
+  }
+  registration::CloudRegistrationOptions options;
+  options.gravity_aligned = true;  // the block is in the world (ENU) already: turn about up only, ICP free
+  options.search_window_m = p.registration_window_m;
+  options.search_window_deg = p.registration_window_deg;
+  options.source_viewpoints = centres;
+  spdlog::info("adjust: initialisation: the tie points of photo block {} ({}) registered to the LiDAR ({} points)", p.id,
+               source.size(), target.size());
+  const registration::CloudRegistrationResult r = registration::RegisterClouds(source, target, options);
+  entry["fitness"] = r.fitness;
+  entry["inlier_rmse_m"] = r.inlier_rmse;
+  entry["resolution_m"] = std::isfinite(r.resolution_m) ? nlohmann::json(r.resolution_m) : nlohmann::json(nullptr);
+  entry["seconds"] = r.total_seconds();
+  if (!r.ok()) {
+    entry["status"] = "failed: " + r.reason + " (the block is kept as placed)";
+    Note(s, "photo block '" + p.id + "': tie points not registered to the LiDAR (" + r.reason + "); kept as placed");
+    return;
+  }
+  const Rigid3d correction = Rigid3d::FromMatrix(r.target_from_source.topRows<3>());
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& x : source.points) centroid += x;
+  centroid /= static_cast<double>(source.size());
+  const double shift = (correction * centroid - centroid).norm();
+  const double turn = correction.rotation.angularDistance(Eigen::Quaterniond::Identity()) * 180.0 / M_PI;
+  entry["status"] = "ok";
+  entry["shift_m"] = shift;
+  entry["rotation_deg"] = turn;
+  std::ostringstream g;
+  g << block.georeference << "; tie points registered to the LiDAR by features (fitness " << r.fitness << ", "
+    << r.descriptor << "): moved " << shift << " m, " << turn << "°";
+  MoveBlock(s, Sim3d(correction), g.str());
 }
 
 }  // namespace mmba::adjust::internal

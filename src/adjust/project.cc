@@ -124,6 +124,9 @@ class ProjectReader {
                        }
                        p.gnss_lever_arm_m = Eigen::Vector3d(lever[0], lever[1], lever[2]);
                      }},
+                    {"register_to_lidar", [&](Node v, Field g) { p.register_to_lidar = r_.Bool(v, g); }},
+                    {"registration_window_m", [&](Node v, Field g) { p.registration_window_m = r_.Positive(v, g, 100.0, "m (metres)"); }},
+                    {"registration_window_deg", [&](Node v, Field g) { p.registration_window_deg = r_.Positive(v, g, 180.0, "degrees"); }},
                     {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
                     {"refine", [&](Node v, Field g) { p.refine = Refine(v, g, true); }}});
       r_.Require(n, f, {"images"});
@@ -409,6 +412,9 @@ Project LoadProject(const std::string& path) {
   }
   // MI registration runs against the static LiDAR (the world-frame cloud).
   for (const PhotoCollection& p : project.photos) {
+    if (p.register_to_lidar && project.lidar_static.empty()) {
+      throw InputError(path, p.line, "register_to_lidar", "true", "a lidar_static sensor too: the block's tie points are registered to its reference cloud");
+    }
     if (p.mi_register && project.lidar_static.empty()) {
       throw InputError(path, p.line, "mi_register", "true", "a lidar_static sensor too: the photos are registered to its reference cloud");
     }

@@ -601,7 +601,8 @@ TEST_F(AdjustTest, PlacesABlockWithoutControlByTheOtherSensorsTiePoints) {
   fs::create_directories(dir / "colmap");
   io::WriteColmapModel(model, (dir / "colmap").string(), io::ColmapFormat::kText);
   std::string project = std::regex_replace(ReadText(sim / "project.yaml"), std::regex("\n *control_measurements:[^\n]*"), "");
-  project = std::regex_replace(project, std::regex("colmap_model: colmap/photos"), "colmap_model: " + (dir / "colmap").string());
+  project = std::regex_replace(project, std::regex("colmap_model: colmap/photos"),
+                               "colmap_model: " + (dir / "colmap").string() + "\n    register_to_lidar: true");
   ASSERT_EQ(project.find("control_measurements"), std::string::npos);
   std::ofstream(sim / "project_nocontrol.yaml") << project;
   const AdjustOutcome outcome = Run((sim / "project_nocontrol.yaml").string(), (dir / "out").string());
@@ -611,6 +612,12 @@ TEST_F(AdjustTest, PlacesABlockWithoutControlByTheOtherSensorsTiePoints) {
   std::smatch scale;
   ASSERT_TRUE(std::regex_search(georeference, scale, std::regex("scale ([0-9.]+)"))) << georeference;
   EXPECT_NEAR(std::stod(scale[1].str()), 1 / 0.37, 0.05) << georeference;  // the sensors' poses are approximate
+  // register_to_lidar: the placed tie points registered to the LiDAR; whatever its verdict, it
+  // is reported, and an "ok" moved the block (the figures below hold either way).
+  const json& registration = outcome.report["photo_block"]["registration_to_lidar"];
+  ASSERT_TRUE(registration.contains("status")) << registration.dump();
+  EXPECT_EQ(registration["tie_points"].get<size_t>(), 600u) << registration.dump();
+  if (registration["status"] == "ok") EXPECT_NE(georeference.find("registered to the LiDAR"), std::string::npos);
   const json& truth = outcome.report["truth_evaluation"];
   EXPECT_LT(truth["photo_positions"]["max_m"].get<double>(), 0.02);
   EXPECT_LT(truth["photo_positions"]["max_rotation_deg"].get<double>(), 0.3);

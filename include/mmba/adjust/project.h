@@ -47,6 +47,12 @@ struct PhotoCollection {
   /// GNSS antenna in the camera frame (x right, y down, z forward; metres) for the GNSS CSV's
   /// `camera` rows (the antenna position of a photo, id = image name).
   Eigen::Vector3d gnss_lever_arm_m = Eigen::Vector3d::Zero();
+  /// Initialisation: the block's tie points, once placed (control, GNSS positions or the other
+  /// sensors' tie points), registered to the static LiDAR's reference cloud by register-cloud's
+  /// pipeline within the window below; an "ok" moves the block (the joint solve decides the rest).
+  bool register_to_lidar = false;
+  double registration_window_m = 2.0;
+  double registration_window_deg = 10.0;
   LossOptions loss{LossType::kHuber, 3.0};
   RefineIntrinsics refine;
 };
