@@ -217,17 +217,7 @@ std::string RunColmap(const PhotoCollection& p, const std::string& work, const s
   return model.string();
 }
 
-Eigen::Vector3d Triangulate(const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>& rays) {
-  // Least-squares intersection of rays (centre, unit direction): Σ (I − ddᵀ)(X − c) = 0.
-  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d b = Eigen::Vector3d::Zero();
-  for (const auto& [c, d] : rays) {
-    const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - d * d.transpose();
-    a += p;
-    b += p * c;
-  }
-  return a.ldlt().solve(b);
-}
+using internal::Triangulate;
 
 /// Rays of the measurements of each point id, in the scene's current frame.
 std::map<std::string, std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>> MeasurementRays(

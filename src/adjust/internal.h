@@ -235,6 +235,9 @@ std::string FindImage(const std::string& folder, const std::string& stem);
 /// setup pose when the registration is "ok"; the outcome per station is kept for the report.
 void RegisterSphereStations(JointState* s);
 
+/// Least-squares intersection of rays (centre, unit direction) in the world.
+Eigen::Vector3d Triangulate(const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>& rays);
+
 /// Initialisation of a photo block without control (fewer than 3 surveyed targets measured):
 /// its tie points observed by the rig (at the frames' GNSS/INS poses) and the spherical
 /// stations (at their setups) are intersected in the world from those rays alone, and the

@@ -41,14 +41,7 @@ bool Intersect(const std::vector<Ray>& rays, double min_angle_rad, Eigen::Vector
     }
   }
   if (widest < min_angle_rad) return false;
-  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d b = Eigen::Vector3d::Zero();
-  for (const auto& [c, d] : rays) {
-    const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - d * d.transpose();
-    a += p;
-    b += p * c;
-  }
-  *point = a.ldlt().solve(b);
+  *point = Triangulate(rays);
   for (const auto& [c, d] : rays) {
     if ((*point - c).dot(d) <= 0) return false;
   }
@@ -109,6 +102,18 @@ void MoveBlock(JointState* s, const Sim3d& world_from_block, const std::string& 
 }
 
 }  // namespace
+
+Eigen::Vector3d Triangulate(const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>& rays) {
+  // Least-squares intersection of rays (centre, unit direction): Σ (I − ddᵀ)(X − c) = 0.
+  Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  for (const auto& [c, d] : rays) {
+    const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - d * d.transpose();
+    a += p;
+    b += p * c;
+  }
+  return a.ldlt().solve(b);
+}
 
 bool PlacePhotoBlockByTiePoints(JointState* s) {
   if (!s->photos) return false;
