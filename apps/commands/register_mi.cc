@@ -55,6 +55,7 @@ struct RegisterMiArgs {
   double max_sigma_px = 0.5;
   double max_calibrated_sigma_px = 1.0;
   bool halves = true;
+  bool whole_image_checks = true;
   bool point_samples = false;
   int split_level = 0;
   double split_tolerance_px = 1.0;
@@ -161,6 +162,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.max_sigma_px = args.max_sigma_px;
   options.max_calibrated_sigma_px = args.max_calibrated_sigma_px;
   options.split_check = args.halves;
+  options.whole_image_checks = args.whole_image_checks;
   options.point_samples = args.point_samples;
   options.split_level = args.split_level;
   options.split_tolerance_px = args.split_tolerance_px;
@@ -313,7 +315,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"bins", args.bins},                     {"smoothing", args.smoothing},
                      {"region", args.region},                 {"pyramid_levels", args.pyramid_levels},
                      {"bound_m", args.bound_m},               {"bound_deg", args.bound_deg},
-                     {"pyramid_paths", args.pyramid_paths}};
+                     {"pyramid_paths", args.pyramid_paths},   {"whole_image_checks", args.whole_image_checks}};
   if (frames.size() > 1) {
     out["used_frames"] = result.used_frames;
     nlohmann::json rejected = nlohmann::json::array();
@@ -437,6 +439,11 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
                   "Acceptance: re-optimise two independent halves of the data (the views "
                   "alternately, or the left/right halves of one image) alone; each must agree "
                   "with the joint optimum (and they calibrate the covariance)")
+      ->capture_default_str();
+  sub->add_option("--whole-image-checks", args->whole_image_checks,
+                  "Acceptance: a panorama registered on perspective/cube cuts must also pass the "
+                  "calibrated-sigma check over the whole panorama (a roll the cuts barely see; "
+                  "bench/RESULTS.md)")
       ->capture_default_str();
   sub->add_option("--point-samples", args->point_samples,
                   "Evaluate the metric from the visible LiDAR points' projections (visibility "
