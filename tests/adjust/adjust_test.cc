@@ -617,7 +617,9 @@ TEST_F(AdjustTest, PlacesABlockWithoutControlByTheOtherSensorsTiePoints) {
   const json& registration = outcome.report["photo_block"]["registration_to_lidar"];
   ASSERT_TRUE(registration.contains("status")) << registration.dump();
   EXPECT_EQ(registration["tie_points"].get<size_t>(), 600u) << registration.dump();
-  if (registration["status"] == "ok") EXPECT_NE(georeference.find("registered to the LiDAR"), std::string::npos);
+  if (registration["status"] == "ok") {
+    EXPECT_NE(georeference.find("registered to the LiDAR"), std::string::npos) << georeference;
+  }
   const json& truth = outcome.report["truth_evaluation"];
   EXPECT_LT(truth["photo_positions"]["max_m"].get<double>(), 0.02);
   EXPECT_LT(truth["photo_positions"]["max_rotation_deg"].get<double>(), 0.3);
