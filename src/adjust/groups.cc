@@ -472,6 +472,9 @@ struct GnssCameraAxisCost {
     r[0] = (antenna[axis] - T(value)) / T(sigma);
     return true;
   }
+  static ceres::CostFunction* Create(int axis, const Eigen::Vector3d& lever, double value, double sigma) {
+    return new ceres::AutoDiffCostFunction<GnssCameraAxisCost, 1, 4, 3>(new GnssCameraAxisCost(axis, lever, value, sigma));
+  }
   int axis;
   Eigen::Vector3d lever;
   double value, sigma;
@@ -491,9 +494,7 @@ void GnssCameraGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
         continue;
       }
       Rigid3d& pose = scene.Image(c.image_id).cam_from_world;
-      AddBlock(problem,
-               new ceres::AutoDiffCostFunction<GnssCameraAxisCost, 1, 4, 3>(
-                   new GnssCameraAxisCost(axis, c.lever_arm, c.enu(axis), c.sigma(axis))),
+      AddBlock(problem, GnssCameraAxisCost::Create(axis, c.lever_arm, c.enu(axis), c.sigma(axis)),
                {pose.rotation.coeffs().data(), pose.translation.data()}, c.sigma(axis), 3 * i + axis);
     }
   }
