@@ -323,15 +323,10 @@ void LoadPhotos(JointState* s, const std::string& work_dir) {
       used.push_back(id);
     }
     if (from.size() >= 3) {
-      Eigen::Matrix3Xd a(3, from.size()), b(3, to.size());
-      for (size_t i = 0; i < from.size(); ++i) {
-        a.col(i) = from[i];
-        b.col(i) = to[i];
-      }
-      const Eigen::Matrix4d t = Eigen::umeyama(a, b, true);
-      const double scale = t.topLeftCorner<3, 3>().col(0).norm();
-      const Eigen::Matrix3d rotation = t.topLeftCorner<3, 3>() / scale;
-      const Sim3d world_from_block(scale, Eigen::Quaterniond(rotation).normalized(), t.topRightCorner<3, 1>());
+      std::vector<size_t> all(from.size());
+      for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+      const Sim3d world_from_block = internal::SimilarityFrom(from, to, all);
+      const double scale = world_from_block.scale;
       double sum = 0.0;
       for (size_t i = 0; i < from.size(); ++i) sum += (world_from_block * from[i] - to[i]).squaredNorm();
       const double rms = std::sqrt(sum / from.size());

@@ -235,6 +235,10 @@ std::string FindImage(const std::string& folder, const std::string& stem);
 /// setup pose when the registration is "ok"; the outcome per station is kept for the report.
 void RegisterSphereStations(JointState* s);
 
+/// The similarity to_from_from of the pairs `use` (Umeyama 1991, with scale; ≥ 3 pairs not on
+/// one line).
+Sim3d SimilarityFrom(const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to,
+                     const std::vector<size_t>& use);
 /// Least-squares intersection of rays (centre, unit direction) in the world.
 Eigen::Vector3d Triangulate(const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>& rays);
 

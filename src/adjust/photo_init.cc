@@ -48,17 +48,6 @@ bool Intersect(const std::vector<Ray>& rays, double min_angle_rad, Eigen::Vector
   return point->allFinite();
 }
 
-Sim3d SimilarityFrom(const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to,
-                     const std::vector<size_t>& use) {
-  Eigen::Matrix3Xd a(3, use.size()), b(3, use.size());
-  for (size_t k = 0; k < use.size(); ++k) {
-    a.col(k) = from[use[k]];
-    b.col(k) = to[use[k]];
-  }
-  const Eigen::Matrix4d t = Eigen::umeyama(a, b, true);
-  const double scale = t.topLeftCorner<3, 3>().col(0).norm();
-  return Sim3d(scale, Eigen::Quaterniond(Eigen::Matrix3d(t.topLeftCorner<3, 3>() / scale)), t.topRightCorner<3, 1>());
-}
 
 // RANSAC over triples (Fischler & Bolles 1981), each triple's similarity by Umeyama (1991); the
 // largest set of pairs within their tolerance, then the similarity refitted on it.
@@ -102,6 +91,19 @@ void MoveBlock(JointState* s, const Sim3d& world_from_block, const std::string& 
 }
 
 }  // namespace
+
+Sim3d SimilarityFrom(const std::vector<Eigen::Vector3d>& from, const std::vector<Eigen::Vector3d>& to,
+                     const std::vector<size_t>& use) {
+  Eigen::Matrix3Xd a(3, use.size()), b(3, use.size());
+  for (size_t k = 0; k < use.size(); ++k) {
+    a.col(k) = from[use[k]];
+    b.col(k) = to[use[k]];
+  }
+  const Eigen::Matrix4d t = Eigen::umeyama(a, b, true);
+  const double scale = t.topLeftCorner<3, 3>().col(0).norm();
+  return Sim3d(scale, Eigen::Quaterniond(Eigen::Matrix3d(t.topLeftCorner<3, 3>() / scale)).normalized(),
+               t.topRightCorner<3, 1>());
+}
 
 Eigen::Vector3d Triangulate(const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>& rays) {
   // Least-squares intersection of rays (centre, unit direction): Σ (I − ddᵀ)(X − c) = 0.
