@@ -10,7 +10,9 @@ writes into SIM_DIR:
   project_nocontrol.yaml   project.yaml with that model and without control_measurements;
   gnss_cam.csv             gnss.csv plus a `camera` row per photo: its true camera centre
                            (truth/colmap_photos) + N(0, σ) per axis, WGS84;
-  project_gnsscam.yaml     project_nocontrol.yaml reading gnss_cam.csv.
+  project_gnsscam.yaml     project_nocontrol.yaml reading gnss_cam.csv;
+  project_lidaronly.yaml   project_nocontrol.yaml with only the photos, the static LiDAR, the
+                           total station and GNSS: the LiDAR alone places the block.
 Then: mmba adjust SIM_DIR/project_nocontrol.yaml --output OUT (and project_gnsscam.yaml).
 """
 import argparse
@@ -20,6 +22,7 @@ import re
 import shutil
 
 import numpy as np
+import yaml
 
 
 def q2r(q):
@@ -126,7 +129,15 @@ def main():
     gnss = open(os.path.join(sim, 'gnss.csv')).read().rstrip('\n')
     open(os.path.join(sim, 'gnss_cam.csv'), 'w').write(gnss + '\n' + '\n'.join(rows) + '\n')
     open(os.path.join(sim, 'project_gnsscam.yaml'), 'w').write(nocontrol.replace('file: gnss.csv', 'file: gnss_cam.csv'))
-    print(f'{sim}: colmap/photos_sim3, project_nocontrol.yaml, gnss_cam.csv ({len(rows)} camera rows), project_gnsscam.yaml')
+    # Only the photos and the static LiDAR (with the total station and GNSS for the datum and
+    # the check points): nothing that sees the photos' tie points, so the LiDAR alone places them.
+    lidar_only = yaml.safe_load(nocontrol)
+    lidar_only['sensors'] = [x for x in lidar_only['sensors']
+                             if x['type'] in ('photo_collection', 'lidar_static', 'total_station', 'gnss')]
+    with open(os.path.join(sim, 'project_lidaronly.yaml'), 'w') as out:
+        yaml.safe_dump(lidar_only, out, sort_keys=False)
+    print(f'{sim}: colmap/photos_sim3, project_nocontrol.yaml, gnss_cam.csv ({len(rows)} camera rows), project_gnsscam.yaml, '
+          'project_lidaronly.yaml')
 
 
 if __name__ == '__main__':

@@ -614,17 +614,21 @@ void PlacePhotoBlock(JointState* s) {
   const Project& project = *s->project;
   const std::string& id = block.config->id;
   if (internal::PlacePhotoBlockByGnss(s) || internal::PlacePhotoBlockByTiePoints(s)) return;
+  const std::string placed_by_nothing = std::to_string(block.control_targets_intersected) +
+                                        " surveyed targets measured in 2+ photos (3 needed), fewer than 3 photos with GNSS "
+                                        "positions, no tie points intersected by a camera rig or spherical stations";
   if (project.lidar_static.empty()) {
-    throw AdjustFailure("failed", "photo collection '" + id + "' has no overlap with the control: " +
-                                      std::to_string(block.control_targets_intersected) +
-                                      " surveyed targets measured in 2+ photos (3 needed), fewer than 3 photos with GNSS "
-                                      "positions, no tie points intersected by a camera rig or spherical stations, and no "
-                                      "lidar_static sensor");
+    throw AdjustFailure("failed", "photo collection '" + id + "' has no overlap with the control: " + placed_by_nothing +
+                                      ", and no lidar_static sensor");
   }
-  block.georeference += "; LiDAR surface ties";
+  std::string reason;
+  if (!internal::PlacePhotoBlockByLidar(s, &reason)) {
+    throw AdjustFailure("failed", "photo collection '" + id + "' cannot be placed: " + placed_by_nothing +
+                                      ", and registered to the LiDAR " + reason);
+  }
   s->warnings.push_back("photo collection '" + id + "': " + std::to_string(block.control_targets_intersected) +
                         " control targets measured in 2+ photos and no tie points placed by other sensors; the block "
-                        "is taken as roughly georeferenced");
+                        "is placed on the LiDAR alone (" + block.georeference + ")");
 }
 
 void LoadLidar(JointState* s) {

@@ -252,6 +252,13 @@ bool PlacePhotoBlockByTiePoints(JointState* s);
 /// The same from the photos' GNSS antenna positions (≥ 3 photos, camera centres → GNSS,
 /// the lever arm left to the adjustment). False (block unchanged) when too few or inconsistent.
 bool PlacePhotoBlockByGnss(JointState* s);
+/// A block placed by nothing else, with a static LiDAR: kept as given when half its tie points
+/// already lie on the LiDAR; else its tie points are registered to the LiDAR's reference cloud
+/// by register-cloud's pipeline at trial scales 10 % apart (PhotoCollection::lidar_scale_min
+/// … max, or from the clouds' extents), each "ok" refined as a similarity (point-to-plane ICP
+/// with scale), and the best placement moves the block unless another trial fits almost as
+/// well elsewhere. False with `reason` (the block unchanged) when none does.
+bool PlacePhotoBlockByLidar(JointState* s, std::string* reason);
 /// register_to_lidar: the placed block's tie points registered to the static LiDAR's reference
 /// cloud (register-cloud's pipeline, levelled, inside the registration window, the photos'
 /// centres as viewpoints); an "ok" moves the block rigidly. The outcome goes to

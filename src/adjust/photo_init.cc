@@ -218,9 +218,168 @@ bool PlacePhotoBlockByGnss(JointState* s) {
   return true;
 }
 
+namespace {
+
+// Diagonal of the box between the 5th and 95th percentiles per axis: the extent of a cloud
+// without its stray points.
+double RobustExtent(const std::vector<Eigen::Vector3d>& points) {
+  Eigen::Vector3d span;
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> v;
+    v.reserve(points.size());
+    for (const Eigen::Vector3d& x : points) v.push_back(x(axis));
+    const size_t lo = v.size() / 20, hi = v.size() - 1 - v.size() / 20;
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(lo), v.end());
+    const double a = v[lo];
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(hi), v.end());
+    span(axis) = v[hi] - a;
+  }
+  return span.norm();
+}
+
+Sim3d SimFromMatrix(const Eigen::Matrix4d& m) {
+  const double scale = m.topLeftCorner<3, 3>().col(0).norm();
+  return Sim3d(scale, Eigen::Quaterniond(Eigen::Matrix3d(m.topLeftCorner<3, 3>() / scale)).normalized(),
+               m.topRightCorner<3, 1>());
+}
+
+}  // namespace
+
+bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
+  PhotoBlock& block = *s->photos;
+  const PhotoCollection& p = *block.config;
+  const LidarStatic& lidar = s->project->lidar_static.front();
+  io::PointCloud source, target;
+  std::vector<Eigen::Vector3d> centres;
+  for (const auto& [point_id, point] : block.model.points3D) {
+    if (s->scene.HasPoint(point_id)) source.points.push_back(s->scene.Point(point_id));
+  }
+  for (const auto& [image_id, image] : block.model.images) centres.push_back(CameraCentre(s->scene.Image(image_id).cam_from_world));
+  nlohmann::json& entry = block.registration;
+  entry = {{"method", "scale search"}, {"tie_points", source.size()}};
+  if (source.size() < 100) {
+    *reason = std::to_string(source.size()) + " tie points, 100 needed to register the block to the LiDAR";
+    entry["status"] = "failed: " + *reason;
+    return false;
+  }
+  io::StreamPointCloud(lidar.reference_cloud, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t, size_t) {
+    target.points.insert(target.points.end(), chunk.points.begin(), chunk.points.end());
+  });
+  ThinEvenly(&target.points, 2000000);
+  entry["lidar_points"] = target.size();
+  const double lidar_spacing = registration::EstimatePointSpacing(target);
+  // The agreement of a placed block with the LiDAR: the fraction of its tie points within τ of
+  // the surface — 3 LiDAR spacings, but at least 0.5 % of the LiDAR's extent, as an unadjusted
+  // block's points are a few decimetres off on a site of tens of metres.
+  const double tau = std::max(3.0 * lidar_spacing, 0.005 * RobustExtent(target.points));
+  // Already in place (a model georeferenced before it came here): kept as given.
+  const registration::SimilarityFit given =
+      registration::RefineSimilarity(source, target, Eigen::Matrix4d::Identity(), tau, tau, 0);
+  entry["fitness_as_given"] = given.fitness;
+  if (given.fitness >= 0.5) {
+    entry["status"] = "as given";
+    block.georeference += "; " + std::to_string(static_cast<int>(100 * given.fitness)) + " % of its tie points lie on the LiDAR";
+    Note(s, "photo block '" + p.id + "': in place on the LiDAR as given (" + block.georeference + ")");
+    return true;
+  }
+  // Trial scales (Kim & Hilton's pipeline is rigid; a rigid registration tolerates about ±5 %
+  // of scale, so steps of 10 %), each a rigid registration of the scaled, centred block.
+  const double ratio = RobustExtent(target.points) / std::max(1e-12, RobustExtent(source.points));
+  const double lo = p.lidar_scale_min > 0 ? p.lidar_scale_min : ratio / 8.0;
+  const double hi = p.lidar_scale_max > 0 ? p.lidar_scale_max : 1.5 * ratio;
+  std::vector<double> scales;
+  for (double x = lo; x <= hi * 1.0001; x *= 1.1) scales.push_back(x);
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& x : source.points) centroid += x;
+  centroid /= static_cast<double>(source.size());
+  spdlog::info("adjust: initialisation: photo block {} has no scale: its {} tie points registered to the LiDAR ({} points) "
+               "at {} trial scales {:.4g} … {:.4g}", p.id, source.size(), target.size(), scales.size(), lo, hi);
+  struct Candidate {
+    double trial_scale;
+    registration::SimilarityFit fit;
+  };
+  std::vector<Candidate> candidates;
+  nlohmann::json trials = nlohmann::json::array();
+  const double extent = RobustExtent(source.points);
+  for (size_t k = 0; k < scales.size(); ++k) {
+    const double scale = scales[k];
+    io::PointCloud scaled;
+    std::vector<Eigen::Vector3d> viewpoints;
+    for (const Eigen::Vector3d& x : source.points) scaled.points.push_back(scale * (x - centroid));
+    for (const Eigen::Vector3d& c : centres) viewpoints.push_back(scale * (c - centroid));
+    registration::CloudRegistrationOptions options;
+    options.source_viewpoints = viewpoints;
+    const registration::CloudRegistrationResult r = registration::RegisterClouds(scaled, target, options);
+    nlohmann::json trial = {{"scale", scale}, {"status", r.ok() ? "ok" : "failed: " + r.reason}, {"fitness", r.fitness}};
+    if (r.ok()) {
+      // The similarity block → world of this trial, refined with the scale free.
+      Eigen::Matrix4d start = Eigen::Matrix4d::Identity();
+      start.topLeftCorner<3, 3>() = scale * r.target_from_source.topLeftCorner<3, 3>();
+      start.topRightCorner<3, 1>() = r.target_from_source.topRightCorner<3, 1>() - start.topLeftCorner<3, 3>() * centroid;
+      // A rigid pose at a scale 5 % off leaves the block's ends 5 % of its half extent off.
+      const double reach = std::max(10.0 * tau, 0.05 * scale * extent);
+      Candidate c{scale, registration::RefineSimilarity(source, target, start, reach, tau)};
+      trial["refined_scale"] = c.fit.scale;
+      trial["refined_fitness"] = c.fit.fitness;
+      candidates.push_back(c);
+    }
+    trials.push_back(trial);
+    spdlog::info("adjust: scale {} of {} ({:.4g}): {}", k + 1, scales.size(), scale, r.ok() ? "ok, fitness " + std::to_string(r.fitness) : "failed");
+  }
+  entry["trials"] = trials;
+  entry["scale_range"] = {lo, hi};
+  if (candidates.empty()) {
+    std::ostringstream m;
+    m << "its tie points register to the LiDAR at none of " << scales.size() << " trial scales " << lo << " … " << hi
+      << " (set lidar_scale_range if the scale lies outside, or add control, GNSS positions of the photos or a sensor that sees its tie points)";
+    *reason = m.str();
+    entry["status"] = "failed: " + *reason;
+    return false;
+  }
+  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) { return a.fit.fitness > b.fit.fitness; });
+  const Candidate& best = candidates.front();
+  // Another trial that ends elsewhere (a pseudo-symmetric site, a repeated bay) and fits almost
+  // as well: the placement is ambiguous.
+  for (size_t k = 1; k < candidates.size(); ++k) {
+    double sum = 0.0;
+    for (const Eigen::Vector3d& x : source.points) {
+      const Eigen::Vector4d h = x.homogeneous();
+      sum += ((best.fit.target_from_source - candidates[k].fit.target_from_source) * h).head<3>().squaredNorm();
+    }
+    const double apart = std::sqrt(sum / static_cast<double>(source.size()));
+    if (apart > 5.0 * tau && candidates[k].fit.fitness > 0.9 * best.fit.fitness) {
+      std::ostringstream m;
+      m << "ambiguous: the trial scales " << best.trial_scale << " and " << candidates[k].trial_scale << " place its tie points "
+        << apart << " m RMS apart with fitness " << best.fit.fitness << " and " << candidates[k].fit.fitness;
+      *reason = m.str();
+      entry["status"] = "failed: " + *reason;
+      return false;
+    }
+  }
+  if (best.fit.fitness < 0.3) {
+    std::ostringstream m;
+    m << "its best placement puts only " << 100 * best.fit.fitness << " % of its tie points within " << tau << " m of the LiDAR (30 % needed)";
+    *reason = m.str();
+    entry["status"] = "failed: " + *reason;
+    return false;
+  }
+  const Sim3d world_from_block = SimFromMatrix(best.fit.target_from_source);
+  entry["status"] = "ok";
+  entry["scale"] = world_from_block.scale;
+  entry["fitness"] = best.fit.fitness;
+  entry["inlier_rmse_m"] = best.fit.inlier_rmse;
+  std::ostringstream g;
+  g << "similarity from registering its " << source.size() << " tie points to the LiDAR over trial scales (" << candidates.size()
+    << " of " << scales.size() << " registered): scale " << world_from_block.scale << ", " << 100 * best.fit.fitness
+    << " % within " << tau << " m, RMS " << best.fit.inlier_rmse << " m";
+  MoveBlock(s, world_from_block, g.str());
+  return true;
+}
+
 void RegisterPhotoBlockToLidar(JointState* s) {
   if (!s->photos || !s->photos->config->register_to_lidar || s->project->lidar_static.empty()) return;
   PhotoBlock& block = *s->photos;
+  if (block.registration.value("status", "") == "ok") return;  // placed on the LiDAR already (scale search)
   const PhotoCollection& p = *block.config;
   const LidarStatic& lidar = s->project->lidar_static.front();
   io::PointCloud source;

@@ -127,6 +127,14 @@ class ProjectReader {
                     {"register_to_lidar", [&](Node v, Field g) { p.register_to_lidar = r_.Bool(v, g); }},
                     {"registration_window_m", [&](Node v, Field g) { p.registration_window_m = r_.Positive(v, g, 100.0, "m (metres)"); }},
                     {"registration_window_deg", [&](Node v, Field g) { p.registration_window_deg = r_.Positive(v, g, 180.0, "degrees"); }},
+                    {"lidar_scale_range", [&](Node v, Field g) {
+                       const std::vector<double> range = r_.NumberList(v, g);
+                       if (range.size() != 2 || !(range[0] > 0) || !(range[1] > range[0]) || !(range[1] <= 1e6)) {
+                         r_.Fail(v, g, "[min, max] with 0 < min < max <= 1e6 (world metres per block unit)", io::YamlReader::Text(v));
+                       }
+                       p.lidar_scale_min = range[0];
+                       p.lidar_scale_max = range[1];
+                     }},
                     {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
                     {"refine", [&](Node v, Field g) { p.refine = Refine(v, g, true); }}});
       r_.Require(n, f, {"images"});

@@ -53,6 +53,11 @@ struct PhotoCollection {
   bool register_to_lidar = false;
   double registration_window_m = 2.0;
   double registration_window_deg = 10.0;
+  /// A block placed by nothing else (no control, GNSS positions or other sensors' tie points)
+  /// but with a static LiDAR: its tie points are registered to the LiDAR over trial scales in
+  /// this range (world metres per block unit); {0, 0} = from the ratio of the two clouds'
+  /// extents (1/8 to 1.5 times it).
+  double lidar_scale_min = 0.0, lidar_scale_max = 0.0;
   LossOptions loss{LossType::kHuber, 3.0};
   RefineIntrinsics refine;
 };

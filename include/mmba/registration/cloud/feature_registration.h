@@ -275,6 +275,27 @@ double FreeSpaceViolation(const io::PointCloud& source, const io::PointCloud& ta
                           const std::vector<Eigen::Vector3d>& target_viewpoints,
                           const Eigen::Matrix4d& target_from_source, double margin);
 
+/// Result of RefineSimilarity.
+struct SimilarityFit {
+  Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();  ///< [sR | t]
+  double scale = 1.0;        ///< s
+  double fitness = 0.0;      ///< fraction of the source within `end_distance` of the target
+  double inlier_rmse = 0.0;  ///< metres, over those
+  int iterations = 0;
+};
+
+/// Similarity (7 DoF: rotation, translation and scale) of `source` onto `target` refined by
+/// point-to-plane ICP (Chen & Medioni 1991, linearised as Low 2004 Eq. 6–8, with the log of
+/// the scale as a seventh parameter, taken about the moved source's centroid) from `start`
+/// ([sR | t]); correspondences within `start_distance` shrinking to `end_distance` (metres).
+/// For a cloud in a scale of its own (a photogrammetric block without control) once a rigid
+/// registration at a trial scale has put it near its place. The target is cropped to the
+/// moved source's box grown by `start_distance` and thinned to `max_target_points`.
+SimilarityFit RefineSimilarity(const io::PointCloud& source, const io::PointCloud& target,
+                               const Eigen::Matrix4d& start, double start_distance,
+                               double end_distance, int iterations = 60,
+                               size_t max_target_points = 300000);
+
 /// Median nearest-neighbour distance over up to `max_samples` points (metres); 0 when the
 /// cloud has fewer than 2 points.
 double EstimatePointSpacing(const io::PointCloud& cloud, size_t max_samples = 20000);
