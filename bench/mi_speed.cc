@@ -107,10 +107,13 @@ int main(int argc, char** argv) {
                 c.sigma_px_calibrated, c.restart_spread_px, c.restart_rms_px, c.split_spread_px, c.mi_bits - c.mi_shuffled_bits, c.mi_significance,
                 c.effective_samples, c.sample_inflation, ratio[0], ratio[1], ratio[2], ratio[3],
                 ratio[4], ratio[5], PeakRssMiB(), result.reason.c_str());
+    double cpu = 0;
     for (const StageStat& stage : result.stages) {
-      std::printf("    %-28s %4d evals %7.3f s\n", stage.name.c_str(), stage.evaluations,
-                  stage.seconds);
+      std::printf("    %-28s %4d evals %7.3f s (cpu %7.3f s)\n", stage.name.c_str(),
+                  stage.evaluations, stage.seconds, stage.cpu_seconds);
+      cpu += stage.cpu_seconds;
     }
+    std::printf("    registration cpu %.2f s\n", cpu);
     // The result bit for bit: equal digests = a reproduced registration.
     std::printf("    digest %016llx  metric %a  iterations %d  evaluations %d\n",
                 static_cast<unsigned long long>(result.Digest()), result.metric_after.value,

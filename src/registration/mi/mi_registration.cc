@@ -1,9 +1,12 @@
 #include "mmba/registration/mi/mi_registration.h"
 
+#include <time.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <thread>
@@ -170,9 +173,17 @@ LidarImage& ThreadBuffer() {
 
 namespace {
 
-// True on the threads of a running ParallelFor (the caller's included): an evaluation made
-// there does not split itself over threads again.
-thread_local bool t_in_parallel_loop = false;
+// On the threads of a running ParallelFor (the caller's included): the number of its
+// workers still taking items, and how many it started; nullptr outside a loop. An evaluation
+// made there splits itself over two threads only when a worker of the loop has run out of
+// items (its core is free): e.g. the third of three restarts on two threads, or the longer
+// of the two halves. The split does not change the result (fixed partial sums).
+thread_local std::atomic<int>* t_loop_busy = nullptr;
+thread_local int t_loop_threads = 0;
+
+bool CoreFreeForSplit() {
+  return t_loop_busy == nullptr || t_loop_busy->load() < t_loop_threads;
+}
 
 // body(0) .. body(count − 1) on up to `threads` threads (the caller's included).
 void ParallelFor(int count, int threads, const std::function<void(int)>& body) {
@@ -182,16 +193,67 @@ void ParallelFor(int count, int threads, const std::function<void(int)>& body) {
     return;
   }
   std::atomic<int> next{0};
+  std::atomic<int> busy{threads};
   auto worker = [&] {
-    const bool outer = t_in_parallel_loop;
-    t_in_parallel_loop = true;
+    std::atomic<int>* const outer_busy = t_loop_busy;
+    const int outer_threads = t_loop_threads;
+    t_loop_busy = &busy;
+    t_loop_threads = threads;
     for (int i = next++; i < count; i = next++) body(i);
-    t_in_parallel_loop = outer;
+    --busy;  // no more items for this worker
+    t_loop_busy = outer_busy;
+    t_loop_threads = outer_threads;
   };
   std::vector<std::thread> pool;
   for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
   worker();
   for (std::thread& thread : pool) thread.join();
+}
+
+}  // namespace
+
+namespace {
+
+// The positions 0 .. chosen.size() − 1 of the points all[chosen[k]] in the order of the pixel
+// each falls on at `cam_from_lidar` (the first view it projects into; view, row, column), the
+// points that fall on no view last; ties in the chosen order (a stable sort: deterministic).
+std::vector<uint32_t> RenderOrder(const LidarPoints& all, const std::vector<size_t>& chosen,
+                                  const std::vector<View>& views, const Rigid3d& cam_from_lidar,
+                                  const RenderOptions& render) {
+  constexpr uint64_t kNowhere = std::numeric_limits<uint64_t>::max();
+  std::vector<uint64_t> key(chosen.size(), kNowhere);
+  const double min_range2 = render.min_range_m * render.min_range_m;
+  const double max_range2 = render.max_range_m * render.max_range_m;
+  for (size_t v = 0; v < views.size(); ++v) {
+    const View& view = views[v];
+    const Eigen::Matrix3f rotation =
+        (view.view_from_cam * cam_from_lidar.rotation.toRotationMatrix()).cast<float>();
+    const Eigen::Vector3f translation =
+        (view.view_from_cam * cam_from_lidar.translation).cast<float>();
+    const bool spherical = view.camera.IsSpherical();
+    const double period = 2.0 * M_PI * view.camera.params[0];
+    for (size_t k = 0; k < chosen.size(); ++k) {
+      if (key[k] != kNowhere) continue;
+      const Eigen::Vector3f p = rotation * all.points_in_lidar[chosen[k]] + translation;
+      if (!spherical && !(p.z() > 0.f)) continue;
+      const double range2 = p.squaredNorm();
+      if (range2 < min_range2 || range2 > max_range2) continue;
+      const std::optional<Eigen::Vector2d> xy = view.camera.ImgFromCam(p.cast<double>());
+      if (!xy) continue;
+      double x = (*xy)[0];
+      if (spherical) x -= period * std::floor(x / period);
+      if (!(x >= 0 && (*xy)[1] >= 0 && x < view.camera.width && (*xy)[1] < view.camera.height)) {
+        continue;
+      }
+      key[k] = (static_cast<uint64_t>(v) << 48) | (static_cast<uint64_t>((*xy)[1]) << 24) |
+               static_cast<uint64_t>(x);
+    }
+  }
+  std::vector<uint32_t> order(chosen.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::stable_sort(order.begin(), order.end(),
+                   [&key](uint32_t a, uint32_t b) { return key[a] < key[b]; });
+  return order;
 }
 
 }  // namespace
@@ -203,6 +265,7 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
   const int levels = options.pyramid_levels;
   pyramid_.resize(levels);
   points_.resize(levels);
+  subset_order_.resize(levels);
   for (const Frame& frame : frames_) pyramid_[0].push_back(frame.views);
   for (int level = 1; level < levels; ++level) {
     for (const std::vector<View>& views : pyramid_[level - 1]) {
@@ -256,13 +319,26 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
       // basin of convergence wide (measured: 0.75 at every level lost a 0.3 m / 2° start).
       const double cap = options.max_points_per_pixel * std::pow(2.0, level) * pixels;
       const double stride = std::max(1.0, kept.size() / cap);
+      std::vector<size_t> chosen;
+      for (double k = 0; k < kept.size(); k += stride) chosen.push_back(kept[static_cast<size_t>(k)]);
+      // Render order: the points sorted by the pixel they fall on at the start pose (view,
+      // row, column), so that a render writes the z-buffer almost sequentially instead of
+      // scattering over the whole image in the cloud's order (measured: the z-buffer's cache
+      // misses were the largest single cost of an evaluation). The winner of a pixel is the
+      // nearest point whatever the order. subset_order_ keeps each point's position in the
+      // even subsample, so that what depends on a point order (SampleVisiblePoints) is as
+      // before.
+      const std::vector<uint32_t> order = RenderOrder(all, chosen, pyramid_[level][f],
+                                                      cam_from_lidar_start, options.render);
       LidarPoints subset;
-      for (double k = 0; k < kept.size(); k += stride) {
-        const size_t i = kept[static_cast<size_t>(k)];
-        subset.points_in_lidar.push_back(all.points_in_lidar[i]);
-        if (all.has_intensity()) subset.intensity01.push_back(all.intensity01[i]);
+      subset.points_in_lidar.reserve(chosen.size());
+      if (all.has_intensity()) subset.intensity01.reserve(chosen.size());
+      for (uint32_t k : order) {
+        subset.points_in_lidar.push_back(all.points_in_lidar[chosen[k]]);
+        if (all.has_intensity()) subset.intensity01.push_back(all.intensity01[chosen[k]]);
       }
       points_[level].push_back(std::move(subset));
+      subset_order_[level].push_back(order);
     }
   }
 }
@@ -352,7 +428,7 @@ MetricValue FrameSetEvaluator::Evaluate(const Rigid3d& cam_from_lidar, int level
     }
   };
   // Splitting pays only above a few ten thousand samples (a thread costs tens of µs).
-  if (options_.threads >= 2 && !t_in_parallel_loop && set->samples >= 20000) {
+  if (options_.threads >= 2 && CoreFreeForSplit() && set->samples >= 20000) {
     std::thread other(fill, 1);
     fill(0);
     other.join();
@@ -498,13 +574,16 @@ std::vector<FrameSetEvaluator::VisiblePoint> FrameSetEvaluator::SampleVisiblePoi
     for (size_t v = 0; v < pyramid_[0][f].size(); ++v) {
       RenderLidarImage(points_[0][f], pyramid_[0][f][v], cam_from_lidar, options_.render,
                        &buffer);
-      std::vector<int> winners;
+      // The winners in the order of the even subsample (not the render order), as the
+      // points were before they were sorted for rendering.
+      const std::vector<uint32_t>& order = subset_order_[0][f];
+      std::vector<std::pair<uint32_t, int>> winners;  // (position in the subsample, index)
       for (int index : buffer.point_index) {
-        if (index >= 0) winners.push_back(index);
+        if (index >= 0) winners.emplace_back(order[index], index);
       }
       std::sort(winners.begin(), winners.end());
       winners.erase(std::unique(winners.begin(), winners.end()), winners.end());
-      for (int index : winners) {
+      for (const auto& [position, index] : winners) {
         all.push_back({static_cast<int>(f), static_cast<int>(v),
                        points_[0][f].points_in_lidar[index].cast<double>()});
       }
@@ -754,25 +833,38 @@ SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
                     const RegistrationOptions& options, class StageClock* clock,
                     const std::string& stage_prefix, const Vector6d* visibility_at = nullptr);
 
+// CPU time of the process, all threads (the comparable figure on a shared machine).
+double ProcessCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return t.tv_sec + 1e-9 * t.tv_nsec;
+}
+
 // Records the time and evaluations of consecutive stages into a result.
 class StageClock {
  public:
-  explicit StageClock(RegistrationResult* result) : result_(result) {}
+  explicit StageClock(RegistrationResult* result)
+      : result_(result), cpu_start_(ProcessCpuSeconds()) {}
   /// Closes a stage that made `evaluations` metric evaluations (added to the result).
   void Mark(const std::string& name, int evaluations) {
     StageStat stat;
     stat.name = name;
     stat.seconds = timer_.ElapsedSeconds();
+    const double cpu = ProcessCpuSeconds();
+    stat.cpu_seconds = cpu - cpu_start_;
     stat.evaluations = evaluations;
     result_->evaluations += evaluations;
     result_->stages.push_back(stat);
-    spdlog::debug("MI stage {}: {} evaluations, {:.3f} s", name, stat.evaluations, stat.seconds);
+    spdlog::debug("MI stage {}: {} evaluations, {:.3f} s (cpu {:.3f} s)", name, stat.evaluations,
+                  stat.seconds, stat.cpu_seconds);
     timer_.Restart();
+    cpu_start_ = cpu;
   }
 
  private:
   RegistrationResult* result_;
   Timer timer_;
+  double cpu_start_;
 };
 
 SearchResult Search(const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x0,
@@ -1642,8 +1734,8 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     std::array<int, 2> half_evaluations{};
     std::array<size_t, 2> own_points{};
     std::array<Vector6d, 2> half_x;
-    // One half per thread; each half's own evaluations run on one thread then.
-    half_options.threads = std::max(1, options.threads / 2);
+    // One half per thread; a half's evaluations split over two threads once the other half
+    // is done (CoreFreeForSplit).
     ParallelFor(2, options.threads, [&](int h) {
       const FrameSetEvaluator half(halves[h], cam_from_lidar_start, half_options);
       const SearchResult r = Search(half, cam_from_lidar_start, x, split_level, split_level,

@@ -58,6 +58,7 @@ void AccumulateWithModel(const ViewSamples& samples, const View& view, const Vie
   const float log_min = static_cast<float>(std::log(options.min_range_m));
   const float inv_log_span =
       static_cast<float>(1.0 / (std::log(options.max_range_m) - std::log(options.min_range_m)));
+  double count = 0;
   for (size_t j = point_begin; j < point_end; ++j) {
     const Eigen::Vector3f p = t.rotation * samples.points_in_lidar[j] + t.translation;
     double xy[2];
@@ -80,9 +81,12 @@ void AccumulateWithModel(const ViewSamples& samples, const View& view, const Vie
       if (!(sx >= 0.f && sy >= 0.f && sx < width && sy < height)) continue;
       // The rendered path's photo sampler (clamped bilinear), so both fill the same histogram.
       const float photo255 = SampleClamped(view.image, sx, sy);
-      histogram->AddCovered(bx, wx, photo255, samples.sample_weight[s]);
+      const float weight = samples.sample_weight[s];
+      histogram->AddCoveredBins(bx, wx, photo255, weight);
+      count += weight;  // integer weights: exact, the same total as per sample
     }
   }
+  histogram->AddCoveredCount(count);
 }
 
 }  // namespace

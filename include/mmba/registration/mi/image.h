@@ -28,8 +28,9 @@ struct GrayImage {
 
 /// Bilinear value at continuous pixel coordinates (x, y), clamped to the image: the same as
 /// GrayImage::Sample inside, the nearest edge value outside (a point's sub-pixel offset can
-/// reach half a pixel past the border). The photo sampler of the B-spline histogram.
-inline float SampleClamped(const GrayImage& photo, float x, float y) {
+/// reach half a pixel past the border). The photo sampler of the B-spline histogram (always
+/// inlined: it is the inner loop of every evaluation).
+[[gnu::always_inline]] inline float SampleClamped(const GrayImage& photo, float x, float y) {
   const float u = std::clamp(x - 0.5f, 0.f, static_cast<float>(photo.width - 1));
   const float v = std::clamp(y - 0.5f, 0.f, static_cast<float>(photo.height - 1));
   const int c0 = std::min(static_cast<int>(u), std::max(0, photo.width - 2));

@@ -75,20 +75,27 @@ class JointHistogram {
   /// overlap region only: one LiDAR-covered sample whose LiDAR bin weights were computed
   /// once for its point (bx = LiDAR bin, wx its four weights: LidarWeights) and whose photo
   /// value is `photo255` (0..255). Same sums as Add/AddPairs of the same values.
-  void LidarWeights(float lidar01, int* bx, float wx[4]) const {
+  [[gnu::always_inline]] void LidarWeights(float lidar01, int* bx, float wx[4]) const {
     const float pos = lidar01 * static_cast<float>(bins_ - 1);
     *bx = pos <= 0.f ? 0 : (pos >= bins_ - 1 ? bins_ - 1 : static_cast<int>(pos));
     CubicBSplineWeights(pos - *bx, wx);
   }
   /// `weight`: the number of samples this one stands for (1, or a point's footprint pixels).
-  void AddCovered(int bx, const float wx[4], float photo255, float weight = 1.f) {
+  [[gnu::always_inline]] void AddCovered(int bx, const float wx[4], float photo255,
+                                         float weight = 1.f) {
+    AddCoveredBins(bx, wx, photo255, weight);
+    AddCoveredCount(weight);
+  }
+  /// AddCovered in two parts for the inner loop: the 4×4 bins of one sample, and the sample
+  /// count (any number of samples' weights at once: integer weights sum exactly, so the
+  /// counts are the same as per sample, without a dependency through memory per sample).
+  [[gnu::always_inline]] void AddCoveredBins(int bx, const float wx[4], float photo255,
+                                             float weight) {
     const float pos = photo255 * photo_scale_;
     const int by = pos <= 0.f ? 0 : (pos >= bins_ - 1 ? bins_ - 1 : static_cast<int>(pos));
     float wy[4];
     CubicBSplineWeights(pos - by, wy);
     for (float& w : wy) w *= weight;
-    total_ += weight;
-    lidar_total_ += weight;
     double* base = &counts_[static_cast<size_t>(bx) * (bins_ + 3) + by];
     for (int i = 0; i < 4; ++i) {
       double* row = base + static_cast<size_t>(i) * (bins_ + 3);
@@ -98,9 +105,13 @@ class JointHistogram {
       row[3] += wx[i] * wy[3];
     }
   }
+  void AddCoveredCount(double weight) {
+    total_ += weight;
+    lidar_total_ += weight;
+  }
   /// Cubic B-spline weights of the four bins base−1 .. base+2 for a fractional position t
   /// (Mattes et al. 2003, Eq. (4); Thévenaz & Unser 2000).
-  static void CubicBSplineWeights(float t, float w[4]) {
+  [[gnu::always_inline]] static void CubicBSplineWeights(float t, float w[4]) {
     const float t2 = t * t, t3 = t2 * t;
     const float u = 1.f - t;
     w[0] = u * u * u * (1.f / 6.f);
@@ -110,6 +121,8 @@ class JointHistogram {
   }
 
  private:
+  /// One sample's bins (continuous bin positions); the caller adds it to total_ and
+  /// lidar_total_ (once for many samples: Add, AddPairs).
   void AddSample(float lidar_pos, float photo_pos, bool lidar_empty);
   MetricOptions options_;
   int bins_;

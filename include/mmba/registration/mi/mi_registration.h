@@ -178,7 +178,8 @@ struct ProbeSample {
 struct StageStat {
   std::string name;
   int evaluations = 0;
-  double seconds = 0;
+  double seconds = 0;      ///< wall time
+  double cpu_seconds = 0;  ///< CPU time of the process (all its threads) during the stage
 };
 
 /// The acceptance tests of one registration, all measured (also when an earlier one failed).
@@ -310,7 +311,7 @@ class FrameSetEvaluator {
   double SampleSetDisplacementPx(const SampleSet& set, const Rigid3d& cam_from_lidar) const;
   /// The metric from the samples of `set` when `set` is not null, of this level and
   /// UsesSamples(metric); rendered otherwise. With samples, the work is split over two
-  /// threads unless called from a thread of a parallel loop.
+  /// threads unless called from a parallel loop whose other workers are all still busy.
   MetricValue Evaluate(const Rigid3d& cam_from_lidar, int level, const MetricOptions& metric,
                        const SampleSet* set) const;
   /// MI (bits) of the pixel-centre samples at a pose, and of `shuffles` random permutations
@@ -355,6 +356,9 @@ class FrameSetEvaluator {
   RegistrationOptions options_;
   std::vector<std::vector<std::vector<View>>> pyramid_;  ///< level → frame → views
   std::vector<std::vector<LidarPoints>> points_;           ///< level → frame → culled points
+  /// level → frame → for each point of points_ (in render order) its position in the even
+  /// subsample of the cloud (the order before sorting for the render).
+  std::vector<std::vector<std::vector<uint32_t>>> subset_order_;
   mutable std::atomic<int64_t> render_ns_{0};
   mutable std::atomic<int64_t> histogram_ns_{0};
   mutable std::atomic<int64_t> sample_ns_{0};
