@@ -282,13 +282,14 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
     Note(s, "photo block '" + p.id + "': in place on the LiDAR as given (" + block.georeference + ")");
     return true;
   }
-  // Trial scales (Kim & Hilton's pipeline is rigid; a rigid registration tolerates about ±5 %
-  // of scale, so steps of 10 %), each a rigid registration of the scaled, centred block.
+  // Trial scales (Kim & Hilton's pipeline is rigid; a rigid registration of tie points was
+  // measured to hold to about ±3–5 % of scale, so steps of 7 %), each a rigid registration of
+  // the scaled, centred block.
   const double ratio = RobustExtent(target.points) / std::max(1e-12, RobustExtent(source.points));
   const double lo = p.lidar_scale_min > 0 ? p.lidar_scale_min : ratio / 8.0;
   const double hi = p.lidar_scale_max > 0 ? p.lidar_scale_max : 1.5 * ratio;
   std::vector<double> scales;
-  for (double x = lo; x <= hi * 1.0001; x *= 1.1) scales.push_back(x);
+  for (double x = lo; x <= hi * 1.0001; x *= 1.07) scales.push_back(x);
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
   for (const Eigen::Vector3d& x : source.points) centroid += x;
   centroid /= static_cast<double>(source.size());
@@ -301,6 +302,14 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
   std::vector<Candidate> candidates;
   nlohmann::json trials = nlohmann::json::array();
   const double extent = RobustExtent(source.points);
+  // The scanner positions, where the scans' registrations are given: the free-space test then
+  // refuses poses that put tie points where the LiDAR saw through.
+  std::vector<Eigen::Vector3d> scanners;
+  for (const LidarScanFile& scan : lidar.scans) {
+    if (scan.has_pose) scanners.push_back(scan.world_from_scan.translation);
+  }
+  std::string closest;  // the reason of the failed trial that fitted best
+  double closest_fitness = -1.0;
   for (size_t k = 0; k < scales.size(); ++k) {
     const double scale = scales[k];
     io::PointCloud scaled;
@@ -309,6 +318,7 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
     for (const Eigen::Vector3d& c : centres) viewpoints.push_back(scale * (c - centroid));
     registration::CloudRegistrationOptions options;
     options.source_viewpoints = viewpoints;
+    options.target_viewpoints = scanners;
     const registration::CloudRegistrationResult r = registration::RegisterClouds(scaled, target, options);
     nlohmann::json trial = {{"scale", scale}, {"status", r.ok() ? "ok" : "failed: " + r.reason}, {"fitness", r.fitness}};
     if (r.ok()) {
@@ -322,15 +332,22 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
       trial["refined_scale"] = c.fit.scale;
       trial["refined_fitness"] = c.fit.fitness;
       candidates.push_back(c);
+    } else if (r.fitness > closest_fitness) {
+      closest_fitness = r.fitness;
+      std::ostringstream m;
+      m << "; the best-fitting trial, scale " << scale << ", " << r.reason;
+      closest = m.str();
     }
     trials.push_back(trial);
-    spdlog::info("adjust: scale {} of {} ({:.4g}): {}", k + 1, scales.size(), scale, r.ok() ? "ok, fitness " + std::to_string(r.fitness) : "failed");
+    spdlog::info("adjust: scale {} of {} ({:.4g}): {}", k + 1, scales.size(), scale,
+                 r.ok() ? "ok, fitness " + std::to_string(r.fitness) : "failed: " + r.reason.substr(0, 160));
   }
   entry["trials"] = trials;
   entry["scale_range"] = {lo, hi};
   if (candidates.empty()) {
     std::ostringstream m;
     m << "its tie points register to the LiDAR at none of " << scales.size() << " trial scales " << lo << " … " << hi
+      << closest
       << " (set lidar_scale_range if the scale lies outside, or add control, GNSS positions of the photos or a sensor that sees its tie points)";
     *reason = m.str();
     entry["status"] = "failed: " + *reason;
@@ -379,7 +396,7 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
 void RegisterPhotoBlockToLidar(JointState* s) {
   if (!s->photos || !s->photos->config->register_to_lidar || s->project->lidar_static.empty()) return;
   PhotoBlock& block = *s->photos;
-  if (block.registration.value("status", "") == "ok") return;  // placed on the LiDAR already (scale search)
+  if (block.registration.is_object() && block.registration.value("status", "") == "ok") return;  // placed on the LiDAR already (scale search)
   const PhotoCollection& p = *block.config;
   const LidarStatic& lidar = s->project->lidar_static.front();
   io::PointCloud source;

@@ -626,6 +626,78 @@ TEST_F(AdjustTest, PlacesABlockWithoutControlByTheOtherSensorsTiePoints) {
   EXPECT_LT(truth["rig"]["max_frame_position_m"].get<double>(), 0.03);
 }
 
+// Photos and a static LiDAR only (no control in the photos, no GNSS positions, no rig, no
+// spherical stations): the block, in a COLMAP frame and scale of its own, is placed by
+// registering its tie points to the LiDAR at trial scales, then adjusted. A scale range that
+// misses the true scale is a reported failure (exit 3), naming the key to change.
+TEST_F(AdjustTest, PlacesABlockByTheLidarAloneAtTrialScales) {
+  // The fixture's 600 tie points leave the gate's 180° twin ambiguous (an honest failure);
+  // 1,500, as the simulator's default, tell it apart.
+  const fs::path sim = Root() / "sim_dense", dir = Root() / "lidaronly";
+  {
+    sim::SimulateOptions o;
+    o.scene = "gate";
+    o.seed = 8;
+    o.threads = 2;
+    o.photos.count = 20;
+    o.photos.tie_points = 1500;
+    o.spheres.stations = 2;
+    o.spheres.width = 512;
+    o.rig.frames = 2;
+    o.static_scans = 2;
+    o.mobile_revolutions = 0;
+    o.clouds.surface_samples = 0;
+    o.render.samples_per_axis = 1;
+    sim::Simulate(o, sim.string());
+  }
+  fs::create_directories(dir / "colmap");
+  io::ColmapModel model = io::ReadColmapModel((sim / "colmap" / "photos").string());
+  const Sim3d block_from_world(0.37, Eigen::Quaterniond(Eigen::AngleAxisd(2.2, Eigen::Vector3d(-0.3, 0.5, 1).normalized())),
+                               Eigen::Vector3d(4, 25, -9));
+  for (auto& [id, image] : model.images) image.cam_from_world = block_from_world.TransformCamFromSource(image.cam_from_world);
+  for (auto& [id, point] : model.points3D) point.xyz = block_from_world * point.xyz;
+  io::WriteColmapModel(model, (dir / "colmap").string(), io::ColmapFormat::kText);
+  // The static scans with their registrations as delivered (the scanner positions).
+  std::string scans;
+  const std::string simulated = ReadText(sim / "project.yaml");
+  const std::regex scan_line("\n( *- \\{file: )(clouds/scans/[^\n]*)");
+  for (auto it = std::sregex_iterator(simulated.begin(), simulated.end(), scan_line); it != std::sregex_iterator(); ++it) {
+    scans += "      - {file: " + (sim / (*it)[2].str()).string() + "\n";
+  }
+  ASSERT_NE(scans.find("world_from_scan"), std::string::npos) << simulated;
+  const auto write_project = [&](const std::string& range) {
+    std::ofstream(dir / "project.yaml")
+        << "mmba_project: 1\norigin: {latitude_deg: 45.5048, longitude_deg: -73.5772, height_m: 60}\n"
+        << "simulated: {seed: 7, preset: small, truth: " << (sim / "truth/truth.json").string() << "}\nsensors:\n"
+        << "  - {id: photos, type: photo_collection, images: " << (sim / "images/photos").string()
+        << ", calibration: " << (sim / "calib/photo_camera.yaml").string() << ", colmap_model: " << (dir / "colmap").string()
+        << ", sigma_px: 0.5, lidar_scale_range: " << range << "}\n"
+        << "  - {id: ts, type: total_station, file: " << (sim / "survey/network.xml").string() << "}\n"
+        << "  - id: tls\n    type: lidar_static\n    reference_cloud: " << (sim / "clouds/lidar.ply").string()
+        << "\n    scans:\n" << scans;
+  };
+  // The true scale is 1 / 0.37 = 2.70; the range keeps the test short (the default spans 1/8 to
+  // 1.5 times the ratio of the clouds' extents).
+  write_project("[2.4, 3.0]");
+  const AdjustOutcome outcome = Run((dir / "project.yaml").string(), (dir / "out").string());
+  ASSERT_TRUE(outcome.ok) << outcome.reason;
+  const json& registration = outcome.report["photo_block"]["registration_to_lidar"];
+  EXPECT_EQ(registration["status"], "ok") << registration.dump();
+  EXPECT_EQ(registration["trials"].size(), 4u) << registration.dump();  // 2.4 × 1.07^k
+  EXPECT_NEAR(registration["scale"].get<double>(), 1 / 0.37, 0.02) << registration.dump();
+  const std::string georeference = outcome.report["photo_block"]["georeference"];
+  EXPECT_NE(georeference.find("to the LiDAR over trial scales"), std::string::npos) << georeference;
+  const json& photos = outcome.report["truth_evaluation"]["photo_positions"];
+  EXPECT_LT(photos["max_m"].get<double>(), 0.03) << photos.dump();
+  EXPECT_LT(photos["max_rotation_deg"].get<double>(), 0.3) << photos.dump();
+
+  write_project("[0.6, 0.7]");
+  const AdjustOutcome wrong = Run((dir / "project.yaml").string(), (dir / "out_wrong").string());
+  EXPECT_FALSE(wrong.ok);
+  EXPECT_NE(wrong.reason.find("lidar_scale_range"), std::string::npos) << wrong.reason;
+  EXPECT_FALSE(fs::exists(dir / "out_wrong" / "report.json"));
+}
+
 // Photos with GNSS antenna positions (a drone's RTK fixes; the GNSS CSV's `camera` rows) and
 // no control, no rig, no spherical stations: the positions put the block (in a COLMAP frame)
 // into the world and stay in the adjustment as the group "photos: GNSS camera positions"; a

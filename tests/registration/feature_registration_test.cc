@@ -261,6 +261,28 @@ TEST(FeatureRegistration, ObjectInsideALargeReference) {
   EXPECT_GT(r.sigma_rotation_deg.minCoeff(), 0.0);
 }
 
+// RefineSimilarity: a source in a scale of its own, started 4 % off in scale, 1° and a few
+// centimetres off in pose, comes to the scale and pose of an independent sample of the same
+// surface; without the scale parameter a rigid fit could not.
+TEST(FeatureRegistration, RefineSimilarityRecoversTheScale) {
+  const io::PointCloud world = Gate(0.07, true, 1), reference = Gate(0.07, true, 2);
+  const double block_scale = 0.37;  // block units per metre (a COLMAP model's own scale)
+  Eigen::Matrix4d block_from_world = BlockPose();
+  block_from_world.topLeftCorner<3, 3>() *= block_scale;
+  block_from_world.topRightCorner<3, 1>() *= block_scale;
+  const io::PointCloud source = Transformed(world, block_from_world);
+  const Eigen::Matrix4d truth = block_from_world.inverse();
+  Eigen::Matrix4d start = truth;
+  start.topLeftCorner<3, 3>() = 1.04 * Eigen::AngleAxisd(M_PI / 180.0, Eigen::Vector3d(0.3, -0.2, 1).normalized()).toRotationMatrix() *
+                                truth.topLeftCorner<3, 3>();
+  start.topRightCorner<3, 1>() += Eigen::Vector3d(0.05, -0.04, 0.03);
+  const SimilarityFit fit = RefineSimilarity(source, reference, start, 0.5, 0.1);
+  EXPECT_NEAR(fit.scale, 1.0 / block_scale, 0.002 / block_scale);
+  EXPECT_LT(TransformRmsOnCloud(source, fit.target_from_source, truth), 0.01);
+  EXPECT_GT(fit.fitness, 0.9);
+  EXPECT_GT(TransformRmsOnCloud(source, start, truth), 0.05);  // the start was centimetres to decimetres off
+}
+
 TEST(FeatureRegistration, SymmetricObjectIsNotOkWithTheTurnedPose) {
   // Without its details the gate fits its reference equally well turned by 180° about z: the
   // result must say so (failed, ambiguous) — or, if only one pose was found, be the right one.
