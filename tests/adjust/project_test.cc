@@ -86,6 +86,8 @@ TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {
       {"  - {id: p, type: photo_collection, images: images, gnss_lever_arm_m: [0, 0, 120]}\n", "", "within 10 m"},
       {"  - {id: p, type: photo_collection, images: images, register_to_lidar: true}\n" + ts_, "", "register_to_lidar"},
       {"  - {id: p, type: photo_collection, images: images, registration_window_m: -2}\n", "", "sensors[0].registration_window_m"},
+      {"  - {id: p, type: photo_collection, images: images, lidar_scale_range: [3, 2]}\n", "", "sensors[0].lidar_scale_range"},
+      {"  - {id: p, type: photo_collection, images: images, lidar_scale_range: [0, 2]}\n", "", "0 < min < max"},
       {"  - {id: p, type: photo_collection}\n", "", "sensors[0].images"},
       {ts_ + "  - {id: l, type: lidar_static, reference_cloud: lidar.ply, scans_levelled: perhaps}\n", "",
        "sensors[1].scans_levelled"},
