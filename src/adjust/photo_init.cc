@@ -74,6 +74,13 @@ Sim3d RansacSimilarity(const std::vector<Eigen::Vector3d>& from, const std::vect
   return best->size() >= 3 ? SimilarityFrom(from, to, *best) : Sim3d();
 }
 
+// [sR | t] as a similarity.
+Sim3d SimFromMatrix(const Eigen::Matrix4d& m) {
+  const double scale = m.topLeftCorner<3, 3>().col(0).norm();
+  return Sim3d(scale, Eigen::Quaterniond(Eigen::Matrix3d(m.topLeftCorner<3, 3>() / scale)).normalized(),
+               m.topRightCorner<3, 1>());
+}
+
 // Moves the photo block's images and points only (the scene also holds the spherical stations).
 void MoveBlock(JointState* s, const Sim3d& world_from_block, const std::string& georeference) {
   PhotoBlock& block = *s->photos;
@@ -99,10 +106,7 @@ Sim3d SimilarityFrom(const std::vector<Eigen::Vector3d>& from, const std::vector
     a.col(k) = from[use[k]];
     b.col(k) = to[use[k]];
   }
-  const Eigen::Matrix4d t = Eigen::umeyama(a, b, true);
-  const double scale = t.topLeftCorner<3, 3>().col(0).norm();
-  return Sim3d(scale, Eigen::Quaterniond(Eigen::Matrix3d(t.topLeftCorner<3, 3>() / scale)).normalized(),
-               t.topRightCorner<3, 1>());
+  return SimFromMatrix(Eigen::umeyama(a, b, true));
 }
 
 Eigen::Vector3d Triangulate(const std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>& rays) {
@@ -237,10 +241,13 @@ double RobustExtent(const std::vector<Eigen::Vector3d>& points) {
   return span.norm();
 }
 
-Sim3d SimFromMatrix(const Eigen::Matrix4d& m) {
-  const double scale = m.topLeftCorner<3, 3>().col(0).norm();
-  return Sim3d(scale, Eigen::Quaterniond(Eigen::Matrix3d(m.topLeftCorner<3, 3>() / scale)).normalized(),
-               m.topRightCorner<3, 1>());
+// The photo block's tie points and camera centres at their current coordinates.
+void TiePointCloud(const JointState& s, io::PointCloud* points, std::vector<Eigen::Vector3d>* centres) {
+  const PhotoBlock& block = *s.photos;
+  for (const auto& [point_id, point] : block.model.points3D) {
+    if (s.scene.HasPoint(point_id)) points->points.push_back(s.scene.Point(point_id));
+  }
+  for (const auto& [image_id, image] : block.model.images) centres->push_back(CameraCentre(s.scene.Image(image_id).cam_from_world));
 }
 
 }  // namespace
@@ -251,10 +258,7 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
   const LidarStatic& lidar = s->project->lidar_static.front();
   io::PointCloud source, target;
   std::vector<Eigen::Vector3d> centres;
-  for (const auto& [point_id, point] : block.model.points3D) {
-    if (s->scene.HasPoint(point_id)) source.points.push_back(s->scene.Point(point_id));
-  }
-  for (const auto& [image_id, image] : block.model.images) centres.push_back(CameraCentre(s->scene.Image(image_id).cam_from_world));
+  TiePointCloud(*s, &source, &centres);
   nlohmann::json& entry = block.registration;
   entry = {{"method", "scale search"}, {"tie_points", source.size()}};
   if (source.size() < 100) {
@@ -401,10 +405,7 @@ void RegisterPhotoBlockToLidar(JointState* s) {
   const LidarStatic& lidar = s->project->lidar_static.front();
   io::PointCloud source;
   std::vector<Eigen::Vector3d> centres;
-  for (const auto& [point_id, point] : block.model.points3D) {
-    if (s->scene.HasPoint(point_id)) source.points.push_back(s->scene.Point(point_id));
-  }
-  for (const auto& [image_id, image] : block.model.images) centres.push_back(CameraCentre(s->scene.Image(image_id).cam_from_world));
+  TiePointCloud(*s, &source, &centres);
   nlohmann::json& entry = block.registration;
   entry = {{"tie_points", source.size()}};
   if (source.size() < 100) {
