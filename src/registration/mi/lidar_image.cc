@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <thread>
 
 #include <glog/logging.h>
 
@@ -177,7 +178,8 @@ inline float BitsFloat(uint32_t bits) {
 // so one 64-bit comparison resolves depth (ties: lower index) without touching the outputs.
 template <typename Model>
 void SplatWithModel(const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
-                    const RenderOptions& options, LidarImage* out) {
+                    const RenderOptions& options, size_t point_begin, size_t point_end,
+                    uint64_t* zbuffer, LidarImage* out) {
   const int width = out->width;
   const int height = out->height;
   const Eigen::Matrix3d view_from_lidar_r =
@@ -193,10 +195,9 @@ void SplatWithModel(const LidarPoints& points, const View& view, const Rigid3d& 
   const int max_radius = options.max_point_radius_px;
   constexpr bool kPerspective = Model::kModelId != sensors::CameraModelId::kEquirectangular;
   const double period = 2.0 * M_PI * params[0];  // panorama columns per turn (f = W/2π)
-  uint64_t* zbuffer = out->zbuffer.data();
   Eigen::Vector2f* projected = out->projected.data();
-  const size_t n = points.size();
-  for (size_t i = 0; i < n; ++i) {
+  const bool ranked = !points.tie_rank.empty();
+  for (size_t i = point_begin; i < point_end; ++i) {
     const Eigen::Vector3f p = rotation * points.points_in_lidar[i] + translation;
     if (kPerspective && !(p.z() > 0.f)) continue;
     const float range2 = p.squaredNorm();
@@ -214,7 +215,8 @@ void SplatWithModel(const LidarPoints& points, const View& view, const Rigid3d& 
     const int row = static_cast<int>(xy[1]);
     const int radius = std::min(max_radius, static_cast<int>(radius_factor / range));
     projected[i] = Eigen::Vector2f(static_cast<float>(xy[0]), static_cast<float>(xy[1]));
-    const uint64_t key = (static_cast<uint64_t>(FloatBits(range)) << 32) | static_cast<uint32_t>(i);
+    const uint32_t rank = ranked ? points.tie_rank[i] : static_cast<uint32_t>(i);
+    const uint64_t key = (static_cast<uint64_t>(FloatBits(range)) << 32) | rank;
     const int r0 = std::max(0, row - radius), r1 = std::min(height - 1, row + radius);
     const int c0 = std::max(0, col - radius), c1 = std::min(width - 1, col + radius);
     for (int r = r0; r <= r1; ++r) {
@@ -330,27 +332,47 @@ View DownsampleView(const View& view) {
 }
 
 void RenderLidarImage(const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
-                      const RenderOptions& options, LidarImage* out) {
+                      const RenderOptions& options, LidarImage* out, bool two_threads) {
   CHECK(options.representation != Representation::kIntensity || points.has_intensity() ||
         points.size() == 0)
       << "intensity representation of a cloud without intensity";
   CHECK_LT(points.size(), size_t{1} << 32) << "at most 2^32 points per render";
+  CHECK(points.tie_rank.empty() || (points.tie_rank.size() == points.size() &&
+                                    points.index_of_rank.size() == points.size()))
+      << "tie_rank and index_of_rank must both be empty or both have one entry per point";
   out->width = static_cast<int>(view.camera.width);
   out->height = static_cast<int>(view.camera.height);
   const size_t pixels = static_cast<size_t>(out->width) * out->height;
   out->zbuffer.assign(pixels, kEmptyKey);
   if (out->projected.size() < points.size()) out->projected.resize(points.size());
-  switch (view.camera.model_id) {
-#define MMBA_RENDER_CASE(Model)                                         \
-  case Model::kModelId:                                                 \
-    SplatWithModel<Model>(points, view, cam_from_lidar, options, out); \
+  // Points [begin, end) into `zbuffer` (`projected` is written per point: disjoint ranges).
+  auto splat = [&](size_t begin, size_t end, uint64_t* zbuffer) {
+    switch (view.camera.model_id) {
+#define MMBA_RENDER_CASE(Model)                                                              \
+  case Model::kModelId:                                                                      \
+    SplatWithModel<Model>(points, view, cam_from_lidar, options, begin, end, zbuffer, out); \
     break;
-    MMBA_FOR_EACH_CAMERA_MODEL(MMBA_RENDER_CASE)
+      MMBA_FOR_EACH_CAMERA_MODEL(MMBA_RENDER_CASE)
 #undef MMBA_RENDER_CASE
-    default:
-      LOG(FATAL) << "unknown camera model";
+      default:
+        LOG(FATAL) << "unknown camera model";
+    }
+  };
+  if (two_threads && points.size() >= 2) {
+    out->zbuffer_second.assign(pixels, kEmptyKey);
+    const size_t half = points.size() / 2;
+    std::thread other(splat, half, points.size(), out->zbuffer_second.data());
+    splat(0, half, out->zbuffer.data());
+    other.join();
+    // The minimum is order-independent: the same key per pixel as one thread's render.
+    for (size_t k = 0; k < pixels; ++k) {
+      out->zbuffer[k] = std::min(out->zbuffer[k], out->zbuffer_second[k]);
+    }
+  } else {
+    splat(0, points.size(), out->zbuffer.data());
   }
   // Pass 2: the winner of each pixel gives its value, depth and sub-pixel offset.
+  const bool ranked = !points.tie_rank.empty();
   out->value.resize(pixels);
   out->depth.resize(pixels);
   out->offset_x.resize(pixels);
@@ -371,7 +393,8 @@ void RenderLidarImage(const LidarPoints& points, const View& view, const Rigid3d
       continue;
     }
     ++covered;
-    const uint32_t i = static_cast<uint32_t>(key & 0xffffffffu);
+    const uint32_t low = static_cast<uint32_t>(key & 0xffffffffu);
+    const uint32_t i = ranked ? points.index_of_rank[low] : low;
     const float range = BitsFloat(static_cast<uint32_t>(key >> 32));
     float value = 1.f;
     if (options.representation == Representation::kIntensity) {

@@ -185,6 +185,9 @@ bool CoreFreeForSplit() {
   return t_loop_busy == nullptr || t_loop_busy->load() < t_loop_threads;
 }
 
+// Fewer points are rendered on one thread (a thread costs tens of µs).
+constexpr size_t kMinPointsToSplit = 20000;
+
 // body(0) .. body(count − 1) on up to `threads` threads (the caller's included).
 void ParallelFor(int count, int threads, const std::function<void(int)>& body) {
   threads = std::max(1, std::min(threads, count));
@@ -265,7 +268,6 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
   const int levels = options.pyramid_levels;
   pyramid_.resize(levels);
   points_.resize(levels);
-  subset_order_.resize(levels);
   for (const Frame& frame : frames_) pyramid_[0].push_back(frame.views);
   for (int level = 1; level < levels; ++level) {
     for (const std::vector<View>& views : pyramid_[level - 1]) {
@@ -324,21 +326,24 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
       // Render order: the points sorted by the pixel they fall on at the start pose (view,
       // row, column), so that a render writes the z-buffer almost sequentially instead of
       // scattering over the whole image in the cloud's order (measured: the z-buffer's cache
-      // misses were the largest single cost of an evaluation). The winner of a pixel is the
-      // nearest point whatever the order. subset_order_ keeps each point's position in the
-      // even subsample, so that what depends on a point order (SampleVisiblePoints) is as
-      // before.
+      // misses were the largest single cost of an evaluation). Each point keeps its position
+      // in the even subsample as its rank (LidarPoints::tie_rank): equally near points
+      // compete in that order, and what depends on a point order (SampleVisiblePoints) is
+      // as it was — the same images and results as unsorted, bit for bit.
       const std::vector<uint32_t> order = RenderOrder(all, chosen, pyramid_[level][f],
                                                       cam_from_lidar_start, options.render);
       LidarPoints subset;
       subset.points_in_lidar.reserve(chosen.size());
       if (all.has_intensity()) subset.intensity01.reserve(chosen.size());
-      for (uint32_t k : order) {
+      subset.tie_rank = order;
+      subset.index_of_rank.resize(order.size());
+      for (size_t j = 0; j < order.size(); ++j) {
+        const uint32_t k = order[j];
         subset.points_in_lidar.push_back(all.points_in_lidar[chosen[k]]);
         if (all.has_intensity()) subset.intensity01.push_back(all.intensity01[chosen[k]]);
+        subset.index_of_rank[k] = static_cast<uint32_t>(j);
       }
       points_[level].push_back(std::move(subset));
-      subset_order_[level].push_back(order);
     }
   }
 }
@@ -352,9 +357,13 @@ MetricValue FrameSetEvaluator::Evaluate(const Rigid3d& cam_from_lidar, int level
   level_metric.bins = std::max(8, metric.bins >> level);
   JointHistogram histogram(level_metric);
   for (size_t f = 0; f < frames_.size(); ++f) {
+    // The footprints drawn by two threads when a core is free (the same image).
+    const bool two_threads = options_.threads >= 2 && CoreFreeForSplit() &&
+                             points_[level][f].size() >= kMinPointsToSplit;
     for (const View& view : pyramid_[level][f]) {
       Timer render;
-      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer);
+      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer,
+                       two_threads);
       render_ns_ += static_cast<int64_t>(1e9 * render.ElapsedSeconds());
       Timer fill;
       histogram.Add(buffer, view.image);
@@ -380,8 +389,11 @@ FrameSetEvaluator::SampleSet FrameSetEvaluator::MakeSampleSet(const Rigid3d& cam
   set.level = level;
   set.reference = cam_from_lidar;
   for (size_t f = 0; f < frames_.size(); ++f) {
+    const bool two_threads = options_.threads >= 2 && CoreFreeForSplit() &&
+                             points_[level][f].size() >= kMinPointsToSplit;
     for (const View& view : pyramid_[level][f]) {
-      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer);
+      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer,
+                       two_threads);
       set.views.push_back(
           MakeViewSamples(points_[level][f], buffer, options_.render, per_point));
       set.samples += set.views.back().samples();
@@ -576,7 +588,7 @@ std::vector<FrameSetEvaluator::VisiblePoint> FrameSetEvaluator::SampleVisiblePoi
                        &buffer);
       // The winners in the order of the even subsample (not the render order), as the
       // points were before they were sorted for rendering.
-      const std::vector<uint32_t>& order = subset_order_[0][f];
+      const std::vector<uint32_t>& order = points_[0][f].tie_rank;
       std::vector<std::pair<uint32_t, int>> winners;  // (position in the subsample, index)
       for (int index : buffer.point_index) {
         if (index >= 0) winners.emplace_back(order[index], index);

@@ -87,6 +87,65 @@ TEST(LidarImage, ZBufferHidesTheFarSideOfAWall) {
   EXPECT_EQ(near_inside, 24 * 24);
 }
 
+// LidarPoints::tie_rank: points stored in another order render the image of the ranked
+// order, also where equally near points compete for a pixel (duplicates with different
+// intensities: without the rank, the reversed order would let the other duplicate win).
+TEST(LidarImage, TieRankKeepsTheWinnersOfTheRankedOrder) {
+  const sensors::Camera camera = Pinhole(60, 40, 30.0);
+  LidarPoints cloud_order;
+  for (float x = -1.5f; x <= 1.5f; x += 0.1f) {
+    for (float y = -1.f; y <= 1.f; y += 0.1f) {
+      // Two points at the same place (equal range), different intensities.
+      cloud_order.points_in_lidar.emplace_back(x, y, 3.f);
+      cloud_order.intensity01.push_back(0.2f);
+      cloud_order.points_in_lidar.emplace_back(x, y, 3.f);
+      cloud_order.intensity01.push_back(0.8f);
+    }
+  }
+  RenderOptions options;
+  options.point_radius_m = 0.1;  // overlapping footprints: many ties between neighbours too
+  LidarImage expected;
+  RenderLidarImage(cloud_order, ImageView(camera), Rigid3d(), options, &expected);
+  // Reversed storage order, each point ranked by its cloud-order position.
+  const uint32_t n = static_cast<uint32_t>(cloud_order.size());
+  LidarPoints reversed;
+  for (uint32_t j = 0; j < n; ++j) {
+    const uint32_t k = n - 1 - j;
+    reversed.points_in_lidar.push_back(cloud_order.points_in_lidar[k]);
+    reversed.intensity01.push_back(cloud_order.intensity01[k]);
+    reversed.tie_rank.push_back(k);
+  }
+  reversed.index_of_rank.resize(n);
+  for (uint32_t j = 0; j < n; ++j) reversed.index_of_rank[reversed.tie_rank[j]] = j;
+  LidarImage ranked;
+  RenderLidarImage(reversed, ImageView(camera), Rigid3d(), options, &ranked);
+  ASSERT_GT(expected.covered_pixels, 500u);
+  EXPECT_EQ(ranked.covered_pixels, expected.covered_pixels);
+  int lower_intensity_winners = 0;
+  for (size_t k = 0; k < expected.value.size(); ++k) {
+    ASSERT_EQ(ranked.value[k], expected.value[k]) << "pixel " << k;
+    ASSERT_EQ(ranked.depth[k], expected.depth[k]) << "pixel " << k;
+    ASSERT_EQ(ranked.offset_x[k], expected.offset_x[k]) << "pixel " << k;
+    ASSERT_EQ(ranked.offset_y[k], expected.offset_y[k]) << "pixel " << k;
+    if (expected.point_index[k] < 0) {
+      ASSERT_EQ(ranked.point_index[k], -1);
+    } else {
+      ASSERT_EQ(ranked.point_index[k], static_cast<int>(n - 1 - expected.point_index[k]));
+      lower_intensity_winners += expected.value[k] == 0.2f;
+    }
+  }
+  // The cloud order's first duplicate (0.2) wins every tie.
+  EXPECT_EQ(lower_intensity_winners, static_cast<int>(expected.covered_pixels));
+  // Without the rank, the reversed storage lets the other duplicate win.
+  reversed.tie_rank.clear();
+  reversed.index_of_rank.clear();
+  LidarImage unranked;
+  RenderLidarImage(reversed, ImageView(camera), Rigid3d(), options, &unranked);
+  int differing = 0;
+  for (size_t k = 0; k < expected.value.size(); ++k) differing += unranked.value[k] != expected.value[k];
+  EXPECT_GT(differing, 500);
+}
+
 TEST(LidarImage, PerspectiveCutOfAPanoramaLooksWhereItShould) {
   sensors::Camera pano;
   pano.model_id = sensors::CameraModelId::kEquirectangular;

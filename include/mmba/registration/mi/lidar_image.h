@@ -30,6 +30,12 @@ bool ParseRepresentation(const std::string& name, Representation* representation
 struct LidarPoints {
   std::vector<Eigen::Vector3f> points_in_lidar;
   std::vector<float> intensity01;  ///< empty when the cloud has no intensity
+  /// Optional, both empty or both size(): each point's rank among equally near points in
+  /// the z-buffer (the lower rank wins; empty = the index), and its inverse (rank → index).
+  /// FrameSetEvaluator sorts its points for a cache-friendly render and keeps their rank in
+  /// the unsorted order here, so that each pixel keeps the winner it had in that order.
+  std::vector<uint32_t> tie_rank;
+  std::vector<uint32_t> index_of_rank;
   bool has_intensity() const { return !intensity01.empty(); }
   size_t size() const { return points_in_lidar.size(); }
 };
@@ -128,6 +134,7 @@ struct LidarImage {
   /// the nearest point, and per point its projection (kept to avoid reallocation).
   std::vector<uint64_t> zbuffer;
   std::vector<Eigen::Vector2f> projected;
+  std::vector<uint64_t> zbuffer_second;  ///< the second thread's z-buffer (two_threads)
 };
 
 /// Distinct points winning at least one pixel (the independent samples of the image).
@@ -136,8 +143,11 @@ size_t CountVisiblePoints(const LidarImage& image);
 /// Renders the points seen by `view` from `cam_from_lidar` (the pose of the frame's image
 /// camera). Depth values are 1/range stretched over [1/max_range, 1/min_range] (near bright).
 /// For kIntensity the cloud must have intensity (CHECK; callers validate first).
+/// `two_threads`: the points' footprints are drawn by two threads into two z-buffers that
+/// are then merged by the same minimum (each pixel's nearest point, ties by rank): the image
+/// is identical to the one-thread render, bit for bit.
 void RenderLidarImage(const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
-                      const RenderOptions& options, LidarImage* out);
+                      const RenderOptions& options, LidarImage* out, bool two_threads = false);
 
 /// The LiDAR image as an 8-bit grey picture (empty pixels black), for reports and tests.
 GrayImage LidarImageToGray(const LidarImage& image);

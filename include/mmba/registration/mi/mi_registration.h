@@ -356,9 +356,6 @@ class FrameSetEvaluator {
   RegistrationOptions options_;
   std::vector<std::vector<std::vector<View>>> pyramid_;  ///< level → frame → views
   std::vector<std::vector<LidarPoints>> points_;           ///< level → frame → culled points
-  /// level → frame → for each point of points_ (in render order) its position in the even
-  /// subsample of the cloud (the order before sorting for the render).
-  std::vector<std::vector<std::vector<uint32_t>>> subset_order_;
   mutable std::atomic<int64_t> render_ns_{0};
   mutable std::atomic<int64_t> histogram_ns_{0};
   mutable std::atomic<int64_t> sample_ns_{0};
