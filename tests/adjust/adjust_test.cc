@@ -56,25 +56,31 @@ std::string OkMiResult(const json& truth_pose, const Eigen::Vector3d& offset) {
   return json{{"status", "ok"}, {"cam_from_lidar", pose}, {"covariance", cov}, {"covariance_valid", true}}.dump();
 }
 
+// The test survey: the gate with 20 photos, 2 spherical stations, 2 rig frames, 2 static scans
+// and no mobile LiDAR.
+sim::SimulateOptions SmallGate(uint64_t seed, int tie_points) {
+  sim::SimulateOptions o;
+  o.scene = "gate";
+  o.seed = seed;
+  o.threads = 2;
+  o.photos.count = 20;
+  o.photos.tie_points = tie_points;
+  o.spheres.stations = 2;
+  o.spheres.width = 512;
+  o.rig.frames = 2;
+  o.static_scans = 2;
+  o.mobile_revolutions = 0;
+  o.clouds.surface_samples = 0;
+  o.render.samples_per_axis = 1;
+  return o;
+}
+
 class AdjustTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     SetVerbosity(Verbosity::kQuiet);
     fs::remove_all(Root());
-    sim::SimulateOptions o;
-    o.scene = "gate";
-    o.seed = 7;
-    o.threads = 2;
-    o.photos.count = 20;
-    o.photos.tie_points = 600;
-    o.spheres.stations = 2;
-    o.spheres.width = 512;
-    o.rig.frames = 2;
-    o.static_scans = 2;
-    o.mobile_revolutions = 0;
-    o.clouds.surface_samples = 0;
-    o.render.samples_per_axis = 1;
-    sim::Simulate(o, (Root() / "sim").string());
+    sim::Simulate(SmallGate(7, 600), (Root() / "sim").string());
   }
   static void TearDownTestSuite() {
     if (!std::getenv("MMBA_KEEP_TEST_OUTPUT")) fs::remove_all(Root());
@@ -634,22 +640,7 @@ TEST_F(AdjustTest, PlacesABlockByTheLidarAloneAtTrialScales) {
   // The fixture's 600 tie points leave the gate's 180° twin ambiguous (an honest failure);
   // 1,500, as the simulator's default, tell it apart.
   const fs::path sim = Root() / "sim_dense", dir = Root() / "lidaronly";
-  {
-    sim::SimulateOptions o;
-    o.scene = "gate";
-    o.seed = 8;
-    o.threads = 2;
-    o.photos.count = 20;
-    o.photos.tie_points = 1500;
-    o.spheres.stations = 2;
-    o.spheres.width = 512;
-    o.rig.frames = 2;
-    o.static_scans = 2;
-    o.mobile_revolutions = 0;
-    o.clouds.surface_samples = 0;
-    o.render.samples_per_axis = 1;
-    sim::Simulate(o, sim.string());
-  }
+  sim::Simulate(SmallGate(8, 1500), sim.string());
   fs::create_directories(dir / "colmap");
   io::ColmapModel model = io::ReadColmapModel((sim / "colmap" / "photos").string());
   const Sim3d block_from_world(0.37, Eigen::Quaterniond(Eigen::AngleAxisd(2.2, Eigen::Vector3d(-0.3, 0.5, 1).normalized())),
