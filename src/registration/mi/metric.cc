@@ -142,10 +142,94 @@ double Entropy(const std::vector<double>& p, double total) {
   }
 }
 
+// Add() for the B-spline histogram, in chunks of a row: the covered pixels' bin positions
+// first (a loop the compiler vectorises), then their weights, then the 4×4 adds — the same
+// operations on the same values in the same order as AddSample, so the same sums, bit for bit.
+void JointHistogram::AddBSpline(const LidarImage& lidar, const GrayImage& photo) {
+  constexpr int kChunk = 256;
+  const bool whole = options_.region == Region::kWholeImage;
+  const int bins = bins_;
+  const int stride = bins + 3;
+  const float lidar_scale = static_cast<float>(bins - 1);
+  const float photo_scale = static_cast<float>((bins - 1) / 255.0);
+  size_t samples = 0, lidar_samples = 0;
+  int cols[kChunk];
+  float lidar_pos[kChunk], photo_pos[kChunk];
+  int bx[kChunk], by[kChunk];
+  float wx[4][kChunk], wy[4][kChunk];
+  for (int r = 0; r < lidar.height; ++r) {
+    const size_t row = static_cast<size_t>(r) * lidar.width;
+    for (int c0 = 0; c0 < lidar.width; c0 += kChunk) {
+      const int c1 = std::min(lidar.width, c0 + kChunk);
+      int m = 0;
+      for (int c = c0; c < c1; ++c) {
+        cols[m] = c;
+        m += lidar.point_index[row + c] >= 0;
+      }
+      for (int j = 0; j < m; ++j) {
+        const size_t k = row + cols[j];
+        // Sample the photo where the point really falls: smooth in the pose.
+        const float photo_value =
+            SampleClamped(photo, cols[j] + 0.5f + lidar.offset_x[k], r + 0.5f + lidar.offset_y[k]);
+        lidar_pos[j] = lidar.value[k] * lidar_scale;
+        photo_pos[j] = photo_value * photo_scale;
+      }
+      for (int j = 0; j < m; ++j) {
+        // Positions are within [0, bins − 1]; the clamp only guards rounding.
+        bx[j] = std::clamp(static_cast<int>(lidar_pos[j]), 0, bins - 1);
+        by[j] = std::clamp(static_cast<int>(photo_pos[j]), 0, bins - 1);
+      }
+      for (int j = 0; j < m; ++j) {
+        float w[4];
+        CubicBSplineWeights(lidar_pos[j] - bx[j], w);
+        for (int i = 0; i < 4; ++i) wx[i][j] = w[i];
+        CubicBSplineWeights(photo_pos[j] - by[j], w);
+        for (int i = 0; i < 4; ++i) wy[i][j] = w[i];
+      }
+      for (int j = 0; j < m; ++j) {
+        // Padded index of bin (bx − 1 + i, by − 1 + q) is (bx + i) · stride + by + q.
+        double* base = &counts_[static_cast<size_t>(bx[j]) * stride + by[j]];
+        for (int i = 0; i < 4; ++i) {
+          double* line = base + static_cast<size_t>(i) * stride;
+          line[0] += wx[i][j] * wy[0][j];
+          line[1] += wx[i][j] * wy[1][j];
+          line[2] += wx[i][j] * wy[2][j];
+          line[3] += wx[i][j] * wy[3][j];
+        }
+      }
+      samples += static_cast<size_t>(m);
+      lidar_samples += static_cast<size_t>(m);
+      if (!whole) continue;
+      // Whole image: the pixels without LiDAR, in their own row of the histogram (their own
+      // array: the order of the adds within each array is that of AddSample's pixel loop).
+      const float* photo_row = &photo.pixels[static_cast<size_t>(r) * photo.width];
+      int e = 0;
+      for (int c = c0; c < c1; ++c) {
+        cols[e] = c;
+        e += lidar.point_index[row + c] < 0;
+      }
+      for (int j = 0; j < e; ++j) {
+        const float photo_value = photo_row[cols[j]] * photo_scale;
+        const int b = std::clamp(static_cast<int>(photo_value), 0, bins - 1);
+        float w[4];
+        CubicBSplineWeights(photo_value - b, w);
+        for (int q = 0; q < 4; ++q) empty_counts_[b + q] += w[q];
+      }
+      samples += static_cast<size_t>(e);
+    }
+  }
+  total_ += static_cast<double>(samples);
+  lidar_total_ += static_cast<double>(lidar_samples);
+}
+
 void JointHistogram::Add(const LidarImage& lidar, const GrayImage& photo) {
   const int bins = bins_;
   const bool whole = options_.region == Region::kWholeImage;
   const bool spline = options_.smoothing == Smoothing::kBSpline;
+  if (spline) {
+    AddBSpline(lidar, photo);
+    return;
+  }
   // Continuous bin coordinates: value 0..1 (LiDAR) and 0..255 (photo) onto 0..bins−1.
   const float lidar_scale = static_cast<float>(bins - 1);
   const float photo_scale = static_cast<float>((bins - 1) / 255.0);
