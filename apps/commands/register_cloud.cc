@@ -31,7 +31,56 @@ struct RegisterCloudArgs {
   double error_map_max_m = 0.0;
   uint64_t seed = 42;
   double min_fitness = registration::CloudRegistrationOptions().min_fitness;
+  std::vector<double> scale_range;
+  double scale_step = 1.07;
 };
+
+// --scale-range: the source in a scale of its own, registered at trial scales
+// (RegisterCloudsOverScales); target_from_source is then a similarity [sR | t].
+int RunScaleSearch(const RegisterCloudArgs& args, const registration::CloudRegistrationOptions& options,
+                   const io::PointCloud& source, const io::PointCloud& target) {
+  const registration::ScaleSearchResult result = registration::RegisterCloudsOverScales(
+      source, target, options, args.scale_range[0], args.scale_range[1], args.scale_step, 0.0,
+      [](size_t done, size_t total, const registration::ScaleTrial& t) {
+        spdlog::info("scale {} of {} ({:.4g}): {}", done, total, t.scale, t.status.substr(0, 160));
+      });
+  nlohmann::ordered_json json;
+  json["status"] = result.status;
+  json["reason"] = result.reason;
+  json["target_from_source"] = MatrixJson(result.target_from_source);
+  json["scale"] = result.scale;
+  json["fitness"] = result.fitness;
+  json["inlier_rmse"] = result.inlier_rmse;
+  json["tolerance_m"] = result.tolerance_m;
+  json["runtime_seconds"] = {{"total", result.seconds}};
+  nlohmann::ordered_json trials = nlohmann::ordered_json::array();
+  for (const registration::ScaleTrial& t : result.trials) {
+    nlohmann::ordered_json trial = {{"scale", t.scale}, {"status", t.status}, {"fitness", t.fitness}};
+    if (t.refined) {
+      trial["refined_scale"] = t.refined_scale;
+      trial["refined_fitness"] = t.refined_fitness;
+    }
+    trials.push_back(trial);
+  }
+  json["trials"] = trials;
+  json["source"] = args.source;
+  json["target"] = args.target;
+  AtomicFileSet files;
+  files.Add(args.output, [&](std::ostream& out) { out << json.dump(2) << "\n"; });
+  files.Commit();
+  if (!args.error_map.empty() && result.ok()) {
+    const double max_m = args.error_map_max_m > 0 ? args.error_map_max_m : 5.0 * result.tolerance_m;
+    io::WritePly(registration::MakeErrorMap(source, target, result.target_from_source, max_m), args.error_map);
+    spdlog::info("error map {} (blue 0 → red {:.4g} m)", args.error_map, max_m);
+  }
+  std::ostringstream brief;
+  brief << result.status << ": scale " << result.scale << ", " << 100 * result.fitness << " % within "
+        << result.tolerance_m << " m (RMS " << result.inlier_rmse << " m), " << result.trials.size() << " trial scales, "
+        << result.seconds << " s";
+  if (!result.ok()) throw CommandFailed("registration failed: " + result.reason);
+  std::cout << brief.str() << "\n";
+  return kExitOk;
+}
 
 int RunRegisterCloud(const RegisterCloudArgs& args) {
   registration::CloudRegistrationOptions options;
@@ -66,6 +115,14 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   }
   std::string error;
   if (!options.Check(&error)) throw InputError::Message("options", error);
+  if (!args.scale_range.empty() &&
+      (args.scale_range.size() != 2 || !(args.scale_range[0] > 0) || !(args.scale_range[1] >= args.scale_range[0]) ||
+       !(args.scale_range[1] <= 1e6))) {
+    throw InputError::Message("--scale-range", "expected MIN MAX with 0 < MIN <= MAX <= 1e6 (target units per source unit)");
+  }
+  if (!(args.scale_step > 1.0) || !(args.scale_step <= 2.0)) {
+    throw InputError::Message("--scale-step", "expected a factor in (1, 2]");
+  }
 
   Timer read_timer;
   const std::clock_t read_cpu = std::clock();
@@ -80,6 +137,7 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
                args.source, source_stats.format, source.size(), source_stats.num_skipped,
                args.target, target_stats.format, target.size(), target_stats.num_skipped);
 
+  if (!args.scale_range.empty()) return RunScaleSearch(args, options, source, target);
   registration::CloudRegistrationResult result =
       registration::RegisterClouds(source, target, options);
   result.runtime.insert(result.runtime.begin(),
@@ -145,6 +203,13 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_option("--seed", args->seed, "random seed")->capture_default_str();
   sub->add_option("--min-fitness", args->min_fitness,
                   "fraction of the source that must lie on the target for \"ok\" (0..1]")
+      ->capture_default_str();
+  sub->add_option("--scale-range", args->scale_range,
+                  "MIN MAX: the source is in a scale of its own (an SfM cloud): registered at trial scales "
+                  "MIN·step^k (target units per source unit), each ok refined as a similarity; "
+                  "target_from_source is then [sR | t]")
+      ->expected(2);
+  sub->add_option("--scale-step", args->scale_step, "factor between trial scales (a rigid registration holds to about ±3–5 %)")
       ->capture_default_str();
   sub->add_option("--source-viewpoints", args->source_viewpoints,
                   "text file of the source's sensor positions in its frame (x y z a line): "

@@ -624,7 +624,7 @@ void PlacePhotoBlock(JointState* s) {
   std::string reason;
   if (!internal::PlacePhotoBlockByLidar(s, &reason)) {
     throw AdjustFailure("failed", "photo collection '" + id + "' cannot be placed: " + placed_by_nothing +
-                                      ", and registered to the LiDAR " + reason);
+                                      ", and its tie points' registration to the LiDAR failed: " + reason);
   }
   s->warnings.push_back("photo collection '" + id + "': " + std::to_string(block.control_targets_intersected) +
                         " control targets measured in 2+ photos and no tie points placed by other sensors; the block "

@@ -224,23 +224,6 @@ bool PlacePhotoBlockByGnss(JointState* s) {
 
 namespace {
 
-// Diagonal of the box between the 5th and 95th percentiles per axis: the extent of a cloud
-// without its stray points.
-double RobustExtent(const std::vector<Eigen::Vector3d>& points) {
-  Eigen::Vector3d span;
-  for (int axis = 0; axis < 3; ++axis) {
-    std::vector<double> v;
-    v.reserve(points.size());
-    for (const Eigen::Vector3d& x : points) v.push_back(x(axis));
-    const size_t lo = v.size() / 20, hi = v.size() - 1 - v.size() / 20;
-    std::nth_element(v.begin(), v.begin() + static_cast<long>(lo), v.end());
-    const double a = v[lo];
-    std::nth_element(v.begin(), v.begin() + static_cast<long>(hi), v.end());
-    span(axis) = v[hi] - a;
-  }
-  return span.norm();
-}
-
 // The photo block's tie points and camera centres at their current coordinates.
 void TiePointCloud(const JointState& s, io::PointCloud* points, std::vector<Eigen::Vector3d>* centres) {
   const PhotoBlock& block = *s.photos;
@@ -271,12 +254,8 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
   });
   ThinEvenly(&target.points, 2000000);
   entry["lidar_points"] = target.size();
-  const double lidar_spacing = registration::EstimatePointSpacing(target);
-  // The agreement of a placed block with the LiDAR: the fraction of its tie points within τ of
-  // the surface — 3 LiDAR spacings, but at least 0.5 % of the LiDAR's extent, as an unadjusted
-  // block's points are a few decimetres off on a site of tens of metres.
-  const double tau = std::max(3.0 * lidar_spacing, 0.005 * RobustExtent(target.points));
   // Already in place (a model georeferenced before it came here): kept as given.
+  const double tau = registration::ScaleSearchTolerance(target);
   const registration::SimilarityFit given =
       registration::RefineSimilarity(source, target, Eigen::Matrix4d::Identity(), tau, tau, 0);
   entry["fitness_as_given"] = given.fitness;
@@ -286,113 +265,51 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
     Note(s, "photo block '" + p.id + "': in place on the LiDAR as given (" + block.georeference + ")");
     return true;
   }
-  // Trial scales (Kim & Hilton's pipeline is rigid; a rigid registration of tie points was
-  // measured to hold to about ±3–5 % of scale, so steps of 7 %), each a rigid registration of
-  // the scaled, centred block.
-  const double ratio = RobustExtent(target.points) / std::max(1e-12, RobustExtent(source.points));
+  // Trial scales over lidar_scale_range, or 1/8 … 1.5 × the ratio of the clouds' extents.
+  const double ratio = registration::RobustExtent(target.points) / std::max(1e-12, registration::RobustExtent(source.points));
   const double lo = p.lidar_scale_min > 0 ? p.lidar_scale_min : ratio / 8.0;
   const double hi = p.lidar_scale_max > 0 ? p.lidar_scale_max : 1.5 * ratio;
-  std::vector<double> scales;
-  for (double x = lo; x <= hi * 1.0001; x *= 1.07) scales.push_back(x);
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& x : source.points) centroid += x;
-  centroid /= static_cast<double>(source.size());
-  spdlog::info("adjust: initialisation: photo block {} has no scale: its {} tie points registered to the LiDAR ({} points) "
-               "at {} trial scales {:.4g} … {:.4g}", p.id, source.size(), target.size(), scales.size(), lo, hi);
-  struct Candidate {
-    double trial_scale;
-    registration::SimilarityFit fit;
-  };
-  std::vector<Candidate> candidates;
-  nlohmann::json trials = nlohmann::json::array();
-  const double extent = RobustExtent(source.points);
+  registration::CloudRegistrationOptions options;
+  options.source_viewpoints = centres;
   // The scanner positions, where the scans' registrations are given: the free-space test then
   // refuses poses that put tie points where the LiDAR saw through.
-  std::vector<Eigen::Vector3d> scanners;
   for (const LidarScanFile& scan : lidar.scans) {
-    if (scan.has_pose) scanners.push_back(scan.world_from_scan.translation);
+    if (scan.has_pose) options.target_viewpoints.push_back(scan.world_from_scan.translation);
   }
-  std::string closest;  // the reason of the failed trial that fitted best
-  double closest_fitness = -1.0;
-  for (size_t k = 0; k < scales.size(); ++k) {
-    const double scale = scales[k];
-    io::PointCloud scaled;
-    std::vector<Eigen::Vector3d> viewpoints;
-    for (const Eigen::Vector3d& x : source.points) scaled.points.push_back(scale * (x - centroid));
-    for (const Eigen::Vector3d& c : centres) viewpoints.push_back(scale * (c - centroid));
-    registration::CloudRegistrationOptions options;
-    options.source_viewpoints = viewpoints;
-    options.target_viewpoints = scanners;
-    const registration::CloudRegistrationResult r = registration::RegisterClouds(scaled, target, options);
-    nlohmann::json trial = {{"scale", scale}, {"status", r.ok() ? "ok" : "failed: " + r.reason}, {"fitness", r.fitness}};
-    if (r.ok()) {
-      // The similarity block → world of this trial, refined with the scale free.
-      Eigen::Matrix4d start = Eigen::Matrix4d::Identity();
-      start.topLeftCorner<3, 3>() = scale * r.target_from_source.topLeftCorner<3, 3>();
-      start.topRightCorner<3, 1>() = r.target_from_source.topRightCorner<3, 1>() - start.topLeftCorner<3, 3>() * centroid;
-      // A rigid pose at a scale 5 % off leaves the block's ends 5 % of its half extent off.
-      const double reach = std::max(10.0 * tau, 0.05 * scale * extent);
-      Candidate c{scale, registration::RefineSimilarity(source, target, start, reach, tau)};
-      trial["refined_scale"] = c.fit.scale;
-      trial["refined_fitness"] = c.fit.fitness;
-      candidates.push_back(c);
-    } else if (r.fitness > closest_fitness) {
-      closest_fitness = r.fitness;
-      std::ostringstream m;
-      m << "; the best-fitting trial, scale " << scale << ", " << r.reason;
-      closest = m.str();
+  spdlog::info("adjust: initialisation: photo block {} has no scale: its {} tie points registered to the LiDAR ({} points) "
+               "at trial scales {:.4g} … {:.4g}", p.id, source.size(), target.size(), lo, hi);
+  const registration::ScaleSearchResult r = registration::RegisterCloudsOverScales(
+      source, target, options, lo, hi, 1.07, tau, [](size_t done, size_t total, const registration::ScaleTrial& t) {
+        spdlog::info("adjust: scale {} of {} ({:.4g}): {}", done, total, t.scale, t.status.substr(0, 160));
+      });
+  nlohmann::json trials = nlohmann::json::array();
+  for (const registration::ScaleTrial& t : r.trials) {
+    nlohmann::json trial = {{"scale", t.scale}, {"status", t.status}, {"fitness", t.fitness}};
+    if (t.refined) {
+      trial["refined_scale"] = t.refined_scale;
+      trial["refined_fitness"] = t.refined_fitness;
     }
     trials.push_back(trial);
-    spdlog::info("adjust: scale {} of {} ({:.4g}): {}", k + 1, scales.size(), scale,
-                 r.ok() ? "ok, fitness " + std::to_string(r.fitness) : "failed: " + r.reason.substr(0, 160));
   }
   entry["trials"] = trials;
   entry["scale_range"] = {lo, hi};
-  if (candidates.empty()) {
-    std::ostringstream m;
-    m << "its tie points register to the LiDAR at none of " << scales.size() << " trial scales " << lo << " … " << hi
-      << closest
-      << " (set lidar_scale_range if the scale lies outside, or add control, GNSS positions of the photos or a sensor that sees its tie points)";
-    *reason = m.str();
+  entry["seconds"] = r.seconds;
+  if (!r.ok()) {
+    *reason = r.reason + " (set lidar_scale_range if the scale lies outside, or add control, GNSS positions of the photos or a sensor that sees its tie points)";
     entry["status"] = "failed: " + *reason;
     return false;
   }
-  std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) { return a.fit.fitness > b.fit.fitness; });
-  const Candidate& best = candidates.front();
-  // Another trial that ends elsewhere (a pseudo-symmetric site, a repeated bay) and fits almost
-  // as well: the placement is ambiguous.
-  for (size_t k = 1; k < candidates.size(); ++k) {
-    double sum = 0.0;
-    for (const Eigen::Vector3d& x : source.points) {
-      const Eigen::Vector4d h = x.homogeneous();
-      sum += ((best.fit.target_from_source - candidates[k].fit.target_from_source) * h).head<3>().squaredNorm();
-    }
-    const double apart = std::sqrt(sum / static_cast<double>(source.size()));
-    if (apart > 5.0 * tau && candidates[k].fit.fitness > 0.9 * best.fit.fitness) {
-      std::ostringstream m;
-      m << "ambiguous: the trial scales " << best.trial_scale << " and " << candidates[k].trial_scale << " place its tie points "
-        << apart << " m RMS apart with fitness " << best.fit.fitness << " and " << candidates[k].fit.fitness;
-      *reason = m.str();
-      entry["status"] = "failed: " + *reason;
-      return false;
-    }
-  }
-  if (best.fit.fitness < 0.3) {
-    std::ostringstream m;
-    m << "its best placement puts only " << 100 * best.fit.fitness << " % of its tie points within " << tau << " m of the LiDAR (30 % needed)";
-    *reason = m.str();
-    entry["status"] = "failed: " + *reason;
-    return false;
-  }
-  const Sim3d world_from_block = SimFromMatrix(best.fit.target_from_source);
+  const Sim3d world_from_block = SimFromMatrix(r.target_from_source);
   entry["status"] = "ok";
   entry["scale"] = world_from_block.scale;
-  entry["fitness"] = best.fit.fitness;
-  entry["inlier_rmse_m"] = best.fit.inlier_rmse;
+  entry["fitness"] = r.fitness;
+  entry["inlier_rmse_m"] = r.inlier_rmse;
+  size_t registered = 0;
+  for (const registration::ScaleTrial& t : r.trials) registered += t.refined ? 1 : 0;
   std::ostringstream g;
-  g << "similarity from registering its " << source.size() << " tie points to the LiDAR over trial scales (" << candidates.size()
-    << " of " << scales.size() << " registered): scale " << world_from_block.scale << ", " << 100 * best.fit.fitness
-    << " % within " << tau << " m, RMS " << best.fit.inlier_rmse << " m";
+  g << "similarity from registering its " << source.size() << " tie points to the LiDAR over trial scales (" << registered
+    << " of " << r.trials.size() << " registered): scale " << world_from_block.scale << ", " << 100 * r.fitness
+    << " % within " << tau << " m, RMS " << r.inlier_rmse << " m";
   MoveBlock(s, world_from_block, g.str());
   return true;
 }

@@ -283,6 +283,31 @@ TEST(FeatureRegistration, RefineSimilarityRecoversTheScale) {
   EXPECT_GT(TransformRmsOnCloud(source, start, truth), 0.05);  // the start was centimetres to decimetres off
 }
 
+// RegisterCloudsOverScales: an object's reconstruction at 0.37 of its size (an SfM cloud in a
+// scale of its own) against a metric model of its room: found at the trial scale nearest the
+// truth and refined to it; a range that misses the scale fails and says so.
+TEST(FeatureRegistration, ScaleSearchFindsTheScaleOrFails) {
+  const double block_scale = 0.37;
+  Eigen::Matrix4d block_from_world = BlockPose();
+  block_from_world.topLeftCorner<3, 3>() *= block_scale;
+  block_from_world.topRightCorner<3, 1>() *= block_scale;
+  const io::PointCloud source = Transformed(Gate(0.07, true, 1), block_from_world);
+  const io::PointCloud reference = Room(Gate(0.07, true, 2), 3);
+  CloudRegistrationOptions options;
+  options.descriptor = Descriptor::kFpfh;
+  const ScaleSearchResult r = RegisterCloudsOverScales(source, reference, options, 2.3, 3.1, 1.07);
+  ASSERT_TRUE(r.ok()) << r.reason;
+  EXPECT_EQ(r.trials.size(), 5u);  // 2.3 · 1.07^k ≤ 3.1
+  EXPECT_NEAR(r.scale, 1.0 / block_scale, 0.01 / block_scale);
+  EXPECT_LT(TransformRmsOnCloud(source, r.target_from_source, block_from_world.inverse()), 0.02);
+  EXPECT_GT(r.fitness, 0.5);
+
+  const ScaleSearchResult wrong = RegisterCloudsOverScales(source, reference, options, 0.8, 0.9, 1.07);
+  EXPECT_FALSE(wrong.ok());
+  EXPECT_NE(wrong.reason.find("trial scales"), std::string::npos) << wrong.reason;
+  EXPECT_THROW(RegisterCloudsOverScales(source, reference, options, 2.0, 1.0), InputError);
+}
+
 TEST(FeatureRegistration, SymmetricObjectIsNotOkWithTheTurnedPose) {
   // Without its details the gate fits its reference equally well turned by 180° about z: the
   // result must say so (failed, ambiguous) — or, if only one pose was found, be the right one.

@@ -1948,6 +1948,128 @@ SimilarityFit RefineSimilarity(const io::PointCloud& source, const io::PointClou
   return fit;
 }
 
+double RobustExtent(const std::vector<Eigen::Vector3d>& points) {
+  if (points.empty()) return 0.0;
+  Eigen::Vector3d span;
+  std::vector<double> v(points.size());
+  for (int axis = 0; axis < 3; ++axis) {
+    for (size_t i = 0; i < points.size(); ++i) v[i] = points[i](axis);
+    const size_t lo = v.size() / 20, hi = v.size() - 1 - v.size() / 20;
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(lo), v.end());
+    const double a = v[lo];
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(hi), v.end());
+    span(axis) = v[hi] - a;
+  }
+  return span.norm();
+}
+
+double ScaleSearchTolerance(const io::PointCloud& target) {
+  return std::max(3.0 * EstimatePointSpacing(target), 0.005 * RobustExtent(target.points));
+}
+
+ScaleSearchResult RegisterCloudsOverScales(
+    const io::PointCloud& source, const io::PointCloud& target,
+    const CloudRegistrationOptions& options, double min_scale, double max_scale, double step,
+    double tolerance_m, const std::function<void(size_t, size_t, const ScaleTrial&)>& progress) {
+  ScaleSearchResult result;
+  Timer timer;
+  if (!(min_scale > 0) || !(max_scale >= min_scale) || !(step > 1.0) || !std::isfinite(max_scale)) {
+    throw InputError::Message("scale search", "expected 0 < min scale <= max scale and a step > 1");
+  }
+  const double tau = tolerance_m > 0 ? tolerance_m : ScaleSearchTolerance(target);
+  result.tolerance_m = tau;
+  auto fail = [&](const std::string& reason) {
+    result.status = "failed";
+    result.reason = reason;
+    result.seconds = timer.ElapsedSeconds();
+    return result;
+  };
+  for (const auto& [cloud, which] : {std::pair{&source, "source"}, std::pair{&target, "target"}}) {
+    const std::string problem = CheckCloud(*cloud, which);
+    if (!problem.empty()) return fail(problem);
+  }
+  std::vector<double> scales;
+  for (double x = min_scale; x <= max_scale * (1 + 1e-9); x *= step) scales.push_back(x);
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& x : source.points) centroid += x;
+  centroid /= static_cast<double>(source.size());
+  const double extent = RobustExtent(source.points);
+  struct Candidate {
+    double trial_scale;
+    SimilarityFit fit;
+  };
+  std::vector<Candidate> candidates;
+  std::string closest;  // the reason of the failed trial that fitted best
+  double closest_fitness = -1.0;
+  for (size_t k = 0; k < scales.size(); ++k) {
+    const double scale = scales[k];
+    io::PointCloud scaled;
+    scaled.points.reserve(source.size());
+    for (const Eigen::Vector3d& x : source.points) scaled.points.push_back(scale * (x - centroid));
+    CloudRegistrationOptions trial_options = options;
+    for (Eigen::Vector3d& c : trial_options.source_viewpoints) c = scale * (c - centroid);
+    const CloudRegistrationResult r = RegisterClouds(scaled, target, trial_options);
+    ScaleTrial trial;
+    trial.scale = scale;
+    trial.status = r.ok() ? "ok" : "failed: " + r.reason;
+    trial.fitness = r.fitness;
+    if (r.ok()) {
+      // The similarity target ← source of this trial, refined with the scale free. A rigid pose
+      // at a scale 5 % off leaves the source's ends 5 % of its half extent off.
+      Eigen::Matrix4d start = Eigen::Matrix4d::Identity();
+      start.topLeftCorner<3, 3>() = scale * r.target_from_source.topLeftCorner<3, 3>();
+      start.topRightCorner<3, 1>() =
+          r.target_from_source.topRightCorner<3, 1>() - start.topLeftCorner<3, 3>() * centroid;
+      const double reach = std::max(10.0 * tau, 0.05 * scale * extent);
+      const Candidate c{scale, RefineSimilarity(source, target, start, reach, tau)};
+      trial.refined = true;
+      trial.refined_scale = c.fit.scale;
+      trial.refined_fitness = c.fit.fitness;
+      candidates.push_back(c);
+    } else if (r.fitness > closest_fitness) {
+      closest_fitness = r.fitness;
+      std::ostringstream m;
+      m << "; the best-fitting trial, scale " << scale << ", " << r.reason;
+      closest = m.str();
+    }
+    result.trials.push_back(trial);
+    if (progress) progress(k + 1, scales.size(), trial);
+  }
+  if (candidates.empty()) {
+    std::ostringstream m;
+    m << "registered at none of " << scales.size() << " trial scales " << min_scale << " … " << max_scale << closest;
+    return fail(m.str());
+  }
+  std::sort(candidates.begin(), candidates.end(),
+            [](const Candidate& a, const Candidate& b) { return a.fit.fitness > b.fit.fitness; });
+  const Candidate& best = candidates.front();
+  // Another trial that ends elsewhere (a pseudo-symmetric site, a repeated bay) and fits almost
+  // as well: ambiguous.
+  for (size_t k = 1; k < candidates.size(); ++k) {
+    const double apart = TransformRmsOnCloud(source, best.fit.target_from_source, candidates[k].fit.target_from_source);
+    if (apart > 5.0 * tau && candidates[k].fit.fitness > 0.9 * best.fit.fitness) {
+      std::ostringstream m;
+      m << "ambiguous: the trial scales " << best.trial_scale << " and " << candidates[k].trial_scale
+        << " place the source " << apart << " m RMS apart with fitness " << best.fit.fitness << " and "
+        << candidates[k].fit.fitness;
+      return fail(m.str());
+    }
+  }
+  result.target_from_source = best.fit.target_from_source;
+  result.scale = best.fit.scale;
+  result.fitness = best.fit.fitness;
+  result.inlier_rmse = best.fit.inlier_rmse;
+  if (best.fit.fitness < 0.3) {
+    std::ostringstream m;
+    m << "the best placement puts only " << 100 * best.fit.fitness << " % of the source within " << tau
+      << " m of the target (30 % needed)";
+    return fail(m.str());
+  }
+  result.status = "ok";
+  result.seconds = timer.ElapsedSeconds();
+  return result;
+}
+
 double TransformRmsOnCloud(const io::PointCloud& cloud, const Eigen::Matrix4d& a,
                            const Eigen::Matrix4d& b) {
   if (cloud.empty()) return 0.0;

@@ -12,6 +12,7 @@
 // large clouds; a confidence from the margin between the best and the runner-up hypothesis.
 // PCL is used inside the implementation only.
 
+#include <functional>
 #include <limits>
 #include <map>
 #include <string>
@@ -295,6 +296,55 @@ SimilarityFit RefineSimilarity(const io::PointCloud& source, const io::PointClou
                                const Eigen::Matrix4d& start, double start_distance,
                                double end_distance, int iterations = 60,
                                size_t max_target_points = 300000);
+
+/// One trial scale of RegisterCloudsOverScales.
+struct ScaleTrial {
+  double scale = 1.0;            ///< applied to the centred source
+  std::string status;            ///< "ok" or "failed: <reason>" of the rigid registration
+  double fitness = 0.0;          ///< the rigid registration's
+  bool refined = false;          ///< an "ok" trial, refined as a similarity
+  double refined_scale = 0.0;    ///< target units per source unit after the refinement
+  double refined_fitness = 0.0;  ///< fraction of the source within the tolerance after it
+};
+
+/// Result of RegisterCloudsOverScales.
+struct ScaleSearchResult {
+  std::string status = "failed";  ///< "ok" or "failed"
+  std::string reason;
+  Eigen::Matrix4d target_from_source = Eigen::Matrix4d::Identity();  ///< [sR | t]
+  double scale = 1.0;
+  double fitness = 0.0;      ///< fraction of the source within tolerance_m of the target
+  double inlier_rmse = 0.0;  ///< metres (target units), over those
+  double tolerance_m = 0.0;
+  double seconds = 0.0;
+  std::vector<ScaleTrial> trials;
+  bool ok() const { return status == "ok"; }
+};
+
+/// Registration of a cloud in a scale of its own (a photogrammetric block without control, an
+/// SfM cloud) onto a metric target. Kim & Hilton's pipeline is rigid, and a rigid registration
+/// of such a cloud holds to about ±3–5 % of scale (bench/RESULTS.md), so the centred source is
+/// registered by RegisterClouds (`options`; source_viewpoints scaled with it) at trial scales
+/// min_scale · step^k up to max_scale; each "ok" trial is refined by RefineSimilarity and
+/// scored by the fraction of the source within `tolerance_m` (0: ScaleSearchTolerance). The
+/// best moves the source — unless another trial ends more than 5 tolerances away (RMS over the
+/// source) with at least 0.9 × its fraction (ambiguous), or fewer than 30 % of the source lie
+/// within the tolerance. Failed with the best-fitting failed trial's reason when none is
+/// "ok". `progress`, when given, is called after each trial.
+ScaleSearchResult RegisterCloudsOverScales(
+    const io::PointCloud& source, const io::PointCloud& target,
+    const CloudRegistrationOptions& options, double min_scale, double max_scale,
+    double step = 1.07, double tolerance_m = 0.0,
+    const std::function<void(size_t done, size_t total, const ScaleTrial&)>& progress = nullptr);
+
+/// The agreement tolerance of RegisterCloudsOverScales: max(3 × the target's point spacing,
+/// 0.5 % of its RobustExtent) — an unadjusted photogrammetric point is decimetres off on a site
+/// of tens of metres.
+double ScaleSearchTolerance(const io::PointCloud& target);
+
+/// Diagonal of the box between the 5th and 95th percentiles per axis: the extent of a cloud
+/// without its stray points (0 for an empty cloud).
+double RobustExtent(const std::vector<Eigen::Vector3d>& points);
 
 /// Median nearest-neighbour distance over up to `max_samples` points (metres); 0 when the
 /// cloud has fewer than 2 points.
