@@ -129,6 +129,27 @@ TEST_F(CliTest, OptionErrorsAreExitTwo) {
   EXPECT_FALSE(fs::exists(Tmp("o")));
 }
 
+// register-cloud --scale-range: bad ranges are exit 2 naming the option, nothing written; a
+// range that misses the scale of PCL's bun0 against bun4 is a reported failure (exit 3) with
+// the trials in the JSON.
+TEST_F(CliTest, RegisterCloudScaleRange) {
+  const std::string pair = "register-cloud --source " + kSource + "/data/pointclouds/pcl_test/bun0.pcd --target " + kSource +
+                           "/data/pointclouds/pcl_test/bun4.pcd --output " + Tmp("out.json");
+  const RunResult reversed = Mmba(pair + " --scale-range 3 2");
+  EXPECT_EQ(reversed.exit_code, 2);
+  EXPECT_THAT(reversed.output, HasSubstr("--scale-range"));
+  const RunResult step = Mmba(pair + " --scale-range 1 2 --scale-step 0.9");
+  EXPECT_EQ(step.exit_code, 2);
+  EXPECT_THAT(step.output, HasSubstr("--scale-step"));
+  EXPECT_FALSE(fs::exists(Tmp("out.json")));
+  const RunResult missed = Mmba(pair + " --scale-range 4 4.5 -q");
+  EXPECT_EQ(missed.exit_code, 3) << missed.output;
+  std::ifstream in(Tmp("out.json"));
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_EQ(j["status"], "failed");
+  EXPECT_EQ(j["trials"].size(), 2u);  // 4, 4.28
+}
+
 TEST_F(CliTest, NonConvergenceIsExitThreeAndNoModel) {
   fs::create_directories(Tmp("in"));
   io::ColmapModel model = io::ReadColmapModel(kModel);
