@@ -255,6 +255,35 @@ void JointHistogram::Add(const LidarImage& lidar, const GrayImage& photo) {
   lidar_total_ += static_cast<double>(lidar_samples);
 }
 
+void JointHistogram::AddCoveredBatch(int count, const int* bx, const float (*wx)[kBatch],
+                                     const float* photo255, const float* weight) {
+  CHECK_LE(count, kBatch);
+  const int bins = bins_;
+  const int stride = bins + 3;
+  int by[kBatch];
+  float pos[kBatch];
+  float wy[4][kBatch];
+  for (int k = 0; k < count; ++k) {
+    pos[k] = photo255[k] * photo_scale_;
+    by[k] = pos[k] <= 0.f ? 0 : (pos[k] >= bins - 1 ? bins - 1 : static_cast<int>(pos[k]));
+  }
+  for (int k = 0; k < count; ++k) {
+    float w[4];
+    CubicBSplineWeights(pos[k] - by[k], w);
+    for (int q = 0; q < 4; ++q) wy[q][k] = w[q] * weight[k];
+  }
+  for (int k = 0; k < count; ++k) {
+    double* base = &counts_[static_cast<size_t>(bx[k]) * stride + by[k]];
+    for (int i = 0; i < 4; ++i) {
+      double* row = base + static_cast<size_t>(i) * stride;
+      row[0] += wx[i][k] * wy[0][k];
+      row[1] += wx[i][k] * wy[1][k];
+      row[2] += wx[i][k] * wy[2][k];
+      row[3] += wx[i][k] * wy[3][k];
+    }
+  }
+}
+
 void JointHistogram::AddPairs(const std::vector<float>& lidar01,
                               const std::vector<float>& photo255) {
   AddPairs(lidar01.data(), photo255.data(), std::min(lidar01.size(), photo255.size()));

@@ -59,6 +59,13 @@ void AccumulateWithModel(const ViewSamples& samples, const View& view, const Vie
   const float inv_log_span =
       static_cast<float>(1.0 / (std::log(options.max_range_m) - std::log(options.min_range_m)));
   double count = 0;
+  // Samples gathered in batches (JointHistogram::AddCoveredBatch: the same sums as one by one).
+  constexpr int kBatch = JointHistogram::kBatch;
+  int batch_bx[kBatch];
+  float batch_wx[4][kBatch];
+  float batch_photo[kBatch];
+  float batch_weight[kBatch];
+  int n = 0;
   for (size_t j = point_begin; j < point_end; ++j) {
     const Eigen::Vector3f p = t.rotation * samples.points_in_lidar[j] + t.translation;
     double xy[2];
@@ -80,12 +87,18 @@ void AccumulateWithModel(const ViewSamples& samples, const View& view, const Vie
       const float sy = y + samples.sample_offset[s][1];
       if (!(sx >= 0.f && sy >= 0.f && sx < width && sy < height)) continue;
       // The rendered path's photo sampler (clamped bilinear), so both fill the same histogram.
-      const float photo255 = SampleClamped(view.image, sx, sy);
-      const float weight = samples.sample_weight[s];
-      histogram->AddCoveredBins(bx, wx, photo255, weight);
-      count += weight;  // integer weights: exact, the same total as per sample
+      batch_photo[n] = SampleClamped(view.image, sx, sy);
+      batch_weight[n] = samples.sample_weight[s];
+      batch_bx[n] = bx;
+      for (int i = 0; i < 4; ++i) batch_wx[i][n] = wx[i];
+      count += samples.sample_weight[s];  // integer weights: exact, the same total as per sample
+      if (++n == kBatch) {
+        histogram->AddCoveredBatch(n, batch_bx, batch_wx, batch_photo, batch_weight);
+        n = 0;
+      }
     }
   }
+  histogram->AddCoveredBatch(n, batch_bx, batch_wx, batch_photo, batch_weight);
   histogram->AddCoveredCount(count);
 }
 

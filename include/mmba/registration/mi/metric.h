@@ -105,6 +105,13 @@ class JointHistogram {
       row[3] += wx[i] * wy[3];
     }
   }
+  /// AddCoveredBins for `count` samples at once (count ≤ kBatch): sample k has the LiDAR bin
+  /// bx[k], its weights wx[0..3][k], the photo value photo255[k] and the weight weight[k]. The
+  /// photo bins and weights of all are computed first (a vectorisable loop), then the adds in
+  /// the order k = 0, 1, …: the same sums as AddCoveredBins called for each in turn.
+  static constexpr int kBatch = 256;
+  void AddCoveredBatch(int count, const int* bx, const float (*wx)[kBatch],
+                       const float* photo255, const float* weight);
   void AddCoveredCount(double weight) {
     total_ += weight;
     lidar_total_ += weight;
