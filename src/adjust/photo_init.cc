@@ -4,7 +4,10 @@
 // georeferenced sensors also observe — the rig frames at their GNSS/INS poses, the spherical
 // stations at their setups — are intersected in the world from those sensors' rays alone, and
 // the similarity block → world (Umeyama 1991, inside a RANSAC over point triples, Fischler &
-// Bolles 1981) moves the whole block there. The joint solve then refines everything.
+// Bolles 1981) moves the whole block there. A block that only a static LiDAR overlaps is
+// registered to it at trial scales (registration::RegisterCloudsOverScales: Kim & Hilton's
+// rigid pipeline per scale, then a similarity point-to-plane ICP). The joint solve then refines
+// everything.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -267,6 +270,11 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
   }
   // Trial scales over lidar_scale_range, or 1/8 … 1.5 × the ratio of the clouds' extents.
   const double ratio = registration::RobustExtent(target.points) / std::max(1e-12, registration::RobustExtent(source.points));
+  if (!(ratio > 0) || !std::isfinite(ratio)) {
+    *reason = "the extent of its tie points or of the LiDAR is zero: no scale can be searched";
+    entry["status"] = "failed: " + *reason;
+    return false;
+  }
   const double lo = p.lidar_scale_min > 0 ? p.lidar_scale_min : ratio / 8.0;
   const double hi = p.lidar_scale_max > 0 ? p.lidar_scale_max : 1.5 * ratio;
   registration::CloudRegistrationOptions options;
