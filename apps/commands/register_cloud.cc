@@ -32,7 +32,7 @@ struct RegisterCloudArgs {
   uint64_t seed = 42;
   double min_fitness = registration::CloudRegistrationOptions().min_fitness;
   std::vector<double> scale_range;
-  double scale_step = 1.07;
+  double scale_step = 1.05;
 };
 
 // --scale-range: the source in a scale of its own, registered at trial scales

@@ -254,7 +254,7 @@ bool PlacePhotoBlockByTiePoints(JointState* s);
 bool PlacePhotoBlockByGnss(JointState* s);
 /// A block placed by nothing else, with a static LiDAR: kept as given when half its tie points
 /// already lie on the LiDAR; else its tie points are registered to the LiDAR's reference cloud
-/// by register-cloud's pipeline at trial scales 7 % apart (PhotoCollection::lidar_scale_min
+/// by register-cloud's pipeline at trial scales 5 % apart (PhotoCollection::lidar_scale_min
 /// … max, or from the clouds' extents), each "ok" refined as a similarity (point-to-plane ICP
 /// with scale), and the best placement moves the block unless another trial fits almost as
 /// well elsewhere. False with `reason` (the block unchanged) when none does.

@@ -287,7 +287,7 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
   spdlog::info("adjust: initialisation: photo block {} has no scale: its {} tie points registered to the LiDAR ({} points) "
                "at trial scales {:.4g} … {:.4g}", p.id, source.size(), target.size(), lo, hi);
   const registration::ScaleSearchResult r = registration::RegisterCloudsOverScales(
-      source, target, options, lo, hi, 1.07, tau, [](size_t done, size_t total, const registration::ScaleTrial& t) {
+      source, target, options, lo, hi, 1.05, tau, [](size_t done, size_t total, const registration::ScaleTrial& t) {
         spdlog::info("adjust: scale {} of {} ({:.4g}): {}", done, total, t.scale, t.status.substr(0, 160));
       });
   nlohmann::json trials = nlohmann::json::array();

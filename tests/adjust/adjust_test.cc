@@ -674,7 +674,7 @@ TEST_F(AdjustTest, PlacesABlockByTheLidarAloneAtTrialScales) {
   ASSERT_TRUE(outcome.ok) << outcome.reason;
   const json& registration = outcome.report["photo_block"]["registration_to_lidar"];
   EXPECT_EQ(registration["status"], "ok") << registration.dump();
-  EXPECT_EQ(registration["trials"].size(), 4u) << registration.dump();  // 2.4 × 1.07^k
+  EXPECT_EQ(registration["trials"].size(), 5u) << registration.dump();  // 2.4 × 1.05^k
   EXPECT_NEAR(registration["scale"].get<double>(), 1 / 0.37, 0.02) << registration.dump();
   const std::string georeference = outcome.report["photo_block"]["georeference"];
   EXPECT_NE(georeference.find("to the LiDAR over trial scales"), std::string::npos) << georeference;

@@ -334,7 +334,7 @@ struct ScaleSearchResult {
 ScaleSearchResult RegisterCloudsOverScales(
     const io::PointCloud& source, const io::PointCloud& target,
     const CloudRegistrationOptions& options, double min_scale, double max_scale,
-    double step = 1.07, double tolerance_m = 0.0,
+    double step = 1.05, double tolerance_m = 0.0,
     const std::function<void(size_t done, size_t total, const ScaleTrial&)>& progress = nullptr);
 
 /// The agreement tolerance of RegisterCloudsOverScales: max(3 × the target's point spacing,
