@@ -259,12 +259,13 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
   entry["lidar_points"] = target.size();
   // Already in place (a model georeferenced before it came here): kept as given.
   const double tau = registration::ScaleSearchTolerance(target);
-  const registration::SimilarityFit given =
-      registration::RefineSimilarity(source, target, Eigen::Matrix4d::Identity(), tau, tau, 0);
-  entry["fitness_as_given"] = given.fitness;
-  if (given.fitness >= 0.5) {
+  const std::vector<double> distances = registration::DistancesToTarget(source, target, Eigen::Matrix4d::Identity());
+  const double given = static_cast<double>(std::count_if(distances.begin(), distances.end(), [tau](double d) { return d < tau; })) /
+                       static_cast<double>(distances.size());
+  entry["fitness_as_given"] = given;
+  if (given >= 0.5) {
     entry["status"] = "as given";
-    block.georeference += "; " + std::to_string(static_cast<int>(100 * given.fitness)) + " % of its tie points lie on the LiDAR";
+    block.georeference += "; " + std::to_string(static_cast<int>(100 * given)) + " % of its tie points lie on the LiDAR";
     Note(s, "photo block '" + p.id + "': in place on the LiDAR as given (" + block.georeference + ")");
     return true;
   }
