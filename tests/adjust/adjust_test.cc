@@ -635,7 +635,8 @@ TEST_F(AdjustTest, PlacesABlockWithoutControlByTheOtherSensorsTiePoints) {
 // Photos and a static LiDAR only (no control in the photos, no GNSS positions, no rig, no
 // spherical stations): the block, in a COLMAP frame and scale of its own, is placed by
 // registering its tie points to the LiDAR at trial scales, then adjusted. A scale range that
-// misses the true scale is a reported failure (exit 3), naming the key to change.
+// misses the true scale is a reported failure (exit 3), naming the key to change; a model
+// already in the LiDAR's frame is kept as given.
 TEST_F(AdjustTest, PlacesABlockByTheLidarAloneAtTrialScales) {
   // The fixture's 600 tie points leave the gate's 180° twin ambiguous (an honest failure);
   // 1,500, as the simulator's default, tell it apart.
@@ -656,12 +657,12 @@ TEST_F(AdjustTest, PlacesABlockByTheLidarAloneAtTrialScales) {
     scans += "      - {file: " + (sim / (*it)[2].str()).string() + "\n";
   }
   ASSERT_NE(scans.find("world_from_scan"), std::string::npos) << simulated;
-  const auto write_project = [&](const std::string& range) {
+  const auto write_project = [&](const std::string& range, const fs::path& colmap_model) {
     std::ofstream(dir / "project.yaml")
         << "mmba_project: 1\norigin: {latitude_deg: 45.5048, longitude_deg: -73.5772, height_m: 60}\n"
         << "simulated: {seed: 7, preset: small, truth: " << (sim / "truth/truth.json").string() << "}\nsensors:\n"
         << "  - {id: photos, type: photo_collection, images: " << (sim / "images/photos").string()
-        << ", calibration: " << (sim / "calib/photo_camera.yaml").string() << ", colmap_model: " << (dir / "colmap").string()
+        << ", calibration: " << (sim / "calib/photo_camera.yaml").string() << ", colmap_model: " << colmap_model.string()
         << ", sigma_px: 0.5, lidar_scale_range: " << range << "}\n"
         << "  - {id: ts, type: total_station, file: " << (sim / "survey/network.xml").string() << "}\n"
         << "  - id: tls\n    type: lidar_static\n    reference_cloud: " << (sim / "clouds/lidar.ply").string()
@@ -669,7 +670,7 @@ TEST_F(AdjustTest, PlacesABlockByTheLidarAloneAtTrialScales) {
   };
   // The true scale is 1 / 0.37 = 2.70; the range keeps the test short (the default spans 1/8 to
   // 1.5 times the ratio of the clouds' extents).
-  write_project("[2.4, 3.0]");
+  write_project("[2.4, 3.0]", dir / "colmap");
   const AdjustOutcome outcome = Run((dir / "project.yaml").string(), (dir / "out").string());
   ASSERT_TRUE(outcome.ok) << outcome.reason;
   const json& registration = outcome.report["photo_block"]["registration_to_lidar"];
@@ -682,11 +683,22 @@ TEST_F(AdjustTest, PlacesABlockByTheLidarAloneAtTrialScales) {
   EXPECT_LT(photos["max_m"].get<double>(), 0.03) << photos.dump();
   EXPECT_LT(photos["max_rotation_deg"].get<double>(), 0.3) << photos.dump();
 
-  write_project("[0.6, 0.7]");
+  write_project("[0.6, 0.7]", dir / "colmap");
   const AdjustOutcome wrong = Run((dir / "project.yaml").string(), (dir / "out_wrong").string());
   EXPECT_FALSE(wrong.ok);
   EXPECT_NE(wrong.reason.find("lidar_scale_range"), std::string::npos) << wrong.reason;
   EXPECT_FALSE(fs::exists(dir / "out_wrong" / "report.json"));
+
+  // A model georeferenced before (the simulator's, in the world frame) is kept as given: no
+  // trial is registered, whatever the range says.
+  write_project("[0.6, 0.7]", sim / "colmap" / "photos");
+  const AdjustOutcome given = Run((dir / "project.yaml").string(), (dir / "out_given").string());
+  ASSERT_TRUE(given.ok) << given.reason;
+  const json& as_given = given.report["photo_block"]["registration_to_lidar"];
+  EXPECT_EQ(as_given["status"], "as given") << as_given.dump();
+  EXPECT_FALSE(as_given.contains("trials")) << as_given.dump();
+  EXPECT_GT(as_given["fitness_as_given"].get<double>(), 0.5) << as_given.dump();
+  EXPECT_LT(given.report["truth_evaluation"]["photo_positions"]["max_m"].get<double>(), 0.03);
 }
 
 // Photos with GNSS antenna positions (a drone's RTK fixes; the GNSS CSV's `camera` rows) and

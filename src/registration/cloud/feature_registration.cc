@@ -4,15 +4,20 @@
 #include "mmba/registration/cloud/feature_registration.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <ctime>
+#include <exception>
 #include <iomanip>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <sstream>
+#include <thread>
 #include <tuple>
 #include <unordered_map>
 
@@ -1998,49 +2003,84 @@ ScaleSearchResult RegisterCloudsOverScales(
     double trial_scale;
     SimilarityFit fit;
   };
+  // The trials are independent: two at a time on a machine with two cores or more (each
+  // registration is mostly single-threaded), then taken in the order of their scales, so the
+  // result does not depend on which finished first.
+  struct Outcome {
+    CloudRegistrationResult rigid;
+    std::optional<SimilarityFit> fit;
+  };
+  std::vector<Outcome> outcomes(scales.size());
+  std::vector<ScaleTrial> trials(scales.size());
+  std::atomic<size_t> next{0};
+  std::mutex progress_mutex;
+  size_t finished = 0;
+  std::exception_ptr error;
+  const auto work = [&]() {
+    try {
+      for (size_t k = next++; k < scales.size(); k = next++) {
+        const double scale = scales[k];
+        io::PointCloud scaled;
+        scaled.points.reserve(source.size());
+        for (const Eigen::Vector3d& x : source.points) scaled.points.push_back(scale * (x - centroid));
+        CloudRegistrationOptions trial_options = options;
+        for (Eigen::Vector3d& c : trial_options.source_viewpoints) c = scale * (c - centroid);
+        Outcome& o = outcomes[k];
+        o.rigid = RegisterClouds(scaled, target, trial_options);
+        ScaleTrial& trial = trials[k];
+        trial.scale = scale;
+        trial.status = o.rigid.ok() ? "ok" : "failed: " + o.rigid.reason;
+        trial.fitness = o.rigid.fitness;
+        if (o.rigid.ok()) {
+          // The similarity target ← source of this trial, refined with the scale free. A rigid
+          // pose at a scale 5 % off leaves the source's ends 5 % of its half extent off.
+          Eigen::Matrix4d start = Eigen::Matrix4d::Identity();
+          start.topLeftCorner<3, 3>() = scale * o.rigid.target_from_source.topLeftCorner<3, 3>();
+          start.topRightCorner<3, 1>() =
+              o.rigid.target_from_source.topRightCorner<3, 1>() - start.topLeftCorner<3, 3>() * centroid;
+          const double reach = std::max(10.0 * tau, 0.05 * scale * extent);
+          o.fit = RefineSimilarity(source, target, start, reach, tau);
+          trial.refined = true;
+          trial.refined_scale = o.fit->scale;
+          trial.refined_fitness = o.fit->fitness;
+        }
+        const std::lock_guard<std::mutex> lock(progress_mutex);
+        ++finished;
+        if (progress) progress(finished, scales.size(), trial);
+      }
+    } catch (...) {
+      const std::lock_guard<std::mutex> lock(progress_mutex);
+      if (!error) error = std::current_exception();
+      next = scales.size();
+    }
+  };
+  const size_t workers = std::min<size_t>({2, std::max(1u, std::thread::hardware_concurrency()), scales.size()});
+  std::vector<std::thread> pool;
+  for (size_t w = 1; w < workers; ++w) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
   std::vector<Candidate> candidates;
   std::string closest;  // the reason of the failed trial that fitted best
   double closest_fitness = -1.0;
   for (size_t k = 0; k < scales.size(); ++k) {
-    const double scale = scales[k];
-    io::PointCloud scaled;
-    scaled.points.reserve(source.size());
-    for (const Eigen::Vector3d& x : source.points) scaled.points.push_back(scale * (x - centroid));
-    CloudRegistrationOptions trial_options = options;
-    for (Eigen::Vector3d& c : trial_options.source_viewpoints) c = scale * (c - centroid);
-    const CloudRegistrationResult r = RegisterClouds(scaled, target, trial_options);
-    ScaleTrial trial;
-    trial.scale = scale;
-    trial.status = r.ok() ? "ok" : "failed: " + r.reason;
-    trial.fitness = r.fitness;
-    if (r.ok()) {
-      // The similarity target ← source of this trial, refined with the scale free. A rigid pose
-      // at a scale 5 % off leaves the source's ends 5 % of its half extent off.
-      Eigen::Matrix4d start = Eigen::Matrix4d::Identity();
-      start.topLeftCorner<3, 3>() = scale * r.target_from_source.topLeftCorner<3, 3>();
-      start.topRightCorner<3, 1>() =
-          r.target_from_source.topRightCorner<3, 1>() - start.topLeftCorner<3, 3>() * centroid;
-      const double reach = std::max(10.0 * tau, 0.05 * scale * extent);
-      const Candidate c{scale, RefineSimilarity(source, target, start, reach, tau)};
-      trial.refined = true;
-      trial.refined_scale = c.fit.scale;
-      trial.refined_fitness = c.fit.fitness;
-      candidates.push_back(c);
-    } else if (r.fitness > closest_fitness) {
-      closest_fitness = r.fitness;
+    const Outcome& o = outcomes[k];
+    if (o.fit) {
+      candidates.push_back({scales[k], *o.fit});
+    } else if (o.rigid.fitness > closest_fitness) {
+      closest_fitness = o.rigid.fitness;
       std::ostringstream m;
-      m << "; the best-fitting trial, scale " << scale << ", " << r.reason;
+      m << "; the best-fitting trial, scale " << scales[k] << ", " << o.rigid.reason;
       closest = m.str();
     }
-    result.trials.push_back(trial);
-    if (progress) progress(k + 1, scales.size(), trial);
   }
+  result.trials = trials;
   if (candidates.empty()) {
     std::ostringstream m;
     m << "registered at none of " << scales.size() << " trial scales " << min_scale << " … " << max_scale << closest;
     return fail(m.str());
   }
-  std::sort(candidates.begin(), candidates.end(),
+  std::stable_sort(candidates.begin(), candidates.end(),
             [](const Candidate& a, const Candidate& b) { return a.fit.fitness > b.fit.fitness; });
   const Candidate& best = candidates.front();
   // Another trial that ends elsewhere (a pseudo-symmetric site, a repeated bay) and fits almost

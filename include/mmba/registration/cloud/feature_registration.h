@@ -330,7 +330,9 @@ struct ScaleSearchResult {
 /// best moves the source — unless another trial ends more than 5 tolerances away (RMS over the
 /// source) with at least 0.9 × its fraction (ambiguous), or fewer than 30 % of the source lie
 /// within the tolerance. Failed with the best-fitting failed trial's reason when none is
-/// "ok". `progress`, when given, is called after each trial.
+/// "ok". Two trials run at a time when the machine has two cores or more; the result does not
+/// depend on their order. `progress`, when given, is called after each trial (from the thread
+/// that ran it, one call at a time, in the order the trials finish).
 ScaleSearchResult RegisterCloudsOverScales(
     const io::PointCloud& source, const io::PointCloud& target,
     const CloudRegistrationOptions& options, double min_scale, double max_scale,
