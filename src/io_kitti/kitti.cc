@@ -1,6 +1,7 @@
 #include "mmba/io/kitti.h"
 
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <sstream>
 #include <vector>
@@ -51,7 +52,11 @@ void CheckRotation(const Eigen::Matrix3d& rotation, const std::string& file, int
 
 }  // namespace
 
-KittiCalibration ReadKittiCalibration(const std::string& path) {
+namespace {
+
+// "KEY: v1 v2 ..." rows of one calibration file by key. The raw recordings' "calib_time:"
+// (a date, the only key whose value is text) is skipped.
+std::map<std::string, CalibRow> ReadCalibRows(const std::string& path) {
   const std::string text = ReadWholeFile(path);
   LineCursor cursor(text);
   std::string_view line_text;
@@ -64,6 +69,7 @@ KittiCalibration ReadKittiCalibration(const std::string& path) {
       line.Fail("key", key, "'NAME:' followed by numbers (KITTI calibration format)");
     }
     key.pop_back();
+    if (key == "calib_time") continue;
     CalibRow row;
     row.line = line.line_number();
     for (size_t i = 1; i < line.size(); ++i) {
@@ -71,13 +77,79 @@ KittiCalibration ReadKittiCalibration(const std::string& path) {
     }
     rows[key] = std::move(row);
   }
+  return rows;
+}
+
+constexpr const char* kRawCamToCam = "calib_cam_to_cam.txt";
+constexpr const char* kRawVeloToCam = "calib_velo_to_cam.txt";
+
+}  // namespace
+
+KittiCalibration ReadKittiCalibration(const std::string& path_or_folder) {
+  // A raw recording's calibration is two files in the date folder: calib_cam_to_cam.txt
+  // (P_rect_0X, R_rect_00) and calib_velo_to_cam.txt (R, T: velodyne → camera 0). Given the
+  // folder or either file, both are read; rows of the second file are named by it.
+  namespace fs = std::filesystem;
+  std::string path = path_or_folder;
+  std::string velo_path;
+  const fs::path given(path_or_folder);
+  std::error_code ec;
+  if (fs::is_directory(given, ec)) {
+    path = (given / kRawCamToCam).string();
+    velo_path = (given / kRawVeloToCam).string();
+    if (!fs::exists(path) || !fs::exists(velo_path)) {
+      const std::string missing = !fs::exists(path) && !fs::exists(velo_path)
+                                      ? std::string(kRawCamToCam) + " and " + kRawVeloToCam
+                                      : (!fs::exists(path) ? kRawCamToCam : kRawVeloToCam);
+      throw InputError::Message(path_or_folder, "is a folder without " + missing + " (expected a KITTI calibration file, "
+                                                "or a raw recording's calibration folder with " + kRawCamToCam +
+                                                " and " + kRawVeloToCam + ")");
+    }
+  } else if (given.filename() == kRawCamToCam || given.filename() == kRawVeloToCam) {
+    path = (given.parent_path() / kRawCamToCam).string();
+    velo_path = (given.parent_path() / kRawVeloToCam).string();
+    const std::string& other = given.filename() == kRawCamToCam ? velo_path : path;
+    if (fs::exists(given) && !fs::exists(other)) {
+      throw InputError::Message(other, "file not found: a KITTI raw calibration needs " + std::string(kRawCamToCam) +
+                                           " and " + kRawVeloToCam + " side by side (given " + path_or_folder + ")");
+    }
+  }
+  std::map<std::string, CalibRow> rows = ReadCalibRows(path);
+  std::map<std::string, std::string> row_file;
+  if (!velo_path.empty()) {
+    const std::map<std::string, CalibRow> velo = ReadCalibRows(velo_path);
+    const auto r = velo.find("R"), t = velo.find("T");
+    if (r == velo.end() || t == velo.end()) {
+      throw InputError::Message(velo_path, "missing calibration key " + std::string(r == velo.end() ? "R" : "T") +
+                                               " (expected R: 9 numbers and T: 3 numbers, velodyne to camera 0)");
+    }
+    for (const auto& [key, row] : {std::pair{"R", r->second}, std::pair{"T", t->second}}) {
+      const size_t count = std::string(key) == "R" ? 9 : 3;
+      if (row.values.size() != count) {
+        throw InputError(velo_path, row.line, key, std::to_string(row.values.size()) + " numbers",
+                         std::to_string(count) + " numbers");
+      }
+    }
+    CalibRow tr;
+    tr.line = r->second.line;
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) tr.values.push_back(r->second.values[3 * i + j]);
+      tr.values.push_back(t->second.values[i]);
+    }
+    rows["Tr_velo_to_cam"] = tr;
+    row_file["Tr_velo_to_cam"] = velo_path;
+  }
+  const auto file_of = [&](const std::string& key) {
+    const auto it = row_file.find(key);
+    return it == row_file.end() ? path : it->second;
+  };
   auto find = [&](std::initializer_list<const char*> names, size_t count,
                   bool required) -> const CalibRow* {
     for (const char* name : names) {
       auto it = rows.find(name);
       if (it == rows.end()) continue;
       if (it->second.values.size() != count) {
-        throw InputError(path, it->second.line, name,
+        throw InputError(file_of(name), it->second.line, name,
                          std::to_string(it->second.values.size()) + " numbers",
                          std::to_string(count) + " numbers");
       }
@@ -87,7 +159,8 @@ KittiCalibration ReadKittiCalibration(const std::string& path) {
       std::string list;
       for (const char* name : names) list += (list.empty() ? "" : " or ") + std::string(name);
       throw InputError::Message(path, "missing calibration key " + list +
-                                          " (expected a KITTI object/odometry calib file)");
+                                          " (expected a KITTI object/odometry calib file, or a raw "
+                                          "recording's calib_cam_to_cam.txt + calib_velo_to_cam.txt)");
     }
     return nullptr;
   };
@@ -107,8 +180,8 @@ KittiCalibration ReadKittiCalibration(const std::string& path) {
   // R0_rect the identity is right for it.
   const CalibRow* tr = find({"Tr_velo_to_cam", "Tr_velo_cam", "Tr"}, 12, true);
   calibration.tr_velo_to_cam = Matrix3x4(*tr);
-  CheckRotation(calibration.tr_velo_to_cam.leftCols<3>(), path, tr->line, "Tr_velo_to_cam",
-                1e-4);
+  CheckRotation(calibration.tr_velo_to_cam.leftCols<3>(), file_of("Tr_velo_to_cam"), tr->line,
+                velo_path.empty() ? "Tr_velo_to_cam" : "R", 1e-4);
   return calibration;
 }
 

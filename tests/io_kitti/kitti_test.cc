@@ -70,6 +70,23 @@ TEST(KittiCalibration, BrokenFilesNameTheFileLineAndField) {
   ExpectInputError("does_not_exist.txt", "file not found");
 }
 
+// A raw recording's calibration (the date folder's calib_cam_to_cam.txt with its text
+// "calib_time:" line, and calib_velo_to_cam.txt's R and T): the same matrices as the object
+// format's calib_ok.txt, given the folder or either file.
+TEST(KittiCalibration, ReadsARawRecordingsTwoFiles) {
+  const KittiCalibration object = ReadKittiCalibration(Fixture("calib_ok.txt"));
+  for (const std::string& given : {Fixture("raw"), Fixture("raw/calib_cam_to_cam.txt"), Fixture("raw/calib_velo_to_cam.txt")}) {
+    const KittiCalibration raw = ReadKittiCalibration(given);
+    for (int i = 0; i < 4; ++i) EXPECT_EQ(raw.p[i], object.p[i]) << given << " P" << i;
+    EXPECT_EQ(raw.r0_rect, object.r0_rect) << given;
+    EXPECT_EQ(raw.tr_velo_to_cam, object.tr_velo_to_cam) << given;
+    ExpectPixelConvention(raw, KittiCamera(raw, 2, 1242, 375));
+  }
+  // Without calib_velo_to_cam.txt next to it: the missing file is named.
+  ExpectInputError("raw_without_velo/calib_cam_to_cam.txt", "calib_velo_to_cam.txt");
+  ExpectInputError("raw_without_velo", "calib_velo_to_cam.txt");
+}
+
 TEST(KittiCalibration, SingularKIsRejected) {
   KittiCalibration calibration = ReadKittiCalibration(Fixture("calib_ok.txt"));
   calibration.p[2](0, 0) = 0;

@@ -21,11 +21,13 @@ struct KittiCalibration {
   Eigen::Matrix<double, 3, 4> tr_velo_to_cam;    ///< Tr_velo_to_cam (velo -> cam 0, unrect.)
 };
 
-/// Reads a KITTI calibration file. Accepts the object format (P0..P3, R0_rect,
-/// Tr_velo_to_cam, ...) and the raw/odometry key spellings (P_rect_0X / R_rect_00 /
-/// Tr / Tr_velo_cam). Throws InputError (file:line, field, value) for a malformed number, a
-/// wrong count, a missing required key or a non-orthonormal rotation.
-KittiCalibration ReadKittiCalibration(const std::string& path);
+/// Reads a KITTI calibration. Accepts the object format (P0..P3, R0_rect, Tr_velo_to_cam,
+/// ...), the odometry format (P0..P3, Tr: velodyne → rectified camera 0) and a raw
+/// recording's two files — calib_cam_to_cam.txt (P_rect_0X, R_rect_00; its "calib_time:" date
+/// is skipped) and calib_velo_to_cam.txt (R, T) — given as their folder or as either file (the
+/// other is read from beside it). Throws InputError (file:line, field, value) for a malformed
+/// number, a wrong count, a missing required key or file, or a non-orthonormal rotation.
+KittiCalibration ReadKittiCalibration(const std::string& path_or_folder);
 
 /// A camera of KITTI as an mmba camera and its pose relative to the velodyne.
 struct KittiCameraPose {
