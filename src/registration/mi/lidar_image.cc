@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 #include <thread>
+#include <type_traits>
 
 #include <glog/logging.h>
 
@@ -159,7 +160,7 @@ View CutPerspective(const GrayImage& pano, const sensors::Camera& pano_camera, i
   return view;
 }
 
-constexpr uint64_t kEmptyKey = ~uint64_t{0};
+constexpr uint64_t kEmptyKey = kEmptyZBufferKey;
 
 inline uint32_t FloatBits(float f) {
   uint32_t bits;
@@ -167,19 +168,18 @@ inline uint32_t FloatBits(float f) {
   return bits;
 }
 
-inline float BitsFloat(uint32_t bits) {
-  float f;
-  std::memcpy(&f, &bits, sizeof(f));
-  return f;
-}
+// Widest footprint row written as one fixed window (kZBufferPadding entries): radius ≤ 3.
+constexpr int kWindow = static_cast<int>(kZBufferPadding);
 
 // Pass 1 of the z-buffer: each point is projected once and its footprint keeps, per pixel,
 // the smallest key (range << 32 | index). Positive IEEE floats order as their bit patterns,
 // so one 64-bit comparison resolves depth (ties: lower index) without touching the outputs.
 template <typename Model>
-void SplatWithModel(const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
-                    const RenderOptions& options, size_t point_begin, size_t point_end,
-                    uint64_t* zbuffer, LidarImage* out) {
+[[gnu::always_inline]] inline void SplatWithModel(const LidarPoints& points, const View& view,
+                                                  const Rigid3d& cam_from_lidar,
+                                                  const RenderOptions& options,
+                                                  size_t point_begin, size_t point_end,
+                                                  uint64_t* zbuffer, LidarImage* out) {
   const int width = out->width;
   const int height = out->height;
   const Eigen::Matrix3d view_from_lidar_r =
@@ -197,6 +197,77 @@ void SplatWithModel(const LidarPoints& points, const View& view, const Rigid3d& 
   const double period = 2.0 * M_PI * params[0];  // panorama columns per turn (f = W/2π)
   Eigen::Vector2f* projected = out->projected.data();
   const bool ranked = !points.tie_rank.empty();
+  // One point that passed the projection: its footprint into the z-buffer. (Inlined: as a
+  // call it would be compiled for the default instruction set, not the clone's.)
+  auto draw = [&](size_t i, float range2, const double* xy) __attribute__((always_inline)) {
+    const float range = std::sqrt(range2);
+    const int col = static_cast<int>(xy[0]);
+    const int row = static_cast<int>(xy[1]);
+    const int radius = std::min(max_radius, static_cast<int>(radius_factor / range));
+    projected[i] = Eigen::Vector2f(static_cast<float>(xy[0]), static_cast<float>(xy[1]));
+    const uint32_t rank = ranked ? points.tie_rank[i] : static_cast<uint32_t>(i);
+    const uint64_t key = (static_cast<uint64_t>(FloatBits(range)) << 32) | rank;
+    const int r0 = std::max(0, row - radius), r1 = std::min(height - 1, row + radius);
+    const int c0 = std::max(0, col - radius), c1 = std::min(width - 1, col + radius);
+    if (c1 - c0 < kWindow) {
+      // A fixed window per row, the empty key past the footprint (a pixel keeps its key;
+      // the buffer is padded for the last row): no branch on the footprint's width, and
+      // a loop the compiler vectorises. The same minimum per pixel as the loop below.
+      const int n = c1 - c0 + 1;
+      for (int r = r0; r <= r1; ++r) {
+        uint64_t* cell = zbuffer + static_cast<size_t>(r) * width + c0;
+        for (int j = 0; j < kWindow; ++j) cell[j] = std::min(cell[j], j < n ? key : kEmptyKey);
+      }
+      return;
+    }
+    for (int r = r0; r <= r1; ++r) {
+      uint64_t* line = zbuffer + static_cast<size_t>(r) * width;
+      for (int c = c0; c <= c1; ++c) line[c] = std::min(line[c], key);
+    }
+  };
+  if constexpr (std::is_same_v<Model, sensors::PinholeModel>) {
+    // The pinhole camera (perspective cuts, KITTI): the points transformed and projected a
+    // block at a time in loops without branches, which the compiler vectorises (the
+    // divisions in double are most of a point's cost), then the checks and footprints one by
+    // one. The same arithmetic as the loop below — Eigen's 3×3 product is r₀x + (r₁y + r₂z)
+    // per row, the squared norm x² + (y² + z²) (test ProjectionBlocksEqualTheEigenExpressions),
+    // PinholeModel::ImgFromCam is f·(x/z + 0) + c.
+    constexpr int kBlock = 64;
+    alignas(64) float bx[kBlock], by[kBlock], bz[kBlock], b2[kBlock];
+    alignas(64) double bu[kBlock], bv[kBlock];
+    const float m00 = rotation(0, 0), m01 = rotation(0, 1), m02 = rotation(0, 2);
+    const float m10 = rotation(1, 0), m11 = rotation(1, 1), m12 = rotation(1, 2);
+    const float m20 = rotation(2, 0), m21 = rotation(2, 1), m22 = rotation(2, 2);
+    const float t0 = translation.x(), t1 = translation.y(), t2 = translation.z();
+    const double fx = params[0], fy = params[1], cx = params[2], cy = params[3];
+    for (size_t begin = point_begin; begin < point_end; begin += kBlock) {
+      const int n = static_cast<int>(std::min<size_t>(kBlock, point_end - begin));
+      static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "packed points");
+      const float* xyz = points.points_in_lidar[begin].data();
+      for (int j = 0; j < n; ++j) {
+        const float x = xyz[3 * j], y = xyz[3 * j + 1], z = xyz[3 * j + 2];
+        const float px = m00 * x + (m01 * y + m02 * z) + t0;
+        const float py = m10 * x + (m11 * y + m12 * z) + t1;
+        const float pz = m20 * x + (m21 * y + m22 * z) + t2;
+        bx[j] = px;
+        by[j] = py;
+        bz[j] = pz;
+        b2[j] = px * px + (py * py + pz * pz);
+        bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
+        bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
+      }
+      for (int j = 0; j < n; ++j) {
+        if (!(bz[j] > 0.f)) continue;
+        const float range2 = b2[j];
+        if (range2 < min_range2 || range2 > max_range2) continue;
+        if (!(static_cast<double>(bz[j]) > std::numeric_limits<double>::epsilon())) continue;
+        const double xy[2] = {bu[j], bv[j]};
+        if (!(xy[0] >= 0 && xy[1] >= 0 && xy[0] < width && xy[1] < height)) continue;
+        draw(begin + j, range2, xy);
+      }
+    }
+    return;
+  }
   for (size_t i = point_begin; i < point_end; ++i) {
     const Eigen::Vector3f p = rotation * points.points_in_lidar[i] + translation;
     if (kPerspective && !(p.z() > 0.f)) continue;
@@ -210,19 +281,25 @@ void SplatWithModel(const LidarPoints& points, const View& view, const Rigid3d& 
       if (xy[0] < 0) xy[0] += period;
     }
     if (!(xy[0] >= 0 && xy[1] >= 0 && xy[0] < width && xy[1] < height)) continue;
-    const float range = std::sqrt(range2);
-    const int col = static_cast<int>(xy[0]);
-    const int row = static_cast<int>(xy[1]);
-    const int radius = std::min(max_radius, static_cast<int>(radius_factor / range));
-    projected[i] = Eigen::Vector2f(static_cast<float>(xy[0]), static_cast<float>(xy[1]));
-    const uint32_t rank = ranked ? points.tie_rank[i] : static_cast<uint32_t>(i);
-    const uint64_t key = (static_cast<uint64_t>(FloatBits(range)) << 32) | rank;
-    const int r0 = std::max(0, row - radius), r1 = std::min(height - 1, row + radius);
-    const int c0 = std::max(0, col - radius), c1 = std::min(width - 1, col + radius);
-    for (int r = r0; r <= r1; ++r) {
-      uint64_t* line = zbuffer + static_cast<size_t>(r) * width;
-      for (int c = c0; c <= c1; ++c) line[c] = std::min(line[c], key);
-    }
+    draw(i, range2, xy);
+  }
+}
+
+// Points [begin, end) of one view into `zbuffer`; one function per instruction set (AVX2
+// where the CPU has it: the footprint windows as vectors; no FMA, so the same arithmetic).
+__attribute__((target_clones("avx2", "default"))) void Splat(
+    const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
+    const RenderOptions& options, size_t begin, size_t end, uint64_t* zbuffer,
+    LidarImage* out) {
+  switch (view.camera.model_id) {
+#define MMBA_RENDER_CASE(Model)                                                            \
+  case Model::kModelId:                                                                    \
+    SplatWithModel<Model>(points, view, cam_from_lidar, options, begin, end, zbuffer, out); \
+    break;
+    MMBA_FOR_EACH_CAMERA_MODEL(MMBA_RENDER_CASE)
+#undef MMBA_RENDER_CASE
+    default:
+      LOG(FATAL) << "unknown camera model";
   }
 }
 
@@ -331,8 +408,9 @@ View DownsampleView(const View& view) {
   return half;
 }
 
-void RenderLidarImage(const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
-                      const RenderOptions& options, LidarImage* out, bool two_threads) {
+void RenderLidarZBuffer(const LidarPoints& points, const View& view,
+                        const Rigid3d& cam_from_lidar, const RenderOptions& options,
+                        LidarImage* out, bool two_threads) {
   CHECK(options.representation != Representation::kIntensity || points.has_intensity() ||
         points.size() == 0)
       << "intensity representation of a cloud without intensity";
@@ -343,44 +421,44 @@ void RenderLidarImage(const LidarPoints& points, const View& view, const Rigid3d
   out->width = static_cast<int>(view.camera.width);
   out->height = static_cast<int>(view.camera.height);
   const size_t pixels = static_cast<size_t>(out->width) * out->height;
-  out->zbuffer.assign(pixels, kEmptyKey);
+  out->zbuffer.assign(pixels + kZBufferPadding, kEmptyKey);
   if (out->projected.size() < points.size()) out->projected.resize(points.size());
-  // Points [begin, end) into `zbuffer` (`projected` is written per point: disjoint ranges).
-  auto splat = [&](size_t begin, size_t end, uint64_t* zbuffer) {
-    switch (view.camera.model_id) {
-#define MMBA_RENDER_CASE(Model)                                                              \
-  case Model::kModelId:                                                                      \
-    SplatWithModel<Model>(points, view, cam_from_lidar, options, begin, end, zbuffer, out); \
-    break;
-      MMBA_FOR_EACH_CAMERA_MODEL(MMBA_RENDER_CASE)
-#undef MMBA_RENDER_CASE
-      default:
-        LOG(FATAL) << "unknown camera model";
-    }
-  };
   if (two_threads && points.size() >= 2) {
-    out->zbuffer_second.assign(pixels, kEmptyKey);
+    out->zbuffer_second.assign(pixels + kZBufferPadding, kEmptyKey);
     const size_t half = points.size() / 2;
-    std::thread other(splat, half, points.size(), out->zbuffer_second.data());
-    splat(0, half, out->zbuffer.data());
+    // `projected` is written per point: the two ranges are disjoint.
+    std::thread other([&] {
+      Splat(points, view, cam_from_lidar, options, half, points.size(),
+            out->zbuffer_second.data(), out);
+    });
+    Splat(points, view, cam_from_lidar, options, 0, half, out->zbuffer.data(), out);
     other.join();
     // The minimum is order-independent: the same key per pixel as one thread's render.
     for (size_t k = 0; k < pixels; ++k) {
       out->zbuffer[k] = std::min(out->zbuffer[k], out->zbuffer_second[k]);
     }
   } else {
-    splat(0, points.size(), out->zbuffer.data());
+    Splat(points, view, cam_from_lidar, options, 0, points.size(), out->zbuffer.data(), out);
   }
+}
+
+LidarValueMap::LidarValueMap(const RenderOptions& options)
+    : representation_(options.representation),
+      log_min_(static_cast<float>(std::log(options.min_range_m))),
+      inv_log_span_(static_cast<float>(
+          1.0 / (std::log(options.max_range_m) - std::log(options.min_range_m)))) {}
+
+void RenderLidarImage(const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
+                      const RenderOptions& options, LidarImage* out, bool two_threads) {
+  RenderLidarZBuffer(points, view, cam_from_lidar, options, out, two_threads);
+  const size_t pixels = static_cast<size_t>(out->width) * out->height;
   // Pass 2: the winner of each pixel gives its value, depth and sub-pixel offset.
-  const bool ranked = !points.tie_rank.empty();
   out->value.resize(pixels);
   out->depth.resize(pixels);
   out->offset_x.resize(pixels);
   out->offset_y.resize(pixels);
   out->point_index.resize(pixels);
-  const float log_min = static_cast<float>(std::log(options.min_range_m));
-  const float inv_log_span =
-      static_cast<float>(1.0 / (std::log(options.max_range_m) - std::log(options.min_range_m)));
+  const LidarValueMap value_of(options);
   size_t covered = 0;
   for (size_t k = 0; k < pixels; ++k) {
     const uint64_t key = out->zbuffer[k];
@@ -393,17 +471,10 @@ void RenderLidarImage(const LidarPoints& points, const View& view, const Rigid3d
       continue;
     }
     ++covered;
-    const uint32_t low = static_cast<uint32_t>(key & 0xffffffffu);
-    const uint32_t i = ranked ? points.index_of_rank[low] : low;
-    const float range = BitsFloat(static_cast<uint32_t>(key >> 32));
-    float value = 1.f;
-    if (options.representation == Representation::kIntensity) {
-      value = points.intensity01[i];
-    } else if (options.representation == Representation::kDepth) {
-      value = std::clamp(1.f - (std::log(range) - log_min) * inv_log_span, 0.f, 1.f);
-    }
+    const uint32_t i = ZBufferPointIndex(points, key);
+    const float range = ZBufferRange(key);
     const Eigen::Vector2f& xy = out->projected[i];
-    out->value[k] = value;
+    out->value[k] = value_of(points, i, range);
     out->depth[k] = range;
     // Offset of the point from the centre of ITS pixel, shared by its whole footprint.
     out->offset_x[k] = xy.x() - (std::floor(xy.x()) + 0.5f);

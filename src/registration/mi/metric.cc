@@ -142,10 +142,53 @@ double Entropy(const std::vector<double>& p, double total) {
   }
 }
 
-// Add() for the B-spline histogram, in chunks of a row: the covered pixels' bin positions
+namespace {
+
+// The covered pixels of a LiDAR image for the chunked B-spline histogram, read either from
+// a rendered image (RenderLidarImage's per-pixel arrays) or straight from its z-buffer
+// (RenderLidarZBuffer), with the same arithmetic: the same values bit for bit.
+struct RenderedPixels {
+  const LidarImage& lidar;
+  [[gnu::always_inline]] bool Covered(size_t k) const { return lidar.point_index[k] >= 0; }
+  /// Pixel k at (c, r): its LiDAR value and where its point falls in the photo.
+  [[gnu::always_inline]] void Get(size_t k, int c, int r, float* value, float* x,
+                                  float* y) const {
+    *value = lidar.value[k];
+    *x = c + 0.5f + lidar.offset_x[k];
+    *y = r + 0.5f + lidar.offset_y[k];
+  }
+};
+
+struct ZBufferPixels {
+  const LidarImage& lidar;
+  const LidarPoints& points;
+  const LidarValueMap& value_of;
+  [[gnu::always_inline]] bool Covered(size_t k) const {
+    return lidar.zbuffer[k] != kEmptyZBufferKey;
+  }
+  [[gnu::always_inline]] void Get(size_t k, int c, int r, float* value, float* x,
+                                  float* y) const {
+    const uint64_t key = lidar.zbuffer[k];
+    const uint32_t i = ZBufferPointIndex(points, key);
+    *value = value_of(points, i, ZBufferRange(key));
+    // Offset of the point from the centre of ITS pixel (as RenderLidarImage's pass 2).
+    const Eigen::Vector2f& xy = lidar.projected[i];
+    const float offset_x = xy.x() - (std::floor(xy.x()) + 0.5f);
+    const float offset_y = xy.y() - (std::floor(xy.y()) + 0.5f);
+    *x = c + 0.5f + offset_x;
+    *y = r + 0.5f + offset_y;
+  }
+};
+
+}  // namespace
+
+// The B-spline histogram of one view, in chunks of a row: the covered pixels' bin positions
 // first (a loop the compiler vectorises), then their weights, then the 4×4 adds — the same
 // operations on the same values in the same order as AddSample, so the same sums, bit for bit.
-void JointHistogram::AddBSpline(const LidarImage& lidar, const GrayImage& photo) {
+template <typename Pixels>
+[[gnu::always_inline]] inline void JointHistogram::AddBSplineChunks(const Pixels& pixels,
+                                                                     int width, int height,
+                                                                     const GrayImage& photo) {
   constexpr int kChunk = 256;
   const bool whole = options_.region == Region::kWholeImage;
   const int bins = bins_;
@@ -157,21 +200,21 @@ void JointHistogram::AddBSpline(const LidarImage& lidar, const GrayImage& photo)
   float lidar_pos[kChunk], photo_pos[kChunk];
   int bx[kChunk], by[kChunk];
   float wx[4][kChunk], wy[4][kChunk];
-  for (int r = 0; r < lidar.height; ++r) {
-    const size_t row = static_cast<size_t>(r) * lidar.width;
-    for (int c0 = 0; c0 < lidar.width; c0 += kChunk) {
-      const int c1 = std::min(lidar.width, c0 + kChunk);
+  for (int r = 0; r < height; ++r) {
+    const size_t row = static_cast<size_t>(r) * width;
+    for (int c0 = 0; c0 < width; c0 += kChunk) {
+      const int c1 = std::min(width, c0 + kChunk);
       int m = 0;
       for (int c = c0; c < c1; ++c) {
         cols[m] = c;
-        m += lidar.point_index[row + c] >= 0;
+        m += pixels.Covered(row + c);
       }
       for (int j = 0; j < m; ++j) {
-        const size_t k = row + cols[j];
+        float value, x, y;
+        pixels.Get(row + cols[j], cols[j], r, &value, &x, &y);
         // Sample the photo where the point really falls: smooth in the pose.
-        const float photo_value =
-            SampleClamped(photo, cols[j] + 0.5f + lidar.offset_x[k], r + 0.5f + lidar.offset_y[k]);
-        lidar_pos[j] = lidar.value[k] * lidar_scale;
+        const float photo_value = SampleClamped(photo, x, y);
+        lidar_pos[j] = value * lidar_scale;
         photo_pos[j] = photo_value * photo_scale;
       }
       for (int j = 0; j < m; ++j) {
@@ -206,7 +249,7 @@ void JointHistogram::AddBSpline(const LidarImage& lidar, const GrayImage& photo)
       int e = 0;
       for (int c = c0; c < c1; ++c) {
         cols[e] = c;
-        e += lidar.point_index[row + c] < 0;
+        e += !pixels.Covered(row + c);
       }
       for (int j = 0; j < e; ++j) {
         const float photo_value = photo_row[cols[j]] * photo_scale;
@@ -220,6 +263,27 @@ void JointHistogram::AddBSpline(const LidarImage& lidar, const GrayImage& photo)
   }
   total_ += static_cast<double>(samples);
   lidar_total_ += static_cast<double>(lidar_samples);
+}
+
+// One function per instruction set (AVX2 where the CPU has it: wider vectors for the bin
+// positions and weights; no FMA, so the same arithmetic and the same sums).
+__attribute__((target_clones("avx2", "default"))) void JointHistogram::AddBSpline(
+    const LidarImage& lidar, const GrayImage& photo) {
+  AddBSplineChunks(RenderedPixels{lidar}, lidar.width, lidar.height, photo);
+}
+
+__attribute__((target_clones("avx2", "default"))) void JointHistogram::AddBSplineZBuffer(
+    const LidarImage& lidar, const LidarPoints& points, const LidarValueMap& value_of,
+    const GrayImage& photo) {
+  AddBSplineChunks(ZBufferPixels{lidar, points, value_of}, lidar.width, lidar.height, photo);
+}
+
+void JointHistogram::AddZBuffer(const LidarImage& lidar, const LidarPoints& points,
+                                const RenderOptions& render, const GrayImage& photo) {
+  CHECK(options_.smoothing == Smoothing::kBSpline)
+      << "AddZBuffer is the B-spline histogram's (use RenderLidarImage and Add otherwise)";
+  CHECK_GE(lidar.zbuffer.size(), static_cast<size_t>(lidar.width) * lidar.height);
+  AddBSplineZBuffer(lidar, points, LidarValueMap(render), photo);
 }
 
 void JointHistogram::Add(const LidarImage& lidar, const GrayImage& photo) {

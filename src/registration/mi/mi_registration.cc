@@ -361,12 +361,24 @@ MetricValue FrameSetEvaluator::Evaluate(const Rigid3d& cam_from_lidar, int level
     const bool two_threads = options_.threads >= 2 && CoreFreeForSplit() &&
                              points_[level][f].size() >= kMinPointsToSplit;
     for (const View& view : pyramid_[level][f]) {
+      // The B-spline histogram (the default) reads each pixel's winner from the z-buffer:
+      // the same sums as rendering the full image first, without its per-pixel arrays.
+      const bool zbuffer_only = level_metric.smoothing == Smoothing::kBSpline;
       Timer render;
-      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer,
-                       two_threads);
+      if (zbuffer_only) {
+        RenderLidarZBuffer(points_[level][f], view, cam_from_lidar, options_.render, &buffer,
+                           two_threads);
+      } else {
+        RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer,
+                         two_threads);
+      }
       render_ns_ += static_cast<int64_t>(1e9 * render.ElapsedSeconds());
       Timer fill;
-      histogram.Add(buffer, view.image);
+      if (zbuffer_only) {
+        histogram.AddZBuffer(buffer, points_[level][f], options_.render, view.image);
+      } else {
+        histogram.Add(buffer, view.image);
+      }
       histogram_ns_ += static_cast<int64_t>(1e9 * fill.ElapsedSeconds());
     }
   }

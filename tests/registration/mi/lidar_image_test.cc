@@ -1,6 +1,8 @@
 #include "mmba/registration/mi/lidar_image.h"
 
 #include <cmath>
+#include <cstring>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -144,6 +146,113 @@ TEST(LidarImage, TieRankKeepsTheWinnersOfTheRankedOrder) {
   int differing = 0;
   for (size_t k = 0; k < expected.value.size(); ++k) differing += unranked.value[k] != expected.value[k];
   EXPECT_GT(differing, 500);
+}
+
+// The z-buffer against a brute-force one: for every pixel, the smallest key over the points
+// whose footprint (radius = min(max, ⌊point_radius_m · f / range⌋)) covers it. Points near
+// every edge and at every range (footprints of 1 to 2·max + 1 pixels: the fixed windows and,
+// above radius 3, the row loop), duplicates for ties; one thread and two.
+TEST(LidarImage, ZBufferEqualsTheBruteForceMinimumOverFootprints) {
+  const int w = 61, h = 23;
+  const double f = 30.0;
+  const sensors::Camera camera = Pinhole(w, h, f);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<float> u(0.f, 1.f);
+  LidarPoints points;
+  for (int k = 0; k < 400; ++k) {
+    const float z = 0.6f + 12.f * u(rng) * u(rng);
+    const float x = (u(rng) * 1.2f - 0.6f) * (w / f) * z;  // a margin outside the image
+    const float y = (u(rng) * 1.2f - 0.6f) * (h / f) * z;
+    points.points_in_lidar.emplace_back(x, y, z);
+    points.intensity01.push_back(u(rng));
+    if (k % 7 == 0) {  // an equally near twin: a tie the rank decides
+      points.points_in_lidar.emplace_back(x, y, z);
+      points.intensity01.push_back(u(rng));
+    }
+  }
+  for (int max_radius : {2, 6}) {
+    RenderOptions options;
+    options.max_point_radius_px = max_radius;
+    options.point_radius_m = 0.2;
+    std::vector<uint64_t> expected(static_cast<size_t>(w) * h, kEmptyZBufferKey);
+    std::vector<int> radii(2 * max_radius + 1, 0);
+    const float radius_factor = static_cast<float>(options.point_radius_m * f);
+    for (size_t i = 0; i < points.size(); ++i) {
+      const Eigen::Vector3f p = points.points_in_lidar[i];
+      const float range2 = p.squaredNorm();
+      const double xy[2] = {f * (static_cast<double>(p.x()) / p.z()) + w / 2.0,
+                            f * (static_cast<double>(p.y()) / p.z()) + h / 2.0};
+      if (!(xy[0] >= 0 && xy[1] >= 0 && xy[0] < w && xy[1] < h)) continue;
+      const float range = std::sqrt(range2);
+      const int radius = std::min(max_radius, static_cast<int>(radius_factor / range));
+      ++radii[radius];
+      uint32_t bits;
+      std::memcpy(&bits, &range, sizeof(bits));
+      const uint64_t key = (static_cast<uint64_t>(bits) << 32) | static_cast<uint32_t>(i);
+      for (int r = static_cast<int>(xy[1]) - radius; r <= static_cast<int>(xy[1]) + radius; ++r) {
+        for (int c = static_cast<int>(xy[0]) - radius; c <= static_cast<int>(xy[0]) + radius;
+             ++c) {
+          if (r < 0 || c < 0 || r >= h || c >= w) continue;
+          uint64_t& cell = expected[static_cast<size_t>(r) * w + c];
+          cell = std::min(cell, key);
+        }
+      }
+    }
+    for (int radius = 0; radius <= max_radius; ++radius) {
+      EXPECT_GT(radii[radius], 10) << "radius " << radius << " barely exercised";
+    }
+    for (bool two_threads : {false, true}) {
+      SCOPED_TRACE(testing::Message() << "max radius " << max_radius << ", two threads "
+                                      << two_threads);
+      LidarImage image;
+      RenderLidarImage(points, ImageView(camera), Rigid3d(), options, &image, two_threads);
+      ASSERT_GE(image.zbuffer.size(), expected.size());
+      size_t covered = 0;
+      for (size_t k = 0; k < expected.size(); ++k) {
+        ASSERT_EQ(image.zbuffer[k], expected[k]) << "pixel " << k;
+        covered += expected[k] != kEmptyZBufferKey;
+      }
+      EXPECT_EQ(image.covered_pixels, covered);
+      EXPECT_GT(covered, expected.size() / 2);
+      EXPECT_LT(covered, expected.size());
+    }
+  }
+}
+
+// The pinhole camera's block-wise projection (written out for the vectoriser) against the
+// generic per-point path with Eigen's expressions: the same camera as OPENCV with zero
+// distortion must give the same z-buffer, bit for bit (ranges, winners), at a rotated and
+// shifted pose with points behind the camera, beside it and outside the range limits.
+TEST(LidarImage, PinholeBlocksProjectAsTheGenericModel) {
+  sensors::Camera pinhole = Pinhole(200, 150, 120.0);
+  sensors::Camera opencv = pinhole;
+  opencv.model_id = sensors::CameraModelId::kOpenCV;
+  opencv.params = {120.0, 120.0, 100.0, 75.0, 0.0, 0.0, 0.0, 0.0};
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  LidarPoints points;
+  for (int k = 0; k < 20011; ++k) {  // not a multiple of the block
+    points.points_in_lidar.emplace_back(30.f * u(rng), 20.f * u(rng), 40.f * u(rng) + 25.f);
+    points.intensity01.push_back(0.5f + 0.5f * u(rng));
+  }
+  const Rigid3d pose(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized())),
+                     Eigen::Vector3d(0.7, -0.4, 1.3));
+  RenderOptions options;
+  options.max_range_m = 50.0;
+  options.min_range_m = 2.0;
+  for (bool two_threads : {false, true}) {
+    LidarImage a, b;
+    RenderLidarImage(points, ImageView(pinhole), pose, options, &a, two_threads);
+    RenderLidarImage(points, ImageView(opencv), pose, options, &b, two_threads);
+    ASSERT_GT(a.covered_pixels, 3000u);
+    ASSERT_LT(a.covered_pixels, 25000u);
+    EXPECT_EQ(a.covered_pixels, b.covered_pixels);
+    for (size_t k = 0; k < a.point_index.size(); ++k) {
+      ASSERT_EQ(a.zbuffer[k], b.zbuffer[k]) << "pixel " << k;
+      ASSERT_EQ(a.offset_x[k], b.offset_x[k]) << "pixel " << k;
+      ASSERT_EQ(a.offset_y[k], b.offset_y[k]) << "pixel " << k;
+    }
+  }
 }
 
 TEST(LidarImage, PerspectiveCutOfAPanoramaLooksWhereItShould) {

@@ -4,7 +4,10 @@
 // as an intensity image, a points-only image or a depth map, with a z-buffer whose point
 // footprint shrinks with range so that the far side of a wall does not show through.
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <optional>
 #include <string>
 #include <vector>
@@ -137,6 +140,30 @@ struct LidarImage {
   std::vector<uint64_t> zbuffer_second;  ///< the second thread's z-buffer (two_threads)
 };
 
+/// The z-buffer key of a pixel no point covers (`LidarImage::zbuffer`).
+constexpr uint64_t kEmptyZBufferKey = ~uint64_t{0};
+/// Entries after the last pixel of `LidarImage::zbuffer`: a footprint row is written as a
+/// fixed-width window that may run past the row's end, with the empty key there (a pixel
+/// keeps its key).
+constexpr size_t kZBufferPadding = 8;
+
+/// The value of a covered pixel for the representation: intensity, 1 (points only), or the
+/// depth map's log-range stretched over [min_range_m, max_range_m] (near bright). Shared by
+/// RenderLidarImage and the histogram that reads the z-buffer directly, so that both give
+/// the same numbers bit for bit.
+class LidarValueMap {
+ public:
+  explicit LidarValueMap(const RenderOptions& options);
+  /// Point `index`, seen at `range` (the z-buffer's float).
+  [[gnu::always_inline]] float operator()(const LidarPoints& points, uint32_t index,
+                                          float range) const;
+
+ private:
+  Representation representation_;
+  float log_min_;
+  float inv_log_span_;
+};
+
 /// Distinct points winning at least one pixel (the independent samples of the image).
 size_t CountVisiblePoints(const LidarImage& image);
 
@@ -148,6 +175,41 @@ size_t CountVisiblePoints(const LidarImage& image);
 /// is identical to the one-thread render, bit for bit.
 void RenderLidarImage(const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
                       const RenderOptions& options, LidarImage* out, bool two_threads = false);
+
+/// Pass 1 of RenderLidarImage alone: sets width and height and fills `out->zbuffer` (per
+/// pixel (range bits << 32 | tie rank) of the nearest point, kEmptyZBufferKey where none;
+/// width·height entries + kZBufferPadding) and `out->projected` (per point that lands in the
+/// view), but NOT value, depth, offset_x/y, point_index, covered_pixels (left stale). For a
+/// caller that reads the winners from the z-buffer (JointHistogram::AddZBuffer): it saves
+/// writing and re-reading five arrays per pixel. `two_threads` as RenderLidarImage.
+void RenderLidarZBuffer(const LidarPoints& points, const View& view,
+                        const Rigid3d& cam_from_lidar, const RenderOptions& options,
+                        LidarImage* out, bool two_threads = false);
+
+/// The index of the point whose key won a pixel (the key's low 32 bits are its tie rank).
+[[gnu::always_inline]] inline uint32_t ZBufferPointIndex(const LidarPoints& points,
+                                                         uint64_t key) {
+  const uint32_t low = static_cast<uint32_t>(key & 0xffffffffu);
+  return points.tie_rank.empty() ? low : points.index_of_rank[low];
+}
+
+/// The range in metres of the point whose key won a pixel (the key's high 32 bits).
+[[gnu::always_inline]] inline float ZBufferRange(uint64_t key) {
+  const uint32_t bits = static_cast<uint32_t>(key >> 32);
+  float range;
+  std::memcpy(&range, &bits, sizeof(range));
+  return range;
+}
+
+[[gnu::always_inline]] inline float LidarValueMap::operator()(const LidarPoints& points,
+                                                              uint32_t index,
+                                                              float range) const {
+  if (representation_ == Representation::kIntensity) return points.intensity01[index];
+  if (representation_ == Representation::kDepth) {
+    return std::clamp(1.f - (std::log(range) - log_min_) * inv_log_span_, 0.f, 1.f);
+  }
+  return 1.f;
+}
 
 /// The LiDAR image as an 8-bit grey picture (empty pixels black), for reports and tests.
 GrayImage LidarImageToGray(const LidarImage& image);

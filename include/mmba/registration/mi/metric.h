@@ -62,6 +62,12 @@ class JointHistogram {
   void Clear();
   /// Adds every sample of one rendered view against its photo.
   void Add(const LidarImage& lidar, const GrayImage& photo);
+  /// Add() of the B-spline histogram (the default smoothing; CHECKed) for a view rendered by
+  /// RenderLidarZBuffer only: each covered pixel's winner read from the z-buffer, with the
+  /// same arithmetic as RenderLidarImage + Add (the same sums, bit for bit) but without the
+  /// per-pixel arrays. `render` must be the options the z-buffer was rendered with.
+  void AddZBuffer(const LidarImage& lidar, const LidarPoints& points,
+                  const RenderOptions& render, const GrayImage& photo);
   /// Adds samples given as pairs: LiDAR value in [0, 1] (negative = no LiDAR, counted only in
   /// whole-image mode) and photo grey level 0..255. Used for the shuffled-pairing baseline.
   void AddPairs(const std::vector<float>& lidar01, const std::vector<float>& photo255);
@@ -133,6 +139,12 @@ class JointHistogram {
   void AddSample(float lidar_pos, float photo_pos, bool lidar_empty);
   /// Add() for the B-spline histogram (the default), the same sums in fewer instructions.
   void AddBSpline(const LidarImage& lidar, const GrayImage& photo);
+  void AddBSplineZBuffer(const LidarImage& lidar, const LidarPoints& points,
+                         const LidarValueMap& value_of, const GrayImage& photo);
+  /// The body of both: `pixels` says which pixels are covered, their value and where their
+  /// point falls in the photo.
+  template <typename Pixels>
+  void AddBSplineChunks(const Pixels& pixels, int width, int height, const GrayImage& photo);
   MetricOptions options_;
   int bins_;
   /// LiDAR-covered samples: (bins+3)² bins with one bin of padding below and two above on
