@@ -311,6 +311,8 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_COARSE_SPREAD")) options.coarse_start_spread = std::atof(v);
   if (const char* v = std::getenv("MI_LEVELS")) options.pyramid_levels = std::atoi(v);
   if (const char* v = std::getenv("MI_THREADS")) options.threads = std::atoi(v);
+  // MI_ALL_CHECKS=1: every acceptance check measured also after one failed (as before 1 Dec, night).
+  if (const char* v = std::getenv("MI_ALL_CHECKS")) options.measure_all_checks = std::atoi(v) != 0;
   if (const char* v = std::getenv("MI_RESTART_OFFSET")) {  // "m,deg"
     std::sscanf(v, "%lf,%lf", &options.restart_offset_m, &options.restart_offset_deg);
   }

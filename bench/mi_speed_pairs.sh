@@ -4,7 +4,9 @@
 # process CPU (user + sys) and peak RSS of /usr/bin/time -v, and the result digests (equal =
 # the change did not alter any result). Used for bench/RESULTS.md "Speed, session of 1 Dec
 # (evening)".
-#   bench/mi_speed_pairs.sh BEFORE_BENCH_DIR AFTER_BENCH_DIR OUT_DIR [KITTI_DIR=data/kitti]
+#   [AFTER_ENV="VAR=value ..."] bench/mi_speed_pairs.sh BEFORE_BENCH_DIR AFTER_BENCH_DIR OUT_DIR [KITTI_DIR=data/kitti]
+# AFTER_ENV: extra environment for the new build only (e.g. MI_ALL_CHECKS=1: the new build
+# measuring every check as the old one did, so that the digests must be equal).
 # e.g. BEFORE = a Release build of the old commit (git archive OLD | tar -x -C SRC; cmake SRC
 # -DCMAKE_BUILD_TYPE=Release; make mi_speed mi_kitti), AFTER = build-mi/bench.
 set -euo pipefail
@@ -13,7 +15,7 @@ mkdir -p "$O"
 run_pair() {  # name, environment, bench and its arguments
   local name=$1 envs=$2; shift 2
   env MI_THREADS=1 $envs /usr/bin/time -v "$B/$1" "${@:2}" > "$O/before_$name.txt" 2>&1 &
-  env MI_THREADS=1 $envs /usr/bin/time -v "$N/$1" "${@:2}" > "$O/after_$name.txt" 2>&1 &
+  env MI_THREADS=1 $envs ${AFTER_ENV:-} /usr/bin/time -v "$N/$1" "${@:2}" > "$O/after_$name.txt" 2>&1 &
   wait
 }
 for m in 1 8; do

@@ -56,6 +56,7 @@ struct RegisterMiArgs {
   double max_calibrated_sigma_px = 1.0;
   bool halves = true;
   bool whole_image_checks = true;
+  bool all_checks = false;
   bool point_samples = false;
   int split_level = 0;
   double split_tolerance_px = 1.0;
@@ -163,6 +164,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.max_calibrated_sigma_px = args.max_calibrated_sigma_px;
   options.split_check = args.halves;
   options.whole_image_checks = args.whole_image_checks;
+  options.measure_all_checks = args.all_checks;
   options.point_samples = args.point_samples;
   options.split_level = args.split_level;
   options.split_tolerance_px = args.split_tolerance_px;
@@ -315,7 +317,8 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"bins", args.bins},                     {"smoothing", args.smoothing},
                      {"region", args.region},                 {"pyramid_levels", args.pyramid_levels},
                      {"bound_m", args.bound_m},               {"bound_deg", args.bound_deg},
-                     {"pyramid_paths", args.pyramid_paths},   {"whole_image_checks", args.whole_image_checks}};
+                     {"pyramid_paths", args.pyramid_paths},   {"whole_image_checks", args.whole_image_checks},
+                     {"all_checks", args.all_checks}};
   if (frames.size() > 1) {
     out["used_frames"] = result.used_frames;
     nlohmann::json rejected = nlohmann::json::array();
@@ -444,6 +447,11 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
                   "Acceptance: a panorama registered on perspective/cube cuts must also pass the "
                   "calibrated-sigma check over the whole panorama (a roll the cuts barely see; "
                   "bench/RESULTS.md)")
+      ->capture_default_str();
+  sub->add_option("--all-checks", args->all_checks,
+                  "Acceptance: measure every check also after one has failed (diagnostics in "
+                  "OUT.json checks; slower). By default the checks stop at the first failure: "
+                  "the status is the same, checks.stopped_after names where they stopped")
       ->capture_default_str();
   sub->add_option("--point-samples", args->point_samples,
                   "Evaluate the metric from the visible LiDAR points' projections (visibility "

@@ -1455,6 +1455,14 @@ std::string RegistrationResult::BriefReport() const {
   return out.str();
 }
 
+namespace {
+
+// The status and reason of a registration from its failed checks (none: "ok").
+RegistrationResult Finish(RegistrationResult& result, const std::vector<std::string>& failures,
+                          const Timer& timer, const FrameSetEvaluator& evaluator);
+
+}  // namespace
+
 RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
                                   const Rigid3d& cam_from_lidar_start,
                                   const RegistrationOptions& options) {
@@ -1514,6 +1522,37 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   result.cam_from_lidar = ApplyCorrection(cam_from_lidar_start, x);
   result.metric_after = evaluator.Evaluate(result.cam_from_lidar, 0);
   AcceptanceChecks& checks = result.checks;
+  // ---- Acceptance. Status "ok" needs every check to pass; by default the checks stop at
+  // the first failure (options.measure_all_checks): `decided` says the status is "failed"
+  // and the rest is not measured (the status, pose and an ok result's values are the same).
+  std::vector<std::string> failures;
+  const bool fail_fast = !options.measure_all_checks;
+  auto decided = [&](const char* stage) {
+    if (!fail_fast || failures.empty()) return false;
+    if (checks.stopped_after.empty()) {
+      checks.stopped_after = stage;
+      spdlog::debug("MI acceptance: failed at {}, the later checks not measured", stage);
+    }
+    return true;
+  };
+  // The optimum must not be below the start in the full-resolution metric: a search that left
+  // the start's maximum at a coarse level and ended on a lower one at full resolution has not
+  // found the maximum it reports (measured: a simulated photo registered from its true pose
+  // ended 10 cm / 0.19° away, NMI 1.03070 → 1.03009, and every other check passed).
+  checks.below_start = result.metric_after.value < result.metric_before.value;
+  if (checks.below_start) {
+    failures.push_back("the search ended below the start: metric " + Fixed(result.metric_before.value, 5) +
+                       " at the start, " + Fixed(result.metric_after.value, 5) + " at the optimum found");
+  }
+  for (int i = 0; i < 6; ++i) {
+    if (std::abs(x[i]) >= 0.9 * bound[i]) {
+      checks.on_bound = true;
+      failures.push_back(std::string("optimum on the search bound of ") + ParameterName(i) +
+                         " (" + Fixed(x[i]) + ")");
+      break;
+    }
+  }
+  if (decided("the search's end")) return Finish(result, failures, timer, evaluator);
 
   // ---- Uncertainty: Laplace approximation. N·MI (nats) is the log-likelihood ratio of the
   // joint against independent intensities (Roche et al. 2000), so the covariance of the
@@ -1587,25 +1626,6 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   }
   clock.Mark("covariance", hessian_evaluations + 1);
 
-  // ---- Acceptance. Every check is measured; status "ok" needs all of them.
-  std::vector<std::string> failures;
-  // The optimum must not be below the start in the full-resolution metric: a search that left
-  // the start's maximum at a coarse level and ended on a lower one at full resolution has not
-  // found the maximum it reports (measured: a simulated photo registered from its true pose
-  // ended 10 cm / 0.19° away, NMI 1.03070 → 1.03009, and every other check passed).
-  checks.below_start = result.metric_after.value < result.metric_before.value;
-  if (checks.below_start) {
-    failures.push_back("the search ended below the start: metric " + Fixed(result.metric_before.value, 5) +
-                       " at the start, " + Fixed(result.metric_after.value, 5) + " at the optimum found");
-  }
-  for (int i = 0; i < 6; ++i) {
-    if (std::abs(x[i]) >= 0.9 * bound[i]) {
-      checks.on_bound = true;
-      failures.push_back(std::string("optimum on the search bound of ") + ParameterName(i) +
-                         " (" + Fixed(x[i]) + ")");
-      break;
-    }
-  }
   // (1) Predicted pixel σ: is the maximum well conditioned at the accuracy asked for? (The
   // check itself is made after the split below, on the calibrated covariance.)
   const std::vector<FrameSetEvaluator::VisiblePoint> sample =
@@ -1623,6 +1643,16 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     for (double& v : sigmas) v = std::sqrt(v);
     checks.sigma_px = Median(sigmas);
   }
+  // The σ check (conditioning: does the curvature determine the pose to the accuracy
+  // asked?) on the Laplace covariance; made here when the checks stop at the first failure,
+  // after the halves when every check is measured (the order of the reasons as before).
+  const bool sigma_failed = result.covariance_valid && !(checks.sigma_px <= options.max_sigma_px);
+  const std::string sigma_failure =
+      "pose not determined to the accuracy asked: predicted pixel sigma " +
+      Fixed(checks.sigma_px, 2) + " px > " + Fixed(options.max_sigma_px, 2) + " px (" +
+      std::to_string(checks.weak_directions) + " of 6 directions without curvature)";
+  if (fail_fast && sigma_failed) failures.push_back(sigma_failure);
+  if (decided("the covariance")) return Finish(result, failures, timer, evaluator);
   // The same over the whole image when the views are cuts of it.
   const std::vector<ImagePoint> image_sample =
       SampleImagePoints(frames, result.cam_from_lidar, options.render, 2000);
@@ -1657,6 +1687,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     }
     clock.Mark("shuffled baseline", 1);
   }
+  if (decided("the shuffled baseline")) return Finish(result, failures, timer, evaluator);
   // (3) Restarts: the fine levels re-optimised from points around the optimum must come back
   // to it (a clear maximum draws them back; a plateau or a ridge leaves them elsewhere).
   {
@@ -1684,18 +1715,40 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     std::vector<double> restart_values(options.restarts);
     RegistrationOptions restart_options = options;
     restart_options.point_samples = options.point_samples && options.point_samples_in_checks;
+    std::vector<double> restart_distances(options.restarts, 0.0);
+    // Stopping at the first failure: a restart is not started once one before it (in index
+    // order) is known to have ended too far; only the restarts up to the first that did are
+    // reported, so the result does not depend on which thread finished first.
+    std::atomic<int> first_far{options.restarts};
+    std::vector<char> restart_run(options.restarts, 0);
     ParallelFor(options.restarts, options.threads, [&](int k) {
+      if (fail_fast && first_far.load() < k) return;
       const Vector6d x0 = (x + starts[k]).cwiseMax(-bound).cwiseMin(bound);
       restarts[k] = Search(evaluator, cam_from_lidar_start, x0, restart_level, restart_level,
                            2.0 * offset, tolerance, false, restart_options, nullptr,
                            "restart " + std::to_string(k) + " ", &x);
       restart_values[k] =
           evaluator.Evaluate(ApplyCorrection(cam_from_lidar_start, restarts[k].x), 0).value;
+      restart_distances[k] = evaluator.MedianPixelDistance(
+          sample, result.cam_from_lidar, ApplyCorrection(cam_from_lidar_start, restarts[k].x));
+      restart_run[k] = 1;
+      if (!(restart_distances[k] <= options.restart_tolerance_px)) {
+        int seen = first_far.load();
+        while (k < seen && !first_far.compare_exchange_weak(seen, k)) {
+        }
+      }
     });
+    // The restarts reported: all, or (stopping at the first failure) those up to the first
+    // that ended too far — each of which ran.
+    int reported = options.restarts;
+    if (fail_fast && first_far.load() < options.restarts) reported = first_far.load() + 1;
     for (int k = 0; k < options.restarts; ++k) {
-      evaluations += restarts[k].evaluations + 1;
+      if (restart_run[k]) evaluations += restarts[k].evaluations + 1;
+    }
+    for (int k = 0; k < reported; ++k) {
+      CHECK(restart_run[k]) << "restart " << k << " reported but not run";
       const Rigid3d pose = ApplyCorrection(cam_from_lidar_start, restarts[k].x);
-      const double distance = evaluator.MedianPixelDistance(sample, result.cam_from_lidar, pose);
+      const double distance = restart_distances[k];
       const double gain = restart_values[k] - result.metric_after.value;
       checks.restart_spread_px = std::max(checks.restart_spread_px, distance);
       for (double d2 : PixelDisplacements2(evaluator, sample, result.cam_from_lidar, pose)) {
@@ -1711,7 +1764,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
       double sum2 = 0;
       size_t count = 0;
       checks.image_restart_spread_px = 0;
-      for (int k = 0; k < options.restarts; ++k) {
+      for (int k = 0; k < reported; ++k) {
         const std::vector<double> d2 = ImageDisplacements2(
             image_sample, result.cam_from_lidar,
             ApplyCorrection(cam_from_lidar_start, restarts[k].x));
@@ -1740,6 +1793,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     }
     clock.Mark("restarts", evaluations);
   }
+  if (decided("the restarts")) return Finish(result, failures, timer, evaluator);
   // (4) Independent halves: does each part of the data put its own points where the joint
   // optimum puts them? And how far apart are they, against the Laplace covariance?
   std::string split_kind;
@@ -1760,7 +1814,12 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     std::array<Vector6d, 2> half_x;
     // One half per thread; a half's evaluations split over two threads once the other half
     // is done (CoreFreeForSplit).
+    // Stopping at the first failure: the second half is not started once the first is
+    // known to disagree, and is not reported when the first disagrees (as the restarts).
+    std::atomic<bool> first_far{false};
+    std::array<char, 2> half_run{0, 0};
     ParallelFor(2, options.threads, [&](int h) {
+      if (fail_fast && h == 1 && first_far.load()) return;
       const FrameSetEvaluator half(halves[h], cam_from_lidar_start, half_options);
       const SearchResult r = Search(half, cam_from_lidar_start, x, split_level, split_level,
                                     2.0 * offset, tolerance, false, half_options, nullptr,
@@ -1781,11 +1840,19 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
           predicted2[h] += v;
         }
       }
+      half_run[h] = 1;
+      if (h == 0 && !(distance[0] <= options.split_tolerance_px)) first_far = true;
     });
+    const int halves_reported = fail_fast && first_far.load() ? 1 : 2;
+    if (halves_reported == 1) {  // the second half, if it ran, is not reported
+      distance[1] = 0;
+      displacement2[1] = 0;
+      predicted2[1] = 0;
+    }
     if (!image_sample.empty()) {
       double mean2 = 0;
       checks.image_split_spread_px = 0;
-      for (int h = 0; h < 2; ++h) {
+      for (int h = 0; h < halves_reported; ++h) {
         const std::vector<double> d2 =
             ImageDisplacements2(image_sample, result.cam_from_lidar,
                                 ApplyCorrection(cam_from_lidar_start, half_x[h]));
@@ -1794,14 +1861,14 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
       }
       if (image_predicted_ms > 0) image_factor_halves = mean2 / image_predicted_ms;
     }
-    checks.split_parts = 2;
+    checks.split_parts = halves_reported;
     checks.split_kind = split_kind;
     checks.split_spread_px = std::max(distance[0], distance[1]);
     if (result.covariance_valid && predicted2[0] + predicted2[1] > 0) {
       checks.variance_factor_halves =
           (displacement2[0] + displacement2[1]) / (predicted2[0] + predicted2[1]);
     }
-    for (int h = 0; h < 2; ++h) {
+    for (int h = 0; h < halves_reported; ++h) {
       spdlog::debug("MI half {} ({}): {:.2f} px from the optimum, correction [{:.3f} {:.3f} "
                     "{:.3f} {:.3f} {:.3f} {:.3f}], pixel rms {:.3f} px vs predicted {:.3f} px",
                     h, split_kind, distance[h], half_x[h][0], half_x[h][1], half_x[h][2],
@@ -1817,15 +1884,11 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     }
     clock.Mark("independent halves", half_evaluations[0] + half_evaluations[1]);
   }
-  // The σ check (conditioning: does the curvature determine the pose to the accuracy
-  // asked?) on the Laplace covariance; then the calibrated covariance that is reported.
+  if (decided("the independent halves")) return Finish(result, failures, timer, evaluator);
+  // The σ check (measuring every check: here, as before); then the calibrated covariance
+  // that is reported.
   if (result.covariance_valid) {
-    if (!(checks.sigma_px <= options.max_sigma_px)) {
-      failures.push_back("pose not determined to the accuracy asked: predicted pixel sigma " +
-                         Fixed(checks.sigma_px, 2) + " px > " + Fixed(options.max_sigma_px, 2) +
-                         " px (" + std::to_string(checks.weak_directions) +
-                         " of 6 directions without curvature)");
-    }
+    if (!fail_fast && sigma_failed) failures.push_back(sigma_failure);
     checks.sigma_px_calibrated = checks.sigma_px;
     // The parts measured (the halves or the restarts may be switched off) add up.
     const bool halves_measured = std::isfinite(checks.variance_factor_halves);
@@ -1862,6 +1925,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
                          Fixed(checks.image_split_spread_px, 2) + " px apart there)");
     }
   }
+  if (decided("the calibrated covariance")) return Finish(result, failures, timer, evaluator);
   // (5) Per-axis scans: flat or multi-peaked surfaces.
   {
     int evaluations = 0;
@@ -1871,6 +1935,14 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     if (!checks.scans_passed) failures.push_back(checks.scans_reason);
     clock.Mark("axis scans", evaluations);
   }
+  return Finish(result, failures, timer, evaluator);
+}
+
+namespace {
+
+RegistrationResult Finish(RegistrationResult& result, const std::vector<std::string>& failures,
+                          const Timer& timer, const FrameSetEvaluator& evaluator) {
+  const AcceptanceChecks& checks = result.checks;
   result.trusted = failures.empty();
   if (result.trusted) {
     result.confidence_reason =
@@ -1893,6 +1965,8 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
                 evaluator.sample_seconds());
   return result;
 }
+
+}  // namespace
 
 RegistrationResult RegisterRig(const std::vector<Frame>& frames,
                                const Rigid3d& cam_from_lidar_start, const RigOptions& options) {

@@ -88,7 +88,8 @@ json ResultToJson(const RegistrationResult& result, const RegistrationOptions& o
                    {"image_variance_factor", checks.image_variance_factor},
                    {"image_sigma_px_calibrated", checks.image_sigma_px_calibrated},
                    {"axis_scans_passed", checks.scans_passed},
-                   {"axis_scans_reason", checks.scans_reason}};
+                   {"axis_scans_reason", checks.scans_reason},
+                   {"stopped_after", checks.stopped_after}};
   json stages = json::array();
   for (const StageStat& stage : result.stages) {
     stages.push_back({{"stage", stage.name},

@@ -318,13 +318,39 @@ TEST_F(StreetTest, HalvesThatDisagreeAreNotReportedOk) {
     for (int c = spliced.width / 2; c < spliced.width; ++c) spliced.at(c, r) = other.at(c, r);
   }
   const Frame frame = MakeFrame(spliced, &points_);
-  const RegistrationResult result = RegisterFrames({frame}, truth_, Options());
+  RegistrationOptions options = Options();
+  options.measure_all_checks = true;  // both halves measured whatever failed before them
+  const RegistrationResult result = RegisterFrames({frame}, truth_, options);
   SCOPED_TRACE(result.BriefReport());
   EXPECT_EQ(result.status, "failed");
   EXPECT_EQ(result.checks.split_parts, 2);
   EXPECT_GT(result.checks.split_spread_px, RegistrationOptions().split_tolerance_px);
   EXPECT_NE(result.reason.find("independent halves disagree"), std::string::npos)
       << result.reason;
+  EXPECT_TRUE(result.checks.stopped_after.empty());
+
+  // By default the acceptance stops at the first failure: the same status and pose, the
+  // reasons of the check that decided (among those measured above), fewer evaluations.
+  for (int threads : {1, 2}) {
+    options.measure_all_checks = false;
+    options.threads = threads;
+    const RegistrationResult fast = RegisterFrames({frame}, truth_, options);
+    SCOPED_TRACE(fast.BriefReport());
+    EXPECT_EQ(fast.status, "failed");
+    EXPECT_EQ(fast.cam_from_lidar.ToMatrix4(), result.cam_from_lidar.ToMatrix4());
+    EXPECT_EQ(fast.correction, result.correction);
+    EXPECT_EQ(fast.metric_after.value, result.metric_after.value);
+    EXPECT_FALSE(fast.checks.stopped_after.empty());
+    EXPECT_LT(fast.evaluations, result.evaluations);
+    ASSERT_FALSE(fast.reason.empty());
+    size_t from = 0;
+    while (from < fast.reason.size()) {
+      const size_t to = std::min(fast.reason.find("; ", from), fast.reason.size());
+      EXPECT_NE(result.reason.find(fast.reason.substr(from, to - from)), std::string::npos)
+          << fast.reason.substr(from, to - from);
+      from = to + 2;
+    }
+  }
 }
 
 TEST(Split, CropKeepsTheProjectionOfEveryModel) {
@@ -473,6 +499,7 @@ TEST_F(KittiTest, AWrongPoseIsNeverReportedOk) {
   RegistrationOptions options;
   options.bound_translation_m = 0.25;
   options.bound_rotation_deg = 2.0;
+  options.measure_all_checks = true;  // the restarts measured even after the σ check failed
   const RegistrationResult result =
       RegisterFrames({frame_}, ApplyCorrection(kitti_.cam_from_lidar, perturbation), options);
   const PixelOffsetStats after = PixelOffsets(points_, frame_.views[0], kitti_.cam_from_lidar,

@@ -164,6 +164,17 @@ struct RegistrationOptions {
   /// whole image (AcceptanceChecks::image_sigma_px_calibrated) — the pose is the image's,
   /// not the cuts'.
   bool whole_image_checks = true;
+  /// false (the default): the acceptance stops at the first check that fails — the status is
+  /// "failed" whatever the others would measure, so the later (costlier) checks are not run:
+  /// below start / on the bound (before the covariance), the Laplace σ (right after the
+  /// covariance), the shuffled baseline, the restarts (in index order: those after the first
+  /// one that ends too far are not reported, nor started if it is known by then), the halves
+  /// (likewise), the calibrated σ, the axis scans. A check not run keeps its "not measured"
+  /// value in AcceptanceChecks (−1, NaN, 0 restarts; no covariance when it was skipped) and
+  /// AcceptanceChecks::stopped_after names the check that decided. Status,
+  /// pose and the values of an "ok" result are the same either way; true measures every
+  /// check of a failed registration too (diagnostics; slower), as before.
+  bool measure_all_checks = false;
   bool Check(std::string* error) const;
 };
 
@@ -200,6 +211,10 @@ struct AcceptanceChecks {
   double mi_significance = 0;       ///< (mi − shuffled mean) / shuffled sd
   bool scans_passed = false;        ///< per-axis scans: single peak, not flat
   std::string scans_reason;
+  /// The check after which the acceptance stopped, the ones after it not measured
+  /// (RegistrationOptions::measure_all_checks false and a check failed); empty when every
+  /// check was measured.
+  std::string stopped_after;
   /// Independent halves: number of halves re-optimised (0 = check off or not applicable),
   /// the median pixel distance of each half's own points between its optimum and the
   /// joint one (largest of the two), and how each half was formed.
