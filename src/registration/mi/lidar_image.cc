@@ -199,11 +199,13 @@ template <typename Model>
   const bool ranked = !points.tie_rank.empty();
   // One point that passed the projection: its footprint into the z-buffer. (Inlined: as a
   // call it would be compiled for the default instruction set, not the clone's.)
-  auto draw = [&](size_t i, float range2, const double* xy) __attribute__((always_inline)) {
-    const float range = std::sqrt(range2);
+  // `range` = √range2, `radius_px` = radius_factor / range (computed by the caller: in the
+  // pinhole blocks, for 8 points at once).
+  auto draw = [&](size_t i, float range, float radius_px,
+                  const double* xy) __attribute__((always_inline)) {
     const int col = static_cast<int>(xy[0]);
     const int row = static_cast<int>(xy[1]);
-    const int radius = std::min(max_radius, static_cast<int>(radius_factor / range));
+    const int radius = std::min(max_radius, static_cast<int>(radius_px));
     projected[i] = Eigen::Vector2f(static_cast<float>(xy[0]), static_cast<float>(xy[1]));
     const uint32_t rank = ranked ? points.tie_rank[i] : static_cast<uint32_t>(i);
     const uint64_t key = (static_cast<uint64_t>(FloatBits(range)) << 32) | rank;
@@ -233,7 +235,7 @@ template <typename Model>
     // per row, the squared norm x² + (y² + z²) (test ProjectionBlocksEqualTheEigenExpressions),
     // PinholeModel::ImgFromCam is f·(x/z + 0) + c.
     constexpr int kBlock = 64;
-    alignas(64) float bx[kBlock], by[kBlock], bz[kBlock], b2[kBlock];
+    alignas(64) float bz[kBlock], b2[kBlock], brange[kBlock], bradius[kBlock];
     alignas(64) double bu[kBlock], bv[kBlock];
     const float m00 = rotation(0, 0), m01 = rotation(0, 1), m02 = rotation(0, 2);
     const float m10 = rotation(1, 0), m11 = rotation(1, 1), m12 = rotation(1, 2);
@@ -249,10 +251,10 @@ template <typename Model>
         const float px = m00 * x + (m01 * y + m02 * z) + t0;
         const float py = m10 * x + (m11 * y + m12 * z) + t1;
         const float pz = m20 * x + (m21 * y + m22 * z) + t2;
-        bx[j] = px;
-        by[j] = py;
         bz[j] = pz;
         b2[j] = px * px + (py * py + pz * pz);
+        brange[j] = std::sqrt(b2[j]);
+        bradius[j] = radius_factor / brange[j];
         bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
         bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
       }
@@ -263,7 +265,7 @@ template <typename Model>
         if (!(static_cast<double>(bz[j]) > std::numeric_limits<double>::epsilon())) continue;
         const double xy[2] = {bu[j], bv[j]};
         if (!(xy[0] >= 0 && xy[1] >= 0 && xy[0] < width && xy[1] < height)) continue;
-        draw(begin + j, range2, xy);
+        draw(begin + j, brange[j], bradius[j], xy);
       }
     }
     return;
@@ -281,7 +283,8 @@ template <typename Model>
       if (xy[0] < 0) xy[0] += period;
     }
     if (!(xy[0] >= 0 && xy[1] >= 0 && xy[0] < width && xy[1] < height)) continue;
-    draw(i, range2, xy);
+    const float range = std::sqrt(range2);
+    draw(i, range, radius_factor / range, xy);
   }
 }
 

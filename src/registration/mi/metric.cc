@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <immintrin.h>
+
 #include <glog/logging.h>
 
 namespace mmba::registration::mi {
@@ -149,6 +151,10 @@ namespace {
 // (RenderLidarZBuffer), with the same arithmetic: the same values bit for bit.
 struct RenderedPixels {
   const LidarImage& lidar;
+  [[gnu::always_inline]] int GetBatch(const int*, int, int, const GrayImage&, float, float,
+                                      float*, float*) const {
+    return 0;
+  }
   [[gnu::always_inline]] bool Covered(size_t k) const { return lidar.point_index[k] >= 0; }
   /// Pixel k at (c, r): its LiDAR value and where its point falls in the photo.
   [[gnu::always_inline]] void Get(size_t k, int c, int r, float* value, float* x,
@@ -159,10 +165,97 @@ struct RenderedPixels {
   }
 };
 
+// AVX2: Get() and the photo sample of the covered pixels cols[0 .. m) of row r, 8 at a time
+// with gathers, for the intensity and points representations: the same float operations in
+// the same order as the scalar code (no FMA), so the same values bit for bit. Returns how
+// many it did (a multiple of 8); the caller does the rest.
+__attribute__((target("avx2"))) int ZBufferSamplesAvx2(const LidarImage& lidar,
+                                                       const LidarPoints& points,
+                                                       bool intensity, const int* cols, int m,
+                                                       int r, const GrayImage& photo,
+                                                       float lidar_scale, float photo_scale,
+                                                       float* lidar_pos, float* photo_pos) {
+  const uint64_t* zrow = lidar.zbuffer.data() + static_cast<size_t>(r) * lidar.width;
+  const float* projected = lidar.projected.data()->data();
+  const bool ranked = !points.tie_rank.empty();
+  const int* index_of_rank = reinterpret_cast<const int*>(points.index_of_rank.data());
+  const float* intensity01 = points.intensity01.data();
+  const float* pixels = photo.pixels.data();
+  const __m256 half = _mm256_set1_ps(0.5f), one = _mm256_set1_ps(1.f), zero = _mm256_setzero_ps();
+  const __m256 row_centre = _mm256_set1_ps(r + 0.5f);
+  const __m256 u_max = _mm256_set1_ps(static_cast<float>(photo.width - 1));
+  const __m256 v_max = _mm256_set1_ps(static_cast<float>(photo.height - 1));
+  const __m256i c_last = _mm256_set1_epi32(std::max(0, photo.width - 2));
+  const __m256i r_last = _mm256_set1_epi32(std::max(0, photo.height - 2));
+  const __m256i c_max = _mm256_set1_epi32(photo.width - 1);
+  const __m256i r_max = _mm256_set1_epi32(photo.height - 1);
+  const __m256i width = _mm256_set1_epi32(photo.width);
+  const __m256i ones = _mm256_set1_epi32(1);
+  const __m256i low_dwords = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+  const __m256 lscale = _mm256_set1_ps(lidar_scale), pscale = _mm256_set1_ps(photo_scale);
+  int j = 0;
+  for (; j + 8 <= m; j += 8) {
+    const __m256i col = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(cols + j));
+    // The keys' low 32 bits (the tie ranks) of the 8 pixels.
+    const __m256i k0 = _mm256_i32gather_epi64(reinterpret_cast<const long long*>(zrow),
+                                              _mm256_castsi256_si128(col), 8);
+    const __m256i k1 = _mm256_i32gather_epi64(reinterpret_cast<const long long*>(zrow),
+                                              _mm256_extracti128_si256(col, 1), 8);
+    const __m256i l0 = _mm256_permutevar8x32_epi32(k0, low_dwords);
+    const __m256i l1 = _mm256_permutevar8x32_epi32(k1, low_dwords);
+    __m256i index = _mm256_permute2x128_si256(l0, l1, 0x20);
+    if (ranked) index = _mm256_i32gather_epi32(index_of_rank, index, 4);
+    const __m256 value = intensity ? _mm256_i32gather_ps(intensity01, index, 4) : one;
+    // projected[i] = (x, y): 8 bytes apart.
+    const __m256 px = _mm256_i32gather_ps(projected, index, 8);
+    const __m256 py = _mm256_i32gather_ps(projected + 1, index, 8);
+    const __m256 offset_x = _mm256_sub_ps(px, _mm256_add_ps(_mm256_floor_ps(px), half));
+    const __m256 offset_y = _mm256_sub_ps(py, _mm256_add_ps(_mm256_floor_ps(py), half));
+    const __m256 x = _mm256_add_ps(_mm256_add_ps(_mm256_cvtepi32_ps(col), half), offset_x);
+    const __m256 y = _mm256_add_ps(row_centre, offset_y);
+    // SampleClamped: std::clamp(v, lo, hi) = min(hi, max(lo, v)) operand for operand.
+    const __m256 u = _mm256_min_ps(u_max, _mm256_max_ps(zero, _mm256_sub_ps(x, half)));
+    const __m256 v = _mm256_min_ps(v_max, _mm256_max_ps(zero, _mm256_sub_ps(y, half)));
+    const __m256i c0 = _mm256_min_epi32(_mm256_cvttps_epi32(u), c_last);
+    const __m256i r0 = _mm256_min_epi32(_mm256_cvttps_epi32(v), r_last);
+    const __m256i c1 = _mm256_min_epi32(_mm256_add_epi32(c0, ones), c_max);
+    const __m256i r1 = _mm256_min_epi32(_mm256_add_epi32(r0, ones), r_max);
+    const __m256 a = _mm256_sub_ps(u, _mm256_cvtepi32_ps(c0));
+    const __m256 b = _mm256_sub_ps(v, _mm256_cvtepi32_ps(r0));
+    const __m256i row0 = _mm256_mullo_epi32(r0, width);
+    const __m256i row1 = _mm256_mullo_epi32(r1, width);
+    const __m256 p00 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row0, c0), 4);
+    const __m256 p01 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row0, c1), 4);
+    const __m256 p10 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row1, c0), 4);
+    const __m256 p11 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row1, c1), 4);
+    const __m256 one_a = _mm256_sub_ps(one, a), one_b = _mm256_sub_ps(one, b);
+    const __m256 top = _mm256_add_ps(_mm256_mul_ps(one_a, p00), _mm256_mul_ps(a, p01));
+    const __m256 bottom = _mm256_add_ps(_mm256_mul_ps(one_a, p10), _mm256_mul_ps(a, p11));
+    const __m256 sample = _mm256_add_ps(_mm256_mul_ps(one_b, top), _mm256_mul_ps(b, bottom));
+    _mm256_storeu_ps(lidar_pos + j, _mm256_mul_ps(value, lscale));
+    _mm256_storeu_ps(photo_pos + j, _mm256_mul_ps(sample, pscale));
+  }
+  return j;
+}
+
+bool CpuHasAvx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+}
+
 struct ZBufferPixels {
   const LidarImage& lidar;
   const LidarPoints& points;
   const LidarValueMap& value_of;
+  /// The first covered pixels of a chunk at once (AVX2); how many were done.
+  [[gnu::always_inline]] int GetBatch(const int* cols, int m, int r, const GrayImage& photo,
+                                      float lidar_scale, float photo_scale, float* lidar_pos,
+                                      float* photo_pos) const {
+    const Representation representation = value_of.representation();
+    if (representation == Representation::kDepth || !CpuHasAvx2()) return 0;
+    return ZBufferSamplesAvx2(lidar, points, representation == Representation::kIntensity, cols,
+                              m, r, photo, lidar_scale, photo_scale, lidar_pos, photo_pos);
+  }
   [[gnu::always_inline]] bool Covered(size_t k) const {
     return lidar.zbuffer[k] != kEmptyZBufferKey;
   }
@@ -209,7 +302,9 @@ template <typename Pixels>
         cols[m] = c;
         m += pixels.Covered(row + c);
       }
-      for (int j = 0; j < m; ++j) {
+      const int batched = pixels.GetBatch(cols, m, r, photo, lidar_scale, photo_scale,
+                                          lidar_pos, photo_pos);
+      for (int j = batched; j < m; ++j) {
         float value, x, y;
         pixels.Get(row + cols[j], cols[j], r, &value, &x, &y);
         // Sample the photo where the point really falls: smooth in the pose.

@@ -157,6 +157,7 @@ class LidarValueMap {
   /// Point `index`, seen at `range` (the z-buffer's float).
   [[gnu::always_inline]] float operator()(const LidarPoints& points, uint32_t index,
                                           float range) const;
+  Representation representation() const { return representation_; }
 
  private:
   Representation representation_;
