@@ -72,6 +72,7 @@ void LoadMobile(JointState* s) {
   // spaced in file order (= time order for a scanner's file), un-georeferenced into the LiDAR
   // frame with the GNSS/INS pose at their time.
   const double t0 = m.trajectory.front().first, t1 = m.trajectory.back().first;
+  const double max_range = MobileMaxRange(config);
   const Rigid3d lidar_from_body = m.body_from_lidar_nominal.Inverse();
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   size_t wanted = 0, next = 0;  // next sample: the point index floor(next · total / wanted)
@@ -97,7 +98,7 @@ void LoadMobile(JointState* s) {
         // looking are skipped (the sample stays evenly spread).
         const Rigid3d ins = InterpolateTrajectory(m.trajectory, time);
         const Eigen::Vector3d in_lidar = lidar_from_body * (ins.Inverse() * chunk.points[j]);
-        if (config.max_range_m > 0 && in_lidar.norm() > config.max_range_m) continue;
+        if (max_range > 0 && in_lidar.norm() > max_range) continue;
         m.sample.push_back(i);
         m.sample_time.push_back(time);
         m.sample_ins.push_back(ins);
@@ -139,7 +140,11 @@ void LoadMobile(JointState* s) {
     }
   }
   s->log.push_back("mobile LiDAR '" + config.id + "': " + std::to_string(m.num_points) + " points (" + m.format + ", streamed" +
-                   "), " + std::to_string(m.sample.size()) + " used; trajectory corrected at " + std::to_string(m.nodes.size()) +
+                   "), " + std::to_string(m.sample.size()) + " used (" +
+                   (max_range > 0 ? fmt::format("within {:.1f} m of the scanner", max_range) +
+                                        (config.max_range_m < 0 ? ": first gate / tan(attitude σ)" : "")
+                                  : "no range limit") +
+                   "); trajectory corrected at " + std::to_string(m.nodes.size()) +
                    " nodes over " + std::to_string(hi - lo) + " s" +
                    (m.with_rig ? "; rig '" + config.rig + "' on the same vehicle, camera-LiDAR extrinsic " + config.extrinsic
                                : "; no rig on the vehicle: body_from_lidar held at the calibration"));

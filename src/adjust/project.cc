@@ -218,7 +218,9 @@ class ProjectReader {
                        if (m.points < 100 || m.points > 5000000) r_.Fail(v, g, "an integer in [100, 5000000]", r_.Text(v));
                      }},
                     {"node_spacing_s", [&](Node v, Field g) { m.node_spacing_s = r_.Positive(v, g, 600.0, "seconds"); }},
-                    {"max_range_m", [&](Node v, Field g) { m.max_range_m = ZeroOrPositive(v, g, 10000.0, "m (metres)"); }},
+                    {"max_range_m", [&](Node v, Field g) {
+                       m.max_range_m = v.IsScalar() && v.Scalar() == "auto" ? -1.0 : ZeroOrPositive(v, g, 10000.0, "m (metres), or auto");
+                     }},
                     {"trajectory_sigma_m", metres(&m.trajectory_sigma_m, 10.0)},
                     {"trajectory_sigma_deg", degrees(&m.trajectory_sigma_deg, 30.0)},
                     {"trajectory_correlation_s", [&](Node v, Field g) { m.trajectory_correlation_s = CorrelationTime(v, g); }},
@@ -444,6 +446,11 @@ Project LoadProject(const std::string& path) {
   }
   if (project.name.empty()) project.name = fs::path(path).parent_path().filename().string();
   return project;
+}
+
+double MobileMaxRange(const LidarMobile& mobile) {
+  if (mobile.max_range_m >= 0) return mobile.max_range_m;
+  return mobile.max_distance_m / std::tan(mobile.trajectory_sigma_deg * M_PI / 180.0);
 }
 
 }  // namespace mmba::adjust

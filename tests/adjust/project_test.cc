@@ -1,6 +1,7 @@
 // project.yaml validation: every bad input is one InputError naming the file, line and key.
 #include "mmba/adjust/project.h"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -64,6 +65,21 @@ TEST_F(ProjectTest, ReadsAValidProject) {
   EXPECT_EQ(p.settings.outer_iterations, 2);
   EXPECT_FALSE(p.settings.variance_components);
   EXPECT_DOUBLE_EQ(p.origin.latitude_deg, 45.0);
+}
+
+// The mobile LiDAR's range limit: by default (or `auto`) the first gate over tan(attitude σ);
+// an explicit value, or 0 for none.
+TEST_F(ProjectTest, MobileRangeLimitFollowsTheGateAndTheAttitudeSigma) {
+  const std::string static_lidar = "  - {id: l, type: lidar_static, reference_cloud: lidar.ply}\n";
+  const auto mobile = [&](const std::string& keys) {
+    return LoadProject(Write(photos_ + ts_ + static_lidar + "  - {id: m, type: lidar_mobile, cloud: lidar.ply, trajectory: gnss.csv, "
+                                                  "calibration: gnss.csv" + keys + "}\n")).lidar_mobile.at(0);
+  };
+  EXPECT_NEAR(MobileMaxRange(mobile("")), 0.5 / std::tan(M_PI / 180.0), 1e-9);  // 28.6 m
+  EXPECT_NEAR(MobileMaxRange(mobile(", max_range_m: auto")), 28.645, 1e-3);
+  EXPECT_NEAR(MobileMaxRange(mobile(", max_distance_m: 1.0, trajectory_sigma_deg: 0.5")), 1.0 / std::tan(M_PI / 360.0), 1e-9);
+  EXPECT_DOUBLE_EQ(MobileMaxRange(mobile(", max_range_m: 40")), 40.0);
+  EXPECT_DOUBLE_EQ(MobileMaxRange(mobile(", max_range_m: 0")), 0.0);
 }
 
 TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {

@@ -219,9 +219,10 @@ struct LidarMobile {
   double max_distance_m = 0.5;     ///< association gate of the first outer iteration
   int points = 20000;              ///< points used, evenly over time
   /// Points farther than this from the scanner are not sampled (0 = no limit): far returns
-  /// meet the reference at grazing angles and, with a trajectory still degrees off, the
-  /// wrong planes within the first gate.
-  double max_range_m = 40.0;
+  /// meet the reference at grazing angles and, with the trajectory's attitude still off by its
+  /// σ, the wrong planes within the first gate. Negative (the default, or `auto`):
+  /// MobileMaxRange — the range at which a 1σ attitude error moves a point by the first gate.
+  double max_range_m = -1.0;
   double node_spacing_s = 1.0;
   double trajectory_sigma_m = 0.1;     ///< GNSS/INS position σ (prior on each node's correction)
   double trajectory_sigma_deg = 1.0;   ///< GNSS/INS attitude σ
@@ -237,6 +238,11 @@ struct LidarMobile {
   double extrinsic_sigma_deg = 1.0;
   LossOptions loss{LossType::kHuber, 3.0};
 };
+
+/// The range limit of the mobile LiDAR's sample: max_range_m when ≥ 0 (0 = none), else
+/// max_distance_m / tan(trajectory_sigma_deg) (0.5 m and 1° → 28.6 m): beyond it a 1σ attitude
+/// error of the GNSS/INS moves a point farther than the first association gate.
+double MobileMaxRange(const LidarMobile& mobile);
 
 /// A sensor the project may name that this version validates but does not adjust
 /// (camera_rig, spherical_stereo without observations): reported as not used.
