@@ -1974,9 +1974,18 @@ RegistrationResult RegisterRig(const std::vector<Frame>& frames,
   RegistrationResult result;
   result.cam_from_lidar = cam_from_lidar_start;
   std::vector<int> candidates;
+  // Screening: each frame alone must carry information about the pose — an optimum inside
+  // the search bound and above the start, MI above the shuffled baseline, a metric surface
+  // neither flat nor multi-peaked along an axis — but need not determine the pose to the
+  // accuracy asked: that is what the frames together are for (a single scan's MI calibration
+  // is noisy; Pandey et al., "Automatic extrinsic calibration of vision and lidar by
+  // maximizing mutual information", JFR 2015, use many). The frames' agreement then plays the
+  // part of the restarts and halves, and the joint registration must pass every check.
   RegistrationOptions frame_options = options.registration;
   frame_options.restarts = options.frame_restarts;
-  frame_options.split_check = false;  // screening: the frames' agreement plays its part
+  frame_options.split_check = false;
+  frame_options.max_sigma_px = std::numeric_limits<double>::max();
+  frame_options.max_calibrated_sigma_px = std::numeric_limits<double>::max();
   for (size_t i = 0; i < frames.size(); ++i) {
     RegistrationResult r = RegisterFrames({frames[i]}, cam_from_lidar_start, frame_options);
     spdlog::info("frame {}: {}", frames[i].name, r.BriefReport());
@@ -1997,8 +2006,8 @@ RegistrationResult RegisterRig(const std::vector<Frame>& frames,
   };
   if (static_cast<int>(candidates.size()) < options.min_frames) {
     return fail(std::to_string(candidates.size()) + " of " + std::to_string(frames.size()) +
-                " frames registered alone with confidence; at least " +
-                std::to_string(options.min_frames) + " needed");
+                " frames carry information alone (a clear optimum inside the bound, MI above "
+                "the shuffled baseline); at least " + std::to_string(options.min_frames) + " needed");
   }
   // Robust agreement: median and MAD of each correction component.
   Vector6d median, mad;

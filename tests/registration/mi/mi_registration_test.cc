@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
@@ -466,6 +467,48 @@ TEST_F(StreetTest, RigCalibrationRejectsADisagreeingFrame) {
   EXPECT_EQ(result.rejected_frames[0].first, "frame2");
   EXPECT_EQ(result.used_frames.size(), 2u);
   EXPECT_LT(RotationDifferenceRad(result.cam_from_lidar, truth_) * 180 / M_PI, 0.2);
+}
+
+// Frames that each determine the pose too loosely for the accuracy asked (their own pixel σ
+// above max_sigma_px) still carry information: they pass the screening, agree, and together
+// determine the pose (σ shrinks about as 1/√n). Before, each had to be "ok" alone, so a
+// calibration from many weak frames — KITTI's single scans — could never run.
+TEST_F(StreetTest, RigCalibrationCombinesFramesTooWeakAlone) {
+  std::vector<GrayImage> photos = {photo_, StreetPhoto(camera_, truth_, 12), StreetPhoto(camera_, truth_, 14)};
+  std::vector<Frame> frames;
+  for (size_t i = 0; i < photos.size(); ++i) {
+    frames.push_back(MakeFrame(photos[i], &points_));
+    frames.back().name = "frame" + std::to_string(i);
+  }
+  Vector6d perturbation;
+  perturbation << 0.05, -0.05, 0.05, 0.5, -0.5, 0.5;
+  const Rigid3d start = ApplyCorrection(truth_, perturbation);
+  // Each frame's own Laplace pixel σ (no restarts or halves: only the curvature is wanted).
+  RegistrationOptions alone = Options();
+  alone.restarts = 0;
+  alone.split_check = false;
+  double strongest = std::numeric_limits<double>::infinity(), information = 0;
+  for (const Frame& frame : frames) {
+    const RegistrationResult r = RegisterFrames({frame}, start, alone);
+    ASSERT_TRUE(r.covariance_valid) << r.BriefReport();
+    strongest = std::min(strongest, r.checks.sigma_px);
+    information += 1 / (r.checks.sigma_px * r.checks.sigma_px);
+  }
+  // Asked for less than any frame gives alone, more than the three give together.
+  RigOptions options;
+  options.registration = Options();
+  options.registration.max_sigma_px = 0.9 * strongest;
+  ASSERT_LT(1 / std::sqrt(information), 0.8 * options.registration.max_sigma_px) << "frames too unequal for this test";
+  const RegistrationResult result = RegisterRig(frames, start, options);
+  SCOPED_TRACE(result.BriefReport());
+  for (const RegistrationResult& r : result.frame_results) {
+    EXPECT_GT(r.checks.sigma_px, options.registration.max_sigma_px) << r.BriefReport();
+  }
+  EXPECT_EQ(result.used_frames.size(), 3u);
+  EXPECT_EQ(result.status, "ok") << result.reason;
+  EXPECT_LT(result.checks.sigma_px, options.registration.max_sigma_px);
+  EXPECT_LT(RotationDifferenceRad(result.cam_from_lidar, truth_) * 180 / M_PI, 0.2);
+  EXPECT_LT((result.cam_from_lidar.translation - truth_.translation).norm(), 0.05);
 }
 
 // KITTI frame 000000 (data/kitti, CC BY-NC-SA; skipped when absent).

@@ -395,9 +395,11 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
                                   const RegistrationOptions& options);
 
 /// Rig calibration: one cam_from_lidar shared by many frames. Each frame is registered alone
-/// first (with `frame_restarts` restarts); frames that fail, are not trusted, or whose
-/// correction disagrees with the median of the others by more than 3 robust σ (MAD) are
-/// rejected; the kept frames are registered jointly (sum of their metrics, all acceptance
+/// first (with `frame_restarts` restarts); frames that carry no information alone (optimum on
+/// the search bound or below the start, MI not above the shuffled baseline, a flat or
+/// multi-peaked axis scan; a frame's own pixel σ is not asked for: weak frames are what the
+/// joint registration is for) or whose correction disagrees with the median of the others by
+/// more than 3 robust σ (MAD) are rejected; the kept frames are registered jointly (sum of their metrics, all acceptance
 /// checks), and the covariance comes from the summed curvature.
 struct RigOptions {
   RegistrationOptions registration;
