@@ -199,8 +199,7 @@ template <typename Model>
   const bool ranked = !points.tie_rank.empty();
   // One point that passed the projection: its footprint into the z-buffer. (Inlined: as a
   // call it would be compiled for the default instruction set, not the clone's.)
-  // `range` = √range2, `radius_px` = radius_factor / range (computed by the caller: in the
-  // pinhole blocks, for 8 points at once).
+  // `range` = √range2, `radius_px` = radius_factor / range.
   auto draw = [&](size_t i, float range, float radius_px,
                   const double* xy) __attribute__((always_inline)) {
     const int col = static_cast<int>(xy[0]);
@@ -235,7 +234,7 @@ template <typename Model>
     // per row, the squared norm x² + (y² + z²) (test ProjectionBlocksEqualTheEigenExpressions),
     // PinholeModel::ImgFromCam is f·(x/z + 0) + c.
     constexpr int kBlock = 64;
-    alignas(64) float bz[kBlock], b2[kBlock], brange[kBlock], bradius[kBlock];
+    alignas(64) float bz[kBlock], b2[kBlock];
     alignas(64) double bu[kBlock], bv[kBlock];
     const float m00 = rotation(0, 0), m01 = rotation(0, 1), m02 = rotation(0, 2);
     const float m10 = rotation(1, 0), m11 = rotation(1, 1), m12 = rotation(1, 2);
@@ -253,8 +252,6 @@ template <typename Model>
         const float pz = m20 * x + (m21 * y + m22 * z) + t2;
         bz[j] = pz;
         b2[j] = px * px + (py * py + pz * pz);
-        brange[j] = std::sqrt(b2[j]);
-        bradius[j] = radius_factor / brange[j];
         bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
         bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
       }
@@ -265,7 +262,10 @@ template <typename Model>
         if (!(static_cast<double>(bz[j]) > std::numeric_limits<double>::epsilon())) continue;
         const double xy[2] = {bu[j], bv[j]};
         if (!(xy[0] >= 0 && xy[1] >= 0 && xy[0] < width && xy[1] < height)) continue;
-        draw(begin + j, brange[j], bradius[j], xy);
+        // (The square root stays here: std::sqrt may set errno, which keeps GCC from
+        // vectorising the loop above — measured: the block then ran scalar, slower.)
+        const float range = std::sqrt(range2);
+        draw(begin + j, range, radius_factor / range, xy);
       }
     }
     return;

@@ -252,7 +252,12 @@ struct ZBufferPixels {
                                       float lidar_scale, float photo_scale, float* lidar_pos,
                                       float* photo_pos) const {
     const Representation representation = value_of.representation();
-    if (representation == Representation::kDepth || !CpuHasAvx2()) return 0;
+    // (The gathers take signed 32-bit indices: points and photo pixels below 2^31.)
+    constexpr size_t kIndexLimit = size_t{1} << 31;
+    if (representation == Representation::kDepth || !CpuHasAvx2() ||
+        points.size() >= kIndexLimit || photo.pixels.size() >= kIndexLimit) {
+      return 0;
+    }
     return ZBufferSamplesAvx2(lidar, points, representation == Representation::kIntensity, cols,
                               m, r, photo, lidar_scale, photo_scale, lidar_pos, photo_pos);
   }
