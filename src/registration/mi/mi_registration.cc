@@ -1742,10 +1742,10 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     // that ended too far — each of which ran.
     int reported = options.restarts;
     if (fail_fast && first_far.load() < options.restarts) reported = first_far.load() + 1;
-    for (int k = 0; k < options.restarts; ++k) {
-      if (restart_run[k]) evaluations += restarts[k].evaluations + 1;
-    }
     for (int k = 0; k < reported; ++k) {
+      // (Only the reported restarts' evaluations are counted: a later one that happened to
+      // run on the other thread would make the count depend on the timing.)
+      evaluations += restarts[k].evaluations + 1;
       CHECK(restart_run[k]) << "restart " << k << " reported but not run";
       const Rigid3d pose = ApplyCorrection(cam_from_lidar_start, restarts[k].x);
       const double distance = restart_distances[k];
@@ -1882,7 +1882,8 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
                          " px from the joint optimum (tolerance " +
                          Fixed(options.split_tolerance_px, 2) + " px)");
     }
-    clock.Mark("independent halves", half_evaluations[0] + half_evaluations[1]);
+    clock.Mark("independent halves",
+               half_evaluations[0] + (halves_reported == 2 ? half_evaluations[1] : 0));
   }
   if (decided("the independent halves")) return Finish(result, failures, timer, evaluator);
   // The σ check (measuring every check: here, as before); then the calibrated covariance

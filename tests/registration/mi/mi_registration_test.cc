@@ -331,7 +331,9 @@ TEST_F(StreetTest, HalvesThatDisagreeAreNotReportedOk) {
   EXPECT_TRUE(result.checks.stopped_after.empty());
 
   // By default the acceptance stops at the first failure: the same status and pose, the
-  // reasons of the check that decided (among those measured above), fewer evaluations.
+  // reasons of the check that decided (among those measured above), fewer evaluations; and
+  // the same result on 1 thread as on 2 (where the second half runs whatever the first says).
+  std::vector<uint64_t> digests;
   for (int threads : {1, 2}) {
     options.measure_all_checks = false;
     options.threads = threads;
@@ -342,6 +344,7 @@ TEST_F(StreetTest, HalvesThatDisagreeAreNotReportedOk) {
     EXPECT_EQ(fast.correction, result.correction);
     EXPECT_EQ(fast.metric_after.value, result.metric_after.value);
     EXPECT_FALSE(fast.checks.stopped_after.empty());
+    digests.push_back(fast.Digest());
     EXPECT_LT(fast.evaluations, result.evaluations);
     ASSERT_FALSE(fast.reason.empty());
     size_t from = 0;
@@ -352,6 +355,7 @@ TEST_F(StreetTest, HalvesThatDisagreeAreNotReportedOk) {
       from = to + 2;
     }
   }
+  EXPECT_EQ(digests[0], digests[1]);
 }
 
 TEST(Split, CropKeepsTheProjectionOfEveryModel) {
