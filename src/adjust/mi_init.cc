@@ -80,6 +80,10 @@ struct MiTask {
   double time_s = 0.0;  ///< rig: the frame's time
 };
 
+/// A registration's calibrated pixel σ, or null when its checks stopped before it was
+/// measured (register-mi stops at the first failed check: −1 then).
+json SigmaOrNull(double sigma_px) { return sigma_px >= 0 ? json(sigma_px) : json(nullptr); }
+
 bool Wanted(const std::vector<std::string>& only, const std::string& name) {
   if (only.empty()) return true;
   const std::string stem = fs::path(name).stem().string();
@@ -350,7 +354,7 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     entry["status"] = result.status;
     entry["reason"] = result.reason;
     entry["correction"] = mi::CorrectionToJson(result.correction);
-    entry["sigma_px"] = result.checks.sigma_px_calibrated;
+    entry["sigma_px"] = SigmaOrNull(result.checks.sigma_px_calibrated);
     entry["runtime_seconds"] = result.runtime_seconds;
     const bool usable = result.ok() && result.covariance_valid;
     entry["prior"] = usable;
@@ -466,7 +470,7 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
         }
         json entry = {{"image", t.name}, {"kind", t.kind}, {"lidar", "mobile"},
                       {"status", rejected.empty() ? "used" : "rejected"}, {"reason", rejected},
-                      {"correction", mi::CorrectionToJson(r.correction)}, {"sigma_px", r.checks.sigma_px_calibrated},
+                      {"correction", mi::CorrectionToJson(r.correction)}, {"sigma_px", SigmaOrNull(r.checks.sigma_px_calibrated)},
                       {"runtime_seconds", r.runtime_seconds}, {"prior", false}};
         s->mi_registration.push_back(entry);
         s->mi_registered.push_back(t.start);
@@ -481,7 +485,7 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
                               std::to_string(frames.size()) + " frames)"},
                     {"kind", "rig calibration"}, {"lidar", "mobile"}, {"file", "mi/rig_calibration.json"},
                     {"status", result.status}, {"reason", result.reason}, {"correction", mi::CorrectionToJson(result.correction)},
-                    {"sigma_px", result.checks.sigma_px_calibrated}, {"runtime_seconds", result.runtime_seconds},
+                    {"sigma_px", SigmaOrNull(result.checks.sigma_px_calibrated)}, {"runtime_seconds", result.runtime_seconds},
                     {"prior", usable}, {"extrinsic", true}};
       s->mi_registration.push_back(entry);
       s->mi_registered.push_back(result.cam_from_lidar);
