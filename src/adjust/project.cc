@@ -219,7 +219,14 @@ class ProjectReader {
                      }},
                     {"node_spacing_s", [&](Node v, Field g) { m.node_spacing_s = r_.Positive(v, g, 600.0, "seconds"); }},
                     {"max_range_m", [&](Node v, Field g) {
-                       m.max_range_m = v.IsScalar() && v.Scalar() == "auto" ? -1.0 : ZeroOrPositive(v, g, 10000.0, "m (metres), or auto");
+                       double number = 0;
+                       if (v.IsScalar() && v.Scalar() == "auto") {
+                         m.max_range_m = -1.0;
+                       } else if (!v.IsScalar() || !YAML::convert<double>::decode(v, number)) {
+                         r_.Fail(v, g, "metres, 0 (no limit) or auto", r_.Text(v));
+                       } else {
+                         m.max_range_m = ZeroOrPositive(v, g, 10000.0, "m (metres), or auto");
+                       }
                      }},
                     {"trajectory_sigma_m", metres(&m.trajectory_sigma_m, 10.0)},
                     {"trajectory_sigma_deg", degrees(&m.trajectory_sigma_deg, 30.0)},

@@ -122,6 +122,9 @@ TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {
       {ts_ + "  - {id: l, type: lidar_static, reference_cloud: lidar.ply}\n"
              "  - {id: m, type: lidar_mobile, cloud: lidar.ply, trajectory: gnss.csv, calibration: gnss.csv, "
              "max_range_m: -40}\n", "", "sensors[2].max_range_m"},
+      {ts_ + "  - {id: l, type: lidar_static, reference_cloud: lidar.ply}\n"
+             "  - {id: m, type: lidar_mobile, cloud: lidar.ply, trajectory: gnss.csv, calibration: gnss.csv, "
+             "max_range_m: far}\n", "", "0 (no limit) or auto"},
       {photos_ + "  - {id: s, type: spherical_stereo, images: images, calibration: gnss.csv, observations: gnss.csv, "
                  "stations_file: gnss.csv, tie_block: q}\n", "", "tie_block"},
       // MI registration: a static LiDAR to register to, a rig's panoramas, a usable value.
