@@ -10,7 +10,9 @@ compares the result with the truth: RMS of ||T·p − T_true·p|| over the sourc
 
 Usage (Debian's python3 with numpy and open3d, for reading PCD/PLY and writing PLY):
   /usr/bin/python3 bench/register_real_sweep.py MMBA OUTDIR [--draws N] [--seed S]
-      [--cases office1,table,milk,bunny_mm,...] [--data DIR]
+      [--cases office1,table,milk,bunny_mm,v090_bun045,v180_v090,...] [--data DIR]
+(vNAME = a virtual scan of bun.conf's view NAME rendered from the zipper mesh:
+stanford_virtual_scans.py)
 Writes OUTDIR/sweep.csv (one row per registration) and prints a summary table.
 """
 import argparse
@@ -23,6 +25,8 @@ import time
 
 import numpy as np
 import open3d as o3d
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 
 def random_rotation(rng):
@@ -107,6 +111,23 @@ def make_cases(data, names, rng):
                 s, t = s * 1000.0, t * 1000.0
                 truth = truth.copy()
                 truth[:3, 3] *= 1000.0
+            out.append((name, s, t, truth))
+        elif name.startswith('v') and '_' in name:
+            # vSOURCE_TARGET: virtual scans of the Stanford views that are not in the data
+            # (stanford_virtual_scans.py) against a virtual or a real (bun000/bun045) scan
+            import stanford_virtual_scans as vs
+            conf = vs.read_conf(os.path.join(bunny, 'bun.conf'))
+            mesh = os.path.join(bunny, 'bun_zipper_res2.ply')
+            src_name, tgt_name = name[1:].rsplit('_', 1)
+
+            def scan(n):
+                if n.startswith('v'):
+                    return vs.virtual_scan(mesh, conf, n[1:], rng)
+                return load(os.path.join(bunny, n + '.ply'))
+            s, t = scan('v' + src_name), scan(tgt_name)
+            pose = lambda n: np.block([[conf[n.lstrip('v')][0].T, conf[n.lstrip('v')][1][:, None]],
+                                      [np.zeros((1, 3)), np.ones((1, 1))]])
+            truth = np.linalg.inv(pose(tgt_name)) @ pose(src_name)
             out.append((name, s, t, truth))
         else:
             sys.exit(f'unknown case {name}')
