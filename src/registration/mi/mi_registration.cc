@@ -1424,7 +1424,7 @@ uint64_t RegistrationResult::Digest() const {
                    c.variance_factor, c.variance_factor_halves, c.variance_factor_restarts,
                    c.sigma_px_calibrated, c.image_sigma_px, c.image_restart_spread_px,
                    c.image_split_spread_px, c.image_variance_factor,
-                   c.image_sigma_px_calibrated}) {
+                   c.image_sigma_px_calibrated, c.covariance_factor}) {
     h.Double(v);
   }
   h.String(c.scans_reason);
@@ -1898,7 +1898,8 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
       checks.variance_factor =
           std::max(1.0, (halves_measured ? checks.variance_factor_halves : 0.0) +
                             (restarts_measured ? checks.variance_factor_restarts : 0.0));
-      result.covariance = checks.variance_factor * result.covariance_laplace;
+      checks.covariance_factor = checks.variance_factor;
+      result.covariance = checks.covariance_factor * result.covariance_laplace;
       checks.sigma_px_calibrated = checks.sigma_px * std::sqrt(checks.variance_factor);
       if (!(checks.sigma_px_calibrated <= options.max_calibrated_sigma_px)) {
         failures.push_back("the pose's own error estimate is too large: calibrated pixel sigma " +
@@ -1917,6 +1918,14 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     checks.image_variance_factor = options.calibrate_covariance ? std::max(1.0, factor) : 1.0;
     checks.image_sigma_px_calibrated =
         checks.image_sigma_px * std::sqrt(checks.image_variance_factor);
+    // The reported covariance is the pose's, i.e. the whole image's: calibrated so that it
+    // is not over-confident over the views' points nor over the whole image (one factor of
+    // Σ_L estimated on each set; AcceptanceChecks::covariance_factor).
+    if (options.calibrate_covariance && result.covariance_valid &&
+        checks.image_variance_factor > checks.covariance_factor) {
+      checks.covariance_factor = checks.image_variance_factor;
+      result.covariance = checks.covariance_factor * result.covariance_laplace;
+    }
     if (options.whole_image_checks &&
         !(checks.image_sigma_px_calibrated <= options.max_calibrated_sigma_px)) {
       failures.push_back("over the whole image the pose's own error estimate is too large: "

@@ -87,6 +87,7 @@ json ResultToJson(const RegistrationResult& result, const RegistrationOptions& o
                    {"image_halves_spread_px", checks.image_split_spread_px},
                    {"image_variance_factor", checks.image_variance_factor},
                    {"image_sigma_px_calibrated", checks.image_sigma_px_calibrated},
+                   {"covariance_factor", checks.covariance_factor},
                    {"axis_scans_passed", checks.scans_passed},
                    {"axis_scans_reason", checks.scans_reason},
                    {"stopped_after", checks.stopped_after}};

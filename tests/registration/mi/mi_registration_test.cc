@@ -131,6 +131,7 @@ TEST_F(StreetTest, RecoversThePoseFromPerturbedStarts) {
   const double factor = result.checks.variance_factor;
   EXPECT_DOUBLE_EQ(factor, std::max(1.0, result.checks.variance_factor_halves +
                                              result.checks.variance_factor_restarts));
+  EXPECT_DOUBLE_EQ(result.checks.covariance_factor, factor);  // the view is the whole image
   EXPECT_NEAR(result.covariance(0, 0), factor * result.covariance_laplace(0, 0),
               1e-9 * result.covariance(0, 0));
   EXPECT_NEAR(result.checks.sigma_px_calibrated, std::sqrt(factor) * result.checks.sigma_px,
@@ -223,6 +224,14 @@ TEST_F(StreetTest, PanoramaCutsAreAlsoJudgedOverTheWholePanorama) {
   EXPECT_GE(c.image_split_spread_px, 0.0);
   EXPECT_GE(c.image_variance_factor, 1.0);
   EXPECT_DOUBLE_EQ(c.image_sigma_px_calibrated, c.image_sigma_px * std::sqrt(c.image_variance_factor));
+  // The reported covariance is the whole panorama's pose: calibrated by the larger of the
+  // views' and the whole image's factors.
+  ASSERT_TRUE(result.covariance_valid);
+  EXPECT_DOUBLE_EQ(c.covariance_factor, std::max(c.variance_factor, c.image_variance_factor));
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_NEAR(result.covariance(i, i), c.covariance_factor * result.covariance_laplace(i, i),
+                1e-9 * result.covariance(i, i));
+  }
   View whole;
   whole.camera = pano;
   const PixelOffsetStats after =

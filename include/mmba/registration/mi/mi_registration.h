@@ -256,6 +256,17 @@ struct AcceptanceChecks {
   double image_split_spread_px = -1;
   double image_variance_factor = -1;
   double image_sigma_px_calibrated = -1;
+  /// The factor of the reported covariance (RegistrationResult::covariance = covariance_factor
+  /// · covariance_laplace): variance_factor, or, for views cut from the frame's image,
+  /// max(variance_factor, image_variance_factor). One scale factor of Σ_L estimated on a set
+  /// of points weighs the directions those points see; Σ_L's shape is not exact, and the
+  /// directions the cuts see little of move the rest of the panorama most, so the views'
+  /// points alone gave a covariance over-confident for the whole panorama, whose
+  /// pose it is and where `mmba adjust` uses it (bench/RESULTS.md, "Point samples as the
+  /// default"). The larger factor keeps the covariance honest over both sets of points. The
+  /// acceptance checks use each set's own factor (sigma_px_calibrated,
+  /// image_sigma_px_calibrated), as before.
+  double covariance_factor = 1;
 };
 
 struct RegistrationResult {
@@ -263,7 +274,7 @@ struct RegistrationResult {
   std::string reason;
   Rigid3d cam_from_lidar;          ///< the corrected pose (the start when failed early)
   Vector6d correction = Vector6d::Zero();
-  /// m², deg²: the Laplace covariance times checks.variance_factor (calibrated).
+  /// m², deg²: the Laplace covariance times checks.covariance_factor (calibrated).
   Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Zero();
   /// The Laplace covariance (N_eff · −∇²MI)⁻¹ before the calibration.
   Eigen::Matrix<double, 6, 6> covariance_laplace = Eigen::Matrix<double, 6, 6>::Zero();
