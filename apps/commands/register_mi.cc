@@ -57,7 +57,7 @@ struct RegisterMiArgs {
   bool halves = true;
   bool whole_image_checks = true;
   bool all_checks = false;
-  bool point_samples = false;
+  bool point_samples = true;
   int split_level = 0;
   double split_tolerance_px = 1.0;
   bool calibrate_covariance = true;
@@ -318,7 +318,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"region", args.region},                 {"pyramid_levels", args.pyramid_levels},
                      {"bound_m", args.bound_m},               {"bound_deg", args.bound_deg},
                      {"pyramid_paths", args.pyramid_paths},   {"whole_image_checks", args.whole_image_checks},
-                     {"all_checks", args.all_checks}};
+                     {"all_checks", args.all_checks},         {"point_samples", args.point_samples}};
   if (frames.size() > 1) {
     out["used_frames"] = result.used_frames;
     nlohmann::json rejected = nlohmann::json::array();
@@ -455,8 +455,9 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
       ->capture_default_str();
   sub->add_option("--point-samples", args->point_samples,
                   "Evaluate the metric from the visible LiDAR points' projections (visibility "
-                  "frozen per reference pose; ~2x faster) instead of rendering each pose. Off by "
-                  "default: on the simulated gate panoramas it gave 2 wrong ok (bench/RESULTS.md)")
+                  "frozen per reference pose; about half the CPU, more results ok) instead of "
+                  "rendering each pose; false = every pose rendered (the default until 2 Dec; "
+                  "bench/RESULTS.md, \"Point samples as the default\")")
       ->capture_default_str();
   sub->add_option("--split-level", args->split_level,
                   "Pyramid level of the halves' re-optimisation (0 = full resolution)")
@@ -467,7 +468,9 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
       ->capture_default_str();
   sub->add_option("--calibrate-covariance", args->calibrate_covariance,
                   "Scale the Laplace covariance by the scatter of the halves and restarts "
-                  "(checks.variance_factor; the Laplace one is covariance_laplace)")
+                  "(checks.covariance_factor: checks.variance_factor, or for a panorama's cuts "
+                  "the larger of it and checks.image_variance_factor; the Laplace one is "
+                  "covariance_laplace)")
       ->capture_default_str();
   sub->add_option("--effective-sample-lag", args->effective_sample_lag,
                   "Covariance: correlated pixels counted by Bartlett's factor over lags within "

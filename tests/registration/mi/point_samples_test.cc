@@ -29,7 +29,7 @@ class PointSamplesTest : public ::testing::Test {
 
 RegistrationOptions SampledOptions() {
   RegistrationOptions options;
-  options.point_samples = true;  // off by default
+  options.point_samples = true;  // the default since 2 Dec; explicit here
   return options;
 }
 
@@ -97,12 +97,28 @@ TEST_F(PointSamplesTest, ProbeDisplacementMeasuresTheImageMotion) {
   EXPECT_LT(moved, 1.5 * camera_.params[0] * angle);
 }
 
-// Off by default: the evaluator renders even when handed a set.
-TEST_F(PointSamplesTest, OffByDefault) {
+// On by default (since 2 Dec); point_samples = false renders even when handed a set. Away
+// from the set's reference pose the sampled metric (visibility frozen) is not the rendered one,
+// so the comparison below tells which path was taken.
+TEST_F(PointSamplesTest, OnByDefaultAndSwitchable) {
   RegistrationOptions options;
-  EXPECT_FALSE(options.point_samples);
+  EXPECT_TRUE(options.point_samples);
+  Vector6d moved;
+  moved << 0.02, -0.01, 0.01, 0.2, -0.1, 0.15;
+  const Rigid3d pose = ApplyCorrection(truth_, moved);
+  {
+    const FrameSetEvaluator evaluator({frame_}, truth_, options);
+    EXPECT_TRUE(evaluator.UsesSamples(options.metric));
+    const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth_, 0, true);
+    EXPECT_NE(evaluator.Evaluate(pose, 0, options.metric, &set).value,
+              evaluator.Evaluate(pose, 0, options.metric).value);
+  }
+  options.point_samples = false;
   const FrameSetEvaluator evaluator({frame_}, truth_, options);
   EXPECT_FALSE(evaluator.UsesSamples(options.metric));
+  const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth_, 0, true);
+  EXPECT_EQ(evaluator.Evaluate(pose, 0, options.metric, &set).value,
+            evaluator.Evaluate(pose, 0, options.metric).value);
 }
 
 // End to end with point samples: a 0.1 m / 1° start is recovered and reported ok.
