@@ -112,6 +112,21 @@ def make_cases(data, names, rng):
                 truth = truth.copy()
                 truth[:3, 3] *= 1000.0
             out.append((name, s, t, truth))
+        elif name == 'kitti':
+            # a Velodyne HDL-64 scan (ring pattern, density falling with range): two azimuth
+            # sectors of 200° sharing 100°, each keeping a random 70 % of its points
+            scan = np.fromfile(os.path.join(data, '..', 'kitti', 'velodyne', '000000.bin'),
+                               dtype=np.float32).reshape(-1, 4)[:, :3].astype(np.float64)
+            az = np.degrees(np.arctan2(scan[:, 1], scan[:, 0]))
+            s = scan[(az > -150) & (az < 50)]
+            t = scan[(az > -50) & (az < 150)]
+            s = s[rng.random(len(s)) < 0.7]
+            t = t[rng.random(len(t)) < 0.7]
+            # independent range noise (the HDL-64's ~2 cm), so that no point is shared exactly
+            for c in (s, t):
+                c *= (1.0 + rng.normal(scale=0.015, size=len(c)) /
+                      np.maximum(np.linalg.norm(c, axis=1), 1e-9))[:, None]
+            out.append((name, s, t, np.eye(4)))
         elif name.startswith('v') and '_' in name:
             # vSOURCE_TARGET: virtual scans of the Stanford views that are not in the data
             # (stanford_virtual_scans.py) against a virtual or a real (bun000/bun045) scan
@@ -144,6 +159,8 @@ def main():
     ap.add_argument('--data', default=os.path.join(os.path.dirname(__file__), '..', '..',
                                                    'shared', 'data', 'pointclouds'))
     ap.add_argument('--right-spacings', type=float, default=2.0)
+    ap.add_argument('--offset', default='', help='X,Y,Z added to both clouds (e.g. UTM '
+                    'coordinates 500000,5000000,100)')
     ap.add_argument('--extra', default='', help='extra register-cloud arguments')
     args = ap.parse_args()
     os.makedirs(args.outdir, exist_ok=True)
@@ -153,13 +170,20 @@ def main():
         s_spacing = spacing(src)
         extent = float(np.linalg.norm(np.ptp(src, axis=0)))
         target_path = os.path.join(args.outdir, f'{name}_target.ply')
-        write_ply(target_path, tgt)
+        offset = np.array([float(v) for v in args.offset.split(',')]) if args.offset else np.zeros(3)
+        write_ply(target_path, tgt + offset)
         for k in range(args.draws):
             move = np.eye(4)
             move[:3, :3] = random_rotation(rng) if k > 0 else np.eye(3)
             move[:3, 3] = rng.normal(size=3) * 0.5 * extent if k > 0 else 0.0
             moved = src @ move[:3, :3].T + move[:3, 3]
             truth = base_truth @ np.linalg.inv(move)
+            if args.offset:
+                # both clouds in far-off coordinates (a map grid): T' = T(+o)·T·T(−o)
+                shift = np.eye(4)
+                shift[:3, 3] = offset
+                truth = shift @ truth @ np.linalg.inv(shift)
+                moved = moved + offset
             source_path = os.path.join(args.outdir, f'{name}_{k}_source.ply')
             write_ply(source_path, moved)
             out_json = os.path.join(args.outdir, f'{name}_{k}.json')

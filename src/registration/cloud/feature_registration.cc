@@ -1162,9 +1162,16 @@ double EstimatePointSpacing(const io::PointCloud& cloud, size_t max_samples) {
   return MedianSpacing(cloud.points, max_samples);
 }
 
-CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
-                                       const io::PointCloud& target,
-                                       const CloudRegistrationOptions& options) {
+namespace {
+
+// RegisterClouds on clouds whose coordinates are small (see RegisterClouds below):
+// `source_viewpoint` / `target_viewpoint` = each cloud's own origin in these coordinates,
+// towards which its normals are oriented (the scanner of a scan in its own frame).
+CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
+                                                 const io::PointCloud& target,
+                                                 const CloudRegistrationOptions& options,
+                                                 const Eigen::Vector3d& source_viewpoint,
+                                                 const Eigen::Vector3d& target_viewpoint) {
   std::string option_error;
   if (!options.Check(&option_error)) throw InputError::Message("registration options", option_error);
   CloudRegistrationResult result;
@@ -1235,10 +1242,10 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   end_stage("downsample");
 
   // --- Normals within R_n (oriented towards each cloud's origin, the scanner of a scan).
-  const Eigen::Vector3d viewpoint = Eigen::Vector3d::Zero();
   for (Level* level : {&src_coarse, &tgt_coarse}) {
     if (level->normals.empty()) {
-      level->normals = internal::EstimateNormals(level->points, normal_radius, viewpoint);
+      level->normals = internal::EstimateNormals(
+          level->points, normal_radius, level == &src_coarse ? source_viewpoint : target_viewpoint);
     }
     const size_t before = level->points.size();
     DropInvalidNormals(level);
@@ -1253,7 +1260,7 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   if (src_fine.normals.empty()) {
     src_fine.normals = internal::EstimateNormals(
         src_fine.points, std::min(normal_radius, options.normal_radius_spacing * src_fine_spacing),
-        viewpoint);
+        source_viewpoint);
   }
   end_stage("normals");
 
@@ -1442,7 +1449,8 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     if (c->level.normals.empty() && c->level.points.size() >= 10) {
       c->level.normals = internal::EstimateNormals(
           c->level.points,
-          std::min(normal_radius, options.normal_radius_spacing * c->level.spacing), viewpoint);
+          std::min(normal_radius, options.normal_radius_spacing * c->level.spacing),
+          target_viewpoint);
     }
     if (whole) whole_target = c;
     return c;
@@ -1808,6 +1816,72 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
   }
   result.status = "ok";
   result.reason.clear();
+  return result;
+}
+
+io::PointCloud Shifted(const io::PointCloud& cloud, const Eigen::Vector3d& offset) {
+  io::PointCloud out = cloud;
+  for (Eigen::Vector3d& p : out.points) p += offset;
+  return out;
+}
+
+}  // namespace
+
+// Map-grid coordinates (UTM, national grids: 10^5–10^7 m) leave the float kd-trees and
+// PCL a resolution of 0.01–0.5 m and make the ICP's rotation about the grid's origin
+// ill-conditioned. Each cloud is therefore registered relative to its own origin o
+// (internal::FloatOrigin: its centroid rounded to whole km; 0 for clouds within 500 m of
+// their origin, which are registered exactly as given), and the result is mapped back:
+// T = [I | o_t] · T_local · [I | −o_s]. With a search window both clouds share the target's
+// o, so that the given (identity) pose stays the identity.
+// The normals of a cloud in a grid cannot be oriented towards its origin (thousands of km
+// away, nearly level: ground normals would flip at random); they are oriented towards a
+// point high above its centroid along `up` instead — ground up, walls towards the middle of
+// the cloud, as a levelled scanner standing inside it sees them.
+namespace {
+Eigen::Vector3d GridViewpoint(const io::PointCloud& cloud, const Eigen::Vector3d& origin,
+                              const Eigen::Vector3d& up) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -lo;
+  for (const Eigen::Vector3d& p : cloud.points) {
+    sum += p - origin;
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const Eigen::Vector3d centroid = sum / static_cast<double>(std::max<size_t>(1, cloud.size()));
+  return centroid + std::max(100.0, 10.0 * (hi - lo).norm()) * up.normalized();
+}
+}  // namespace
+
+CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
+                                       const io::PointCloud& target,
+                                       const CloudRegistrationOptions& options) {
+  Eigen::Vector3d o_t = internal::FloatOrigin(target.points);
+  Eigen::Vector3d o_s =
+      options.search_window_m > 0.0 ? o_t : internal::FloatOrigin(source.points);
+  if (!o_t.allFinite() || !o_s.allFinite()) o_t = o_s = Eigen::Vector3d::Zero();  // NaN: fails
+  if (o_t.isZero() && o_s.isZero()) {
+    return RegisterCloudsNearOrigin(source, target, options, Eigen::Vector3d::Zero(),
+                                    Eigen::Vector3d::Zero());
+  }
+  CloudRegistrationOptions local = options;
+  for (Eigen::Vector3d& v : local.source_viewpoints) v -= o_s;
+  for (Eigen::Vector3d& v : local.target_viewpoints) v -= o_t;
+  const Eigen::Vector3d v_s = o_s.isZero() ? o_s : GridViewpoint(source, o_s, options.up);
+  const Eigen::Vector3d v_t = o_t.isZero() ? o_t : GridViewpoint(target, o_t, options.up);
+  CloudRegistrationResult result = RegisterCloudsNearOrigin(
+      Shifted(source, -o_s), Shifted(target, -o_t), local, v_s, v_t);
+  const auto back = [&](const Eigen::Matrix4d& t) {
+    Eigen::Matrix4d out = t;
+    out.topRightCorner<3, 1>() = t.topRightCorner<3, 1>() + o_t - t.topLeftCorner<3, 3>() * o_s;
+    return out;
+  };
+  result.target_from_source = back(result.target_from_source);
+  for (RegistrationHypothesis& h : result.hypotheses) {
+    h.target_from_source = back(h.target_from_source);
+  }
+  result.covariance_centre += o_t;
   return result;
 }
 

@@ -24,11 +24,13 @@ namespace {
 
 constexpr int kThreads = 2;
 
-pcl::PointCloud<pcl::PointXYZ>::Ptr ToPcl(const std::vector<Eigen::Vector3d>& points) {
+// `points` − `origin` as floats (origin: FloatOrigin of the cloud they belong to).
+pcl::PointCloud<pcl::PointXYZ>::Ptr ToPcl(const std::vector<Eigen::Vector3d>& points,
+                                          const Eigen::Vector3d& origin) {
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
   cloud->resize(points.size());
   for (size_t i = 0; i < points.size(); ++i) {
-    (*cloud)[i].getVector3fMap() = points[i].cast<float>();
+    (*cloud)[i].getVector3fMap() = (points[i] - origin).cast<float>();
   }
   cloud->width = static_cast<uint32_t>(points.size());
   cloud->height = 1;
@@ -50,6 +52,13 @@ pcl::PointCloud<pcl::Normal>::Ptr ToPclNormals(const std::vector<Eigen::Vector3d
 
 }  // namespace
 
+Eigen::Vector3d FloatOrigin(const std::vector<Eigen::Vector3d>& points) {
+  if (points.empty()) return Eigen::Vector3d::Zero();
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points) sum += p;
+  return (sum / static_cast<double>(points.size()) / 1000.0).array().round().matrix() * 1000.0;
+}
+
 // Exact kd-tree over the points as floats (nanoflann, header-only: no allocation per query,
 // about 3 × faster than PCL's KdTreeFLANN wrapper for the single-nearest queries that
 // dominate SAC-IA scoring and ICP; same float distances, so the same neighbours).
@@ -65,13 +74,21 @@ struct PointIndex::Impl {
                                                    Cloud, 3, uint32_t>;
   Cloud cloud;
   std::unique_ptr<Tree> tree;
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  // FloatOrigin of the points
+
+  void Local(const Eigen::Vector3d& query, float q[3]) const {
+    for (int d = 0; d < 3; ++d) q[d] = static_cast<float>(query[d] - origin[d]);
+  }
 };
 
 PointIndex::PointIndex(const std::vector<Eigen::Vector3d>& points) : impl_(new Impl) {
   if (points.empty()) return;
+  impl_->origin = FloatOrigin(points);
   impl_->cloud.xyz.resize(3 * points.size());
   for (size_t i = 0; i < points.size(); ++i) {
-    for (int d = 0; d < 3; ++d) impl_->cloud.xyz[3 * i + d] = static_cast<float>(points[i][d]);
+    for (int d = 0; d < 3; ++d) {
+      impl_->cloud.xyz[3 * i + d] = static_cast<float>(points[i][d] - impl_->origin[d]);
+    }
   }
   impl_->tree = std::make_unique<Impl::Tree>(3, impl_->cloud,
                                              nanoflann::KDTreeSingleIndexAdaptorParams(10));
@@ -81,8 +98,8 @@ PointIndex::~PointIndex() = default;
 bool PointIndex::Nearest(const Eigen::Vector3d& query, int* index,
                          double* squared_distance) const {
   if (!impl_->tree) return false;
-  const float q[3] = {static_cast<float>(query.x()), static_cast<float>(query.y()),
-                      static_cast<float>(query.z())};
+  float q[3];
+  impl_->Local(query, q);
   uint32_t i = 0;
   float d = 0.0f;
   nanoflann::KNNResultSet<float, uint32_t> result(1);
@@ -118,8 +135,8 @@ struct BoundedNearestSet {
 bool PointIndex::NearestWithin(const Eigen::Vector3d& query, double max_squared_distance,
                                int* index, double* squared_distance) const {
   if (!impl_->tree || !(max_squared_distance >= 0)) return false;
-  const float q[3] = {static_cast<float>(query.x()), static_cast<float>(query.y()),
-                      static_cast<float>(query.z())};
+  float q[3];
+  impl_->Local(query, q);
   // Strictly-less search: the bound is moved up by one float step so that a point at exactly
   // the bound is found, then the float distance is tested against it as callers do.
   BoundedNearestSet result{std::nextafter(static_cast<float>(max_squared_distance),
@@ -136,8 +153,8 @@ void PointIndex::KNearest(const Eigen::Vector3d& query, int k, std::vector<int>*
   indices->clear();
   squared_distances->clear();
   if (!impl_->tree || k <= 0) return;
-  const float q[3] = {static_cast<float>(query.x()), static_cast<float>(query.y()),
-                      static_cast<float>(query.z())};
+  float q[3];
+  impl_->Local(query, q);
   std::vector<uint32_t> idx(static_cast<size_t>(k));
   squared_distances->resize(static_cast<size_t>(k));
   nanoflann::KNNResultSet<float, uint32_t> result(static_cast<uint32_t>(k));
@@ -152,8 +169,8 @@ void PointIndex::Radius(const Eigen::Vector3d& query, double radius,
                         std::vector<int>* indices) const {
   indices->clear();
   if (!impl_->tree) return;
-  const float q[3] = {static_cast<float>(query.x()), static_cast<float>(query.y()),
-                      static_cast<float>(query.z())};
+  float q[3];
+  impl_->Local(query, q);
   std::vector<std::pair<uint32_t, float>> matches;
   impl_->tree->radiusSearch(q, static_cast<float>(radius * radius), matches,
                             nanoflann::SearchParams());
@@ -168,8 +185,8 @@ void PointIndex::RadiusWithDistances(const Eigen::Vector3d& query, double radius
   indices->clear();
   squared_distances->clear();
   if (!impl_->tree) return;
-  const float q[3] = {static_cast<float>(query.x()), static_cast<float>(query.y()),
-                      static_cast<float>(query.z())};
+  float q[3];
+  impl_->Local(query, q);
   // One buffer per thread, kept between queries (no allocation per query).
   thread_local std::vector<std::pair<uint32_t, float>> matches;
   impl_->tree->radiusSearch(q, static_cast<float>(radius * radius), matches,
@@ -225,12 +242,13 @@ void FeatureIndex::KNearest(const float* query, int k, std::vector<int>* indices
 // failed 0.47 m; the fragile cell is kept on the normals its figures were measured with.)
 std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>& points,
                                              double radius, const Eigen::Vector3d& viewpoint) {
-  auto cloud = ToPcl(points);
+  const Eigen::Vector3d origin = FloatOrigin(points);
+  auto cloud = ToPcl(points, origin);
   pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> estimation(kThreads);
   estimation.setInputCloud(cloud);
   estimation.setRadiusSearch(radius);
-  estimation.setViewPoint(static_cast<float>(viewpoint.x()), static_cast<float>(viewpoint.y()),
-                          static_cast<float>(viewpoint.z()));
+  const Eigen::Vector3f local_viewpoint = (viewpoint - origin).cast<float>();
+  estimation.setViewPoint(local_viewpoint.x(), local_viewpoint.y(), local_viewpoint.z());
   pcl::PointCloud<pcl::Normal> normals;
   estimation.compute(normals);
   std::vector<Eigen::Vector3d> out(points.size());
@@ -242,7 +260,7 @@ std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>&
 
 std::vector<float> TomasiResponse(const std::vector<Eigen::Vector3d>& points,
                                   const std::vector<Eigen::Vector3d>& normals, double radius) {
-  auto cloud = ToPcl(points);
+  auto cloud = ToPcl(points, FloatOrigin(points));
   auto pcl_normals = ToPclNormals(normals);
   pcl::HarrisKeypoint3D<pcl::PointXYZ, pcl::PointXYZI, pcl::Normal> harris(
       pcl::HarrisKeypoint3D<pcl::PointXYZ, pcl::PointXYZI, pcl::Normal>::TOMASI, radius);
@@ -286,11 +304,12 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
                                const std::vector<Eigen::Vector3d>& normals,
                                const std::vector<int>& keypoints, double radius,
                                const Eigen::Vector3d* up) {
-  auto surface = ToPcl(points);
+  const Eigen::Vector3d origin = FloatOrigin(points);
+  auto surface = ToPcl(points, origin);
   auto surface_normals = ToPclNormals(normals);
   std::vector<Eigen::Vector3d> kp_points;
   for (int i : keypoints) kp_points.push_back(points[i]);
-  auto input = ToPcl(kp_points);
+  auto input = ToPcl(kp_points, origin);
   Descriptors out;
   switch (descriptor) {
     case Descriptor::kFpfh:
@@ -375,12 +394,13 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
 Descriptors ComputeFpfhPcl(const std::vector<Eigen::Vector3d>& points,
                            const std::vector<Eigen::Vector3d>& normals,
                            const std::vector<int>& keypoints, double radius) {
-  auto surface = ToPcl(points);
+  const Eigen::Vector3d origin = FloatOrigin(points);
+  auto surface = ToPcl(points, origin);
   auto surface_normals = ToPclNormals(normals);
   std::vector<Eigen::Vector3d> kp_points;
   for (int i : keypoints) kp_points.push_back(points[i]);
   pcl::FPFHEstimationOMP<pcl::PointXYZ, pcl::Normal, pcl::FPFHSignature33> est(kThreads);
-  est.setInputCloud(ToPcl(kp_points));
+  est.setInputCloud(ToPcl(kp_points, origin));
   est.setSearchSurface(surface);
   est.setInputNormals(surface_normals);
   est.setRadiusSearch(radius);
