@@ -41,7 +41,7 @@ int main(int argc, char** argv) {
   frame.views = MakeViews(photo, camera, ViewOptions(), "street");
   frame.points = &points;
   RegistrationOptions options;
-  options.point_samples = true;  // off by default
+  options.point_samples = true;  // the default since 2 Dec; explicit here
   if (argc > 3) options.threads = std::atoi(argv[3]);
   const bool per_point = argc > 4 ? std::atoi(argv[4]) != 0 : true;
   const FrameSetEvaluator evaluator({frame}, truth, options);
