@@ -175,6 +175,7 @@ PointCloud ReadPcd(const std::string& path, const ReadOptions& options, ReadStat
   }
   const bool normals = inormal[0] >= 0 && inormal[1] >= 0 && inormal[2] >= 0;
   CloudBuilder builder(path, options, normals, iintensity >= 0, irgb >= 0, points);
+  const bool organised = height > 1;
 
   auto emit = [&](auto value_of, auto rgb_bits_of, auto describe) {
     double xyz[3], n[3];
@@ -182,9 +183,12 @@ PointCloud ReadPcd(const std::string& path, const ReadOptions& options, ReadStat
     if (normals) {
       for (int k = 0; k < 3; ++k) n[k] = value_of(inormal[k]);
     }
-    // PCL pads organised clouds with all-NaN points: those are no data, not bad data.
+    // PCL pads organised clouds (HEIGHT > 1: a depth camera's or a scanner's pixel grid)
+    // with all-NaN points: those are pixels without a return, no data rather than bad data,
+    // and are dropped (counted in the stats) without --skip-invalid. In an unorganised
+    // cloud a NaN point is an error unless skip_invalid_points.
     if (std::isnan(xyz[0]) && std::isnan(xyz[1]) && std::isnan(xyz[2]) &&
-        options.skip_invalid_points) {
+        (organised || options.skip_invalid_points)) {
       builder.CountSkipped();
       return;
     }

@@ -194,6 +194,20 @@ TEST_F(PointCloudIoTest, PcdAsciiBinaryAndCompressed) {
   PointCloud c = ReadPointCloud(Write("a2.pcd", ascii), skip);
   ASSERT_EQ(c.size(), 1u);
   EXPECT_EQ(c.colors[0], (std::array<uint8_t, 3>{10, 20, 30}));
+  {
+    // An organised cloud (HEIGHT > 1: a depth camera's pixel grid) marks pixels without a
+    // return by all-NaN points: dropped and counted without skip_invalid_points; a point
+    // with only some coordinates NaN is still an error.
+    std::string organised = ascii;
+    organised.replace(organised.find("WIDTH 2\nHEIGHT 1"), 16, "WIDTH 1\nHEIGHT 2");
+    ReadStats organised_stats;
+    const PointCloud o = ReadPointCloud(Write("org.pcd", organised), {}, &organised_stats);
+    ASSERT_EQ(o.size(), 1u);
+    EXPECT_EQ(organised_stats.num_skipped, 1u);
+    std::string partial = organised;
+    partial.replace(partial.find("nan nan nan"), 11, "1 nan 3");
+    ExpectInputError([&] { ReadPcd(Write("org2.pcd", partial)); }, {"org2.pcd:13", "non-finite"});
+  }
 
   // binary (AoS) with normals and a uint8 intensity.
   std::string bin =
