@@ -260,10 +260,36 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     for (int i = 0; i < 6; ++i) perturb[i] = args.perturb[i];
     start = mi::ApplyCorrection(start, perturb);
   }
+  // Clouds in map-grid coordinates (a georeferenced mobile-mapping cloud in UTM with the
+  // camera's pose in the grid): the renderer holds points as floats, which resolve 0.5 m at
+  // 5,000 km. Every cloud is moved by −o (o = io::LocalOrigin of the first cloud: its
+  // centroid rounded to whole km, 0 for a cloud in its sensor's frame, which is then used as
+  // given), the poses by cam_from_local = cam_from_lidar · [I | o], and the result back. The
+  // correction (a shift of the camera centre and a turn about it, in the cloud's axes) and its
+  // covariance do not change under a shift of the cloud's frame.
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  const auto to_local = [&origin](Rigid3d cam_from_lidar) {
+    cam_from_lidar.translation += cam_from_lidar.rotation * origin;
+    return cam_from_lidar;
+  };
+  const auto to_given = [&origin](Rigid3d cam_from_local) {
+    cam_from_local.translation -= cam_from_local.rotation * origin;
+    return cam_from_local;
+  };
   std::vector<mi::LidarPoints> clouds;
   for (const auto& [image_path, lidar_path] : pairs) {
-    const io::PointCloud cloud = io::ReadPointCloud(lidar_path);
+    io::PointCloud cloud = io::ReadPointCloud(lidar_path);
     if (cloud.empty()) throw InputError::Message(lidar_path, "cloud has no points");
+    if (clouds.empty()) {
+      origin = io::LocalOrigin(cloud.points);
+      if (!origin.isZero()) {
+        spdlog::info("{}: map-grid coordinates, registered relative to ({:.0f}, {:.0f}, {:.0f})",
+                     lidar_path, origin.x(), origin.y(), origin.z());
+      }
+    }
+    if (!origin.isZero()) {
+      for (Eigen::Vector3d& p : cloud.points) p -= origin;
+    }
     if (options.render.representation == mi::Representation::kIntensity &&
         !cloud.has_intensity()) {
       throw InputError::Message(lidar_path, "cloud has no intensity but --representation "
@@ -273,6 +299,9 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     spdlog::info("read {}: {} points{}", lidar_path, cloud.size(),
                  cloud.has_intensity() ? " with intensity" : "");
   }
+  const Rigid3d start_given = start;
+  start = to_local(start);
+  const Rigid3d reference_local = to_local(reference);
   std::vector<mi::Frame> frames;
   for (size_t i = 0; i < pairs.size(); ++i) {
     mi::Frame frame;
@@ -311,8 +340,11 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     rig.registration = options;
     result = mi::RegisterRig(frames, start, rig);
   }
-  // ---- Output.
-  nlohmann::json out = mi::ResultToJson(result, options, start);
+  // ---- Output (poses in the clouds' own frame again).
+  const Rigid3d cam_from_local = result.cam_from_lidar;
+  result.cam_from_lidar = to_given(result.cam_from_lidar);
+  for (mi::RegistrationResult& r : result.frame_results) r.cam_from_lidar = to_given(r.cam_from_lidar);
+  nlohmann::json out = mi::ResultToJson(result, options, start_given);
   out["settings"] = {{"representation", args.representation}, {"view", args.view},
                      {"bins", args.bins},                     {"smoothing", args.smoothing},
                      {"region", args.region},                 {"pyramid_levels", args.pyramid_levels},
@@ -342,10 +374,10 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     for (const mi::View& view : frames[0].views) {
       offsets.push_back(
           {{"view", view.name},
-           {"before", OffsetJson(mi::PixelOffsets(clouds[0], view, reference, start,
+           {"before", OffsetJson(mi::PixelOffsets(clouds[0], view, reference_local, start,
                                                   options.render))},
-           {"after", OffsetJson(mi::PixelOffsets(clouds[0], view, reference,
-                                                 result.cam_from_lidar, options.render))}});
+           {"after", OffsetJson(mi::PixelOffsets(clouds[0], view, reference_local,
+                                                 cam_from_local, options.render))}});
     }
     out["perturbation"] = mi::CorrectionToJson(Eigen::Map<const mi::Vector6d>(args.perturb.data()));
     out["pixel_offset_vs_reference"] = offsets;
@@ -354,7 +386,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   files.Add(args.output, [&](std::ostream& stream) { stream << out.dump(2) << "\n"; });
   if (!args.lidar_image.empty()) {
     mi::LidarImage rendered;
-    mi::RenderLidarImage(clouds[0], frames[0].views[0], result.cam_from_lidar, options.render,
+    mi::RenderLidarImage(clouds[0], frames[0].views[0], cam_from_local, options.render,
                          &rendered);
     mi::WriteGrayPng(mi::LidarImageToGray(rendered), args.lidar_image);
   }

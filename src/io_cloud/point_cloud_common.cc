@@ -78,6 +78,13 @@ std::string ToLower(std::string_view s) {
 
 }  // namespace internal
 
+Eigen::Vector3d LocalOrigin(const std::vector<Eigen::Vector3d>& points) {
+  if (points.empty()) return Eigen::Vector3d::Zero();
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points) sum += p;
+  return (sum / static_cast<double>(points.size()) / 1000.0).array().round().matrix() * 1000.0;
+}
+
 using internal::CloudBuilder;
 using internal::ToLower;
 

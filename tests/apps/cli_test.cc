@@ -11,6 +11,8 @@
 #include <nlohmann/json.hpp>
 
 #include "mmba/io/colmap_model.h"
+#include "mmba/io/kitti.h"
+#include "mmba/io/point_cloud.h"
 
 namespace mmba {
 namespace {
@@ -148,6 +150,57 @@ TEST_F(CliTest, RegisterCloudScaleRange) {
   const nlohmann::json j = nlohmann::json::parse(in);
   EXPECT_EQ(j["status"], "failed");
   EXPECT_EQ(j["trials"].size(), 3u);  // 4, 4.2, 4.41
+}
+
+// register-mi with the cloud and the camera pose in map-grid coordinates (a georeferenced
+// mobile-mapping cloud in UTM): the renderer's floats resolve 0.5 m there, so the command
+// registers relative to the cloud's centroid rounded to whole km. The KITTI frame moved by a
+// whole number of km must give the registration of the frame as delivered: the same status,
+// correction and pixel offsets, and the same pose moved back into the grid.
+TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
+  const std::string kitti = kSource + "/data/kitti/";
+  const std::string common = " --image " + kitti + "image_2/000000.png --kitti-calib " + kitti +
+                             "calib/000000.txt --perturb 0.05,0,0,0,0.5,0 -q";
+  const RunResult given = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin" + common +
+                               " --output " + Tmp("given.json"));
+  ASSERT_TRUE(given.exit_code == 0 || given.exit_code == 3) << given.output;
+  const nlohmann::json a = nlohmann::json::parse(std::ifstream(Tmp("given.json")));
+
+  const Eigen::Vector3d grid(512000.0, 5412000.0, 1000.0);  // whole km: the same floats
+  io::PointCloud cloud = io::ReadPointCloud(kitti + "velodyne/000000.bin");
+  for (Eigen::Vector3d& p : cloud.points) p += grid;
+  io::WritePly(cloud, Tmp("grid.ply"));
+  // The start of the grid run: the calibration's pose for grid points (--perturb moves both
+  // runs' starts alike: a shift of the camera centre and a turn about it).
+  const Eigen::Matrix4d calibration =
+      io::KittiCamera(io::ReadKittiCalibration(kitti + "calib/000000.txt"), 2, 1242, 375)
+          .cam_from_lidar.ToMatrix4();
+  Eigen::Matrix4d lidar_from_grid = Eigen::Matrix4d::Identity();
+  lidar_from_grid.topRightCorner<3, 1>() = -grid;
+  const Eigen::Matrix4d cam_from_grid = calibration * lidar_from_grid;
+  nlohmann::json pose = {{"cam_from_lidar", nlohmann::json::array()}};
+  for (int i = 0; i < 16; ++i) pose["cam_from_lidar"].push_back(cam_from_grid(i / 4, i % 4));
+  std::ofstream(Tmp("pose.json")) << pose.dump();
+  const RunResult in_grid = Mmba("register-mi --lidar " + Tmp("grid.ply") + " --initial " +
+                                 Tmp("pose.json") + common + " --output " + Tmp("grid.json"));
+  EXPECT_EQ(in_grid.exit_code, given.exit_code) << in_grid.output;
+  const nlohmann::json b = nlohmann::json::parse(std::ifstream(Tmp("grid.json")));
+  EXPECT_EQ(b["status"], a["status"]);
+  for (const char* k : {"tx", "ty", "tz"}) {
+    EXPECT_NEAR(b["correction"][k].get<double>(), a["correction"][k].get<double>(), 1e-4) << k;
+  }
+  for (const char* k : {"roll", "pitch", "yaw"}) {
+    EXPECT_NEAR(b["correction"][k].get<double>(), a["correction"][k].get<double>(), 1e-3) << k;
+  }
+  EXPECT_NEAR(b["pixel_offset_vs_reference"][0]["after"]["median_px"].get<double>(),
+              a["pixel_offset_vs_reference"][0]["after"]["median_px"].get<double>(), 0.01);
+  Eigen::Matrix4d pa, pb;
+  for (int i = 0; i < 16; ++i) {
+    pa(i / 4, i % 4) = a["cam_from_lidar"][i];
+    pb(i / 4, i % 4) = b["cam_from_lidar"][i];
+  }
+  // The grid result is the delivered frame's result expressed for grid points.
+  EXPECT_LT((pb - pa * lidar_from_grid).cwiseAbs().maxCoeff(), 1e-3) << pb;
 }
 
 TEST_F(CliTest, NonConvergenceIsExitThreeAndNoModel) {

@@ -62,6 +62,13 @@ struct ReadStats {
   size_t num_skipped = 0;     ///< points dropped by skip_invalid_points
 };
 
+/// A local origin for computing with `points` in floats: their centroid rounded to whole
+/// kilometres. Clouds in map-grid coordinates (UTM, national grids: 10^5–10^7 m, where a
+/// float resolves only 0.01–0.5 m) keep about 0.1 mm within a kilometre of it; the origin of
+/// a cloud whose centroid is within 500 m of (0, 0, 0) is exactly 0. Non-finite input gives a
+/// non-finite origin.
+Eigen::Vector3d LocalOrigin(const std::vector<Eigen::Vector3d>& points);
+
 /// Reads a cloud, choosing the reader from the extension (.ply, .pcd, .xyz/.txt/.csv/.pts,
 /// .las, .bin = KITTI velodyne). Throws InputError naming the file (and line or byte) on bad
 /// input: missing file, bad header, truncated data, non-finite values (unless skipped).

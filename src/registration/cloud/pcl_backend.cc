@@ -53,10 +53,7 @@ pcl::PointCloud<pcl::Normal>::Ptr ToPclNormals(const std::vector<Eigen::Vector3d
 }  // namespace
 
 Eigen::Vector3d FloatOrigin(const std::vector<Eigen::Vector3d>& points) {
-  if (points.empty()) return Eigen::Vector3d::Zero();
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : points) sum += p;
-  return (sum / static_cast<double>(points.size()) / 1000.0).array().round().matrix() * 1000.0;
+  return io::LocalOrigin(points);
 }
 
 // Exact kd-tree over the points as floats (nanoflann, header-only: no allocation per query,

@@ -12,11 +12,9 @@
 
 namespace mmba::registration::internal {
 
-/// Origin for the float coordinates of `points` (kd-trees, PCL, the FPFH): their centroid
-/// rounded to whole kilometres. Clouds in map-grid coordinates (UTM and national grids:
-/// 10^5–10^7 m, where a float resolves only 0.01–0.5 m) keep a float resolution of about
-/// 0.1 mm within a kilometre of it; a cloud whose centroid is within 500 m of its own origin
-/// gets the origin 0, i.e. the same floats as without it.
+/// Origin for the float coordinates of `points` (kd-trees, PCL, the FPFH): io::LocalOrigin,
+/// their centroid rounded to whole kilometres (0 within 500 m of the cloud's own origin, i.e.
+/// the same floats as without it; ~0.1 mm float resolution in a map grid).
 Eigen::Vector3d FloatOrigin(const std::vector<Eigen::Vector3d>& points);
 
 /// Exact kd-tree over 3-D points (nanoflann, float coordinates relative to FloatOrigin).
