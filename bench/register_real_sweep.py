@@ -66,17 +66,14 @@ def split(points, axis, overlap):
 
 
 def stanford_conf(conf_path):
+    """{file name: 4×4 common_from_scan} of a Stanford .conf (p_common = R(q)ᵀ p + t)."""
+    import stanford_virtual_scans as vs
     poses = {}
-    for line in open(conf_path):
-        f = line.split()
-        if len(f) == 9 and f[0] == 'bmesh':
-            t = np.array([float(v) for v in f[2:5]])
-            qx, qy, qz, qw = [float(v) for v in f[5:9]]
-            r = o3d.geometry.get_rotation_matrix_from_quaternion([qw, qx, qy, qz])
-            m = np.eye(4)
-            m[:3, :3] = r.T  # p_common = R(q)^T p + t
-            m[:3, 3] = t
-            poses[f[1]] = m
+    for name, (r, t) in vs.read_conf(conf_path).items():
+        m = np.eye(4)
+        m[:3, :3] = r.T
+        m[:3, 3] = t
+        poses[name + '.ply'] = m
     return poses
 
 
@@ -140,8 +137,8 @@ def make_cases(data, names, rng):
                     return vs.virtual_scan(mesh, conf, n[1:], rng)
                 return load(os.path.join(bunny, n + '.ply'))
             s, t = scan('v' + src_name), scan(tgt_name)
-            pose = lambda n: np.block([[conf[n.lstrip('v')][0].T, conf[n.lstrip('v')][1][:, None]],
-                                      [np.zeros((1, 3)), np.ones((1, 1))]])
+            poses = stanford_conf(os.path.join(bunny, 'bun.conf'))
+            pose = lambda n: poses[n.lstrip('v') + '.ply']
             truth = np.linalg.inv(pose(tgt_name)) @ pose(src_name)
             out.append((name, s, t, truth))
         else:
