@@ -263,11 +263,13 @@ std::vector<uint32_t> RenderOrder(const LidarPoints& all, const std::vector<size
 
 FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
                                      const Rigid3d& cam_from_lidar_start,
-                                     const RegistrationOptions& options)
-    : frames_(frames), options_(options) {
+                                     const RegistrationOptions& options,
+                                     const FrameSetEvaluator* parent)
+    : frames_(frames), options_(options), start_(cam_from_lidar_start) {
   const int levels = options.pyramid_levels;
   pyramid_.resize(levels);
   points_.resize(levels);
+  kept_.resize(frames_.size());
   for (const Frame& frame : frames_) pyramid_[0].push_back(frame.views);
   for (int level = 1; level < levels; ++level) {
     for (const std::vector<View>& views : pyramid_[level - 1]) {
@@ -276,41 +278,82 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
       pyramid_[level].push_back(std::move(half));
     }
   }
+  if (parent != nullptr) {
+    CHECK(parent->start_.rotation.coeffs() == start_.rotation.coeffs() &&
+          parent->start_.translation == start_.translation &&
+          parent->options_.bound_translation_m == options.bound_translation_m &&
+          parent->options_.bound_rotation_deg == options.bound_rotation_deg &&
+          parent->options_.render.max_range_m == options.render.max_range_m &&
+          parent->options_.render.min_range_m == options.render.min_range_m)
+        << "a part's evaluator needs its parent's start pose, bounds and ranges";
+  }
   // Cull: keep the points that project into some view (expanded by what the rotation
   // bound can move a pixel, plus a margin for the translation) at the start pose.
   const double rot_margin = std::tan(options.bound_rotation_deg * kDegToRad);
   for (size_t f = 0; f < frames_.size(); ++f) {
     const LidarPoints& all = *frames_[f].points;
-    std::vector<char> keep(all.size(), 0);
-    for (const View& view : frames_[f].views) {
-      const Eigen::Matrix3f rotation =
-          (view.view_from_cam * cam_from_lidar_start.rotation.toRotationMatrix()).cast<float>();
-      const Eigen::Vector3f translation =
-          (view.view_from_cam * cam_from_lidar_start.translation).cast<float>();
-      const double focal = view.camera.MeanFocalLength();
-      const bool spherical = view.camera.IsSpherical();
-      for (size_t i = 0; i < all.size(); ++i) {
-        if (keep[i]) continue;
-        const Eigen::Vector3f p = rotation * all.points_in_lidar[i] + translation;
-        const double range = p.norm();
-        if (range > options.render.max_range_m + options.bound_translation_m) continue;
-        if (spherical || range < 2.0 * options.bound_translation_m + options.render.min_range_m) {
-          keep[i] = 1;
-          continue;
-        }
-        if (p.z() <= 0.f) continue;
-        const std::optional<Eigen::Vector2d> xy = view.camera.ImgFromCam(p.cast<double>());
-        if (!xy) continue;
-        const double margin = focal * (rot_margin + options.bound_translation_m / range) + 8.0;
-        if ((*xy)[0] >= -margin && (*xy)[1] >= -margin &&
-            (*xy)[0] <= view.camera.width + margin && (*xy)[1] <= view.camera.height + margin) {
-          keep[i] = 1;
+    // The points to test: all, or those the parent kept for the frame these views were
+    // taken from (its views contain these: what one of them keeps, the parent kept).
+    const std::vector<uint32_t>* candidates = nullptr;
+    if (parent != nullptr) {
+      int match = -1, matches = 0;
+      for (size_t g = 0; g < parent->frames_.size(); ++g) {
+        if (parent->frames_[g].points == frames_[f].points &&
+            parent->frames_[g].name == frames_[f].name) {
+          match = static_cast<int>(g);
+          ++matches;
         }
       }
+      if (matches == 1 && !parent->kept_[match].empty()) candidates = &parent->kept_[match];
+    }
+    const size_t tested = candidates != nullptr ? candidates->size() : all.size();
+    std::vector<char> keep(tested, 0);
+    // Candidates [begin, end) against every view (keep[k]: candidate k is kept).
+    auto cull = [&](size_t begin, size_t end) {
+      for (const View& view : frames_[f].views) {
+        const Eigen::Matrix3f rotation =
+            (view.view_from_cam * cam_from_lidar_start.rotation.toRotationMatrix()).cast<float>();
+        const Eigen::Vector3f translation =
+            (view.view_from_cam * cam_from_lidar_start.translation).cast<float>();
+        const double focal = view.camera.MeanFocalLength();
+        const bool spherical = view.camera.IsSpherical();
+        for (size_t k = begin; k < end; ++k) {
+          if (keep[k]) continue;
+          const size_t i = candidates != nullptr ? (*candidates)[k] : k;
+          const Eigen::Vector3f p = rotation * all.points_in_lidar[i] + translation;
+          const double range = p.norm();
+          if (range > options.render.max_range_m + options.bound_translation_m) continue;
+          if (spherical ||
+              range < 2.0 * options.bound_translation_m + options.render.min_range_m) {
+            keep[k] = 1;
+            continue;
+          }
+          if (p.z() <= 0.f) continue;
+          const std::optional<Eigen::Vector2d> xy = view.camera.ImgFromCam(p.cast<double>());
+          if (!xy) continue;
+          const double margin = focal * (rot_margin + options.bound_translation_m / range) + 8.0;
+          if ((*xy)[0] >= -margin && (*xy)[1] >= -margin &&
+              (*xy)[0] <= view.camera.width + margin && (*xy)[1] <= view.camera.height + margin) {
+            keep[k] = 1;
+          }
+        }
+      }
+    };
+    // Two threads over the two halves of the points (each point's test is independent).
+    if (options.threads >= 2 && CoreFreeForSplit() && tested >= 2 * kMinPointsToSplit) {
+      std::thread other(cull, tested / 2, tested);
+      cull(0, tested / 2);
+      other.join();
+    } else {
+      cull(0, tested);
     }
     std::vector<size_t> kept;
-    for (size_t i = 0; i < all.size(); ++i) {
-      if (keep[i]) kept.push_back(i);
+    for (size_t k = 0; k < tested; ++k) {
+      if (keep[k]) kept.push_back(candidates != nullptr ? (*candidates)[k] : k);
+    }
+    // What the parts' evaluators (the halves) test instead of the whole cloud.
+    if (parent == nullptr && all.size() < (size_t{1} << 32)) {
+      kept_[f].assign(kept.begin(), kept.end());
     }
     for (int level = 0; level < levels; ++level) {
       double pixels = 0;
@@ -516,26 +559,36 @@ double FrameSetEvaluator::EffectiveSamples(const Rigid3d& cam_from_lidar, int le
       if (n < 16 || !(ll > 0) || !(pp > 0)) continue;
       // Σ over lags of ρ_L·ρ_P (Bartlett); ρ(−lag) = ρ(lag), so the half plane dy > 0 or
       // (dy = 0, dx > 0) counts twice and lag 0 (ρ = 1) once.
-      double factor = 1.0;
+      // Each lag's term on its own (the lags shared out over the threads), then summed in
+      // lag order: the same sum on any number of threads.
+      std::vector<std::pair<int, int>> lags;
       for (int dy = 0; dy <= max_lag; ++dy) {
         for (int dx = -max_lag; dx <= max_lag; ++dx) {
           if (dy == 0 && dx <= 0) continue;
-          double pairs = 0, cl = 0, cp = 0;
-          for (int y = 0; y + dy < h; ++y) {
-            const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
-            const size_t row = static_cast<size_t>(y) * w, row2 = static_cast<size_t>(y + dy) * w;
-            for (int x = x0; x < x1; ++x) {
-              const size_t a = row + x, b = row2 + x + dx;
-              if (!on[a] || !on[b]) continue;
-              pairs += 1;
-              cl += lx[a] * lx[b] + ly[a] * ly[b];
-              cp += px[a] * px[b] + py[a] * py[b];
-            }
-          }
-          if (pairs < 16) continue;
-          factor += 2.0 * (cl / pairs) / (ll / n) * (cp / pairs) / (pp / n);
+          lags.emplace_back(dy, dx);
         }
       }
+      std::vector<double> terms(lags.size(), 0.0);
+      ParallelFor(static_cast<int>(lags.size()), CoreFreeForSplit() ? options_.threads : 1,
+                  [&](int l) {
+        const auto [dy, dx] = lags[l];
+        double pairs = 0, cl = 0, cp = 0;
+        for (int y = 0; y + dy < h; ++y) {
+          const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
+          const size_t row = static_cast<size_t>(y) * w, row2 = static_cast<size_t>(y + dy) * w;
+          for (int x = x0; x < x1; ++x) {
+            const size_t a = row + x, b = row2 + x + dx;
+            if (!on[a] || !on[b]) continue;
+            pairs += 1;
+            cl += lx[a] * lx[b] + ly[a] * ly[b];
+            cp += px[a] * px[b] + py[a] * py[b];
+          }
+        }
+        if (pairs < 16) return;
+        terms[l] = 2.0 * (cl / pairs) / (ll / n) * (cp / pairs) / (pp / n);
+      });
+      double factor = 1.0;
+      for (double term : terms) factor += term;  // + 0 for a lag with too few pairs
       factor = std::max(1.0, factor);
       covered_pixels += static_cast<double>(buffer.covered_pixels);
       weighted += static_cast<double>(buffer.covered_pixels) / factor;
@@ -577,17 +630,23 @@ void FrameSetEvaluator::EvaluateShuffled(const Rigid3d& cam_from_lidar, int leve
       }
     }
   }
-  JointHistogram histogram(metric);
-  histogram.AddPairs(lidar, photo);
-  *mi_bits = histogram.Evaluate().mi;
-  shuffled_mi_bits->clear();
+  // The permutations one after the other (each shuffles the previous one), then the
+  // histograms of the pairing and of each permutation on the threads: the same values.
+  std::vector<std::vector<float>> photos(shuffles + 1);
+  photos[0] = std::move(photo);
   std::mt19937 rng(20120616);
-  for (int s = 0; s < shuffles; ++s) {
-    std::shuffle(photo.begin(), photo.end(), rng);
-    histogram.Clear();
-    histogram.AddPairs(lidar, photo);
-    shuffled_mi_bits->push_back(histogram.Evaluate().mi);
+  for (int s = 1; s <= shuffles; ++s) {
+    photos[s] = photos[s - 1];
+    std::shuffle(photos[s].begin(), photos[s].end(), rng);
   }
+  std::vector<double> mi(shuffles + 1);
+  ParallelFor(shuffles + 1, CoreFreeForSplit() ? options_.threads : 1, [&](int s) {
+    JointHistogram histogram(metric);
+    histogram.AddPairs(lidar, photos[s]);
+    mi[s] = histogram.Evaluate().mi;
+  });
+  *mi_bits = mi[0];
+  shuffled_mi_bits->assign(mi.begin() + 1, mi.end());
 }
 
 std::vector<FrameSetEvaluator::VisiblePoint> FrameSetEvaluator::SampleVisiblePoints(
@@ -1820,7 +1879,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     std::array<char, 2> half_run{0, 0};
     ParallelFor(2, options.threads, [&](int h) {
       if (fail_fast && h == 1 && first_far.load()) return;
-      const FrameSetEvaluator half(halves[h], cam_from_lidar_start, half_options);
+      const FrameSetEvaluator half(halves[h], cam_from_lidar_start, half_options, &evaluator);
       const SearchResult r = Search(half, cam_from_lidar_start, x, split_level, split_level,
                                     2.0 * offset, tolerance, false, half_options, nullptr,
                                     "half " + std::to_string(h) + " ");

@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <type_traits>
+
+#include <immintrin.h>
 
 #include <glog/logging.h>
 
@@ -44,10 +47,59 @@ inline bool ProjectLikeRenderer(const double* params, const Eigen::Vector3f& p, 
   return xy[0] >= 0 && xy[1] >= 0 && xy[0] < width && xy[1] < height;
 }
 
+// AVX2: SampleClamped(photo, x[k], y[k]) for k < count, 8 at a time with gathers: the same
+// float operations in the same order as the scalar function (no FMA; std::clamp(v, lo, hi)
+// as min(hi, max(lo, v))), so the same values bit for bit (as metric.cc's ZBufferSamplesAvx2).
+// Returns how many it did (a multiple of 8); the caller samples the rest.
+__attribute__((target("avx2"))) int SampleClampedAvx2(const GrayImage& photo, const float* x,
+                                                      const float* y, int count, float* out) {
+  const float* pixels = photo.pixels.data();
+  const __m256 half = _mm256_set1_ps(0.5f), one = _mm256_set1_ps(1.f), zero = _mm256_setzero_ps();
+  const __m256 u_max = _mm256_set1_ps(static_cast<float>(photo.width - 1));
+  const __m256 v_max = _mm256_set1_ps(static_cast<float>(photo.height - 1));
+  const __m256i c_last = _mm256_set1_epi32(std::max(0, photo.width - 2));
+  const __m256i r_last = _mm256_set1_epi32(std::max(0, photo.height - 2));
+  const __m256i c_max = _mm256_set1_epi32(photo.width - 1);
+  const __m256i r_max = _mm256_set1_epi32(photo.height - 1);
+  const __m256i width = _mm256_set1_epi32(photo.width);
+  const __m256i ones = _mm256_set1_epi32(1);
+  int k = 0;
+  for (; k + 8 <= count; k += 8) {
+    const __m256 xs = _mm256_loadu_ps(x + k), ys = _mm256_loadu_ps(y + k);
+    const __m256 u = _mm256_min_ps(u_max, _mm256_max_ps(zero, _mm256_sub_ps(xs, half)));
+    const __m256 v = _mm256_min_ps(v_max, _mm256_max_ps(zero, _mm256_sub_ps(ys, half)));
+    const __m256i c0 = _mm256_min_epi32(_mm256_cvttps_epi32(u), c_last);
+    const __m256i r0 = _mm256_min_epi32(_mm256_cvttps_epi32(v), r_last);
+    const __m256i c1 = _mm256_min_epi32(_mm256_add_epi32(c0, ones), c_max);
+    const __m256i r1 = _mm256_min_epi32(_mm256_add_epi32(r0, ones), r_max);
+    const __m256 a = _mm256_sub_ps(u, _mm256_cvtepi32_ps(c0));
+    const __m256 b = _mm256_sub_ps(v, _mm256_cvtepi32_ps(r0));
+    const __m256i row0 = _mm256_mullo_epi32(r0, width);
+    const __m256i row1 = _mm256_mullo_epi32(r1, width);
+    const __m256 p00 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row0, c0), 4);
+    const __m256 p01 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row0, c1), 4);
+    const __m256 p10 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row1, c0), 4);
+    const __m256 p11 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row1, c1), 4);
+    const __m256 one_a = _mm256_sub_ps(one, a), one_b = _mm256_sub_ps(one, b);
+    const __m256 top = _mm256_add_ps(_mm256_mul_ps(one_a, p00), _mm256_mul_ps(a, p01));
+    const __m256 bottom = _mm256_add_ps(_mm256_mul_ps(one_a, p10), _mm256_mul_ps(a, p11));
+    _mm256_storeu_ps(out + k,
+                     _mm256_add_ps(_mm256_mul_ps(one_b, top), _mm256_mul_ps(b, bottom)));
+  }
+  return k;
+}
+
+bool CpuHasAvx2() {
+  static const bool has = __builtin_cpu_supports("avx2");
+  return has;
+}
+
 template <typename Model>
-void AccumulateWithModel(const ViewSamples& samples, const View& view, const ViewTransform& t,
-                         const RenderOptions& options, size_t point_begin, size_t point_end,
-                         JointHistogram* histogram) {
+[[gnu::always_inline]] inline void AccumulateWithModel(const ViewSamples& samples,
+                                                       const View& view, const ViewTransform& t,
+                                                       const RenderOptions& options,
+                                                       size_t point_begin, size_t point_end,
+                                                       JointHistogram* histogram) {
   const int width = static_cast<int>(view.camera.width);
   const int height = static_cast<int>(view.camera.height);
   const double* params = view.camera.params.data();
@@ -65,15 +117,23 @@ void AccumulateWithModel(const ViewSamples& samples, const View& view, const Vie
   float batch_wx[4][kBatch];
   float batch_photo[kBatch];
   float batch_weight[kBatch];
+  float batch_x[kBatch], batch_y[kBatch];
   int n = 0;
-  for (size_t j = point_begin; j < point_end; ++j) {
-    const Eigen::Vector3f p = t.rotation * samples.points_in_lidar[j] + t.translation;
-    double xy[2];
-    float range2 = 0.f;
-    if (!ProjectLikeRenderer<Model>(params, p, width, height, period, min_range2, max_range2, xy,
-                                    &range2)) {
-      continue;
+  // The pinhole camera samples the photo of a whole batch at once (AVX2 gathers where the
+  // CPU has them; the photo's pixel count below 2^31 for the 32-bit gather indices); the
+  // other models one sample at a time. The same values either way.
+  constexpr bool kPinhole = std::is_same_v<Model, sensors::PinholeModel>;
+  const bool gather = kPinhole && CpuHasAvx2() && view.image.pixels.size() < (size_t{1} << 31);
+  auto flush = [&]() __attribute__((always_inline)) {
+    if constexpr (kPinhole) {
+      const int done = gather ? SampleClampedAvx2(view.image, batch_x, batch_y, n, batch_photo) : 0;
+      for (int k = done; k < n; ++k) batch_photo[k] = SampleClamped(view.image, batch_x[k], batch_y[k]);
     }
+    histogram->AddCoveredBatch(n, batch_bx, batch_wx, batch_photo, batch_weight);
+    n = 0;
+  };
+  // One point that projects to (xy[0], xy[1]) at squared range range2: its samples.
+  auto add_point = [&](size_t j, const double* xy, float range2) __attribute__((always_inline)) {
     // The renderer's depth value: 1/range on a log scale (near bright).
     const float value =
         depth ? std::clamp(1.f - (0.5f * std::log(range2) - log_min) * inv_log_span, 0.f, 1.f)
@@ -87,19 +147,89 @@ void AccumulateWithModel(const ViewSamples& samples, const View& view, const Vie
       const float sy = y + samples.sample_offset[s][1];
       if (!(sx >= 0.f && sy >= 0.f && sx < width && sy < height)) continue;
       // The rendered path's photo sampler (clamped bilinear), so both fill the same histogram.
-      batch_photo[n] = SampleClamped(view.image, sx, sy);
+      if constexpr (kPinhole) {
+        batch_x[n] = sx;
+        batch_y[n] = sy;
+      } else {
+        batch_photo[n] = SampleClamped(view.image, sx, sy);
+      }
       batch_weight[n] = samples.sample_weight[s];
       batch_bx[n] = bx;
       for (int i = 0; i < 4; ++i) batch_wx[i][n] = wx[i];
       count += samples.sample_weight[s];  // integer weights: exact, the same total as per sample
-      if (++n == kBatch) {
-        histogram->AddCoveredBatch(n, batch_bx, batch_wx, batch_photo, batch_weight);
-        n = 0;
+      if (++n == kBatch) flush();
+    }
+  };
+  if constexpr (kPinhole) {
+    // The renderer's pinhole blocks (lidar_image.cc, SplatWithModel): the points transformed
+    // and projected a block at a time in loops without branches, which the compiler
+    // vectorises; the same arithmetic as ProjectLikeRenderer (Eigen's 3×3 product is
+    // r₀x + (r₁y + r₂z) per row, the squared norm x² + (y² + z²), PinholeModel::ImgFromCam
+    // f·(x/z + 0) + c; test PointSamplesTest.PinholeBlocksAccumulateAsTheGenericModel).
+    constexpr int kBlock = 64;
+    alignas(64) float bz[kBlock], b2[kBlock];
+    alignas(64) double bu[kBlock], bv[kBlock];
+    const float m00 = t.rotation(0, 0), m01 = t.rotation(0, 1), m02 = t.rotation(0, 2);
+    const float m10 = t.rotation(1, 0), m11 = t.rotation(1, 1), m12 = t.rotation(1, 2);
+    const float m20 = t.rotation(2, 0), m21 = t.rotation(2, 1), m22 = t.rotation(2, 2);
+    const float t0 = t.translation.x(), t1 = t.translation.y(), t2 = t.translation.z();
+    const double fx = params[0], fy = params[1], cx = params[2], cy = params[3];
+    static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "packed points");
+    for (size_t begin = point_begin; begin < point_end; begin += kBlock) {
+      const int m = static_cast<int>(std::min<size_t>(kBlock, point_end - begin));
+      const float* xyz = samples.points_in_lidar[begin].data();
+      for (int j = 0; j < m; ++j) {
+        const float x = xyz[3 * j], y = xyz[3 * j + 1], z = xyz[3 * j + 2];
+        const float px = m00 * x + (m01 * y + m02 * z) + t0;
+        const float py = m10 * x + (m11 * y + m12 * z) + t1;
+        const float pz = m20 * x + (m21 * y + m22 * z) + t2;
+        bz[j] = pz;
+        b2[j] = px * px + (py * py + pz * pz);
+        bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
+        bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
+      }
+      for (int j = 0; j < m; ++j) {
+        if (!(bz[j] > 0.f)) continue;
+        const float range2 = b2[j];
+        if (range2 < min_range2 || range2 > max_range2) continue;
+        if (!(static_cast<double>(bz[j]) > std::numeric_limits<double>::epsilon())) continue;
+        const double xy[2] = {bu[j], bv[j]};
+        if (!(xy[0] >= 0 && xy[1] >= 0 && xy[0] < width && xy[1] < height)) continue;
+        add_point(begin + j, xy, range2);
       }
     }
+  } else {
+    for (size_t j = point_begin; j < point_end; ++j) {
+      const Eigen::Vector3f p = t.rotation * samples.points_in_lidar[j] + t.translation;
+      double xy[2];
+      float range2 = 0.f;
+      if (!ProjectLikeRenderer<Model>(params, p, width, height, period, min_range2, max_range2,
+                                      xy, &range2)) {
+        continue;
+      }
+      add_point(j, xy, range2);
+    }
   }
-  histogram->AddCoveredBatch(n, batch_bx, batch_wx, batch_photo, batch_weight);
+  flush();
   histogram->AddCoveredCount(count);
+}
+
+// One function per instruction set (AVX2 where the CPU has it: the projection blocks as
+// wider vectors; no FMA, so the same arithmetic).
+__attribute__((target_clones("avx2", "default"))) void Accumulate(
+    const ViewSamples& samples, const View& view, const ViewTransform& t,
+    const RenderOptions& options, size_t point_begin, size_t point_end,
+    JointHistogram* histogram) {
+  switch (view.camera.model_id) {
+#define MMBA_ACCUMULATE_CASE(Model)                                                           \
+  case Model::kModelId:                                                                       \
+    AccumulateWithModel<Model>(samples, view, t, options, point_begin, point_end, histogram); \
+    break;
+    MMBA_FOR_EACH_CAMERA_MODEL(MMBA_ACCUMULATE_CASE)
+#undef MMBA_ACCUMULATE_CASE
+    default:
+      LOG(FATAL) << "unknown camera model";
+  }
 }
 
 }  // namespace
@@ -177,16 +307,7 @@ void AccumulateViewSamples(const ViewSamples& samples, const View& view,
                            size_t point_begin, size_t point_end, JointHistogram* histogram) {
   CHECK_LE(point_end, samples.points());
   const ViewTransform t = MakeTransform(view, cam_from_lidar);
-  switch (view.camera.model_id) {
-#define MMBA_ACCUMULATE_CASE(Model)                                                           \
-  case Model::kModelId:                                                                       \
-    AccumulateWithModel<Model>(samples, view, t, options, point_begin, point_end, histogram); \
-    break;
-    MMBA_FOR_EACH_CAMERA_MODEL(MMBA_ACCUMULATE_CASE)
-#undef MMBA_ACCUMULATE_CASE
-    default:
-      LOG(FATAL) << "unknown camera model";
-  }
+  Accumulate(samples, view, t, options, point_begin, point_end, histogram);
 }
 
 double ProbeDisplacementPx(const ViewSamples& samples, const View& view,

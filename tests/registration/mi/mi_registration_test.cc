@@ -184,6 +184,57 @@ TEST_F(StreetTest, ResultIsReproducibleAndIndependentOfTheThreads) {
   }
 }
 
+// The evaluator's parallel parts — the cull on two threads, the Bartlett lags of N_eff
+// shared out, the shuffled baseline's histograms on the threads — and the halves' cull from
+// their parent's kept points give what one thread and the whole cloud give, bit for bit.
+TEST_F(StreetTest, EvaluatorIsTheSameOnOneAndTwoThreadsAndForPartsOfItsParent) {
+  const Frame frame = MakeFrame(photo_, &points_);
+  ASSERT_GT(points_.size(), 100000u);  // enough points for the cull to split
+  Vector6d perturbation;
+  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
+  const Rigid3d start = ApplyCorrection(truth_, perturbation);
+  RegistrationOptions one = Options(), two = Options();
+  one.threads = 1;
+  two.threads = 2;
+  const FrameSetEvaluator serial({frame}, start, one), parallel({frame}, start, two);
+  for (int level = 0; level < serial.levels(); ++level) {
+    for (const Rigid3d& pose : {start, truth_}) {
+      EXPECT_EQ(serial.Evaluate(pose, level).value, parallel.Evaluate(pose, level).value)
+          << "level " << level;
+      EXPECT_EQ(serial.VisiblePoints(pose, level), parallel.VisiblePoints(pose, level));
+    }
+  }
+  double inflation1 = 0, inflation2 = 0;
+  const double n1 = serial.EffectiveSamples(truth_, 0, 8, &inflation1);
+  const double n2 = parallel.EffectiveSamples(truth_, 0, 8, &inflation2);
+  EXPECT_GT(inflation1, 1.5);  // the pixels are correlated: the lags contribute
+  EXPECT_EQ(n1, n2);
+  EXPECT_EQ(inflation1, inflation2);
+  double mi1 = 0, mi2 = 0;
+  std::vector<double> shuffled1, shuffled2;
+  serial.EvaluateShuffled(truth_, 0, 8, &mi1, &shuffled1);
+  parallel.EvaluateShuffled(truth_, 0, 8, &mi2, &shuffled2);
+  ASSERT_EQ(shuffled1.size(), 8u);
+  EXPECT_EQ(mi1, mi2);
+  EXPECT_EQ(shuffled1, shuffled2);
+  EXPECT_NE(shuffled1[0], shuffled1[1]);  // each permutation its own
+  // The halves (left/right columns of the single view), culled alone and from the parent.
+  const std::array<std::vector<Frame>, 2> halves = SplitIntoHalves({frame});
+  for (int h = 0; h < 2; ++h) {
+    SCOPED_TRACE("half " + std::to_string(h));
+    ASSERT_EQ(halves[h].size(), 1u);
+    const FrameSetEvaluator alone(halves[h], start, one);
+    const FrameSetEvaluator part(halves[h], start, two, &parallel);
+    for (int level = 0; level < alone.levels(); ++level) {
+      for (const Rigid3d& pose : {start, truth_}) {
+        EXPECT_EQ(alone.Evaluate(pose, level).value, part.Evaluate(pose, level).value)
+            << "level " << level;
+        EXPECT_EQ(alone.VisiblePoints(pose, level), part.VisiblePoints(pose, level));
+      }
+    }
+  }
+}
+
 // A panorama registered on two perspective cuts: the cuts carry the panorama's camera
 // (through the pyramid and into the halves), and the pose's accuracy is also judged over the
 // whole panorama, whose pose it is: the calibrated σ there, from the halves' and restarts'

@@ -310,8 +310,15 @@ struct RegistrationResult {
 /// Thread-safe: each thread renders into its own buffer.
 class FrameSetEvaluator {
  public:
+  /// `parent` (optional): an evaluator with the same start pose, bounds and ranges whose
+  /// frames contain these frames' views (the halves of SplitIntoHalves: a subset of the
+  /// views, or a view's columns); the cull then tests only the points `parent` kept for the
+  /// frame of the same name and cloud — the same points as testing the whole cloud, since
+  /// a point that reaches one of these views reached the parent's (a frame without a unique
+  /// match is culled from its whole cloud). The cull runs on two threads when a core is free.
   FrameSetEvaluator(const std::vector<Frame>& frames, const Rigid3d& cam_from_lidar_start,
-                    const RegistrationOptions& options);
+                    const RegistrationOptions& options,
+                    const FrameSetEvaluator* parent = nullptr);
   int levels() const { return static_cast<int>(pyramid_.size()); }
   MetricValue Evaluate(const Rigid3d& cam_from_lidar, int level,
                        const MetricOptions& metric) const;
@@ -382,6 +389,10 @@ class FrameSetEvaluator {
   RegistrationOptions options_;
   std::vector<std::vector<std::vector<View>>> pyramid_;  ///< level → frame → views
   std::vector<std::vector<LidarPoints>> points_;           ///< level → frame → culled points
+  Rigid3d start_;
+  /// Per frame, the indices of the cloud's points the cull kept, in cloud order (empty for
+  /// an evaluator made with a parent: only parents pass theirs on).
+  std::vector<std::vector<uint32_t>> kept_;
   mutable std::atomic<int64_t> render_ns_{0};
   mutable std::atomic<int64_t> histogram_ns_{0};
   mutable std::atomic<int64_t> sample_ns_{0};
