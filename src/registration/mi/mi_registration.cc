@@ -317,14 +317,72 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
             (view.view_from_cam * cam_from_lidar_start.translation).cast<float>();
         const double focal = view.camera.MeanFocalLength();
         const bool spherical = view.camera.IsSpherical();
+        const double max_range = options.render.max_range_m + options.bound_translation_m;
+        const double near_range = 2.0 * options.bound_translation_m + options.render.min_range_m;
+        if (view.camera.model_id == sensors::CameraModelId::kPinhole) {
+          // The pinhole camera (perspective cuts, KITTI) a block of points at a time: the
+          // transform, squared norm and projection in loops without branches, which the
+          // compiler vectorises, then the tests one by one — the same arithmetic as the
+          // loop below (Eigen's 3×3 product r₀x + (r₁y + r₂z) per row, the squared norm
+          // x² + (y² + z²), ImgFromCam f·(x/z + 0) + c; test
+          // StreetTest.PinholeCullEqualsTheGenericModel), so the same points kept.
+          constexpr int kBlock = 64;
+          alignas(64) float bx[kBlock], by[kBlock], bz[kBlock], b2[kBlock];
+          alignas(64) double bu[kBlock], bv[kBlock];
+          const float m00 = rotation(0, 0), m01 = rotation(0, 1), m02 = rotation(0, 2);
+          const float m10 = rotation(1, 0), m11 = rotation(1, 1), m12 = rotation(1, 2);
+          const float m20 = rotation(2, 0), m21 = rotation(2, 1), m22 = rotation(2, 2);
+          const float t0 = translation.x(), t1 = translation.y(), t2 = translation.z();
+          const double* params = view.camera.params.data();
+          const double fx = params[0], fy = params[1], cx = params[2], cy = params[3];
+          const double width = view.camera.width, height = view.camera.height;
+          for (size_t block = begin; block < end; block += kBlock) {
+            const int n = static_cast<int>(std::min<size_t>(kBlock, end - block));
+            for (int j = 0; j < n; ++j) {
+              const size_t i = candidates != nullptr ? (*candidates)[block + j] : block + j;
+              const Eigen::Vector3f& q = all.points_in_lidar[i];
+              bx[j] = q.x();
+              by[j] = q.y();
+              bz[j] = q.z();
+            }
+            for (int j = 0; j < n; ++j) {
+              const float x = bx[j], y = by[j], z = bz[j];
+              const float px = m00 * x + (m01 * y + m02 * z) + t0;
+              const float py = m10 * x + (m11 * y + m12 * z) + t1;
+              const float pz = m20 * x + (m21 * y + m22 * z) + t2;
+              bz[j] = pz;
+              b2[j] = px * px + (py * py + pz * pz);
+              bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
+              bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
+            }
+            for (int j = 0; j < n; ++j) {
+              const size_t k = block + j;
+              if (keep[k]) continue;
+              const double range = std::sqrt(b2[j]);  // p.norm(): the float root
+              if (range > max_range) continue;
+              if (range < near_range) {
+                keep[k] = 1;
+                continue;
+              }
+              if (bz[j] <= 0.f) continue;
+              if (!(static_cast<double>(bz[j]) > std::numeric_limits<double>::epsilon())) continue;
+              const double margin =
+                  focal * (rot_margin + options.bound_translation_m / range) + 8.0;
+              if (bu[j] >= -margin && bv[j] >= -margin && bu[j] <= width + margin &&
+                  bv[j] <= height + margin) {
+                keep[k] = 1;
+              }
+            }
+          }
+          continue;
+        }
         for (size_t k = begin; k < end; ++k) {
           if (keep[k]) continue;
           const size_t i = candidates != nullptr ? (*candidates)[k] : k;
           const Eigen::Vector3f p = rotation * all.points_in_lidar[i] + translation;
           const double range = p.norm();
-          if (range > options.render.max_range_m + options.bound_translation_m) continue;
-          if (spherical ||
-              range < 2.0 * options.bound_translation_m + options.render.min_range_m) {
+          if (range > max_range) continue;
+          if (spherical || range < near_range) {
             keep[k] = 1;
             continue;
           }

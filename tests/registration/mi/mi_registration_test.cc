@@ -235,6 +235,36 @@ TEST_F(StreetTest, EvaluatorIsTheSameOnOneAndTwoThreadsAndForPartsOfItsParent) {
   }
 }
 
+// The cull of a pinhole view tests its points in blocks (lidar_image.cc's projection blocks);
+// the same camera as OPENCV without distortion takes the general path. The same points must
+// be kept (and so the same even subsamples and images): equal metrics at every level.
+TEST_F(StreetTest, PinholeCullEqualsTheGenericModel) {
+  ASSERT_EQ(camera_.model_id, sensors::CameraModelId::kPinhole);
+  sensors::Camera opencv = camera_;
+  opencv.model_id = sensors::CameraModelId::kOpenCV;
+  opencv.params = {camera_.params[0], camera_.params[1], camera_.params[2], camera_.params[3],
+                   0.0, 0.0, 0.0, 0.0};
+  const Frame pinhole_frame = MakeFrame(photo_, &points_);
+  Frame opencv_frame = pinhole_frame;
+  opencv_frame.views = MakeViews(photo_, opencv, ViewOptions(), "street.png");
+  Vector6d perturbation;
+  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
+  const Rigid3d start = ApplyCorrection(truth_, perturbation);
+  for (int threads : {1, 2}) {
+    RegistrationOptions options = Options();
+    options.threads = threads;
+    const FrameSetEvaluator a({pinhole_frame}, start, options);
+    const FrameSetEvaluator b({opencv_frame}, start, options);
+    for (int level = 0; level < a.levels(); ++level) {
+      for (const Rigid3d& pose : {start, truth_}) {
+        EXPECT_EQ(a.Evaluate(pose, level).value, b.Evaluate(pose, level).value)
+            << threads << " threads, level " << level;
+        EXPECT_EQ(a.VisiblePoints(pose, level), b.VisiblePoints(pose, level));
+      }
+    }
+  }
+}
+
 // A panorama registered on two perspective cuts: the cuts carry the panorama's camera
 // (through the pyramid and into the halves), and the pose's accuracy is also judged over the
 // whole panorama, whose pose it is: the calibrated σ there, from the halves' and restarts'
