@@ -413,7 +413,9 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
     if (parent == nullptr && all.size() < (size_t{1} << 32)) {
       kept_[f].assign(kept.begin(), kept.end());
     }
-    for (int level = 0; level < levels; ++level) {
+    // The levels' subsets on the threads (each independent of the others).
+    std::vector<LidarPoints> subsets(levels);
+    ParallelFor(levels, CoreFreeForSplit() ? options.threads : 1, [&](int level) {
       double pixels = 0;
       for (const View& view : pyramid_[level][f]) {
         pixels += static_cast<double>(view.camera.width) * view.camera.height;
@@ -444,8 +446,9 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
         if (all.has_intensity()) subset.intensity01.push_back(all.intensity01[chosen[k]]);
         subset.index_of_rank[k] = static_cast<uint32_t>(j);
       }
-      points_[level].push_back(std::move(subset));
-    }
+      subsets[level] = std::move(subset);
+    });
+    for (int level = 0; level < levels; ++level) points_[level].push_back(std::move(subsets[level]));
   }
 }
 
@@ -626,6 +629,17 @@ double FrameSetEvaluator::EffectiveSamples(const Rigid3d& cam_from_lidar, int le
           lags.emplace_back(dy, dx);
         }
       }
+      // The columns of each row's pixels that are on, in order: a lag visits only those
+      // (the same pairs, added in the same order, as a scan of every pixel).
+      std::vector<int> on_columns;
+      std::vector<size_t> row_begin(h + 1, 0);
+      for (int y = 0; y < h; ++y) {
+        row_begin[y] = on_columns.size();
+        for (int x = 0; x < w; ++x) {
+          if (on[static_cast<size_t>(y) * w + x]) on_columns.push_back(x);
+        }
+      }
+      row_begin[h] = on_columns.size();
       std::vector<double> terms(lags.size(), 0.0);
       ParallelFor(static_cast<int>(lags.size()), CoreFreeForSplit() ? options_.threads : 1,
                   [&](int l) {
@@ -634,9 +648,11 @@ double FrameSetEvaluator::EffectiveSamples(const Rigid3d& cam_from_lidar, int le
         for (int y = 0; y + dy < h; ++y) {
           const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
           const size_t row = static_cast<size_t>(y) * w, row2 = static_cast<size_t>(y + dy) * w;
-          for (int x = x0; x < x1; ++x) {
+          for (size_t j = row_begin[y]; j < row_begin[y + 1]; ++j) {
+            const int x = on_columns[j];
+            if (x < x0 || x >= x1) continue;
             const size_t a = row + x, b = row2 + x + dx;
-            if (!on[a] || !on[b]) continue;
+            if (!on[b]) continue;
             pairs += 1;
             cl += lx[a] * lx[b] + ly[a] * ly[b];
             cp += px[a] * px[b] + py[a] * py[b];
