@@ -303,6 +303,10 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_SAMPLES_IN_CHECKS")) {
     options.point_samples_in_checks = std::atoi(v) != 0;
   }
+  // MI_COV_PER_POINT=0: the covariance fit on per-pixel samples (the default until 2 Dec).
+  if (const char* v = std::getenv("MI_COV_PER_POINT")) {
+    options.covariance_per_point_samples = std::atoi(v) != 0;
+  }
   if (const char* v = std::getenv("MI_RESTART_LEVEL")) options.restart_level = std::atoi(v);
   if (const char* v = std::getenv("MI_SPLIT_LEVEL")) options.split_level = std::atoi(v);
   if (const char* v = std::getenv("MI_PYRAMID_PATHS")) options.pyramid_paths = std::atoi(v);

@@ -76,6 +76,10 @@ int main(int argc, char** argv) {
     if (const char* v = std::getenv("MI_SAMPLES_IN_CHECKS")) {
       options.point_samples_in_checks = std::atoi(v) != 0;
     }
+    // MI_COV_PER_POINT=0: the covariance fit on per-pixel samples (the default until 2 Dec).
+    if (const char* v = std::getenv("MI_COV_PER_POINT")) {
+      options.covariance_per_point_samples = std::atoi(v) != 0;
+    }
     if (const char* cap = std::getenv("MI_POINTS_PER_PIXEL")) {
       options.max_points_per_pixel = std::atof(cap);
     }

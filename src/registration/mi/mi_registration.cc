@@ -1704,12 +1704,13 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   }
   checks.effective_samples = n_eff;
   int hessian_evaluations = 0;
-  // The fit's samples: the visibility at the optimum (the fit spans ±0.08 m / ±0.4°), one
-  // sample per covered pixel — the rendered histogram's samples, so that the curvature is
-  // that of the rendered metric, whose N_eff is measured below.
+  // The fit's samples: the visibility at the optimum (the fit spans ±0.08 m / ±0.4°); one
+  // weighted sample per visible point (options.covariance_per_point_samples: the searches'
+  // samples, the same histogram weights) or one per covered pixel (the rendered histogram's).
   FrameSetEvaluator::SampleSet covariance_samples;
   if (evaluator.UsesSamples(options.metric)) {
-    covariance_samples = evaluator.MakeSampleSet(result.cam_from_lidar, covariance_level, false);
+    covariance_samples = evaluator.MakeSampleSet(result.cam_from_lidar, covariance_level,
+                                                 options.covariance_per_point_samples);
   }
   const Eigen::Matrix<double, 6, 6> hessian =
       MiHessian(evaluator, cam_from_lidar_start, x, options.metric, covariance_level,

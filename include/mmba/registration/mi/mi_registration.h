@@ -90,10 +90,14 @@ struct RegistrationOptions {
   /// With point samples, pyramid levels >= this one use one sample per visible point
   /// weighted by its footprint pixels; finer levels one sample per covered pixel (the
   /// rendered histogram's samples, exactly at the reference pose). 0 = per point at every
-  /// level; a value beyond the pyramid = per pixel everywhere. The covariance fit always uses
-  /// per-pixel samples.
+  /// level; a value beyond the pyramid = per pixel everywhere. The covariance fit has its
+  /// own switch below.
   int per_point_samples_from_level = 0;
   bool SamplePerPoint(int level) const { return level >= per_point_samples_from_level; }
+  /// With point samples, the covariance fit's samples (at its level, the visibility of the
+  /// optimum): one weighted sample per visible point (true; ~2.6 times fewer samples at full
+  /// resolution) or one per covered pixel (false; the rendered histogram's samples).
+  bool covariance_per_point_samples = true;
   /// Point samples also in the restarts and the independent halves (false: those
   /// re-optimisations render every evaluation, as before the point samples).
   bool point_samples_in_checks = true;
