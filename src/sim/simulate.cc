@@ -698,6 +698,23 @@ void SimulateRig(Context* c, const Trajectory& trajectory) {
 }
 
 // ---- LiDAR.
+// clouds/<name>.viewpoints.txt: the sensor positions of a cloud in its own frame, as its
+// provider knows them (a scanner's stations in its registered model, a reconstruction's camera
+// centres or stereo stations) — what register-eval's visibility (free-space) test reads
+// (README, register-cloud "Visibility"). Not written for a model without a sensor.
+void WriteViewpoints(Context* c, const std::string& name, const Rigid3d& cloud_from_world,
+                     const std::vector<Vector3d>& sensors_in_world) {
+  if (sensors_in_world.empty()) return;
+  std::ostringstream text;
+  text << "# sensor positions of clouds/" << name << ".ply in its own frame (x y z, m)\n"
+       << std::setprecision(10);
+  for (const Vector3d& v : sensors_in_world) {
+    const Vector3d p = cloud_from_world * v;
+    text << p.x() << " " << p.y() << " " << p.z() << "\n";
+  }
+  WriteText(c->out / "clouds" / (name + ".viewpoints.txt"), text.str());
+}
+
 void SimulateLidar(Context* c, const Trajectory& trajectory, const Rigid3d& body_from_lidar) {
   const SimulateOptions& o = c->options;
   io::PointCloud merged;
@@ -760,6 +777,9 @@ void SimulateLidar(Context* c, const Trajectory& trajectory, const Rigid3d& body
   if (!merged.empty()) {
     io::WritePly(merged, (c->out / "clouds" / "lidar.ply").string());
     c->registration_truth["world_from_lidar"] = MatrixJson(Rigid3d());
+    std::vector<Vector3d> stations_registered;  // the model's own placement of each station
+    for (const Rigid3d& r : registrations) stations_registered.push_back(r.translation);
+    WriteViewpoints(c, "lidar", Rigid3d(), stations_registered);
   }
   json mobile;
   // The delivered cloud is georeferenced as a mobile-mapping system would: with its GNSS/INS
@@ -898,12 +918,13 @@ Rigid3d RandomBlockTransform(internal::Rng* rng) {
 }
 
 void WriteBlockCloud(Context* c, const std::string& name, const io::PointCloud& cloud_in_world,
-                     internal::Rng* rng) {
+                     const std::vector<Vector3d>& sensors_in_world, internal::Rng* rng) {
   const Rigid3d world_from_cloud = RandomBlockTransform(rng);
   const Rigid3d cloud_from_world = world_from_cloud.Inverse();
   io::PointCloud cloud = cloud_in_world;
   for (auto& p : cloud.points) p = cloud_from_world * p;
   io::WritePly(cloud, (c->out / "clouds" / (name + ".ply")).string());
+  WriteViewpoints(c, name, cloud_from_world, sensors_in_world);
   c->registration_truth["world_from_" + name] = MatrixJson(world_from_cloud);
   // Partial crop: the western part of the object.
   const double x_cut = c->scene.object_min.x() +
@@ -1019,9 +1040,12 @@ void SimulateClouds(Context* c, const std::vector<SphereStation>& stations,
       }
     }
   }
-  WriteBlockCloud(c, "spherical_stereo", stereo, &rng);
-  WriteBlockCloud(c, "multi_view", multi_view, &rng);
-  WriteBlockCloud(c, "plane_proxy", proxy, &rng);
+  std::vector<Vector3d> stereo_stations, camera_centres;
+  for (const SphereStation& st : stations) stereo_stations.push_back(st.lower_from_world.Inverse().translation);
+  for (const Rigid3d& pose : photo_poses) camera_centres.push_back(pose.Inverse().translation);
+  WriteBlockCloud(c, "spherical_stereo", stereo, stereo_stations, &rng);
+  WriteBlockCloud(c, "multi_view", multi_view, camera_centres, &rng);
+  WriteBlockCloud(c, "plane_proxy", proxy, {}, &rng);
   c->truth["clouds"] = {
       {"spherical_stereo", {{"points", stereo.size()}, {"model", "sigma_r = r^2 sigma_d / (f b sin(theta)) along the ray from the lower sphere"},
                             {"disparity_sigma_px", o.stereo_disparity_sigma_px},

@@ -96,6 +96,35 @@ TEST_F(SimulateTiny, WritesTheDocumentedLayout) {
   }
   EXPECT_GT(result_->tie_points, 20u);
   EXPECT_GT(result_->static_points, 1000u);
+  // Sensor positions of each cloud in its own frame (register-eval's visibility test): the
+  // multi-view cloud's are the photos' centres moved into its frame; the proxy has none.
+  EXPECT_FALSE(fs::exists(*dir_ / "clouds/plane_proxy.viewpoints.txt"));
+  EXPECT_TRUE(fs::exists(*dir_ / "clouds/lidar.viewpoints.txt"));
+  EXPECT_TRUE(fs::exists(*dir_ / "clouds/spherical_stereo.viewpoints.txt"));
+  std::istringstream lines(Slurp(*dir_ / "clouds/multi_view.viewpoints.txt"));
+  std::vector<Eigen::Vector3d> viewpoints;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream in(line);
+    Eigen::Vector3d v;
+    in >> v.x() >> v.y() >> v.z();
+    viewpoints.push_back(v);
+  }
+  const auto truth = nlohmann::json::parse(Slurp(*dir_ / "truth/truth.json"));
+  const auto& photos = truth["photos"]["images"];
+  ASSERT_EQ(viewpoints.size(), photos.size());
+  Eigen::Matrix4d world_from_cloud, cam_from_world;
+  for (int r = 0; r < 4; ++r) {
+    for (int k = 0; k < 4; ++k) {
+      world_from_cloud(r, k) = registration["world_from_multi_view"][r][k];
+      cam_from_world(r, k) = photos[0]["cam_from_world"]["matrix"][r][k];
+    }
+  }
+  const Eigen::Vector3d centre = -cam_from_world.topLeftCorner<3, 3>().transpose() *
+                                 cam_from_world.topRightCorner<3, 1>();
+  const Eigen::Vector3d in_world = world_from_cloud.topLeftCorner<3, 3>() * viewpoints[0] +
+                                   world_from_cloud.topRightCorner<3, 1>();
+  EXPECT_LT((in_world - centre).norm(), 1e-6);
 }
 
 TEST_F(SimulateTiny, SameSeedSameBytes) {
