@@ -492,6 +492,10 @@ MetricValue FrameSetEvaluator::Evaluate(const Rigid3d& cam_from_lidar, int level
   return value;
 }
 
+bool FrameSetEvaluator::SplitRender(const LidarPoints& points) const {
+  return options_.threads >= 2 && CoreFreeForSplit() && points.size() >= kMinPointsToSplit;
+}
+
 bool FrameSetEvaluator::UsesSamples(const MetricOptions& metric) const {
   return options_.point_samples && metric.smoothing == Smoothing::kBSpline &&
          metric.region == Region::kOverlap;
@@ -576,7 +580,8 @@ double FrameSetEvaluator::CoveredFraction(const Rigid3d& cam_from_lidar) const {
   double covered = 0, pixels = 0;
   for (size_t f = 0; f < frames_.size(); ++f) {
     for (const View& view : pyramid_[0][f]) {
-      RenderLidarImage(points_[0][f], view, cam_from_lidar, options_.render, &buffer);
+      RenderLidarImage(points_[0][f], view, cam_from_lidar, options_.render, &buffer,
+                       SplitRender(points_[0][f]));
       covered += buffer.covered_pixels;
       pixels += static_cast<double>(buffer.width) * buffer.height;
     }
@@ -590,7 +595,8 @@ double FrameSetEvaluator::EffectiveSamples(const Rigid3d& cam_from_lidar, int le
   double covered_pixels = 0, weighted = 0;
   for (size_t f = 0; f < frames_.size(); ++f) {
     for (const View& view : pyramid_[level][f]) {
-      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer);
+      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer,
+                       SplitRender(points_[level][f]));
       const int w = buffer.width, h = buffer.height;
       const size_t pixels = buffer.value.size();
       auto covered = [&](size_t k) { return buffer.point_index[k] >= 0; };
@@ -677,7 +683,8 @@ size_t FrameSetEvaluator::VisiblePoints(const Rigid3d& cam_from_lidar, int level
   size_t visible = 0;
   for (size_t f = 0; f < frames_.size(); ++f) {
     for (const View& view : pyramid_[level][f]) {
-      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer);
+      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer,
+                       SplitRender(points_[level][f]));
       visible += CountVisiblePoints(buffer);
     }
   }
@@ -695,7 +702,8 @@ void FrameSetEvaluator::EvaluateShuffled(const Rigid3d& cam_from_lidar, int leve
   std::vector<float> lidar, photo;
   for (size_t f = 0; f < frames_.size(); ++f) {
     for (const View& view : pyramid_[level][f]) {
-      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer);
+      RenderLidarImage(points_[level][f], view, cam_from_lidar, options_.render, &buffer,
+                       SplitRender(points_[level][f]));
       for (size_t k = 0; k < buffer.value.size(); ++k) {
         const bool covered = buffer.point_index[k] >= 0;
         if (!covered && !whole) continue;
@@ -730,7 +738,7 @@ std::vector<FrameSetEvaluator::VisiblePoint> FrameSetEvaluator::SampleVisiblePoi
   for (size_t f = 0; f < frames_.size(); ++f) {
     for (size_t v = 0; v < pyramid_[0][f].size(); ++v) {
       RenderLidarImage(points_[0][f], pyramid_[0][f][v], cam_from_lidar, options_.render,
-                       &buffer);
+                       &buffer, SplitRender(points_[0][f]));
       // The winners in the order of the even subsample (not the render order), as the
       // points were before they were sorted for rendering.
       const std::vector<uint32_t>& order = points_[0][f].tie_rank;

@@ -391,6 +391,9 @@ class FrameSetEvaluator {
  private:
   std::vector<Frame> frames_;
   RegistrationOptions options_;
+  /// Whether a render of `points` draws its footprints on two threads (a core is free and
+  /// the points are many enough to pay for a thread): the same image either way.
+  bool SplitRender(const LidarPoints& points) const;
   std::vector<std::vector<std::vector<View>>> pyramid_;  ///< level → frame → views
   std::vector<std::vector<LidarPoints>> points_;           ///< level → frame → culled points
   Rigid3d start_;
