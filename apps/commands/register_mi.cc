@@ -350,7 +350,8 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"region", args.region},                 {"pyramid_levels", args.pyramid_levels},
                      {"bound_m", args.bound_m},               {"bound_deg", args.bound_deg},
                      {"pyramid_paths", args.pyramid_paths},   {"whole_image_checks", args.whole_image_checks},
-                     {"all_checks", args.all_checks},         {"point_samples", args.point_samples}};
+                     {"all_checks", args.all_checks},         {"point_samples", args.point_samples},
+                     {"covariance_per_point_samples", options.covariance_per_point_samples}};
   if (frames.size() > 1) {
     out["used_frames"] = result.used_frames;
     nlohmann::json rejected = nlohmann::json::array();
