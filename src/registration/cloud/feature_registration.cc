@@ -1830,7 +1830,7 @@ io::PointCloud Shifted(const io::PointCloud& cloud, const Eigen::Vector3d& offse
 // Map-grid coordinates (UTM, national grids: 10^5–10^7 m) leave the float kd-trees and
 // PCL a resolution of 0.01–0.5 m and make the ICP's rotation about the grid's origin
 // ill-conditioned. Each cloud is therefore registered relative to its own origin o
-// (internal::FloatOrigin: its centroid rounded to whole km; 0 for clouds within 500 m of
+// (io::LocalOrigin: its centroid rounded to whole km; 0 for clouds within 500 m of
 // their origin, which are registered exactly as given), and the result is mapped back:
 // T = [I | o_t] · T_local · [I | −o_s]. With a search window both clouds share the target's
 // o, so that the given (identity) pose stays the identity.
@@ -1857,9 +1857,9 @@ Eigen::Vector3d GridViewpoint(const io::PointCloud& cloud, const Eigen::Vector3d
 CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
                                        const io::PointCloud& target,
                                        const CloudRegistrationOptions& options) {
-  Eigen::Vector3d o_t = internal::FloatOrigin(target.points);
+  Eigen::Vector3d o_t = io::LocalOrigin(target.points);
   Eigen::Vector3d o_s =
-      options.search_window_m > 0.0 ? o_t : internal::FloatOrigin(source.points);
+      options.search_window_m > 0.0 ? o_t : io::LocalOrigin(source.points);
   if (!o_t.allFinite() || !o_s.allFinite()) o_t = o_s = Eigen::Vector3d::Zero();  // NaN: fails
   if (o_t.isZero() && o_s.isZero()) {
     return RegisterCloudsNearOrigin(source, target, options, Eigen::Vector3d::Zero(),

@@ -76,7 +76,7 @@ Descriptors ComputeFpfh(const std::vector<Eigen::Vector3d>& points,
   if (points.empty() || keypoints.empty()) return out;
   const PointIndex index(points);
   std::vector<Eigen::Vector3f> p(points.size()), n(points.size());
-  const Eigen::Vector3d origin = FloatOrigin(points);  // as PointIndex and PCL's copy
+  const Eigen::Vector3d origin = io::LocalOrigin(points);  // as PointIndex and PCL's copy
   for (size_t i = 0; i < points.size(); ++i) {
     p[i] = (points[i] - origin).cast<float>();
     n[i] = normals[i].cast<float>();

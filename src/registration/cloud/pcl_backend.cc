@@ -24,7 +24,7 @@ namespace {
 
 constexpr int kThreads = 2;
 
-// `points` − `origin` as floats (origin: FloatOrigin of the cloud they belong to).
+// `points` − `origin` as floats (origin: io::LocalOrigin of the cloud they belong to).
 pcl::PointCloud<pcl::PointXYZ>::Ptr ToPcl(const std::vector<Eigen::Vector3d>& points,
                                           const Eigen::Vector3d& origin) {
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
@@ -52,10 +52,6 @@ pcl::PointCloud<pcl::Normal>::Ptr ToPclNormals(const std::vector<Eigen::Vector3d
 
 }  // namespace
 
-Eigen::Vector3d FloatOrigin(const std::vector<Eigen::Vector3d>& points) {
-  return io::LocalOrigin(points);
-}
-
 // Exact kd-tree over the points as floats (nanoflann, header-only: no allocation per query,
 // about 3 × faster than PCL's KdTreeFLANN wrapper for the single-nearest queries that
 // dominate SAC-IA scoring and ICP; same float distances, so the same neighbours).
@@ -71,7 +67,7 @@ struct PointIndex::Impl {
                                                    Cloud, 3, uint32_t>;
   Cloud cloud;
   std::unique_ptr<Tree> tree;
-  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  // FloatOrigin of the points
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();  // io::LocalOrigin of the points
 
   void Local(const Eigen::Vector3d& query, float q[3]) const {
     for (int d = 0; d < 3; ++d) q[d] = static_cast<float>(query[d] - origin[d]);
@@ -80,7 +76,7 @@ struct PointIndex::Impl {
 
 PointIndex::PointIndex(const std::vector<Eigen::Vector3d>& points) : impl_(new Impl) {
   if (points.empty()) return;
-  impl_->origin = FloatOrigin(points);
+  impl_->origin = io::LocalOrigin(points);
   impl_->cloud.xyz.resize(3 * points.size());
   for (size_t i = 0; i < points.size(); ++i) {
     for (int d = 0; d < 3; ++d) {
@@ -239,7 +235,7 @@ void FeatureIndex::KNearest(const float* query, int k, std::vector<int>* indices
 // failed 0.47 m; the fragile cell is kept on the normals its figures were measured with.)
 std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>& points,
                                              double radius, const Eigen::Vector3d& viewpoint) {
-  const Eigen::Vector3d origin = FloatOrigin(points);
+  const Eigen::Vector3d origin = io::LocalOrigin(points);
   auto cloud = ToPcl(points, origin);
   pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> estimation(kThreads);
   estimation.setInputCloud(cloud);
@@ -257,7 +253,7 @@ std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>&
 
 std::vector<float> TomasiResponse(const std::vector<Eigen::Vector3d>& points,
                                   const std::vector<Eigen::Vector3d>& normals, double radius) {
-  auto cloud = ToPcl(points, FloatOrigin(points));
+  auto cloud = ToPcl(points, io::LocalOrigin(points));
   auto pcl_normals = ToPclNormals(normals);
   pcl::HarrisKeypoint3D<pcl::PointXYZ, pcl::PointXYZI, pcl::Normal> harris(
       pcl::HarrisKeypoint3D<pcl::PointXYZ, pcl::PointXYZI, pcl::Normal>::TOMASI, radius);
@@ -301,7 +297,7 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
                                const std::vector<Eigen::Vector3d>& normals,
                                const std::vector<int>& keypoints, double radius,
                                const Eigen::Vector3d* up) {
-  const Eigen::Vector3d origin = FloatOrigin(points);
+  const Eigen::Vector3d origin = io::LocalOrigin(points);
   auto surface = ToPcl(points, origin);
   auto surface_normals = ToPclNormals(normals);
   std::vector<Eigen::Vector3d> kp_points;
@@ -391,7 +387,7 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
 Descriptors ComputeFpfhPcl(const std::vector<Eigen::Vector3d>& points,
                            const std::vector<Eigen::Vector3d>& normals,
                            const std::vector<int>& keypoints, double radius) {
-  const Eigen::Vector3d origin = FloatOrigin(points);
+  const Eigen::Vector3d origin = io::LocalOrigin(points);
   auto surface = ToPcl(points, origin);
   auto surface_normals = ToPclNormals(normals);
   std::vector<Eigen::Vector3d> kp_points;

@@ -12,12 +12,8 @@
 
 namespace mmba::registration::internal {
 
-/// Origin for the float coordinates of `points` (kd-trees, PCL, the FPFH): io::LocalOrigin,
-/// their centroid rounded to whole kilometres (0 within 500 m of the cloud's own origin, i.e.
-/// the same floats as without it; ~0.1 mm float resolution in a map grid).
-Eigen::Vector3d FloatOrigin(const std::vector<Eigen::Vector3d>& points);
-
-/// Exact kd-tree over 3-D points (nanoflann, float coordinates relative to FloatOrigin).
+/// Exact kd-tree over 3-D points (nanoflann; float coordinates relative to io::LocalOrigin,
+/// so that clouds in map-grid coordinates keep ~0.1 mm).
 class PointIndex {
  public:
   explicit PointIndex(const std::vector<Eigen::Vector3d>& points);
