@@ -26,6 +26,7 @@ struct RegisterCloudArgs {
   std::vector<double> search_window;
   std::vector<double> up = {0.0, 0.0, 1.0};
   bool no_icp = false;
+  bool no_intensity = false;
   bool paper = false;
   bool skip_invalid = false;
   double error_map_max_m = 0.0;
@@ -104,6 +105,7 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   if (!(up.norm() > 0)) throw InputError::Message("--up", "expected a non-zero vector");
   options.up = up.normalized();
   options.icp = !args.no_icp;
+  options.intensity_test = !args.no_intensity;
   options.paper_only = args.paper;
   options.seed = args.seed;
   options.min_fitness = args.min_fitness;
@@ -191,6 +193,9 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
                   "approximate pose applied): the identity is a hypothesis, poses outside are dropped")
       ->expected(2);
   sub->add_flag("--no-icp", args->no_icp, "skip the ICP refinement");
+  sub->add_flag("--no-intensity", args->no_intensity,
+                "geometry only: do not let the clouds' intensity (or colour) settle a tie "
+                "between pseudo-symmetric poses");
   sub->add_flag("--paper", args->paper,
                 "the paper's pipeline only: best SAC-IA hypothesis + ICP, no verification "
                 "(status \"unverified\", exit 3)");

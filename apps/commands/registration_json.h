@@ -48,6 +48,10 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
                           {"score", h.score},
                           {"conflict", h.conflict},
                           {"violation", h.violation},
+                          {"intensity_correlation",
+                           h.intensity_correlation >= 0
+                               ? nlohmann::ordered_json(h.intensity_correlation)
+                               : nlohmann::ordered_json(nullptr)},
                           {"target_from_source", MatrixJson(h.target_from_source)}});
   }
   return {{"status", result.status},
@@ -67,6 +71,16 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
           // sensor observed as empty
           {"visibility_tested", result.visibility_tested},
           {"violation", result.violation},
+          // the intensity test (a geometric tie, both clouds with intensity or colour): the
+          // chosen pose's |rank correlation| of source and target brightness over its inliers,
+          // and the intensity t against the runner-up behind `significance`
+          {"intensity_tested", result.intensity_tested},
+          {"intensity_correlation", result.intensity_tested
+                                        ? nlohmann::ordered_json(result.intensity_correlation)
+                                        : nlohmann::ordered_json(nullptr)},
+          {"intensity_significance", result.intensity_tested
+                                         ? nlohmann::ordered_json(result.intensity_significance)
+                                         : nlohmann::ordered_json(nullptr)},
           {"fine_inlier_distance_m", result.fine_inlier_distance_m},
           // null when the pose is not resolved up to R_s (or not tested: --paper)
           {"resolution_m", std::isfinite(result.resolution_m)

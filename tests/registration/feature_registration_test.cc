@@ -368,6 +368,48 @@ TEST(FeatureRegistration, SymmetricObjectIsNotOkWithTheTurnedPose) {
   }
 }
 
+// The symmetric gate with a texture (a brightness that is a smooth random function of the
+// position on the gate, sampled with noise by each cloud): the shape cannot tell the pose
+// from its 180° twin, the brightness can (the intensity test), so the result is ok and
+// right; with the test off it is not ok with the twin.
+io::PointCloud Textured(const io::PointCloud& gate, uint32_t seed) {
+  std::mt19937 rng(1234);  // one texture for every sample
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<Eigen::Vector3d> bumps;
+  for (int k = 0; k < 80; ++k) bumps.emplace_back(-2.2 + 4.4 * u(rng), -0.1 + 0.7 * u(rng), 3.0 * u(rng));
+  std::mt19937 sample(seed);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  io::PointCloud out = gate;
+  out.intensity.clear();
+  for (const Eigen::Vector3d& p : gate.points) {
+    double v = 0.0;
+    for (const Eigen::Vector3d& b : bumps) v += std::exp(-(p - b).squaredNorm() / (2 * 0.25 * 0.25));
+    out.intensity.push_back(static_cast<float>(v + noise(sample)));
+  }
+  return out;
+}
+
+TEST(FeatureRegistration, IntensitySettlesTheSymmetricTwin) {
+  const Eigen::Matrix4d source_from_world = BlockPose();
+  const io::PointCloud source = Transformed(Textured(Gate(0.07, false, 1), 5), source_from_world);
+  const io::PointCloud reference = Textured(Gate(0.07, false, 2), 6);
+  const Eigen::Matrix4d truth = source_from_world.inverse();
+  CloudRegistrationOptions options;
+  options.descriptor = Descriptor::kFpfh;
+  options.intensity_test = false;
+  const CloudRegistrationResult shape = RegisterClouds(source, reference, options);
+  EXPECT_FALSE(shape.intensity_tested);
+  ASSERT_FALSE(shape.ok()) << shape.BriefReport();  // the tie the test is about
+  EXPECT_NE(shape.reason.find("ambiguous"), std::string::npos) << shape.reason;
+  options.intensity_test = true;
+  const CloudRegistrationResult r = RegisterClouds(source, reference, options);
+  ASSERT_TRUE(r.ok()) << r.BriefReport();
+  EXPECT_LT(TransformRmsOnCloud(source, r.target_from_source, truth), 0.02);
+  EXPECT_TRUE(r.intensity_tested);
+  EXPECT_GT(r.intensity_correlation, 0.5);
+  EXPECT_GE(r.significance, options.min_significance);
+}
+
 TEST(FeatureRegistration, RepeatedBaysGetPeriodShiftFinalists) {
   // One gate against an arcade of four identical gates 6 m apart. The best pose moved by the
   // displacement modes of the descriptor matches must enter the verification as "period

@@ -30,6 +30,7 @@
 #include "mmba/core/progress.h"
 #include "mmba/registration/cloud/robust_estimators.h"
 #include "registration/cloud/free_space.h"
+#include "registration/cloud/intensity_test.h"
 #include "registration/cloud/pcl_backend.h"
 
 namespace mmba::registration {
@@ -1621,6 +1622,85 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       });
     }
   }
+  // A finalist that the visibility test contradicts (the verdict below would fail it as the
+  // best) is no alternative in the ambiguity test.
+  auto contradicted = [&](const Hypothesis& h) {
+    return visibility && h.violation > options.max_violation_ratio * h.fitness;
+  };
+  // The ambiguity test's paired block t of finalist a over b. The t statistic itself is
+  // geometric (without the −1 terms of the free-space violations): one region where a sensor
+  // sees through a real surface — glass for a LiDAR, which a camera reconstructs — would
+  // otherwise dominate the block variance.
+  auto geometric_t = [&](size_t a, size_t b) {
+    return ScoreSignificance(fine_src, finalists[a].residuals, finalists[a].agree,
+                             finalists[b].residuals, finalists[b].agree, fine_tau,
+                             support_radius);
+  };
+  // Intensity test (intensity_test.h). Only where the geometry leaves a tie (some distinct
+  // finalist within min_significance of the best) and both clouds carry a brightness: the
+  // intensity t of a over b (jackknifed over the same blocks) joins the geometric one as
+  // Stouffer's sum (t_g + t_i)/√2 of two independent z statistics (Stouffer et al. 1949),
+  // taken only where it is larger than t_g — brightness can settle a tie (or show that a
+  // geometric runner-up is the right pose), never unsettle a pose the geometry resolved.
+  std::vector<internal::IntensityBlocks> photo;  // per finalist; empty: not tested
+  auto combined_t = [&](size_t a, size_t b, double tg, double* ti = nullptr) {
+    if (photo.empty()) return tg;
+    const double t_i = internal::IntensityAgreement::Significance(photo[a], photo[b]);
+    if (ti != nullptr) *ti = t_i;
+    return std::max(tg, (tg + t_i) / std::sqrt(2.0));
+  };
+  if (!options.paper_only && options.intensity_test && finalists.size() > 1) {
+    std::vector<size_t> candidates = {0};
+    bool tie = false;
+    for (size_t k = 1; k < finalists.size(); ++k) {
+      if (!(finalists[k].h.score > options.max_ambiguity * finalists[0].h.score)) continue;
+      if (contradicted(finalists[k].h)) continue;
+      candidates.push_back(k);
+      tie = tie || geometric_t(0, k) < options.min_significance;
+    }
+    const std::unique_ptr<internal::IntensityAgreement> brightness =
+        tie ? std::make_unique<internal::IntensityAgreement>(source, target, fine_src,
+                                                             support_radius)
+            : nullptr;
+    if (brightness && brightness->available()) {
+      for (const Finalist& f : finalists) {
+        std::vector<bool> inlier(f.residuals.size());
+        for (size_t i = 0; i < inlier.size(); ++i) {
+          inlier[i] =
+              std::isfinite(f.residuals[i]) && std::abs(f.residuals[i]) < fine_tau && f.agree[i];
+        }
+        photo.push_back(brightness->Measure(f.h.transform, inlier));
+      }
+      // The candidate whose least margin over the others is largest.
+      size_t winner = 0;
+      double winner_margin = -std::numeric_limits<double>::infinity();
+      for (size_t a : candidates) {
+        double margin = std::numeric_limits<double>::infinity();
+        for (size_t b : candidates) {
+          if (b != a) margin = std::min(margin, combined_t(a, b, geometric_t(a, b)));
+        }
+        if (margin > winner_margin) {
+          winner_margin = margin;
+          winner = a;
+        }
+      }
+      if (winner != 0 && winner_margin >= options.min_significance) {
+        std::ostringstream note;
+        note << std::setprecision(3) << "intensity test: chose " << finalists[winner].h.origin
+             << " (score " << finalists[winner].h.score << ", |rank correlation| "
+             << photo[winner].AbsCorrelation() << ") over the best-scoring "
+             << finalists[0].h.origin << " (score " << finalists[0].h.score
+             << ", |rank correlation| " << photo[0].AbsCorrelation() << ")";
+        result.notes.push_back(note.str());
+        std::rotate(finalists.begin(), finalists.begin() + static_cast<long>(winner),
+                    finalists.begin() + static_cast<long>(winner) + 1);
+        std::rotate(photo.begin(), photo.begin() + static_cast<long>(winner),
+                    photo.begin() + static_cast<long>(winner) + 1);
+      }
+      result.intensity_tested = true;
+      result.intensity_correlation = photo[0].AbsCorrelation();
+    }
+  }
   spdlog::debug("registration: fine τ {:.4g} m, {} distinct finalists", fine_tau, finalists.size());
   Hypothesis best = finalists.front().h;
   const Hypothesis fine_check = best;
@@ -1682,10 +1762,11 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   result.violation = fine_check.violation;
   double runner_up = 0.0;
   const RegistrationHypothesis* runner = nullptr;
-  for (const Finalist& f : finalists) {
-    const Hypothesis& h = f.h;
+  for (size_t k = 0; k < finalists.size(); ++k) {
+    const Hypothesis& h = finalists[k].h;
     RegistrationHypothesis r;
     r.origin = h.origin + " (fine)";
+    if (!photo.empty()) r.intensity_correlation = photo[k].AbsCorrelation();
     r.target_from_source = h.transform;
     r.fitness = h.fitness;
     r.inlier_rmse = h.rmse;
@@ -1716,25 +1797,22 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   // bay may score 70 % of the truth and still not be told from it). `significance` is the
   // smallest of these t statistics (+inf when no distinct finalist is left).
   result.significance = std::numeric_limits<double>::infinity();
-  if (finalists.size() > 1) runner_up = finalists[1].h.score;
-  // A finalist that the visibility test contradicts (the verdict below would fail it as the
-  // best) is no alternative. The t statistic itself is geometric (without the −1 terms): one
-  // region where a sensor sees through a real surface — glass for a LiDAR, which a camera
-  // reconstructs — would otherwise dominate the block variance.
-  auto contradicted = [&](const Hypothesis& h) {
-    return visibility && h.violation > options.max_violation_ratio * h.fitness;
-  };
+  for (size_t k = 1; k < finalists.size(); ++k) runner_up = std::max(runner_up, finalists[k].h.score);
+  double runner_geometric_t = 0.0, runner_intensity_t = 0.0;
   for (size_t k = 1; k < finalists.size(); ++k) {
     if (!(finalists[k].h.score > options.max_ambiguity * best.score)) continue;
     if (contradicted(finalists[k].h)) continue;
-    const double t = ScoreSignificance(fine_src, finalists[0].residuals, finalists[0].agree,
-                                       finalists[k].residuals, finalists[k].agree, fine_tau,
-                                       support_radius);
+    const double tg = geometric_t(0, k);
+    double ti = 0.0;
+    const double t = combined_t(0, k, tg, &ti);
     if (t < result.significance) {
       result.significance = t;
       runner = &result.hypotheses[k];
+      runner_geometric_t = tg;
+      runner_intensity_t = ti;
     }
   }
+  if (!photo.empty() && runner != nullptr) result.intensity_significance = runner_intensity_t;
   const double best_score = best.score;
   result.confidence = best_score > 0 ? std::clamp(1.0 - runner_up / best_score, 0.0, 1.0) : 0.0;
   std::ostringstream why;
@@ -1777,8 +1855,12 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     why << "ambiguous: a different pose fits almost as well (scores " << best_score << " and "
         << runner->score << "; " << RotationAngleDeg(r) << "° and " << shift
         << " m apart at the source centre); the best is better by only " << result.significance
-        << " standard errors (need " << options.min_significance
-        << "): a (pseudo-)symmetric or repeated structure — give --gravity-aligned or more "
+        << " standard errors (need " << options.min_significance << ")";
+    if (!photo.empty()) {
+      why << " with the intensity test (geometry " << runner_geometric_t << ", intensity "
+          << runner_intensity_t << ")";
+    }
+    why << ": a (pseudo-)symmetric or repeated structure — give --gravity-aligned or more "
            "overlap";
     return fail(why.str());
   }

@@ -132,6 +132,11 @@ struct CloudRegistrationOptions {
   /// modes of the descriptor matches (beyond R_s) is refined and added to the ambiguity test
   /// (0 = off) (>= 0).
   int num_period_shifts = 4;
+  /// Intensity test: when the ambiguity test leaves a tie and both clouds carry a brightness
+  /// (intensity, else colour), the rank correlation of source and target brightness over each
+  /// finalist's inliers joins the geometric t (internal/intensity_test.h); it may settle the
+  /// tie or pick a geometric runner-up, never unsettle a pose the geometry resolved.
+  bool intensity_test = true;
   /// Pose resolution test: a displacement of the chosen pose counts as told apart when it
   /// scores worse by at least this many standard errors (paired block t) (> 0).
   double resolution_t = 3.0;
@@ -191,6 +196,9 @@ struct RegistrationHypothesis {
   double violation = 0.0;      ///< fine only: fraction of the source in observed free space
   double score = 0.0;          ///< coarse: fitness × normal_agreement; fine: Σ(1 − r²/τ²) over
                                ///< the inliers with agreeing normals / source points
+  /// fine, intensity test run: |rank correlation| of source and target brightness over the
+  /// inliers; −1 when not measured
+  double intensity_correlation = -1.0;
 };
 
 /// Result of RegisterClouds.
@@ -208,6 +216,12 @@ struct CloudRegistrationResult {
   double significance = 0.0;      ///< best vs the least distinguishable distinct finalist, in
                                   ///< standard errors (inf: no distinct finalist)
   double confidence = 0.0;        ///< 0..1: 1 − runner-up score / best score, times fitness checks
+                                  ///< (0 when the intensity test chose a lower-scoring pose)
+  /// The intensity test ran (a geometric tie, both clouds with a brightness); `significance`
+  /// then includes it.
+  bool intensity_tested = false;
+  double intensity_correlation = -1.0;   ///< chosen pose's |rank correlation| (−1: not tested)
+  double intensity_significance = 0.0;   ///< intensity t against the significance's runner-up
   size_t num_keypoints_source = 0, num_keypoints_target = 0;
   size_t num_correspondences = 0;  ///< descriptor matches
   size_t num_inliers = 0;          ///< fine source points within the inlier distance
