@@ -2,7 +2,8 @@
 // pinhole view, N million points with intensity), evaluated at the true pose and at small
 // offsets, per pyramid level, by rendering the z-buffer (FrameSetEvaluator::Evaluate) and
 // from point samples with the visibility frozen at the true pose (point_samples.h).
-//   mi_eval_speed [MILLION_POINTS=1] [REPEATS=20] [THREADS=2] [PER_POINT=1]
+//   mi_eval_speed [MILLION_POINTS=1] [REPEATS=20] [THREADS=2] [PER_POINT=1] [RENDERED=1]
+// RENDERED = 0: the sampled evaluations only (a profile of them alone).
 // Prints per level: samples, ms per evaluation (wall, threads as given; and CPU of this
 // thread, the comparable figure on a shared machine with THREADS=1), the largest difference
 // between the two metrics over the offsets, and the sum of the sampled metric over the
@@ -44,6 +45,7 @@ int main(int argc, char** argv) {
   options.point_samples = true;  // the default since 2 Dec; explicit here
   if (argc > 3) options.threads = std::atoi(argv[3]);
   const bool per_point = argc > 4 ? std::atoi(argv[4]) != 0 : true;
+  const bool with_rendered = argc > 5 ? std::atoi(argv[5]) != 0 : true;
   const FrameSetEvaluator evaluator({frame}, truth, options);
   std::printf("%.2f M points, threads %d, %s\n", points.size() / 1e6, options.threads,
               per_point ? "one sample per point" : "one sample per pixel");
@@ -61,7 +63,8 @@ int main(int argc, char** argv) {
       const Rigid3d pose = ApplyCorrection(truth, offset);
       Timer a;
       double cpu = ThreadCpuSeconds();
-      const double rendered = evaluator.Evaluate(pose, level, options.metric).value;
+      const double rendered =
+          with_rendered ? evaluator.Evaluate(pose, level, options.metric).value : NAN;
       rendered_ms += 1e3 * a.ElapsedSeconds();
       rendered_cpu_ms += 1e3 * (ThreadCpuSeconds() - cpu);
       rendered_min_ms = std::min(rendered_min_ms, 1e3 * (ThreadCpuSeconds() - cpu));
@@ -78,11 +81,11 @@ int main(int argc, char** argv) {
     for (const ViewSamples& v : set.views) visible += v.points();
     std::printf("level %d: %zu visible points, %zu samples, build %.1f ms; rendered %.2f ms "
                 "(cpu %.2f, least %.2f), sampled %.2f ms (cpu %.2f, least %.2f) per evaluation; largest |difference| "
-                "%.2e (NMI); sampled sum %.12f\n",
+                "%.2e (NMI); sampled sum %.12f (%a)\n",
                 level, visible, set.samples, build_ms, rendered_ms / repeats,
                 rendered_cpu_ms / repeats, rendered_min_ms, sampled_ms / repeats,
                 sampled_cpu_ms / repeats, sampled_min_ms,
-                max_difference, sampled_sum);
+                max_difference, sampled_sum, sampled_sum);
   }
   return 0;
 }

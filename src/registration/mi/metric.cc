@@ -439,31 +439,34 @@ __attribute__((target("avx2"))) void AddBatchRowsAvx2(double* counts, int stride
   }
 }
 
-}  // namespace
-
-void JointHistogram::AddCoveredBatch(int count, const int* bx, const float (*wx)[kBatch],
-                                     const float* photo255, const float* weight) {
-  CHECK_LE(count, kBatch);
-  const int bins = bins_;
+// AddCoveredBatch's body, one function per instruction set (AVX2 where the CPU has it: the
+// photo bins and weights as wider vectors, the adds four doubles at a time; no FMA). The
+// photo bin clamped as min/max, the same bin as AddCoveredBins' comparisons for every
+// position that is not NaN, so that the loop has no branch.
+__attribute__((target_clones("avx2", "default"))) void AddCoveredBatchTo(
+    double* counts, int bins, float photo_scale, int count, const int* bx,
+    const float (*wx)[JointHistogram::kBatch], const float* photo255, const float* weight) {
+  constexpr int kBatch = JointHistogram::kBatch;
   const int stride = bins + 3;
+  const float last = static_cast<float>(bins - 1);
   int by[kBatch];
   float pos[kBatch];
   for (int k = 0; k < count; ++k) {
-    pos[k] = photo255[k] * photo_scale_;
-    by[k] = pos[k] <= 0.f ? 0 : (pos[k] >= bins - 1 ? bins - 1 : static_cast<int>(pos[k]));
+    pos[k] = photo255[k] * photo_scale;
+    by[k] = static_cast<int>(std::min(std::max(pos[k], 0.f), last));
   }
   float wy[kBatch][4];  // per sample, its four photo weights times its weight
   for (int k = 0; k < count; ++k) {
     float w[4];
-    CubicBSplineWeights(pos[k] - by[k], w);
+    JointHistogram::CubicBSplineWeights(pos[k] - by[k], w);
     for (int q = 0; q < 4; ++q) wy[k][q] = w[q] * weight[k];
   }
   if (CpuHasAvx2()) {
-    AddBatchRowsAvx2(counts_.data(), stride, count, bx, by, wx, wy);
+    AddBatchRowsAvx2(counts, stride, count, bx, by, wx, wy);
     return;
   }
   for (int k = 0; k < count; ++k) {
-    double* base = &counts_[static_cast<size_t>(bx[k]) * stride + by[k]];
+    double* base = counts + static_cast<size_t>(bx[k]) * stride + by[k];
     for (int i = 0; i < 4; ++i) {
       double* row = base + static_cast<size_t>(i) * stride;
       row[0] += wx[i][k] * wy[k][0];
@@ -472,6 +475,14 @@ void JointHistogram::AddCoveredBatch(int count, const int* bx, const float (*wx)
       row[3] += wx[i][k] * wy[k][3];
     }
   }
+}
+
+}  // namespace
+
+void JointHistogram::AddCoveredBatch(int count, const int* bx, const float (*wx)[kBatch],
+                                     const float* photo255, const float* weight) {
+  CHECK_LE(count, kBatch);
+  AddCoveredBatchTo(counts_.data(), bins_, photo_scale_, count, bx, wx, photo255, weight);
 }
 
 void JointHistogram::AddPairs(const std::vector<float>& lidar01,

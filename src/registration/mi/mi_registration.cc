@@ -11,6 +11,8 @@
 #include <sstream>
 #include <thread>
 
+#include <immintrin.h>
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <glog/logging.h>
@@ -217,14 +219,67 @@ void ParallelFor(int count, int threads, const std::function<void(int)>& body) {
 
 namespace {
 
-// The positions 0 .. chosen.size() − 1 of the points all[chosen[k]] in the order of the pixel
-// each falls on at `cam_from_lidar` (the first view it projects into; view, row, column), the
-// points that fall on no view last; ties in the chosen order (a stable sort: deterministic).
-std::vector<uint32_t> RenderOrder(const LidarPoints& all, const std::vector<size_t>& chosen,
+// Key of a point that falls on no view (after every pixel's).
+constexpr uint64_t kNowhere = std::numeric_limits<uint64_t>::max();
+
+// RenderOrder's keys for one pinhole view (perspective cuts, KITTI), a block of points at a
+// time: the transform, squared norm and projection in loops without branches as in
+// CullPinholeBlocks (the arithmetic of the general path: Eigen's product and squared norm,
+// ImgFromCam), then the general path's tests; only keys still kNowhere are set.
+__attribute__((target_clones("avx2", "default"))) void PinholeKeys(
+    const std::vector<Eigen::Vector3f>& points, const Eigen::Matrix3f& rotation,
+    const Eigen::Vector3f& translation, const sensors::Camera& camera, double min_range2,
+    double max_range2, uint64_t view_bits, uint64_t* key) {
+  constexpr int kBlock = 64;
+  alignas(64) float bx[kBlock], by[kBlock], bz[kBlock], b2[kBlock];
+  alignas(64) double bu[kBlock], bv[kBlock];
+  const float m00 = rotation(0, 0), m01 = rotation(0, 1), m02 = rotation(0, 2);
+  const float m10 = rotation(1, 0), m11 = rotation(1, 1), m12 = rotation(1, 2);
+  const float m20 = rotation(2, 0), m21 = rotation(2, 1), m22 = rotation(2, 2);
+  const float t0 = translation.x(), t1 = translation.y(), t2 = translation.z();
+  const double* params = camera.params.data();
+  const double fx = params[0], fy = params[1], cx = params[2], cy = params[3];
+  const double width = camera.width, height = camera.height;
+  constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
+  for (size_t block = 0; block < points.size(); block += kBlock) {
+    const int n = static_cast<int>(std::min<size_t>(kBlock, points.size() - block));
+    for (int j = 0; j < n; ++j) {
+      const Eigen::Vector3f& q = points[block + j];
+      bx[j] = q.x();
+      by[j] = q.y();
+      bz[j] = q.z();
+    }
+    for (int j = 0; j < n; ++j) {
+      const float x = bx[j], y = by[j], z = bz[j];
+      const float px = m00 * x + (m01 * y + m02 * z) + t0;
+      const float py = m10 * x + (m11 * y + m12 * z) + t1;
+      const float pz = m20 * x + (m21 * y + m22 * z) + t2;
+      bz[j] = pz;
+      b2[j] = px * px + (py * py + pz * pz);
+      bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
+      bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
+    }
+    for (int j = 0; j < n; ++j) {
+      uint64_t& k = key[block + j];
+      if (k != kNowhere || !(bz[j] > 0.f)) continue;
+      const double range2 = b2[j];
+      if (range2 < min_range2 || range2 > max_range2) continue;
+      if (!(static_cast<double>(bz[j]) > kEpsilon)) continue;
+      const double x = bu[j], y = bv[j];
+      if (!(x >= 0 && y >= 0 && x < width && y < height)) continue;
+      k = view_bits | (static_cast<uint64_t>(y) << 24) | static_cast<uint64_t>(x);
+    }
+  }
+}
+
+// The positions 0 .. points.size() − 1 in the order of the pixel each point falls on at
+// `cam_from_lidar` (the first view it projects into; view, row, column), the points that fall
+// on no view last; ties in the points' order (a stable sort: deterministic). Sorted by counting
+// the points per pixel (the keys are pixels: the order of a stable sort by key).
+std::vector<uint32_t> RenderOrder(const std::vector<Eigen::Vector3f>& points,
                                   const std::vector<View>& views, const Rigid3d& cam_from_lidar,
                                   const RenderOptions& render) {
-  constexpr uint64_t kNowhere = std::numeric_limits<uint64_t>::max();
-  std::vector<uint64_t> key(chosen.size(), kNowhere);
+  std::vector<uint64_t> key(points.size(), kNowhere);
   const double min_range2 = render.min_range_m * render.min_range_m;
   const double max_range2 = render.max_range_m * render.max_range_m;
   for (size_t v = 0; v < views.size(); ++v) {
@@ -233,11 +288,16 @@ std::vector<uint32_t> RenderOrder(const LidarPoints& all, const std::vector<size
         (view.view_from_cam * cam_from_lidar.rotation.toRotationMatrix()).cast<float>();
     const Eigen::Vector3f translation =
         (view.view_from_cam * cam_from_lidar.translation).cast<float>();
+    if (view.camera.model_id == sensors::CameraModelId::kPinhole) {
+      PinholeKeys(points, rotation, translation, view.camera, min_range2, max_range2,
+                  static_cast<uint64_t>(v) << 48, key.data());
+      continue;
+    }
     const bool spherical = view.camera.IsSpherical();
     const double period = 2.0 * M_PI * view.camera.params[0];
-    for (size_t k = 0; k < chosen.size(); ++k) {
+    for (size_t k = 0; k < points.size(); ++k) {
       if (key[k] != kNowhere) continue;
-      const Eigen::Vector3f p = rotation * all.points_in_lidar[chosen[k]] + translation;
+      const Eigen::Vector3f p = rotation * points[k] + translation;
       if (!spherical && !(p.z() > 0.f)) continue;
       const double range2 = p.squaredNorm();
       if (range2 < min_range2 || range2 > max_range2) continue;
@@ -252,11 +312,112 @@ std::vector<uint32_t> RenderOrder(const LidarPoints& all, const std::vector<size
                static_cast<uint64_t>(x);
     }
   }
-  std::vector<uint32_t> order(chosen.size());
-  std::iota(order.begin(), order.end(), 0u);
-  std::stable_sort(order.begin(), order.end(),
-                   [&key](uint32_t a, uint32_t b) { return key[a] < key[b]; });
+  std::vector<uint32_t> order(points.size());
+  // A key's pixel (view, row, column) numbered in key order: view-major, then row-major;
+  // kNowhere after them all. (Columns and rows below 2^24, as the keys need.)
+  std::vector<size_t> first_pixel(views.size() + 1, 0);
+  bool countable = views.size() < (size_t{1} << 16);
+  for (size_t v = 0; v < views.size(); ++v) {
+    const sensors::Camera& camera = views[v].camera;
+    countable = countable && camera.width < (1 << 24) && camera.height < (1 << 24);
+    first_pixel[v + 1] = first_pixel[v] + static_cast<size_t>(camera.width) * camera.height;
+  }
+  if (!countable) {
+    std::iota(order.begin(), order.end(), 0u);
+    std::stable_sort(order.begin(), order.end(),
+                     [&key](uint32_t a, uint32_t b) { return key[a] < key[b]; });
+    return order;
+  }
+  const size_t nowhere = first_pixel.back();
+  auto pixel = [&](uint64_t k) {
+    if (k == kNowhere) return nowhere;
+    const size_t v = static_cast<size_t>(k >> 48);
+    const size_t row = static_cast<size_t>((k >> 24) & 0xFFFFFF);
+    const size_t column = static_cast<size_t>(k & 0xFFFFFF);
+    return first_pixel[v] + row * views[v].camera.width + column;
+  };
+  std::vector<uint32_t> start(nowhere + 2, 0);  // points before each pixel, then its fill
+  for (uint64_t k : key) ++start[pixel(k) + 1];
+  for (size_t p = 1; p < start.size(); ++p) start[p] += start[p - 1];
+  for (size_t k = 0; k < key.size(); ++k) order[start[pixel(key[k])]++] = static_cast<uint32_t>(k);
   return order;
+}
+
+}  // namespace
+
+namespace {
+
+// One pinhole view's cull test (FrameSetEvaluator's constructor): its transform of the
+// LiDAR frame in float, its intrinsics, the margins and ranges.
+struct PinholeCull {
+  Eigen::Matrix3f rotation;
+  Eigen::Vector3f translation;
+  const sensors::Camera& camera;
+  double focal, rot_margin, bound_translation_m, max_range, near_range;
+};
+
+// The cull of candidates [begin, end) (indices into `all`, or the points themselves when
+// `candidates` is null) against one pinhole view (perspective cuts, KITTI): keep[k] |= the
+// test of candidate k. A block of points at a time in loops without branches, which the
+// compiler vectorises: the transform, squared norm and projection with the arithmetic of the
+// general path (Eigen's 3×3 product r₀x + (r₁y + r₂z) per row, the squared norm
+// x² + (y² + z²), ImgFromCam f·(x/z + 0) + c), then the general path's test written as one
+// expression of comparisons — kept iff not beyond the range, and nearer than the near range
+// or in front of the camera and inside the view's margin (test
+// StreetTest.PinholeCullEqualsTheGenericModel). No FMA in either clone: the same roundings.
+__attribute__((target_clones("avx2", "default"))) void CullPinholeBlocks(
+    const PinholeCull& cull, const LidarPoints& all, const std::vector<uint32_t>* candidates,
+    size_t begin, size_t end, char* keep) {
+  constexpr int kBlock = 64;
+  alignas(64) float bx[kBlock], by[kBlock], bz[kBlock], b2[kBlock];
+  alignas(64) float br[kBlock];
+  alignas(64) double bu[kBlock], bv[kBlock];
+  alignas(64) char flag[kBlock];
+  const float m00 = cull.rotation(0, 0), m01 = cull.rotation(0, 1), m02 = cull.rotation(0, 2);
+  const float m10 = cull.rotation(1, 0), m11 = cull.rotation(1, 1), m12 = cull.rotation(1, 2);
+  const float m20 = cull.rotation(2, 0), m21 = cull.rotation(2, 1), m22 = cull.rotation(2, 2);
+  const float t0 = cull.translation.x(), t1 = cull.translation.y(), t2 = cull.translation.z();
+  const double* params = cull.camera.params.data();
+  const double fx = params[0], fy = params[1], cx = params[2], cy = params[3];
+  const double width = cull.camera.width, height = cull.camera.height;
+  const double focal = cull.focal, rot_margin = cull.rot_margin;
+  const double bound_m = cull.bound_translation_m;
+  const double max_range = cull.max_range, near_range = cull.near_range;
+  constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
+  const Eigen::Vector3f* points = all.points_in_lidar.data();
+  const uint32_t* index = candidates != nullptr ? candidates->data() : nullptr;
+  for (size_t block = begin; block < end; block += kBlock) {
+    const int n = static_cast<int>(std::min<size_t>(kBlock, end - block));
+    for (int j = 0; j < n; ++j) {
+      const Eigen::Vector3f& q = points[index != nullptr ? index[block + j] : block + j];
+      bx[j] = q.x();
+      by[j] = q.y();
+      bz[j] = q.z();
+    }
+    for (int j = 0; j < n; ++j) {
+      const float x = bx[j], y = by[j], z = bz[j];
+      const float px = m00 * x + (m01 * y + m02 * z) + t0;
+      const float py = m10 * x + (m11 * y + m12 * z) + t1;
+      const float pz = m20 * x + (m21 * y + m22 * z) + t2;
+      bz[j] = pz;
+      b2[j] = px * px + (py * py + pz * pz);
+      bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
+      bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
+    }
+    // p.norm(): the float root (SSE's, correctly rounded as std::sqrt; without errno, so the
+    // loop below has no branch), four at a time over the block (the tail set to 0).
+    for (int j = n; j < kBlock; ++j) b2[j] = 0.f;
+    for (int j = 0; j < n; j += 4) _mm_store_ps(br + j, _mm_sqrt_ps(_mm_load_ps(b2 + j)));
+    for (int j = 0; j < n; ++j) {
+      const double range = br[j];
+      const double margin = focal * (rot_margin + bound_m / range) + 8.0;
+      const bool inside = (bu[j] >= -margin) & (bv[j] >= -margin) & (bu[j] <= width + margin) &
+                          (bv[j] <= height + margin);
+      const bool front = !(bz[j] <= 0.f) & (static_cast<double>(bz[j]) > kEpsilon);
+      flag[j] = (!(range > max_range)) & ((range < near_range) | (front & inside));
+    }
+    for (int j = 0; j < n; ++j) keep[block + j] |= flag[j];
+  }
 }
 
 }  // namespace
@@ -320,60 +481,9 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
         const double max_range = options.render.max_range_m + options.bound_translation_m;
         const double near_range = 2.0 * options.bound_translation_m + options.render.min_range_m;
         if (view.camera.model_id == sensors::CameraModelId::kPinhole) {
-          // The pinhole camera (perspective cuts, KITTI) a block of points at a time: the
-          // transform, squared norm and projection in loops without branches, which the
-          // compiler vectorises, then the tests one by one — the same arithmetic as the
-          // loop below (Eigen's 3×3 product r₀x + (r₁y + r₂z) per row, the squared norm
-          // x² + (y² + z²), ImgFromCam f·(x/z + 0) + c; test
-          // StreetTest.PinholeCullEqualsTheGenericModel), so the same points kept.
-          constexpr int kBlock = 64;
-          alignas(64) float bx[kBlock], by[kBlock], bz[kBlock], b2[kBlock];
-          alignas(64) double bu[kBlock], bv[kBlock];
-          const float m00 = rotation(0, 0), m01 = rotation(0, 1), m02 = rotation(0, 2);
-          const float m10 = rotation(1, 0), m11 = rotation(1, 1), m12 = rotation(1, 2);
-          const float m20 = rotation(2, 0), m21 = rotation(2, 1), m22 = rotation(2, 2);
-          const float t0 = translation.x(), t1 = translation.y(), t2 = translation.z();
-          const double* params = view.camera.params.data();
-          const double fx = params[0], fy = params[1], cx = params[2], cy = params[3];
-          const double width = view.camera.width, height = view.camera.height;
-          for (size_t block = begin; block < end; block += kBlock) {
-            const int n = static_cast<int>(std::min<size_t>(kBlock, end - block));
-            for (int j = 0; j < n; ++j) {
-              const size_t i = candidates != nullptr ? (*candidates)[block + j] : block + j;
-              const Eigen::Vector3f& q = all.points_in_lidar[i];
-              bx[j] = q.x();
-              by[j] = q.y();
-              bz[j] = q.z();
-            }
-            for (int j = 0; j < n; ++j) {
-              const float x = bx[j], y = by[j], z = bz[j];
-              const float px = m00 * x + (m01 * y + m02 * z) + t0;
-              const float py = m10 * x + (m11 * y + m12 * z) + t1;
-              const float pz = m20 * x + (m21 * y + m22 * z) + t2;
-              bz[j] = pz;
-              b2[j] = px * px + (py * py + pz * pz);
-              bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
-              bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
-            }
-            for (int j = 0; j < n; ++j) {
-              const size_t k = block + j;
-              if (keep[k]) continue;
-              const double range = std::sqrt(b2[j]);  // p.norm(): the float root
-              if (range > max_range) continue;
-              if (range < near_range) {
-                keep[k] = 1;
-                continue;
-              }
-              if (bz[j] <= 0.f) continue;
-              if (!(static_cast<double>(bz[j]) > std::numeric_limits<double>::epsilon())) continue;
-              const double margin =
-                  focal * (rot_margin + options.bound_translation_m / range) + 8.0;
-              if (bu[j] >= -margin && bv[j] >= -margin && bu[j] <= width + margin &&
-                  bv[j] <= height + margin) {
-                keep[k] = 1;
-              }
-            }
-          }
+          const PinholeCull test{rotation, translation, view.camera, focal, rot_margin,
+                                 options.bound_translation_m, max_range, near_range};
+          CullPinholeBlocks(test, all, candidates, begin, end, keep.data());
           continue;
         }
         for (size_t k = begin; k < end; ++k) {
@@ -405,10 +515,15 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
     } else {
       cull(0, tested);
     }
-    std::vector<size_t> kept;
-    for (size_t k = 0; k < tested; ++k) {
-      if (keep[k]) kept.push_back(candidates != nullptr ? (*candidates)[k] : k);
+    // The kept indices in order, without a branch per point (each written, then counted
+    // when kept; one slot more for the last write).
+    const size_t kept_count = tested - std::count(keep.begin(), keep.end(), 0);
+    std::vector<size_t> kept(kept_count + 1);
+    for (size_t k = 0, j = 0; k < tested; ++k) {
+      kept[j] = candidates != nullptr ? (*candidates)[k] : k;
+      j += keep[k] != 0;
     }
+    kept.resize(kept_count);
     // What the parts' evaluators (the halves) test instead of the whole cloud.
     if (parent == nullptr && all.size() < (size_t{1} << 32)) {
       kept_[f].assign(kept.begin(), kept.end());
@@ -426,6 +541,13 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
       const double stride = std::max(1.0, kept.size() / cap);
       std::vector<size_t> chosen;
       for (double k = 0; k < kept.size(); k += stride) chosen.push_back(kept[static_cast<size_t>(k)]);
+      // Their points and intensities in the subsample's order (read through the cloud once).
+      std::vector<Eigen::Vector3f> chosen_points(chosen.size());
+      std::vector<float> chosen_intensity(all.has_intensity() ? chosen.size() : 0);
+      for (size_t k = 0; k < chosen.size(); ++k) chosen_points[k] = all.points_in_lidar[chosen[k]];
+      for (size_t k = 0; k < chosen_intensity.size(); ++k) {
+        chosen_intensity[k] = all.intensity01[chosen[k]];
+      }
       // Render order: the points sorted by the pixel they fall on at the start pose (view,
       // row, column), so that a render writes the z-buffer almost sequentially instead of
       // scattering over the whole image in the cloud's order (measured: the z-buffer's cache
@@ -433,17 +555,17 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
       // in the even subsample as its rank (LidarPoints::tie_rank): equally near points
       // compete in that order, and what depends on a point order (SampleVisiblePoints) is
       // as it was — the same images and results as unsorted, bit for bit.
-      const std::vector<uint32_t> order = RenderOrder(all, chosen, pyramid_[level][f],
+      const std::vector<uint32_t> order = RenderOrder(chosen_points, pyramid_[level][f],
                                                       cam_from_lidar_start, options.render);
       LidarPoints subset;
-      subset.points_in_lidar.reserve(chosen.size());
-      if (all.has_intensity()) subset.intensity01.reserve(chosen.size());
+      subset.points_in_lidar.resize(chosen.size());
+      subset.intensity01.resize(chosen_intensity.size());
       subset.tie_rank = order;
       subset.index_of_rank.resize(order.size());
       for (size_t j = 0; j < order.size(); ++j) {
         const uint32_t k = order[j];
-        subset.points_in_lidar.push_back(all.points_in_lidar[chosen[k]]);
-        if (all.has_intensity()) subset.intensity01.push_back(all.intensity01[chosen[k]]);
+        subset.points_in_lidar[j] = chosen_points[k];
+        if (!chosen_intensity.empty()) subset.intensity01[j] = chosen_intensity[k];
         subset.index_of_rank[k] = static_cast<uint32_t>(j);
       }
       subsets[level] = std::move(subset);

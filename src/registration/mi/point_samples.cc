@@ -94,6 +94,112 @@ bool CpuHasAvx2() {
   return has;
 }
 
+// AccumulateWithModel for the pinhole camera when every point has one sample (per-point
+// sets, and per-pixel ones whose points each won a single pixel) and its LiDAR value is
+// fixed (intensity, points): the whole block's tests in one loop without branches, the
+// samples that pass packed into the batch without a branch, and the LiDAR bin weights of a
+// batch in one loop — the same values as the general loop's (the same projection,
+// comparisons and float operations; test
+// PointSamplesTest.PinholeBlocksAccumulateAsTheGenericModel), added in the same order.
+[[gnu::always_inline]] inline void AccumulatePinholeOnePerPoint(
+    const ViewSamples& samples, const View& view, const ViewTransform& t,
+    const RenderOptions& options, size_t point_begin, size_t point_end,
+    JointHistogram* histogram) {
+  const int width = static_cast<int>(view.camera.width);
+  const int height = static_cast<int>(view.camera.height);
+  const double* params = view.camera.params.data();
+  const float min_range2 = static_cast<float>(options.min_range_m * options.min_range_m);
+  const float max_range2 = static_cast<float>(options.max_range_m * options.max_range_m);
+  constexpr int kBatch = JointHistogram::kBatch;
+  constexpr int kBlock = 64;
+  static_assert(kBatch >= kBlock, "a block fits a batch");
+  alignas(64) int batch_bx[kBatch];
+  alignas(64) float batch_wx[4][kBatch];
+  alignas(64) float batch_photo[kBatch], batch_weight[kBatch], batch_value[kBatch];
+  alignas(64) float batch_x[kBatch], batch_y[kBatch];
+  int n = 0;
+  // The samples' weights are pixel counts (MakeViewSamples: integers below 2^16): a batch's
+  // sum in integers is exact, and so is the total in double — the total of the samples
+  // added one by one.
+  double count = 0;
+  // JointHistogram::LidarWeights with the bins held here (its last bin is that of value 1),
+  // the clamp as min/max (the same bin for every value that is not NaN), so that the batch's
+  // loop has no branch.
+  int last_bin = 0;
+  {
+    float unused[4];
+    histogram->LidarWeights(1.f, &last_bin, unused);
+  }
+  const float lidar_scale = static_cast<float>(last_bin);
+  const bool gather = CpuHasAvx2() && view.image.pixels.size() < (size_t{1} << 31);
+  auto flush = [&]() __attribute__((always_inline)) {
+    const int done = gather ? SampleClampedAvx2(view.image, batch_x, batch_y, n, batch_photo) : 0;
+    for (int k = done; k < n; ++k) batch_photo[k] = SampleClamped(view.image, batch_x[k], batch_y[k]);
+    for (int k = 0; k < n; ++k) {
+      const float pos = batch_value[k] * lidar_scale;
+      const int bx = static_cast<int>(std::min(std::max(pos, 0.f), lidar_scale));
+      float w[4];
+      JointHistogram::CubicBSplineWeights(pos - bx, w);
+      batch_bx[k] = bx;
+      for (int i = 0; i < 4; ++i) batch_wx[i][k] = w[i];
+    }
+    int pixels = 0;
+    for (int k = 0; k < n; ++k) pixels += static_cast<int>(batch_weight[k]);
+    count += pixels;
+    histogram->AddCoveredBatch(n, batch_bx, batch_wx, batch_photo, batch_weight);
+    n = 0;
+  };
+  alignas(64) float bz[kBlock], b2[kBlock], bsx[kBlock], bsy[kBlock];
+  alignas(64) double bu[kBlock], bv[kBlock];
+  alignas(64) int ok[kBlock];
+  const float m00 = t.rotation(0, 0), m01 = t.rotation(0, 1), m02 = t.rotation(0, 2);
+  const float m10 = t.rotation(1, 0), m11 = t.rotation(1, 1), m12 = t.rotation(1, 2);
+  const float m20 = t.rotation(2, 0), m21 = t.rotation(2, 1), m22 = t.rotation(2, 2);
+  const float t0 = t.translation.x(), t1 = t.translation.y(), t2 = t.translation.z();
+  const double fx = params[0], fy = params[1], cx = params[2], cy = params[3];
+  constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
+  const std::array<int8_t, 2>* offset = samples.sample_offset.data();
+  const float* value01 = samples.value01.data();
+  const float* weight = samples.sample_weight.data();
+  for (size_t begin = point_begin; begin < point_end; begin += kBlock) {
+    const int m = static_cast<int>(std::min<size_t>(kBlock, point_end - begin));
+    const float* xyz = samples.points_in_lidar[begin].data();
+    for (int j = 0; j < m; ++j) {
+      const float x = xyz[3 * j], y = xyz[3 * j + 1], z = xyz[3 * j + 2];
+      const float px = m00 * x + (m01 * y + m02 * z) + t0;
+      const float py = m10 * x + (m11 * y + m12 * z) + t1;
+      const float pz = m20 * x + (m21 * y + m22 * z) + t2;
+      bz[j] = pz;
+      b2[j] = px * px + (py * py + pz * pz);
+      bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
+      bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
+    }
+    for (int j = 0; j < m; ++j) {
+      // The general loop's tests: in front, within the ranges, projected inside the image;
+      // then the sample inside it.
+      const float range2 = b2[j];
+      const bool seen = (bz[j] > 0.f) & !(range2 < min_range2) & !(range2 > max_range2) &
+                        (static_cast<double>(bz[j]) > kEpsilon) & (bu[j] >= 0) & (bv[j] >= 0) &
+                        (bu[j] < width) & (bv[j] < height);
+      const float sx = static_cast<float>(bu[j]) + offset[begin + j][0];
+      const float sy = static_cast<float>(bv[j]) + offset[begin + j][1];
+      bsx[j] = sx;
+      bsy[j] = sy;
+      ok[j] = seen & (sx >= 0.f) & (sy >= 0.f) & (sx < width) & (sy < height);
+    }
+    if (n > kBatch - kBlock) flush();
+    for (int j = 0; j < m; ++j) {
+      batch_x[n] = bsx[j];
+      batch_y[n] = bsy[j];
+      batch_value[n] = value01[begin + j];
+      batch_weight[n] = weight[begin + j];
+      n += ok[j];
+    }
+  }
+  flush();
+  histogram->AddCoveredCount(count);
+}
+
 template <typename Model>
 [[gnu::always_inline]] inline void AccumulateWithModel(const ViewSamples& samples,
                                                        const View& view, const ViewTransform& t,
@@ -123,6 +229,12 @@ template <typename Model>
   // CPU has them; the photo's pixel count below 2^31 for the 32-bit gather indices); the
   // other models one sample at a time. The same values either way.
   constexpr bool kPinhole = std::is_same_v<Model, sensors::PinholeModel>;
+  if constexpr (kPinhole) {
+    if (!depth && samples.samples() == samples.points()) {
+      AccumulatePinholeOnePerPoint(samples, view, t, options, point_begin, point_end, histogram);
+      return;
+    }
+  }
   const bool gather = kPinhole && CpuHasAvx2() && view.image.pixels.size() < (size_t{1} << 31);
   auto flush = [&]() __attribute__((always_inline)) {
     if constexpr (kPinhole) {

@@ -191,37 +191,48 @@ TEST(Metric, ChunkedImageHistogramEqualsThePerSampleSums) {
   }
 }
 
-// The point samples' batches (AVX2 adds of four doubles where the CPU has them) against one
-// sample at a time: the same sums, bit for bit, with weights and many adds to the same bins.
+// The point samples' batches (photo bins clamped by min/max, AVX2 adds of four doubles where
+// the CPU has them) against one sample at a time (AddCoveredBins' comparisons): the same sums,
+// bit for bit, with weights, many adds to the same bins, photo values on the edges of the
+// range and of the bins, and coarser levels' bins.
 TEST(Metric, CoveredBatchEqualsOneSampleAtATime) {
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<float> u(0.f, 1.f);
-  MetricOptions options;  // B-spline, 64 bins, overlap: the point samples' histogram
-  JointHistogram batched(options), single(options);
-  constexpr int kBatch = JointHistogram::kBatch;
-  int bx[kBatch];
-  float wx[4][kBatch], photo[kBatch], weight[kBatch];
-  for (int round = 0; round < 7; ++round) {
-    const int count = round == 6 ? 37 : kBatch;  // a partial batch too
-    for (int k = 0; k < count; ++k) {
-      // Narrow bands (many adds to the same bins), the first round over the whole range.
-      const float lidar01 = round == 0 ? u(rng) : 0.3f + 0.05f * u(rng);
-      photo[k] = round == 0 ? 255.f * u(rng) : 120.f + 8.f * u(rng);
-      weight[k] = static_cast<float>(1 + static_cast<int>(4 * u(rng)));
-      float w[4];
-      batched.LidarWeights(lidar01, &bx[k], w);
-      for (int i = 0; i < 4; ++i) wx[i][k] = w[i];
-      single.AddCovered(bx[k], w, photo[k], weight[k]);
-      batched.AddCoveredCount(weight[k]);
+  for (int bins : {64, 16, 8}) {
+    SCOPED_TRACE("bins " + std::to_string(bins));
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> u(0.f, 1.f);
+    MetricOptions options;  // B-spline, overlap: the point samples' histogram
+    options.bins = bins;
+    JointHistogram batched(options), single(options);
+    constexpr int kBatch = JointHistogram::kBatch;
+    int bx[kBatch];
+    float wx[4][kBatch], photo[kBatch], weight[kBatch];
+    for (int round = 0; round < 8; ++round) {
+      const int count = round == 6 ? 37 : kBatch;  // a partial batch too
+      for (int k = 0; k < count; ++k) {
+        // Narrow bands (many adds to the same bins), the first round over the whole range,
+        // the last on the range's ends and the bins' edges.
+        const float lidar01 = round == 0 ? u(rng) : 0.3f + 0.05f * u(rng);
+        photo[k] = round == 0 ? 255.f * u(rng) : 120.f + 8.f * u(rng);
+        if (round == 7) {
+          const float edges[4] = {0.f, 255.f, 1e-3f, 254.999f};
+          photo[k] = k < 4 ? edges[k] : static_cast<float>(k % bins) * 255.f / (bins - 1);
+        }
+        weight[k] = static_cast<float>(1 + static_cast<int>(4 * u(rng)));
+        float w[4];
+        batched.LidarWeights(lidar01, &bx[k], w);
+        for (int i = 0; i < 4; ++i) wx[i][k] = w[i];
+        single.AddCovered(bx[k], w, photo[k], weight[k]);
+        batched.AddCoveredCount(weight[k]);
+      }
+      batched.AddCoveredBatch(count, bx, wx, photo, weight);
     }
-    batched.AddCoveredBatch(count, bx, wx, photo, weight);
+    const MetricValue a = batched.Evaluate(), b = single.Evaluate();
+    EXPECT_GT(a.samples, 1000);
+    EXPECT_EQ(a.samples, b.samples);
+    EXPECT_EQ(a.mi, b.mi);
+    EXPECT_EQ(a.nmi, b.nmi);
+    EXPECT_EQ(a.joint_entropy, b.joint_entropy);
   }
-  const MetricValue a = batched.Evaluate(), b = single.Evaluate();
-  EXPECT_GT(a.samples, 1000);
-  EXPECT_EQ(a.samples, b.samples);
-  EXPECT_EQ(a.mi, b.mi);
-  EXPECT_EQ(a.nmi, b.nmi);
-  EXPECT_EQ(a.joint_entropy, b.joint_entropy);
 }
 
 // The histogram read straight from the z-buffer (the evaluator's path) against the rendered

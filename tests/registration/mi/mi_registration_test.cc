@@ -235,9 +235,10 @@ TEST_F(StreetTest, EvaluatorIsTheSameOnOneAndTwoThreadsAndForPartsOfItsParent) {
   }
 }
 
-// The cull of a pinhole view tests its points in blocks (lidar_image.cc's projection blocks);
-// the same camera as OPENCV without distortion takes the general path. The same points must
-// be kept (and so the same even subsamples and images): equal metrics at every level.
+// The cull of a pinhole view tests its points in blocks (lidar_image.cc's projection blocks,
+// the tests in one loop without branches), and so are the keys of the render order; the same
+// camera as OPENCV without distortion takes the general path. The same points must be kept
+// (and so the same even subsamples and images): equal metrics at every level.
 TEST_F(StreetTest, PinholeCullEqualsTheGenericModel) {
   ASSERT_EQ(camera_.model_id, sensors::CameraModelId::kPinhole);
   sensors::Camera opencv = camera_;

@@ -81,9 +81,12 @@ TEST_F(PointSamplesTest, PerPointSamplesKeepThePixelWeightsAndThePeak) {
 }
 
 // The pinhole camera's samples are projected in blocks and their photo values gathered eight
-// at a time (AVX2 where the CPU has it); every other model one point at a time. The same
-// camera as OPENCV without distortion takes the general path: the same histogram, bit for
-// bit, for per-pixel and per-point samples, intensity and depth, at the reference and away.
+// at a time (AVX2 where the CPU has it); with one sample per point and a fixed LiDAR value
+// (intensity, points) the block's tests and the LiDAR bin weights without branches; every
+// other model one point at a time. The same camera as OPENCV without distortion takes the
+// general path: the same histogram, bit for bit, for per-pixel and per-point samples, each
+// representation, the coarser levels' bins, at the reference and away, and for the two parts
+// of the points that an evaluation on two threads fills.
 TEST_F(PointSamplesTest, PinholeBlocksAccumulateAsTheGenericModel) {
   ASSERT_EQ(camera_.model_id, sensors::CameraModelId::kPinhole);
   sensors::Camera opencv = camera_;
@@ -93,29 +96,49 @@ TEST_F(PointSamplesTest, PinholeBlocksAccumulateAsTheGenericModel) {
   const GrayImage photo = frame_.views[0].image;
   const View pinhole_view = MakeViews(photo, camera_, ViewOptions(), "pinhole")[0];
   const View opencv_view = MakeViews(photo, opencv, ViewOptions(), "opencv")[0];
-  for (Representation representation : {Representation::kIntensity, Representation::kDepth}) {
+  for (Representation representation :
+       {Representation::kIntensity, Representation::kPoints, Representation::kDepth}) {
     RenderOptions render;
     render.representation = representation;
     LidarImage rendered;
     RenderLidarImage(points_, pinhole_view, truth_, render, &rendered);
     for (bool per_point : {false, true}) {
-      SCOPED_TRACE(std::string(RepresentationName(representation)) +
-                   (per_point ? ", per point" : ", per pixel"));
       const ViewSamples samples = MakeViewSamples(points_, rendered, render, per_point);
       ASSERT_GT(samples.points(), 2000u);  // many batches, and a partial last block
-      for (double scale : {0.0, 0.5, 3.0}) {
-        Vector6d offset;
-        offset << 0.02, -0.03, 0.01, 0.1, -0.2, 0.15;
-        const Rigid3d pose = ApplyCorrection(truth_, scale * offset);
-        MetricOptions metric;
-        JointHistogram a(metric), b(metric);
-        AccumulateViewSamples(samples, pinhole_view, pose, render, 0, samples.points(), &a);
-        AccumulateViewSamples(samples, opencv_view, pose, render, 0, samples.points(), &b);
-        const MetricValue va = a.Evaluate(), vb = b.Evaluate();
-        EXPECT_GT(va.samples, 1000) << "offset x " << scale;
-        EXPECT_EQ(va.samples, vb.samples) << "offset x " << scale;
-        EXPECT_EQ(va.mi, vb.mi) << "offset x " << scale;
-        EXPECT_EQ(va.joint_entropy, vb.joint_entropy) << "offset x " << scale;
+      for (int bins : {64, 16}) {
+        SCOPED_TRACE(std::string(RepresentationName(representation)) +
+                     (per_point ? ", per point" : ", per pixel") + ", bins " +
+                     std::to_string(bins));
+        for (double scale : {0.0, 0.5, 3.0}) {
+          Vector6d offset;
+          offset << 0.02, -0.03, 0.01, 0.1, -0.2, 0.15;
+          const Rigid3d pose = ApplyCorrection(truth_, scale * offset);
+          MetricOptions metric;
+          metric.bins = bins;
+          JointHistogram a(metric), b(metric), first(metric), second(metric);
+          AccumulateViewSamples(samples, pinhole_view, pose, render, 0, samples.points(), &a);
+          AccumulateViewSamples(samples, opencv_view, pose, render, 0, samples.points(), &b);
+          // The two parts of an evaluation on two threads (a split inside a block).
+          const size_t half = samples.points() / 2 + 13;
+          AccumulateViewSamples(samples, pinhole_view, pose, render, 0, half, &first);
+          AccumulateViewSamples(samples, pinhole_view, pose, render, half, samples.points(),
+                                &second);
+          JointHistogram generic_first(metric), generic_second(metric);
+          AccumulateViewSamples(samples, opencv_view, pose, render, 0, half, &generic_first);
+          AccumulateViewSamples(samples, opencv_view, pose, render, half, samples.points(),
+                                &generic_second);
+          first.Merge(second);
+          generic_first.Merge(generic_second);
+          const MetricValue va = a.Evaluate(), vb = b.Evaluate();
+          const MetricValue parts = first.Evaluate(), generic_parts = generic_first.Evaluate();
+          EXPECT_GT(va.samples, 1000) << "offset x " << scale;
+          EXPECT_EQ(va.samples, vb.samples) << "offset x " << scale;
+          EXPECT_EQ(va.mi, vb.mi) << "offset x " << scale;
+          EXPECT_EQ(va.joint_entropy, vb.joint_entropy) << "offset x " << scale;
+          EXPECT_EQ(parts.samples, va.samples) << "offset x " << scale;
+          EXPECT_EQ(parts.mi, generic_parts.mi) << "offset x " << scale;
+          EXPECT_EQ(parts.joint_entropy, generic_parts.joint_entropy) << "offset x " << scale;
+        }
       }
     }
   }
