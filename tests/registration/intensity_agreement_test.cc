@@ -90,5 +90,45 @@ TEST(IntensityAgreement, RightPoseAgreesShiftedPoseDoesNot) {
   EXPECT_FALSE(internal::IntensityAgreement(source, plain, fine, 1.0).available());
 }
 
+// Blocks of a pose whose brightness ranks follow y = slope·x + noise over `blocks` blocks.
+internal::IntensityBlocks Blocks(double slope, double noise, int blocks, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> n(0.0, noise);
+  internal::IntensityBlocks out;
+  for (int b = 0; b < blocks; ++b) {
+    out.keys.push_back(b);
+    internal::IntensityBlocks::Moments m;
+    for (int i = 0; i < 40; ++i) {
+      const double x = u(rng), y = slope * x + n(rng);
+      m.n += 1;
+      m.sx += x;
+      m.sy += y;
+      m.sxx += x * x;
+      m.syy += y * y;
+      m.sxy += x * y;
+    }
+    out.moments.push_back(m);
+  }
+  return out;
+}
+
+TEST(IntensityAgreement, BrightnessSettlesATieOnlyForTheBetterPose) {
+  // Two poses the geometry cannot tell apart (t 0.4); the brightness agrees on the first only.
+  const internal::IntensityBlocks textured = Blocks(1.0, 0.1, 30, 1);
+  const internal::IntensityBlocks unrelated = Blocks(0.0, 0.3, 30, 2);
+  const double ti = internal::IntensityAgreement::Significance(textured, unrelated);
+  EXPECT_GT(ti, 5.0);
+  EXPECT_GE(internal::CombinedSignificance(0.4, ti), 3.0);  // settled
+  // The reverse comparison gives no support; the geometric t stands.
+  EXPECT_DOUBLE_EQ(internal::CombinedSignificance(0.4, -ti), 0.4);
+  // Both textured alike: the tie stays.
+  const double alike = internal::IntensityAgreement::Significance(textured, Blocks(1.0, 0.1, 30, 3));
+  EXPECT_LT(internal::CombinedSignificance(0.4, alike), 2.0);
+  // A pose the geometry resolved (t 6) is not unsettled by a brightness against it.
+  EXPECT_DOUBLE_EQ(internal::CombinedSignificance(6.0, -20.0), 6.0);
+  EXPECT_DOUBLE_EQ(internal::CombinedSignificance(1.0, 3.0), 4.0 / std::sqrt(2.0));
+}
+
 }  // namespace
 }  // namespace mmba::registration

@@ -65,7 +65,8 @@ class IntensityAgreement {
                           const std::vector<bool>& inlier) const;
 
   /// Paired t statistic of |r_a| − |r_b| (positive: a agrees better), jackknifed over the
-  /// union of the two poses' blocks; 0 with fewer than 3 blocks or a zero standard error.
+  /// union of the two poses' blocks and mapped to its normal equivalent (K − 1 degrees of
+  /// freedom for K blocks); 0 with fewer than 3 blocks or a zero standard error.
   static double Significance(const IntensityBlocks& a, const IntensityBlocks& b);
 
  private:
@@ -76,5 +77,11 @@ class IntensityAgreement {
   std::unique_ptr<PointIndex> tgt_index_;
   double block_ = 1.0;
 };
+
+/// The geometric t joined by the intensity t: Stouffer's (t_g + t_i)/√2 of two independent z
+/// statistics (Stouffer et al. 1949), used only where it exceeds t_g (the brightness can settle
+/// a geometric tie in favour of the geometric best, never unsettle a pose the geometry
+/// resolved).
+double CombinedSignificance(double t_geometric, double t_intensity);
 
 }  // namespace mmba::registration::internal

@@ -134,8 +134,9 @@ struct CloudRegistrationOptions {
   int num_period_shifts = 4;
   /// Intensity test: when the ambiguity test leaves a tie and both clouds carry a brightness
   /// (intensity, else colour), the rank correlation of source and target brightness over each
-  /// finalist's inliers joins the geometric t (internal/intensity_test.h); it may settle the
-  /// tie or pick a geometric runner-up, never unsettle a pose the geometry resolved.
+  /// finalist's inliers joins the geometric t (src/registration/cloud/intensity_test.h): it
+  /// may settle the tie in favour of the geometric best, never unsettle a pose the geometry
+  /// resolved, never pick another pose.
   bool intensity_test = true;
   /// Pose resolution test: a displacement of the chosen pose counts as told apart when it
   /// scores worse by at least this many standard errors (paired block t) (> 0).
@@ -216,7 +217,6 @@ struct CloudRegistrationResult {
   double significance = 0.0;      ///< best vs the least distinguishable distinct finalist, in
                                   ///< standard errors (inf: no distinct finalist)
   double confidence = 0.0;        ///< 0..1: 1 − runner-up score / best score, times fitness checks
-                                  ///< (0 when the intensity test chose a lower-scoring pose)
   /// The intensity test ran (a geometric tie, both clouds with a brightness); `significance`
   /// then includes it.
   bool intensity_tested = false;
