@@ -1126,14 +1126,7 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
   return std::numeric_limits<double>::infinity();
 }
 
-std::vector<size_t> StrideSample(size_t n, size_t max_count) {
-  std::vector<size_t> out;
-  const double step = n > max_count ? static_cast<double>(n) / max_count : 1.0;
-  for (double x = 0; x < n && out.size() < max_count; x += step) {
-    out.push_back(static_cast<size_t>(x));
-  }
-  return out;
-}
+using internal::StrideSample;
 
 template <typename T>
 std::vector<T> Pick(const std::vector<T>& v, const std::vector<size_t>& idx) {

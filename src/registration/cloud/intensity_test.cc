@@ -35,15 +35,6 @@ Moments Total(const IntensityBlocks& b) {
   return t;
 }
 
-std::vector<size_t> Stride(size_t n, size_t max_count) {
-  std::vector<size_t> out;
-  const double step = n > max_count ? static_cast<double>(n) / max_count : 1.0;
-  for (double x = 0; x < n && out.size() < max_count; x += step) {
-    out.push_back(static_cast<size_t>(x));
-  }
-  return out;
-}
-
 // Block key of a source point (blocks of `block` metres; 21 bits per axis).
 int64_t BlockKey(const Eigen::Vector3d& p, double block) {
   auto c = [block](double v) {
@@ -98,7 +89,7 @@ IntensityAgreement::IntensityAgreement(const io::PointCloud& source,
   const std::vector<float> tgt_rank = BrightnessRanks(target);
   if (src_rank.empty() || tgt_rank.empty() || fine_src.empty()) return;
   // The source's brightness at each fine point: that of its nearest source point.
-  const std::vector<size_t> src_pick = Stride(source.size(), max_points);
+  const std::vector<size_t> src_pick = StrideSample(source.size(), max_points);
   std::vector<Eigen::Vector3d> src_points;
   src_points.reserve(src_pick.size());
   for (size_t i : src_pick) src_points.push_back(source.points[i]);
@@ -110,7 +101,7 @@ IntensityAgreement::IntensityAgreement(const io::PointCloud& source,
     if (!src_index.Nearest(fine_src[i], &k, &d2) || k < 0) return;
     fine_src_rank_[i] = src_rank[src_pick[static_cast<size_t>(k)]];
   }
-  const std::vector<size_t> tgt_pick = Stride(target.size(), max_points);
+  const std::vector<size_t> tgt_pick = StrideSample(target.size(), max_points);
   std::vector<Eigen::Vector3d> tgt_points;
   tgt_points.reserve(tgt_pick.size());
   tgt_rank_.reserve(tgt_pick.size());

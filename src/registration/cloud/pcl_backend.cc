@@ -20,6 +20,15 @@
 #include <pcl/point_types.h>
 
 namespace mmba::registration::internal {
+
+std::vector<size_t> StrideSample(size_t n, size_t max_count) {
+  std::vector<size_t> out;
+  const double step = n > max_count ? static_cast<double>(n) / max_count : 1.0;
+  for (double x = 0; x < n && out.size() < max_count; x += step) {
+    out.push_back(static_cast<size_t>(x));
+  }
+  return out;
+}
 namespace {
 
 constexpr int kThreads = 2;

@@ -12,6 +12,10 @@
 
 namespace mmba::registration::internal {
 
+/// Indices of at most `max_count` of `n` items at an even stride (a deterministic subsample,
+/// e.g. of the points an index is built over).
+std::vector<size_t> StrideSample(size_t n, size_t max_count);
+
 /// Exact kd-tree over 3-D points (nanoflann; float coordinates relative to io::LocalOrigin,
 /// so that clouds in map-grid coordinates keep ~0.1 mm).
 class PointIndex {
