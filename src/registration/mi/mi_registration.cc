@@ -773,16 +773,22 @@ double FrameSetEvaluator::EffectiveSamples(const Rigid3d& cam_from_lidar, int le
       ParallelFor(static_cast<int>(lags.size()), CoreFreeForSplit() ? options_.threads : 1,
                   [&](int l) {
         const auto [dy, dx] = lags[l];
+        // Without a branch per pixel: a partner that is not on has zero gradients, so its
+        // term is ±0 and leaves the sums as they are (they start at +0 and never become −0),
+        // and it counts 0 pairs; the columns whose partner is outside the row are cut off by
+        // a search in the row's sorted on-columns. The same sums as adding the on pairs only.
         double pairs = 0, cl = 0, cp = 0;
+        const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
         for (int y = 0; y + dy < h; ++y) {
-          const int x0 = std::max(0, -dx), x1 = std::min(w, w - dx);
           const size_t row = static_cast<size_t>(y) * w, row2 = static_cast<size_t>(y + dy) * w;
-          for (size_t j = row_begin[y]; j < row_begin[y + 1]; ++j) {
-            const int x = on_columns[j];
-            if (x < x0 || x >= x1) continue;
+          const int* first = on_columns.data() + row_begin[y];
+          const int* last = on_columns.data() + row_begin[y + 1];
+          const int* begin = std::lower_bound(first, last, x0);
+          const int* end = std::lower_bound(begin, last, x1);
+          for (const int* column = begin; column < end; ++column) {
+            const int x = *column;
             const size_t a = row + x, b = row2 + x + dx;
-            if (!on[b]) continue;
-            pairs += 1;
+            pairs += static_cast<double>(on[b]);
             cl += lx[a] * lx[b] + ly[a] * ly[b];
             cp += px[a] * px[b] + py[a] * py[b];
           }

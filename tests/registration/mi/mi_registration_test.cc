@@ -235,6 +235,85 @@ TEST_F(StreetTest, EvaluatorIsTheSameOnOneAndTwoThreadsAndForPartsOfItsParent) {
   }
 }
 
+// N_eff (Bartlett's sum over the lags of the gradient fields' correlations) as it was first
+// written: each lag over every on pixel, a pair only where the partner is on too.
+double BartlettEffectiveSamples(const LidarImage& buffer, const GrayImage& image, int max_lag,
+                                double* inflation) {
+  const int w = buffer.width, h = buffer.height;
+  const size_t pixels = buffer.value.size();
+  auto covered = [&](size_t k) { return buffer.point_index[k] >= 0; };
+  std::vector<float> lx(pixels, 0.f), ly(pixels, 0.f), px(pixels, 0.f), py(pixels, 0.f);
+  std::vector<char> on(pixels, 0);
+  double n = 0, ll = 0, pp = 0;
+  for (int y = 1; y + 1 < h; ++y) {
+    for (int x = 1; x + 1 < w; ++x) {
+      const size_t k = static_cast<size_t>(y) * w + x;
+      if (!covered(k) || !covered(k - 1) || !covered(k + 1) || !covered(k - w) ||
+          !covered(k + w)) {
+        continue;
+      }
+      on[k] = 1;
+      lx[k] = buffer.value[k + 1] - buffer.value[k - 1];
+      ly[k] = buffer.value[k + w] - buffer.value[k - w];
+      px[k] = image.pixels[k + 1] - image.pixels[k - 1];
+      py[k] = image.pixels[k + w] - image.pixels[k - w];
+      n += 1;
+      ll += lx[k] * lx[k] + ly[k] * ly[k];
+      pp += px[k] * px[k] + py[k] * py[k];
+    }
+  }
+  double factor = 1.0;
+  for (int dy = 0; dy <= max_lag; ++dy) {
+    for (int dx = -max_lag; dx <= max_lag; ++dx) {
+      if (dy == 0 && dx <= 0) continue;
+      double pairs = 0, cl = 0, cp = 0;
+      for (int y = 0; y + dy < h; ++y) {
+        for (int x = std::max(0, -dx); x < std::min(w, w - dx); ++x) {
+          const size_t a = static_cast<size_t>(y) * w + x;
+          const size_t b = static_cast<size_t>(y + dy) * w + x + dx;
+          if (!on[a] || !on[b]) continue;
+          pairs += 1;
+          cl += lx[a] * lx[b] + ly[a] * ly[b];
+          cp += px[a] * px[b] + py[a] * py[b];
+        }
+      }
+      if (pairs >= 16) factor += 2.0 * (cl / pairs) / (ll / n) * (cp / pairs) / (pp / n);
+    }
+  }
+  factor = std::max(1.0, factor);
+  const double covered_pixels = static_cast<double>(buffer.covered_pixels);
+  *inflation = covered_pixels / (covered_pixels / factor);
+  return covered_pixels / factor;
+}
+
+// The evaluator's N_eff (the lags without a branch per pixel, shared out over the threads)
+// equals the sum written pair by pair, bit for bit. A cloud sparse enough that the evaluator
+// renders every point it kept, so that its image is the whole cloud's.
+TEST_F(StreetTest, EffectiveSamplesEqualTheSumOverTheOnPairs) {
+  const LidarPoints sparse = PrepareLidarPoints(StreetCloud(0.15));
+  const Frame frame = MakeFrame(photo_, &sparse);
+  ASSERT_LT(sparse.size(), 0.75 * camera_.width * camera_.height);  // no subsample
+  for (int threads : {1, 2}) {
+    RegistrationOptions options = Options();
+    options.threads = threads;
+    const FrameSetEvaluator evaluator({frame}, truth_, options);
+    for (const Rigid3d& pose : {truth_, ApplyCorrection(truth_, Vector6d::Constant(0.05))}) {
+      LidarImage buffer;
+      RenderLidarImage(sparse, frame.views[0], pose, options.render, &buffer);
+      ASSERT_EQ(evaluator.VisiblePoints(pose, 0), CountVisiblePoints(buffer));
+      for (int max_lag : {8, 3}) {
+        double inflation = 0, reference_inflation = 0;
+        const double n_eff = evaluator.EffectiveSamples(pose, 0, max_lag, &inflation);
+        const double reference =
+            BartlettEffectiveSamples(buffer, frame.views[0].image, max_lag, &reference_inflation);
+        EXPECT_GT(reference_inflation, 1.5) << "max lag " << max_lag;  // the lags count
+        EXPECT_EQ(n_eff, reference) << threads << " threads, max lag " << max_lag;
+        EXPECT_EQ(inflation, reference_inflation) << threads << " threads, max lag " << max_lag;
+      }
+    }
+  }
+}
+
 // The cull of a pinhole view tests its points in blocks (lidar_image.cc's projection blocks,
 // the tests in one loop without branches), and so are the keys of the render order; the same
 // camera as OPENCV without distortion takes the general path. The same points must be kept
