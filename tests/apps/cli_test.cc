@@ -152,6 +152,25 @@ TEST_F(CliTest, RegisterCloudScaleRange) {
   EXPECT_EQ(j["trials"].size(), 3u);  // 4, 4.2, 4.41
 }
 
+// register-cloud's intensity test fields: PCL's bunnies carry no brightness, so the test
+// cannot run (false / null), with or without --no-intensity, and the registration is ok.
+TEST_F(CliTest, RegisterCloudReportsTheIntensityTest) {
+  const std::string pair = "register-cloud --source " + kSource +
+                           "/data/pointclouds/pcl_test/bun0.pcd --target " + kSource +
+                           "/data/pointclouds/pcl_test/bun4.pcd -q --output ";
+  for (const std::string flag : {"", " --no-intensity"}) {
+    const RunResult run = Mmba(pair + Tmp("out.json") + flag);
+    ASSERT_EQ(run.exit_code, 0) << run.output;
+    std::ifstream in(Tmp("out.json"));
+    const nlohmann::json j = nlohmann::json::parse(in);
+    EXPECT_EQ(j["intensity_tested"], false);
+    EXPECT_TRUE(j["intensity_correlation"].is_null());
+    EXPECT_TRUE(j["intensity_significance"].is_null());
+    ASSERT_FALSE(j["hypotheses"].empty());
+    EXPECT_TRUE(j["hypotheses"][0]["intensity_correlation"].is_null());
+  }
+}
+
 // register-mi with the cloud and the camera pose in map-grid coordinates (a georeferenced
 // mobile-mapping cloud in UTM): the renderer's floats resolve 0.5 m there, so the command
 // registers relative to the cloud's centroid rounded to whole km. The KITTI frame moved by a
