@@ -194,6 +194,7 @@ SceneEvaluation EvaluateScene(const std::string& dir, const SceneEvalOptions& op
       row.sigma_rms_m = r.sigma_rms_m;
       row.violation = r.violation;
       row.visibility = r.visibility_tested;
+      row.intensity_correlation = r.intensity_tested ? r.intensity_correlation : -1.0;
       row.success = row.rms_m < eval.success_threshold_m;
       row.accurate = row.rms_m < options.accurate_m;
       spdlog::info("{} {} → {} [{}]: {} RMS {:.4g} m, {:.2f} s", experiment, source, target,
@@ -230,7 +231,7 @@ void WriteSceneEvaluation(const SceneEvaluation& eval, const std::string& out_di
   AtomicFileSet files;
   files.Add(fs::path(out_dir) / "results.csv", [&](std::ostream& out) {
     out << "experiment,source,target,method,status,rms_m,success,accurate,runtime_s,fitness,"
-           "confidence,resolution_m,sigma_rms_m,visibility,violation,reason\n";
+           "confidence,resolution_m,sigma_rms_m,visibility,violation,intensity_correlation,reason\n";
     out << std::setprecision(6);
     for (const EvalRow& r : eval.rows) {
       std::string reason = r.reason;
@@ -240,7 +241,10 @@ void WriteSceneEvaluation(const SceneEvaluation& eval, const std::string& out_di
           << (r.accurate ? 1 : 0) << ',' << r.runtime_s << ',' << r.fitness << ','
           << r.confidence << ',' << r.resolution_m << ',' << r.sigma_rms_m << ','
           << (r.visibility ? 1 : 0) << ','
-          << r.violation << ",\"" << reason << "\"\n";
+          << r.violation << ',';
+      // empty when the intensity test did not run
+      if (r.intensity_correlation >= 0) out << r.intensity_correlation;
+      out << ",\"" << reason << "\"\n";
     }
   });
   files.Add(fs::path(out_dir) / "tables.md", [&](std::ostream& out) {

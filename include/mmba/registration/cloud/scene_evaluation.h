@@ -50,6 +50,9 @@ struct EvalRow {
   double sigma_rms_m = 0.0;   ///< CloudRegistrationResult::sigma_rms_m (inf: a motion is free)
   double violation = 0.0;     ///< CloudRegistrationResult::violation (free-space test)
   bool visibility = false;    ///< the free-space test was done (sensor positions known)
+  /// CloudRegistrationResult::intensity_correlation when the intensity test ran (a geometric
+  /// tie, both clouds with a brightness), else −1
+  double intensity_correlation = -1.0;
   bool success = false;    ///< rms < success threshold (status may still be "failed")
   bool accurate = false;   ///< rms < accurate_m
 };
