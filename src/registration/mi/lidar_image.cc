@@ -10,6 +10,7 @@
 #include <glog/logging.h>
 
 #include "mmba/core/error.h"
+#include "registration/mi/pinhole_block.h"
 
 namespace mmba::registration::mi {
 
@@ -236,25 +237,12 @@ template <typename Model>
     constexpr int kBlock = 64;
     alignas(64) float bz[kBlock], b2[kBlock];
     alignas(64) double bu[kBlock], bv[kBlock];
-    const float m00 = rotation(0, 0), m01 = rotation(0, 1), m02 = rotation(0, 2);
-    const float m10 = rotation(1, 0), m11 = rotation(1, 1), m12 = rotation(1, 2);
-    const float m20 = rotation(2, 0), m21 = rotation(2, 1), m22 = rotation(2, 2);
-    const float t0 = translation.x(), t1 = translation.y(), t2 = translation.z();
-    const double fx = params[0], fy = params[1], cx = params[2], cy = params[3];
+    const internal::PinholeBlockProjection projection(rotation, translation, params);
     for (size_t begin = point_begin; begin < point_end; begin += kBlock) {
       const int n = static_cast<int>(std::min<size_t>(kBlock, point_end - begin));
       static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "packed points");
       const float* xyz = points.points_in_lidar[begin].data();
-      for (int j = 0; j < n; ++j) {
-        const float x = xyz[3 * j], y = xyz[3 * j + 1], z = xyz[3 * j + 2];
-        const float px = m00 * x + (m01 * y + m02 * z) + t0;
-        const float py = m10 * x + (m11 * y + m12 * z) + t1;
-        const float pz = m20 * x + (m21 * y + m22 * z) + t2;
-        bz[j] = pz;
-        b2[j] = px * px + (py * py + pz * pz);
-        bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
-        bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
-      }
+      projection.Project<3>(xyz, xyz + 1, xyz + 2, n, bz, b2, bu, bv);
       for (int j = 0; j < n; ++j) {
         if (!(bz[j] > 0.f)) continue;
         const float range2 = b2[j];

@@ -19,6 +19,7 @@
 
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
+#include "registration/mi/pinhole_block.h"
 
 namespace mmba::registration::mi {
 namespace {
@@ -231,14 +232,10 @@ __attribute__((target_clones("avx2", "default"))) void PinholeKeys(
     const Eigen::Vector3f& translation, const sensors::Camera& camera, double min_range2,
     double max_range2, uint64_t view_bits, uint64_t* key) {
   constexpr int kBlock = 64;
-  alignas(64) float bx[kBlock], by[kBlock], bz[kBlock], b2[kBlock];
+  alignas(64) float bx[kBlock], by[kBlock], gz[kBlock], bz[kBlock], b2[kBlock];
   alignas(64) double bu[kBlock], bv[kBlock];
-  const float m00 = rotation(0, 0), m01 = rotation(0, 1), m02 = rotation(0, 2);
-  const float m10 = rotation(1, 0), m11 = rotation(1, 1), m12 = rotation(1, 2);
-  const float m20 = rotation(2, 0), m21 = rotation(2, 1), m22 = rotation(2, 2);
-  const float t0 = translation.x(), t1 = translation.y(), t2 = translation.z();
-  const double* params = camera.params.data();
-  const double fx = params[0], fy = params[1], cx = params[2], cy = params[3];
+  const internal::PinholeBlockProjection projection(rotation, translation,
+                                                   camera.params.data());
   const double width = camera.width, height = camera.height;
   constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
   for (size_t block = 0; block < points.size(); block += kBlock) {
@@ -247,18 +244,9 @@ __attribute__((target_clones("avx2", "default"))) void PinholeKeys(
       const Eigen::Vector3f& q = points[block + j];
       bx[j] = q.x();
       by[j] = q.y();
-      bz[j] = q.z();
+      gz[j] = q.z();
     }
-    for (int j = 0; j < n; ++j) {
-      const float x = bx[j], y = by[j], z = bz[j];
-      const float px = m00 * x + (m01 * y + m02 * z) + t0;
-      const float py = m10 * x + (m11 * y + m12 * z) + t1;
-      const float pz = m20 * x + (m21 * y + m22 * z) + t2;
-      bz[j] = pz;
-      b2[j] = px * px + (py * py + pz * pz);
-      bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
-      bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
-    }
+    projection.Project<1>(bx, by, gz, n, bz, b2, bu, bv);
     for (int j = 0; j < n; ++j) {
       uint64_t& k = key[block + j];
       if (k != kNowhere || !(bz[j] > 0.f)) continue;
@@ -369,16 +357,12 @@ __attribute__((target_clones("avx2", "default"))) void CullPinholeBlocks(
     const PinholeCull& cull, const LidarPoints& all, const std::vector<uint32_t>* candidates,
     size_t begin, size_t end, char* keep) {
   constexpr int kBlock = 64;
-  alignas(64) float bx[kBlock], by[kBlock], bz[kBlock], b2[kBlock];
+  alignas(64) float bx[kBlock], by[kBlock], gz[kBlock], bz[kBlock], b2[kBlock];
   alignas(64) float br[kBlock];
   alignas(64) double bu[kBlock], bv[kBlock];
   alignas(64) char flag[kBlock];
-  const float m00 = cull.rotation(0, 0), m01 = cull.rotation(0, 1), m02 = cull.rotation(0, 2);
-  const float m10 = cull.rotation(1, 0), m11 = cull.rotation(1, 1), m12 = cull.rotation(1, 2);
-  const float m20 = cull.rotation(2, 0), m21 = cull.rotation(2, 1), m22 = cull.rotation(2, 2);
-  const float t0 = cull.translation.x(), t1 = cull.translation.y(), t2 = cull.translation.z();
-  const double* params = cull.camera.params.data();
-  const double fx = params[0], fy = params[1], cx = params[2], cy = params[3];
+  const internal::PinholeBlockProjection projection(cull.rotation, cull.translation,
+                                                   cull.camera.params.data());
   const double width = cull.camera.width, height = cull.camera.height;
   const double focal = cull.focal, rot_margin = cull.rot_margin;
   const double bound_m = cull.bound_translation_m;
@@ -392,18 +376,9 @@ __attribute__((target_clones("avx2", "default"))) void CullPinholeBlocks(
       const Eigen::Vector3f& q = points[index != nullptr ? index[block + j] : block + j];
       bx[j] = q.x();
       by[j] = q.y();
-      bz[j] = q.z();
+      gz[j] = q.z();
     }
-    for (int j = 0; j < n; ++j) {
-      const float x = bx[j], y = by[j], z = bz[j];
-      const float px = m00 * x + (m01 * y + m02 * z) + t0;
-      const float py = m10 * x + (m11 * y + m12 * z) + t1;
-      const float pz = m20 * x + (m21 * y + m22 * z) + t2;
-      bz[j] = pz;
-      b2[j] = px * px + (py * py + pz * pz);
-      bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
-      bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
-    }
+    projection.Project<1>(bx, by, gz, n, bz, b2, bu, bv);
     // p.norm(): the float root (SSE's, correctly rounded as std::sqrt; without errno, so the
     // loop below has no branch), four at a time over the block (the tail set to 0).
     for (int j = n; j < kBlock; ++j) b2[j] = 0.f;

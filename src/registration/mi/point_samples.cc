@@ -10,6 +10,7 @@
 #include <glog/logging.h>
 
 #include "mmba/registration/mi/image.h"
+#include "registration/mi/pinhole_block.h"
 
 namespace mmba::registration::mi {
 namespace {
@@ -152,11 +153,7 @@ bool CpuHasAvx2() {
   alignas(64) float bz[kBlock], b2[kBlock], bsx[kBlock], bsy[kBlock];
   alignas(64) double bu[kBlock], bv[kBlock];
   alignas(64) int ok[kBlock];
-  const float m00 = t.rotation(0, 0), m01 = t.rotation(0, 1), m02 = t.rotation(0, 2);
-  const float m10 = t.rotation(1, 0), m11 = t.rotation(1, 1), m12 = t.rotation(1, 2);
-  const float m20 = t.rotation(2, 0), m21 = t.rotation(2, 1), m22 = t.rotation(2, 2);
-  const float t0 = t.translation.x(), t1 = t.translation.y(), t2 = t.translation.z();
-  const double fx = params[0], fy = params[1], cx = params[2], cy = params[3];
+  const internal::PinholeBlockProjection projection(t.rotation, t.translation, params);
   constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
   const std::array<int8_t, 2>* offset = samples.sample_offset.data();
   const float* value01 = samples.value01.data();
@@ -164,16 +161,7 @@ bool CpuHasAvx2() {
   for (size_t begin = point_begin; begin < point_end; begin += kBlock) {
     const int m = static_cast<int>(std::min<size_t>(kBlock, point_end - begin));
     const float* xyz = samples.points_in_lidar[begin].data();
-    for (int j = 0; j < m; ++j) {
-      const float x = xyz[3 * j], y = xyz[3 * j + 1], z = xyz[3 * j + 2];
-      const float px = m00 * x + (m01 * y + m02 * z) + t0;
-      const float py = m10 * x + (m11 * y + m12 * z) + t1;
-      const float pz = m20 * x + (m21 * y + m22 * z) + t2;
-      bz[j] = pz;
-      b2[j] = px * px + (py * py + pz * pz);
-      bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
-      bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
-    }
+    projection.Project<3>(xyz, xyz + 1, xyz + 2, m, bz, b2, bu, bv);
     for (int j = 0; j < m; ++j) {
       // The general loop's tests: in front, within the ranges, projected inside the image;
       // then the sample inside it.
@@ -281,25 +269,12 @@ template <typename Model>
     constexpr int kBlock = 64;
     alignas(64) float bz[kBlock], b2[kBlock];
     alignas(64) double bu[kBlock], bv[kBlock];
-    const float m00 = t.rotation(0, 0), m01 = t.rotation(0, 1), m02 = t.rotation(0, 2);
-    const float m10 = t.rotation(1, 0), m11 = t.rotation(1, 1), m12 = t.rotation(1, 2);
-    const float m20 = t.rotation(2, 0), m21 = t.rotation(2, 1), m22 = t.rotation(2, 2);
-    const float t0 = t.translation.x(), t1 = t.translation.y(), t2 = t.translation.z();
-    const double fx = params[0], fy = params[1], cx = params[2], cy = params[3];
+    const internal::PinholeBlockProjection projection(t.rotation, t.translation, params);
     static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "packed points");
     for (size_t begin = point_begin; begin < point_end; begin += kBlock) {
       const int m = static_cast<int>(std::min<size_t>(kBlock, point_end - begin));
       const float* xyz = samples.points_in_lidar[begin].data();
-      for (int j = 0; j < m; ++j) {
-        const float x = xyz[3 * j], y = xyz[3 * j + 1], z = xyz[3 * j + 2];
-        const float px = m00 * x + (m01 * y + m02 * z) + t0;
-        const float py = m10 * x + (m11 * y + m12 * z) + t1;
-        const float pz = m20 * x + (m21 * y + m22 * z) + t2;
-        bz[j] = pz;
-        b2[j] = px * px + (py * py + pz * pz);
-        bu[j] = fx * (static_cast<double>(px) / static_cast<double>(pz) + 0.0) + cx;
-        bv[j] = fy * (static_cast<double>(py) / static_cast<double>(pz) + 0.0) + cy;
-      }
+      projection.Project<3>(xyz, xyz + 1, xyz + 2, m, bz, b2, bu, bv);
       for (int j = 0; j < m; ++j) {
         if (!(bz[j] > 0.f)) continue;
         const float range2 = b2[j];
