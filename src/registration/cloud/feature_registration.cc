@@ -1620,47 +1620,40 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   auto contradicted = [&](const Hypothesis& h) {
     return visibility && h.violation > options.max_violation_ratio * h.fitness;
   };
-  // The ambiguity test's paired block t of finalist a over b. The t statistic itself is
-  // geometric (without the −1 terms of the free-space violations): one region where a sensor
-  // sees through a real surface — glass for a LiDAR, which a camera reconstructs — would
-  // otherwise dominate the block variance.
-  auto geometric_t = [&](size_t a, size_t b) {
-    return ScoreSignificance(fine_src, finalists[a].residuals, finalists[a].agree,
-                             finalists[b].residuals, finalists[b].agree, fine_tau,
-                             support_radius);
-  };
-  // Intensity test (intensity_test.h). Only where the geometry leaves a tie (some distinct
-  // finalist within min_significance of the best) and both clouds carry a brightness: the
-  // intensity t of the best over each other finalist (jackknifed over the same blocks) joins
-  // the geometric one (internal::CombinedSignificance). It only ever adds evidence for the
-  // geometric best: letting it pick a geometric runner-up instead was tried, and on a fresh
-  // cathedral (seed 4) it picked a plane-proxy part's pose 23.6 m off over one 0.68 m off
-  // (a proxy's per-face brightness can fit a wrong placement best).
+  // The ambiguity test's rivals: every distinct finalist scoring above max_ambiguity × the
+  // best that the visibility test does not contradict, with the paired block t of the best
+  // over it. The t statistic itself is geometric (without the −1 terms of the free-space
+  // violations): one region where a sensor sees through a real surface — glass for a LiDAR,
+  // which a camera reconstructs — would otherwise dominate the block variance.
+  std::vector<std::pair<size_t, double>> rivals;  // (finalist, geometric t)
+  for (size_t k = 1; k < finalists.size(); ++k) {
+    if (!(finalists[k].h.score > options.max_ambiguity * finalists[0].h.score)) continue;
+    if (contradicted(finalists[k].h)) continue;
+    rivals.emplace_back(k, ScoreSignificance(fine_src, finalists[0].residuals, finalists[0].agree,
+                                             finalists[k].residuals, finalists[k].agree, fine_tau,
+                                             support_radius));
+  }
+  // Intensity test (intensity_test.h). Only where the geometry leaves a tie (some rival within
+  // min_significance of the best) and both clouds carry a brightness: the intensity t of the
+  // best over each rival (jackknifed over the same blocks) joins the geometric one
+  // (internal::CombinedSignificance). It only ever adds evidence for the geometric best:
+  // letting it pick a geometric runner-up instead was tried, and on a fresh cathedral (seed 4)
+  // it picked a plane-proxy part's pose 23.6 m off over one 0.68 m off (a proxy's per-face
+  // brightness can fit a wrong placement best).
   std::vector<internal::IntensityBlocks> photo;  // per finalist; empty: not tested
-  auto combined_t = [&](size_t a, size_t b, double tg, double* ti) {
-    if (photo.empty()) return tg;
-    *ti = internal::IntensityAgreement::Significance(photo[a], photo[b]);
-    return internal::CombinedSignificance(tg, *ti);
-  };
-  if (!options.paper_only && options.intensity_test && finalists.size() > 1) {
-    bool tie = false;
-    for (size_t k = 1; k < finalists.size(); ++k) {
-      if (!(finalists[k].h.score > options.max_ambiguity * finalists[0].h.score)) continue;
-      if (contradicted(finalists[k].h)) continue;
-      tie = tie || geometric_t(0, k) < options.min_significance;
-    }
-    const std::unique_ptr<internal::IntensityAgreement> brightness =
-        tie ? std::make_unique<internal::IntensityAgreement>(source, target, fine_src,
-                                                             support_radius)
-            : nullptr;
-    if (brightness && brightness->available()) {
+  const bool tie = std::any_of(rivals.begin(), rivals.end(), [&](const auto& r) {
+    return r.second < options.min_significance;
+  });
+  if (!options.paper_only && options.intensity_test && tie) {
+    const internal::IntensityAgreement brightness(source, target, fine_src, support_radius);
+    if (brightness.available()) {
       for (const Finalist& f : finalists) {
         std::vector<bool> inlier(f.residuals.size());
         for (size_t i = 0; i < inlier.size(); ++i) {
           inlier[i] =
               std::isfinite(f.residuals[i]) && std::abs(f.residuals[i]) < fine_tau && f.agree[i];
         }
-        photo.push_back(brightness->Measure(f.h.transform, inlier));
+        photo.push_back(brightness.Measure(f.h.transform, inlier));
       }
       result.intensity_tested = true;
       result.intensity_correlation = photo[0].AbsCorrelation();
@@ -1764,12 +1757,10 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   result.significance = std::numeric_limits<double>::infinity();
   if (finalists.size() > 1) runner_up = finalists[1].h.score;
   double runner_geometric_t = 0.0, runner_intensity_t = 0.0;
-  for (size_t k = 1; k < finalists.size(); ++k) {
-    if (!(finalists[k].h.score > options.max_ambiguity * best.score)) continue;
-    if (contradicted(finalists[k].h)) continue;
-    const double tg = geometric_t(0, k);
-    double ti = 0.0;
-    const double t = combined_t(0, k, tg, &ti);
+  for (const auto& [k, tg] : rivals) {
+    const double ti =
+        photo.empty() ? 0.0 : internal::IntensityAgreement::Significance(photo[0], photo[k]);
+    const double t = photo.empty() ? tg : internal::CombinedSignificance(tg, ti);
     if (t < result.significance) {
       result.significance = t;
       runner = &result.hypotheses[k];
