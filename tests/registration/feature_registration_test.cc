@@ -368,6 +368,51 @@ TEST(FeatureRegistration, SymmetricObjectIsNotOkWithTheTurnedPose) {
   }
 }
 
+// Pseudo-symmetric turns of the best pose join the verification (Kim & Hilton's parts turned
+// 180°): with the search cut to one hypothesis and no period shifts, the symmetric gate has
+// one finalist — the truth or its twin — and would be "ok" whichever it is. The turned best
+// pose, placed by the descriptor matches' displacement vote and refined, adds the other, so
+// both poses are finalists and the result is "ambiguous". Switched off, no such finalist.
+TEST(FeatureRegistration, SymmetricTurnsJoinTheVerification) {
+  const Eigen::Matrix4d source_from_world = BlockPose();
+  const io::PointCloud source = Transformed(Gate(0.07, false, 1), source_from_world);
+  const io::PointCloud reference = Gate(0.07, false, 2);
+  const Eigen::Matrix4d truth = source_from_world.inverse();
+  // The gate's symmetry: 180° about the vertical through (0, 0.25): (x, y, z) -> (-x, 0.5 - y, z).
+  Eigen::Matrix4d flip = Eigen::Matrix4d::Identity();
+  flip(0, 0) = flip(1, 1) = -1.0;
+  flip(1, 3) = 0.5;
+  const Eigen::Matrix4d twin = flip * truth;
+  CloudRegistrationOptions options;
+  options.descriptor = Descriptor::kFpfh;
+  options.intensity_test = false;
+  options.num_hypotheses = 1;
+  options.use_max_clique = false;
+  options.num_period_shifts = 0;
+  auto near = [&](const CloudRegistrationResult& r, const Eigen::Matrix4d& pose) {
+    for (const RegistrationHypothesis& h : r.hypotheses) {
+      if (TransformRmsOnCloud(source, h.target_from_source, pose) < 0.03) return true;
+    }
+    return false;
+  };
+  options.symmetry_turns = false;
+  const CloudRegistrationResult off = RegisterClouds(source, reference, options);
+  for (const RegistrationHypothesis& h : off.hypotheses) {
+    EXPECT_NE(h.origin.rfind("symmetric turn", 0), 0u) << h.origin;
+  }
+  EXPECT_FALSE(near(off, truth) && near(off, twin)) << off.BriefReport();  // one pose only
+  options.symmetry_turns = true;
+  const CloudRegistrationResult r = RegisterClouds(source, reference, options);
+  int turned = 0;
+  for (const RegistrationHypothesis& h : r.hypotheses) {
+    turned += h.origin.rfind("symmetric turn", 0) == 0 ? 1 : 0;
+  }
+  EXPECT_GE(turned, 1) << r.BriefReport();
+  EXPECT_TRUE(near(r, truth) && near(r, twin)) << r.BriefReport();
+  ASSERT_FALSE(r.ok()) << r.BriefReport();
+  EXPECT_NE(r.reason.find("ambiguous"), std::string::npos) << r.reason;
+}
+
 // The symmetric gate with a texture (a brightness that is a smooth random function of the
 // position on the gate, sampled with noise by each cloud): the shape cannot tell the pose
 // from its 180° twin, the brightness can (the intensity test), so the result is ok and

@@ -132,6 +132,10 @@ struct CloudRegistrationOptions {
   /// modes of the descriptor matches (beyond R_s) is refined and added to the ambiguity test
   /// (0 = off) (>= 0).
   int num_period_shifts = 4;
+  /// Pseudo-symmetric objects: the best pose turned about the registered source's centroid —
+  /// by 90°, 180° and 270° about up when levelled, else by 180° about each principal axis of
+  /// the source (upside down, turned round) — is refined and added to the ambiguity test.
+  bool symmetry_turns = true;
   /// Intensity test: when the ambiguity test leaves a tie and both clouds carry a brightness
   /// (intensity, else colour), the rank correlation of source and target brightness over each
   /// finalist's inliers joins the geometric t (src/registration/cloud/intensity_test.h): it
