@@ -94,6 +94,7 @@ int main(int argc, char** argv) {
     else if (key == "sac_ia_iterations") options.sac_ia_iterations = static_cast<int>(v);
     else if (key == "sac_ia_confidence") options.sac_ia_confidence = v;
     else if (key == "num_period_shifts") options.num_period_shifts = static_cast<int>(v);
+    else if (key == "symmetry_turns") options.symmetry_turns = v != 0;
     else if (key == "sac_ia_alternative_ratio") options.sac_ia_alternative_ratio = v;
     else if (key == "keypoint_threshold") options.keypoint_threshold = v;
     else if (key == "keypoint_grid_spacing") options.keypoint_grid_spacing = v;

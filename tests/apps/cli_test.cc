@@ -161,6 +161,8 @@ TEST_F(CliTest, RegisterCloudReportsTheIntensityTest) {
   for (const std::string flag : {"", " --no-intensity"}) {
     const RunResult run = Mmba(pair + Tmp("out.json") + flag);
     ASSERT_EQ(run.exit_code, 0) << run.output;
+    // The terminal summary says how sure the pose is.
+    EXPECT_NE(run.output.find("resolved to "), std::string::npos) << run.output;
     std::ifstream in(Tmp("out.json"));
     const nlohmann::json j = nlohmann::json::parse(in);
     EXPECT_EQ(j["intensity_tested"], false);

@@ -155,7 +155,13 @@ std::string CloudRegistrationResult::BriefReport() const {
   if (!reason.empty()) s << " (" << reason << ")";
   s << ": descriptor " << descriptor << ", fitness " << fitness << ", inlier RMSE "
     << inlier_rmse << " m, normal agreement " << normal_agreement << ", confidence "
-    << confidence << ", keypoints " << num_keypoints_source << "/" << num_keypoints_target
+    << confidence;
+  // How sure the pose is, in the result's own words (the JSON has the full covariance).
+  if (std::isfinite(resolution_m) && resolution_m > 0.0) {
+    s << ", resolved to " << resolution_m << " m";
+  }
+  if (std::isfinite(sigma_rms_m) && sigma_rms_m > 0.0) s << " (sigma " << sigma_rms_m << " m RMS)";
+  s << ", keypoints " << num_keypoints_source << "/" << num_keypoints_target
     << ", correspondences " << num_correspondences << ", " << total_seconds() << " s";
   return s.str();
 }
@@ -1643,11 +1649,12 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   // plane proxy's gate part turned 180° about up fits the stereo cloud at fitness 0.79 (gate,
   // seed 2) with no finalist near the truth. Under the best pose T the source is turned about
   // its registered centroid c — levelled: by 90°, 180°, 270° about up; else by 180° about each
-  // principal axis of the registered source — is placed by the two strongest modes of the
-  // descriptor matches' displacement vote under it (the object's symmetry axis need not pass
-  // through c; the vote's cells are 2 R_n wide), refined by the fine ICP from R_s/2 and scored
-  // like the other finalists; a distinct one enters the ambiguity test, and one that scores
-  // better becomes the best.
+  // principal axis of the registered source — is placed by the descriptor matches'
+  // displacement vote under it (the object's symmetry axis need not pass through c): of the
+  // two strongest modes, the one scoring better on the coarse level is refined by the fine
+  // ICP from R_s/2 (the vote's cells are 2 R_n wide) and scored like the other finalists,
+  // unless it scores below half the best's coarse score; a distinct one enters the ambiguity
+  // test, and one that scores better becomes the best.
   if (!options.paper_only && options.symmetry_turns && !finalists.empty()) {
     const Eigen::Matrix4d best_t = finalists.front().h.transform;
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
@@ -1674,22 +1681,44 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       }
     }
     const size_t before_turns = finalists.size();
+    Hypothesis best_coarse = finalists.front().h;
+    Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, best_t, tau, &best_coarse);
     for (const Vector6d& xi : turns) {
       const Eigen::Matrix4d turned = MotionAbout(xi, c) * best_t;
+      // Its two strongest placements are compared on the coarse level (ICP and score as for
+      // the hypotheses); only the better one is refined at the fine level.
+      Hypothesis pick;
+      int pick_votes = 0;
+      double pick_shift = 0.0;
       for (const auto& [count, shift] : displacement_modes(turned, -1.0, 2)) {
-        Finalist f;
-        f.h = finalists.front().h;
-        f.h.transform = turned;
-        f.h.transform.topRightCorner<3, 1>() += shift;
-        std::ostringstream origin;
-        const Eigen::Vector3d axis = xi.head<3>().normalized();
-        origin << std::setprecision(3) << "symmetric turn of "
-               << xi.head<3>().norm() * 180.0 / M_PI << " deg about (" << axis.x() << ", "
-               << axis.y() << ", " << axis.z() << "), shift of " << shift.norm() << " m, "
-               << count << " votes";
-        f.h.origin = origin.str();
-        add_finalist(std::move(f), support_radius / 2.0);
+        Hypothesis h = finalists.front().h;
+        h.transform = turned;
+        h.transform.topRightCorner<3, 1>() += shift;
+        if (options.icp) {
+          h.transform = PointToPlaneIcp(icp_src, tgt_coarse.points, tgt_coarse.normals,
+                                        tgt_coarse_index, h.transform, support_radius / 2.0,
+                                        options.icp_distance_spacing * spacing,
+                                        std::min(options.icp_iterations, 20), up);
+        }
+        Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, h.transform, tau, &h);
+        if (pick_votes == 0 || h.score > pick.score) {
+          pick = h;
+          pick_votes = count;
+          pick_shift = shift.norm();
+        }
       }
+      // A turn that fits the coarse level less than half as well as the best is no rival
+      // (the fine refinement, a crop of the target with its normals, is the dear part).
+      if (pick_votes == 0 || pick.score < 0.5 * best_coarse.score) continue;
+      Finalist f;
+      f.h = pick;
+      std::ostringstream origin;
+      const Eigen::Vector3d axis = xi.head<3>().normalized();
+      origin << std::setprecision(3) << "symmetric turn of " << xi.head<3>().norm() * 180.0 / M_PI
+             << " deg about (" << axis.x() << ", " << axis.y() << ", " << axis.z()
+             << "), shift of " << pick_shift << " m, " << pick_votes << " votes";
+      f.h.origin = origin.str();
+      add_finalist(std::move(f), support_radius / 2.0);
     }
     if (finalists.size() > before_turns) {
       std::stable_sort(finalists.begin(), finalists.end(), [](const Finalist& a, const Finalist& b) {
