@@ -123,7 +123,8 @@ struct CloudRegistrationOptions {
   /// compared with it (0 = every one; 1 = none: the test is off) (0..1).
   double max_ambiguity = 0.0;
   /// ... and "ok" needs the best to beat each of them by at least this many standard errors of
-  /// the per-block score difference (blocks of R_s; a paired t statistic), the same bar as
+  /// the mean per-point score difference (cluster-robust over blocks of R_s; a paired t
+  /// statistic, src/registration/cloud/score_significance.h), the same bar as
   /// resolution_t for small displacements (>= 0). (Before: only a runner-up above 0.8 × the
   /// best was tested, against 4; a stereo part shifted by one bay of the cathedral onto the
   /// proxy scored 0.72 × with t 2.2 and was caught only by min_fitness.)
