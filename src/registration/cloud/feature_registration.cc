@@ -1055,6 +1055,20 @@ std::string DescribeMotion(const Vector6d& xi, double scale) {
   return s.str();
 }
 
+// Centroid c and covariance (1/N) Σ (q − c)(q − c)ᵀ of the source points registered by t.
+void RegisteredMoments(const std::vector<Eigen::Vector3d>& src, const Eigen::Matrix4d& t,
+                       Eigen::Vector3d* c, Eigen::Matrix3d* cov) {
+  *c = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : src) *c += Apply(t, p);
+  *c /= static_cast<double>(std::max<size_t>(1, src.size()));
+  *cov = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : src) {
+    const Eigen::Vector3d d = Apply(t, p) - *c;
+    *cov += d * d.transpose();
+  }
+  *cov /= static_cast<double>(std::max<size_t>(1, src.size()));
+}
+
 // How precisely do the data fix the pose? The chosen pose is displaced by δ (RMS over the
 // source sample) along each of 12 directions — ± a translation along, and ± a rotation about
 // (through the centroid), each principal axis of the registered source — and ± along the
@@ -1078,15 +1092,9 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
                       double bound, double max_delta, double t_min, bool principal_axes,
                       const std::vector<Vector6d>& extra_directions) {
   if (src.size() < 10) return std::numeric_limits<double>::infinity();
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : src) c += Apply(t, p);
-  c /= static_cast<double>(src.size());
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : src) {
-    const Eigen::Vector3d d = Apply(t, p) - c;
-    cov += d * d.transpose();
-  }
-  cov /= static_cast<double>(src.size());
+  Eigen::Vector3d c;
+  Eigen::Matrix3d cov;
+  RegisteredMoments(src, t, &c, &cov);
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
   // Motions ξ = (ω, t) about c with an RMS displacement of 1 m over the source.
   std::vector<Vector6d> dirs;
@@ -1657,9 +1665,9 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   // test, and one that scores better becomes the best.
   if (!options.paper_only && options.symmetry_turns && !finalists.empty()) {
     const Eigen::Matrix4d best_t = finalists.front().h.transform;
-    Eigen::Vector3d c = Eigen::Vector3d::Zero();
-    for (const Eigen::Vector3d& p : fine_src) c += Apply(best_t, p);
-    c /= static_cast<double>(fine_src.size());
+    Eigen::Vector3d c;
+    Eigen::Matrix3d cov;
+    RegisteredMoments(fine_src, best_t, &c, &cov);
     std::vector<Vector6d> turns;
     if (options.gravity_aligned) {
       for (double angle : {0.5 * M_PI, M_PI, 1.5 * M_PI}) {
@@ -1668,11 +1676,6 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
         turns.push_back(xi);
       }
     } else {
-      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-      for (const Eigen::Vector3d& p : fine_src) {
-        const Eigen::Vector3d d = Apply(best_t, p) - c;
-        cov += d * d.transpose();
-      }
       const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
       for (int k = 0; k < 3; ++k) {
         Vector6d xi = Vector6d::Zero();
