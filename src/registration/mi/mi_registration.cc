@@ -1315,7 +1315,11 @@ SearchResult MainSearch(const FrameSetEvaluator& evaluator, const Rigid3d& start
     }
     std::vector<SearchResult> path(paths);
     std::vector<double> ranked(paths);
-    ParallelFor(paths, options.threads, [&](int k) {
+    // The finest entry has the most work (the full simplex at the finest level): it starts
+    // first, so that the coarser entries share the other thread (the same results in any
+    // order: the paths are independent).
+    ParallelFor(paths, options.threads, [&](int i) {
+      const int k = paths - 1 - i;
       path[k] = Search(evaluator, start, Vector6d::Zero(), top - k, bottom, top_step, -1.0,
                        false, options, nullptr, "path " + std::to_string(k) + " ");
       ranked[k] = evaluator.Evaluate(ApplyCorrection(start, path[k].x), bottom).value;

@@ -59,7 +59,11 @@ struct RegistrationOptions {
   /// maximum lies in the basin of the full-resolution one; where a downsampled image has its
   /// own maximum elsewhere (measured on KITTI: level 2 led the yaw +1° start to a pose 10.5 px
   /// off whose full-resolution NMI was below the calibration's), the finer level decides.
-  int pyramid_paths = 1;
+  /// Default 3 (every level of the default pyramid) since 2 Dec (session 16): with point
+  /// samples it gave 34 ok of the 80 simulated panorama registrations against 23, and 27
+  /// against 24 on four fresh simulations, the same one wrong ok (≈ 1 px) per 80, for ~1.5×
+  /// the search's CPU (bench/RESULTS.md "Pyramid paths as the default").
+  int pyramid_paths = 3;
   /// Coarse global stage: extra Nelder–Mead starts at the coarsest level, spread over
   /// ±coarse_start_spread·bound (Halton points in opposite pairs; 0 = the paper's single
   /// local search from the start). The `coarse_candidates` best distinct coarse optima are
