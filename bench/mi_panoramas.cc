@@ -310,6 +310,9 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_RESTART_LEVEL")) options.restart_level = std::atoi(v);
   if (const char* v = std::getenv("MI_SPLIT_LEVEL")) options.split_level = std::atoi(v);
   if (const char* v = std::getenv("MI_PYRAMID_PATHS")) options.pyramid_paths = std::atoi(v);
+  if (const char* v = std::getenv("MI_PATHS_ADAPTIVE")) {
+    options.pyramid_paths_adaptive = std::atoi(v) != 0;
+  }
   if (const char* v = std::getenv("MI_COARSE_STARTS")) options.coarse_starts = std::atoi(v);
   if (const char* v = std::getenv("MI_COARSE_CANDIDATES")) options.coarse_candidates = std::atoi(v);
   if (const char* v = std::getenv("MI_COARSE_SPREAD")) options.coarse_start_spread = std::atof(v);

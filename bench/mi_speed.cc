@@ -85,6 +85,9 @@ int main(int argc, char** argv) {
     }
     if (const char* v = std::getenv("MI_THREADS")) options.threads = std::atoi(v);
     if (const char* v = std::getenv("MI_PYRAMID_PATHS")) options.pyramid_paths = std::atoi(v);
+    if (const char* v = std::getenv("MI_PATHS_ADAPTIVE")) {
+      options.pyramid_paths_adaptive = std::atoi(v) != 0;
+    }
     // MI_ALL_CHECKS=1: every acceptance check measured also after one failed (as before 1 Dec, night).
     if (const char* v = std::getenv("MI_ALL_CHECKS")) options.measure_all_checks = std::atoi(v) != 0;
     // Points-only images carry information only against the empty background.

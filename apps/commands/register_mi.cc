@@ -45,6 +45,7 @@ struct RegisterMiArgs {
   double simplex = 1.0;
   int max_iterations = 200;
   int pyramid_paths = mi::RegistrationOptions().pyramid_paths;
+  bool pyramid_paths_adaptive = mi::RegistrationOptions().pyramid_paths_adaptive;
   int coarse_starts = mi::RegistrationOptions().coarse_starts;
   int coarse_candidates = mi::RegistrationOptions().coarse_candidates;
   double coarse_spread = mi::RegistrationOptions().coarse_start_spread;
@@ -153,6 +154,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.nelder_mead.initial_step = mi::Vector6d::Constant(args.simplex);
   options.nelder_mead.max_iterations = args.max_iterations;
   options.pyramid_paths = args.pyramid_paths;
+  options.pyramid_paths_adaptive = args.pyramid_paths_adaptive;
   options.coarse_starts = args.coarse_starts;
   options.coarse_candidates = args.coarse_candidates;
   options.coarse_start_spread = args.coarse_spread;
@@ -349,7 +351,8 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"bins", args.bins},                     {"smoothing", args.smoothing},
                      {"region", args.region},                 {"pyramid_levels", args.pyramid_levels},
                      {"bound_m", args.bound_m},               {"bound_deg", args.bound_deg},
-                     {"pyramid_paths", args.pyramid_paths},   {"whole_image_checks", args.whole_image_checks},
+                     {"pyramid_paths", args.pyramid_paths},   {"pyramid_paths_adaptive", args.pyramid_paths_adaptive},
+                     {"whole_image_checks", args.whole_image_checks},
                      {"all_checks", args.all_checks},         {"point_samples", args.point_samples},
                      {"covariance_per_point_samples", options.covariance_per_point_samples}};
   if (frames.size() > 1) {
@@ -440,6 +443,10 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
   sub->add_option("--pyramid-paths", args->pyramid_paths,
                   "Coarse-to-fine searches entering the pyramid at the coarsest level and at "
                   "each of the next N-1 finer ones; the best at full resolution wins")
+      ->capture_default_str();
+  sub->add_option("--pyramid-paths-adaptive", args->pyramid_paths_adaptive,
+                  "Enter at the finest level only when the coarser entries end more than "
+                  "--restart-tolerance-px apart (true|false)")
       ->capture_default_str();
   sub->add_option("--coarse-starts", args->coarse_starts,
                   "Coarse global stage: extra Nelder-Mead starts at the coarsest level, spread "

@@ -1315,18 +1315,39 @@ SearchResult MainSearch(const FrameSetEvaluator& evaluator, const Rigid3d& start
     }
     std::vector<SearchResult> path(paths);
     std::vector<double> ranked(paths);
-    // The finest entry has the most work (the full simplex at the finest level): it starts
-    // first, so that the coarser entries share the other thread (the same results in any
-    // order: the paths are independent).
-    ParallelFor(paths, options.threads, [&](int i) {
-      const int k = paths - 1 - i;
+    auto run_path = [&](int k) {
       path[k] = Search(evaluator, start, Vector6d::Zero(), top - k, bottom, top_step, -1.0,
                        false, options, nullptr, "path " + std::to_string(k) + " ");
       ranked[k] = evaluator.Evaluate(ApplyCorrection(start, path[k].x), bottom).value;
-    });
+    };
+    int run = paths;
+    if (options.pyramid_paths_adaptive) {
+      // The coarser entries first; the finest (the dearest: the full simplex at the finest
+      // level) only when they end apart, i.e. when a coarse level may have led one astray.
+      ParallelFor(paths - 1, options.threads, run_path);
+      const Rigid3d first = ApplyCorrection(start, path[0].x);
+      const std::vector<FrameSetEvaluator::VisiblePoint> sample =
+          evaluator.SampleVisiblePoints(first, 500);
+      double spread = 0;
+      for (int k = 1; k + 1 < paths; ++k) {
+        spread = std::max(spread, evaluator.MedianPixelDistance(
+                                      sample, first, ApplyCorrection(start, path[k].x)));
+      }
+      spdlog::debug("MI paths: the coarser entries end {:.2f} px apart", spread);
+      if (spread <= options.restart_tolerance_px) {
+        run = paths - 1;
+      } else {
+        run_path(paths - 1);
+      }
+    } else {
+      // The finest entry has the most work (the full simplex at the finest level): it starts
+      // first, so that the coarser entries share the other thread (the same results in any
+      // order: the paths are independent).
+      ParallelFor(paths, options.threads, [&](int i) { run_path(paths - 1 - i); });
+    }
     SearchResult result;
     int evaluations = 0, best = 0;
-    for (int k = 0; k < paths; ++k) {
+    for (int k = 0; k < run; ++k) {
       evaluations += path[k].evaluations + 1;
       result.iterations += path[k].iterations;
       spdlog::debug("MI path from level {}: metric {:.6f} at level {}, correction [{:.3f} {:.3f} "
@@ -1337,7 +1358,7 @@ SearchResult MainSearch(const FrameSetEvaluator& evaluator, const Rigid3d& start
     }
     if (clock != nullptr) {
       clock->Mark("pyramid paths levels " + std::to_string(top) + ".." +
-                      std::to_string(top - paths + 1) + " (best from level " +
+                      std::to_string(top - run + 1) + " (best from level " +
                       std::to_string(top - best) + ")",
                   evaluations);
     }

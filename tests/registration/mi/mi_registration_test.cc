@@ -456,6 +456,7 @@ TEST_F(StreetTest, PyramidPathsRankAtFullResolution) {
   RegistrationOptions single = options;
   single.pyramid_paths = 1;
   options.pyramid_paths = 3;
+  options.pyramid_paths_adaptive = false;  // every entry searched
   const RegistrationResult one = RegisterFrames({frame}, start, single);
   const RegistrationResult three = RegisterFrames({frame}, start, options);
   SCOPED_TRACE(three.BriefReport());
@@ -473,6 +474,46 @@ TEST_F(StreetTest, PyramidPathsRankAtFullResolution) {
   for (const StageStat& stage : one.stages) {
     EXPECT_EQ(stage.name.find("pyramid paths"), std::string::npos) << stage.name;
   }
+}
+
+// Adaptive pyramid paths: on the street the entries at levels 2 and 1 end at the same pose
+// (measured 0.1 px apart), so the dearest entry, the full simplex at level 0, is not searched:
+// the stage covers levels 2..1 only, costs fewer evaluations than every entry, and the pose
+// is as good as the single path's and < 1 px from the truth.
+TEST_F(StreetTest, AdaptivePyramidPathsSkipTheFinestEntryWhenTheCoarserAgree) {
+  const Frame frame = MakeFrame(photo_, &points_);
+  Vector6d perturbation;
+  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
+  const Rigid3d start = ApplyCorrection(truth_, perturbation);
+  RegistrationOptions options = Options();
+  options.restarts = 0;
+  options.split_check = false;
+  options.gradient_refinement = false;
+  options.pyramid_paths = 3;
+  RegistrationOptions every = options;
+  every.pyramid_paths_adaptive = false;
+  RegistrationOptions single = options;
+  single.pyramid_paths = 1;
+  ASSERT_TRUE(options.pyramid_paths_adaptive);  // the default
+  const RegistrationResult adaptive = RegisterFrames({frame}, start, options);
+  const RegistrationResult all = RegisterFrames({frame}, start, every);
+  const RegistrationResult one = RegisterFrames({frame}, start, single);
+  SCOPED_TRACE(adaptive.BriefReport());
+  auto paths_stage = [](const RegistrationResult& r) {
+    for (const StageStat& stage : r.stages) {
+      if (stage.name.rfind("pyramid paths levels ", 0) == 0) return stage;
+    }
+    return StageStat{};
+  };
+  EXPECT_EQ(paths_stage(adaptive).name.rfind("pyramid paths levels 2..1 ", 0), 0u)
+      << paths_stage(adaptive).name;
+  EXPECT_EQ(paths_stage(all).name.rfind("pyramid paths levels 2..0 ", 0), 0u)
+      << paths_stage(all).name;
+  EXPECT_LT(paths_stage(adaptive).evaluations, paths_stage(all).evaluations);
+  EXPECT_GE(adaptive.metric_after.value, one.metric_after.value);
+  const PixelOffsetStats after =
+      PixelOffsets(points_, frame.views[0], truth_, adaptive.cam_from_lidar, RenderOptions());
+  EXPECT_LT(after.median_px, 1.0);
 }
 
 // A photo whose right half was taken from another pose (0.8° of yaw: ~3.6 px here) — data
