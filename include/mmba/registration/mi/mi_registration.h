@@ -59,16 +59,16 @@ struct RegistrationOptions {
   /// maximum lies in the basin of the full-resolution one; where a downsampled image has its
   /// own maximum elsewhere (measured on KITTI: level 2 led the yaw +1° start to a pose 10.5 px
   /// off whose full-resolution NMI was below the calibration's), the finer level decides.
-  /// Default 3 (every level of the default pyramid) since 2 Dec (session 16): with point
-  /// samples it gave 34 ok of the 80 simulated panorama registrations against 23, and 27
-  /// against 24 on four fresh simulations, the same one wrong ok (≈ 1 px) per 80, for ~1.5×
-  /// the search's CPU (bench/RESULTS.md "Pyramid paths as the default").
+  /// Default 3 (every level of the default pyramid, adaptively, below) since 2 Dec (session
+  /// 16): with point samples, on 160 simulated panorama registrations, 59 ok (58 right)
+  /// against 47 (46) with one path (bench/RESULTS.md "Pyramid paths as the default").
   int pyramid_paths = 3;
   /// With pyramid_paths > 1: the finest entry (the dearest: the full simplex at the finest
   /// level) is searched only when the coarser entries end more than restart_tolerance_px
   /// apart (median over the visible points), i.e. when a coarse level may have led one of them
-  /// astray. Measured: 33 ok of the 80 simulated panorama registrations (34 with every entry
-  /// searched), and the synthetic street's 8 M-point view 1.96 s instead of 2.64 s wall.
+  /// astray. Measured: 59 ok of the 160 registrations against 61 with every entry searched;
+  /// the synthetic street's 8 M-point view 2.26 s median wall against 2.38 s (1.98 s with one
+  /// path, the same session).
   bool pyramid_paths_adaptive = true;
   /// Coarse global stage: extra Nelder–Mead starts at the coarsest level, spread over
   /// ±coarse_start_spread·bound (Halton points in opposite pairs; 0 = the paper's single
