@@ -91,6 +91,19 @@ class StreetTest : public ::testing::Test {
     options.metric.region = Region::kOverlap;
     return options;
   }
+  // The start of most tests: the truth off by the paper's typical 0.1 m / 1°.
+  Rigid3d PaperStart() const {
+    Vector6d perturbation;
+    perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
+    return ApplyCorrection(truth_, perturbation);
+  }
+  // For tests of the search, not of the acceptance: no restarts, no halves.
+  RegistrationOptions SearchOptions() const {
+    RegistrationOptions options = Options();
+    options.restarts = 0;
+    options.split_check = false;
+    return options;
+  }
   sensors::Camera camera_;
   Rigid3d truth_;
   LidarPoints points_;
@@ -99,9 +112,7 @@ class StreetTest : public ::testing::Test {
 
 TEST_F(StreetTest, RecoversThePoseFromPerturbedStarts) {
   const Frame frame = MakeFrame(photo_, &points_);
-  Vector6d perturbation;
-  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;  // the paper's typical 0.1 m / 1°
-  const Rigid3d start = ApplyCorrection(truth_, perturbation);
+  const Rigid3d start = PaperStart();
   const RegistrationResult result = RegisterFrames({frame}, start, Options());
   SCOPED_TRACE(result.BriefReport());
   EXPECT_EQ(result.status, "ok") << result.reason;
@@ -145,9 +156,7 @@ TEST_F(StreetTest, RecoversThePoseFromPerturbedStarts) {
 // samples above which they are). Checked with the rendered evaluator and with point samples.
 TEST_F(StreetTest, ResultIsReproducibleAndIndependentOfTheThreads) {
   const Frame frame = MakeFrame(photo_, &points_);
-  Vector6d perturbation;
-  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
-  const Rigid3d start = ApplyCorrection(truth_, perturbation);
+  const Rigid3d start = PaperStart();
   for (const bool samples : {false, true}) {
     SCOPED_TRACE(samples ? "point samples" : "rendered");
     RegistrationOptions options = Options();
@@ -190,9 +199,7 @@ TEST_F(StreetTest, ResultIsReproducibleAndIndependentOfTheThreads) {
 TEST_F(StreetTest, EvaluatorIsTheSameOnOneAndTwoThreadsAndForPartsOfItsParent) {
   const Frame frame = MakeFrame(photo_, &points_);
   ASSERT_GT(points_.size(), 100000u);  // enough points for the cull to split
-  Vector6d perturbation;
-  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
-  const Rigid3d start = ApplyCorrection(truth_, perturbation);
+  const Rigid3d start = PaperStart();
   RegistrationOptions one = Options(), two = Options();
   one.threads = 1;
   two.threads = 2;
@@ -327,9 +334,7 @@ TEST_F(StreetTest, PinholeCullEqualsTheGenericModel) {
   const Frame pinhole_frame = MakeFrame(photo_, &points_);
   Frame opencv_frame = pinhole_frame;
   opencv_frame.views = MakeViews(photo_, opencv, ViewOptions(), "street.png");
-  Vector6d perturbation;
-  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
-  const Rigid3d start = ApplyCorrection(truth_, perturbation);
+  const Rigid3d start = PaperStart();
   for (int threads : {1, 2}) {
     RegistrationOptions options = Options();
     options.threads = threads;
@@ -357,9 +362,7 @@ TEST_F(StreetTest, PanoramaCutsAreAlsoJudgedOverTheWholePanorama) {
   const auto params = sensors::EquirectangularModel::DefaultParams(720, 360);
   pano.params.assign(params.begin(), params.end());
   const GrayImage photo = StreetPhoto(pano, truth_);
-  Vector6d perturbation;
-  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
-  const Rigid3d start = ApplyCorrection(truth_, perturbation);
+  const Rigid3d start = PaperStart();
   ViewOptions view_options;
   view_options.kind = ViewKind::kPerspective;
   view_options.perspective_width = 320;
@@ -418,14 +421,10 @@ TEST_F(StreetTest, PanoramaCutsAreAlsoJudgedOverTheWholePanorama) {
 // candidate ranked by its coarse value, would not), and its stages are recorded.
 TEST_F(StreetTest, CoarseStartsKeepTheTruePoseAndRecordTheirStages) {
   const Frame frame = MakeFrame(photo_, &points_);
-  Vector6d perturbation;
-  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
-  const Rigid3d start = ApplyCorrection(truth_, perturbation);
-  RegistrationOptions options = Options();
+  const Rigid3d start = PaperStart();
+  RegistrationOptions options = SearchOptions();
   options.coarse_starts = 4;
   options.coarse_candidates = 2;
-  options.restarts = 0;  // the search is under test here, not the acceptance
-  options.split_check = false;
   const RegistrationResult result = RegisterFrames({frame}, start, options);
   SCOPED_TRACE(result.BriefReport());
   const PixelOffsetStats after =
@@ -446,12 +445,8 @@ TEST_F(StreetTest, CoarseStartsKeepTheTruePoseAndRecordTheirStages) {
 // entry level of the winner, and from the paper's 0.1 m / 1° the pose ends < 1 px.
 TEST_F(StreetTest, PyramidPathsRankAtFullResolution) {
   const Frame frame = MakeFrame(photo_, &points_);
-  Vector6d perturbation;
-  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
-  const Rigid3d start = ApplyCorrection(truth_, perturbation);
-  RegistrationOptions options = Options();
-  options.restarts = 0;  // the search is under test here, not the acceptance
-  options.split_check = false;
+  const Rigid3d start = PaperStart();
+  RegistrationOptions options = SearchOptions();
   options.gradient_refinement = false;  // compare the Nelder–Mead ends themselves
   RegistrationOptions single = options;
   single.pyramid_paths = 1;
@@ -482,12 +477,8 @@ TEST_F(StreetTest, PyramidPathsRankAtFullResolution) {
 // is as good as the single path's and < 1 px from the truth.
 TEST_F(StreetTest, AdaptivePyramidPathsSkipTheFinestEntryWhenTheCoarserAgree) {
   const Frame frame = MakeFrame(photo_, &points_);
-  Vector6d perturbation;
-  perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
-  const Rigid3d start = ApplyCorrection(truth_, perturbation);
-  RegistrationOptions options = Options();
-  options.restarts = 0;
-  options.split_check = false;
+  const Rigid3d start = PaperStart();
+  RegistrationOptions options = SearchOptions();
   options.gradient_refinement = false;
   options.pyramid_paths = 3;
   RegistrationOptions every = options;
