@@ -1320,25 +1320,57 @@ SearchResult MainSearch(const FrameSetEvaluator& evaluator, const Rigid3d& start
                        false, options, nullptr, "path " + std::to_string(k) + " ");
       ranked[k] = evaluator.Evaluate(ApplyCorrection(start, path[k].x), bottom).value;
     };
-    int run = paths;
-    if (options.pyramid_paths_adaptive) {
-      // The coarser entries first; the finest (the dearest: the full simplex at the finest
-      // level) only when they end apart, i.e. when a coarse level may have led one astray.
-      ParallelFor(paths - 1, options.threads, run_path);
-      const Rigid3d first = ApplyCorrection(start, path[0].x);
+    int run = paths;      // paths ranked at `bottom`
+    int entries = paths;  // entry levels searched
+    int unranked_evaluations = 0, unranked_iterations = 0;
+    if (options.pyramid_paths_adaptive && paths >= 3) {
+      // The coarser entries first, each down to the level above the finest only; if they end
+      // there within the restart tolerance of each other, the coarsest entry's path alone goes
+      // on to the finest level (the single coarse-to-fine search, exactly). Otherwise a coarse
+      // level may have led one astray: each goes on, and the finest entry (the dearest: the
+      // full simplex at the finest level) is searched too.
+      const int coarse_paths = paths - 1;
+      const int above = bottom + 1;
+      std::vector<SearchResult> upper(coarse_paths);
+      ParallelFor(coarse_paths, options.threads, [&](int k) {
+        upper[k] = Search(evaluator, start, Vector6d::Zero(), top - k, above, top_step, -1.0,
+                          false, options, nullptr, "path " + std::to_string(k) + " ");
+      });
+      const Rigid3d first = ApplyCorrection(start, upper[0].x);
       const std::vector<FrameSetEvaluator::VisiblePoint> sample =
           evaluator.SampleVisiblePoints(first, 500);
       double spread = 0;
-      for (int k = 1; k + 1 < paths; ++k) {
+      for (int k = 1; k < coarse_paths; ++k) {
         spread = std::max(spread, evaluator.MedianPixelDistance(
-                                      sample, first, ApplyCorrection(start, path[k].x)));
+                                      sample, first, ApplyCorrection(start, upper[k].x)));
       }
-      spdlog::debug("MI paths: the coarser entries end {:.2f} px apart", spread);
-      if (spread <= options.restart_tolerance_px) {
-        run = paths - 1;
-      } else {
-        run_path(paths - 1);
+      spdlog::debug("MI paths: the coarser entries end {:.2f} px apart at level {}", spread,
+                    above);
+      const bool agree = spread <= options.restart_tolerance_px;
+      run = agree ? 1 : paths;
+      entries = agree ? coarse_paths : paths;
+      for (int k = run; k < coarse_paths; ++k) {
+        unranked_evaluations += upper[k].evaluations;
+        unranked_iterations += upper[k].iterations;
       }
+      ParallelFor(run, options.threads, [&](int i) {
+        const int k = run - 1 - i;  // the finest entry first
+        if (k == coarse_paths) {
+          run_path(k);
+          return;
+        }
+        // On from `above` to `bottom`: the same steps as one search from the entry level.
+        const SearchResult down =
+            Search(evaluator, start, upper[k].x, bottom, bottom,
+                   top_step * std::pow(0.5, top - k - bottom), -1.0, false, options, nullptr,
+                   "path " + std::to_string(k) + " ");
+        path[k] = upper[k];
+        path[k].x = down.x;
+        path[k].value = down.value;
+        path[k].iterations += down.iterations;
+        path[k].evaluations += down.evaluations;
+        ranked[k] = evaluator.Evaluate(ApplyCorrection(start, path[k].x), bottom).value;
+      });
     } else {
       // The finest entry has the most work (the full simplex at the finest level): it starts
       // first, so that the coarser entries share the other thread (the same results in any
@@ -1346,7 +1378,8 @@ SearchResult MainSearch(const FrameSetEvaluator& evaluator, const Rigid3d& start
       ParallelFor(paths, options.threads, [&](int i) { run_path(paths - 1 - i); });
     }
     SearchResult result;
-    int evaluations = 0, best = 0;
+    int evaluations = unranked_evaluations, best = 0;
+    result.iterations = unranked_iterations;
     for (int k = 0; k < run; ++k) {
       evaluations += path[k].evaluations + 1;
       result.iterations += path[k].iterations;
@@ -1358,7 +1391,7 @@ SearchResult MainSearch(const FrameSetEvaluator& evaluator, const Rigid3d& start
     }
     if (clock != nullptr) {
       clock->Mark("pyramid paths levels " + std::to_string(top) + ".." +
-                      std::to_string(top - run + 1) + " (best from level " +
+                      std::to_string(top - entries + 1) + " (best from level " +
                       std::to_string(top - best) + ")",
                   evaluations);
     }

@@ -60,15 +60,17 @@ struct RegistrationOptions {
   /// own maximum elsewhere (measured on KITTI: level 2 led the yaw +1° start to a pose 10.5 px
   /// off whose full-resolution NMI was below the calibration's), the finer level decides.
   /// Default 3 (every level of the default pyramid, adaptively, below) since 2 Dec (session
-  /// 16): with point samples, on 160 simulated panorama registrations, 59 ok (58 right)
+  /// 16): with point samples, on 160 simulated panorama registrations, 60 ok (59 right)
   /// against 47 (46) with one path (bench/RESULTS.md "Pyramid paths as the default").
   int pyramid_paths = 3;
-  /// With pyramid_paths > 1: the finest entry (the dearest: the full simplex at the finest
-  /// level) is searched only when the coarser entries end more than restart_tolerance_px
-  /// apart (median over the visible points), i.e. when a coarse level may have led one of them
-  /// astray. Measured: 59 ok of the 160 registrations against 61 with every entry searched;
-  /// the synthetic street's 8 M-point view 2.26 s median wall against 2.38 s (1.98 s with one
-  /// path, the same session).
+  /// With pyramid_paths ≥ 3: the coarser entries are searched down to the level above the
+  /// finest Nelder–Mead level; if they end there within restart_tolerance_px of each other
+  /// (median over the visible points), the coarsest entry's path alone goes on (the single
+  /// coarse-to-fine search, exactly); otherwise each goes on and the finest entry (the
+  /// dearest: the full simplex at the finest level) is searched too, i.e. only when a coarse
+  /// level may have led a search astray. Measured: 60 ok of the 160 simulated panorama
+  /// registrations (61 with every entry searched), and the synthetic street's view +9 % wall
+  /// at 8 M points against the single path (bench/RESULTS.md "Pyramid paths as the default").
   bool pyramid_paths_adaptive = true;
   /// Coarse global stage: extra Nelder–Mead starts at the coarsest level, spread over
   /// ±coarse_start_spread·bound (Halton points in opposite pairs; 0 = the paper's single
