@@ -1535,8 +1535,12 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     ScoreFine(f.residuals, f.agree, fine_tau, f.violates, &f.h);
     fine_spacing = std::max(fine_spacing, f.spacing);
   }
-  std::stable_sort(finalists.begin(), finalists.end(),
-                   [](const Finalist& a, const Finalist& b) { return a.h.score > b.h.score; });
+  // Best score first (stable: ties keep their order).
+  auto sort_finalists = [&] {
+    std::stable_sort(finalists.begin(), finalists.end(),
+                     [](const Finalist& a, const Finalist& b) { return a.h.score > b.h.score; });
+  };
+  sort_finalists();
   // Finalists that converged to the same transform are one hypothesis.
   for (size_t i = 1; i < finalists.size();) {
     bool same = false;
@@ -1646,9 +1650,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       add_finalist(std::move(f), options.icp_distance_spacing * spacing);
     }
     if (finalists.size() > before_shifts) {
-      std::stable_sort(finalists.begin(), finalists.end(), [](const Finalist& a, const Finalist& b) {
-        return a.h.score > b.h.score;
-      });
+      sort_finalists();
     }
   }
   // Pseudo-symmetric turns of the best pose (Kim & Hilton, Sec. 5: pseudo-symmetric parts
@@ -1724,9 +1726,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       add_finalist(std::move(f), support_radius / 2.0);
     }
     if (finalists.size() > before_turns) {
-      std::stable_sort(finalists.begin(), finalists.end(), [](const Finalist& a, const Finalist& b) {
-        return a.h.score > b.h.score;
-      });
+      sort_finalists();
     }
   }
   // A finalist that the visibility test contradicts (the verdict below would fail it as the
