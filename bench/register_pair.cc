@@ -110,6 +110,7 @@ int main(int argc, char** argv) {
     else if (key == "min_fitness") options.min_fitness = v;
     else if (key == "min_normal_agreement") options.min_normal_agreement = v;
     else if (key == "max_resolution_spacing") options.max_resolution_spacing = v;
+    else if (key == "max_weak_motion_resolution_spacing") options.max_weak_motion_resolution_spacing = v;
     else if (key == "truth") truth_file = kv.substr(eq + 1);
     else if (key == "probe_weak_motions") options.probe_weak_motions = v != 0;
     else if (key == "check_fit_uncertainty") options.check_fit_uncertainty = v != 0;

@@ -116,7 +116,18 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
     options.target_viewpoints = registration::ReadViewpoints(args.target_viewpoints);
   }
   std::string error;
-  if (!options.Check(&error)) throw InputError::Message("options", error);
+  if (!options.Check(&error)) {
+    // Name the command-line flag for the options it sets ("option 'normal_radius_m' = -1
+    // violates >= 0" → "--normal-radius: ...").
+    static const std::pair<const char*, const char*> kFlags[] = {
+        {"'normal_radius_m'", "--normal-radius"},
+        {"'support_radius_m'", "--support-radius"},
+        {"'min_fitness'", "--min-fitness"}};
+    for (const auto& [field, flag] : kFlags) {
+      if (error.find(field) != std::string::npos) throw InputError::Message(flag, error);
+    }
+    throw InputError::Message("options", error);
+  }
   if (!args.scale_range.empty() &&
       (args.scale_range.size() != 2 || !(args.scale_range[0] > 0) || !(args.scale_range[1] >= args.scale_range[0]) ||
        !(args.scale_range[1] <= 1e6))) {

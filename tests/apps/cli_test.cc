@@ -143,6 +143,12 @@ TEST_F(CliTest, RegisterCloudScaleRange) {
   const RunResult step = Mmba(pair + " --scale-range 1 2 --scale-step 0.9");
   EXPECT_EQ(step.exit_code, 2);
   EXPECT_THAT(step.output, HasSubstr("--scale-step"));
+  const RunResult radius = Mmba(pair + " --normal-radius -1");
+  EXPECT_EQ(radius.exit_code, 2);
+  EXPECT_THAT(radius.output, HasSubstr("--normal-radius: option 'normal_radius_m' = -1"));
+  const RunResult fitness = Mmba(pair + " --min-fitness 1.5");
+  EXPECT_EQ(fitness.exit_code, 2);
+  EXPECT_THAT(fitness.output, HasSubstr("--min-fitness"));
   EXPECT_FALSE(fs::exists(Tmp("out.json")));
   const RunResult missed = Mmba(pair + " --scale-range 4 4.5 -q");
   EXPECT_EQ(missed.exit_code, 3) << missed.output;

@@ -154,9 +154,15 @@ struct CloudRegistrationOptions {
   double max_resolution_spacing = 4.0;
   /// The resolution test also displaces the pose along the two least-constrained motions of
   /// the fine fit (the weakest eigenvectors of its point-to-plane Gauss–Newton matrix), not
-  /// only along the source's principal axes; "ok" needs them told apart at some displacement
-  /// up to R_s (CloudRegistrationResult::weak_motion_resolution_m).
+  /// only along the source's principal axes; "ok" needs them told apart within
+  /// max_weak_motion_resolution_spacing fine spacings
+  /// (CloudRegistrationResult::weak_motion_resolution_m).
   bool probe_weak_motions = true;
+  /// "ok" needs the fit's least-constrained motions told apart within this × the fine point
+  /// spacing (> 0; default the axes' bound). A larger value accepts poses whose weak motion
+  /// (a slide along a facade, say) the data fix only coarsely; the pose is then known only to
+  /// weak_motion_resolution_m, which the result states.
+  double max_weak_motion_resolution_spacing = 4.0;
   /// "ok" also needs resolution_t × sigma_rms_m (the fit's covariance) within the resolution
   /// bound; false: the covariance is only reported.
   bool check_fit_uncertainty = true;
@@ -238,9 +244,8 @@ struct CloudRegistrationResult {
   /// within max_resolution_spacing fine spacings) and weak_motion_resolution_m.
   double resolution_m = std::numeric_limits<double>::infinity();
   /// The same along the fit's two least-constrained motions (probe_weak_motions); "ok" needs
-  /// it finite (told apart at some displacement up to R_s), not within the bound: a motion
-  /// fixed only by a few features (edges, steps) has few independent witnesses, and the
-  /// block t statistic grows as the square root of their number. 0 when not probed.
+  /// it within max_weak_motion_resolution_spacing fine spacings; reported up to R_s (+inf:
+  /// not told apart at any displacement up to R_s). 0 when not probed.
   double weak_motion_resolution_m = 0.0;
   double fine_spacing_m = 0.0;          ///< point spacing of the fine verification
   /// Uncertainty of the chosen pose from the fine point-to-plane fit of its inliers:
