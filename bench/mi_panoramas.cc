@@ -22,7 +22,9 @@
 // hist_points.svg (offsets of all points, pooled), and prints a summary.
 // MMBA_DEBUG=1 logs each stage. MI_ONLY selects registrations (below), MI_PERTURB sets their
 // start, MI_THREADS the registration's threads (default 2), MI_RESTARTS / MI_RESTART_OFFSET
-// ("m,deg") the restarts, MI_WHOLE_IMAGE_CHECKS=0 switches the whole-panorama check off; each
+// ("m,deg") the restarts, MI_POINT_RADIUS ("m,px") the registration's z-buffer footprint
+// (the cuts' headings and the scoring keep the default), MI_WHOLE_IMAGE_CHECKS=0 switches the
+// whole-panorama check off; each
 // registration prints its whole-image checks and a `digest` line (RegistrationResult::Digest,
 // pose and metric in hex floats) to compare runs.
 #include <sys/resource.h>
@@ -317,6 +319,12 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_COARSE_CANDIDATES")) options.coarse_candidates = std::atoi(v);
   if (const char* v = std::getenv("MI_COARSE_SPREAD")) options.coarse_start_spread = std::atof(v);
   if (const char* v = std::getenv("MI_LEVELS")) options.pyramid_levels = std::atoi(v);
+  // The cuts' headings and the scoring keep the default footprint whatever MI_POINT_RADIUS says.
+  const RenderOptions scoring_render = options.render;
+  // MI_POINT_RADIUS="m,px": the z-buffer footprint (RenderOptions point_radius_m, max_point_radius_px).
+  if (const char* v = std::getenv("MI_POINT_RADIUS")) {
+    std::sscanf(v, "%lf,%d", &options.render.point_radius_m, &options.render.max_point_radius_px);
+  }
   if (const char* v = std::getenv("MI_THREADS")) options.threads = std::atoi(v);
   // MI_ALL_CHECKS=1: every acceptance check measured also after one failed (as before 1 Dec, night).
   if (const char* v = std::getenv("MI_ALL_CHECKS")) options.measure_all_checks = std::atoi(v) != 0;
@@ -369,7 +377,7 @@ int main(int argc, char** argv) {
         vo.kind = ViewKind::kImage;
       } else if (auto_headings && vo.kind == ViewKind::kPerspective) {
         vo.perspective_yaw_deg =
-            SelectPerspectiveHeadings(points, tv.camera, start, vo, options.render, 2);
+            SelectPerspectiveHeadings(points, tv.camera, start, vo, scoring_render, 2);
       }
       frame.views = MakeViews(image, tv.camera, vo, tv.image_path);
       frame.points = &points;
@@ -436,13 +444,13 @@ int main(int argc, char** argv) {
         const double seconds = timer.ElapsedSeconds();
         const double cpu = CpuSeconds() - cpu0;
         const PixelOffsetStats ib =
-            PixelOffsets(points, whole, tv.cam_from_world, start, options.render);
+            PixelOffsets(points, whole, tv.cam_from_world, start, scoring_render);
         const PixelOffsetStats ia =
-            PixelOffsets(points, whole, tv.cam_from_world, r.cam_from_lidar, options.render);
+            PixelOffsets(points, whole, tv.cam_from_world, r.cam_from_lidar, scoring_render);
         const std::vector<double> vb =
-            ViewOffsets(points, frame.views, tv.cam_from_world, start, options.render);
+            ViewOffsets(points, frame.views, tv.cam_from_world, start, scoring_render);
         const std::vector<double> va =
-            ViewOffsets(points, frame.views, tv.cam_from_world, r.cam_from_lidar, options.render);
+            ViewOffsets(points, frame.views, tv.cam_from_world, r.cam_from_lidar, scoring_render);
         // Error of the estimated correction (estimate − truth, both from the start).
         const Vector6d truth_correction = CorrectionBetween(start, tv.cam_from_world);
         const Vector6d error = r.correction - truth_correction;
