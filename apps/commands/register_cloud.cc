@@ -1,7 +1,10 @@
 // mmba register-cloud: feature-based rigid registration of two point clouds (issue 5).
+#include <cmath>
+#include <cstdlib>
 #include <ctime>
 #include <iostream>
 #include <sstream>
+#include <string>
 
 #include <nlohmann/json.hpp>
 
@@ -116,18 +119,7 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
     options.target_viewpoints = registration::ReadViewpoints(args.target_viewpoints);
   }
   std::string error;
-  if (!options.Check(&error)) {
-    // Name the command-line flag for the options it sets ("option 'normal_radius_m' = -1
-    // violates >= 0" → "--normal-radius: ...").
-    static const std::pair<const char*, const char*> kFlags[] = {
-        {"'normal_radius_m'", "--normal-radius"},
-        {"'support_radius_m'", "--support-radius"},
-        {"'min_fitness'", "--min-fitness"}};
-    for (const auto& [field, flag] : kFlags) {
-      if (error.find(field) != std::string::npos) throw InputError::Message(flag, error);
-    }
-    throw InputError::Message("options", error);
-  }
+  if (!options.Check(&error)) throw InputError::Message("options", error);
   if (!args.scale_range.empty() &&
       (args.scale_range.size() != 2 || !(args.scale_range[0] > 0) || !(args.scale_range[1] >= args.scale_range[0]) ||
        !(args.scale_range[1] <= 1e6))) {
@@ -180,6 +172,18 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   return kExitOk;
 }
 
+// A length option: a number >= 0 (0 = derived from the measured point spacing).
+const CLI::Validator kLength(
+    [](std::string& value) -> std::string {
+      char* end = nullptr;
+      const double v = std::strtod(value.c_str(), &end);
+      if (end == value.c_str() || *end != '\0' || !(v >= 0) || !std::isfinite(v)) {
+        return "found '" + value + "', expected a length in metres >= 0 (0: from the spacing)";
+      }
+      return std::string();
+    },
+    "M>=0");
+
 std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   auto args = std::make_shared<RegisterCloudArgs>();
   CLI::App* sub = app.add_subcommand(
@@ -193,9 +197,11 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_option("--descriptor", args->descriptor, "fpfh | shot | si | sc3d | auto")
       ->capture_default_str();
   sub->add_option("--normal-radius", args->normal_radius_m,
-                  "R_n in metres (default 4 × measured point spacing)");
+                  "R_n in metres (default 4 × measured point spacing)")
+      ->check(kLength);
   sub->add_option("--support-radius", args->support_radius_m,
-                  "R_s in metres (default 12 × measured point spacing)");
+                  "R_s in metres (default 12 × measured point spacing)")
+      ->check(kLength);
   sub->add_flag("--gravity-aligned", args->gravity_aligned,
                 "both clouds are levelled: search the rotation about --up only");
   sub->add_option("--up", args->up, "up direction x y z (default 0 0 1)")->expected(3);
@@ -219,6 +225,7 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_option("--seed", args->seed, "random seed")->capture_default_str();
   sub->add_option("--min-fitness", args->min_fitness,
                   "fraction of the source that must lie on the target for \"ok\" (0..1]")
+      ->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
   sub->add_option("--scale-range", args->scale_range,
                   "MIN MAX: the source is in a scale of its own (an SfM cloud): registered at trial scales "

@@ -144,7 +144,7 @@ TEST_F(CliTest, RegisterCloudScaleRange) {
   for (const auto& [flags, named] : std::vector<std::pair<std::string, std::string>>{
            {" --scale-range 3 2", "--scale-range"},
            {" --scale-range 1 2 --scale-step 0.9", "--scale-step"},
-           {" --normal-radius -1", "--normal-radius: option 'normal_radius_m' = -1"},
+           {" --normal-radius -1", "--normal-radius"},
            {" --min-fitness 1.5", "--min-fitness"}}) {
     const RunResult bad = Mmba(pair + flags);
     EXPECT_EQ(bad.exit_code, 2) << flags;

@@ -611,15 +611,17 @@ TEST(FeatureRegistration, SlideAlongAWallIsNotOk) {
   EXPECT_LE(e.weak_motion_resolution_m,
             options.max_weak_motion_resolution_spacing * e.fine_spacing_m);
 
-  // "ok" needs the weak motion resolved within its bound, not only at some displacement: the
-  // resolution test reports no δ below half a fine spacing, so a quarter-spacing bound
-  // refuses the same corner, naming the motion and the δ it needed.
-  options.max_weak_motion_resolution_spacing = 0.25;
+  // "ok" needs the weak motion resolved within its bound, not only at some displacement: a
+  // bound of 1/20 spacing (0.5 cm here, the clouds' noise) is not resolved, so the same
+  // corner is refused, naming the motion and the larger δ it needed.
+  options.max_weak_motion_resolution_spacing = 0.05;
   const CloudRegistrationResult tight = RegisterClouds(source_corner, target_corner, options);
   EXPECT_EQ(tight.status, "failed") << tight.BriefReport();
   EXPECT_NE(tight.reason.find("told apart by the fine verification only at"), std::string::npos)
       << tight.reason;
-  EXPECT_DOUBLE_EQ(tight.weak_motion_resolution_m, e.weak_motion_resolution_m);
+  EXPECT_GT(tight.weak_motion_resolution_m,
+            options.max_weak_motion_resolution_spacing * tight.fine_spacing_m);
+  EXPECT_TRUE(std::isfinite(tight.weak_motion_resolution_m));
   EXPECT_TRUE(tight.target_from_source.isApprox(e.target_from_source)) << "same pose, refused";
 }
 

@@ -1809,9 +1809,12 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
                                      f.agree, reach, fine_tau, support_radius, bound,
                                      support_radius, options.resolution_t, true, {});
     if (options.probe_weak_motions && !u.weak_directions.empty()) {
+      // Probed first at its own bound (the δ grid ·2 / ÷2 from there).
+      const double weak_bound = options.max_weak_motion_resolution_spacing * f.spacing;
       result.weak_motion_resolution_m = PoseResolution(
           fine_src, fine_src_n, *f.crop, f.h.transform, f.residuals, f.agree, reach, fine_tau,
-          support_radius, bound, support_radius, options.resolution_t, false, u.weak_directions);
+          support_radius, weak_bound, support_radius, options.resolution_t, false,
+          u.weak_directions);
       weak_motion = DescribeMotion(u.weak_directions.front(), bound);
     }
     result.resolution_m = std::max(axis_resolution, result.weak_motion_resolution_m);
@@ -1946,27 +1949,25 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
         << " m); a noisy, planar or featureless overlap";
     return fail(why.str());
   }
-  // A motion of the fit that no displacement up to R_s tells apart: the data leave it free
-  // (or the pose is off the score's maximum along it). One told apart only beyond the bound
-  // is fixed by too little (a few edges or steps) to call the pose known: on the simulated
-  // cathedral a proxy part slid along the facade was "ok" 0.46–0.58 m off, resolved to
-  // 1.28–2.56 m (bench/RESULTS.md, session 17).
+  // The fit's least-constrained motion must be told apart within its bound. Not at all up to
+  // R_s: the data leave it free (or the pose is off the score's maximum along it). Only
+  // beyond the bound: it is fixed by too little (a few edges or steps) to call the pose
+  // known — on the simulated cathedral a proxy part slid along the facade was "ok"
+  // 0.46–0.58 m off, resolved to 1.28–2.56 m (bench/RESULTS.md, session 17).
   const double weak_bound = options.max_weak_motion_resolution_spacing * result.fine_spacing_m;
-  if (!options.paper_only && !std::isfinite(result.weak_motion_resolution_m)) {
-    why << "pose not determined: the fit's least-constrained motion ("
-        << weak_motion << ", " << options.max_resolution_spacing * result.fine_spacing_m
-        << " m RMS over the source) is not told apart by the fine verification at any "
-        << "displacement up to R_s = " << support_radius << " m; a planar or featureless overlap";
-    return fail(why.str());
-  }
   if (!options.paper_only && !(result.weak_motion_resolution_m <= weak_bound)) {
     why << "pose not determined: the fit's least-constrained motion (" << weak_motion
         << ", " << options.max_resolution_spacing * result.fine_spacing_m
-        << " m RMS over the source) is told apart by the fine verification only at "
-        << result.weak_motion_resolution_m << " m RMS (need <= "
-        << options.max_weak_motion_resolution_spacing << " x the fine spacing "
-        << result.fine_spacing_m << " m = " << weak_bound
-        << " m); the overlap fixes it by a few edges or steps only";
+        << " m RMS over the source) is ";
+    if (std::isfinite(result.weak_motion_resolution_m)) {
+      why << "told apart by the fine verification only at " << result.weak_motion_resolution_m
+          << " m RMS (need <= " << options.max_weak_motion_resolution_spacing
+          << " x the fine spacing " << result.fine_spacing_m << " m = " << weak_bound
+          << " m); the overlap fixes it by a few edges or steps only";
+    } else {
+      why << "not told apart by the fine verification at any displacement up to R_s = "
+          << support_radius << " m; a planar or featureless overlap";
+    }
     return fail(why.str());
   }
   if (!options.paper_only && options.check_fit_uncertainty &&
