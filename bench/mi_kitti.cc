@@ -7,7 +7,8 @@
 // and its opposite; 8 = the calibration itself; 9..16 = 0.1 m and 1° in random directions.
 // MMBA_DEBUG=1 in the environment logs each stage (time, evaluations);
 // MI_POINT_RADIUS_M, MI_MAX_POINT_RADIUS_PX, MI_REPRESENTATION, MI_LEVELS, MI_RESTART_LEVEL,
-// MI_SPLIT_LEVEL, MI_PYRAMID_PATHS, MI_COARSE_STARTS, MI_POINT_SAMPLES override the defaults;
+// MI_SPLIT_LEVEL, MI_PYRAMID_PATHS, MI_COARSE_STARTS, MI_POINT_SAMPLES, MI_SAMPLE_BLOCK override
+// the defaults;
 // MI_PHOTO_BLUR=SIGMA_PX smooths the photo (diagnostic).
 // Diagnostics: MI_PROBE=1 (per-axis probe at every level, then exit); MI_COMPARE=1 (the
 // metric at the calibration, the start and the result at every level, and on the line from
@@ -55,6 +56,7 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_PER_POINT_FROM_LEVEL")) {
     options.per_point_samples_from_level = std::atoi(v);
   }
+  if (const char* v = std::getenv("MI_SAMPLE_BLOCK")) options.sample_block_px = std::atoi(v);
   if (const char* v = std::getenv("MI_SAMPLES_IN_CHECKS")) {
     options.point_samples_in_checks = std::atoi(v) != 0;
   }

@@ -23,7 +23,9 @@
 // MMBA_DEBUG=1 logs each stage. MI_ONLY selects registrations (below), MI_PERTURB sets their
 // start, MI_THREADS the registration's threads (default 2), MI_RESTARTS / MI_RESTART_OFFSET
 // ("m,deg") the restarts, MI_POINT_RADIUS ("m,px") the registration's z-buffer footprint
-// (the cuts' headings and the scoring keep the default), MI_WHOLE_IMAGE_CHECKS=0 switches the
+// (the cuts' headings and the scoring keep the default), MI_SAMPLE_BLOCK the per-point
+// samples' block (RegistrationOptions::sample_block_px; 0 = the won-pixel samples of
+// before session 18), MI_WHOLE_IMAGE_CHECKS=0 switches the
 // whole-panorama check off; each
 // registration prints its whole-image checks and a `digest` line (RegistrationResult::Digest,
 // pose and metric in hex floats) to compare runs.
@@ -302,6 +304,7 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_PER_POINT_FROM_LEVEL")) {
     options.per_point_samples_from_level = std::atoi(v);
   }
+  if (const char* v = std::getenv("MI_SAMPLE_BLOCK")) options.sample_block_px = std::atoi(v);
   if (const char* v = std::getenv("MI_SAMPLES_IN_CHECKS")) {
     options.point_samples_in_checks = std::atoi(v) != 0;
   }

@@ -70,6 +70,7 @@ int main(int argc, char** argv) {
     // Point-sample evaluator (0 = render every evaluation) and the level from which each
     // point is one weighted sample (finer levels: one sample per covered pixel).
     if (const char* v = std::getenv("MI_POINT_SAMPLES")) options.point_samples = std::atoi(v) != 0;
+    if (const char* v = std::getenv("MI_SAMPLE_BLOCK")) options.sample_block_px = std::atoi(v);
     if (const char* v = std::getenv("MI_PER_POINT_FROM_LEVEL")) {
       options.per_point_samples_from_level = std::atoi(v);
     }

@@ -59,6 +59,7 @@ struct RegisterMiArgs {
   bool whole_image_checks = true;
   bool all_checks = false;
   bool point_samples = true;
+  int sample_block_px = 8;
   int split_level = 0;
   double split_tolerance_px = 1.0;
   bool calibrate_covariance = true;
@@ -168,6 +169,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.whole_image_checks = args.whole_image_checks;
   options.measure_all_checks = args.all_checks;
   options.point_samples = args.point_samples;
+  options.sample_block_px = args.sample_block_px;
   options.split_level = args.split_level;
   options.split_tolerance_px = args.split_tolerance_px;
   options.calibrate_covariance = args.calibrate_covariance;
@@ -354,6 +356,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"pyramid_paths", args.pyramid_paths},   {"pyramid_paths_adaptive", args.pyramid_paths_adaptive},
                      {"whole_image_checks", args.whole_image_checks},
                      {"all_checks", args.all_checks},         {"point_samples", args.point_samples},
+                     {"sample_block_px", args.sample_block_px},
                      {"covariance_per_point_samples", options.covariance_per_point_samples}};
   if (frames.size() > 1) {
     out["used_frames"] = result.used_frames;
@@ -498,6 +501,14 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
                   "frozen per reference pose; about half the CPU, more results ok) instead of "
                   "rendering each pose; false = every pose rendered (the default until 2 Dec; "
                   "bench/RESULTS.md, \"Point samples as the default\")")
+      ->capture_default_str();
+  sub->add_option("--sample-block-px", args->sample_block_px,
+                  "Point samples: each visible point sampled at its own projection, weighted "
+                  "by its share of the covered pixels of its N x N block (the footprint decides "
+                  "visibility only); 0 = at the pixel it won, weighted by its won pixels (the "
+                  "default until session 18; bench/RESULTS.md, \"The footprint decides "
+                  "visibility only\")")
+      ->check(CLI::Range(0, 256))
       ->capture_default_str();
   sub->add_option("--split-level", args->split_level,
                   "Pyramid level of the halves' re-optimisation (0 = full resolution)")

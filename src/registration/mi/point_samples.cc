@@ -119,9 +119,7 @@ bool CpuHasAvx2() {
   alignas(64) float batch_photo[kBatch], batch_weight[kBatch], batch_value[kBatch];
   alignas(64) float batch_x[kBatch], batch_y[kBatch];
   int n = 0;
-  // The samples' weights are pixel counts (MakeViewSamples: integers below 2^16): a batch's
-  // sum in integers is exact, and so is the total in double — the total of the samples
-  // added one by one.
+  // The total weight, summed per sample in the same order as the general loop.
   double count = 0;
   // JointHistogram::LidarWeights with the bins held here (its last bin is that of value 1),
   // the clamp as min/max (the same bin for every value that is not NaN), so that the batch's
@@ -144,9 +142,7 @@ bool CpuHasAvx2() {
       batch_bx[k] = bx;
       for (int i = 0; i < 4; ++i) batch_wx[i][k] = w[i];
     }
-    int pixels = 0;
-    for (int k = 0; k < n; ++k) pixels += static_cast<int>(batch_weight[k]);
-    count += pixels;
+    for (int k = 0; k < n; ++k) count += batch_weight[k];
     histogram->AddCoveredBatch(n, batch_bx, batch_wx, batch_photo, batch_weight);
     n = 0;
   };
@@ -256,7 +252,7 @@ template <typename Model>
       batch_weight[n] = samples.sample_weight[s];
       batch_bx[n] = bx;
       for (int i = 0; i < 4; ++i) batch_wx[i][n] = wx[i];
-      count += samples.sample_weight[s];  // integer weights: exact, the same total as per sample
+      count += samples.sample_weight[s];
       if (++n == kBatch) flush();
     }
   };
@@ -322,13 +318,15 @@ __attribute__((target_clones("avx2", "default"))) void Accumulate(
 }  // namespace
 
 ViewSamples MakeViewSamples(const LidarPoints& points, const LidarImage& rendered,
-                            const RenderOptions& options, bool per_point, int max_probes) {
+                            const RenderOptions& options, bool per_point,
+                            const PerPointPlacement& placement, int max_probes) {
   ViewSamples samples;
   const size_t pixels = rendered.point_index.size();
   // Compact index of each winning point, in order of first appearance (row-major).
   std::vector<int> compact(points.size(), -1);
   std::vector<uint32_t> count;
   std::vector<int> original;  // compact → index in `points`
+  std::vector<size_t> first_pixel;  // compact → the first pixel it won
   for (size_t k = 0; k < pixels; ++k) {
     const int i = rendered.point_index[k];
     if (i < 0) continue;
@@ -340,10 +338,63 @@ ViewSamples MakeViewSamples(const LidarPoints& points, const LidarImage& rendere
                                     : 1.f);
       count.push_back(0);
       original.push_back(i);
+      first_pixel.push_back(k);
     }
     ++count[compact[i]];
   }
   const size_t n = samples.points_in_lidar.size();
+  const int width = rendered.width;
+  if (per_point && placement.block_px > 0) {
+    // The footprint decides visibility only: each point in front at the pixel of its own
+    // projection is sampled there, with its share of its block's covered pixels.
+    const int block = placement.block_px;
+    const int blocks_x = (width + block - 1) / block;
+    const int blocks_y = (rendered.height + block - 1) / block;
+    std::vector<float> block_pixels(static_cast<size_t>(blocks_x) * blocks_y, 0.f);
+    std::vector<float> block_samples(block_pixels.size(), 0.f);
+    for (size_t k = 0; k < pixels; ++k) {
+      if (rendered.point_index[k] < 0) continue;
+      const int c = static_cast<int>(k % width), r = static_cast<int>(k / width);
+      block_pixels[static_cast<size_t>(r / block) * blocks_x + c / block] += 1.f;
+    }
+    ViewSamples kept;
+    std::vector<size_t> block_of;
+    std::vector<int> kept_original;
+    for (size_t j = 0; j < n; ++j) {
+      const int i = original[j];
+      const Eigen::Vector2f& xy = rendered.projected[i];
+      const int c = static_cast<int>(std::floor(xy.x())), r = static_cast<int>(std::floor(xy.y()));
+      // The point's range is the depth of every pixel it won (one key per footprint); the
+      // renderer keeps only projections inside the image, so (c, r) is a pixel it drew on.
+      const float range = rendered.depth[first_pixel[j]];
+      const float front = rendered.depth[static_cast<size_t>(r) * width + c];
+      if (!(range <= front + placement.depth_tolerance_m +
+                         placement.depth_tolerance_fraction * front)) {
+        continue;
+      }
+      kept.points_in_lidar.push_back(samples.points_in_lidar[j]);
+      kept.value01.push_back(samples.value01[j]);
+      const size_t b = static_cast<size_t>(r / block) * blocks_x + c / block;
+      block_of.push_back(b);
+      block_samples[b] += 1.f;
+      kept_original.push_back(i);
+    }
+    const size_t m = kept.points_in_lidar.size();
+    kept.sample_begin.resize(m + 1);
+    for (size_t j = 0; j <= m; ++j) kept.sample_begin[j] = static_cast<uint32_t>(j);
+    kept.sample_offset.assign(m, {0, 0});
+    kept.sample_weight.resize(m);
+    for (size_t j = 0; j < m; ++j) {
+      kept.sample_weight[j] = block_pixels[block_of[j]] / block_samples[block_of[j]];
+    }
+    const size_t probes = std::min<size_t>(m, static_cast<size_t>(std::max(0, max_probes)));
+    for (size_t q = 0; q < probes; ++q) {
+      const size_t j = (2 * q + 1) * m / (2 * probes);  // spread over the visible set
+      kept.probe_points.push_back(kept.points_in_lidar[j]);
+      kept.probe_pixels.push_back(rendered.projected[kept_original[j]]);
+    }
+    return kept;
+  }
   samples.sample_begin.assign(n + 1, 0);
   for (size_t j = 0; j < n; ++j) samples.sample_begin[j + 1] = samples.sample_begin[j] + count[j];
   samples.sample_offset.resize(samples.sample_begin[n]);

@@ -1,6 +1,8 @@
 #include "mmba/registration/mi/point_samples.h"
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 
 #include <gtest/gtest.h>
 
@@ -54,8 +56,8 @@ TEST_F(PointSamplesTest, PerPixelSamplesAtTheReferenceEqualTheRenderedMetric) {
   }
 }
 
-// One weighted sample per point: the weights add up to the covered pixels, and the metric
-// still peaks at the true pose along every parameter.
+// One weighted sample per point: the weights add up to (nearly all) the covered pixels, and
+// the metric still peaks at the true pose along every parameter.
 TEST_F(PointSamplesTest, PerPointSamplesKeepThePixelWeightsAndThePeak) {
   RegistrationOptions options = SampledOptions();
   const FrameSetEvaluator evaluator({frame_}, truth_, options);
@@ -66,7 +68,10 @@ TEST_F(PointSamplesTest, PerPointSamplesKeepThePixelWeightsAndThePeak) {
     ASSERT_EQ(view.samples(), view.points());
     for (float w : view.sample_weight) weight += w;
   }
-  EXPECT_DOUBLE_EQ(weight, static_cast<double>(pixels.samples));
+  // The block weights share each block's covered pixels among its samples: all of them but
+  // those of the few blocks whose every point is hidden at its own pixel.
+  EXPECT_LE(weight, static_cast<double>(pixels.samples) * (1 + 1e-6));
+  EXPECT_GT(weight, 0.98 * static_cast<double>(pixels.samples));
   EXPECT_LT(set.samples, pixels.samples);
   const double at_truth = evaluator.Evaluate(truth_, 0, options.metric, &set).value;
   for (int axis = 0; axis < 6; ++axis) {
@@ -102,13 +107,18 @@ TEST_F(PointSamplesTest, PinholeBlocksAccumulateAsTheGenericModel) {
     render.representation = representation;
     LidarImage rendered;
     RenderLidarImage(points_, pinhole_view, truth_, render, &rendered);
-    for (bool per_point : {false, true}) {
-      const ViewSamples samples = MakeViewSamples(points_, rendered, render, per_point);
+    // Per pixel; per point at the won pixel (block 0); per point at the projection (block 8).
+    for (int placement_block : {-1, 0, 8}) {
+      const bool per_point = placement_block >= 0;
+      PerPointPlacement placement;
+      placement.block_px = std::max(0, placement_block);
+      const ViewSamples samples = MakeViewSamples(points_, rendered, render, per_point, placement);
       ASSERT_GT(samples.points(), 2000u);  // many batches, and a partial last block
       for (int bins : {64, 16}) {
         SCOPED_TRACE(std::string(RepresentationName(representation)) +
-                     (per_point ? ", per point" : ", per pixel") + ", bins " +
-                     std::to_string(bins));
+                     (per_point ? ", per point, block " + std::to_string(placement_block)
+                                : std::string(", per pixel")) +
+                     ", bins " + std::to_string(bins));
         for (double scale : {0.0, 0.5, 3.0}) {
           Vector6d offset;
           offset << 0.02, -0.03, 0.01, 0.1, -0.2, 0.15;
@@ -210,6 +220,75 @@ TEST_F(PointSamplesTest, OtherLevelOrWholeImageMetricIsRendered) {
   const FrameSetEvaluator::SampleSet level1 = evaluator.MakeSampleSet(truth_, 1, true);
   EXPECT_EQ(evaluator.Evaluate(truth_, 1, whole, &level1).value,
             evaluator.Evaluate(truth_, 1, whole).value);
+}
+
+// The footprint decides visibility only (PerPointPlacement, block_px > 0): at the edge of a
+// near wall in front of a far one, the far points whose own pixel the near wall's footprint
+// covers are not sampled (with block 0 they are, displaced onto a pixel beside the edge);
+// every sample is at its point's own projection; a block's weights add up to its covered
+// pixels.
+TEST(PerPointPlacementTest, FarPointsHiddenAtTheirOwnPixelAreNotSampledAndWeightsShareBlocks) {
+  sensors::Camera camera;
+  camera.model_id = sensors::CameraModelId::kPinhole;
+  camera.width = 64;
+  camera.height = 64;
+  camera.params = {64.0, 64.0, 32.0, 32.0};
+  const View view = MakeViews(GrayImage(64, 64), camera, ViewOptions(), "edge")[0];
+  LidarPoints points;
+  auto wall = [&](double z, double x0, double x1, double step, float intensity) {
+    for (double x = x0; x <= x1; x += step) {
+      for (double y = -0.5 * z; y <= 0.5 * z; y += step) {
+        points.points_in_lidar.emplace_back(x, y, z);
+        points.intensity01.push_back(intensity);
+      }
+    }
+  };
+  wall(0.8, -0.5, -0.01, 0.01, 0.9);  // the near wall: the left half, footprint 2 px
+  wall(1.5, -0.8, 0.8, 0.02, 0.1);    // the far wall behind it: 0.85 px apart, footprint 1 px
+  RenderOptions render;
+  LidarImage rendered;
+  RenderLidarImage(points, view, Rigid3d(), render, &rendered);
+  const PerPointPlacement placement;  // the default: block 8
+  ASSERT_GT(placement.block_px, 0);
+  const ViewSamples samples = MakeViewSamples(points, rendered, render, true, placement);
+  PerPointPlacement won_pixel;
+  won_pixel.block_px = 0;
+  const ViewSamples old_samples = MakeViewSamples(points, rendered, render, true, won_pixel);
+  ASSERT_GT(samples.points(), 500u);
+
+  // Far points: sampled (and where) in each placement, by their position.
+  auto far_points_behind_the_edge = [&](const ViewSamples& set) {
+    int count = 0;
+    for (size_t j = 0; j < set.points(); ++j) {
+      const Eigen::Vector3f& p = set.points_in_lidar[j];
+      if (p.z() < 1.f) continue;
+      const int c = static_cast<int>(std::floor(64.0 * p.x() / p.z() + 32.0));
+      const int r = static_cast<int>(std::floor(64.0 * p.y() / p.z() + 32.0));
+      if (rendered.depth[static_cast<size_t>(r) * 64 + c] < 1.f) ++count;  // near wall there
+    }
+    return count;
+  };
+  EXPECT_EQ(far_points_behind_the_edge(samples), 0);
+  EXPECT_GT(far_points_behind_the_edge(old_samples), 0);  // the displaced ones
+
+  std::map<int, double> block_weight, block_pixels;
+  for (size_t j = 0; j < samples.points(); ++j) {
+    EXPECT_EQ(samples.sample_offset[j][0], 0);
+    EXPECT_EQ(samples.sample_offset[j][1], 0);
+    const Eigen::Vector3f& p = samples.points_in_lidar[j];
+    const int c = static_cast<int>(std::floor(64.0 * p.x() / p.z() + 32.0));
+    const int r = static_cast<int>(std::floor(64.0 * p.y() / p.z() + 32.0));
+    block_weight[(r / 8) * 8 + c / 8] += samples.sample_weight[j];
+  }
+  for (size_t k = 0; k < rendered.point_index.size(); ++k) {
+    if (rendered.point_index[k] < 0) continue;
+    const int c = static_cast<int>(k % 64), r = static_cast<int>(k / 64);
+    block_pixels[(r / 8) * 8 + c / 8] += 1;
+  }
+  ASSERT_EQ(block_weight.size(), block_pixels.size());  // every block keeps a sample here
+  for (const auto& [block, weight] : block_weight) {
+    EXPECT_NEAR(weight, block_pixels[block], 1e-3) << "block " << block;
+  }
 }
 
 }  // namespace

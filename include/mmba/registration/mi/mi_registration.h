@@ -106,6 +106,15 @@ struct RegistrationOptions {
   /// own switch below.
   int per_point_samples_from_level = 0;
   bool SamplePerPoint(int level) const { return level >= per_point_samples_from_level; }
+  /// Where a per-point sample is taken and what it weighs (point_samples.h,
+  /// PerPointPlacement): > 0 = at the point's own projection, weighted by the covered pixels
+  /// of its sample_block_px × sample_block_px block shared among the block's samples, and
+  /// only points in front at their own pixel (the footprint decides visibility only);
+  /// 0 = at the pixel it won nearest its projection, weighted by its won pixels (the
+  /// rendered histogram's weights; the default until 2 Dec, session 18). Measured on the
+  /// 180 simulated panorama registrations (bench/RESULTS.md, "The footprint decides
+  /// visibility only (session 18)").
+  int sample_block_px = 8;
   /// With point samples, the covariance fit's samples (at its level, the visibility of the
   /// optimum): one weighted sample per visible point (true; ~2.6 times fewer samples at full
   /// resolution) or one per covered pixel (false; the rendered histogram's samples).
@@ -212,7 +221,7 @@ struct StageStat {
 /// The acceptance tests of one registration, all measured (also when an earlier one failed).
 struct AcceptanceChecks {
   bool on_bound = false;            ///< optimum at ≥ 90 % of the search bound in some parameter
-  bool below_start = false;         ///< optimum's full-resolution metric below the start's
+  bool below_start = false;         ///< optimum's full-resolution search metric below the start's
   double sigma_px = -1;             ///< predicted pixel σ (median over visible points)
   int weak_directions = 0;          ///< no positive curvature / less than the box: box σ
   double effective_samples = 0;     ///< N_eff of the Laplace covariance

@@ -33,8 +33,9 @@ struct ViewSamples {
   std::vector<float> value01;  ///< per point: intensity, or 1 (points); depth is per pose
   std::vector<uint32_t> sample_begin;  ///< per point, its samples [begin[j], begin[j + 1])
   std::vector<std::array<int8_t, 2>> sample_offset;  ///< pixel − floor(projection), (dc, dr)
-  /// Per sample, the number of footprint pixels it stands for: 1 when every pixel is a
-  /// sample; the point's pixel count when each point keeps one sample (MakeViewSamples).
+  /// Per sample, the number of pixels it stands for: 1 when every pixel is a sample; when
+  /// each point keeps one sample, its share of its block's pixels or its won pixel count
+  /// (MakeViewSamples, PerPointPlacement).
   std::vector<float> sample_weight;
   /// A few points spread over the visible set and their pixels at the reference pose, to
   /// measure how far a pose has moved the image (ProbeDisplacementPx).
@@ -44,15 +45,37 @@ struct ViewSamples {
   size_t points() const { return points_in_lidar.size(); }
 };
 
+/// Per-point samples (MakeViewSamples with `per_point`): where each visible point is
+/// sampled and what it weighs.
+///  - block_px > 0: the footprint decides visibility only. A point is sampled when it won
+///    at least one pixel and is not behind the surface seen at the pixel of its own
+///    projection (by more than depth_tolerance_m + depth_tolerance_fraction · that range:
+///    a neighbour of the same surface covering it does not hide it). Its sample is at its own
+///    projection, so that a point at an occlusion edge is not displaced by the footprints
+///    around it. Its weight is the image area it stands for: the covered pixels of its
+///    block_px × block_px block divided by the samples in that block. Over a block the
+///    weights add up to the rendered histogram's pixels, as in the per-pixel metric of
+///    Wang et al. (CVPRW 2012, Sec. 3), but without the extra weight that a nearer point's
+///    footprint wins where it spreads over a farther surface.
+///  - block_px = 0: the pixel it won nearest its own projection, weighted by the number of
+///    pixels it won (the rendered image's weights). Measured: the spread footprints at
+///    occlusion edges bias the optimum (bench/RESULTS.md, "The footprint decides visibility
+///    only (session 18)").
+struct PerPointPlacement {
+  int block_px = 8;
+  double depth_tolerance_m = 0.1;
+  double depth_tolerance_fraction = 0.01;
+};
+
 /// Builds the samples from `rendered`, the LidarImage of `points` rendered for the view at
-/// the reference pose (its z-buffer winners and their projections). `per_point`: each point
-/// keeps one sample, the pixel it won nearest its own projection, weighted by the number of
-/// pixels it won (the point-sample MI of Viola & Wells with the rendered image's weights;
-/// the footprint's neighbouring pixels are strongly correlated samples of the same point);
-/// otherwise every covered pixel is a sample of weight 1 (at the reference exactly the
-/// rendered histogram). At most `max_probes` probe points are kept.
+/// the reference pose (its z-buffer winners and their projections). `per_point`: each
+/// visible point keeps one weighted sample, placed as `placement` says (the point-sample MI
+/// of Viola & Wells; the footprint's neighbouring pixels are strongly correlated samples of
+/// the same point); otherwise every covered pixel is a sample of weight 1 (at the reference
+/// exactly the rendered histogram). At most `max_probes` probe points are kept.
 ViewSamples MakeViewSamples(const LidarPoints& points, const LidarImage& rendered,
                             const RenderOptions& options, bool per_point,
+                            const PerPointPlacement& placement = PerPointPlacement(),
                             int max_probes = 16);
 
 /// For the points [point_begin, point_end) of `samples`: adds to `histogram` (B-spline,
