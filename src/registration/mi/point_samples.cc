@@ -363,9 +363,11 @@ ViewSamples MakeViewSamples(const LidarPoints& points, const LidarImage& rendere
     for (size_t j = 0; j < n; ++j) {
       const int i = original[j];
       const Eigen::Vector2f& xy = rendered.projected[i];
-      const int c = static_cast<int>(std::floor(xy.x())), r = static_cast<int>(std::floor(xy.y()));
-      // The point's range is the depth of every pixel it won (one key per footprint); the
-      // renderer keeps only projections inside the image, so (c, r) is a pixel it drew on.
+      // The renderer keeps only projections inside the image (tested in double); the clamp
+      // guards the float copy rounding up to the edge.
+      const int c = std::min(width - 1, static_cast<int>(std::floor(xy.x())));
+      const int r = std::min(rendered.height - 1, static_cast<int>(std::floor(xy.y())));
+      // The point's range is the depth of every pixel it won (one key per footprint).
       const float range = rendered.depth[first_pixel[j]];
       const float front = rendered.depth[static_cast<size_t>(r) * width + c];
       if (!(range <= front + placement.depth_tolerance_m +

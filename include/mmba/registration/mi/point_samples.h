@@ -55,7 +55,7 @@ struct ViewSamples {
 ///    around it. Its weight is the image area it stands for: the covered pixels of its
 ///    block_px × block_px block divided by the samples in that block. Over a block the
 ///    weights add up to the rendered histogram's pixels, as in the per-pixel metric of
-///    Wang et al. (CVPRW 2012, Sec. 3), but without the extra weight that a nearer point's
+///    Wang et al. (CVPRW 2012), but without the extra weight that a nearer point's
 ///    footprint wins where it spreads over a farther surface.
 ///  - block_px = 0: the pixel it won nearest its own projection, weighted by the number of
 ///    pixels it won (the rendered image's weights). Measured: the spread footprints at
