@@ -193,6 +193,14 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
                                " --output " + Tmp("given.json"));
   ASSERT_TRUE(given.exit_code == 0 || given.exit_code == 3) << given.output;
   const nlohmann::json a = nlohmann::json::parse(std::ifstream(Tmp("given.json")));
+  EXPECT_EQ(a["settings"]["sample_block_px"], 8);  // the default, recorded
+
+  // A bad sample block: exit 2 naming the flag, no output written.
+  const RunResult bad = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin" + common +
+                             " --sample-block-px -1 --output " + Tmp("bad_block.json"));
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;
+  EXPECT_THAT(bad.output, HasSubstr("--sample-block-px"));
+  EXPECT_FALSE(std::filesystem::exists(Tmp("bad_block.json")));
 
   const Eigen::Vector3d grid(512000.0, 5412000.0, 1000.0);  // whole km: the same floats
   io::PointCloud cloud = io::ReadPointCloud(kitti + "velodyne/000000.bin");

@@ -73,6 +73,16 @@ TEST_F(PointSamplesTest, PerPointSamplesKeepThePixelWeightsAndThePeak) {
   EXPECT_LE(weight, static_cast<double>(pixels.samples) * (1 + 1e-6));
   EXPECT_GT(weight, 0.98 * static_cast<double>(pixels.samples));
   EXPECT_LT(set.samples, pixels.samples);
+  // With sample_block_px 0 (each point at its won pixel) the weights are the won pixel
+  // counts: exactly the covered pixels.
+  RegistrationOptions won_pixel = options;
+  won_pixel.sample_block_px = 0;
+  const FrameSetEvaluator won_evaluator({frame_}, truth_, won_pixel);
+  double won_weight = 0;
+  for (const ViewSamples& view : won_evaluator.MakeSampleSet(truth_, 0, true).views) {
+    for (float w : view.sample_weight) won_weight += w;
+  }
+  EXPECT_DOUBLE_EQ(won_weight, static_cast<double>(pixels.samples));
   const double at_truth = evaluator.Evaluate(truth_, 0, options.metric, &set).value;
   for (int axis = 0; axis < 6; ++axis) {
     for (double sign : {-1.0, 1.0}) {
