@@ -15,8 +15,9 @@
 //   mi_panoramas SIM_DIR OUT_DIR [CLOUD=mobile|static] [KINDS=spheres,rig_panoramas]
 //                [DRAWS=2] [VIEW=perspective] [SEED=1] [MAGNITUDES=both|small|large]
 //
-// KINDS: comma list of spheres, rig_panoramas, rig (the fisheye images). VIEW (panoramas only;
-// fisheye images are registered whole): perspective | equirect | cube.
+// KINDS: comma list of spheres, rig_panoramas, rig (the fisheye images), photos (the photo
+// collection's pinhole images; use CLOUD=static, the photos face the front). VIEW (panoramas
+// only; fisheye images and photos are registered whole): perspective | equirect | cube.
 // Writes OUT_DIR/runs.csv (one row per registration), OUT_DIR/hist_views.csv and
 // hist_views.svg (per-view median offset before/after), OUT_DIR/hist_points.csv and
 // hist_points.svg (offsets of all points, pooled), and prints a summary.
@@ -88,7 +89,7 @@ Rigid3d PoseFromJson(const nlohmann::json& j) {
 }
 
 struct TrueView {
-  std::string kind;  // spheres | rig_panoramas | rig
+  std::string kind;  // spheres | rig_panoramas | rig | photos
   std::string name;
   std::string image_path;
   sensors::Camera camera;
@@ -126,6 +127,17 @@ std::vector<TrueView> ReadViews(const fs::path& dir, const std::vector<std::stri
       views.push_back({"rig_panoramas", name, (dir / "images" / "rig_panoramas" /
                                                 (name + ".png")).string(),
                        pano, PoseFromJson(frame.at("rig_from_world"))});
+    }
+  }
+  if (wanted("photos")) {
+    // The photo collection's pinhole (OPENCV) images, at their true poses and calibration.
+    const nlohmann::json& photos = truth.at("photos");
+    const sensors::Camera camera = CameraFromJson(photos.at("camera"));
+    for (const nlohmann::json& photo : photos.at("images")) {
+      const std::string file = photo.at("name").get<std::string>();
+      views.push_back({"photos", fs::path(file).stem().string(),
+                       (dir / "images" / "photos" / file).string(), camera,
+                       PoseFromJson(photo.at("cam_from_world"))});
     }
   }
   if (wanted("rig")) {
