@@ -324,6 +324,8 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_COV_PER_POINT")) {
     options.covariance_per_point_samples = std::atoi(v) != 0;
   }
+  // MI_COV_FLOOR=0: the calibrated Laplace covariance without the pixel-isotropic floor.
+  if (const char* v = std::getenv("MI_COV_FLOOR")) options.covariance_pixel_floor = std::atoi(v) != 0;
   if (const char* v = std::getenv("MI_RESTART_LEVEL")) options.restart_level = std::atoi(v);
   if (const char* v = std::getenv("MI_SPLIT_LEVEL")) options.split_level = std::atoi(v);
   if (const char* v = std::getenv("MI_PYRAMID_PATHS")) options.pyramid_paths = std::atoi(v);

@@ -63,6 +63,7 @@ struct RegisterMiArgs {
   int split_level = 0;
   double split_tolerance_px = 1.0;
   bool calibrate_covariance = true;
+  bool covariance_pixel_floor = true;
   int effective_sample_lag = 8;
   double point_radius_m = 0.03;
   int max_point_radius_px = 2;
@@ -173,6 +174,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.split_level = args.split_level;
   options.split_tolerance_px = args.split_tolerance_px;
   options.calibrate_covariance = args.calibrate_covariance;
+  options.covariance_pixel_floor = args.covariance_pixel_floor;
   options.effective_sample_max_lag = args.effective_sample_lag;
   options.render.point_radius_m = args.point_radius_m;
   options.render.max_point_radius_px = args.max_point_radius_px;
@@ -357,6 +359,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"whole_image_checks", args.whole_image_checks},
                      {"all_checks", args.all_checks},         {"point_samples", args.point_samples},
                      {"sample_block_px", args.sample_block_px},
+                     {"covariance_pixel_floor", args.covariance_pixel_floor},
                      {"covariance_per_point_samples", options.covariance_per_point_samples}};
   if (frames.size() > 1) {
     out["used_frames"] = result.used_frames;
@@ -522,6 +525,11 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
                   "(checks.covariance_factor: checks.variance_factor, or for a panorama's cuts "
                   "the larger of it and checks.image_variance_factor; the Laplace one is "
                   "covariance_laplace)")
+      ->capture_default_str();
+  sub->add_option("--covariance-pixel-floor", args->covariance_pixel_floor,
+                  "With --calibrate-covariance: raise the reported covariance in every direction "
+                  "to at least the one that moves the visible points by its calibrated pixel "
+                  "sigma (checks.covariance_floor_directions counts the directions raised)")
       ->capture_default_str();
   sub->add_option("--effective-sample-lag", args->effective_sample_lag,
                   "Covariance: correlated pixels counted by Bartlett's factor over lags within "

@@ -194,6 +194,10 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
   ASSERT_TRUE(given.exit_code == 0 || given.exit_code == 3) << given.output;
   const nlohmann::json a = nlohmann::json::parse(std::ifstream(Tmp("given.json")));
   EXPECT_EQ(a["settings"]["sample_block_px"], 8);  // the default, recorded
+  EXPECT_EQ(a["settings"]["covariance_pixel_floor"], true);
+  ASSERT_TRUE(a["checks"].contains("covariance_floor_directions"));
+  EXPECT_GE(a["checks"]["covariance_floor_directions"].get<int>(), 0);
+  EXPECT_LE(a["checks"]["covariance_floor_directions"].get<int>(), 6);
 
   // A bad sample block: exit 2 naming the flag, no output written.
   const RunResult bad = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin" + common +

@@ -13,6 +13,7 @@
 
 #include <immintrin.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <glog/logging.h>
@@ -49,6 +50,40 @@ std::string Fixed(double v, int digits = 3) {
 }
 
 }  // namespace
+
+Eigen::Matrix<double, 6, 6> RaiseToPixelFloor(
+    const Eigen::Matrix<double, 6, 6>& covariance,
+    const std::vector<Eigen::Matrix<double, 2, 6>>& jacobians, double mean_variance,
+    int* raised) {
+  *raised = 0;
+  if (jacobians.empty() || !(mean_variance > 0)) return covariance;
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  for (const Eigen::Matrix<double, 2, 6>& j : jacobians) information += j.transpose() * j;
+  information /= static_cast<double>(jacobians.size());
+  Eigen::LLT<Eigen::Matrix<double, 6, 6>> information_llt(information);
+  if (information_llt.info() != Eigen::Success) return covariance;
+  const Eigen::Matrix<double, 6, 6> floor =
+      (mean_variance / 6.0) * information_llt.solve(Eigen::Matrix<double, 6, 6>::Identity());
+  Eigen::LLT<Eigen::Matrix<double, 6, 6>> floor_llt(floor);
+  if (floor_llt.info() != Eigen::Success) return covariance;
+  const Eigen::Matrix<double, 6, 6> l = floor_llt.matrixL();
+  const Eigen::Matrix<double, 6, 6> l_inv =
+      l.triangularView<Eigen::Lower>().solve(Eigen::Matrix<double, 6, 6>::Identity());
+  const Eigen::Matrix<double, 6, 6> whitened = l_inv * covariance * l_inv.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(
+      0.5 * (whitened + whitened.transpose()));
+  Vector6d values = eigen.eigenvalues();
+  for (int i = 0; i < 6; ++i) {
+    if (values[i] < 1.0) {
+      values[i] = 1.0;
+      ++*raised;
+    }
+  }
+  const Eigen::Matrix<double, 6, 6> raised_whitened =
+      eigen.eigenvectors() * values.asDiagonal() * eigen.eigenvectors().transpose();
+  const Eigen::Matrix<double, 6, 6> result = l * raised_whitened * l.transpose();
+  return 0.5 * (result + result.transpose());
+}
 
 const char* ParameterName(int axis) {
   static const char* kNames[6] = {"tx", "ty", "tz", "roll", "pitch", "yaw"};
@@ -1494,13 +1529,14 @@ SearchResult MainSearch(const FrameSetEvaluator& evaluator, const Rigid3d& start
 // Per point of `sample`: the predicted pixel variance trace(J Σ Jᵀ) at correction x, in
 // pixels² of the frame's image (J = ∂pixel/∂correction by central differences); points that
 // do not project are left out.
-std::vector<double> PredictedPixelVariances(
+// Per point of `sample` (those that project at x ± the steps): ∂pixel/∂correction at x, in
+// pixels of the frame's image per m and per degree (central differences).
+std::vector<Eigen::Matrix<double, 2, 6>> PixelJacobians(
     const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x,
-    const std::vector<FrameSetEvaluator::VisiblePoint>& sample,
-    const Eigen::Matrix<double, 6, 6>& covariance) {
+    const std::vector<FrameSetEvaluator::VisiblePoint>& sample) {
   Vector6d h;
   h << 1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2;
-  std::vector<double> variances;
+  std::vector<Eigen::Matrix<double, 2, 6>> jacobians;
   for (const FrameSetEvaluator::VisiblePoint& point : sample) {
     const View& view = evaluator.frames()[point.frame].views[point.view];
     Eigen::Matrix<double, 2, 6> jacobian;
@@ -1514,12 +1550,22 @@ std::vector<double> PredictedPixelVariances(
            evaluator.Project(point, ApplyCorrection(start, b), &pb);
       if (ok) jacobian.col(k) = PixelDifference(view, pa, pb) / (2 * h[k]);
     }
-    if (!ok) continue;
-    const double scale = view.image_pixels_per_pixel;
-    variances.push_back(scale * scale * (jacobian * covariance * jacobian.transpose()).trace());
+    if (ok) jacobians.push_back(view.image_pixels_per_pixel * jacobian);
+  }
+  return jacobians;
+}
+
+std::vector<double> PredictedPixelVariances(
+    const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x,
+    const std::vector<FrameSetEvaluator::VisiblePoint>& sample,
+    const Eigen::Matrix<double, 6, 6>& covariance) {
+  std::vector<double> variances;
+  for (const Eigen::Matrix<double, 2, 6>& jacobian : PixelJacobians(evaluator, start, x, sample)) {
+    variances.push_back((jacobian * covariance * jacobian.transpose()).trace());
   }
   return variances;
 }
+
 
 // Per point of `sample`: the squared pixel distance between poses a and b, in pixels² of the
 // frame's image.
@@ -1736,6 +1782,7 @@ uint64_t RegistrationResult::Digest() const {
                    c.image_sigma_px_calibrated, c.covariance_factor}) {
     h.Double(v);
   }
+  h.Int(c.covariance_floor_directions);
   h.String(c.scans_reason);
   h.String(c.split_kind);
   h.Metric(metric_before);
@@ -2257,6 +2304,16 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
                          Fixed(checks.image_restart_spread_px, 2) + " px, halves " +
                          Fixed(checks.image_split_spread_px, 2) + " px apart there)");
     }
+  }
+  // The reported covariance raised to the pixel-isotropic floor: at least as uncertain in
+  // every direction as a pose error that moves the points by the calibrated mean squared
+  // pixel distance. The Laplace shape alone is too narrow along the directions the MI
+  // surface is sharpest in (bench/RESULTS.md, "MI priors on photos"). No status changes.
+  if (options.calibrate_covariance && options.covariance_pixel_floor &&
+      result.covariance_valid && predicted_ms > 0) {
+    result.covariance = RaiseToPixelFloor(
+        result.covariance, PixelJacobians(evaluator, cam_from_lidar_start, x, sample),
+        checks.covariance_factor * predicted_ms, &checks.covariance_floor_directions);
   }
   if (decided("the calibrated covariance")) return Finish(result, failures, timer, evaluator);
   // (5) Per-axis scans: flat or multi-peaked surfaces.

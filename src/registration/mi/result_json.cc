@@ -88,6 +88,7 @@ json ResultToJson(const RegistrationResult& result, const RegistrationOptions& o
                    {"image_variance_factor", checks.image_variance_factor},
                    {"image_sigma_px_calibrated", checks.image_sigma_px_calibrated},
                    {"covariance_factor", checks.covariance_factor},
+                   {"covariance_floor_directions", checks.covariance_floor_directions},
                    {"axis_scans_passed", checks.scans_passed},
                    {"axis_scans_reason", checks.scans_reason},
                    {"stopped_after", checks.stopped_after}};

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <limits>
 
+#include <Eigen/Dense>
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
 
@@ -18,6 +19,12 @@ using testing::StreetCamera;
 using testing::StreetCamFromLidar;
 using testing::StreetCloud;
 using testing::StreetPhoto;
+
+// a − b is positive semi-definite (up to rounding): a is at least b in every direction.
+void ExpectAtLeast(const Eigen::Matrix<double, 6, 6>& a, const Eigen::Matrix<double, 6, 6>& b) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(a - b);
+  EXPECT_GE(eigen.eigenvalues().minCoeff(), -1e-9 * a.norm()) << "a:\n" << a << "\nb:\n" << b;
+}
 
 TEST(Correction, ApplyAndRecoverRoundTrip) {
   const Rigid3d start = StreetCamFromLidar(Eigen::Vector3d(1, 2, 0.5), 20.0);
@@ -36,6 +43,54 @@ TEST(Correction, ApplyAndRecoverRoundTrip) {
   const Eigen::Vector3d forward_after = turned.Inverse().rotation * Eigen::Vector3d::UnitZ();
   EXPECT_LT((forward_after - Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()) *
                                  forward_before).norm(), 1e-12);
+}
+
+// The pixel-isotropic floor: a covariance narrower than the points' pixel geometry allows in
+// some direction is raised there to Σ_P = (v/6)·M⁻¹ and kept where it is wider already.
+TEST(PixelFloor, RaisesOnlyTheDirectionsNarrowerThanThePixelGeometry) {
+  // Four points' Jacobians (pixels per m / per degree) of a camera seeing a plane.
+  std::vector<Eigen::Matrix<double, 2, 6>> jacobians;
+  for (int k = 0; k < 4; ++k) {
+    const double u = (k % 2 == 0 ? -1.0 : 1.0), v = (k < 2 ? -1.0 : 1.0);
+    Eigen::Matrix<double, 2, 6> j;
+    j << 20, 0, -2 * u, 0.5 * u * v, -(10 + u * u), v, 0, 20, -2 * v, 10 + v * v, -0.5 * u * v, -u;
+    jacobians.push_back(j);
+  }
+  Eigen::Matrix<double, 6, 6> m = Eigen::Matrix<double, 6, 6>::Zero();
+  for (const auto& j : jacobians) m += j.transpose() * j / 4.0;
+  const double v = 0.25;  // mean squared pixel σ: 0.5 px
+  const Eigen::Matrix<double, 6, 6> floor = (v / 6.0) * m.inverse();
+  EXPECT_NEAR((m * floor).trace(), v, 1e-12);
+
+  // Wider than the floor in every direction: unchanged.
+  int raised = -1;
+  const Eigen::Matrix<double, 6, 6> wide = 4.0 * floor;
+  EXPECT_TRUE(RaiseToPixelFloor(wide, jacobians, v, &raised).isApprox(wide, 1e-12));
+  EXPECT_EQ(raised, 0);
+
+  // A Laplace-like covariance with the floor's trace but a wrong shape: one direction 100×
+  // too narrow (in variance), the others wider. Raised in that direction only, to the floor.
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> e(floor);
+  Vector6d scale;
+  scale << 0.01, 2, 2, 2, 2, 2;
+  const Eigen::Matrix<double, 6, 6> narrow =
+      e.eigenvectors() * (scale.cwiseProduct(e.eigenvalues())).asDiagonal() *
+      e.eigenvectors().transpose();
+  const Eigen::Matrix<double, 6, 6> out = RaiseToPixelFloor(narrow, jacobians, v, &raised);
+  EXPECT_EQ(raised, 1);
+  ExpectAtLeast(out, narrow);
+  ExpectAtLeast(out, floor);
+  const Eigen::Vector<double, 6> d = e.eigenvectors().col(0);
+  EXPECT_NEAR(d.dot(out * d), d.dot(floor * d), 1e-9 * d.dot(floor * d));
+  for (int i = 1; i < 6; ++i) {
+    const Eigen::Vector<double, 6> w = e.eigenvectors().col(i);
+    EXPECT_NEAR(w.dot(out * w), w.dot(narrow * w), 1e-9 * w.dot(narrow * w));
+  }
+  // No points, or no pixel variance: unchanged.
+  EXPECT_TRUE(RaiseToPixelFloor(narrow, {}, v, &raised).isApprox(narrow));
+  EXPECT_EQ(raised, 0);
+  EXPECT_TRUE(RaiseToPixelFloor(narrow, jacobians, 0.0, &raised).isApprox(narrow));
+  EXPECT_EQ(raised, 0);
 }
 
 TEST(Options, OnePyramidLevelIsValidAndBadValuesAreNamed) {
@@ -143,8 +198,11 @@ TEST_F(StreetTest, RecoversThePoseFromPerturbedStarts) {
   EXPECT_DOUBLE_EQ(factor, std::max(1.0, result.checks.variance_factor_halves +
                                              result.checks.variance_factor_restarts));
   EXPECT_DOUBLE_EQ(result.checks.covariance_factor, factor);  // the view is the whole image
-  EXPECT_NEAR(result.covariance(0, 0), factor * result.covariance_laplace(0, 0),
-              1e-9 * result.covariance(0, 0));
+  // The reported covariance: the calibrated Laplace one, raised to the pixel-isotropic floor
+  // where it is narrower (covariance_pixel_floor): never below the calibrated one.
+  ExpectAtLeast(result.covariance, factor * result.covariance_laplace);
+  EXPECT_GE(result.checks.covariance_floor_directions, 0);
+  EXPECT_LE(result.checks.covariance_floor_directions, 6);
   EXPECT_NEAR(result.checks.sigma_px_calibrated, std::sqrt(factor) * result.checks.sigma_px,
               1e-9);
 }
@@ -392,10 +450,7 @@ TEST_F(StreetTest, PanoramaCutsAreAlsoJudgedOverTheWholePanorama) {
   // views' and the whole image's factors.
   ASSERT_TRUE(result.covariance_valid);
   EXPECT_DOUBLE_EQ(c.covariance_factor, std::max(c.variance_factor, c.image_variance_factor));
-  for (int i = 0; i < 6; ++i) {
-    EXPECT_NEAR(result.covariance(i, i), c.covariance_factor * result.covariance_laplace(i, i),
-                1e-9 * result.covariance(i, i));
-  }
+  ExpectAtLeast(result.covariance, c.covariance_factor * result.covariance_laplace);
   View whole;
   whole.camera = pano;
   const PixelOffsetStats after =
