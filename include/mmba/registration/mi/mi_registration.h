@@ -190,7 +190,7 @@ struct RegistrationOptions {
   /// combination of the six corrections is claimed better than the pixel accuracy allows.
   /// The calibrated Laplace covariance alone was over-confident in 6-D on the simulated
   /// photos: Mahalanobis² of the actual error median 17–111 against 5.35 for a right
-  /// covariance, 1.8–2.7 with the floor; on the panoramas 3.0 (p90 33), 0.5 (p90 5.5) with
+  /// covariance, 1.8–4.8 with the floor; on the panoramas 3.0 (p90 33), 0.5 (p90 5.5) with
   /// it, i.e. on the safe side (bench/RESULTS.md, "MI priors on photos"). The acceptance
   /// checks and every status are unchanged by it.
   bool covariance_pixel_floor = true;
