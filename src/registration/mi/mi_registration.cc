@@ -1526,9 +1526,6 @@ SearchResult MainSearch(const FrameSetEvaluator& evaluator, const Rigid3d& start
   return result;
 }
 
-// Per point of `sample`: the predicted pixel variance trace(J Σ Jᵀ) at correction x, in
-// pixels² of the frame's image (J = ∂pixel/∂correction by central differences); points that
-// do not project are left out.
 // Per point of `sample` (those that project at x ± the steps): ∂pixel/∂correction at x, in
 // pixels of the frame's image per m and per degree (central differences).
 std::vector<Eigen::Matrix<double, 2, 6>> PixelJacobians(
@@ -1555,6 +1552,9 @@ std::vector<Eigen::Matrix<double, 2, 6>> PixelJacobians(
   return jacobians;
 }
 
+// Per point of `sample`: the predicted pixel variance trace(J Σ Jᵀ) at correction x, in
+// pixels² of the frame's image (J from PixelJacobians); points that do not project are left
+// out.
 std::vector<double> PredictedPixelVariances(
     const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x,
     const std::vector<FrameSetEvaluator::VisiblePoint>& sample,
@@ -1565,7 +1565,6 @@ std::vector<double> PredictedPixelVariances(
   }
   return variances;
 }
-
 
 // Per point of `sample`: the squared pixel distance between poses a and b, in pixels² of the
 // frame's image.
