@@ -182,7 +182,8 @@ struct RegistrationOptions {
   int split_level = 0;
   double split_tolerance_px = 1.0;
   /// Calibrate the covariance by the halves and the restarts (AcceptanceChecks::
-  /// variance_factor): `covariance` = factor · the Laplace one (kept as covariance_laplace).
+  /// variance_factor): `covariance` = factor · the Laplace one (kept as covariance_laplace),
+  /// then raised to the pixel-isotropic floor (covariance_pixel_floor).
   bool calibrate_covariance = true;
   /// With calibrate_covariance: the reported covariance is raised, direction by direction,
   /// to at least the pixel-isotropic one (v/6)·M⁻¹, M = mean JᵀJ of the visible points'
@@ -292,7 +293,7 @@ struct AcceptanceChecks {
   double image_variance_factor = -1;
   double image_sigma_px_calibrated = -1;
   /// The factor of the reported covariance (RegistrationResult::covariance = covariance_factor
-  /// · covariance_laplace): variance_factor, or, for views cut from the frame's image,
+  /// · covariance_laplace, before the pixel-isotropic floor): variance_factor, or, for views cut from the frame's image,
   /// max(variance_factor, image_variance_factor). One scale factor of Σ_L estimated on a set
   /// of points weighs the directions those points see; Σ_L's shape is not exact, and the
   /// directions the cuts see little of move the rest of the panorama most, so the views'
