@@ -1552,15 +1552,13 @@ std::vector<Eigen::Matrix<double, 2, 6>> PixelJacobians(
   return jacobians;
 }
 
-// Per point of `sample`: the predicted pixel variance trace(J Σ Jᵀ) at correction x, in
-// pixels² of the frame's image (J from PixelJacobians); points that do not project are left
-// out.
+// Per Jacobian J of PixelJacobians: the predicted pixel variance trace(J Σ Jᵀ), in pixels² of
+// the frame's image.
 std::vector<double> PredictedPixelVariances(
-    const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x,
-    const std::vector<FrameSetEvaluator::VisiblePoint>& sample,
+    const std::vector<Eigen::Matrix<double, 2, 6>>& jacobians,
     const Eigen::Matrix<double, 6, 6>& covariance) {
   std::vector<double> variances;
-  for (const Eigen::Matrix<double, 2, 6>& jacobian : PixelJacobians(evaluator, start, x, sample)) {
+  for (const Eigen::Matrix<double, 2, 6>& jacobian : jacobians) {
     variances.push_back((jacobian * covariance * jacobian.transpose()).trace());
   }
   return variances;
@@ -2001,13 +1999,15 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
       evaluator.SampleVisiblePoints(result.cam_from_lidar, 2000);
   result.covariance_laplace = result.covariance;
   double predicted_ms = 0;  // mean over the sample of trace(J Σ_L Jᵀ), px²
+  // The sample's pixel Jacobians at the optimum (also the covariance's pixel floor, below).
+  std::vector<Eigen::Matrix<double, 2, 6>> sample_jacobians;
   if (!result.covariance_valid) {
     failures.push_back("no maximum: the metric's curvature is not negative in any direction "
                        "(information eigenvalues " + Fixed(min_eigen, 1) + " .. " +
                        Fixed(max_eigen, 1) + ")");
   } else {
-    std::vector<double> sigmas = PredictedPixelVariances(evaluator, cam_from_lidar_start, x,
-                                                         sample, result.covariance);
+    sample_jacobians = PixelJacobians(evaluator, cam_from_lidar_start, x, sample);
+    std::vector<double> sigmas = PredictedPixelVariances(sample_jacobians, result.covariance);
     for (double v : sigmas) predicted_ms += v / sigmas.size();
     for (double& v : sigmas) v = std::sqrt(v);
     checks.sigma_px = Median(sigmas);
@@ -2204,8 +2204,9 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
         displacement2[h] += d2;
       }
       if (result.covariance_valid) {
-        for (double v : PredictedPixelVariances(half, cam_from_lidar_start, x, own,
-                                                result.covariance_laplace)) {
+        const std::vector<Eigen::Matrix<double, 2, 6>> own_jacobians =
+            PixelJacobians(half, cam_from_lidar_start, x, own);
+        for (double v : PredictedPixelVariances(own_jacobians, result.covariance_laplace)) {
           predicted2[h] += v;
         }
       }
@@ -2311,7 +2312,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   if (options.calibrate_covariance && options.covariance_pixel_floor &&
       result.covariance_valid && predicted_ms > 0) {
     result.covariance = RaiseToPixelFloor(
-        result.covariance, PixelJacobians(evaluator, cam_from_lidar_start, x, sample),
+        result.covariance, sample_jacobians,
         checks.covariance_factor * predicted_ms, &checks.covariance_floor_directions);
   }
   if (decided("the calibrated covariance")) return Finish(result, failures, timer, evaluator);

@@ -293,8 +293,8 @@ struct AcceptanceChecks {
   double image_variance_factor = -1;
   double image_sigma_px_calibrated = -1;
   /// The factor of the reported covariance (RegistrationResult::covariance = covariance_factor
-  /// · covariance_laplace, before the pixel-isotropic floor): variance_factor, or, for views cut from the frame's image,
-  /// max(variance_factor, image_variance_factor). One scale factor of Σ_L estimated on a set
+  /// · covariance_laplace, before the pixel-isotropic floor): variance_factor, or, for views
+  /// cut from the frame's image, max(variance_factor, image_variance_factor). One scale factor of Σ_L estimated on a set
   /// of points weighs the directions those points see; Σ_L's shape is not exact, and the
   /// directions the cuts see little of move the rest of the panorama most, so the views'
   /// points alone gave a covariance over-confident for the whole panorama, whose
