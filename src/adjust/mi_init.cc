@@ -78,7 +78,48 @@ struct MiTask {
   size_t frame = 0;     ///< rig
   bool mobile = false;  ///< registered against the mobile LiDAR's delivered cloud (mi_lidar: mobile)
   double time_s = 0.0;  ///< rig: the frame's time
+  /// kind "rig cameras" (mi_views: cameras): the frame's images and their cameras' indices in
+  /// the rig (`path` is the first).
+  std::vector<std::string> view_paths;
+  std::vector<size_t> view_cameras;
 };
+
+/// The views of one task against `points` from `start`: a photo is its own view; a stitched
+/// panorama two 940×452 perspective cuts where the LiDAR is (as register-mi --view perspective
+/// --headings auto); a rig frame's own images each a view through its camera and cam_from_rig,
+/// those into which fewer than kMinViewPoints of the points project at the start left out.
+std::vector<mi::View> TaskViews(const MiTask& t, const std::vector<mi::GrayImage>& images, const mi::LidarPoints& points,
+                                const Rigid3d& start, const RigBlock* rig, const Scene& scene,
+                                const mi::RegistrationOptions& options) {
+  if (t.kind == "photo") return mi::MakeViews(images[0], t.camera, mi::ViewOptions(), t.path);
+  if (t.kind == "panorama") {
+    mi::ViewOptions views;
+    views.kind = mi::ViewKind::kPerspective;
+    views.perspective_yaw_deg = mi::SelectPerspectiveHeadings(points, t.camera, start, views, options.render, 2);
+    return mi::MakeViews(images[0], t.camera, views, t.path);
+  }
+  constexpr size_t kMinViewPoints = 1000;
+  std::vector<mi::View> out;
+  for (size_t v = 0; v < t.view_cameras.size(); ++v) {
+    const size_t k = t.view_cameras[v];
+    const sensors::Camera& camera = scene.Camera(rig->cameras[k]);
+    const Rigid3d cam_from_lidar = rig->cam_from_rig[k] * start;
+    size_t seen = 0;
+    for (size_t i = 0; i < points.size() && seen < kMinViewPoints; ++i) {
+      const Eigen::Vector3d p = cam_from_lidar * points.points_in_lidar[i].cast<double>();
+      const double range = p.norm();
+      if (range < options.render.min_range_m || range > options.render.max_range_m || p.z() <= 0) continue;
+      const std::optional<Eigen::Vector2d> xy = camera.ImgFromCam(p);
+      seen += xy && (*xy)[0] >= 0 && (*xy)[1] >= 0 && (*xy)[0] < camera.width && (*xy)[1] < camera.height;
+    }
+    if (seen < kMinViewPoints) continue;
+    mi::View view = mi::MakeViews(images[v], camera, mi::ViewOptions(), t.view_paths[v])[0];
+    view.view_from_cam = rig->cam_from_rig[k].rotation.toRotationMatrix();
+    view.view_from_cam_t = rig->cam_from_rig[k].translation;
+    out.push_back(std::move(view));
+  }
+  return out;
+}
 
 /// A registration's calibrated pixel σ, or null when its checks stopped before it was
 /// measured (register-mi stops at the first failed check: −1 then).
@@ -249,18 +290,34 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
   // The panoramas were read and checked, and registered, at the first stage.
   if (stage == MiStage::kRigFrames && s->rig && s->rig->config->mi_register) {
     const RigBlock& rig = *s->rig;
+    const bool cameras = rig.config->mi_views == "cameras";
     for (size_t k = 0; k < rig.frame_names.size(); ++k) {
       if (!Wanted(rig.config->mi_only, rig.frame_names[k])) continue;
-      const std::string path = FindImage(rig.config->panoramas, rig.frame_names[k]);
-      if (path.empty()) {
-        s->warnings.push_back("rig frame " + rig.frame_names[k] + ": no panorama " + rig.frame_names[k] + ".* in " +
-                              rig.config->panoramas + ", not registered by MI");
-        continue;
-      }
       MiTask t;
+      if (cameras) {
+        for (size_t c = 0; c < rig.camera_names.size(); ++c) {
+          const std::string path = FindImage(rig.config->images, rig.frame_names[k] + "_" + rig.camera_names[c]);
+          if (path.empty()) continue;
+          t.view_paths.push_back(path);
+          t.view_cameras.push_back(c);
+        }
+        if (t.view_paths.empty()) {
+          s->warnings.push_back("rig frame " + rig.frame_names[k] + ": no image " + rig.frame_names[k] + "_<camera>.* in " +
+                                rig.config->images + ", not registered by MI");
+          continue;
+        }
+        t.kind = "rig cameras";
+        t.path = t.view_paths.front();
+      } else {
+        t.path = FindImage(rig.config->panoramas, rig.frame_names[k]);
+        if (t.path.empty()) {
+          s->warnings.push_back("rig frame " + rig.frame_names[k] + ": no panorama " + rig.frame_names[k] + ".* in " +
+                                rig.config->panoramas + ", not registered by MI");
+          continue;
+        }
+        t.kind = "panorama";
+      }
       t.name = rig.frame_names[k];
-      t.kind = "panorama";
-      t.path = path;
       t.start = rig.rig_from_world[k];
       t.frame = k;
       t.mobile = rig.config->mi_lidar == "mobile";
@@ -285,10 +342,24 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
   }
   // Read every image of this stage's tasks (at the first stage the photos too: a bad one is an
   // input error before any work). Then keep this stage's.
-  std::vector<mi::GrayImage> images;
+  std::vector<std::vector<mi::GrayImage>> images;
   for (MiTask& t : tasks) {
-    images.push_back(mi::ReadGrayImage(t.path));
-    const mi::GrayImage& g = images.back();
+    if (t.kind == "rig cameras") {
+      images.emplace_back();
+      for (size_t v = 0; v < t.view_paths.size(); ++v) {
+        images.back().push_back(mi::ReadGrayImage(t.view_paths[v]));
+        const mi::GrayImage& g = images.back().back();
+        const sensors::Camera& camera = s->scene.Camera(s->rig->cameras[t.view_cameras[v]]);
+        if (g.width != static_cast<int>(camera.width) || g.height != static_cast<int>(camera.height)) {
+          throw InputError::Message(t.view_paths[v], "image is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
+                                                         " but its camera " + s->rig->camera_names[t.view_cameras[v]] + " is " +
+                                                         std::to_string(camera.width) + "x" + std::to_string(camera.height));
+        }
+      }
+      continue;
+    }
+    images.push_back({mi::ReadGrayImage(t.path)});
+    const mi::GrayImage& g = images.back().front();
     if (t.kind == "panorama") {
       // A stitched panorama: EQUIRECTANGULAR in the rig frame, f = width / 2π (full sphere).
       if (g.width != 2 * g.height) {
@@ -338,13 +409,16 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     mi::Frame frame;
     frame.name = t.name;
     frame.points = &points;
-    mi::ViewOptions views;
-    if (t.camera.IsSpherical()) {
-      // As register-mi --view perspective --headings auto: two 940×452 cuts where the LiDAR is.
-      views.kind = mi::ViewKind::kPerspective;
-      views.perspective_yaw_deg = mi::SelectPerspectiveHeadings(points, t.camera, t.start, views, options.render, 2);
+    frame.views = TaskViews(t, images[i], points, t.start, s->rig ? &*s->rig : nullptr, s->scene, options);
+    if (frame.views.empty()) {
+      entry["status"] = "failed";
+      entry["reason"] = "none of the frame's cameras sees 1000 LiDAR points at the start";
+      entry.erase("file");
+      s->mi_registration.push_back(entry);
+      s->mi_registered.push_back(t.start);
+      s->warnings.push_back("MI registration of " + t.name + " not attempted: " + entry["reason"].get<std::string>());
+      return;
     }
-    frame.views = mi::MakeViews(images[i], t.camera, views, t.path);
     Timer one;
     const mi::RegistrationResult result = mi::RegisterFrames({frame}, t.start, options);
     json file = mi::ResultToJson(result, options, t.start);
@@ -448,17 +522,23 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
       mi::Frame frame;
       frame.name = t.name;
       frame.points = &points.back();
-      mi::ViewOptions views;
-      views.kind = mi::ViewKind::kPerspective;
-      views.perspective_yaw_deg = mi::SelectPerspectiveHeadings(points.back(), t.camera, start, views, options.render, 2);
-      frame.views = mi::MakeViews(images[i], t.camera, views, t.path);
+      frame.views = TaskViews(t, images[i], points.back(), start, &*s->rig, s->scene, options);
+      if (frame.views.empty()) {
+        json entry = {{"image", t.name}, {"kind", t.kind}, {"lidar", "mobile"}, {"status", "failed"},
+                      {"reason", "none of the frame's cameras sees 1000 of its mobile LiDAR points at the start"}};
+        s->mi_registration.push_back(entry);
+        s->mi_registered.push_back(t.start);
+        s->warnings.push_back("MI rig calibration: frame " + t.name + " not used: " + entry["reason"].get<std::string>());
+        points.pop_back();
+        continue;
+      }
       frames.push_back(std::move(frame));
       frame_task.push_back(i);
     }
     if (!frames.empty()) {
       mi::RigOptions rig_options;
       rig_options.registration = options;
-      spdlog::info("adjust: MI rig calibration: {} panorama(s) jointly against the mobile LiDAR {}", frames.size(), cloud_path);
+      spdlog::info("adjust: MI rig calibration: {} frame(s) jointly against the mobile LiDAR {}", frames.size(), cloud_path);
       const mi::RegistrationResult result = mi::RegisterRig(frames, start, rig_options);
       // Each frame's own screening registration, reported (not a prior: the joint one is).
       for (size_t i = 0; i < result.frame_results.size(); ++i) {

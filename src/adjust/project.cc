@@ -289,6 +289,10 @@ class ProjectReader {
                          if (p.mi_lidar != "static" && p.mi_lidar != "mobile") r_.Fail(v, g, "static or mobile", p.mi_lidar);
                        }},
                       {"mi_time_window_s", [&](Node v, Field g) { p.mi_time_window_s = r_.Positive(v, g, 60.0, "seconds"); }},
+                      {"mi_views", [&](Node v, Field g) {
+                         p.mi_views = r_.String(v, g);
+                         if (p.mi_views != "panoramas" && p.mi_views != "cameras") r_.Fail(v, g, "panoramas or cameras", p.mi_views);
+                       }},
                       {"trajectory", path(&p.trajectory, false)}, {"frames_file", path(&p.frames_file, false)},
                       {"observations", path(&p.observations, false)},
                       {"tie_block", [&](Node v, Field g) { p.tie_block = r_.String(v, g); }},
@@ -307,7 +311,7 @@ class ProjectReader {
                       {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
                       {"refine", [&](Node v, Field g) { p.refine = Refine(v, g, true); }}});
         r_.Require(n, f, {"images", "calibration"});
-        if (p.mi_register || !p.mi_results.empty()) r_.Require(n, f, {"panoramas"});
+        if ((p.mi_register && p.mi_views == "panoramas") || !p.mi_results.empty()) r_.Require(n, f, {"panoramas"});
         if (!p.observations.empty() || !p.frames_file.empty()) {
           r_.Require(n, f, {"observations", "frames_file", "trajectory", "tie_block"});
           project_->rigs.push_back(p);

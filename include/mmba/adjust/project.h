@@ -175,6 +175,12 @@ struct CameraRig {
   /// mobile LiDAR near the frame's time, a factor on the frame, the trajectory correction and
   /// the camera–LiDAR extrinsic. Needs a lidar_mobile with `rig` = this rig.
   std::string mi_lidar = "static";
+  /// What `mi_register` registers of each frame: "panoramas" = its stitched panorama (two
+  /// perspective cuts where the LiDAR is), or "cameras" = the rig's own images of the frame
+  /// (`images`/<frame>_<camera>.*), each with its calibration and cam_from_rig, as the views
+  /// of one pose: no stitching parallax. Cameras that see fewer than 1,000 LiDAR points at the
+  /// start are left out.
+  std::string mi_views = "panoramas";
   /// With mi_lidar mobile: only mobile points captured within this many seconds of the frame
   /// are registered against (the GNSS/INS error drifts; within the window it is one rigid
   /// offset, the assumption of the factor).

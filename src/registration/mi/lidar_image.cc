@@ -185,7 +185,8 @@ template <typename Model>
   const int height = out->height;
   const Eigen::Matrix3d view_from_lidar_r =
       view.view_from_cam * cam_from_lidar.rotation.toRotationMatrix();
-  const Eigen::Vector3d view_from_lidar_t = view.view_from_cam * cam_from_lidar.translation;
+  const Eigen::Vector3d view_from_lidar_t =
+      view.view_from_cam * cam_from_lidar.translation + view.view_from_cam_t;
   const Eigen::Matrix3f rotation = view_from_lidar_r.cast<float>();
   const Eigen::Vector3f translation = view_from_lidar_t.cast<float>();
   const double* params = view.camera.params.data();
@@ -380,6 +381,7 @@ View DownsampleView(const View& view) {
   View half;
   half.name = view.name;
   half.view_from_cam = view.view_from_cam;
+  half.view_from_cam_t = view.view_from_cam_t;
   half.image_pixels_per_pixel = 2.0 * view.image_pixels_per_pixel;
   half.image_camera = view.image_camera;
   half.image = Downsample2(view.image);

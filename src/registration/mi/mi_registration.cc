@@ -314,7 +314,7 @@ std::vector<uint32_t> RenderOrder(const std::vector<Eigen::Vector3f>& points,
     const Eigen::Matrix3f rotation =
         (view.view_from_cam * cam_from_lidar.rotation.toRotationMatrix()).cast<float>();
     const Eigen::Vector3f translation =
-        (view.view_from_cam * cam_from_lidar.translation).cast<float>();
+        (view.view_from_cam * cam_from_lidar.translation + view.view_from_cam_t).cast<float>();
     if (view.camera.model_id == sensors::CameraModelId::kPinhole) {
       PinholeKeys(points, rotation, translation, view.camera, min_range2, max_range2,
                   static_cast<uint64_t>(v) << 48, key.data());
@@ -489,7 +489,8 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
         const Eigen::Matrix3f rotation =
             (view.view_from_cam * cam_from_lidar_start.rotation.toRotationMatrix()).cast<float>();
         const Eigen::Vector3f translation =
-            (view.view_from_cam * cam_from_lidar_start.translation).cast<float>();
+            (view.view_from_cam * cam_from_lidar_start.translation + view.view_from_cam_t)
+                .cast<float>();
         const double focal = view.camera.MeanFocalLength();
         const bool spherical = view.camera.IsSpherical();
         const double max_range = options.render.max_range_m + options.bound_translation_m;
@@ -911,7 +912,8 @@ std::vector<FrameSetEvaluator::VisiblePoint> FrameSetEvaluator::SampleVisiblePoi
 bool FrameSetEvaluator::Project(const VisiblePoint& point, const Rigid3d& cam_from_lidar,
                                 Eigen::Vector2d* pixel) const {
   const View& view = pyramid_[0][point.frame][point.view];
-  const Eigen::Vector3d p = view.view_from_cam * (cam_from_lidar * point.point_in_lidar);
+  const Eigen::Vector3d p =
+      view.view_from_cam * (cam_from_lidar * point.point_in_lidar) + view.view_from_cam_t;
   if (!view.camera.IsSpherical() && p.z() <= 0) return false;
   const std::optional<Eigen::Vector2d> xy = view.camera.ImgFromCam(p);
   if (!xy) return false;
@@ -957,6 +959,7 @@ View CropView(const View& view, int col0, int col1) {
   View crop;
   crop.name = view.name + "[" + std::to_string(col0) + ":" + std::to_string(col1) + "]";
   crop.view_from_cam = view.view_from_cam;
+  crop.view_from_cam_t = view.view_from_cam_t;
   crop.image_pixels_per_pixel = view.image_pixels_per_pixel;
   crop.image_camera = view.image_camera;
   crop.image = GrayImage(col1 - col0, view.image.height);
@@ -2479,7 +2482,7 @@ PixelOffsetStats PixelOffsets(const LidarPoints& points, const View& view,
   const Eigen::Matrix3d view_r = view.view_from_cam;
   for (size_t i = 0; i < points.size(); ++i) {
     const Eigen::Vector3d p = points.points_in_lidar[i].cast<double>();
-    const Eigen::Vector3d a = view_r * (cam_from_lidar_reference * p);
+    const Eigen::Vector3d a = view_r * (cam_from_lidar_reference * p) + view.view_from_cam_t;
     const double range = a.norm();
     if (range < render.min_range_m || range > render.max_range_m) continue;
     if (!view.camera.IsSpherical() && a.z() <= 0) continue;
@@ -2488,7 +2491,7 @@ PixelOffsetStats PixelOffsets(const LidarPoints& points, const View& view,
         (*xa)[1] >= view.camera.height) {
       continue;
     }
-    const Eigen::Vector3d b = view_r * (cam_from_lidar_estimate * p);
+    const Eigen::Vector3d b = view_r * (cam_from_lidar_estimate * p) + view.view_from_cam_t;
     if (!view.camera.IsSpherical() && b.z() <= 0) continue;
     const std::optional<Eigen::Vector2d> xb = view.camera.ImgFromCam(b);
     if (!xb) continue;

@@ -24,7 +24,8 @@ struct ViewTransform {
 ViewTransform MakeTransform(const View& view, const Rigid3d& cam_from_lidar) {
   ViewTransform t;
   t.rotation = (view.view_from_cam * cam_from_lidar.rotation.toRotationMatrix()).cast<float>();
-  t.translation = (view.view_from_cam * cam_from_lidar.translation).cast<float>();
+  t.translation =
+      (view.view_from_cam * cam_from_lidar.translation + view.view_from_cam_t).cast<float>();
   return t;
 }
 

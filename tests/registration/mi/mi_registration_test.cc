@@ -616,6 +616,54 @@ TEST_F(StreetTest, HalvesThatDisagreeAreNotReportedOk) {
   EXPECT_EQ(digests[0], digests[1]);
 }
 
+// A rig's own cameras as the views of one frame (a Ladybug's fisheye images, unstitched): each
+// view carries its cam_from_rig, rotation and translation, and the pose registered is the
+// rig's. Here a fisheye camera 0.35 m to the right and turned 12° left and a pinhole camera
+// 0.35 m to the left and turned 12° right (the street's points are 4–30 m away: the offsets
+// alone move them by 7–50 px). With the offsets the rig pose is found; the same images taken
+// as if both cameras sat at the rig's centre are no pose's image, and the result is not the
+// rig's pose reported "ok".
+TEST_F(StreetTest, RigCamerasOffTheRigCentreGiveTheRigPose) {
+  sensors::Camera fisheye;
+  fisheye.model_id = sensors::CameraModelId::kOpenCVFisheye;
+  fisheye.width = 320;
+  fisheye.height = 240;
+  fisheye.params = {170, 170, 160, 120, 0.03, -0.01, 0.0, 0.0};
+  const Rigid3d a_from_rig(Eigen::Quaterniond(Eigen::AngleAxisd(-12 * M_PI / 180, Eigen::Vector3d::UnitY())),
+                           Eigen::Vector3d(-0.35, 0.02, 0.05));
+  const Rigid3d b_from_rig(Eigen::Quaterniond(Eigen::AngleAxisd(12 * M_PI / 180, Eigen::Vector3d::UnitY())),
+                           Eigen::Vector3d(0.35, -0.02, -0.05));
+  Frame frame;
+  frame.name = "rig";
+  frame.points = &points_;
+  for (const auto& [camera, cam_from_rig] : {std::make_pair(fisheye, a_from_rig), std::make_pair(camera_, b_from_rig)}) {
+    View view = MakeViews(StreetPhoto(camera, cam_from_rig * truth_), camera, ViewOptions(),
+                          "cam" + std::to_string(frame.views.size()))[0];
+    view.view_from_cam = cam_from_rig.rotation.toRotationMatrix();
+    view.view_from_cam_t = cam_from_rig.translation;
+    frame.views.push_back(view);
+  }
+  const Rigid3d start = PaperStart();
+  const RegistrationResult result = RegisterFrames({frame}, start, Options());
+  SCOPED_TRACE(result.BriefReport());
+  EXPECT_EQ(result.status, "ok") << result.reason;
+  EXPECT_EQ(result.checks.split_kind, "views");
+  EXPECT_LT(RotationDifferenceRad(result.cam_from_lidar, truth_) * 180 / M_PI, 0.2);
+  EXPECT_LT((result.cam_from_lidar.translation - truth_.translation).norm(), 0.05);
+  for (const View& view : frame.views) {
+    const PixelOffsetStats before = PixelOffsets(points_, view, truth_, start, RenderOptions());
+    const PixelOffsetStats after = PixelOffsets(points_, view, truth_, result.cam_from_lidar, RenderOptions());
+    EXPECT_GT(before.median_px, 3.0) << view.name;
+    EXPECT_LT(after.median_px, 1.0) << view.name;
+  }
+  // The offsets dropped: each camera's image is then explained only by a pose of its own.
+  Frame centred = frame;
+  for (View& view : centred.views) view.view_from_cam_t.setZero();
+  const RegistrationResult wrong = RegisterFrames({centred}, start, Options());
+  SCOPED_TRACE(wrong.BriefReport());
+  EXPECT_FALSE(wrong.ok() && (wrong.cam_from_lidar.translation - truth_.translation).norm() < 0.05);
+}
+
 TEST(Split, CropKeepsTheProjectionOfEveryModel) {
   // Pinhole and equirectangular: a point's pixel in the crop is its pixel in the whole view
   // shifted by the crop's first column; the crop's image is the whole image's columns.

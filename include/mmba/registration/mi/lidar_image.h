@@ -50,6 +50,10 @@ LidarPoints PrepareLidarPoints(const io::PointCloud& cloud);
 struct View {
   sensors::Camera camera;
   Eigen::Matrix3d view_from_cam = Eigen::Matrix3d::Identity();
+  /// With view_from_cam: p_view = view_from_cam · p_cam + view_from_cam_t. Zero for the cuts
+  /// of a panorama (they share its centre); a rig camera's offset from the rig frame
+  /// (cam_from_rig) when the views are the rig's own cameras and the pose is the rig's.
+  Eigen::Vector3d view_from_cam_t = Eigen::Vector3d::Zero();
   GrayImage image;
   std::string name;
   /// Pixels of the frame's image spanned by one pixel of this view (at the view's centre):
