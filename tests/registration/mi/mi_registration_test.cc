@@ -662,6 +662,31 @@ TEST_F(StreetTest, RigCamerasOffTheRigCentreGiveTheRigPose) {
   const RegistrationResult wrong = RegisterFrames({centred}, start, Options());
   SCOPED_TRACE(wrong.BriefReport());
   EXPECT_FALSE(wrong.ok() && (wrong.cam_from_lidar.translation - truth_.translation).norm() < 0.05);
+
+  // The rig calibration case: a second frame, the vehicle 3 m further and turned 4°, its
+  // LiDAR points in its own frame (lidar2 = D · lidar); the same rig_from_lidar serves both.
+  const Rigid3d d(Eigen::Quaterniond(Eigen::AngleAxisd(4 * M_PI / 180, Eigen::Vector3d::UnitZ())),
+                  Eigen::Vector3d(-3.0, 0.2, 0.0));
+  io::PointCloud moved = StreetCloud(0.06);
+  for (Eigen::Vector3d& x : moved.points) x = d * x;
+  const LidarPoints points2 = PrepareLidarPoints(moved);
+  Frame second;
+  second.name = "rig2";
+  second.points = &points2;
+  for (const View& first_view : frame.views) {
+    View view = first_view;
+    const Rigid3d cam_from_rig(Eigen::Quaterniond(view.view_from_cam), view.view_from_cam_t);
+    view.image = StreetPhoto(view.camera, cam_from_rig * truth_ * d, 21 + second.views.size());
+    second.views.push_back(view);
+  }
+  RigOptions rig_options;
+  rig_options.registration = Options();
+  const RegistrationResult joint = RegisterRig({frame, second}, start, rig_options);
+  SCOPED_TRACE(joint.BriefReport());
+  EXPECT_EQ(joint.status, "ok") << joint.reason;
+  EXPECT_EQ(joint.used_frames.size(), 2u);
+  EXPECT_LT(RotationDifferenceRad(joint.cam_from_lidar, truth_) * 180 / M_PI, 0.2);
+  EXPECT_LT((joint.cam_from_lidar.translation - truth_.translation).norm(), 0.05);
 }
 
 TEST(Split, CropKeepsTheProjectionOfEveryModel) {
