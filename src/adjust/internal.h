@@ -276,6 +276,7 @@ bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* wh
 /// Stage kPhotos (after the first solve, the block on its control): each photo from its solved
 /// pose with the solved intrinsics — MI cannot tell an intrinsics error from a pose error
 /// (measured: from the initial intrinsics, focal 1 % off, 3 of 3 "ok" were 0.57–0.79 m off).
+/// The rig's own cameras (mi_views: cameras) are registered at kPhotos too, for that reason.
 enum class MiStage { kRigFrames, kPhotos };
 void RegisterImagesByMi(JointState* s, MiStage stage);
 

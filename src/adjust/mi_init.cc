@@ -287,10 +287,14 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
       tasks.push_back(t);
     }
   }
-  // The panoramas were read and checked, and registered, at the first stage.
-  if (stage == MiStage::kRigFrames && s->rig && s->rig->config->mi_register) {
+  // The panoramas are read, checked and registered at the first stage. The rig's own cameras
+  // (mi_views: cameras) are read and checked there and registered with the photos, after the
+  // first solve: their intrinsics and cam_from_rig adjusted (a fisheye's design focal 1 % off
+  // moves its edge by ~4 px).
+  const bool rig_cameras = s->rig && s->rig->config->mi_views == "cameras";
+  if (s->rig && s->rig->config->mi_register && (stage == MiStage::kRigFrames || rig_cameras)) {
     const RigBlock& rig = *s->rig;
-    const bool cameras = rig.config->mi_views == "cameras";
+    const bool cameras = rig_cameras;
     for (size_t k = 0; k < rig.frame_names.size(); ++k) {
       if (!Wanted(rig.config->mi_only, rig.frame_names[k])) continue;
       MiTask t;
@@ -377,7 +381,7 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     }
   }
   for (size_t i = tasks.size(); i-- > 0;) {
-    if ((tasks[i].kind == "photo") != (stage == MiStage::kPhotos)) {
+    if ((tasks[i].kind == "photo" || tasks[i].kind == "rig cameras") != (stage == MiStage::kPhotos)) {
       tasks.erase(tasks.begin() + i);
       images.erase(images.begin() + i);
     }
@@ -446,8 +450,9 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
       prior.image_id = t.image_id;
       s->photos->mi.push_back(prior);
     } else {
-      // The frame starts at the MI pose: closer than the GNSS/INS one when MI is "ok".
-      s->rig->rig_from_world[t.frame] = result.cam_from_lidar;
+      // A panorama's frame starts at the MI pose: closer than the GNSS/INS one when MI is "ok"
+      // (the rig's cameras are registered after the first solve, from the solved pose).
+      if (t.kind == "panorama") s->rig->rig_from_world[t.frame] = result.cam_from_lidar;
       s->rig->mi.push_back(prior);
       s->rig->mi_frame.push_back(t.frame);
     }

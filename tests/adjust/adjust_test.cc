@@ -452,6 +452,49 @@ TEST_F(AdjustTest, RegistersAPhotoByMutualInformation) {
 }
 
 
+// The rig's own fisheye images of one frame as the views of its pose (mi_views: cameras),
+// registered to the static LiDAR after the first solve: the report names the kind, the file
+// is written, and an "ok" is the frame's true pose (it becomes a prior); a failure has a reason.
+TEST_F(AdjustTest, RegistersARigFrameThroughItsOwnCameras) {
+  const fs::path sim = Root() / "sim", out = Root() / "mi_rig_cameras";
+  std::ifstream truth_in(sim / "truth" / "truth.json");
+  const json truth = json::parse(truth_in);
+  const json& frame = truth["rig"]["frames"][1];
+  const std::string name = frame["name"];
+  std::string project = ReadText(sim / "project.yaml");
+  const std::string key = "    panoramas: images/rig_panoramas\n";
+  const size_t at = project.find(key);
+  ASSERT_NE(at, std::string::npos);
+  // No panoramas folder: the cameras do not need one.
+  project.replace(at, key.size(), "    mi_register: [" + name + "]\n    mi_views: cameras\n");
+  std::ofstream(sim / "project_mi_rig_cameras.yaml") << project;
+  const AdjustOutcome outcome = Run((sim / "project_mi_rig_cameras.yaml").string(), out.string());
+  ASSERT_TRUE(outcome.ok) << outcome.reason;
+  const json& runs = outcome.report["mi_registration"];
+  ASSERT_EQ(runs.size(), 1u) << runs.dump(1);
+  const json& run = runs[0];
+  EXPECT_EQ(run["image"], name);
+  EXPECT_EQ(run["kind"], "rig cameras");
+  std::ifstream file_in(out / "mi" / (name + ".json"));
+  ASSERT_TRUE(file_in.good());
+  const json file = json::parse(file_in);
+  EXPECT_EQ(file["status"], run["status"]);
+  if (run["status"] == "ok") {
+    Eigen::Matrix4d m, t;
+    for (int k = 0; k < 16; ++k) m(k / 4, k % 4) = file["cam_from_lidar"][k].get<double>();
+    for (int k = 0; k < 16; ++k) t(k / 4, k % 4) = frame["rig_from_world"]["matrix"][k / 4][k % 4].get<double>();
+    const Eigen::Matrix3d r = m.topLeftCorner<3, 3>(), rt = t.topLeftCorner<3, 3>();
+    const Eigen::Vector3d centre = -(r.transpose() * m.topRightCorner<3, 1>());
+    const Eigen::Vector3d true_centre = -(rt.transpose() * t.topRightCorner<3, 1>());
+    EXPECT_LT((centre - true_centre).norm(), 0.05) << "a wrong MI pose reported ok";
+    EXPECT_LT(Eigen::AngleAxisd(r * rt.transpose()).angle() * 180 / M_PI, 0.25);
+    EXPECT_TRUE(run["prior"].get<bool>());
+  } else {
+    EXPECT_FALSE(run["reason"].get<std::string>().empty());
+    EXPECT_FALSE(run["prior"].get<bool>());
+  }
+}
+
 // A rig delivered as stitched panoramas only (issue 7: "stitched panoramas as equirectangular
 // cameras when that is what the user has"): one EQUIRECTANGULAR camera in the rig frame
 // (cam_from_rig identity, held; intrinsics held), tie points measured in the panoramas. The
