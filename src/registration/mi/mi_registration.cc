@@ -2446,7 +2446,11 @@ RegistrationResult RegisterRig(const std::vector<Frame>& frames,
   result.cam_from_lidar = joint.cam_from_lidar;
   result.correction = CorrectionBetween(cam_from_lidar_start, joint.cam_from_lidar);
   result.covariance = joint.covariance;
+  result.covariance_laplace = joint.covariance_laplace;
   result.covariance_valid = joint.covariance_valid;
+  // The joint registration's acceptance checks and stages are the result's: they decided it.
+  result.checks = joint.checks;
+  for (const StageStat& stage : joint.stages) result.stages.push_back(stage);
   FrameSetEvaluator evaluator(kept, cam_from_lidar_start, options.registration);
   result.metric_before = evaluator.Evaluate(cam_from_lidar_start, 0);
   result.metric_after = joint.metric_after;

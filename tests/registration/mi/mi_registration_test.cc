@@ -841,7 +841,12 @@ TEST_F(StreetTest, RigCalibrationCombinesFramesTooWeakAlone) {
   }
   EXPECT_EQ(result.used_frames.size(), 3u);
   EXPECT_EQ(result.status, "ok") << result.reason;
+  // The joint registration's checks are the result's (until 2 Dec they were left unmeasured).
+  EXPECT_GT(result.checks.sigma_px, 0.0);
   EXPECT_LT(result.checks.sigma_px, options.registration.max_sigma_px);
+  EXPECT_EQ(result.checks.restarts_run, options.registration.restarts);
+  EXPECT_GT(result.checks.sigma_px_calibrated, 0.0);
+  EXPECT_FALSE(result.stages.empty());
   EXPECT_LT(RotationDifferenceRad(result.cam_from_lidar, truth_) * 180 / M_PI, 0.2);
   EXPECT_LT((result.cam_from_lidar.translation - truth_.translation).norm(), 0.05);
 }
