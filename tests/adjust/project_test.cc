@@ -135,6 +135,8 @@ TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {
        "sensors[1].panoramas"},
       {photos_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, mi_lidar: sideways}\n", "",
        "sensors[1].mi_lidar"},
+      {photos_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, mi_views: fisheyes}\n", "",
+       "panoramas or cameras"},
       // Against the mobile LiDAR: one must carry the rig.
       {photos_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, observations: gnss.csv, "
                  "frames_file: gnss.csv, trajectory: gnss.csv, tie_block: p, panoramas: images, mi_register: true, "
