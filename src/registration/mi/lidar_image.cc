@@ -183,12 +183,9 @@ template <typename Model>
                                                   uint64_t* zbuffer, LidarImage* out) {
   const int width = out->width;
   const int height = out->height;
-  const Eigen::Matrix3d view_from_lidar_r =
-      view.view_from_cam * cam_from_lidar.rotation.toRotationMatrix();
-  const Eigen::Vector3d view_from_lidar_t =
-      view.view_from_cam * cam_from_lidar.translation + view.view_from_cam_t;
-  const Eigen::Matrix3f rotation = view_from_lidar_r.cast<float>();
-  const Eigen::Vector3f translation = view_from_lidar_t.cast<float>();
+  const ViewTransform view_from_lidar = MakeTransform(view, cam_from_lidar);
+  const Eigen::Matrix3f& rotation = view_from_lidar.rotation;
+  const Eigen::Vector3f& translation = view_from_lidar.translation;
   const double* params = view.camera.params.data();
   const double focal = view.camera.MeanFocalLength();
   const float min_range2 = static_cast<float>(options.min_range_m * options.min_range_m);

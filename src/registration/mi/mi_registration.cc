@@ -311,10 +311,7 @@ std::vector<uint32_t> RenderOrder(const std::vector<Eigen::Vector3f>& points,
   const double max_range2 = render.max_range_m * render.max_range_m;
   for (size_t v = 0; v < views.size(); ++v) {
     const View& view = views[v];
-    const Eigen::Matrix3f rotation =
-        (view.view_from_cam * cam_from_lidar.rotation.toRotationMatrix()).cast<float>();
-    const Eigen::Vector3f translation =
-        (view.view_from_cam * cam_from_lidar.translation + view.view_from_cam_t).cast<float>();
+    const auto [rotation, translation] = MakeTransform(view, cam_from_lidar);
     if (view.camera.model_id == sensors::CameraModelId::kPinhole) {
       PinholeKeys(points, rotation, translation, view.camera, min_range2, max_range2,
                   static_cast<uint64_t>(v) << 48, key.data());
@@ -486,11 +483,7 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
     // Candidates [begin, end) against every view (keep[k]: candidate k is kept).
     auto cull = [&](size_t begin, size_t end) {
       for (const View& view : frames_[f].views) {
-        const Eigen::Matrix3f rotation =
-            (view.view_from_cam * cam_from_lidar_start.rotation.toRotationMatrix()).cast<float>();
-        const Eigen::Vector3f translation =
-            (view.view_from_cam * cam_from_lidar_start.translation + view.view_from_cam_t)
-                .cast<float>();
+        const auto [rotation, translation] = MakeTransform(view, cam_from_lidar_start);
         const double focal = view.camera.MeanFocalLength();
         const bool spherical = view.camera.IsSpherical();
         const double max_range = options.render.max_range_m + options.bound_translation_m;

@@ -15,20 +15,6 @@
 namespace mmba::registration::mi {
 namespace {
 
-// The view's pose of the LiDAR frame, in float as the renderer uses it.
-struct ViewTransform {
-  Eigen::Matrix3f rotation;
-  Eigen::Vector3f translation;
-};
-
-ViewTransform MakeTransform(const View& view, const Rigid3d& cam_from_lidar) {
-  ViewTransform t;
-  t.rotation = (view.view_from_cam * cam_from_lidar.rotation.toRotationMatrix()).cast<float>();
-  t.translation =
-      (view.view_from_cam * cam_from_lidar.translation + view.view_from_cam_t).cast<float>();
-  return t;
-}
-
 // The renderer's projection (lidar_image.cc, SplatWithModel): in front of a perspective
 // camera, within the range limits, inside the image; the panorama's column wrapped at the
 // seam. Returns false where the renderer draws nothing.

@@ -68,6 +68,20 @@ struct View {
   std::optional<sensors::Camera> image_camera;
 };
 
+/// A view's pose of the LiDAR frame, view_from_lidar = [view_from_cam | view_from_cam_t] ·
+/// cam_from_lidar, in float as the renderer, the cull and the point samples use it.
+struct ViewTransform {
+  Eigen::Matrix3f rotation;
+  Eigen::Vector3f translation;
+};
+inline ViewTransform MakeTransform(const View& view, const Rigid3d& cam_from_lidar) {
+  ViewTransform t;
+  t.rotation = (view.view_from_cam * cam_from_lidar.rotation.toRotationMatrix()).cast<float>();
+  t.translation =
+      (view.view_from_cam * cam_from_lidar.translation + view.view_from_cam_t).cast<float>();
+  return t;
+}
+
 struct RenderOptions;
 
 /// How the views of a frame are cut from its image (item 1 of issue 6).
