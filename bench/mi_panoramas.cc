@@ -342,6 +342,11 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_POINT_RADIUS")) {
     std::sscanf(v, "%lf,%d", &options.render.point_radius_m, &options.render.max_point_radius_px);
   }
+  // MI_RANGE="min,max": the LiDAR points used, by range from the camera (RenderOptions
+  // min_range_m, max_range_m); the scoring keeps the default.
+  if (const char* v = std::getenv("MI_RANGE")) {
+    std::sscanf(v, "%lf,%lf", &options.render.min_range_m, &options.render.max_range_m);
+  }
   if (const char* v = std::getenv("MI_THREADS")) options.threads = std::atoi(v);
   // MI_ALL_CHECKS=1: every acceptance check measured also after one failed (as before 1 Dec, night).
   if (const char* v = std::getenv("MI_ALL_CHECKS")) options.measure_all_checks = std::atoi(v) != 0;

@@ -190,6 +190,69 @@ struct VoxelKeyHash {
   }
 };
 
+// Voxel keys → dense indices in first-seen order: open addressing with linear probing at a
+// load of at most 1/2. The voxel grids run over the whole input clouds (tens of millions of
+// points for a terrestrial scan pair), where std::unordered_map allocated and freed a node
+// per point (its emplace builds the node before it looks the key up).
+class VoxelTable {
+ public:
+  // Dense index of `key`; a key not seen before gets the next index and sets *inserted.
+  int Insert(const VoxelKey& key, bool* inserted) {
+    if (2 * (keys_.size() + 1) > slots_.size()) Grow();
+    for (size_t s = Hash(key) & mask_;; s = (s + 1) & mask_) {
+      const int v = slots_[s];
+      if (v < 0) {
+        slots_[s] = static_cast<int>(keys_.size());
+        keys_.push_back(key);
+        *inserted = true;
+        return slots_[s];
+      }
+      if (keys_[static_cast<size_t>(v)] == key) {
+        *inserted = false;
+        return v;
+      }
+    }
+  }
+  size_t size() const { return keys_.size(); }
+
+ private:
+  static size_t Hash(const VoxelKey& k) {
+    uint64_t h = static_cast<uint64_t>(k.x) * 0x9E3779B97F4A7C15ULL ^
+                 static_cast<uint64_t>(k.y) * 0xC2B2AE3D27D4EB4FULL ^
+                 static_cast<uint64_t>(k.z) * 0x165667B19E3779F9ULL;
+    h ^= h >> 31;  // splitmix64's finaliser: the low bits index the slots
+    h *= 0xBF58476D1CE4E5B9ULL;
+    h ^= h >> 29;
+    return static_cast<size_t>(h);
+  }
+  void Grow() {
+    slots_.assign(std::max<size_t>(1024, 2 * slots_.size()), -1);
+    mask_ = slots_.size() - 1;
+    for (size_t i = 0; i < keys_.size(); ++i) {
+      size_t s = Hash(keys_[i]) & mask_;
+      while (slots_[s] >= 0) s = (s + 1) & mask_;
+      slots_[s] = static_cast<int>(i);
+    }
+  }
+  std::vector<int> slots_;  // -1 = empty
+  std::vector<VoxelKey> keys_;
+  size_t mask_ = 0;
+};
+
+VoxelKey KeyOf(const Eigen::Vector3d& p, double voxel) {
+  return {static_cast<int64_t>(std::floor(p.x() / voxel)), static_cast<int64_t>(std::floor(p.y() / voxel)),
+          static_cast<int64_t>(std::floor(p.z() / voxel))};
+}
+
+// Number of occupied voxels (what VoxelDownsample would keep), without building the level.
+size_t VoxelCount(const std::vector<Eigen::Vector3d>& points, double voxel) {
+  if (voxel <= 0) return points.size();
+  VoxelTable table;
+  bool inserted;
+  for (const Eigen::Vector3d& p : points) table.Insert(KeyOf(p, voxel), &inserted);
+  return table.size();
+}
+
 // Voxel-grid downsampling to the centroid of each occupied voxel (normals averaged).
 Level VoxelDownsample(const std::vector<Eigen::Vector3d>& points,
                       const std::vector<Eigen::Vector3d>& normals, double voxel) {
@@ -199,26 +262,23 @@ Level VoxelDownsample(const std::vector<Eigen::Vector3d>& points,
     out.normals = normals;
     return out;
   }
-  std::unordered_map<VoxelKey, int, VoxelKeyHash> index;
-  index.reserve(points.size() / 2 + 1);
+  VoxelTable table;
   std::vector<int> count;
+  bool inserted;
   for (size_t i = 0; i < points.size(); ++i) {
-    const VoxelKey key{static_cast<int64_t>(std::floor(points[i].x() / voxel)),
-                       static_cast<int64_t>(std::floor(points[i].y() / voxel)),
-                       static_cast<int64_t>(std::floor(points[i].z() / voxel))};
-    auto [it, inserted] = index.emplace(key, static_cast<int>(out.points.size()));
+    const int k = table.Insert(KeyOf(points[i], voxel), &inserted);
     if (inserted) {
       out.points.push_back(points[i]);
       if (!normals.empty()) out.normals.push_back(normals[i]);
       count.push_back(1);
     } else {
-      out.points[it->second] += points[i];
+      out.points[k] += points[i];
       if (!normals.empty()) {
         // Flip to agree with the voxel's first normal before summing.
         const Eigen::Vector3d& n = normals[i];
-        out.normals[it->second] += n.dot(out.normals[it->second]) < 0 ? -n : n;
+        out.normals[k] += n.dot(out.normals[k]) < 0 ? -n : n;
       }
-      ++count[it->second];
+      ++count[k];
     }
   }
   for (size_t i = 0; i < out.points.size(); ++i) {
@@ -255,7 +315,7 @@ double VoxelForBudget(const io::PointCloud& cloud, double voxel, size_t max_poin
   if (voxel <= 0) voxel = MedianSpacing(cloud.points, 5000);
   // Surfaces: the count falls about as 1/voxel²; a few secant steps, then a safety margin.
   for (int k = 0; k < 8; ++k) {
-    const size_t count = VoxelDownsample(cloud.points, {}, voxel).points.size();
+    const size_t count = VoxelCount(cloud.points, voxel);
     if (count <= max_points) return voxel;
     voxel *= std::max(1.05, std::sqrt(static_cast<double>(count) / max_points) * 1.02);
   }
@@ -736,12 +796,18 @@ TargetCrop CropTarget(const io::PointCloud& target, bool use_normals,
   }
   lo.array() -= margin;
   hi.array() += margin;
-  io::PointCloud crop;
+  std::vector<size_t> inside;
   for (size_t i = 0; i < target.size(); ++i) {
     const Eigen::Vector3d& p = target.points[i];
     if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
-    crop.points.push_back(p);
-    if (use_normals) crop.normals.push_back(target.normals[i]);
+    inside.push_back(i);
+  }
+  io::PointCloud crop;
+  crop.points.reserve(inside.size());
+  for (size_t i : inside) crop.points.push_back(target.points[i]);
+  if (use_normals) {
+    crop.normals.reserve(inside.size());
+    for (size_t i : inside) crop.normals.push_back(target.normals[i]);
   }
   TargetCrop out;
   const double voxel = crop.size() > budget ? VoxelForBudget(crop, min_voxel, budget) : min_voxel;
@@ -1231,7 +1297,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     // Coarser by coarse_voxel_spacing while the smaller cloud keeps enough points to describe.
     const io::PointCloud& smaller = source_larger ? target : source;
     const double candidate = options.coarse_voxel_spacing * coarse_voxel;
-    if (VoxelDownsample(smaller.points, {}, candidate).points.size() >=
+    if (VoxelCount(smaller.points, candidate) >=
         static_cast<size_t>(options.min_points_coarse)) {
       coarse_voxel = candidate;
     }

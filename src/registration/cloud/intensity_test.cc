@@ -45,7 +45,7 @@ int64_t BlockKey(const Eigen::Vector3d& p, double block) {
 
 }  // namespace
 
-std::vector<float> BrightnessRanks(const io::PointCloud& cloud) {
+std::vector<float> BrightnessRanks(const io::PointCloud& cloud, const std::vector<size_t>& at) {
   std::vector<float> v;
   if (cloud.has_intensity()) {
     v = cloud.intensity;
@@ -59,23 +59,26 @@ std::vector<float> BrightnessRanks(const io::PointCloud& cloud) {
   for (float x : v) {
     if (!std::isfinite(x)) return {};
   }
-  std::vector<uint32_t> order(v.size());
-  std::iota(order.begin(), order.end(), 0u);
-  std::sort(order.begin(), order.end(), [&v](uint32_t a, uint32_t b) {
-    return v[a] < v[b] || (v[a] == v[b] && a < b);
-  });
-  if (v[order.front()] == v[order.back()]) return {};
-  // Mid-ranks: ties (quantised intensities) share the mean of their ranks, (k + ½)/n.
-  std::vector<float> rank(v.size());
+  std::vector<float> sorted = v;
+  std::sort(sorted.begin(), sorted.end());
+  if (sorted.front() == sorted.back()) return {};
+  // Mid-ranks: ties (quantised intensities) share the mean of their ranks, (k + ½)/n, i.e.
+  // ½ (#values < x + #values ≤ x) / n.
   const double n = static_cast<double>(v.size());
-  for (size_t i = 0; i < order.size();) {
-    size_t j = i;
-    while (j < order.size() && v[order[j]] == v[order[i]]) ++j;
-    const float r = static_cast<float>(0.5 * static_cast<double>(i + j) / n);
-    for (size_t k = i; k < j; ++k) rank[order[k]] = r;
-    i = j;
+  std::vector<float> rank;
+  rank.reserve(at.size());
+  for (size_t i : at) {
+    const auto [lo, hi] = std::equal_range(sorted.begin(), sorted.end(), v[i]);
+    rank.push_back(static_cast<float>(
+        0.5 * static_cast<double>((lo - sorted.begin()) + (hi - sorted.begin())) / n));
   }
   return rank;
+}
+
+std::vector<float> BrightnessRanks(const io::PointCloud& cloud) {
+  std::vector<size_t> all(cloud.size());
+  std::iota(all.begin(), all.end(), size_t{0});
+  return BrightnessRanks(cloud, all);
 }
 
 double IntensityBlocks::AbsCorrelation() const { return AbsCorrelationOf(Total(*this)); }
@@ -85,11 +88,13 @@ IntensityAgreement::IntensityAgreement(const io::PointCloud& source,
                                        const std::vector<Eigen::Vector3d>& fine_src, double block,
                                        size_t max_points)
     : fine_src_(fine_src), block_(block > 0 ? block : 1.0) {
-  const std::vector<float> src_rank = BrightnessRanks(source);
-  const std::vector<float> tgt_rank = BrightnessRanks(target);
+  // Ranks among all points of each cloud, needed only at the sampled points.
+  const std::vector<size_t> src_pick = StrideSample(source.size(), max_points);
+  const std::vector<size_t> tgt_pick = StrideSample(target.size(), max_points);
+  const std::vector<float> src_rank = BrightnessRanks(source, src_pick);
+  const std::vector<float> tgt_rank = BrightnessRanks(target, tgt_pick);
   if (src_rank.empty() || tgt_rank.empty() || fine_src.empty()) return;
   // The source's brightness at each fine point: that of its nearest source point.
-  const std::vector<size_t> src_pick = StrideSample(source.size(), max_points);
   std::vector<Eigen::Vector3d> src_points;
   src_points.reserve(src_pick.size());
   for (size_t i : src_pick) src_points.push_back(source.points[i]);
@@ -99,16 +104,12 @@ IntensityAgreement::IntensityAgreement(const io::PointCloud& source,
     int k = -1;
     double d2 = 0.0;
     if (!src_index.Nearest(fine_src[i], &k, &d2) || k < 0) return;
-    fine_src_rank_[i] = src_rank[src_pick[static_cast<size_t>(k)]];
+    fine_src_rank_[i] = src_rank[static_cast<size_t>(k)];
   }
-  const std::vector<size_t> tgt_pick = StrideSample(target.size(), max_points);
   std::vector<Eigen::Vector3d> tgt_points;
   tgt_points.reserve(tgt_pick.size());
-  tgt_rank_.reserve(tgt_pick.size());
-  for (size_t i : tgt_pick) {
-    tgt_points.push_back(target.points[i]);
-    tgt_rank_.push_back(tgt_rank[i]);
-  }
+  for (size_t i : tgt_pick) tgt_points.push_back(target.points[i]);
+  tgt_rank_ = tgt_rank;
   tgt_index_ = std::make_unique<PointIndex>(tgt_points);
   available_ = true;
 }

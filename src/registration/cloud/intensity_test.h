@@ -34,6 +34,8 @@ class PointIndex;
 /// A cloud's brightness (intensity, else the BT.601 luma of its colours) as mid-ranks in
 /// (0, 1); empty when the cloud has neither, a non-finite value, or one constant value.
 std::vector<float> BrightnessRanks(const io::PointCloud& cloud);
+/// The same ranks (among all the cloud's points), only at the points `at`, in that order.
+std::vector<float> BrightnessRanks(const io::PointCloud& cloud, const std::vector<size_t>& at);
 
 /// Per-block sums of (source rank x, target rank y) over a pose's inliers.
 struct IntensityBlocks {
