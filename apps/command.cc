@@ -1,6 +1,7 @@
 #include "command.h"
 
 #include <algorithm>
+#include <cstdlib>
 #include <iostream>
 #include <map>
 #include <vector>
@@ -53,6 +54,9 @@ int RunMain(int argc, char** argv) {
   }
   SetVerbosity(common.quiet ? Verbosity::kQuiet
                             : (common.verbose ? Verbosity::kVerbose : Verbosity::kNormal));
+  // Whether the allocator runs on huge pages (core/huge_pages.h; mmba.cc re-executes for it).
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  spdlog::debug("memory: GLIBC_TUNABLES={}", tunables != nullptr ? tunables : "(not set)");
   try {
     for (auto& [sub, run] : commands) {
       if (sub->parsed()) return run();

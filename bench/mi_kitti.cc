@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "mmba/core/huge_pages.h"
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
 #include "mmba/io/kitti.h"
@@ -35,6 +36,7 @@ using namespace mmba;
 using namespace mmba::registration::mi;
 
 int main(int argc, char** argv) {
+  mmba::ReexecWithHugePageMalloc(argv);  // as the mmba binary does (core/huge_pages.h)
   const std::string dir = argc > 1 ? argv[1] : "data/kitti";
   RegistrationOptions options;
   if (argc > 2 && !ParseMetric(argv[2], &options.metric.kind)) return 2;

@@ -47,6 +47,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "mmba/core/huge_pages.h"
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
 #include "mmba/io/point_cloud.h"
@@ -263,6 +264,7 @@ bool Selected(const std::string& name, double max_m) {
 }
 
 int main(int argc, char** argv) {
+  mmba::ReexecWithHugePageMalloc(argv);  // as the mmba binary does (core/huge_pages.h)
   if (argc < 3) {
     std::fprintf(stderr,
                  "usage: mi_panoramas SIM_DIR OUT_DIR [CLOUD=mobile|static] "

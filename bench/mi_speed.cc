@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "mmba/core/huge_pages.h"
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
 #include "mmba/registration/mi/mi_registration.h"
@@ -29,6 +30,7 @@ static double PeakRssMiB() {
 }
 
 int main(int argc, char** argv) {
+  mmba::ReexecWithHugePageMalloc(argv);  // as the mmba binary does (core/huge_pages.h)
   const double million = argc > 1 ? std::stod(argv[1]) : 1.0;
   const std::string which = argc > 2 ? argv[2] : "all";
   if (std::getenv("MMBA_DEBUG") != nullptr) SetVerbosity(Verbosity::kVerbose);

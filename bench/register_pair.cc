@@ -23,6 +23,7 @@
 
 #include <Eigen/Geometry>
 
+#include "mmba/core/huge_pages.h"
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
 #include "mmba/io/point_cloud.h"
@@ -66,6 +67,7 @@ std::string BaseName(const std::string& path) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  mmba::ReexecWithHugePageMalloc(argv);  // as the mmba binary does (core/huge_pages.h)
   using namespace mmba;
   if (argc < 3) {
     std::cerr << "usage: register_pair SOURCE TARGET [descriptor] [key=value ...]\n";

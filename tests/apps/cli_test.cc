@@ -27,9 +27,10 @@ struct RunResult {
   std::string output;  // stdout and stderr
 };
 
-RunResult Mmba(const std::string& args) {
+// `env_prefix`: e.g. "env -u X Y=1 " in front of the binary.
+RunResult Mmba(const std::string& args, const std::string& env_prefix = "") {
   RunResult run;
-  const std::string command = std::string(MMBA_EXECUTABLE) + " " + args + " 2>&1";
+  const std::string command = env_prefix + std::string(MMBA_EXECUTABLE) + " " + args + " 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   char buffer[4096];
   while (fgets(buffer, sizeof(buffer), pipe)) run.output += buffer;
@@ -117,6 +118,27 @@ TEST_F(CliTest, BadInputIsOneErrorLineExitTwoAndNothingWritten) {
                                     "'CAMERA_ID': found 9, expected the id of a camera"));
   EXPECT_FALSE(fs::exists(Tmp("out")));
   EXPECT_FALSE(fs::exists(Tmp("ba.json")));
+}
+
+// mmba re-executes itself once with glibc's huge-page malloc (core/huge_pages.h): the
+// arguments (one with a space) and the exit code survive, and MMBA_HUGE_PAGES=0 keeps the
+// default allocator.
+TEST_F(CliTest, HugePageReexecKeepsArgumentsAndExitCode) {
+  const std::string args = "ba --input '" + Tmp("no such model") + "' --output " + Tmp("out") +
+                           " --verbose";
+  const RunResult on_clean = Mmba(args, "env -u GLIBC_TUNABLES MMBA_HUGE_PAGES=1 ");
+  const RunResult plain = Mmba(args, "env -u GLIBC_TUNABLES MMBA_HUGE_PAGES=0 ");
+  for (const RunResult* r : {&on_clean, &plain}) {
+    EXPECT_EQ(r->exit_code, 2) << r->output;
+    EXPECT_THAT(r->output, HasSubstr(Tmp("no such model")));
+  }
+  std::ifstream thp("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string mode;
+  std::getline(thp, mode);
+  if (!mode.empty() && mode.find("[never]") == std::string::npos) {
+    EXPECT_THAT(on_clean.output, HasSubstr("glibc.malloc.hugetlb=1"));
+  }
+  EXPECT_THAT(plain.output, HasSubstr("GLIBC_TUNABLES=(not set)"));
 }
 
 TEST_F(CliTest, OptionErrorsAreExitTwo) {

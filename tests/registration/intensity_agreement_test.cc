@@ -42,6 +42,34 @@ TEST(BrightnessRanks, MidRanksTiesAndFallbacks) {
   EXPECT_TRUE(internal::BrightnessRanks(c).empty());
 }
 
+// The ranks at chosen points are those of the whole cloud there (the registration ranks
+// millions of intensities but only needs them at its samples): quantised values with many
+// ties, indices out of order and repeated.
+TEST(BrightnessRanks, AtChosenPointsEqualTheWholeCloudsRanks) {
+  io::PointCloud c;
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> level(0, 40);
+  for (int i = 0; i < 5000; ++i) {
+    c.points.emplace_back(i, 0, 0);
+    c.intensity.push_back(static_cast<float>(level(rng)) * 0.25f);
+  }
+  const std::vector<float> all = internal::BrightnessRanks(c);
+  ASSERT_EQ(all.size(), c.size());
+  const std::vector<size_t> at = {4999, 0, 17, 17, 2500, 1, 3333};
+  const std::vector<float> some = internal::BrightnessRanks(c, at);
+  ASSERT_EQ(some.size(), at.size());
+  for (size_t k = 0; k < at.size(); ++k) EXPECT_EQ(some[k], all[at[k]]) << "point " << at[k];
+  // A point's rank: its mid-rank among all 5000 values.
+  size_t below = 0, equal = 0;
+  for (float v : c.intensity) {
+    below += v < c.intensity[17] ? 1 : 0;
+    equal += v == c.intensity[17] ? 1 : 0;
+  }
+  EXPECT_FLOAT_EQ(some[2], static_cast<float>((below + 0.5 * equal) / 5000.0));
+  c.intensity.assign(c.size(), 1.0f);
+  EXPECT_TRUE(internal::BrightnessRanks(c, at).empty());
+}
+
 // A textured wall sampled twice (source and target, independent samples of one texture):
 // the right pose correlates the two brightnesses, the wall shifted by 1.5 m does not, and the
 // jackknifed t says so; the pose against itself gives no evidence either way.
