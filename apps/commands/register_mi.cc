@@ -93,20 +93,13 @@ Rigid3d ReadPoseJson(const std::string& path) {
   }
   if (!json.is_object() || !json.contains("cam_from_lidar")) {
     throw InputError(path, 0, "cam_from_lidar", "(missing)",
-                     "an object with \"cam_from_lidar\": 16 numbers (4x4 row-major)");
-  }
-  const nlohmann::json& m = json["cam_from_lidar"];
-  if (!m.is_array() || m.size() != 16) {
-    throw InputError(path, 0, "cam_from_lidar", m.dump().substr(0, 60),
-                     "16 numbers (4x4 row-major)");
+                     "an object with \"cam_from_lidar\": 16 numbers (4x4 row-major) or 4 rows of 4");
   }
   double v[16];
-  for (int i = 0; i < 16; ++i) {
-    if (!m[i].is_number()) {
-      throw InputError(path, 0, "cam_from_lidar[" + std::to_string(i) + "]", m[i].dump(),
-                       "a number");
-    }
-    v[i] = m[i].get<double>();
+  std::string problem;
+  if (!registration::mi::Matrix4FromJson(json["cam_from_lidar"], v, &problem)) {
+    throw InputError(path, 0, "cam_from_lidar", problem,
+                     "16 numbers (4x4 row-major) or 4 rows of 4 numbers");
   }
   return io::RigidFromRowMajor4x4(v, path, "cam_from_lidar");
 }

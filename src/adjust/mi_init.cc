@@ -19,6 +19,7 @@
 #include "mmba/registration/mi/mi_prior.h"
 #include "mmba/registration/mi/mi_registration.h"
 #include "mmba/registration/mi/result_json.h"
+#include "mmba/registration/mi/result_json.h"
 
 namespace mmba::adjust::internal {
 
@@ -39,13 +40,15 @@ bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* wh
     *why = "status " + j.value("status", std::string("?")) + (j.value("covariance_valid", false) ? "" : ", no valid covariance");
     return false;
   }
-  if (!j.contains("cam_from_lidar") || !j["cam_from_lidar"].is_array() || j["cam_from_lidar"].size() != 16 ||
-      !j.contains("covariance") || !j["covariance"].is_array() || j["covariance"].size() != 6) {
-    throw InputError(file, 0, "cam_from_lidar/covariance", "missing or wrong size", "16 numbers (4x4 row-major) and a 6x6 covariance");
+  double m[16];
+  std::string problem = "missing";
+  if (!j.contains("cam_from_lidar") || !mi::Matrix4FromJson(j["cam_from_lidar"], m, &problem)) {
+    throw InputError(file, 0, "cam_from_lidar", problem, "16 numbers (4x4 row-major) or 4 rows of 4 numbers");
+  }
+  if (!j.contains("covariance") || !j["covariance"].is_array() || j["covariance"].size() != 6) {
+    throw InputError(file, 0, "covariance", "missing or wrong size", "a 6x6 covariance");
   }
   try {
-    double m[16];
-    for (int k = 0; k < 16; ++k) m[k] = j["cam_from_lidar"][k].get<double>();
     result->cam_from_world = io::RigidFromRowMajor4x4(m, file, "cam_from_lidar");
     for (int a = 0; a < 6; ++a) {
       if (!j["covariance"][a].is_array() || j["covariance"][a].size() != 6) {

@@ -306,14 +306,27 @@ CameraYaml ReadCameraYaml(const std::string& path) {
     }
   }
   if (YAML::Node pose = root["cam_from_lidar"]) {
-    if (!pose.IsSequence() || pose.size() != 16) {
+    // 16 numbers row-major, or 4 rows of 4 numbers.
+    const bool rows = pose.IsSequence() && pose.size() == 4;
+    if (!pose.IsSequence() || (pose.size() != 16 && !rows)) {
       throw InputError(path, line_of(pose), "cam_from_lidar",
                        pose.IsSequence() ? std::to_string(pose.size()) + " values" : "not a list",
-                       "16 numbers (4x4 row-major)");
+                       "16 numbers (4x4 row-major) or 4 rows of 4 numbers");
     }
     double v[16];
     for (int i = 0; i < 16; ++i) {
-      v[i] = as_double(pose[i], "cam_from_lidar[" + std::to_string(i) + "]");
+      if (!rows) {
+        v[i] = as_double(pose[i], "cam_from_lidar[" + std::to_string(i) + "]");
+        continue;
+      }
+      const YAML::Node row = pose[i / 4];
+      if (!row.IsSequence() || row.size() != 4) {
+        throw InputError(path, line_of(row), "cam_from_lidar[" + std::to_string(i / 4) + "]",
+                         row.IsSequence() ? std::to_string(row.size()) + " values" : "not a list",
+                         "a row of 4 numbers");
+      }
+      v[i] = as_double(row[i % 4], "cam_from_lidar[" + std::to_string(i / 4) + "][" +
+                                       std::to_string(i % 4) + "]");
     }
     result.cam_from_lidar =
         RigidFromRowMajor4x4(v, path + ":" + std::to_string(line_of(pose)), "cam_from_lidar");

@@ -228,6 +228,34 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
   EXPECT_THAT(bad.output, HasSubstr("--sample-block-px"));
   EXPECT_FALSE(std::filesystem::exists(Tmp("bad_block.json")));
 
+  // --initial as 4 rows of 4 numbers (numpy's tolist()): the calibration itself as the start
+  // gives the registration of the default start (the calibration; the start's last bits differ
+  // through the JSON round trip).
+  {
+    const Eigen::Matrix4d c =
+        io::KittiCamera(io::ReadKittiCalibration(kitti + "calib/000000.txt"), 2, 1242, 375)
+            .cam_from_lidar.ToMatrix4();
+    nlohmann::json rows = nlohmann::json::array();
+    for (int r = 0; r < 4; ++r) rows.push_back({c(r, 0), c(r, 1), c(r, 2), c(r, 3)});
+    std::ofstream(Tmp("rows.json")) << nlohmann::json{{"cam_from_lidar", rows}}.dump();
+    const RunResult from_rows = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin" + common +
+                                     " --initial " + Tmp("rows.json") + " --output " + Tmp("rows_out.json"));
+    EXPECT_EQ(from_rows.exit_code, given.exit_code) << from_rows.output;
+    const nlohmann::json r = nlohmann::json::parse(std::ifstream(Tmp("rows_out.json")));
+    EXPECT_EQ(r["status"], a["status"]);
+    ASSERT_EQ(r["cam_from_lidar"].size(), 16u);
+    for (int i = 0; i < 16; ++i) {
+      EXPECT_NEAR(r["cam_from_lidar"][i].get<double>(), a["cam_from_lidar"][i].get<double>(), 1e-9) << i;
+    }
+    rows[2] = {1.0, 0.0};
+    std::ofstream(Tmp("bad_rows.json")) << nlohmann::json{{"cam_from_lidar", rows}}.dump();
+    const RunResult bad_rows = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin" + common +
+                                    " --initial " + Tmp("bad_rows.json") + " --output " + Tmp("bad_rows_out.json"));
+    EXPECT_EQ(bad_rows.exit_code, 2);
+    EXPECT_THAT(bad_rows.output, HasSubstr("row 2 is [1.0,0.0], not 4 numbers"));
+    EXPECT_FALSE(std::filesystem::exists(Tmp("bad_rows_out.json")));
+  }
+
   const Eigen::Vector3d grid(512000.0, 5412000.0, 1000.0);  // whole km: the same floats
   io::PointCloud cloud = io::ReadPointCloud(kitti + "velodyne/000000.bin");
   for (Eigen::Vector3d& p : cloud.points) p += grid;

@@ -1,6 +1,7 @@
 #include "mmba/io/kitti.h"
 
 #include <filesystem>
+#include <fstream>
 
 #include <gtest/gtest.h>
 
@@ -108,6 +109,31 @@ TEST(CameraYaml, ReadsAndRoundTrips) {
   EXPECT_LT((again.cam_from_lidar->ToMatrix4() - camera.cam_from_lidar->ToMatrix4()).norm(),
             1e-12);
   std::filesystem::remove(out);
+}
+
+// cam_from_lidar may also be written as 4 rows of 4 numbers (as numpy's tolist() gives it).
+TEST(CameraYaml, PoseAsFourRows) {
+  const std::string dir = std::filesystem::temp_directory_path().string();
+  const std::string rows = dir + "/mmba_camera_rows.yaml", bad = dir + "/mmba_camera_bad_row.yaml";
+  const std::string head =
+      "model: PINHOLE\nwidth: 1242\nheight: 375\nparams: [707.0493, 707.0493, 604.0814, 180.5066]\n";
+  std::ofstream(rows) << head
+                      << "cam_from_lidar:\n  - [0, -1, 0, 0.06]\n  - [0, 0, -1, -0.08]\n"
+                         "  - [1, 0, 0, -0.27]\n  - [0, 0, 0, 1]\n";
+  std::ofstream(bad) << head << "cam_from_lidar: [[0, -1, 0, 0.06], [0, 0, -1], [1, 0, 0, -0.27], [0, 0, 0, 1]]\n";
+  const CameraYaml flat = ReadCameraYaml(Fixture("camera_ok.yaml"));
+  const CameraYaml four = ReadCameraYaml(rows);
+  ASSERT_TRUE(four.cam_from_lidar.has_value());
+  EXPECT_EQ(four.cam_from_lidar->ToMatrix4(), flat.cam_from_lidar->ToMatrix4());
+  try {
+    ReadCameraYaml(bad);
+    FAIL() << "no error for a row of 3";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("field 'cam_from_lidar[1]': found '3 values'"), std::string::npos)
+        << e.what();
+  }
+  std::filesystem::remove(rows);
+  std::filesystem::remove(bad);
 }
 
 TEST(CameraYaml, BrokenFilesNameTheField) {

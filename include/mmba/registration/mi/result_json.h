@@ -4,6 +4,8 @@
 // (README, "register-mi"): shared by the command and by `mmba adjust`, which runs the same
 // registration per image and writes one such file per image.
 
+#include <string>
+
 #include <nlohmann/json.hpp>
 
 #include "mmba/geometry/rigid3d.h"
@@ -13,6 +15,10 @@ namespace mmba::registration::mi {
 
 /// 16 numbers, the 4×4 matrix row-major.
 nlohmann::json PoseToJson(const Rigid3d& pose);
+/// A 4×4 matrix as written by PoseToJson (16 numbers, row-major) or as four rows of four
+/// numbers ([[r00, r01, r02, t0], …], e.g. numpy's tolist()). False, with `problem` saying what
+/// was found, when it is neither.
+bool Matrix4FromJson(const nlohmann::json& value, double row_major[16], std::string* problem);
 /// {tx, ty, tz [m], roll, pitch, yaw [deg]}.
 nlohmann::json CorrectionToJson(const Vector6d& correction);
 /// {mi_bits, nmi, nid, joint_entropy_bits, samples, lidar_samples}.
