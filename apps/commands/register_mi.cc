@@ -73,6 +73,7 @@ struct RegisterMiArgs {
   int probe_level = 0;
   std::string output;
   std::string lidar_image;
+  std::string overlay;
 };
 
 nlohmann::json OffsetJson(const mi::PixelOffsetStats& s) {
@@ -393,6 +394,21 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                          &rendered);
     mi::WriteGrayPng(mi::LidarImageToGray(rendered), args.lidar_image);
   }
+  if (!args.overlay.empty()) {
+    const mi::View& view = frames[0].views[0];
+    mi::LidarImage at_start, at_result;
+    mi::RenderLidarImage(clouds[0], view, start, options.render, &at_start);
+    mi::RenderLidarImage(clouds[0], view, cam_from_local, options.render, &at_result);
+    const std::vector<uint8_t> png = mi::EncodeRangeOverlayPng(
+        view.image, {&at_start, &at_result},
+        {"start (" + view.name + ")", "result: " + result.status});
+    files.Add(
+        args.overlay,
+        [png](std::ostream& stream) {
+          stream.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+        },
+        /*binary=*/true);
+  }
   files.Commit();
   std::cout << result.BriefReport() << std::endl;
   spdlog::info("wrote {} ({:.2f} s)", args.output, wall.ElapsedSeconds());
@@ -545,6 +561,9 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
       ->capture_default_str();
   sub->add_option("--lidar-image", args->lidar_image,
                   "Write the LiDAR image of the result (first view) as PNG");
+  sub->add_option("--overlay", args->overlay,
+                  "Write a PNG of the first view: the photo with the LiDAR coloured by range at "
+                  "the start (top) and at the result (bottom)");
   sub->add_option("--output", args->output, "OUT.json")->required();
   AddCommonOptions(sub, common);
   return [args] { return RunRegisterMi(*args); };

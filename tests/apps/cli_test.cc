@@ -212,8 +212,21 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
   const std::string common = " --image " + kitti + "image_2/000000.png --kitti-calib " + kitti +
                              "calib/000000.txt --perturb 0.05,0,0,0,0.5,0 -q";
   const RunResult given = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin" + common +
-                               " --output " + Tmp("given.json"));
+                               " --output " + Tmp("given.json") + " --overlay " + Tmp("overlay.png"));
   ASSERT_TRUE(given.exit_code == 0 || given.exit_code == 3) << given.output;
+  {
+    // The overlay: a PNG of the photo's width and twice its height (start above, result below).
+    auto png_size = [](const std::string& path) {
+      std::ifstream png(path, std::ios::binary);
+      unsigned char h[24] = {};
+      png.read(reinterpret_cast<char*>(h), 24);
+      EXPECT_TRUE(png.good() && std::string(reinterpret_cast<char*>(h) + 1, 3) == "PNG") << path;
+      auto be32 = [&](int at) { return (h[at] << 24) | (h[at + 1] << 16) | (h[at + 2] << 8) | h[at + 3]; };
+      return std::pair<int, int>(be32(16), be32(20));
+    };
+    const auto [w, h] = png_size(kitti + "image_2/000000.png");
+    EXPECT_EQ(png_size(Tmp("overlay.png")), std::make_pair(w, 2 * h));
+  }
   const nlohmann::json a = nlohmann::json::parse(std::ifstream(Tmp("given.json")));
   EXPECT_EQ(a["settings"]["sample_block_px"], 8);  // the default, recorded
   EXPECT_EQ(a["settings"]["covariance_pixel_floor"], true);

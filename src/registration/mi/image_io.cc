@@ -1,5 +1,8 @@
 // The only place besides probe_plot.cc where OpenCV is used by mmba_registration_mi.
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
+#include <stdexcept>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -8,6 +11,7 @@
 #include "mmba/core/atomic_file.h"
 #include "mmba/core/error.h"
 #include "mmba/registration/mi/image.h"
+#include "mmba/registration/mi/lidar_image.h"
 
 namespace mmba::registration::mi {
 
@@ -50,6 +54,57 @@ void WriteGrayPng(const GrayImage& image, const std::string& path) {
                   static_cast<std::streamsize>(buffer.size()));
       },
       true);
+}
+
+std::vector<uint8_t> EncodeRangeOverlayPng(const GrayImage& photo,
+                                           const std::vector<const LidarImage*>& panels,
+                                           const std::vector<std::string>& labels) {
+  std::vector<float> ranges;
+  for (const LidarImage* p : panels) {
+    if (p->width != photo.width || p->height != photo.height) {
+      throw std::invalid_argument("overlay: a LiDAR image is not the photo's size");
+    }
+    for (float d : p->depth) {
+      if (std::isfinite(d) && d > 0) ranges.push_back(d);
+    }
+  }
+  double near = 1.0, far = 2.0;
+  if (!ranges.empty()) {
+    std::sort(ranges.begin(), ranges.end());
+    near = ranges[ranges.size() / 50];
+    far = std::max(near * 1.01, static_cast<double>(ranges[ranges.size() - 1 - ranges.size() / 50]));
+  }
+  cv::Mat lut(1, 256, CV_8UC1);
+  for (int i = 0; i < 256; ++i) lut.at<uint8_t>(0, i) = static_cast<uint8_t>(i);
+  cv::Mat jet;
+  cv::applyColorMap(lut, jet, cv::COLORMAP_JET);  // 0 blue … 255 red
+  const int w = photo.width, h = photo.height;
+  cv::Mat out(h * static_cast<int>(panels.size()), w, CV_8UC3);
+  for (size_t k = 0; k < panels.size(); ++k) {
+    const LidarImage& lidar = *panels[k];
+    for (int r = 0; r < h; ++r) {
+      cv::Vec3b* row = out.ptr<cv::Vec3b>(static_cast<int>(k) * h + r);
+      for (int c = 0; c < w; ++c) {
+        const uint8_t g = cv::saturate_cast<uint8_t>(photo.at(c, r));
+        cv::Vec3b px(g, g, g);
+        const float d = lidar.depth[static_cast<size_t>(r) * w + c];
+        if (std::isfinite(d) && d > 0) {
+          const double t = std::clamp((std::log(d) - std::log(near)) / (std::log(far) - std::log(near)), 0.0, 1.0);
+          const cv::Vec3b colour = jet.at<cv::Vec3b>(0, static_cast<int>(std::lround(255.0 * (1.0 - t))));
+          for (int ch = 0; ch < 3; ++ch) px[ch] = cv::saturate_cast<uint8_t>(0.3 * px[ch] + 0.7 * colour[ch]);
+        }
+        row[c] = px;
+      }
+    }
+    if (k < labels.size()) {
+      const cv::Point at(6, static_cast<int>(k) * h + 20);
+      cv::putText(out, labels[k], at, cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(0, 0, 0), 3);
+      cv::putText(out, labels[k], at, cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(255, 255, 255), 1);
+    }
+  }
+  std::vector<uint8_t> png;
+  cv::imencode(".png", out, png);
+  return png;
 }
 
 }  // namespace mmba::registration::mi

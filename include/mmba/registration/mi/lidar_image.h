@@ -233,4 +233,13 @@ void RenderLidarZBuffer(const LidarPoints& points, const View& view,
 /// The LiDAR image as an 8-bit grey picture (empty pixels black), for reports and tests.
 GrayImage LidarImageToGray(const LidarImage& image);
 
+/// A PNG for the eye (register-mi --overlay): one panel per LiDAR image, stacked top to
+/// bottom, each the photo in grey with the pixels that LiDAR image covers coloured by range
+/// (jet over log range between the 2nd and 98th percentile of all panels' covered pixels:
+/// near red, far blue), 70 % over the photo, and its label in the top-left corner. Every
+/// LiDAR image must have the photo's size (std::invalid_argument otherwise).
+std::vector<uint8_t> EncodeRangeOverlayPng(const GrayImage& photo,
+                                           const std::vector<const LidarImage*>& panels,
+                                           const std::vector<std::string>& labels);
+
 }  // namespace mmba::registration::mi
