@@ -1265,10 +1265,21 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   CloudRegistrationResult result;
   Timer stage_timer;
   std::clock_t stage_cpu = std::clock();
+  // Long work shows progress: once a registration has run 10 s (large clouds), each stage
+  // is logged as it ends; a quick one stays silent.
+  const Timer total_timer;
+  if (source.size() + target.size() > 4000000) {
+    spdlog::info("registration: {} source and {} target points; thinning them to the coarse "
+                 "and fine levels first", source.size(), target.size());
+  }
   auto end_stage = [&](const std::string& name) {
     const std::clock_t now = std::clock();
     result.runtime.push_back({name, stage_timer.ElapsedSeconds(),
                               static_cast<double>(now - stage_cpu) / CLOCKS_PER_SEC});
+    if (total_timer.ElapsedSeconds() > 10.0) {
+      spdlog::info("registration: {} done ({:.1f} s, {:.1f} s in all)", name,
+                   stage_timer.ElapsedSeconds(), total_timer.ElapsedSeconds());
+    }
     stage_timer.Restart();
     stage_cpu = now;
   };
