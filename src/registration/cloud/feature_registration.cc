@@ -292,9 +292,11 @@ Level VoxelDownsample(const std::vector<Eigen::Vector3d>& points,
   return out;
 }
 
-double MedianSpacing(const std::vector<Eigen::Vector3d>& points, size_t max_samples) {
+// Median distance to the nearest other point over every (size / max_samples)-th point, on
+// `index` (built on `points`).
+double MedianSpacing(const PointIndex& index, const std::vector<Eigen::Vector3d>& points,
+                     size_t max_samples) {
   if (points.size() < 2) return 0.0;
-  PointIndex index(points);
   const size_t step = std::max<size_t>(1, points.size() / max_samples);
   std::vector<double> d;
   std::vector<int> idx;
@@ -308,11 +310,19 @@ double MedianSpacing(const std::vector<Eigen::Vector3d>& points, size_t max_samp
   return d[d.size() / 2];
 }
 
+double MedianSpacing(const std::vector<Eigen::Vector3d>& points, size_t max_samples) {
+  if (points.size() < 2) return 0.0;
+  const PointIndex index(points);
+  return MedianSpacing(index, points, max_samples);
+}
+
 // Smallest voxel >= `voxel` that leaves at most `max_points` (0 = keep the cloud as is when
 // it is small enough).
-double VoxelForBudget(const io::PointCloud& cloud, double voxel, size_t max_points) {
+// `spacing_5000`: MedianSpacing(cloud.points, 5000) when the caller has it (0: computed here).
+double VoxelForBudget(const io::PointCloud& cloud, double voxel, size_t max_points,
+                      double spacing_5000 = 0.0) {
   if (cloud.size() <= max_points && voxel <= 0) return 0.0;
-  if (voxel <= 0) voxel = MedianSpacing(cloud.points, 5000);
+  if (voxel <= 0) voxel = spacing_5000 > 0 ? spacing_5000 : MedianSpacing(cloud.points, 5000);
   // Surfaces: the count falls about as 1/voxel²; a few secant steps, then a safety margin.
   for (int k = 0; k < 8; ++k) {
     const size_t count = VoxelCount(cloud.points, voxel);
@@ -1297,7 +1307,15 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   // matched at the density of the sparser one; the larger cloud may keep
   // larger_cloud_factor × as many points), a finer one for ICP (the target is cropped to each
   // hypothesis there).
-  const double s_src = EstimatePointSpacing(source), s_tgt = EstimatePointSpacing(target);
+  // The source's spacing on 20,000 and (for the fine level's budget search below) on 5,000
+  // samples, from one kd-tree: on tens of millions of points each tree takes seconds.
+  double s_src = 0.0, s_src_5000 = 0.0;
+  if (source.size() >= 2) {
+    const PointIndex source_index(source.points);
+    s_src = MedianSpacing(source_index, source.points, 20000);
+    s_src_5000 = MedianSpacing(source_index, source.points, 5000);
+  }
+  const double s_tgt = EstimatePointSpacing(target);
   if (s_src <= 0 || s_tgt <= 0) return fail("all points of a cloud coincide (spacing 0)");
   const bool source_larger = source.size() > target.size();
   const size_t small_budget = static_cast<size_t>(options.max_points_features);
@@ -1321,7 +1339,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   const bool tgt_normals = options.use_existing_normals && target.has_normals();
   Level src_coarse = VoxelDownsample(source.points, src_normals ? source.normals : std::vector<Eigen::Vector3d>{}, coarse_voxel);
   Level tgt_coarse = VoxelDownsample(target.points, tgt_normals ? target.normals : std::vector<Eigen::Vector3d>{}, coarse_voxel);
-  const double fine_voxel_src = VoxelForBudget(source, 0.0, options.max_points_icp);
+  const double fine_voxel_src = VoxelForBudget(source, 0.0, options.max_points_icp, s_src_5000);
   Level src_fine = VoxelDownsample(source.points, src_normals ? source.normals : std::vector<Eigen::Vector3d>{}, fine_voxel_src);
   const double src_fine_spacing = MedianSpacing(src_fine.points, 20000);
   const double spacing = std::max(MedianSpacing(src_coarse.points, 20000),
