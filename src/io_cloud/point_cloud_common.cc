@@ -152,7 +152,7 @@ Column ColumnFromName(const std::string& raw) {
   if (name == "ny" || name == "normal_y") return Column::kNy;
   if (name == "nz" || name == "normal_z") return Column::kNz;
   if (name == "intensity" || name == "i" || name == "scalar_intensity" ||
-      name == "reflectance") {
+      name == "reflectance" || name == "scalar_reflectance" || name == "remission") {
     return Column::kIntensity;
   }
   if (name == "r" || name == "red") return Column::kR;

@@ -78,7 +78,8 @@ VertexLayout FindVertexLayout(const PlyElement& vertex) {
     else if (n == "ny" || n == "normal_y") layout.normal[1] = idx;
     else if (n == "nz" || n == "normal_z") layout.normal[2] = idx;
     else if ((n == "intensity" || n == "scalar_intensity" || n == "reflectance" ||
-              n == "scalar_Intensity") && layout.intensity < 0) {
+              n == "scalar_Intensity" || n == "scalar_reflectance" || n == "scalar_Reflectance" ||
+              n == "remission") && layout.intensity < 0) {
       layout.intensity = idx;
     } else if ((n == "time" || n == "gps_time" || n == "timestamp") && layout.time < 0) {
       layout.time = idx;

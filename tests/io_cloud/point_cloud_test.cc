@@ -132,6 +132,20 @@ TEST_F(PointCloudIoTest, PlyAsciiStanfordStyle) {
   EXPECT_DOUBLE_EQ(c.points[0].x(), -0.06325);
 }
 
+// Intensity under the names other tools give it (SemanticKITTI's remission, CloudCompare's
+// scalar fields).
+TEST_F(PointCloudIoTest, PlyIntensityNames) {
+  for (const std::string name : {"intensity", "scalar_Intensity", "reflectance", "scalar_Reflectance",
+                                 "remission"}) {
+    const std::string path = Write(
+        "n.ply", "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+                 "property float z\nproperty float " + name + "\nend_header\n0 0 0 0.25\n1 0 0 0.5\n");
+    const PointCloud c = ReadPointCloud(path);
+    ASSERT_TRUE(c.has_intensity()) << name;
+    EXPECT_FLOAT_EQ(c.intensity[1], 0.5f) << name;
+  }
+}
+
 TEST_F(PointCloudIoTest, PlyBrokenFixtures) {
   ExpectInputError([&] { ReadPly(Write("m.ply", "plx\nformat ascii 1.0\n")); },
                    {"m.ply:1", "magic", "plx"});

@@ -822,8 +822,8 @@ TargetCrop CropTarget(const io::PointCloud& target, bool use_normals,
   TargetCrop out;
   const double voxel = crop.size() > budget ? VoxelForBudget(crop, min_voxel, budget) : min_voxel;
   out.level = VoxelDownsample(crop.points, crop.normals, voxel);
-  out.level.spacing = MedianSpacing(out.level.points, 20000);
   out.index = std::make_unique<PointIndex>(out.level.points);
+  out.level.spacing = MedianSpacing(*out.index, out.level.points, 20000);
   return out;
 }
 
