@@ -106,6 +106,7 @@ int main(int argc, char** argv) {
     else if (key == "support_radius_spacing") options.support_radius_spacing = v;
     else if (key == "min_significance") options.min_significance = v;
     else if (key == "max_ambiguity") options.max_ambiguity = v;
+    else if (key == "min_coarse_agreement") options.min_coarse_agreement = v;
     else if (key == "inlier_sigma") options.inlier_sigma = v;
     else if (key == "larger_cloud_factor") options.larger_cloud_factor = v;
     else if (key == "max_keypoints") options.max_keypoints = static_cast<int>(v);

@@ -127,6 +127,9 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   if (!(max_weak_motion_resolution_spacing > 0)) {
     return fail("max_weak_motion_resolution_spacing", max_weak_motion_resolution_spacing, "> 0");
   }
+  if (!(min_coarse_agreement >= 0 && min_coarse_agreement <= 1)) {
+    return fail("min_coarse_agreement", min_coarse_agreement, "0 <= x <= 1");
+  }
   if (!(max_ambiguity >= 0 && max_ambiguity <= 1)) {
     return fail("max_ambiguity", max_ambiguity, "0 <= x <= 1");
   }
@@ -1533,6 +1536,9 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     double sigma = 0.0, spacing = 0.0;
     std::shared_ptr<TargetCrop> crop;
     std::vector<bool> violates;  // FreeSpaceViolations (empty: no sensor positions known)
+    // Coarse score of the hypothesis it was refined from (the best of those merged into it);
+    // NaN for finalists made at the fine level (symmetric turns, period shifts).
+    double coarse_score = std::numeric_limits<double>::quiet_NaN();
   };
   // Visibility: z-buffers of each cloud from its own sensors (given in its own frame), the
   // whole target's (an occluder outside a hypothesis' crop still hides what lies behind it)
@@ -1602,6 +1608,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     if (duplicate) continue;
     Finalist f;
     f.h = h;
+    f.coarse_score = h.score;
     // Levelled hypotheses were turned about `up` only: the tilt left to the free fine ICP
     // needs a wider start.
     const double start = options.gravity_aligned ? support_radius / 2.0
@@ -1648,6 +1655,13 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
                                    10.0, std::max(10.0 * fine_tau, 2.0 * fine_spacing));
     }
     if (same) {
+      for (size_t j = 0; j < i; ++j) {
+        if (SameTransform(finalists[i].h.transform, finalists[j].h.transform, centre, 10.0,
+                          std::max(10.0 * fine_tau, 2.0 * fine_spacing))) {
+          finalists[j].coarse_score = std::fmax(finalists[j].coarse_score, finalists[i].coarse_score);
+          break;
+        }
+      }
       finalists.erase(finalists.begin() + static_cast<long>(i));
     } else {
       ++i;
@@ -2035,6 +2049,33 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
         << (options.gravity_aligned ? "" : "--gravity-aligned, ")
         << "more overlap or an approximate pose (--search-window)";
     return fail(why.str());
+  }
+  // Scale agreement: a chosen pose that the coarse level ranked well below another distinct
+  // finalist is contradicted by the coarse evidence (fine ICP can leave a good coarse start on
+  // a dense, noisy cloud; the fine score then sees a symmetric twin fit better).
+  if (!options.paper_only && options.min_coarse_agreement > 0 &&
+      std::isfinite(finalists[0].coarse_score)) {
+    size_t leader = 0;
+    for (size_t k = 1; k < finalists.size(); ++k) {
+      if (std::isfinite(finalists[k].coarse_score) &&
+          !(finalists[k].coarse_score <= finalists[leader].coarse_score)) {
+        leader = k;
+      }
+    }
+    if (leader != 0 &&
+        finalists[0].coarse_score < options.min_coarse_agreement * finalists[leader].coarse_score) {
+      const Finalist& l = finalists[leader];
+      const Eigen::Matrix3d r =
+          l.h.transform.topLeftCorner<3, 3>().transpose() * best.transform.topLeftCorner<3, 3>();
+      const double shift = (Apply(l.h.transform, centre) - Apply(best.transform, centre)).norm();
+      why << "scales disagree: the coarse level prefers a pose " << RotationAngleDeg(r) << "° and "
+          << shift << " m away (coarse scores " << l.coarse_score << " against "
+          << finalists[0].coarse_score << " for this one), the fine level this one (fine scores "
+          << best_score << " against " << l.h.score
+          << "): a dense noisy cloud or a (pseudo-)symmetric structure — give an approximate "
+             "pose (--search-window)";
+      return fail(why.str());
+    }
   }
   if (!options.paper_only &&
       !(axis_resolution <= options.max_resolution_spacing * result.fine_spacing_m)) {

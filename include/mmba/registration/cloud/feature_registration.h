@@ -122,6 +122,13 @@ struct CloudRegistrationOptions {
   /// Ambiguity test: every distinct finalist scoring above this fraction of the best is
   /// compared with it (0 = every one; 1 = none: the test is off) (0..1).
   double max_ambiguity = 0.0;
+  /// Scale agreement: the chosen pose, when it comes from a coarse hypothesis, must have
+  /// scored at the coarse level at least this fraction of the best coarse hypothesis that
+  /// survived as a distinct finalist; else the two levels contradict each other and the
+  /// result is refused ("scales disagree"). On the full-preset simulated gate the fine level
+  /// preferred the 180° twin (coarse score 0.50) over a pose near the truth (0.91): a wrong
+  /// "ok" 5.6 m off (bench/RESULTS.md, session 21). 0 = off (0..1).
+  double min_coarse_agreement = 0.8;
   /// ... and "ok" needs the best to beat each of them by at least this many standard errors of
   /// the mean per-point score difference (cluster-robust over blocks of R_s; a paired t
   /// statistic, src/registration/cloud/score_significance.h), the same bar as
