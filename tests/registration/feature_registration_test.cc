@@ -523,6 +523,11 @@ TEST(FeatureRegistration, SearchWindowPicksTheBayNearTheApproximatePose) {
   std::string error;
   EXPECT_FALSE(options.Check(&error));
   EXPECT_NE(error.find("search_window_deg"), std::string::npos) << error;
+  // So is a scale-agreement fraction outside [0, 1].
+  options.search_window_deg = 10.0;
+  options.min_coarse_agreement = 1.5;
+  EXPECT_FALSE(options.Check(&error));
+  EXPECT_NE(error.find("min_coarse_agreement"), std::string::npos) << error;
 }
 
 // Ground and one wall: a strip of ground `length` × `width` m whose long side runs at 45° to
