@@ -1647,21 +1647,18 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   };
   sort_finalists();
   // Finalists that converged to the same transform are one hypothesis.
+  // The one kept takes the better coarse score of the two (the scale-agreement test below).
   for (size_t i = 1; i < finalists.size();) {
-    bool same = false;
-    for (size_t j = 0; j < i; ++j) {
+    size_t same = i;
+    for (size_t j = 0; j < i && same == i; ++j) {
       // Noisy clouds leave ICP in slightly different spots of one basin.
-      same = same || SameTransform(finalists[i].h.transform, finalists[j].h.transform, centre,
-                                   10.0, std::max(10.0 * fine_tau, 2.0 * fine_spacing));
-    }
-    if (same) {
-      for (size_t j = 0; j < i; ++j) {
-        if (SameTransform(finalists[i].h.transform, finalists[j].h.transform, centre, 10.0,
-                          std::max(10.0 * fine_tau, 2.0 * fine_spacing))) {
-          finalists[j].coarse_score = std::fmax(finalists[j].coarse_score, finalists[i].coarse_score);
-          break;
-        }
+      if (SameTransform(finalists[i].h.transform, finalists[j].h.transform, centre, 10.0,
+                        std::max(10.0 * fine_tau, 2.0 * fine_spacing))) {
+        same = j;
       }
+    }
+    if (same < i) {
+      finalists[same].coarse_score = std::fmax(finalists[same].coarse_score, finalists[i].coarse_score);
       finalists.erase(finalists.begin() + static_cast<long>(i));
     } else {
       ++i;
@@ -2057,7 +2054,9 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       std::isfinite(finalists[0].coarse_score)) {
     size_t leader = 0;
     for (size_t k = 1; k < finalists.size(); ++k) {
-      if (std::isfinite(finalists[k].coarse_score) &&
+      // A pose the visibility test contradicts is no evidence against the chosen one (as in
+      // the ambiguity test).
+      if (std::isfinite(finalists[k].coarse_score) && !contradicted(finalists[k].h) &&
           !(finalists[k].coarse_score <= finalists[leader].coarse_score)) {
         leader = k;
       }
