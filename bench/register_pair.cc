@@ -147,9 +147,30 @@ int main(int argc, char** argv) {
               r.sigma_rms_m, r.constraint_ratio, r.sigma_translation_m.x(),
               r.sigma_translation_m.y(), r.sigma_translation_m.z(), r.sigma_rotation_deg.x(),
               r.sigma_rotation_deg.y(), r.sigma_rotation_deg.z(), r.weakest_motion.c_str());
+  // truth=FILE: the true target_from_source, 16 numbers row-major.
+  Eigen::Matrix4d truth = Eigen::Matrix4d::Identity();
+  if (!truth_file.empty()) {
+    std::ifstream in(truth_file);
+    for (int i = 0; i < 16; ++i) {
+      if (!(in >> truth(i / 4, i % 4))) {
+        std::cerr << truth_file << ": expected 16 numbers (a row-major 4x4)\n";
+        return 2;
+      }
+    }
+  }
+  auto rotation_error_deg = [&](const Eigen::Matrix4d& t) {
+    const Eigen::Matrix3d dr = t.topLeftCorner<3, 3>() * truth.topLeftCorner<3, 3>().transpose();
+    return std::acos(std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;
+  };
   for (const auto& h : r.hypotheses) {
-    std::printf("  hypothesis %-32s fitness %.3f normals %.3f conflict %.3f score %.3f\n",
+    std::printf("  hypothesis %-32s fitness %.3f normals %.3f conflict %.3f score %.3f",
                 h.origin.c_str(), h.fitness, h.normal_agreement, h.conflict, h.score);
+    if (!truth_file.empty()) {
+      std::printf("  error %.3g m RMS, %.3g deg",
+                  registration::TransformRmsOnCloud(source, h.target_from_source, truth),
+                  rotation_error_deg(h.target_from_source));
+    }
+    std::printf("\n");
   }
   for (const auto& s : r.runtime) {
     std::printf("  %-22s %8.3f s wall %8.3f s CPU\n", s.stage.c_str(), s.seconds, s.cpu_seconds);
@@ -165,21 +186,10 @@ int main(int argc, char** argv) {
   }
   for (const auto& n : r.notes) std::printf("note: %s\n", n.c_str());
   if (!truth_file.empty()) {
-    // truth=FILE: the true target_from_source, 16 numbers row-major.
-    std::ifstream in(truth_file);
-    Eigen::Matrix4d truth;
-    for (int i = 0; i < 16; ++i) {
-      if (!(in >> truth(i / 4, i % 4))) {
-        std::cerr << truth_file << ": expected 16 numbers (a row-major 4x4)\n";
-        return 2;
-      }
-    }
-    const Eigen::Matrix3d dr =
-        r.target_from_source.topLeftCorner<3, 3>() * truth.topLeftCorner<3, 3>().transpose();
     std::printf("error vs %s: RMS over the source %.4g m, rotation %.4f deg, translation %.4f m\n",
                 truth_file.c_str(),
                 registration::TransformRmsOnCloud(source, r.target_from_source, truth),
-                std::acos(std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI,
+                rotation_error_deg(r.target_from_source),
                 (r.target_from_source.topRightCorner<3, 1>() - truth.topRightCorner<3, 1>()).norm());
   }
   if (!conf.empty()) {
