@@ -101,6 +101,7 @@ int main(int argc, char** argv) {
     else if (key == "keypoint_threshold") options.keypoint_threshold = v;
     else if (key == "keypoint_grid_spacing") options.keypoint_grid_spacing = v;
     else if (key == "icp_distance_spacing") options.icp_distance_spacing = v;
+    else if (key == "icp_noise_sigmas") options.icp_noise_sigmas = v;
     else if (key == "icp_iterations") options.icp_iterations = static_cast<int>(v);
     else if (key == "normal_radius_spacing") options.normal_radius_spacing = v;
     else if (key == "support_radius_spacing") options.support_radius_spacing = v;

@@ -102,5 +102,69 @@ TEST(NearestNeighbour, FeatureIndexIsExactAndBreaksTiesByIndex) {
   }
 }
 
+TEST(AreaSpacing, EvenGridGivesItsSpacing) {
+  std::vector<Eigen::Vector3d> p;  // a gently curved sheet, 2 cm grid: ‖n‖₁ ≈ 1, 0.82 × 2 cm
+  for (int i = 0; i < 400; ++i) {
+    for (int j = 0; j < 400; ++j) p.emplace_back(0.02 * i, 0.02 * j, 0.3 * std::sin(0.01 * i));
+  }
+  EXPECT_NEAR(AreaSpacing(p, 0.4), 0.02, 0.004);
+  EXPECT_EQ(AreaSpacing({}, 0.5), 0.0);
+}
+
+TEST(AreaSpacing, ScanLinesGiveTheGeometricMeanNotTheAlongLineSpacing) {
+  // Lines 0.1 m apart sampled every 5 mm, on a tilted plane: 1/√ρ = √(0.005 × 0.1) = 2.24 cm.
+  std::vector<Eigen::Vector3d> p;
+  for (int line = 0; line < 100; ++line) {
+    for (int k = 0; k < 2000; ++k) p.emplace_back(0.005 * k, 0.1 * line * std::cos(0.3), 0.1 * line * std::sin(0.3));
+  }
+  const double s = AreaSpacing(p, 0.5);
+  EXPECT_NEAR(s, std::sqrt(0.005 * 0.1), 0.2 * std::sqrt(0.005 * 0.1));
+  EXPECT_GT(s, 3.0 * 0.005);
+}
+
+}  // namespace
+}  // namespace mmba::registration::internal
+
+// Normals of a scan's lines: re-estimated wider where the radius spans one line only.
+namespace mmba::registration::internal {
+namespace {
+
+TEST(RepairLinearNormals, ScanLinesGetTheirSurfacesNormal) {
+  // Lines 0.1 m apart sampled every 5 mm on a plane tilted 0.3 rad about x, with 1 mm noise
+  // across it: within 0.03 m a point sees its own line only.
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.001);
+  const Eigen::Vector3d u(1, 0, 0), v(0, std::cos(0.3), std::sin(0.3)), truth = u.cross(v);
+  std::vector<Eigen::Vector3d> p;
+  for (int line = 0; line < 40; ++line) {
+    for (int k = 0; k < 400; ++k) p.push_back(0.005 * k * u + 0.1 * line * v + noise(rng) * truth);
+  }
+  const Eigen::Vector3d viewpoint = 10.0 * truth;
+  const PointIndex index(p);
+  std::vector<Eigen::Vector3d> n = EstimateNormals(p, 0.03, viewpoint);
+  auto agreeing = [&](const std::vector<Eigen::Vector3d>& normals) {
+    int count = 0;
+    for (const Eigen::Vector3d& x : normals) count += x.allFinite() && x.dot(truth) > 0.95 ? 1 : 0;
+    return static_cast<double>(count) / static_cast<double>(normals.size());
+  };
+  EXPECT_LT(agreeing(n), 0.5);  // the failure the repair is for
+  const size_t repaired = RepairLinearNormals(p, index, 0.03, 0.4, viewpoint, &n);
+  EXPECT_GT(repaired, p.size() * 9 / 10);
+  EXPECT_GT(agreeing(n), 0.99);
+
+  // An even sample of the same plane is left as it is.
+  std::vector<Eigen::Vector3d> q;
+  for (int i = 0; i < 200; ++i) {
+    for (int j = 0; j < 200; ++j) q.push_back(0.01 * i * u + 0.01 * j * v + noise(rng) * truth);
+  }
+  const PointIndex q_index(q);
+  std::vector<Eigen::Vector3d> m = EstimateNormals(q, 0.04, viewpoint);
+  const std::vector<Eigen::Vector3d> before = m;
+  EXPECT_EQ(RepairLinearNormals(q, q_index, 0.04, 0.4, viewpoint, &m), 0u);
+  for (size_t i = 0; i < m.size(); ++i) {
+    ASSERT_TRUE((m[i].array() == before[i].array()).all() || !before[i].allFinite());
+  }
+}
+
 }  // namespace
 }  // namespace mmba::registration::internal

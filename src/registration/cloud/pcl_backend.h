@@ -62,6 +62,28 @@ class FeatureIndex {
   size_t rows_ = 0;
 };
 
+/// Point spacing of a surface sample from the area it covers: `points` occupy K voxels of
+/// side V; a plane with unit normal n crosses ‖n‖₁·A/V² voxels per area A, 1.5·A/V² on
+/// average over orientations (‖n‖₁ ∈ [1, √3]), so the area per point is V² K / (1.5 N) and
+/// the spacing V·√(K / 1.5 N), within −18 % / +8 % by orientation. V must be well above the
+/// spacing (a few points per voxel) and below the surface's curvature. On an even sampling
+/// it is about the nearest-neighbour spacing (1.5–1.7 × it on voxel centroids, about 2.2 × on
+/// a uniformly random sample); on a scan's lines √(along-line × between-line spacing), where
+/// the nearest neighbour sees only the along-line spacing. 0 for an empty cloud.
+double AreaSpacing(const std::vector<Eigen::Vector3d>& points, double voxel);
+
+/// Normals of `points` (`index` built on them) whose neighbourhood within `radius` is a line,
+/// not a surface, re-estimated at 2, 4, … × `radius` (at most `max_radius`) until it is a
+/// surface: the middle eigenvalue of the neighbours' covariance at least `min_ratio` × the
+/// largest (a disc gives 1, a single noisy line about 0). A scan's points lie on lines whose
+/// spacing along the line is far below the spacing between lines, and a radius of a few
+/// along-line spacings (the nearest-neighbour spacing) spans one line: its normal is any
+/// direction across the line. Oriented towards `viewpoint`; NaN stays NaN when no radius up
+/// to `max_radius` gives a surface. Returns the number of normals re-estimated.
+size_t RepairLinearNormals(const std::vector<Eigen::Vector3d>& points, const PointIndex& index,
+                           double radius, double max_radius, const Eigen::Vector3d& viewpoint,
+                           std::vector<Eigen::Vector3d>* normals, double min_ratio = 0.1);
+
 /// Normals by PCA within `radius` (PCL NormalEstimationOMP), oriented towards `viewpoint`.
 /// Points with too few neighbours get a NaN normal.
 std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>& points,

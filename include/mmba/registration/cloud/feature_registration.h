@@ -105,6 +105,9 @@ struct CloudRegistrationOptions {
   bool icp = true;                  ///< refine each hypothesis with ICP
   int icp_iterations = 40;          ///< per level (>= 1)
   double icp_distance_spacing = 1.0;  ///< final correspondence distance in spacings (> 0)
+  /// Fine ICP on a noisy cloud: when this × the robust residual scale exceeds the final
+  /// correspondence distance, ICP runs again with that distance (0 = off; >= 0).
+  double icp_noise_sigmas = 2.5;
 
   // Verification and the verdict.
   double inlier_distance_spacing = 2.0;  ///< inlier: distance to target < this × s (> 0)
