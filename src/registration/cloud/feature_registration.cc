@@ -959,43 +959,51 @@ double AreaSpacing(const std::vector<Eigen::Vector3d>& points, double voxel) {
 size_t RepairLinearNormals(const std::vector<Eigen::Vector3d>& points, const PointIndex& index,
                            double radius, double max_radius, const Eigen::Vector3d& viewpoint,
                            std::vector<Eigen::Vector3d>* normals, double min_ratio) {
-  std::vector<int> idx;
-  // Covariance eigen-decomposition of the neighbours of points[i] within r; false with
-  // fewer than 3 neighbours.
-  auto pca = [&](size_t i, double r, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>* eig) {
-    index.Radius(points[i], r, &idx);
-    if (idx.size() < 3) return false;
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (int j : idx) mean += points[static_cast<size_t>(j)] - points[i];
-    mean /= static_cast<double>(idx.size());
-    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-    for (int j : idx) {
-      const Eigen::Vector3d d = points[static_cast<size_t>(j)] - points[i] - mean;
-      cov += d * d.transpose();
-    }
-    eig->compute(cov / static_cast<double>(idx.size()));
-    return eig->info() == Eigen::Success;
-  };
-  auto surface = [&](const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>& eig) {
-    const Eigen::Vector3d& l = eig.eigenvalues();  // ascending
-    return l(2) > 0 && l(1) >= min_ratio * l(2);
-  };
-  size_t repaired = 0;
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
-  for (size_t i = 0; i < points.size(); ++i) {
-    if (!pca(i, radius, &eig) || surface(eig)) continue;  // too sparse (NaN) or a surface
-    Eigen::Vector3d n = Eigen::Vector3d::Constant(std::nan(""));
-    for (double r = 2.0 * radius; r <= max_radius * 1.0001; r *= 2.0) {
-      if (pca(i, r, &eig) && surface(eig)) {
-        n = eig.eigenvectors().col(0);
-        if (n.dot(viewpoint - points[i]) < 0) n = -n;
-        break;
+  // Points [begin, end): each normal depends on its own neighbourhood only, so the two
+  // halves run in parallel with the same result as in sequence.
+  auto repair = [&](size_t begin, size_t end, size_t* repaired) {
+    std::vector<int> idx;
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
+    // Covariance eigen-decomposition of the neighbours of points[i] within r; false with
+    // fewer than 3 neighbours.
+    auto pca = [&](size_t i, double r) {
+      index.Radius(points[i], r, &idx);
+      if (idx.size() < 3) return false;
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (int j : idx) mean += points[static_cast<size_t>(j)] - points[i];
+      mean /= static_cast<double>(idx.size());
+      Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+      for (int j : idx) {
+        const Eigen::Vector3d d = points[static_cast<size_t>(j)] - points[i] - mean;
+        cov += d * d.transpose();
       }
+      eig.compute(cov / static_cast<double>(idx.size()));
+      return eig.info() == Eigen::Success;
+    };
+    auto surface = [&] {
+      const Eigen::Vector3d& l = eig.eigenvalues();  // ascending
+      return l(2) > 0 && l(1) >= min_ratio * l(2);
+    };
+    for (size_t i = begin; i < end; ++i) {
+      if (!pca(i, radius) || surface()) continue;  // too sparse (NaN) or a surface
+      Eigen::Vector3d n = Eigen::Vector3d::Constant(std::nan(""));
+      for (double r = 2.0 * radius; r <= max_radius * 1.0001; r *= 2.0) {
+        if (pca(i, r) && surface()) {
+          n = eig.eigenvectors().col(0);
+          if (n.dot(viewpoint - points[i]) < 0) n = -n;
+          break;
+        }
+      }
+      (*normals)[i] = n;
+      ++*repaired;
     }
-    (*normals)[i] = n;
-    ++repaired;
-  }
-  return repaired;
+  };
+  const size_t half = points.size() / 2;
+  size_t first = 0, second = 0;
+  std::thread worker(repair, size_t{0}, half, &first);
+  repair(half, points.size(), &second);
+  worker.join();
+  return first + second;
 }
 
 // The per-point terms of ScoreFine, summed per block; the mean per-point difference over its
