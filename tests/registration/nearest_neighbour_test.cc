@@ -122,13 +122,7 @@ TEST(AreaSpacing, ScanLinesGiveTheGeometricMeanNotTheAlongLineSpacing) {
   EXPECT_GT(s, 3.0 * 0.005);
 }
 
-}  // namespace
-}  // namespace mmba::registration::internal
-
 // Normals of a scan's lines: re-estimated wider where the radius spans one line only.
-namespace mmba::registration::internal {
-namespace {
-
 TEST(RepairLinearNormals, ScanLinesGetTheirSurfacesNormal) {
   // Lines 0.1 m apart sampled every 5 mm on a plane tilted 0.3 rad about x, with 1 mm noise
   // across it: within 0.03 m a point sees its own line only.
