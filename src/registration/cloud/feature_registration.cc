@@ -121,6 +121,12 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   }
   if (!(min_significance >= 0)) return fail("min_significance", min_significance, ">= 0");
   if (num_period_shifts < 0) return fail("num_period_shifts", num_period_shifts, ">= 0");
+  if (!(symmetry_cone_deg >= 0 && symmetry_cone_deg <= 90)) {
+    return fail("symmetry_cone_deg", symmetry_cone_deg, "0 <= x <= 90");
+  }
+  if (!(symmetry_cone_step_deg > 0)) {
+    return fail("symmetry_cone_step_deg", symmetry_cone_step_deg, "> 0");
+  }
   if (!(resolution_t > 0)) return fail("resolution_t", resolution_t, "> 0");
   if (!(max_resolution_spacing > 0)) {
     return fail("max_resolution_spacing", max_resolution_spacing, "> 0");
@@ -1223,7 +1229,7 @@ void RegisteredMoments(const std::vector<Eigen::Vector3d>& src, const Eigen::Mat
 // overlap, or a pose off the score's maximum.
 // Tested first at `bound` (the verdict); if resolved there, at bound/2, bound/4, bound/8 until
 // some direction is not (the reported resolution is the last resolved δ); if not, at 2·bound,
-// 4·bound, … up to `max_delta` for the unresolved directions only (a direction resolved at δ
+// 4·bound, … and at `max_delta` for the unresolved directions only (a direction resolved at δ
 // stays resolved at larger δ: the score falls off around its maximum); +inf beyond.
 double PoseResolution(const std::vector<Eigen::Vector3d>& src,
                       const std::vector<Eigen::Vector3d>& src_n, const TargetCrop& crop,
@@ -1280,7 +1286,9 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
     }
     return delta;
   }
-  for (double delta = 2.0 * bound; delta <= max_delta * 1.0001; delta *= 2.0) {
+  // 2·bound, 4·bound, … and max_delta itself last (the doubling need not land on it).
+  for (double delta = bound; delta < max_delta * 0.9999;) {
+    delta = std::min(2.0 * delta, max_delta);
     std::vector<size_t> still;
     for (size_t d : open) {
       if (!resolved(dirs[d], delta)) still.push_back(d);
@@ -1854,69 +1862,141 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   // plane proxy's gate part turned 180° about up fits the stereo cloud at fitness 0.79 (gate,
   // seed 2) with no finalist near the truth. Under the best pose T the source is turned about
   // its registered centroid c — levelled: by 90°, 180°, 270° about up; else by 180° about each
-  // principal axis of the registered source — is placed by the descriptor matches'
-  // displacement vote under it (the object's symmetry axis need not pass through c): of the
-  // two strongest modes, the one scoring better on the coarse level is refined by the fine
-  // ICP from R_s/2 (the vote's cells are 2 R_n wide) and scored like the other finalists,
-  // unless it scores below half the best's coarse score; a distinct one enters the ambiguity
-  // test, and one that scores better becomes the best.
+  // principal axis of the registered source and the axes in a cone around it — and placed
+  // there or by the descriptor matches' displacement vote under it (the object's symmetry axis
+  // need not pass through c): of the placements and cone axes, the one scoring best on the
+  // coarse level is refined by the fine ICP from R_s/2 (the vote's cells are 2 R_n wide) and
+  // scored like the other finalists, unless it scores below half the best's coarse score; a
+  // distinct one enters the ambiguity test, and one that scores better becomes the best.
   if (!options.paper_only && options.symmetry_turns && !finalists.empty()) {
     const Eigen::Matrix4d best_t = finalists.front().h.transform;
     Eigen::Vector3d c;
     Eigen::Matrix3d cov;
     RegisteredMoments(fine_src, best_t, &c, &cov);
-    std::vector<Vector6d> turns;
+    // Groups of turns; each group gives at most one finalist (its best on the coarse level).
+    std::vector<std::vector<Vector6d>> turns;
     if (options.gravity_aligned) {
       for (double angle : {0.5 * M_PI, M_PI, 1.5 * M_PI}) {
         Vector6d xi = Vector6d::Zero();
         xi.head<3>() = angle * options.up;
-        turns.push_back(xi);
+        turns.push_back({xi});
       }
     } else {
+      // The 180° twin's axis is the object's symmetry axis, which a principal axis of the
+      // source only approximates: a gate's multi-view cloud (full gate, seed 1) has its up
+      // axis 5° from the twin's, and a turn about an axis θ off is 2θ off, beyond the coarse
+      // ICP's reach. So each principal axis a is tried with the axes around it, in rings
+      // every symmetry_cone_step_deg up to symmetry_cone_deg (6 axes on the first ring, 12 on
+      // the second, …).
+      // The target's surface normals around the registered source give three more axes, the
+      // eigenvectors of Σ n·nᵀ (a built scene's symmetry axes lie along its dominant normals:
+      // up from the ground, across the facade, along it from the posts' sides). A part's own
+      // principal axes can lie far from the object's: a diagonal cut of a gate's facade has
+      // them 40° from its up and along axes (full gate, multi-view part → LiDAR).
+      double reach2 = 0.0;
+      for (const Eigen::Vector3d& p : fine_src) {
+        reach2 = std::max(reach2, (Apply(best_t, p) - c).squaredNorm());
+      }
+      Eigen::Matrix3d tensor = Eigen::Matrix3d::Zero();
+      size_t tn = 0;
+      for (size_t i = 0; i < tgt_coarse.normals.size(); ++i) {
+        const Eigen::Vector3d& n = tgt_coarse.normals[i];
+        if ((tgt_coarse.points[i] - c).squaredNorm() > reach2 || !n.allFinite()) continue;
+        tensor += n * n.transpose();
+        ++tn;
+      }
+      std::vector<Eigen::Vector3d> axes;
       const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-      for (int k = 0; k < 3; ++k) {
-        Vector6d xi = Vector6d::Zero();
-        xi.head<3>() = M_PI * eig.eigenvectors().col(k);
-        turns.push_back(xi);
+      for (int k = 0; k < 3; ++k) axes.push_back(eig.eigenvectors().col(k));
+      if (tn >= 10) {
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> teig(tensor);
+        for (int k = 0; k < 3; ++k) axes.push_back(teig.eigenvectors().col(k));
+      }
+      const double step = options.symmetry_cone_step_deg * M_PI / 180.0;
+      const int rings = static_cast<int>(
+          std::floor(options.symmetry_cone_deg / options.symmetry_cone_step_deg + 1e-9));
+      for (const Eigen::Vector3d& a : axes) {
+        const Eigen::Vector3d u = a.unitOrthogonal(), v = a.cross(u);
+        std::vector<Vector6d> group;
+        for (int ring = 0; ring <= rings; ++ring) {
+          const int around = ring == 0 ? 1 : 6 * ring;
+          for (int j = 0; j < around; ++j) {
+            const double phi = 2.0 * M_PI * j / around, theta = ring * step;
+            Vector6d xi = Vector6d::Zero();
+            xi.head<3>() = M_PI * (std::cos(theta) * a + std::sin(theta) * (std::cos(phi) * u +
+                                                                             std::sin(phi) * v));
+            group.push_back(xi);
+          }
+        }
+        turns.push_back(std::move(group));
       }
     }
     const size_t before_turns = finalists.size();
     Hypothesis best_coarse = finalists.front().h;
     Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, best_t, tau, &best_coarse);
-    for (const Vector6d& xi : turns) {
-      const Eigen::Matrix4d turned = MotionAbout(xi, c) * best_t;
-      // Its two strongest placements are compared on the coarse level (ICP and score as for
-      // the hypotheses); only the better one is refined at the fine level.
+    for (const std::vector<Vector6d>& group : turns) {
+      // Each turn's two strongest placements are compared on the coarse level (ICP and score
+      // as for the hypotheses); only the group's best is refined at the fine level.
       Hypothesis pick;
       int pick_votes = 0;
+      bool picked = false;
       double pick_shift = 0.0;
-      for (const auto& [count, shift] : displacement_modes(turned, -1.0, 2)) {
-        Hypothesis h = finalists.front().h;
-        h.transform = turned;
-        h.transform.topRightCorner<3, 1>() += shift;
-        if (options.icp) {
-          h.transform = PointToPlaneIcp(icp_src, tgt_coarse.points, tgt_coarse.normals,
-                                        tgt_coarse_index, h.transform, support_radius / 2.0,
-                                        options.icp_distance_spacing * spacing,
-                                        std::min(options.icp_iterations, 20), up);
+      Vector6d pick_xi = Vector6d::Zero();
+      for (size_t g = 0; g < group.size(); ++g) {
+        const Vector6d& xi = group[g];
+        const Eigen::Matrix4d turned = MotionAbout(xi, c) * best_t;
+        // Placed as turned about c (an object symmetric about an axis through its centroid
+        // maps onto itself), and by the two strongest modes of the descriptor matches'
+        // displacement vote (for a part whose object's axis does not pass through c). The
+        // vote alone is not enough: where the twin's matches outnumber the right ones they
+        // vote along a line (full gate, multi-view → LiDAR: every mode 1.7 m off, the gate's
+        // thickness, while the turn about c was within the coarse ICP's reach). The cone's
+        // other axes are placed about c only (the coarse ICP is the dear part here).
+        std::vector<std::pair<int, Eigen::Vector3d>> placements = {{0, Eigen::Vector3d::Zero()}};
+        if (g == 0) {
+          for (const auto& mode : displacement_modes(turned, -1.0, 2)) placements.push_back(mode);
         }
-        Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, h.transform, tau, &h);
-        if (pick_votes == 0 || h.score > pick.score) {
-          pick = h;
-          pick_votes = count;
-          pick_shift = shift.norm();
+        for (const auto& [count, shift] : placements) {
+          Hypothesis h = finalists.front().h;
+          h.transform = turned;
+          h.transform.topRightCorner<3, 1>() += shift;
+          if (options.icp) {
+            h.transform = PointToPlaneIcp(icp_src, tgt_coarse.points, tgt_coarse.normals,
+                                          tgt_coarse_index, h.transform, support_radius / 2.0,
+                                          options.icp_distance_spacing * spacing,
+                                          std::min(options.icp_iterations, 20), up);
+          }
+          Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, h.transform, tau, &h);
+          if (!picked || h.score > pick.score) {
+            picked = true;
+            pick = h;
+            pick_votes = count;
+            pick_shift = shift.norm();
+            pick_xi = xi;
+          }
         }
       }
+      const Vector6d& xi = pick_xi;
+      spdlog::debug("registration: symmetric turn {:.3g} deg about ({:.3f}, {:.3f}, {:.3f}): "
+                    "{} votes, coarse score {:.3g} (best {:.3g})",
+                    xi.head<3>().norm() * 180.0 / M_PI, xi(0) / xi.head<3>().norm(),
+                    xi(1) / xi.head<3>().norm(), xi(2) / xi.head<3>().norm(), pick_votes,
+                    pick.score, best_coarse.score);
       // A turn that fits the coarse level less than half as well as the best is no rival
       // (the fine refinement, a crop of the target with its normals, is the dear part).
-      if (pick_votes == 0 || pick.score < 0.5 * best_coarse.score) continue;
+      if (!picked || pick.score < 0.5 * best_coarse.score) continue;
       Finalist f;
       f.h = pick;
       std::ostringstream origin;
       const Eigen::Vector3d axis = xi.head<3>().normalized();
       origin << std::setprecision(3) << "symmetric turn of " << xi.head<3>().norm() * 180.0 / M_PI
              << " deg about (" << axis.x() << ", " << axis.y() << ", " << axis.z()
-             << "), shift of " << pick_shift << " m, " << pick_votes << " votes";
+             << "), ";
+      if (pick_votes == 0) {
+        origin << "about the centroid";
+      } else {
+        origin << "shift of " << pick_shift << " m, " << pick_votes << " votes";
+      }
       f.h.origin = origin.str();
       add_finalist(std::move(f), support_radius / 2.0);
     }

@@ -147,6 +147,11 @@ struct CloudRegistrationOptions {
   /// by 90°, 180° and 270° about up when levelled, else by 180° about each principal axis of
   /// the source (upside down, turned round) — is refined and added to the ambiguity test.
   bool symmetry_turns = true;
+  /// Non-levelled symmetric turns: each principal axis is also tried with the axes within
+  /// this angle of it, in rings this step apart (degrees; cone >= 0, 0 = the principal axes
+  /// only; step > 0).
+  double symmetry_cone_deg = 6.0;
+  double symmetry_cone_step_deg = 6.0;
   /// Intensity test: when the ambiguity test leaves a tie and both clouds carry a brightness
   /// (intensity, else colour), the rank correlation of source and target brightness over each
   /// finalist's inliers joins the geometric t (src/registration/cloud/intensity_test.h): it
