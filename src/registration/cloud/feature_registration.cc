@@ -1265,23 +1265,33 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
     dirs.push_back(-xi);
   }
   if (dirs.empty()) return 0.0;
-  std::vector<double> residuals;
-  std::vector<bool> agree;
   auto resolved = [&](const Vector6d& xi, double delta) {
+    std::vector<double> residuals;
+    std::vector<bool> agree;
     FineResiduals(src, src_n, crop, MotionAbout(delta * xi, c) * t, reach, &residuals, &agree);
     return ScoreSignificance(src, base_residuals, base_agree, residuals, agree, tau, block) >=
            t_min;
   };
-  std::vector<size_t> open;
-  for (size_t d = 0; d < dirs.size(); ++d) {
-    if (!resolved(dirs[d], bound)) open.push_back(d);
-  }
+  // The directions in `which` tested at delta on two threads (each verdict is independent, so
+  // the result is the same as one by one); returns those not resolved, in order.
+  auto unresolved = [&](const std::vector<size_t>& which, double delta) {
+    std::vector<char> ok(which.size(), 0);
+    const long n = static_cast<long>(which.size());
+#pragma omp parallel for num_threads(2) schedule(dynamic, 1)
+    for (long k = 0; k < n; ++k) ok[k] = resolved(dirs[which[k]], delta) ? 1 : 0;
+    std::vector<size_t> still;
+    for (size_t k = 0; k < which.size(); ++k) {
+      if (!ok[k]) still.push_back(which[k]);
+    }
+    return still;
+  };
+  std::vector<size_t> all(dirs.size());
+  for (size_t d = 0; d < dirs.size(); ++d) all[d] = d;
+  std::vector<size_t> open = unresolved(all, bound);
   if (open.empty()) {
     double delta = bound;
     for (int k = 0; k < 3; ++k) {
-      bool all = true;
-      for (size_t d = 0; d < dirs.size() && all; ++d) all = resolved(dirs[d], delta / 2.0);
-      if (!all) break;
+      if (!unresolved(all, delta / 2.0).empty()) break;
       delta /= 2.0;
     }
     return delta;
@@ -1289,11 +1299,7 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
   // 2·bound, 4·bound, … and max_delta itself last (the doubling need not land on it).
   for (double delta = bound; delta < max_delta * 0.9999;) {
     delta = std::min(2.0 * delta, max_delta);
-    std::vector<size_t> still;
-    for (size_t d : open) {
-      if (!resolved(dirs[d], delta)) still.push_back(d);
-    }
-    open.swap(still);
+    open = unresolved(open, delta);
     if (open.empty()) return delta;
   }
   return std::numeric_limits<double>::infinity();
@@ -1837,6 +1843,25 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   // displacement cells beyond R_s (smaller shifts are the resolution test's) with at least 3
   // votes give T moved by their mean displacement, refined by the fine ICP and scored like
   // the other finalists; a distinct one then enters the ambiguity test.
+  // The best pose's coarse score: a turned copy (below) that fits the coarse level less than
+  // half as well is no rival (the fine refinement, a crop of the target with its normals, is
+  // the dear part). Period shifts are not screened so: the arcade test's shifts are the
+  // posts' mirror matches, which fit poorly, and they are its only finalists of that kind.
+  Hypothesis best_coarse;
+  if (!finalists.empty()) {
+    best_coarse = finalists.front().h;
+    Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index,
+           finalists.front().h.transform, tau, &best_coarse);
+  }
+  auto coarse_fit = [&](Hypothesis* h) {
+    if (options.icp) {
+      h->transform = PointToPlaneIcp(icp_src, tgt_coarse.points, tgt_coarse.normals,
+                                     tgt_coarse_index, h->transform, support_radius / 2.0,
+                                     options.icp_distance_spacing * spacing,
+                                     std::min(options.icp_iterations, 20), up);
+    }
+    Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, h->transform, tau, h);
+  };
   if (!options.paper_only && options.num_period_shifts > 0 && !finalists.empty()) {
     const std::vector<std::pair<int, Eigen::Vector3d>> modes =
         displacement_modes(finalists.front().h.transform, support_radius,
@@ -1888,30 +1913,9 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       // ICP's reach. So each principal axis a is tried with the axes around it, in rings
       // every symmetry_cone_step_deg up to symmetry_cone_deg (6 axes on the first ring, 12 on
       // the second, …).
-      // The target's surface normals around the registered source give three more axes, the
-      // eigenvectors of Σ n·nᵀ (a built scene's symmetry axes lie along its dominant normals:
-      // up from the ground, across the facade, along it from the posts' sides). A part's own
-      // principal axes can lie far from the object's: a diagonal cut of a gate's facade has
-      // them 40° from its up and along axes (full gate, multi-view part → LiDAR).
-      double reach2 = 0.0;
-      for (const Eigen::Vector3d& p : fine_src) {
-        reach2 = std::max(reach2, (Apply(best_t, p) - c).squaredNorm());
-      }
-      Eigen::Matrix3d tensor = Eigen::Matrix3d::Zero();
-      size_t tn = 0;
-      for (size_t i = 0; i < tgt_coarse.normals.size(); ++i) {
-        const Eigen::Vector3d& n = tgt_coarse.normals[i];
-        if ((tgt_coarse.points[i] - c).squaredNorm() > reach2 || !n.allFinite()) continue;
-        tensor += n * n.transpose();
-        ++tn;
-      }
       std::vector<Eigen::Vector3d> axes;
       const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
       for (int k = 0; k < 3; ++k) axes.push_back(eig.eigenvectors().col(k));
-      if (tn >= 10) {
-        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> teig(tensor);
-        for (int k = 0; k < 3; ++k) axes.push_back(teig.eigenvectors().col(k));
-      }
       const double step = options.symmetry_cone_step_deg * M_PI / 180.0;
       const int rings = static_cast<int>(
           std::floor(options.symmetry_cone_deg / options.symmetry_cone_step_deg + 1e-9));
@@ -1932,8 +1936,10 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       }
     }
     const size_t before_turns = finalists.size();
-    Hypothesis best_coarse = finalists.front().h;
-    Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, best_t, tau, &best_coarse);
+    if (finalists.front().h.transform != best_coarse.transform) {  // a period shift is the best
+      best_coarse = finalists.front().h;
+      Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, best_t, tau, &best_coarse);
+    }
     for (const std::vector<Vector6d>& group : turns) {
       // Each turn's two strongest placements are compared on the coarse level (ICP and score
       // as for the hypotheses); only the group's best is refined at the fine level.
@@ -1943,6 +1949,10 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       double pick_shift = 0.0;
       Vector6d pick_xi = Vector6d::Zero();
       for (size_t g = 0; g < group.size(); ++g) {
+        // The cone refines an axis whose turn nearly fits; a central turn that fits the
+        // coarse level less than a quarter as well as the best is not tried around (the
+        // coarse ICPs of the cone were 0.75 s of a Stanford pair's 2.2 s).
+        if (g == 1 && pick.score < 0.25 * best_coarse.score) break;
         const Vector6d& xi = group[g];
         const Eigen::Matrix4d turned = MotionAbout(xi, c) * best_t;
         // Placed as turned about c (an object symmetric about an axis through its centroid
@@ -1960,13 +1970,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
           Hypothesis h = finalists.front().h;
           h.transform = turned;
           h.transform.topRightCorner<3, 1>() += shift;
-          if (options.icp) {
-            h.transform = PointToPlaneIcp(icp_src, tgt_coarse.points, tgt_coarse.normals,
-                                          tgt_coarse_index, h.transform, support_radius / 2.0,
-                                          options.icp_distance_spacing * spacing,
-                                          std::min(options.icp_iterations, 20), up);
-          }
-          Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, h.transform, tau, &h);
+          coarse_fit(&h);
           if (!picked || h.score > pick.score) {
             picked = true;
             pick = h;
@@ -1982,8 +1986,6 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
                     xi.head<3>().norm() * 180.0 / M_PI, xi(0) / xi.head<3>().norm(),
                     xi(1) / xi.head<3>().norm(), xi(2) / xi.head<3>().norm(), pick_votes,
                     pick.score, best_coarse.score);
-      // A turn that fits the coarse level less than half as well as the best is no rival
-      // (the fine refinement, a crop of the target with its normals, is the dear part).
       if (!picked || pick.score < 0.5 * best_coarse.score) continue;
       Finalist f;
       f.h = pick;
