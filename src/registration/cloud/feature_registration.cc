@@ -1834,15 +1834,6 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     }
     finalists.push_back(std::move(f));
   };
-  // Shifted copies of the best pose (a repeated structure: bays, windows, columns). The
-  // hypotheses need not contain the pose one period away, and then the ambiguity test has
-  // nothing to compare with. Under the best pose T every descriptor match (source keypoint
-  // s, candidate target keypoint t) votes for the displacement t − T·s (a Hough vote over
-  // translations, Ballard 1981): the right matches vote near 0, the matches to the same
-  // feature in a repeated unit vote for the period. The up-to-`num_period_shifts` strongest
-  // displacement cells beyond R_s (smaller shifts are the resolution test's) with at least 3
-  // votes give T moved by their mean displacement, refined by the fine ICP and scored like
-  // the other finalists; a distinct one then enters the ambiguity test.
   // The best pose's coarse score: a turned copy (below) that fits the coarse level less than
   // half as well is no rival (the fine refinement, a crop of the target with its normals, is
   // the dear part). Period shifts are not screened so: the arcade test's shifts are the
@@ -1862,6 +1853,15 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     }
     Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, h->transform, tau, h);
   };
+  // Shifted copies of the best pose (a repeated structure: bays, windows, columns). The
+  // hypotheses need not contain the pose one period away, and then the ambiguity test has
+  // nothing to compare with. Under the best pose T every descriptor match (source keypoint
+  // s, candidate target keypoint t) votes for the displacement t − T·s (a Hough vote over
+  // translations, Ballard 1981): the right matches vote near 0, the matches to the same
+  // feature in a repeated unit vote for the period. The up-to-`num_period_shifts` strongest
+  // displacement cells beyond R_s (smaller shifts are the resolution test's) with at least 3
+  // votes give T moved by their mean displacement, refined by the fine ICP and scored like
+  // the other finalists; a distinct one then enters the ambiguity test.
   if (!options.paper_only && options.num_period_shifts > 0 && !finalists.empty()) {
     const std::vector<std::pair<int, Eigen::Vector3d>> modes =
         displacement_modes(finalists.front().h.transform, support_radius,
@@ -1941,8 +1941,8 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, best_t, tau, &best_coarse);
     }
     for (const std::vector<Vector6d>& group : turns) {
-      // Each turn's two strongest placements are compared on the coarse level (ICP and score
-      // as for the hypotheses); only the group's best is refined at the fine level.
+      // Each turn's placements (below) are compared on the coarse level (ICP and score as for
+      // the hypotheses); only the group's best is refined at the fine level.
       Hypothesis pick;
       int pick_votes = 0;
       bool picked = false;
