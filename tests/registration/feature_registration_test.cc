@@ -368,47 +368,54 @@ TEST(FeatureRegistration, SymmetricObjectIsNotOkWithTheTurnedPose) {
   }
 }
 
-// Pseudo-symmetric turns of the best pose join the verification (Kim & Hilton's parts turned
-// 180°): with the search cut to one hypothesis and no period shifts, the symmetric gate has
-// one finalist — the truth or its twin — and would be "ok" whichever it is. The turned best
-// pose, placed by the descriptor matches' displacement vote and refined, adds the other, so
-// both poses are finalists and the result is "ambiguous". Switched off, no such finalist.
-TEST(FeatureRegistration, SymmetricTurnsJoinTheVerification) {
-  const Eigen::Matrix4d source_from_world = BlockPose();
-  const io::PointCloud source = Transformed(Gate(0.07, false, 1), source_from_world);
-  const io::PointCloud reference = Gate(0.07, false, 2);
-  const Eigen::Matrix4d truth = source_from_world.inverse();
-  // The gate's symmetry: 180° about the vertical through (0, 0.25): (x, y, z) -> (-x, 0.5 - y, z).
-  Eigen::Matrix4d flip = Eigen::Matrix4d::Identity();
-  flip(0, 0) = flip(1, 1) = -1.0;
-  flip(1, 3) = 0.5;
-  const Eigen::Matrix4d twin = flip * truth;
+// The symmetric gate (source and reference independent samples) with the search cut to one
+// hypothesis and no period shifts, its pose and its twin under the gate's symmetry: 180° about
+// the vertical through (0, 0.25), (x, y, z) -> (-x, 0.5 - y, z).
+struct SymmetricGateCase {
+  io::PointCloud source = Transformed(Gate(0.07, false, 1), BlockPose());
+  io::PointCloud reference = Gate(0.07, false, 2);
+  Eigen::Matrix4d truth = BlockPose().inverse();
+  Eigen::Matrix4d twin;
   CloudRegistrationOptions options;
-  options.descriptor = Descriptor::kFpfh;
-  options.intensity_test = false;
-  options.num_hypotheses = 1;
-  options.use_max_clique = false;
-  options.num_period_shifts = 0;
-  auto near = [&](const CloudRegistrationResult& r, const Eigen::Matrix4d& pose) {
+  SymmetricGateCase() {
+    Eigen::Matrix4d flip = Eigen::Matrix4d::Identity();
+    flip(0, 0) = flip(1, 1) = -1.0;
+    flip(1, 3) = 0.5;
+    twin = flip * truth;
+    options.descriptor = Descriptor::kFpfh;
+    options.intensity_test = false;
+    options.num_hypotheses = 1;
+    options.use_max_clique = false;
+    options.num_period_shifts = 0;
+  }
+  bool Near(const CloudRegistrationResult& r, const Eigen::Matrix4d& pose) const {
     for (const RegistrationHypothesis& h : r.hypotheses) {
       if (TransformRmsOnCloud(source, h.target_from_source, pose) < 0.03) return true;
     }
     return false;
-  };
-  options.symmetry_turns = false;
-  const CloudRegistrationResult off = RegisterClouds(source, reference, options);
+  }
+};
+
+// Pseudo-symmetric turns of the best pose join the verification (Kim & Hilton's parts turned
+// 180°): the symmetric gate has one finalist — the truth or its twin — and would be "ok"
+// whichever it is. The turned best pose, placed and refined, adds the other, so both poses
+// are finalists and the result is "ambiguous". Switched off, no such finalist.
+TEST(FeatureRegistration, SymmetricTurnsJoinTheVerification) {
+  SymmetricGateCase g;
+  g.options.symmetry_turns = false;
+  const CloudRegistrationResult off = RegisterClouds(g.source, g.reference, g.options);
   for (const RegistrationHypothesis& h : off.hypotheses) {
     EXPECT_NE(h.origin.rfind("symmetric turn", 0), 0u) << h.origin;
   }
-  EXPECT_FALSE(near(off, truth) && near(off, twin)) << off.BriefReport();  // one pose only
-  options.symmetry_turns = true;
-  const CloudRegistrationResult r = RegisterClouds(source, reference, options);
+  EXPECT_FALSE(g.Near(off, g.truth) && g.Near(off, g.twin)) << off.BriefReport();  // one pose
+  g.options.symmetry_turns = true;
+  const CloudRegistrationResult r = RegisterClouds(g.source, g.reference, g.options);
   int turned = 0;
   for (const RegistrationHypothesis& h : r.hypotheses) {
     turned += h.origin.rfind("symmetric turn", 0) == 0 ? 1 : 0;
   }
   EXPECT_GE(turned, 1) << r.BriefReport();
-  EXPECT_TRUE(near(r, truth) && near(r, twin)) << r.BriefReport();
+  EXPECT_TRUE(g.Near(r, g.truth) && g.Near(r, g.twin)) << r.BriefReport();
   ASSERT_FALSE(r.ok()) << r.BriefReport();
   EXPECT_NE(r.reason.find("ambiguous"), std::string::npos) << r.reason;
 }
@@ -420,36 +427,17 @@ TEST(FeatureRegistration, SymmetricTurnsJoinTheVerification) {
 // become a finalist and the result be refused. Without the centroid placement this case is
 // reported "ok" with confidence 1 (checked by removing it).
 TEST(FeatureRegistration, SymmetricTurnAboutTheCentroidWithoutAVote) {
-  const Eigen::Matrix4d source_from_world = BlockPose();
-  const io::PointCloud source = Transformed(Gate(0.07, false, 1), source_from_world);
-  const io::PointCloud reference = Gate(0.07, false, 2);
-  const Eigen::Matrix4d truth = source_from_world.inverse();
-  Eigen::Matrix4d flip = Eigen::Matrix4d::Identity();
-  flip(0, 0) = flip(1, 1) = -1.0;
-  flip(1, 3) = 0.5;
-  const Eigen::Matrix4d twin = flip * truth;
-  CloudRegistrationOptions options;
-  options.descriptor = Descriptor::kFpfh;
-  options.intensity_test = false;
-  options.num_hypotheses = 1;
-  options.use_max_clique = false;
-  options.num_period_shifts = 0;
-  options.min_keypoints = 5;  // 5 and 4 keypoints, 7 correspondences: no vote mode
-  options.max_keypoints = 6;
-  const CloudRegistrationResult r = RegisterClouds(source, reference, options);
+  SymmetricGateCase g;
+  g.options.min_keypoints = 5;  // 5 and 4 keypoints, 7 correspondences: no vote mode
+  g.options.max_keypoints = 6;
+  const CloudRegistrationResult r = RegisterClouds(g.source, g.reference, g.options);
   int about_centroid = 0;
   for (const RegistrationHypothesis& h : r.hypotheses) {
     const bool turn = h.origin.rfind("symmetric turn", 0) == 0;
     about_centroid += turn && h.origin.find("about the centroid") != std::string::npos ? 1 : 0;
   }
   EXPECT_GE(about_centroid, 1) << r.BriefReport();
-  auto near = [&](const Eigen::Matrix4d& pose) {
-    for (const RegistrationHypothesis& h : r.hypotheses) {
-      if (TransformRmsOnCloud(source, h.target_from_source, pose) < 0.03) return true;
-    }
-    return false;
-  };
-  EXPECT_TRUE(near(truth) && near(twin)) << r.BriefReport();
+  EXPECT_TRUE(g.Near(r, g.truth) && g.Near(r, g.twin)) << r.BriefReport();
   EXPECT_FALSE(r.ok()) << r.BriefReport();
 }
 
