@@ -1834,25 +1834,6 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     }
     finalists.push_back(std::move(f));
   };
-  // The best pose's coarse score: a turned copy (below) that fits the coarse level less than
-  // half as well is no rival (the fine refinement, a crop of the target with its normals, is
-  // the dear part). Period shifts are not screened so: the arcade test's shifts are the
-  // posts' mirror matches, which fit poorly, and they are its only finalists of that kind.
-  Hypothesis best_coarse;
-  if (!finalists.empty()) {
-    best_coarse = finalists.front().h;
-    Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index,
-           finalists.front().h.transform, tau, &best_coarse);
-  }
-  auto coarse_fit = [&](Hypothesis* h) {
-    if (options.icp) {
-      h->transform = PointToPlaneIcp(icp_src, tgt_coarse.points, tgt_coarse.normals,
-                                     tgt_coarse_index, h->transform, support_radius / 2.0,
-                                     options.icp_distance_spacing * spacing,
-                                     std::min(options.icp_iterations, 20), up);
-    }
-    Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, h->transform, tau, h);
-  };
   // Shifted copies of the best pose (a repeated structure: bays, windows, columns). The
   // hypotheses need not contain the pose one period away, and then the ambiguity test has
   // nothing to compare with. Under the best pose T every descriptor match (source keypoint
@@ -1936,10 +1917,20 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       }
     }
     const size_t before_turns = finalists.size();
-    if (finalists.front().h.transform != best_coarse.transform) {  // a period shift is the best
-      best_coarse = finalists.front().h;
-      Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, best_t, tau, &best_coarse);
-    }
+    // The best pose's coarse score: a turn that fits the coarse level less than half as well
+    // is no rival (the fine refinement, a crop of the target with its normals, is the dear
+    // part).
+    Hypothesis best_coarse = finalists.front().h;
+    Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, best_t, tau, &best_coarse);
+    auto coarse_fit = [&](Hypothesis* h) {
+      if (options.icp) {
+        h->transform = PointToPlaneIcp(icp_src, tgt_coarse.points, tgt_coarse.normals,
+                                       tgt_coarse_index, h->transform, support_radius / 2.0,
+                                       options.icp_distance_spacing * spacing,
+                                       std::min(options.icp_iterations, 20), up);
+      }
+      Verify(icp_src, icp_src_n, tgt_coarse.normals, tgt_coarse_index, h->transform, tau, h);
+    };
     for (const std::vector<Vector6d>& group : turns) {
       // Each turn's placements (below) are compared on the coarse level (ICP and score as for
       // the hypotheses); only the group's best is refined at the fine level.
