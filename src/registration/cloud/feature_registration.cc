@@ -962,12 +962,13 @@ double AreaSpacing(const std::vector<Eigen::Vector3d>& points, double voxel) {
   return voxel * std::sqrt(occupied / (1.5 * static_cast<double>(points.size())));
 }
 
-size_t RepairLinearNormals(const std::vector<Eigen::Vector3d>& points, const PointIndex& index,
-                           double radius, double max_radius, const Eigen::Vector3d& viewpoint,
-                           std::vector<Eigen::Vector3d>* normals, double min_ratio) {
+size_t SurfaceNormals(const std::vector<Eigen::Vector3d>& points, const PointIndex& index,
+                      double radius, double max_radius, const Eigen::Vector3d& viewpoint,
+                      std::vector<Eigen::Vector3d>* normals, double min_ratio) {
+  normals->assign(points.size(), Eigen::Vector3d::Constant(std::nan("")));
   // Points [begin, end): each normal depends on its own neighbourhood only, so the two
   // halves run in parallel with the same result as in sequence.
-  auto repair = [&](size_t begin, size_t end, size_t* repaired) {
+  auto estimate = [&](size_t begin, size_t end, size_t* widened) {
     std::vector<int> idx;
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig;
     // Covariance eigen-decomposition of the neighbours of points[i] within r; false with
@@ -990,24 +991,30 @@ size_t RepairLinearNormals(const std::vector<Eigen::Vector3d>& points, const Poi
       const Eigen::Vector3d& l = eig.eigenvalues();  // ascending
       return l(2) > 0 && l(1) >= min_ratio * l(2);
     };
+    // The eigenvector of the smallest eigenvalue, towards the viewpoint.
+    auto normal = [&](size_t i) {
+      Eigen::Vector3d n = eig.eigenvectors().col(0);
+      return n.dot(viewpoint - points[i]) < 0 ? Eigen::Vector3d(-n) : n;
+    };
     for (size_t i = begin; i < end; ++i) {
-      if (!pca(i, radius) || surface()) continue;  // too sparse (NaN) or a surface
-      Eigen::Vector3d n = Eigen::Vector3d::Constant(std::nan(""));
+      if (!pca(i, radius)) continue;  // too sparse: NaN
+      if (surface()) {
+        (*normals)[i] = normal(i);
+        continue;
+      }
       for (double r = 2.0 * radius; r <= max_radius * 1.0001; r *= 2.0) {
         if (pca(i, r) && surface()) {
-          n = eig.eigenvectors().col(0);
-          if (n.dot(viewpoint - points[i]) < 0) n = -n;
+          (*normals)[i] = normal(i);
           break;
         }
       }
-      (*normals)[i] = n;
-      ++*repaired;
+      ++*widened;
     }
   };
   const size_t half = points.size() / 2;
   size_t first = 0, second = 0;
-  std::thread worker(repair, size_t{0}, half, &first);
-  repair(half, points.size(), &second);
+  std::thread worker(estimate, size_t{0}, half, &first);
+  estimate(half, points.size(), &second);
   worker.join();
   return first + second;
 }
@@ -1449,11 +1456,17 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       return fail(s.str());
     }
   }
-  if (src_fine.normals.empty()) {
-    src_fine.normals = internal::EstimateNormals(
-        src_fine.points, std::min(normal_radius, options.normal_radius_spacing * src_fine_spacing),
-        source_viewpoint);
-  }
+  // The fine level's normals are needed only at its sample for the fine verification (up to
+  // 8000 points); their neighbourhoods are taken from the whole fine level.
+  const std::vector<size_t> fine_idx = StrideSample(src_fine.points.size(), 8000);
+  const std::vector<Eigen::Vector3d> fine_src = Pick(src_fine.points, fine_idx);
+  const std::vector<Eigen::Vector3d> fine_src_n =
+      src_fine.normals.empty()
+          ? internal::EstimateNormals(
+                src_fine.points,
+                std::min(normal_radius, options.normal_radius_spacing * src_fine_spacing),
+                source_viewpoint, &fine_idx)
+          : Pick(src_fine.normals, fine_idx);
   end_stage("normals");
 
   // --- Keypoints.
@@ -1598,9 +1611,6 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   // a loose coarse inlier distance cannot tell a shifted repetitive structure or a
   // pseudo-symmetric turn from the truth; the fine level can). The target is cropped to
   // each hypothesis' footprint and kept at up to max_points_icp points there.
-  const std::vector<size_t> fine_idx = StrideSample(src_fine.points.size(), 8000);
-  const std::vector<Eigen::Vector3d> fine_src = Pick(src_fine.points, fine_idx);
-  const std::vector<Eigen::Vector3d> fine_src_n = Pick(src_fine.normals, fine_idx);
   struct Finalist {
     Hypothesis h;
     std::vector<double> residuals;
@@ -1655,9 +1665,9 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       const double radius =
           std::min(normal_radius,
                    options.normal_radius_spacing * std::max(c->level.spacing, area_spacing / 2.2));
-      c->level.normals = internal::EstimateNormals(c->level.points, radius, target_viewpoint);
-      const size_t repaired = internal::RepairLinearNormals(
-          c->level.points, *c->index, radius, normal_radius, target_viewpoint, &c->level.normals);
+      const size_t repaired = internal::SurfaceNormals(c->level.points, *c->index, radius,
+                                                       normal_radius, target_viewpoint,
+                                                       &c->level.normals);
       spdlog::debug("registration: target crop of {} points, spacing {:.4g} m, normals within "
                     "{:.4g} m, {} of them wider (a line at that radius)",
                     c->level.points.size(), c->level.spacing, radius, repaired);
@@ -1665,6 +1675,9 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     if (whole) whole_target = c;
     return c;
   };
+  // The clouds' noise, once known: the smallest robust residual scale of the finalists
+  // refined from the coarse hypotheses (set below; see fine_tau).
+  double noise_sigma = std::numeric_limits<double>::infinity();
   // A finalist refined on its own crop of the target: fine ICP from `icp_start`, then its fine
   // residuals and their robust scale. False when the pose puts the source off the target.
   auto refine = [&](Finalist* f, double icp_start) {
@@ -1684,8 +1697,11 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     // A noisy cloud (a stereo reconstruction's range noise can be several spacings): a final
     // correspondence distance below its noise keeps only the residuals that happen to be
     // small, and the pose drifts to wherever those are. Again with the distance at
-    // icp_noise_sigmas × the robust residual scale (at most the reach).
-    const double noise_distance = std::min(reach, options.icp_noise_sigmas * f->sigma);
+    // icp_noise_sigmas × the robust residual scale (at most the reach). Once the noise is
+    // known (a period shift or turn of the best pose), a larger scale is the pose's misfit,
+    // not noise: the second pass then runs within the noise alone.
+    const double noise_distance =
+        std::min(reach, options.icp_noise_sigmas * std::min(f->sigma, noise_sigma));
     if (options.icp && !options.paper_only &&
         noise_distance > options.icp_distance_spacing * f->spacing) {
       f->h.transform = PointToPlaneIcp(fine_src, c.level.points, c.level.normals, *c.index,
@@ -1717,6 +1733,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     finalists.push_back(std::move(f));
   }
   if (finalists.empty()) return fail("no hypothesis puts the source onto the target");
+  for (const Finalist& f : finalists) noise_sigma = std::min(noise_sigma, f.sigma);
   // One inlier threshold for all finalists: inlier_sigma × the smallest robust residual scale
   // (the best-fitting hypothesis sees the clouds' noise; a wrong one sees its misfit too),
   // at least a quarter of the fine spacing.

@@ -243,18 +243,23 @@ void FeatureIndex::KNearest(const float* query, int k, std::vector<int>* indices
 // differences flipped the cathedral multi_view_part -> plane_proxy cell from ok at 5 mm to a
 // failed 0.47 m; the fragile cell is kept on the normals its figures were measured with.)
 std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>& points,
-                                             double radius, const Eigen::Vector3d& viewpoint) {
+                                             double radius, const Eigen::Vector3d& viewpoint,
+                                             const std::vector<size_t>* only) {
   const Eigen::Vector3d origin = io::LocalOrigin(points);
   auto cloud = ToPcl(points, origin);
   pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> estimation(kThreads);
   estimation.setInputCloud(cloud);
+  if (only != nullptr) {
+    auto indices = std::make_shared<pcl::Indices>(only->begin(), only->end());
+    estimation.setIndices(indices);
+  }
   estimation.setRadiusSearch(radius);
   const Eigen::Vector3f local_viewpoint = (viewpoint - origin).cast<float>();
   estimation.setViewPoint(local_viewpoint.x(), local_viewpoint.y(), local_viewpoint.z());
   pcl::PointCloud<pcl::Normal> normals;
   estimation.compute(normals);
-  std::vector<Eigen::Vector3d> out(points.size());
-  for (size_t i = 0; i < points.size(); ++i) {
+  std::vector<Eigen::Vector3d> out(normals.size());
+  for (size_t i = 0; i < out.size(); ++i) {
     out[i] = normals[i].getNormalVector3fMap().cast<double>();
   }
   return out;

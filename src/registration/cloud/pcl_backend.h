@@ -72,22 +72,27 @@ class FeatureIndex {
 /// the nearest neighbour sees only the along-line spacing. 0 for an empty cloud.
 double AreaSpacing(const std::vector<Eigen::Vector3d>& points, double voxel);
 
-/// Normals of `points` (`index` built on them) whose neighbourhood within `radius` is a line,
-/// not a surface, re-estimated at 2, 4, … × `radius` (at most `max_radius`) until it is a
-/// surface: the middle eigenvalue of the neighbours' covariance at least `min_ratio` × the
-/// largest (a disc gives 1, a single noisy line about 0). A scan's points lie on lines whose
-/// spacing along the line is far below the spacing between lines, and a radius of a few
-/// along-line spacings (the nearest-neighbour spacing) spans one line: its normal is any
-/// direction across the line. Oriented towards `viewpoint`; NaN stays NaN when no radius up
-/// to `max_radius` gives a surface. Returns the number of normals re-estimated.
-size_t RepairLinearNormals(const std::vector<Eigen::Vector3d>& points, const PointIndex& index,
-                           double radius, double max_radius, const Eigen::Vector3d& viewpoint,
-                           std::vector<Eigen::Vector3d>* normals, double min_ratio = 0.1);
+/// Normals of `points` (`index` built on them) by PCA within `radius`, and where that
+/// neighbourhood is a line, not a surface, within 2, 4, … × `radius` (at most `max_radius`)
+/// until it is a surface: the middle eigenvalue of the neighbours' covariance at least
+/// `min_ratio` × the largest (a disc gives 1, a single noisy line about 0). A scan's points
+/// lie on lines whose spacing along the line is far below the spacing between lines, and a
+/// radius of a few along-line spacings (the nearest-neighbour spacing) spans one line: its
+/// normal is any direction across the line. Oriented towards `viewpoint`; NaN with fewer than
+/// 3 neighbours within `radius` or no radius up to `max_radius` giving a surface. One PCA per
+/// point where EstimateNormals and a second test would take two. Returns the number of
+/// normals estimated wider.
+size_t SurfaceNormals(const std::vector<Eigen::Vector3d>& points, const PointIndex& index,
+                      double radius, double max_radius, const Eigen::Vector3d& viewpoint,
+                      std::vector<Eigen::Vector3d>* normals, double min_ratio = 0.1);
 
 /// Normals by PCA within `radius` (PCL NormalEstimationOMP), oriented towards `viewpoint`.
-/// Points with too few neighbours get a NaN normal.
+/// Points with too few neighbours get a NaN normal. With `only`, the normals of those points
+/// alone (in that order), their neighbours still taken from all `points`: the same normals
+/// as the whole set's at those indices.
 std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>& points,
-                                             double radius, const Eigen::Vector3d& viewpoint);
+                                             double radius, const Eigen::Vector3d& viewpoint,
+                                             const std::vector<size_t>* only = nullptr);
 
 /// Kanade–Tomasi response per point: smallest eigenvalue of the mean of n·nᵀ over the
 /// neighbours within `radius` (PCL HarrisKeypoint3D, method TOMASI, no suppression).
