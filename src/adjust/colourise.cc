@@ -22,9 +22,9 @@
 #include <mutex>
 #include <thread>
 
-#include <opencv2/imgcodecs.hpp>
 #include <spdlog/spdlog.h>
 
+#include "codecs/image_codecs.h"
 #include "internal.h"
 
 namespace mmba::adjust::internal {
@@ -165,7 +165,9 @@ struct ColourView {
 
 /// Grey images stay one channel (a third of the memory), colour ones are BGR; 16-bit ones are
 /// reduced to 8 bits. Empty when unreadable.
-cv::Mat ReadImage(const std::string& path) { return cv::imread(path, cv::IMREAD_ANYCOLOR); }
+cv::Mat ReadImage(const std::string& path) {
+  return codecs::ReadImage(path, cv::IMREAD_ANYCOLOR);
+}
 
 /// The averaged colours (grey where no image saw the point).
 void FinishColours(const std::vector<Eigen::Vector3f>& sum, const std::vector<float>& weight,

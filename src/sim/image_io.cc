@@ -1,7 +1,7 @@
 // The one translation unit of mmba_sim that includes OpenCV.
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
+#include "codecs/image_codecs.h"
 #include "mmba/core/atomic_file.h"
 #include "mmba/core/error.h"
 #include "mmba/sim/render.h"
@@ -11,7 +11,7 @@ namespace mmba::sim {
 void WritePng(const GrayImage& image, const std::string& path) {
   const cv::Mat mat(image.height, image.width, CV_8UC1, const_cast<uint8_t*>(image.pixels.data()));
   std::vector<uint8_t> buffer;
-  if (!cv::imencode(".png", mat, buffer)) {
+  if (!codecs::EncodeImage(".png", mat, &buffer)) {
     throw std::runtime_error("PNG encoding failed for " + path);
   }
   WriteFileAtomically(path, [&](std::ostream& out) {
@@ -20,7 +20,7 @@ void WritePng(const GrayImage& image, const std::string& path) {
 }
 
 GrayImage ReadGray(const std::string& path) {
-  const cv::Mat mat = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  const cv::Mat mat = codecs::ReadImage(path, cv::IMREAD_GRAYSCALE);
   if (mat.empty()) throw InputError::Message(path, "not a readable image (expected PNG or JPEG)");
   GrayImage image;
   image.width = mat.cols;

@@ -121,8 +121,8 @@ TEST_F(CliTest, BadInputIsOneErrorLineExitTwoAndNothingWritten) {
 }
 
 // mmba re-executes itself once with glibc's huge-page malloc (core/huge_pages.h): the
-// arguments (one with a space) and the exit code survive, and MMBA_HUGE_PAGES=0 keeps the
-// default allocator.
+// arguments (one with a space) and the exit code survive, MMBA_HUGE_PAGES=0 keeps the
+// default allocator, and small named inputs skip it.
 TEST_F(CliTest, HugePageReexecKeepsArgumentsAndExitCode) {
   const std::string args = "ba --input '" + Tmp("no such model") + "' --output " + Tmp("out") +
                            " --verbose";
@@ -139,6 +139,29 @@ TEST_F(CliTest, HugePageReexecKeepsArgumentsAndExitCode) {
     EXPECT_THAT(on_clean.output, HasSubstr("glibc.malloc.hugetlb=1"));
   }
   EXPECT_THAT(plain.output, HasSubstr("GLIBC_TUNABLES=(not set)"));
+
+  // register-cloud re-executes only for inputs of 16 MiB and more (apps/mmba.cc): not for
+  // PCL's small bunny (and a missing target), but for a 17 MiB source (a sparse file of
+  // zeros: a bad cloud). Both are bad input, exit 2.
+  const std::string bunnies = "register-cloud --source " + kSource +
+                              "/data/pointclouds/pcl_test/bun0.pcd --target " +
+                              Tmp("missing.pcd") + " --output " + Tmp("r.json") + " --verbose";
+  const RunResult small = Mmba(bunnies, "env -u GLIBC_TUNABLES MMBA_HUGE_PAGES=1 ");
+  EXPECT_EQ(small.exit_code, 2) << small.output;
+  EXPECT_THAT(small.output, HasSubstr("GLIBC_TUNABLES=(not set)"));
+  {
+    std::ofstream(Tmp("large.xyz")).put('\n');
+  }
+  fs::resize_file(Tmp("large.xyz"), 17u << 20);
+  const RunResult large = Mmba("register-cloud --source=" + Tmp("large.xyz") + " --target " +
+                                   kSource + "/data/pointclouds/pcl_test/bun4.pcd --output " +
+                                   Tmp("r.json") + " --verbose",
+                               "env -u GLIBC_TUNABLES MMBA_HUGE_PAGES=1 ");
+  EXPECT_EQ(large.exit_code, 2) << large.output;
+  if (!mode.empty() && mode.find("[never]") == std::string::npos) {
+    EXPECT_THAT(large.output, HasSubstr("glibc.malloc.hugetlb=1"));
+  }
+  EXPECT_FALSE(fs::exists(Tmp("r.json")));
 }
 
 TEST_F(CliTest, OptionErrorsAreExitTwo) {

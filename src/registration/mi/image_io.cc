@@ -5,9 +5,9 @@
 #include <stdexcept>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "codecs/image_codecs.h"
 #include "mmba/core/atomic_file.h"
 #include "mmba/core/error.h"
 #include "mmba/registration/mi/image.h"
@@ -22,7 +22,7 @@ GrayImage ReadGrayImage(const std::string& path) {
   }
   cv::Mat image;
   try {
-    image = cv::imread(path, cv::IMREAD_GRAYSCALE);
+    image = codecs::ReadImage(path, cv::IMREAD_GRAYSCALE);
   } catch (const cv::Exception& e) {
     throw InputError::Message(path, std::string("cannot decode image: ") + e.what());
   }
@@ -46,7 +46,7 @@ void WriteGrayPng(const GrayImage& image, const std::string& path) {
     }
   }
   std::vector<uint8_t> buffer;
-  cv::imencode(".png", mat, buffer);
+  codecs::EncodeImage(".png", mat, &buffer);
   WriteFileAtomically(
       path,
       [&](std::ostream& out) {
@@ -103,7 +103,7 @@ std::vector<uint8_t> EncodeRangeOverlayPng(const GrayImage& photo,
     }
   }
   std::vector<uint8_t> png;
-  cv::imencode(".png", out, png);
+  codecs::EncodeImage(".png", out, &png);
   return png;
 }
 

@@ -5,9 +5,9 @@
 #include <sstream>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "codecs/image_codecs.h"
 #include "mmba/core/atomic_file.h"
 #include "mmba/registration/mi/mi_registration.h"
 
@@ -64,7 +64,7 @@ std::vector<uint8_t> PlotAxis(const std::vector<ProbeSample>& samples, int axis)
   cv::putText(canvas, axis_label.str(), cv::Point(kMargin, kHeight - 18),
               cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
   std::vector<uint8_t> png;
-  cv::imencode(".png", canvas, png);
+  codecs::EncodeImage(".png", canvas, &png);
   return png;
 }
 
