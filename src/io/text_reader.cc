@@ -22,19 +22,31 @@ std::string ReadWholeFile(const std::string& path) {
   }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError::Message(path, "cannot open file for reading");
+  // Read straight into the string when the size is known (one copy, not two).
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (!ec) {
+    std::string data(static_cast<size_t>(size), '\0');
+    in.read(data.data(), static_cast<std::streamsize>(data.size()));
+    if (in.gcount() == static_cast<std::streamsize>(data.size()) && in.peek() == EOF) return data;
+    in.clear();
+    in.seekg(0);
+  }
   std::ostringstream buffer;
   buffer << in.rdbuf();
   return buffer.str();
 }
 
 bool ParseDouble(std::string_view token, double* value) {
+  // std::from_chars: correctly rounded like strtod, but in place and independent of the
+  // locale's decimal point. A leading '+' is allowed, as strtod allows it.
   if (token.empty()) return false;
-  const std::string copy(token);
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(copy.c_str(), &end);
-  if (end != copy.c_str() + copy.size()) return false;
-  if (!std::isfinite(v)) return false;
+  const char* begin = token.data();
+  const char* end = token.data() + token.size();
+  if (*begin == '+') ++begin;
+  if (begin == end || *begin == '+' || (*begin == '-' && begin != token.data())) return false;
+  double v = 0.0;
+  const auto result = std::from_chars(begin, end, v);
+  if (result.ec != std::errc() || result.ptr != end || !std::isfinite(v)) return false;
   *value = v;
   return true;
 }

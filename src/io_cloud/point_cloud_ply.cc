@@ -3,6 +3,7 @@
 // Scanning Repository.
 
 #include <algorithm>
+#include <cctype>
 #include <fstream>
 #include <iomanip>
 #include <limits>
@@ -251,6 +252,22 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
   auto emit = [&](auto describe) { EmitVertex(layout, vertex, values, &builder, describe); };
 
   if (format == PlyFormat::kAscii) {
+    // A plain vertex line (no list property; one finite number per property) is parsed in
+    // place; any other line goes through TokenLine, for NaN/Inf values or a located error.
+    bool has_list = false;
+    for (const PlyProperty& prop : vertex.properties) has_list = has_list || prop.is_list;
+    auto plain_line = [&](std::string_view line) {
+      size_t i = 0, p = 0;
+      while (true) {
+        while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+        if (i == line.size()) return p == values.size();
+        size_t j = i;
+        while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
+        if (p == values.size() || !ParseDouble(line.substr(i, j - i), &values[p])) return false;
+        ++p;
+        i = j;
+      }
+    };
     LineCursor body(std::string_view(data).substr(header_end));
     const int64_t line_offset = header.header_lines;
     std::string_view l;
@@ -264,6 +281,10 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
                            "one line per item (truncated file?)");
         }
         if (e != vertex_index) continue;  // other elements occupy one line each
+        if (!has_list && plain_line(l)) {
+          emit([&] { return path + ":" + std::to_string(line_offset + body.line_number()); });
+          continue;
+        }
         TokenLine t(path, line_offset + body.line_number(), l);
         size_t token = 0;
         for (size_t p = 0; p < element.properties.size(); ++p) {
