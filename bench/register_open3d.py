@@ -60,30 +60,11 @@ for row in icp.transformation:
 
 if conf:
     import os
+
     import numpy as np
 
-    def common_from_scan(name):
-        for line in open(conf):
-            f = line.split()
-            if len(f) == 9 and f[0] == "bmesh" and f[1] == name:
-                t = np.array([float(v) for v in f[2:5]])
-                qx, qy, qz, qw = (float(v) for v in f[5:9])
-                n = np.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
-                qx, qy, qz, qw = qx / n, qy / n, qz / n, qw / n
-                r = np.array([
-                    [1 - 2 * (qy * qy + qz * qz), 2 * (qx * qy - qz * qw), 2 * (qx * qz + qy * qw)],
-                    [2 * (qx * qy + qz * qw), 1 - 2 * (qx * qx + qz * qz), 2 * (qy * qz - qx * qw)],
-                    [2 * (qx * qz - qy * qw), 2 * (qy * qz + qx * qw), 1 - 2 * (qx * qx + qy * qy)]])
-                m = np.eye(4)
-                m[:3, :3] = r.T
-                m[:3, 3] = t
-                return m
-        sys.exit(f"{conf} has no line for {name}")
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from stanford_conf import pose_error, truth  # noqa: E402
 
-    truth = np.linalg.inv(common_from_scan(os.path.basename(tgt_path))) @ common_from_scan(
-        os.path.basename(src_path))
-    est = np.asarray(icp.transformation)
-    dr = est[:3, :3] @ truth[:3, :3].T
-    angle = np.degrees(np.arccos(np.clip((np.trace(dr) - 1) / 2, -1, 1)))
-    dt = np.linalg.norm(est[:3, 3] - truth[:3, 3])
+    angle, dt = pose_error(np.asarray(icp.transformation), truth(conf, src_path, tgt_path))
     print(f"error vs {conf}: rotation {angle:.4f} deg, translation {1000 * dt:.4f} mm")
