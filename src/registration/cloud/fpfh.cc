@@ -11,6 +11,7 @@
 // the neighbours p_k ≠ p within r, ω_k the squared distance (PCL's choice; PCL also leaves
 // out the SPFH of p itself), each of the three sub-histograms normalised to sum 100.
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -34,13 +35,42 @@ int Bin(float value01) {
   return b < 0 ? 0 : (b >= kBins ? kBins - 1 : b);
 }
 
-// Pair features (α, φ, θ) = (f2, f3, f1) of pcl::computePairFeatures; all zero for
-// coincident points or a degenerate frame (PCL's FPFH bins those zeros too).
+// The "diamond angle" of a direction (x, y) ≠ 0: in [0, 4), strictly increasing with its
+// angle in [0, 2π) (1 at π/2, 2 at π, 3 at 3π/2), without a trigonometric call.
+float DiamondAngle(float x, float y) {
+  if (y >= 0.0f) return x >= 0.0f ? y / (x + y) : 1.0f - x / (y - x);
+  return x < 0.0f ? 2.0f - y / (-x - y) : 3.0f + x / (x - y);
+}
+
+// The θ bin Bin((θ + π) / 2π) of θ = atan2(y, x), without atan2 (it took a third of the
+// descriptor's time): θ + π is the angle of (−x, −y), and the bins' edges at k · 2π/11 are
+// compared as diamond angles. Only a pair within float rounding of an edge (or exactly on
+// the negative x axis) can fall into the neighbouring bin.
+int ThetaBin(float x, float y) {
+  static const std::array<float, kBins - 1> edges = [] {
+    std::array<float, kBins - 1> e{};
+    for (int k = 1; k < kBins; ++k) {
+      const double a = 2.0 * M_PI * k / kBins;
+      e[k - 1] = DiamondAngle(static_cast<float>(std::cos(a)), static_cast<float>(std::sin(a)));
+    }
+    return e;
+  }();
+  if (x == 0.0f && y == 0.0f) return Bin(0.5f);  // atan2(0, 0) = 0
+  const float d = DiamondAngle(-x, -y);
+  int bin = 0;
+  while (bin < kBins - 1 && edges[bin] <= d) ++bin;
+  return bin;
+}
+
+// Pair features (α, φ, θ) = (f2, f3, f1) of pcl::computePairFeatures, θ as its bin
+// (ThetaBin); all zero for coincident points or a degenerate frame (PCL's FPFH bins those
+// zeros too).
 void PairFeatures(const Eigen::Vector3f& p1, const Eigen::Vector3f& n1, const Eigen::Vector3f& p2,
-                  const Eigen::Vector3f& n2, float* f1, float* f2, float* f3) {
+                  const Eigen::Vector3f& n2, int* f1_bin, float* f2, float* f3) {
   Eigen::Vector3f d = p2 - p1;
   const float dist = d.norm();
-  *f1 = *f2 = *f3 = 0.0f;
+  *f1_bin = ThetaBin(1.0f, 0.0f);
+  *f2 = *f3 = 0.0f;
   if (dist == 0.0f) return;
   const float angle1 = n1.dot(d) / dist;
   const float angle2 = n2.dot(d) / dist;
@@ -61,7 +91,7 @@ void PairFeatures(const Eigen::Vector3f& p1, const Eigen::Vector3f& n1, const Ei
   const Eigen::Vector3f w = u->cross(v);
   *f3 = phi;
   *f2 = v.dot(*other);
-  *f1 = std::atan2(w.dot(*other), u->dot(*other));
+  *f1_bin = ThetaBin(u->dot(*other), w.dot(*other));
 }
 
 }  // namespace
@@ -117,9 +147,9 @@ Descriptors ComputeFpfh(const std::vector<Eigen::Vector3d>& points,
     c.assign(spfh_points.size() * kDim, 0);
     std::vector<int> nn;
     std::vector<float> sq;
-    auto add = [&c](int r, float f1, float f2, float f3) {
+    auto add = [&c](int r, int f1_bin, float f2, float f3) {
       int32_t* h = &c[static_cast<size_t>(r) * kDim];
-      ++h[Bin((f1 + static_cast<float>(M_PI)) * static_cast<float>(0.5 / M_PI))];
+      ++h[f1_bin];
       ++h[kBins + Bin((f2 + 1.0f) * 0.5f)];
       ++h[2 * kBins + Bin((f3 + 1.0f) * 0.5f)];
     };
@@ -133,7 +163,8 @@ Descriptors ComputeFpfh(const std::vector<Eigen::Vector3d>& points,
         if (j == i) continue;
         const int rj = row[j];
         if (rj >= 0 && rj < r) continue;  // done from j's side
-        float f1, f2, f3;
+        int f1;
+        float f2, f3;
         PairFeatures(p[i], n[i], p[j], n[j], &f1, &f2, &f3);
         add(static_cast<int>(r), f1, f2, f3);
         if (rj >= 0) add(rj, f1, f2, f3);
