@@ -173,9 +173,10 @@ void PointIndex::Radius(const Eigen::Vector3d& query, double radius,
   if (!impl_->tree) return;
   float q[3];
   impl_->Local(query, q);
-  std::vector<std::pair<uint32_t, float>> matches;
+  // Unsorted, into one buffer per thread kept between queries: the callers sum or count.
+  thread_local std::vector<std::pair<uint32_t, float>> matches;
   impl_->tree->radiusSearch(q, static_cast<float>(radius * radius), matches,
-                            nanoflann::SearchParams());
+                            nanoflann::SearchParams(32, 0.0f, false));
   indices->reserve(matches.size());
   for (const auto& [i, d] : matches) indices->push_back(static_cast<int>(i));
 }

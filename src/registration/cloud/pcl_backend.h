@@ -33,6 +33,7 @@ class PointIndex {
                      double* squared_distance) const;
   void KNearest(const Eigen::Vector3d& query, int k, std::vector<int>* indices,
                 std::vector<float>* squared_distances) const;
+  /// Points within `radius` (strictly), in the tree's order.
   void Radius(const Eigen::Vector3d& query, double radius, std::vector<int>* indices) const;
   /// Points within `radius` (strictly) with their squared distances; nearest first when
   /// `sorted`, else in the tree's order.
