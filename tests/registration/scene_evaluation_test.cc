@@ -118,6 +118,47 @@ TEST_F(SceneEvaluationTest, BothExperimentsAndTables) {
   EXPECT_NE(md.str().find("| scan0_part |"), std::string::npos);
 }
 
+// The summary picks, per cell, the method that reported ok closest to the truth, and counts
+// cells registered, refused by every method, off, and wrong oks on their own.
+TEST_F(SceneEvaluationTest, BestMethodPerCell) {
+  SceneEvaluation eval;
+  eval.dir = "scene";
+  eval.success_threshold_m = 3.0;
+  eval.accurate_m = 0.05;
+  auto row = [](const std::string& experiment, const std::string& source,
+                const std::string& method, const std::string& status, double rms) {
+    EvalRow r;
+    r.experiment = experiment;
+    r.source = source;
+    r.target = "lidar";
+    r.method = method;
+    r.status = status;
+    r.rms_m = rms;
+    r.success = rms < 3.0;
+    r.accurate = rms < 0.05;
+    return r;
+  };
+  eval.rows = {row("to-lidar", "a", "m1", "ok", 0.02), row("to-lidar", "a", "m2", "ok", 0.01),
+               row("cross-modal", "b_part", "m1", "failed", 0.01),  // right, but refused
+               row("cross-modal", "b_part", "m2", "ok", 0.2),
+               row("cross-modal", "c_part", "m1", "failed", 5.0),
+               row("cross-modal", "c_part", "m2", "failed", 0.01),
+               row("cross-modal", "d_part", "m1", "ok", 7.0),  // a wrong ok
+               row("cross-modal", "d_part", "m2", "ok", 0.03)};
+  const fs::path out = dir_ / "summary";
+  WriteSceneEvaluation(eval, out.string());
+  std::stringstream md;
+  md << std::ifstream(out / "tables.md").rdbuf();
+  const std::string text = md.str();
+  EXPECT_NE(text.find("| to-lidar | a → lidar | m2 | 0.01 |"), std::string::npos) << text;
+  EXPECT_NE(text.find("| cross-modal | c_part → lidar | – (every method failed) | – |"),
+            std::string::npos) << text;
+  EXPECT_NE(text.find("Registered with the best method (ok and RMS < 0.05 m): 2 of 4 cells; "
+                      "every method failed: 1; best ok but RMS ≥ 0.05 m: 1 (b_part → lidar 0.2 m); "
+                      "wrong ok (any method, RMS ≥ 3 m): 1."),
+            std::string::npos) << text;
+}
+
 TEST_F(SceneEvaluationTest, CellsSelectsRegistrations) {
   // --cells: only the named source:target cells run (both experiments); a cell the scene does
   // not have is an input error naming it.

@@ -328,6 +328,54 @@ void WriteSceneEvaluation(const SceneEvaluation& eval, const std::string& out_di
             << " succeeded, " << accurate << " of " << total << " accurate.\n";
       }
     }
+    // The best method per cell (the "registered ... with the best method"): of the
+    // methods that reported ok, the one closest to the ground truth. A cell counts as
+    // registered when that one is accurate; a method that reported ok beyond the success
+    // threshold is a wrong ok, counted on its own.
+    struct Cell {
+      const EvalRow* first = nullptr;
+      const EvalRow* best = nullptr;
+    };
+    std::vector<Cell> cells;
+    int wrong_ok = 0;
+    for (const EvalRow& r : eval.rows) {
+      auto it = std::find_if(cells.begin(), cells.end(), [&](const Cell& c) {
+        return c.first->experiment == r.experiment && c.first->source == r.source &&
+               c.first->target == r.target;
+      });
+      if (it == cells.end()) it = cells.insert(cells.end(), Cell{&r, nullptr});
+      if (r.status != "ok") continue;
+      wrong_ok += r.success ? 0 : 1;
+      if (it->best == nullptr || r.rms_m < it->best->rms_m) it->best = &r;
+    }
+    if (cells.empty()) return;
+    int registered = 0, refused = 0;
+    std::ostringstream off;
+    off << std::setprecision(3);
+    out << "\nBest method per cell — of the methods that reported ok, the one closest to the "
+           "ground truth\n\n| experiment | source → target | best | RMS m |\n|---|---|---|---|\n";
+    for (const Cell& c : cells) {
+      out << "| " << c.first->experiment << " | " << c.first->source << " → " << c.first->target
+          << " | ";
+      if (c.best == nullptr) {
+        out << "– (every method failed) | – |\n";
+        ++refused;
+        continue;
+      }
+      out << c.best->method << " | " << c.best->rms_m << " |\n";
+      if (c.best->accurate) {
+        ++registered;
+      } else {
+        off << (off.tellp() > 0 ? "; " : "") << c.first->source << " → " << c.first->target
+            << " " << c.best->rms_m << " m";
+      }
+    }
+    out << "\nRegistered with the best method (ok and RMS < " << eval.accurate_m
+        << " m): " << registered << " of " << cells.size() << " cells; every method failed: "
+        << refused << "; best ok but RMS ≥ " << eval.accurate_m << " m: "
+        << cells.size() - registered - refused << (off.tellp() > 0 ? " (" + off.str() + ")" : "")
+        << "; wrong ok (any method, RMS ≥ " << eval.success_threshold_m << " m): " << wrong_ok
+        << ".\n";
   });
   files.Commit();
 }
