@@ -11,8 +11,8 @@
 namespace {
 
 // The re-execution for huge-page malloc (core/huge_pages.h) starts the program a second
-// time, and the start alone takes 0.15–0.2 s (it loads ~170 shared libraries, most of them
-// OpenCV's image codecs and GDAL's). It pays only with buffers of tens of MB and more. The
+// time, about 0.08 s more (it loads its ~55 shared libraries again; 0.15–0.2 s when OpenCV's
+// image codecs were linked, before src/codecs). It pays only with buffers of tens of MB. The
 // commands whose data are exactly the files named on their command line skip it when those
 // total less than this; every other command (projects, simulations, scene folders, lists of
 // frames) keeps it.

@@ -826,15 +826,13 @@ std::vector<size_t> CropIndices(const io::PointCloud& target,
   return inside;
 }
 
-// FNV-1a over the indices: with the count, the key of a crop's point set (a collision of two
-// different sets of one size has odds of about 2^-64).
+// FNV-1a over the indices, a word at a time (a crop of a 24 M-point target holds millions):
+// with the count, the key of a crop's point set.
 uint64_t HashIndices(const std::vector<size_t>& indices) {
   uint64_t h = 14695981039346656037ull;
   for (size_t i : indices) {
-    for (int b = 0; b < 8; ++b) {
-      h ^= (static_cast<uint64_t>(i) >> (8 * b)) & 0xffu;
-      h *= 1099511628211ull;
-    }
+    h ^= static_cast<uint64_t>(i);
+    h *= 1099511628211ull;
   }
   return h;
 }
@@ -1678,7 +1676,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
         target, fine_src, t, whole ? std::numeric_limits<double>::infinity() : support_radius);
     // Finalists near one pose often crop the same target points (a room the source spans:
     // eight finalists, five of them the same 98 k points). A crop depends on its points
-    // alone, so those share one, normals included (0.3 s each there).
+    // alone, so those share one, normals included (0.2–0.3 s each there).
     const uint64_t key = HashIndices(inside);
     for (const CachedCrop& cached : crop_cache) {
       if (cached.count == inside.size() && cached.hash == key) return cached.crop;
@@ -1991,9 +1989,8 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       // Each turn's placements (below) are compared on the coarse level (ICP and score as for
       // the hypotheses); only the group's best is refined at the fine level.
       Hypothesis pick;
-      int pick_votes = 0;
       bool picked = false;
-      double pick_shift = 0.0;
+      std::string pick_how;  // how the pick was placed, for its origin text
       Vector6d pick_xi = Vector6d::Zero();
       for (size_t g = 0; g < group.size(); ++g) {
         // The cone refines an axis whose turn nearly fits; a central turn that fits the
@@ -2009,18 +2006,25 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
         // vote along a line (full gate, multi-view → LiDAR: every mode 1.7 m off, the gate's
         // thickness, while the turn about c was within the coarse ICP's reach). The cone's
         // other axes are placed about c only (the coarse ICP is the dear part here).
-        std::vector<std::pair<int, Eigen::Vector3d>> placements = {{0, Eigen::Vector3d::Zero()}};
+        std::vector<std::pair<Eigen::Vector3d, std::string>> placements = {
+            {Eigen::Vector3d::Zero(), "about the centroid"}};
         if (g == 0) {
-          for (const auto& mode : displacement_modes(turned, -1.0, 2)) placements.push_back(mode);
+          for (const auto& [count, shift] : displacement_modes(turned, -1.0, 2)) {
+            std::ostringstream how;
+            how << std::setprecision(3) << "shift of " << shift.norm() << " m, " << count
+                << " votes";
+            placements.emplace_back(shift, how.str());
+          }
           // And turned about the target's centroid: a part registered onto its whole
           // symmetric object, whose axis passes through the object's centroid, not the
           // part's (full gate, plane-proxy part → stereo cloud, levelled: the turn about the
           // part's centroid was 4.5 m off, no vote mode, and the twin was reported ok).
           // MotionAbout(ξ, c_t) = MotionAbout(ξ, c) shifted by (I − R)(c_t − c).
           const Eigen::Matrix3d r = MotionAbout(xi, c).topLeftCorner<3, 3>();
-          placements.emplace_back(-1, (Eigen::Matrix3d::Identity() - r) * (target_centroid - c));
+          placements.emplace_back((Eigen::Matrix3d::Identity() - r) * (target_centroid - c),
+                                  "about the target's centroid");
         }
-        for (const auto& [count, shift] : placements) {
+        for (const auto& [shift, how] : placements) {
           Hypothesis h = finalists.front().h;
           h.transform = turned;
           h.transform.topRightCorner<3, 1>() += shift;
@@ -2028,17 +2032,16 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
           if (!picked || h.score > pick.score) {
             picked = true;
             pick = h;
-            pick_votes = count;
-            pick_shift = shift.norm();
+            pick_how = how;
             pick_xi = xi;
           }
         }
       }
       const Vector6d& xi = pick_xi;
       spdlog::debug("registration: symmetric turn {:.3g} deg about ({:.3f}, {:.3f}, {:.3f}): "
-                    "{} votes, coarse score {:.3g} (best {:.3g})",
+                    "{}, coarse score {:.3g} (best {:.3g})",
                     xi.head<3>().norm() * 180.0 / M_PI, xi(0) / xi.head<3>().norm(),
-                    xi(1) / xi.head<3>().norm(), xi(2) / xi.head<3>().norm(), pick_votes,
+                    xi(1) / xi.head<3>().norm(), xi(2) / xi.head<3>().norm(), pick_how,
                     pick.score, best_coarse.score);
       if (!picked || pick.score < 0.5 * best_coarse.score) continue;
       Finalist f;
@@ -2047,14 +2050,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       const Eigen::Vector3d axis = xi.head<3>().normalized();
       origin << std::setprecision(3) << "symmetric turn of " << xi.head<3>().norm() * 180.0 / M_PI
              << " deg about (" << axis.x() << ", " << axis.y() << ", " << axis.z()
-             << "), ";
-      if (pick_votes == 0) {
-        origin << "about the centroid";
-      } else if (pick_votes < 0) {
-        origin << "about the target's centroid";
-      } else {
-        origin << "shift of " << pick_shift << " m, " << pick_votes << " votes";
-      }
+             << "), " << pick_how;
       f.h.origin = origin.str();
       add_finalist(std::move(f), support_radius / 2.0);
     }

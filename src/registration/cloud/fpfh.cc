@@ -69,7 +69,7 @@ void PairFeatures(const Eigen::Vector3f& p1, const Eigen::Vector3f& n1, const Ei
                   const Eigen::Vector3f& n2, int* f1_bin, float* f2, float* f3) {
   Eigen::Vector3f d = p2 - p1;
   const float dist = d.norm();
-  *f1_bin = ThetaBin(1.0f, 0.0f);
+  *f1_bin = Bin(0.5f);  // θ = 0
   *f2 = *f3 = 0.0f;
   if (dist == 0.0f) return;
   const float angle1 = n1.dot(d) / dist;
