@@ -279,9 +279,9 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
     EXPECT_EQ(from_rows.exit_code, given.exit_code) << from_rows.output;
     const nlohmann::json r = nlohmann::json::parse(std::ifstream(Tmp("rows_out.json")));
     EXPECT_EQ(r["status"], a["status"]);
-    ASSERT_EQ(r["cam_from_lidar"].size(), 16u);
+    ASSERT_EQ(r["cam_from_lidar"].size(), 4u);
     for (int i = 0; i < 16; ++i) {
-      EXPECT_NEAR(r["cam_from_lidar"][i].get<double>(), a["cam_from_lidar"][i].get<double>(), 1e-9) << i;
+      EXPECT_NEAR(r["cam_from_lidar"][i / 4][i % 4].get<double>(), a["cam_from_lidar"][i / 4][i % 4].get<double>(), 1e-9) << i;
     }
     rows[2] = {1.0, 0.0};
     std::ofstream(Tmp("bad_rows.json")) << nlohmann::json{{"cam_from_lidar", rows}}.dump();
@@ -322,8 +322,8 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
               a["pixel_offset_vs_reference"][0]["after"]["median_px"].get<double>(), 0.01);
   Eigen::Matrix4d pa, pb;
   for (int i = 0; i < 16; ++i) {
-    pa(i / 4, i % 4) = a["cam_from_lidar"][i];
-    pb(i / 4, i % 4) = b["cam_from_lidar"][i];
+    pa(i / 4, i % 4) = a["cam_from_lidar"][i / 4][i % 4];
+    pb(i / 4, i % 4) = b["cam_from_lidar"][i / 4][i % 4];
   }
   // The grid result is the delivered frame's result expressed for grid points.
   EXPECT_LT((pb - pa * lidar_from_grid).cwiseAbs().maxCoeff(), 1e-3) << pb;

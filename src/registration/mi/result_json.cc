@@ -6,11 +6,9 @@ using json = nlohmann::json;
 
 json PoseToJson(const Rigid3d& pose) {
   const Eigen::Matrix4d m = pose.ToMatrix4();
-  json values = json::array();
-  for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) values.push_back(m(r, c));
-  }
-  return values;
+  json rows = json::array();  // 4 rows of 4, as register-cloud's target_from_source
+  for (int r = 0; r < 4; ++r) rows.push_back({m(r, 0), m(r, 1), m(r, 2), m(r, 3)});
+  return rows;
 }
 
 bool Matrix4FromJson(const json& value, double row_major[16], std::string* problem) {
