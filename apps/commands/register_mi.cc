@@ -31,6 +31,7 @@ struct RegisterMiArgs {
   std::string camera;
   std::string kitti_calib;
   int kitti_camera = 2;
+  std::string rig;
   std::string initial;
   std::string metric = "nmi";
   std::string representation = "intensity";
@@ -84,7 +85,7 @@ nlohmann::json OffsetJson(const mi::PixelOffsetStats& s) {
           {"max_px", s.max_px}};
 }
 
-Rigid3d ReadPoseJson(const std::string& path) {
+Rigid3d ReadPoseJson(const std::string& path, const std::string& key) {
   const std::string text = io::ReadWholeFile(path);
   nlohmann::json json;
   try {
@@ -92,17 +93,16 @@ Rigid3d ReadPoseJson(const std::string& path) {
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError::AtByte(path, e.byte, "json", e.what(), "valid JSON");
   }
-  if (!json.is_object() || !json.contains("cam_from_lidar")) {
-    throw InputError(path, 0, "cam_from_lidar", "(missing)",
-                     "an object with \"cam_from_lidar\": 16 numbers (4x4 row-major) or 4 rows of 4");
+  if (!json.is_object() || !json.contains(key)) {
+    throw InputError(path, 0, key, "(missing)",
+                     "an object with \"" + key + "\": 16 numbers (4x4 row-major) or 4 rows of 4");
   }
   double v[16];
   std::string problem;
-  if (!registration::mi::Matrix4FromJson(json["cam_from_lidar"], v, &problem)) {
-    throw InputError(path, 0, "cam_from_lidar", problem,
-                     "16 numbers (4x4 row-major) or 4 rows of 4 numbers");
+  if (!registration::mi::Matrix4FromJson(json[key], v, &problem)) {
+    throw InputError(path, 0, key, problem, "16 numbers (4x4 row-major) or 4 rows of 4 numbers");
   }
-  return io::RigidFromRowMajor4x4(v, path, "cam_from_lidar");
+  return io::RigidFromRowMajor4x4(v, path, key);
 }
 
 int RunRegisterMi(const RegisterMiArgs& args) {
@@ -184,8 +184,17 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     throw InputError::Message("--perturb", "found " + std::to_string(args.perturb.size()) +
                                                " values, expected 6: tx,ty,tz,roll,pitch,yaw");
   }
-  if (args.camera.empty() == args.kitti_calib.empty()) {
-    throw InputError::Message("--camera/--kitti-calib", "give exactly one of them");
+  const bool rig_mode = !args.rig.empty();
+  if (rig_mode) {
+    if (!args.camera.empty() || !args.kitti_calib.empty()) {
+      throw InputError::Message("--rig", "give either --rig or one of --camera/--kitti-calib, not both");
+    }
+    if (view_options.kind != mi::ViewKind::kImage) {
+      throw InputError::Message("--view", "found '" + args.view + "' with --rig; a rig's cameras are "
+                                                                  "registered as their own images (image)");
+    }
+  } else if (args.camera.empty() == args.kitti_calib.empty()) {
+    throw InputError::Message("--camera/--kitti-calib", "give exactly one of them (or --rig)");
   }
   // ---- Frames: --image/--lidar pairs or a list file (IMAGE LIDAR per line).
   std::vector<std::pair<std::string, std::string>> pairs;
@@ -217,11 +226,47 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   }
   // ---- Read everything before any work.
   std::vector<mi::GrayImage> images;
-  for (const auto& [image_path, lidar_path] : pairs) images.push_back(mi::ReadGrayImage(image_path));
   sensors::Camera camera;
   Rigid3d cam_from_lidar_calibration;
   bool have_calibration_pose = false;
-  if (!args.kitti_calib.empty()) {
+  // With --rig: each frame's IMAGE is a pattern with {camera}, one image per rig camera
+  // (rig_images[frame][camera]); the pose is rig_from_lidar.
+  io::RigYaml rig_yaml;
+  std::vector<std::vector<mi::GrayImage>> rig_images;
+  std::vector<std::vector<std::string>> rig_paths;
+  if (rig_mode) {
+    rig_yaml = io::ReadRigYaml(args.rig);
+    for (const auto& [pattern, lidar_path] : pairs) {
+      const size_t at = pattern.find("{camera}");
+      if (at == std::string::npos) {
+        throw InputError::Message(pattern, "with --rig each image is a pattern with {camera} for the "
+                                           "camera's name (e.g. frame_000_{camera}.png)");
+      }
+      rig_images.emplace_back();
+      rig_paths.emplace_back();
+      for (size_t k = 0; k < rig_yaml.cameras.size(); ++k) {
+        const std::string path = pattern.substr(0, at) + rig_yaml.names[k] + pattern.substr(at + 8);
+        rig_images.back().push_back(mi::ReadGrayImage(path));
+        rig_paths.back().push_back(path);
+        const sensors::Camera& c = rig_yaml.cameras[k];
+        if (rig_images.back().back().width != static_cast<int>(c.width) ||
+            rig_images.back().back().height != static_cast<int>(c.height)) {
+          throw InputError::Message(path, "image is " + std::to_string(rig_images.back().back().width) + "x" +
+                                              std::to_string(rig_images.back().back().height) + " but camera " +
+                                              rig_yaml.names[k] + " of " + args.rig + " is " +
+                                              std::to_string(c.width) + "x" + std::to_string(c.height));
+        }
+      }
+    }
+    if (rig_yaml.rig_from_lidar) {
+      cam_from_lidar_calibration = *rig_yaml.rig_from_lidar;
+      have_calibration_pose = true;
+    }
+  } else {
+    for (const auto& [image_path, lidar_path] : pairs) images.push_back(mi::ReadGrayImage(image_path));
+  }
+  if (rig_mode) {
+  } else if (!args.kitti_calib.empty()) {
     const io::KittiCalibration calibration = io::ReadKittiCalibration(args.kitti_calib);
     const io::KittiCameraPose kitti =
         io::KittiCamera(calibration, args.kitti_camera, images[0].width, images[0].height,
@@ -237,7 +282,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
       have_calibration_pose = true;
     }
   }
-  for (size_t i = 0; i < images.size(); ++i) {
+  for (size_t i = 0; i < images.size(); ++i) {  // (none with --rig: checked above)
     if (images[i].width != static_cast<int>(camera.width) ||
         images[i].height != static_cast<int>(camera.height)) {
       throw InputError::Message(pairs[i].first, "image is " + std::to_string(images[i].width) +
@@ -247,12 +292,14 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                                                     std::to_string(camera.height));
     }
   }
+  const std::string pose_key = rig_mode ? "rig_from_lidar" : "cam_from_lidar";
   Rigid3d start = cam_from_lidar_calibration;
   if (!args.initial.empty()) {
-    start = ReadPoseJson(args.initial);
+    start = ReadPoseJson(args.initial, pose_key);
   } else if (!have_calibration_pose) {
-    throw InputError::Message(args.camera, "no cam_from_lidar in the camera file and no "
-                                           "--initial POSE.json: the start pose is unknown");
+    throw InputError::Message(rig_mode ? args.rig : args.camera,
+                              "no " + pose_key + " in the " + (rig_mode ? "rig" : "camera") +
+                                  " file and no --initial POSE.json: the start pose is unknown");
   }
   const Rigid3d reference = start;
   if (!args.perturb.empty()) {
@@ -306,6 +353,28 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   for (size_t i = 0; i < pairs.size(); ++i) {
     mi::Frame frame;
     frame.name = pairs[i].first;
+    frame.points = &clouds[i];
+    if (rig_mode) {
+      // The cameras that see the cloud at the start (a Ladybug's upward camera sees no
+      // LiDAR); if none does, all of them, and the registration reports the missing overlap.
+      constexpr size_t kMinViewPoints = 1000;
+      std::vector<mi::View> all;
+      for (size_t k = 0; k < rig_yaml.cameras.size(); ++k) {
+        mi::View view = mi::MakeRigCameraView(rig_images[i][k], rig_yaml.cameras[k], rig_yaml.cam_from_rig[k],
+                                              rig_paths[i][k]);
+        view.name = rig_yaml.names[k];
+        if (mi::CountPointsInView(clouds[i], view, start, options.render, kMinViewPoints) >= kMinViewPoints) {
+          frame.views.push_back(view);
+        } else {
+          spdlog::info("{}: camera {} sees fewer than {} LiDAR points at the start, left out", pairs[i].first,
+                       rig_yaml.names[k], kMinViewPoints);
+        }
+        all.push_back(std::move(view));
+      }
+      if (frame.views.empty()) frame.views = std::move(all);
+      frames.push_back(std::move(frame));
+      continue;
+    }
     mi::ViewOptions frame_view_options = view_options;
     if (auto_headings && view_options.kind == mi::ViewKind::kPerspective &&
         camera.IsSpherical()) {
@@ -318,7 +387,6 @@ int RunRegisterMi(const RegisterMiArgs& args) {
       spdlog::info("{}: perspective cuts at headings {} deg", pairs[i].first, list);
     }
     frame.views = mi::MakeViews(images[i], camera, frame_view_options, pairs[i].first);
-    frame.points = &clouds[i];
     frames.push_back(std::move(frame));
   }
   // ---- Probe (around the start), then registration.
@@ -355,6 +423,28 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"sample_block_px", args.sample_block_px},
                      {"covariance_pixel_floor", args.covariance_pixel_floor},
                      {"covariance_per_point_samples", options.covariance_per_point_samples}};
+  if (rig_mode) {
+    // The pose is the rig's: rig_from_lidar (the correction about the rig's origin), and each
+    // camera's own cam_from_lidar = cam_from_rig · rig_from_lidar.
+    out["rig_from_lidar"] = out["cam_from_lidar"];
+    out["rig_from_lidar_start"] = out["cam_from_lidar_start"];
+    out.erase("cam_from_lidar");
+    out.erase("cam_from_lidar_start");
+    out["correction_convention"] =
+        "lidar_from_rig' = [Rz(yaw) Ry(pitch) Rx(roll) R | c + t] about the rig's origin, "
+        "axes of the LiDAR frame; metres and degrees";
+    nlohmann::json cameras = nlohmann::json::array();
+    for (size_t k = 0; k < rig_yaml.cameras.size(); ++k) {
+      bool used = false;
+      for (const mi::Frame& frame : frames) {
+        for (const mi::View& view : frame.views) used = used || view.name == rig_yaml.names[k];
+      }
+      cameras.push_back({{"name", rig_yaml.names[k]},
+                         {"used", used},
+                         {"cam_from_lidar", mi::PoseToJson(rig_yaml.cam_from_rig[k] * result.cam_from_lidar)}});
+    }
+    out["cameras"] = cameras;
+  }
   if (frames.size() > 1) {
     out["used_frames"] = result.used_frames;
     nlohmann::json rejected = nlohmann::json::array();
@@ -427,6 +517,9 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
   sub->add_option("--list", args->list, "Text file of frames: IMAGE LIDAR per line");
   sub->add_option("--camera", args->camera, "Camera YAML (calib/README.md)");
   sub->add_option("--kitti-calib", args->kitti_calib, "KITTI calibration file (camera 2)");
+  sub->add_option("--rig", args->rig,
+                  "Rig YAML (calib/README.md camera_rig, optional rig_from_lidar): each --image is "
+                  "a pattern with {camera}; the pose is rig_from_lidar");
   sub->add_option("--kitti-camera", args->kitti_camera, "KITTI camera index 0..3")
       ->capture_default_str();
   sub->add_option("--initial", args->initial, "POSE.json with cam_from_lidar (4x4 row-major)");

@@ -106,19 +106,8 @@ std::vector<mi::View> TaskViews(const MiTask& t, const std::vector<mi::GrayImage
   for (size_t v = 0; v < t.view_cameras.size(); ++v) {
     const size_t k = t.view_cameras[v];
     const sensors::Camera& camera = scene.Camera(rig->cameras[k]);
-    const Rigid3d cam_from_lidar = rig->cam_from_rig[k] * start;
-    size_t seen = 0;
-    for (size_t i = 0; i < points.size() && seen < kMinViewPoints; ++i) {
-      const Eigen::Vector3d p = cam_from_lidar * points.points_in_lidar[i].cast<double>();
-      const double range = p.norm();
-      if (range < options.render.min_range_m || range > options.render.max_range_m || p.z() <= 0) continue;
-      const std::optional<Eigen::Vector2d> xy = camera.ImgFromCam(p);
-      seen += xy && (*xy)[0] >= 0 && (*xy)[1] >= 0 && (*xy)[0] < camera.width && (*xy)[1] < camera.height;
-    }
-    if (seen < kMinViewPoints) continue;
-    mi::View view = mi::MakeViews(images[v], camera, mi::ViewOptions(), t.view_paths[v])[0];
-    view.view_from_cam = rig->cam_from_rig[k].rotation.toRotationMatrix();
-    view.view_from_cam_t = rig->cam_from_rig[k].translation;
+    mi::View view = mi::MakeRigCameraView(images[v], camera, rig->cam_from_rig[k], t.view_paths[v]);
+    if (mi::CountPointsInView(points, view, start, options.render, kMinViewPoints) < kMinViewPoints) continue;
     out.push_back(std::move(view));
   }
   return out;

@@ -12,6 +12,7 @@
 #include "mmba/core/atomic_file.h"
 #include "mmba/core/error.h"
 #include "mmba/io/text_reader.h"
+#include "mmba/io/yaml_reader.h"
 
 namespace mmba::io {
 namespace {
@@ -332,6 +333,100 @@ CameraYaml ReadCameraYaml(const std::string& path) {
         RigidFromRowMajor4x4(v, path + ":" + std::to_string(line_of(pose)), "cam_from_lidar");
   }
   return result;
+}
+
+namespace {
+
+Rigid3d RigPose(const YamlReader& r, const YAML::Node& n, const std::string& f) {
+  std::vector<double> q, t;
+  r.Map(n, f, {{"qvec_wxyz", [&](const YAML::Node& v, const std::string& g) { q = r.NumberList(v, g); }},
+               {"tvec", [&](const YAML::Node& v, const std::string& g) { t = r.NumberList(v, g); }}});
+  if (q.size() != 4 || t.size() != 3) {
+    r.Fail(n, f, "{qvec_wxyz: [4 numbers], tvec: [3 numbers]}",
+           std::to_string(q.size()) + " and " + std::to_string(t.size()) + " numbers");
+  }
+  const Eigen::Quaterniond rotation(q[0], q[1], q[2], q[3]);
+  if (std::abs(rotation.norm() - 1.0) > 1e-3) {
+    r.Fail(n, f + ".qvec_wxyz", "a unit quaternion", "norm " + Num(rotation.norm()));
+  }
+  return Rigid3d(rotation.normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
+}
+
+/// 16 numbers row-major, or 4 rows of 4 numbers.
+Rigid3d Matrix4Pose(const YamlReader& r, const YAML::Node& n, const std::string& f) {
+  std::vector<double> v;
+  if (n.IsSequence() && n.size() == 4) {
+    for (size_t i = 0; i < 4; ++i) {
+      const std::vector<double> row = r.NumberList(n[i], f + "[" + std::to_string(i) + "]");
+      if (row.size() != 4) r.Fail(n[i], f + "[" + std::to_string(i) + "]", "a row of 4 numbers", std::to_string(row.size()) + " numbers");
+      v.insert(v.end(), row.begin(), row.end());
+    }
+  } else {
+    v = r.NumberList(n, f);
+    if (v.size() != 16) r.Fail(n, f, "16 numbers (4x4 row-major) or 4 rows of 4 numbers", std::to_string(v.size()) + " numbers");
+  }
+  return RigidFromRowMajor4x4(v.data(), r.path() + ":" + std::to_string(n.Mark().line + 1), f);
+}
+
+}  // namespace
+
+RigYaml ReadRigYaml(const std::string& path) {
+  const YamlReader r(path);
+  const YAML::Node root = r.Load("rig calibration");
+  RigYaml rig;
+  r.Map(root, "",
+        {{"body_from_rig", [&](const YAML::Node& v, const std::string& g) { RigPose(r, v, g); }},
+         {"rig_from_lidar", [&](const YAML::Node& v, const std::string& g) { rig.rig_from_lidar = Matrix4Pose(r, v, g); }},
+         {"cameras", [&](const YAML::Node& n, const std::string& f) {
+            if (!n.IsSequence() || n.size() == 0) r.Fail(n, f, "a list of cameras", YamlReader::Kind(n));
+            for (size_t i = 0; i < n.size(); ++i) {
+              const std::string fi = f + "[" + std::to_string(i) + "]";
+              sensors::Camera camera;
+              std::string name, model;
+              Rigid3d cam_from_rig;
+              r.Map(n[i], fi,
+                    {{"name", [&](const YAML::Node& v, const std::string& g) { name = r.String(v, g); }},
+                     {"model", [&](const YAML::Node& v, const std::string& g) {
+                        model = r.String(v, g);
+                        camera.model_id = sensors::CameraModelFromName(model);
+                        if (camera.model_id == sensors::CameraModelId::kInvalid) {
+                          r.Fail(v, g, "one of " + sensors::KnownCameraModelNames(), model);
+                        }
+                      }},
+                     {"width", [&](const YAML::Node& v, const std::string& g) {
+                        const int size = r.Integer(v, g);
+                        if (size < 1) r.Fail(v, g, "a positive number of pixels", std::to_string(size));
+                        camera.width = static_cast<uint64_t>(size);
+                      }},
+                     {"height", [&](const YAML::Node& v, const std::string& g) {
+                        const int size = r.Integer(v, g);
+                        if (size < 1) r.Fail(v, g, "a positive number of pixels", std::to_string(size));
+                        camera.height = static_cast<uint64_t>(size);
+                      }},
+                     {"params", [&](const YAML::Node& v, const std::string& g) { camera.params = r.NumberList(v, g); }},
+                     {"cam_from_rig", [&](const YAML::Node& v, const std::string& g) { cam_from_rig = RigPose(r, v, g); }},
+                     {"sigma", [](const YAML::Node&, const std::string&) {}},
+                     {"cam_from_rig_tvec_sigma", [](const YAML::Node&, const std::string&) {}}});
+              r.Require(n[i], fi, {"name", "model", "width", "height", "params", "cam_from_rig"});
+              const int expected = sensors::CameraModelNumParams(camera.model_id);
+              if (static_cast<int>(camera.params.size()) != expected) {
+                r.Fail(n[i]["params"], fi + ".params", std::to_string(expected) + " numbers for " + model,
+                       std::to_string(camera.params.size()) + " numbers");
+              }
+              for (int k : sensors::CameraModelFocalIdxs(camera.model_id)) {
+                if (!(camera.params[k] > 0)) r.Fail(n[i]["params"], fi + ".params", "a positive focal length", Num(camera.params[k]));
+              }
+              if (std::find(rig.names.begin(), rig.names.end(), name) != rig.names.end()) {
+                r.Fail(n[i]["name"], fi + ".name", "a name no other camera has", name);
+              }
+              camera.camera_id = CameraId(static_cast<uint32_t>(i + 1));
+              rig.names.push_back(name);
+              rig.cameras.push_back(camera);
+              rig.cam_from_rig.push_back(cam_from_rig);
+            }
+          }}});
+  r.Require(root, "", {"cameras"});
+  return rig;
 }
 
 void WriteCameraYaml(const CameraYaml& camera_yaml, const std::string& path) {

@@ -16,6 +16,8 @@
 #include "mmba/io/colmap_model.h"
 #include "mmba/io/kitti.h"
 #include "mmba/io/point_cloud.h"
+#include "mmba/registration/mi/image.h"
+#include "../registration/mi/synthetic_scene.h"
 
 namespace mmba {
 namespace {
@@ -327,6 +329,99 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
   }
   // The grid result is the delivered frame's result expressed for grid points.
   EXPECT_LT((pb - pa * lidar_from_grid).cwiseAbs().maxCoeff(), 1e-3) << pb;
+}
+
+// --rig: the rig's own cameras as the views of one rig pose (rig_from_lidar), each image
+// found from the frame's pattern by the camera's name. Two cameras 0.35 m either side of the
+// rig's origin, turned ±12° (a fisheye and a pinhole), on the synthetic street of the MI tests,
+// from the paper's typical 0.1 m / 1° off.
+TEST_F(CliTest, RegisterMiRigRegistersTheRigPoseFromItsCameras) {
+  namespace mit = registration::mi::testing;
+  const Rigid3d truth = mit::StreetCamFromLidar(Eigen::Vector3d(0.5, 0.3, 0.2), 4.0);
+  io::WritePly(mit::StreetCloud(0.06), Tmp("street.ply"));
+  sensors::Camera fisheye;
+  fisheye.model_id = sensors::CameraModelId::kOpenCVFisheye;
+  fisheye.width = 320;
+  fisheye.height = 240;
+  fisheye.params = {170, 170, 160, 120, 0.03, -0.01, 0.0, 0.0};
+  const sensors::Camera pinhole = mit::StreetCamera();
+  const std::vector<std::string> names = {"left", "right"};
+  const std::vector<sensors::Camera> cameras = {fisheye, pinhole};
+  const std::vector<Rigid3d> cam_from_rig = {
+      Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(-12 * M_PI / 180, Eigen::Vector3d::UnitY())),
+              Eigen::Vector3d(-0.35, 0.02, 0.05)),
+      Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(12 * M_PI / 180, Eigen::Vector3d::UnitY())),
+              Eigen::Vector3d(0.35, -0.02, -0.05))};
+  std::ofstream rig(Tmp("rig.yaml"));
+  rig.precision(17);
+  rig << "cameras:\n";
+  for (size_t k = 0; k < 2; ++k) {
+    registration::mi::WriteGrayPng(mit::StreetPhoto(cameras[k], cam_from_rig[k] * truth),
+                                   Tmp("f_" + names[k] + ".png"));
+    const Eigen::Quaterniond q = cam_from_rig[k].rotation;
+    const Eigen::Vector3d t = cam_from_rig[k].translation;
+    rig << "  - name: " << names[k] << "\n    model: " << cameras[k].ModelName() << "\n    width: "
+        << cameras[k].width << "\n    height: " << cameras[k].height << "\n    params: [";
+    for (size_t i = 0; i < cameras[k].params.size(); ++i) rig << (i ? ", " : "") << cameras[k].params[i];
+    rig << "]\n    cam_from_rig: {qvec_wxyz: [" << q.w() << ", " << q.x() << ", " << q.y() << ", " << q.z()
+        << "], tvec: [" << t.x() << ", " << t.y() << ", " << t.z() << "]}\n";
+  }
+  rig.close();
+  const Eigen::Matrix4d m = truth.ToMatrix4();
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) rows.push_back({m(r, 0), m(r, 1), m(r, 2), m(r, 3)});
+  std::ofstream(Tmp("pose.json")) << nlohmann::json{{"rig_from_lidar", rows}}.dump();
+
+  const std::string common = "register-mi --rig " + Tmp("rig.yaml") + " --lidar " + Tmp("street.ply") +
+                             " --initial " + Tmp("pose.json") + " -q";
+  const RunResult run = Mmba(common + " --image " + Tmp("f_{camera}.png") +
+                             " --perturb 0.1,-0.08,0.06,1,-0.8,0.9 --output " + Tmp("out.json"));
+  EXPECT_EQ(run.exit_code, 0) << run.output;
+  const nlohmann::json out = nlohmann::json::parse(std::ifstream(Tmp("out.json")));
+  EXPECT_EQ(out["status"], "ok") << out["reason"];
+  EXPECT_FALSE(out.contains("cam_from_lidar"));  // the pose is the rig's, not a camera's
+  ASSERT_EQ(out["rig_from_lidar"].size(), 4u);
+  Eigen::Matrix4d estimate;
+  for (int i = 0; i < 16; ++i) estimate(i / 4, i % 4) = out["rig_from_lidar"][i / 4][i % 4].get<double>();
+  const Eigen::Matrix3d dr = estimate.topLeftCorner<3, 3>() * m.topLeftCorner<3, 3>().transpose();
+  EXPECT_LT(Eigen::AngleAxisd(dr).angle() * 180 / M_PI, 0.2);
+  EXPECT_LT((estimate.topRightCorner<3, 1>() - m.topRightCorner<3, 1>()).norm(), 0.05);
+  ASSERT_EQ(out["cameras"].size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(out["cameras"][k]["name"], names[k]);
+    EXPECT_EQ(out["cameras"][k]["used"], true);
+    const Eigen::Matrix4d expected = cam_from_rig[k].ToMatrix4() * estimate;
+    for (int i = 0; i < 16; ++i) {
+      EXPECT_NEAR(out["cameras"][k]["cam_from_lidar"][i / 4][i % 4].get<double>(), expected(i / 4, i % 4), 1e-9);
+    }
+  }
+  ASSERT_EQ(out["pixel_offset_vs_reference"].size(), 2u);
+  for (const nlohmann::json& view : out["pixel_offset_vs_reference"]) {
+    EXPECT_GT(view["before"]["median_px"].get<double>(), 3.0) << view["view"];
+    EXPECT_LT(view["after"]["median_px"].get<double>(), 1.0) << view["view"];
+  }
+
+  // Bad input: exit 2, one error naming what is wrong, nothing written.
+  const RunResult no_pattern = Mmba(common + " --image " + Tmp("f_left.png") + " --output " + Tmp("bad1.json"));
+  EXPECT_EQ(no_pattern.exit_code, 2);
+  EXPECT_THAT(no_pattern.output, HasSubstr("{camera}"));
+  fs::copy_file(Tmp("f_left.png"), Tmp("g_left.png"));
+  const RunResult missing = Mmba(common + " --image " + Tmp("g_{camera}.png") + " --output " + Tmp("bad2.json"));
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_THAT(missing.output, HasSubstr("g_right.png"));
+  const RunResult both = Mmba(common + " --camera " + Tmp("rig.yaml") + " --image " + Tmp("f_{camera}.png") +
+                              " --output " + Tmp("bad3.json"));
+  EXPECT_EQ(both.exit_code, 2);
+  EXPECT_THAT(both.output, HasSubstr("--rig"));
+  std::ofstream(Tmp("bad_rig.yaml")) << "cameras:\n  - name: left\n    model: OPENCV_FISHEYE\n    width: 320\n";
+  const RunResult bad_rig = Mmba("register-mi --rig " + Tmp("bad_rig.yaml") + " --lidar " + Tmp("street.ply") +
+                                 " --image " + Tmp("f_{camera}.png") + " --initial " + Tmp("pose.json") +
+                                 " --output " + Tmp("bad4.json"));
+  EXPECT_EQ(bad_rig.exit_code, 2);
+  EXPECT_THAT(bad_rig.output, HasSubstr("cameras[0]"));
+  for (const char* name : {"bad1.json", "bad2.json", "bad3.json", "bad4.json"}) {
+    EXPECT_FALSE(fs::exists(Tmp(name))) << name;
+  }
 }
 
 TEST_F(CliTest, NonConvergenceIsExitThreeAndNoModel) {

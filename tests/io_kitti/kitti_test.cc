@@ -150,5 +150,51 @@ TEST(CameraYaml, BrokenFilesNameTheField) {
   expect("camera_bad_pose.yaml", "last row is (0 0 1 1)");
 }
 
+// The rig YAML of --rig: the simulator's/adjust's camera_rig schema, an optional start pose.
+TEST(RigYaml, ReadsCamerasAndTheStartPose) {
+  const std::string dir = std::filesystem::temp_directory_path().string();
+  const std::string good = dir + "/mmba_rig_ok.yaml";
+  const std::string camera =
+      "    model: OPENCV_FISHEYE\n    width: 320\n    height: 400\n"
+      "    params: [130, 130, 160, 200, 0.02, -0.005, 0.001, 0]\n";
+  std::ofstream(good) << "body_from_rig: {qvec_wxyz: [-0.5, 0.5, -0.5, 0.5], tvec: [0.2, 0, 2.3]}\n"
+                         "rig_from_lidar:\n  - [0, -1, 0, 0.1]\n  - [0, 0, -1, 0.2]\n  - [1, 0, 0, 0.3]\n  - [0, 0, 0, 1]\n"
+                         "cameras:\n  - name: cam0\n" << camera
+                      << "    cam_from_rig: {qvec_wxyz: [1, 0, 0, 0], tvec: [0, 0, -0.06]}\n"
+                         "    sigma: [0.1, 0.1, 0.1, 0.1, 0, 0, 0, 0]\n"
+                         "  - name: cam1\n" << camera
+                      << "    cam_from_rig: {qvec_wxyz: [0.8090169943749473, 0, -0.587785252292473, 0], tvec: [0, 0, -0.06]}\n";
+  const RigYaml rig = ReadRigYaml(good);
+  ASSERT_EQ(rig.cameras.size(), 2u);
+  EXPECT_EQ(rig.names, (std::vector<std::string>{"cam0", "cam1"}));
+  EXPECT_EQ(rig.cameras[1].width, 320u);
+  EXPECT_DOUBLE_EQ(rig.cameras[1].params[4], 0.02);
+  EXPECT_NEAR(rig.cam_from_rig[1].translation.z(), -0.06, 1e-12);
+  EXPECT_NEAR(rig.cam_from_rig[1].rotation.angularDistance(Eigen::Quaterniond::Identity()) * 180 / M_PI, 72.0, 1e-9);
+  ASSERT_TRUE(rig.rig_from_lidar.has_value());
+  EXPECT_NEAR(rig.rig_from_lidar->translation.y(), 0.2, 1e-12);
+
+  auto expect = [&](const std::string& text, const std::string& needle) {
+    const std::string path = dir + "/mmba_rig_bad.yaml";
+    std::ofstream(path) << text;
+    try {
+      ReadRigYaml(path);
+      ADD_FAILURE() << "no error for " << text;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+    std::filesystem::remove(path);
+  };
+  const std::string pose = "    cam_from_rig: {qvec_wxyz: [1, 0, 0, 0], tvec: [0, 0, 0]}\n";
+  expect("cameras:\n  - name: a\n" + camera + pose + "  - name: a\n" + camera + pose, "cameras[1].name");
+  expect("cameras:\n  - name: a\n" + camera, "cameras[0].cam_from_rig");
+  expect("cameras:\n  - name: a\n" + camera + pose + "    focal: 3\n", "focal");
+  expect("cameras:\n  - name: a\n    model: OPENCV_FISHEYE\n    width: 320\n    height: 400\n"
+         "    params: [130, 130, 160]\n" + pose, "cameras[0].params");
+  expect("rig_from_lidar: [1, 0, 0]\ncameras:\n  - name: a\n" + camera + pose, "rig_from_lidar");
+  expect("body_from_rig: {qvec_wxyz: [1, 0, 0, 0], tvec: [0, 0, 0]}\n", "cameras");
+  std::filesystem::remove(good);
+}
+
 }  // namespace
 }  // namespace mmba::io

@@ -6,6 +6,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -57,6 +58,24 @@ struct CameraYaml {
 CameraYaml ReadCameraYaml(const std::string& path);
 /// Writes the same schema atomically.
 void WriteCameraYaml(const CameraYaml& camera_yaml, const std::string& path);
+
+/// The rig YAML of a Ladybug-style multi-camera rig (calib/README.md, `camera_rig`), as
+/// `mmba register-mi --rig` reads it:
+///   body_from_rig: {qvec_wxyz: [...], tvec: [...]}    # optional here, not used
+///   rig_from_lidar: [16 numbers, 4×4 row-major]        # optional: the start pose
+///   cameras:
+///     - {name: cam0, model: OPENCV_FISHEYE, width: 320, height: 400, params: [...],
+///        cam_from_rig: {qvec_wxyz: [...], tvec: [...]}}
+/// The rig calibration `mmba adjust` writes (with `sigma`, `cam_from_rig_tvec_sigma`) reads too.
+struct RigYaml {
+  std::vector<std::string> names;
+  std::vector<sensors::Camera> cameras;
+  std::vector<Rigid3d> cam_from_rig;
+  std::optional<Rigid3d> rig_from_lidar;
+};
+/// Throws InputError naming the file, line, field and value on any problem (unknown keys,
+/// a camera without its model, size, params or cam_from_rig, duplicate names, no cameras).
+RigYaml ReadRigYaml(const std::string& path);
 
 /// A 4×4 row-major matrix from 16 numbers as a rigid transform; throws InputError (naming
 /// `where` and `field`) unless the last row is (0 0 0 1) and the rotation is orthonormal

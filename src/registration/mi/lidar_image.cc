@@ -294,6 +294,32 @@ __attribute__((target_clones("avx2", "default"))) void Splat(
 
 }  // namespace
 
+View MakeRigCameraView(const GrayImage& image, const sensors::Camera& camera,
+                       const Rigid3d& cam_from_rig, const std::string& source) {
+  View view = MakeViews(image, camera, ViewOptions(), source)[0];
+  view.view_from_cam = cam_from_rig.rotation.toRotationMatrix();
+  view.view_from_cam_t = cam_from_rig.translation;
+  return view;
+}
+
+size_t CountPointsInView(const LidarPoints& points, const View& view,
+                         const Rigid3d& cam_from_lidar, const RenderOptions& render,
+                         size_t limit) {
+  const ViewTransform transform = MakeTransform(view, cam_from_lidar);
+  const Eigen::Matrix3d rotation = transform.rotation.cast<double>();
+  const Eigen::Vector3d translation = transform.translation.cast<double>();
+  size_t seen = 0;
+  for (size_t i = 0; i < points.size() && seen < limit; ++i) {
+    const Eigen::Vector3d p = rotation * points.points_in_lidar[i].cast<double>() + translation;
+    const double range = p.norm();
+    if (range < render.min_range_m || range > render.max_range_m) continue;
+    const std::optional<Eigen::Vector2d> xy = view.camera.ImgFromCam(p);
+    seen += xy && (*xy)[0] >= 0 && (*xy)[1] >= 0 && (*xy)[0] < view.camera.width &&
+            (*xy)[1] < view.camera.height;
+  }
+  return seen;
+}
+
 std::vector<View> MakeViews(const GrayImage& image, const sensors::Camera& camera,
                             const ViewOptions& options, const std::string& source) {
   std::string error;

@@ -111,6 +111,20 @@ struct ViewOptions {
 std::vector<View> MakeViews(const GrayImage& image, const sensors::Camera& camera,
                             const ViewOptions& options, const std::string& source);
 
+/// A rig camera's image as a view of the rig's pose (rig_from_lidar): the image through its
+/// own camera, p_view = cam_from_rig · p_rig, so that one registration corrects the rig's
+/// pose from all its cameras, without a stitched panorama and its parallax. InputError naming
+/// `source` when the image's size is not the camera's.
+View MakeRigCameraView(const GrayImage& image, const sensors::Camera& camera,
+                       const Rigid3d& cam_from_rig, const std::string& source);
+
+/// How many points (counting stops at `limit`) lie in front of the view, within the render's
+/// range and inside its image at `cam_from_lidar`, without an occlusion test: whether a view
+/// sees the cloud at all.
+size_t CountPointsInView(const LidarPoints& points, const View& view,
+                         const Rigid3d& cam_from_lidar, const RenderOptions& render,
+                         size_t limit);
+
 /// Headings (degrees right of the panorama's centre column) for `count` perspective cuts that
 /// see the most LiDAR: `candidates` headings evenly spaced round the panorama, each scored by
 /// the fraction of its cut (options' size and field of view, rendered at a quarter of the

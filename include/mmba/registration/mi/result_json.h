@@ -13,10 +13,10 @@
 
 namespace mmba::registration::mi {
 
-/// 16 numbers, the 4×4 matrix row-major.
+/// The 4×4 matrix as 4 rows of 4 numbers.
 nlohmann::json PoseToJson(const Rigid3d& pose);
-/// A 4×4 matrix as written by PoseToJson (16 numbers, row-major) or as four rows of four
-/// numbers ([[r00, r01, r02, t0], …], e.g. numpy's tolist()). False, with `problem` saying what
+/// A 4×4 matrix as 16 numbers (row-major) or as four rows of four numbers
+/// ([[r00, r01, r02, t0], …], as PoseToJson writes it and numpy's tolist()). False, with `problem` saying what
 /// was found, when it is neither.
 bool Matrix4FromJson(const nlohmann::json& value, double row_major[16], std::string* problem);
 /// {tx, ty, tz [m], roll, pitch, yaw [deg]}.
