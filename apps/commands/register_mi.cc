@@ -264,22 +264,21 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     }
   } else {
     for (const auto& [image_path, lidar_path] : pairs) images.push_back(mi::ReadGrayImage(image_path));
-  }
-  if (rig_mode) {
-  } else if (!args.kitti_calib.empty()) {
-    const io::KittiCalibration calibration = io::ReadKittiCalibration(args.kitti_calib);
-    const io::KittiCameraPose kitti =
-        io::KittiCamera(calibration, args.kitti_camera, images[0].width, images[0].height,
-                        args.kitti_calib);
-    camera = kitti.camera;
-    cam_from_lidar_calibration = kitti.cam_from_lidar;
-    have_calibration_pose = true;
-  } else {
-    const io::CameraYaml camera_yaml = io::ReadCameraYaml(args.camera);
-    camera = camera_yaml.camera;
-    if (camera_yaml.cam_from_lidar) {
-      cam_from_lidar_calibration = *camera_yaml.cam_from_lidar;
+    if (!args.kitti_calib.empty()) {
+      const io::KittiCalibration calibration = io::ReadKittiCalibration(args.kitti_calib);
+      const io::KittiCameraPose kitti =
+          io::KittiCamera(calibration, args.kitti_camera, images[0].width, images[0].height,
+                          args.kitti_calib);
+      camera = kitti.camera;
+      cam_from_lidar_calibration = kitti.cam_from_lidar;
       have_calibration_pose = true;
+    } else {
+      const io::CameraYaml camera_yaml = io::ReadCameraYaml(args.camera);
+      camera = camera_yaml.camera;
+      if (camera_yaml.cam_from_lidar) {
+        cam_from_lidar_calibration = *camera_yaml.cam_from_lidar;
+        have_calibration_pose = true;
+      }
     }
   }
   for (size_t i = 0; i < images.size(); ++i) {  // (none with --rig: checked above)
@@ -522,7 +521,8 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
                   "a pattern with {camera}; the pose is rig_from_lidar");
   sub->add_option("--kitti-camera", args->kitti_camera, "KITTI camera index 0..3")
       ->capture_default_str();
-  sub->add_option("--initial", args->initial, "POSE.json with cam_from_lidar (4x4 row-major)");
+  sub->add_option("--initial", args->initial,
+                  "POSE.json with cam_from_lidar (with --rig: rig_from_lidar), 4x4 row-major");
   sub->add_option("--metric", args->metric, "mi | nmi | nid")->capture_default_str();
   sub->add_option("--representation", args->representation, "intensity | points | depth")
       ->capture_default_str();
