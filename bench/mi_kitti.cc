@@ -117,6 +117,12 @@ int main(int argc, char** argv) {
   const io::KittiCameraPose kitti = io::KittiCamera(
       io::ReadKittiCalibration(dir + "/calib/000000.txt"), 2, image.width, image.height);
   LidarPoints points = PrepareLidarPoints(io::ReadPointCloud(dir + "/velodyne/000000.bin"));
+  if (const char* v = std::getenv("MI_SURFACE_CLASSES"); v != nullptr && std::atof(v) > 0) {
+    // register-mi --surface-classes true --surface-voxel-m V (MI_SURFACE_CLASSES=V).
+    EncodeSurfaceClasses(SurfaceClasses(points.points_in_lidar, Eigen::Vector3f::UnitZ(),
+                                        static_cast<float>(std::atof(v))),
+                         &points);
+  }
   if (const char* mask = std::getenv("MI_MASK")) {
     // Diagnostic: drop the points that project (with the calibration) into the image box
     // "x0,y0,x1,y1" (e.g. a moving object), to see whether it pulls the metric.

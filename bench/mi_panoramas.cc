@@ -298,6 +298,12 @@ int main(int argc, char** argv) {
                                      : (dir / "truth" / "mobile_lidar_true.ply").string();
   Timer setup;
   LidarPoints points = PrepareLidarPoints(io::ReadPointCloud(cloud_path));
+  if (const char* v = std::getenv("MI_SURFACE_CLASSES"); v != nullptr && std::atof(v) > 0) {
+    // register-mi --surface-classes true --surface-voxel-m V (MI_SURFACE_CLASSES=V).
+    EncodeSurfaceClasses(SurfaceClasses(points.points_in_lidar, Eigen::Vector3f::UnitZ(),
+                                        static_cast<float>(std::atof(v))),
+                         &points);
+  }
   const std::vector<TrueView> views = ReadViews(dir, kinds);
   std::printf("%s: %zu points, %zu views, setup %.1f s\n", cloud_path.c_str(), points.size(),
               views.size(), setup.ElapsedSeconds());

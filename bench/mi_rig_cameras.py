@@ -12,7 +12,7 @@ points). A registration is "right" when every camera's median offset is below 1 
 
 Usage:
   /usr/bin/python3 bench/mi_rig_cameras.py MMBA SIM OUTDIR [--calib nominal|true] [--draws N]
-      [--seed S] [--frames frame_000,frame_001] [--summarize]
+      [--seed S] [--frames frame_000,frame_001] [--extra "OPTIONS"] [--summarize]
 --calib nominal: SIM/calib/ladybug.yaml (design intrinsics, factory cam_from_rig: what a user
 has); true: the simulator's true intrinsics and cam_from_rig from truth/truth.json.
 Writes OUTDIR/runs.csv and OUTDIR/<frame>_<size>_<draw>.json and prints a summary.
@@ -52,6 +52,7 @@ def main():
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--frames", default="")
     parser.add_argument("--summarize", action="store_true", help="only summarise OUTDIR/runs.csv")
+    parser.add_argument("--extra", default="", help="more register-mi options, space-separated")
     args = parser.parse_args()
     if args.summarize:
         summarize(list(csv.DictReader(open(os.path.join(args.out, "runs.csv")))))
@@ -81,7 +82,7 @@ def main():
                 command = [args.mmba, "register-mi", "--rig", rig, "--lidar", cloud,
                            "--image", os.path.join(args.sim, "images", "rig", name + "_{camera}.png"),
                            "--initial", pose, "--perturb", ",".join("%.6f" % v for v in p),
-                           "--output", out, "-q"]
+                           "--output", out, "-q"] + args.extra.split()
                 start = time.time()
                 run = subprocess.run(command, capture_output=True, text=True)
                 wall = time.time() - start

@@ -69,6 +69,8 @@ struct RegisterMiArgs {
   double point_radius_m = 0.03;
   int max_point_radius_px = 2;
   double max_range_m = 200.0;
+  bool surface_classes = false;
+  double surface_voxel_m = 0.5;
   std::vector<double> perturb;
   std::string probe;
   int probe_level = 0;
@@ -342,6 +344,17 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                                             "intensity was asked for (use points or depth)");
     }
     clouds.push_back(mi::PrepareLidarPoints(cloud));
+    if (args.surface_classes && options.render.representation == mi::Representation::kIntensity) {
+      // MI conditioned on the surface: ground (a plane within 45° of the cloud's z axis) and
+      // the rest get one half of the LiDAR axis each (bench/RESULTS.md "Surface classes").
+      const std::vector<uint8_t> classes =
+          mi::SurfaceClasses(clouds.back().points_in_lidar, Eigen::Vector3f::UnitZ(),
+                             static_cast<float>(args.surface_voxel_m));
+      mi::EncodeSurfaceClasses(classes, &clouds.back());
+      const size_t horizontal = static_cast<size_t>(std::count(classes.begin(), classes.end(), 0));
+      spdlog::info("{}: surface classes: {} points on horizontal planes, {} others", lidar_path,
+                   horizontal, classes.size() - horizontal);
+    }
     spdlog::info("read {}: {} points{}", lidar_path, cloud.size(),
                  cloud.has_intensity() ? " with intensity" : "");
   }
@@ -421,7 +434,9 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"all_checks", args.all_checks},         {"point_samples", args.point_samples},
                      {"sample_block_px", args.sample_block_px},
                      {"covariance_pixel_floor", args.covariance_pixel_floor},
-                     {"covariance_per_point_samples", options.covariance_per_point_samples}};
+                     {"covariance_per_point_samples", options.covariance_per_point_samples},
+                     {"surface_classes", args.surface_classes},
+                     {"surface_voxel_m", args.surface_voxel_m}};
   if (rig_mode) {
     // The pose is the rig's: rig_from_lidar (the correction about the rig's origin), and each
     // camera's own cam_from_lidar = cam_from_rig · rig_from_lidar.
@@ -641,6 +656,14 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
                   "Point footprint: radius = this * f / range pixels")
       ->capture_default_str();
   sub->add_option("--max-point-radius-px", args->max_point_radius_px, "Footprint cap, px")
+      ->capture_default_str();
+  sub->add_option("--surface-classes", args->surface_classes,
+                  "MI conditioned on the surface: horizontal planes (normal within 45 deg of the "
+                  "cloud's z axis) and the rest get separate halves of the LiDAR axis (intensity)")
+      ->capture_default_str();
+  sub->add_option("--surface-voxel-m", args->surface_voxel_m,
+                  "Voxel of the local planes of --surface-classes, m")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   sub->add_option("--max-range-m", args->max_range_m, "Ignore points farther than this")
       ->capture_default_str();

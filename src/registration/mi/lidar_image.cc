@@ -6,7 +6,9 @@
 #include <limits>
 #include <thread>
 #include <type_traits>
+#include <unordered_map>
 
+#include <Eigen/Eigenvalues>
 #include <glog/logging.h>
 
 #include "mmba/core/error.h"
@@ -117,6 +119,70 @@ LidarPoints PrepareLidarPoints(const io::PointCloud& cloud) {
     }
   }
   return prepared;
+}
+
+std::vector<uint8_t> SurfaceClasses(const std::vector<Eigen::Vector3f>& points,
+                                    const Eigen::Vector3f& up, float voxel_m) {
+  CHECK(voxel_m > 0.f) << "voxel_m " << voxel_m;
+  const Eigen::Vector3d up_unit = up.normalized().cast<double>();
+  // Per point, the plane of its voxel at the finest of three scales (voxel_m / 2, voxel_m,
+  // 2 voxel_m) that holds a clear plane: fine voxels keep the ground and a wall's foot apart,
+  // coarse ones give sparse far ground enough points. 255 = no clear plane yet.
+  std::vector<uint8_t> classes(points.size(), 255);
+  struct Moments {
+    double n = 0;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+  };
+  std::vector<uint64_t> keys(points.size());
+  for (const float size : {0.5f * voxel_m, voxel_m, 2.f * voxel_m}) {
+    // Voxel keys: 21 bits per axis (±1,048,576 voxels; farther points share voxels by
+    // wrap-around, which only mixes their statistics).
+    std::unordered_map<uint64_t, Moments> voxels;
+    voxels.reserve(points.size() / 8 + 16);
+    for (size_t i = 0; i < points.size(); ++i) {
+      if (classes[i] != 255) continue;
+      const Eigen::Vector3f cell = (points[i] / size).array().floor().matrix();
+      uint64_t key = 0;
+      for (int a = 0; a < 3; ++a) key = (key << 21) | (static_cast<uint64_t>(static_cast<int64_t>(cell[a])) & 0x1FFFFF);
+      keys[i] = key;
+      Moments& m = voxels[key];
+      // Relative to the voxel's corner: small numbers, so the covariance keeps its digits.
+      const Eigen::Vector3d q = (points[i] - cell * size).cast<double>();
+      m.n += 1;
+      m.sum += q;
+      m.outer += q * q.transpose();
+    }
+    std::unordered_map<uint64_t, uint8_t> voxel_class;
+    voxel_class.reserve(voxels.size());
+    for (const auto& [key, m] : voxels) {
+      uint8_t cls = 255;
+      if (m.n >= 6) {
+        const Eigen::Vector3d mean = m.sum / m.n;
+        const Eigen::Matrix3d covariance = m.outer / m.n - mean * mean.transpose();
+        Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen;
+        eigen.computeDirect(covariance);
+        const Eigen::Vector3d l = eigen.eigenvalues();  // ascending
+        if (l[1] >= 0.1 * l[2] && l[0] <= 0.25 * l[1]) {
+          cls = std::abs(eigen.eigenvectors().col(0).dot(up_unit)) >= std::cos(M_PI / 4) ? 0 : 1;
+        }
+      }
+      voxel_class.emplace(key, cls);
+    }
+    for (size_t i = 0; i < points.size(); ++i) {
+      if (classes[i] == 255) classes[i] = voxel_class.at(keys[i]);
+    }
+  }
+  for (uint8_t& c : classes) c = c == 255 ? 1 : c;
+  return classes;
+}
+
+void EncodeSurfaceClasses(const std::vector<uint8_t>& classes, LidarPoints* points) {
+  CHECK(points->has_intensity() && classes.size() == points->size())
+      << "classes " << classes.size() << " for " << points->size() << " points";
+  for (size_t i = 0; i < classes.size(); ++i) {
+    points->intensity01[i] = 0.5f * (static_cast<float>(classes[i] != 0) + std::min(points->intensity01[i], 0.999f));
+  }
 }
 
 namespace {

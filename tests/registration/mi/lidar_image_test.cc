@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "synthetic_scene.h"
+
 #include "mmba/core/error.h"
 
 namespace mmba::registration::mi {
@@ -202,7 +204,7 @@ TEST(LidarImage, ZBufferEqualsTheBruteForceMinimumOverFootprints) {
       EXPECT_GT(radii[radius], 10) << "radius " << radius << " barely exercised";
     }
     for (bool two_threads : {false, true}) {
-      SCOPED_TRACE(testing::Message() << "max radius " << max_radius << ", two threads "
+      SCOPED_TRACE(::testing::Message() << "max radius " << max_radius << ", two threads "
                                       << two_threads);
       LidarImage image;
       RenderLidarImage(points, ImageView(camera), Rigid3d(), options, &image, two_threads);
@@ -373,6 +375,46 @@ TEST(LidarImage, IntensityIsStretchedBetweenPercentiles) {
   EXPECT_NEAR(points.intensity01[500], 0.5, 0.02);  // not crushed by the outlier
   cloud.intensity.clear();
   EXPECT_FALSE(PrepareLidarPoints(cloud).has_intensity());
+}
+
+// Surface classes: the synthetic street's ground (z = −1.8) is horizontal, its façades, end
+// wall and boxes' fronts are not; a tilted frame (up not z) follows `up`. The encoding puts
+// each class in its own half of [0, 1].
+TEST(SurfaceClasses, GroundAgainstWalls) {
+  const io::PointCloud cloud = testing::StreetCloud(0.06);
+  const std::vector<uint8_t> classes = SurfaceClasses(
+      std::vector<Eigen::Vector3f>(PrepareLidarPoints(cloud).points_in_lidar), Eigen::Vector3f::UnitZ(), 0.5f);
+  ASSERT_EQ(classes.size(), cloud.size());
+  size_t ground = 0, ground_right = 0, other = 0, other_right = 0;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    // Ground points more than 0.5 m from a wall's foot, wall points more than 0.5 m above it
+    // (a voxel at a foot holds both, and is neither plane).
+    const Eigen::Vector3d& p = cloud.points[i];
+    if (std::abs(p.z() + 1.8) < 0.02 && std::abs(std::abs(p.y()) - 6.0) > 0.5 && p.x() < 27.5 &&
+        !(p.x() > 7.5 && p.x() < 8.5) && !(p.x() > 13.5 && p.x() < 14.5)) {
+      ++ground;
+      ground_right += classes[i] == 0;
+    } else if (p.z() > -1.2) {
+      ++other;
+      other_right += classes[i] == 1;
+    }
+  }
+  ASSERT_GT(ground, 1000u);
+  ASSERT_GT(other, 1000u);
+  EXPECT_GT(ground_right, 0.98 * ground);
+  EXPECT_GT(other_right, 0.95 * other);
+  // The same cloud turned 90° about x: the ground is now a wall of the frame whose up is y.
+  std::vector<Eigen::Vector3f> turned;
+  for (const Eigen::Vector3d& p : cloud.points) turned.emplace_back(p.x(), -p.z(), p.y());
+  EXPECT_EQ(SurfaceClasses(turned, Eigen::Vector3f::UnitY(), 0.5f), classes);
+
+  LidarPoints points = PrepareLidarPoints(cloud);
+  const std::vector<float> before = points.intensity01;
+  EncodeSurfaceClasses(classes, &points);
+  for (size_t i = 0; i < classes.size(); i += 97) {
+    EXPECT_NEAR(points.intensity01[i], 0.5f * (classes[i] + std::min(before[i], 0.999f)), 1e-6f);
+    EXPECT_EQ(points.intensity01[i] >= 0.5f, classes[i] == 1);
+  }
 }
 
 }  // namespace

@@ -44,6 +44,22 @@ struct LidarPoints {
 };
 LidarPoints PrepareLidarPoints(const io::PointCloud& cloud);
 
+/// Surface classes of a cloud, for MI conditioned on the surface (bench/RESULTS.md "A rig
+/// through its own cameras"): 0 = a horizontal surface (the local plane's normal within 45° of
+/// `up`), 1 = anything else (walls, and neighbourhoods with no clear plane). The plane is that of
+/// the point's cubic voxel at the finest of voxel_m / 2, voxel_m and 2 voxel_m that holds one
+/// (PCA; a plane needs ≥ 6 points, a second eigenvalue ≥ 10 % of the first and a smallest
+/// ≤ 25 % of the second). Where two kinds of surface relate to
+/// the photo differently (ground dark in the LiDAR at grazing incidence but bright in the photo,
+/// walls the other way round), the MI of the mixture can peak off the truth while each class
+/// alone peaks at it.
+std::vector<uint8_t> SurfaceClasses(const std::vector<Eigen::Vector3f>& points,
+                                    const Eigen::Vector3f& up, float voxel_m);
+/// Splits the LiDAR value's range by class, intensity01 ← (class + intensity01) / 2, so that
+/// the joint histogram's LiDAR axis has one half per class and its MI is
+/// I(class; photo) + I(intensity; photo | class). Needs intensity and one class per point.
+void EncodeSurfaceClasses(const std::vector<uint8_t>& classes, LidarPoints* points);
+
 /// One rendered view: a camera (any mmba model) and the rotation of this view relative to
 /// the frame's image camera (identity for the image itself; a perspective cut of a panorama
 /// is rotated). The grey image is the part of the photo/panorama seen by this view.
