@@ -356,6 +356,9 @@ int main(int argc, char** argv) {
     std::sscanf(v, "%lf,%lf", &options.render.min_range_m, &options.render.max_range_m);
   }
   if (const char* v = std::getenv("MI_THREADS")) options.threads = std::atoi(v);
+  if (const char* v = std::getenv("MI_SURFACE_CLASSES"); v != nullptr && std::atof(v) > 0) {
+    options.metric.lidar_classes = 2;
+  }
   // MI_ALL_CHECKS=1: every acceptance check measured also after one failed (as before 1 Dec, night).
   if (const char* v = std::getenv("MI_ALL_CHECKS")) options.measure_all_checks = std::atoi(v) != 0;
   if (const char* v = std::getenv("MI_RESTART_OFFSET")) {  // "m,deg"

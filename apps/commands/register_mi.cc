@@ -175,6 +175,9 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.render.point_radius_m = args.point_radius_m;
   options.render.max_point_radius_px = args.max_point_radius_px;
   options.render.max_range_m = args.max_range_m;
+  if (args.surface_classes && options.render.representation == mi::Representation::kIntensity) {
+    options.metric.lidar_classes = 2;
+  }
   if (options.metric.region == mi::Region::kOverlap &&
       options.render.representation == mi::Representation::kPoints) {
     throw InputError::Message("--representation", "points with --region overlap has a constant "
@@ -345,8 +348,8 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     }
     clouds.push_back(mi::PrepareLidarPoints(cloud));
     if (args.surface_classes && options.render.representation == mi::Representation::kIntensity) {
-      // MI conditioned on the surface: ground (a plane within 45° of the cloud's z axis) and
-      // the rest get one half of the LiDAR axis each (bench/RESULTS.md "Surface classes").
+      // The metric conditioned on the surface: ground (a plane within 45° of the cloud's z
+      // axis) against the rest (bench/RESULTS.md "Surface classes").
       const std::vector<uint8_t> classes =
           mi::SurfaceClasses(clouds.back().points_in_lidar, Eigen::Vector3f::UnitZ(),
                              static_cast<float>(args.surface_voxel_m));
@@ -658,8 +661,8 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
   sub->add_option("--max-point-radius-px", args->max_point_radius_px, "Footprint cap, px")
       ->capture_default_str();
   sub->add_option("--surface-classes", args->surface_classes,
-                  "MI conditioned on the surface: horizontal planes (normal within 45 deg of the "
-                  "cloud's z axis) and the rest get separate halves of the LiDAR axis (intensity)")
+                  "Metric conditioned on the surface: horizontal planes (normal within 45 deg of the "
+                  "cloud's z axis) against the rest, one joint histogram each (intensity)")
       ->capture_default_str();
   sub->add_option("--surface-voxel-m", args->surface_voxel_m,
                   "Voxel of the local planes of --surface-classes, m")

@@ -181,7 +181,8 @@ void EncodeSurfaceClasses(const std::vector<uint8_t>& classes, LidarPoints* poin
   CHECK(points->has_intensity() && classes.size() == points->size())
       << "classes " << classes.size() << " for " << points->size() << " points";
   for (size_t i = 0; i < classes.size(); ++i) {
-    points->intensity01[i] = 0.5f * (static_cast<float>(classes[i] != 0) + std::min(points->intensity01[i], 0.999f));
+    const float value = 0.4f * std::clamp(points->intensity01[i], 0.f, 1.f);
+    points->intensity01[i] = classes[i] != 0 ? 0.6f + value : value;
   }
 }
 

@@ -67,6 +67,10 @@ bool MetricOptions::Check(std::string* error) const {
     *error = "bins " + std::to_string(bins) + " must be in 4..1024";
     return false;
   }
+  if (lidar_classes != 1 && lidar_classes != 2) {
+    *error = "lidar_classes " + std::to_string(lidar_classes) + " must be 1 or 2";
+    return false;
+  }
   if (smoothing == Smoothing::kParzen && !(parzen_sigma_bins > 0 && parzen_sigma_bins < 32)) {
     *error = "parzen_sigma_bins " + std::to_string(parzen_sigma_bins) + " must be in (0, 32)";
     return false;
@@ -570,6 +574,46 @@ MetricValue JointHistogram::Evaluate() const {
         joint[static_cast<size_t>(x) * bins + y] = v;
       }
     }
+  }
+  if (options_.lidar_classes == 2) {
+    // Conditioned on the class: the LiDAR rows of values < 0.5 (class 0), of values ≥ 0.5
+    // (class 1) and, in whole-image mode, the empty row each form their own histogram.
+    const int split = first + static_cast<int>(std::floor(0.5 * (bins - 1))) + 1;
+    std::vector<std::pair<int, int>> blocks = {{first, split}, {split, lidar_bins}};
+    if (whole) blocks.push_back({0, 1});
+    double all = 0;
+    for (double c : joint) all += c;
+    result.nid = 0;  // a sum over the classes below
+    for (const auto& [begin, end] : blocks) {
+      std::vector<double> block(joint.begin() + static_cast<size_t>(begin) * bins,
+                                joint.begin() + static_cast<size_t>(end) * bins);
+      std::vector<double> lidar_marginal(end - begin, 0.0), photo_marginal(bins, 0.0);
+      double total = 0;
+      for (int x = 0; x < end - begin; ++x) {
+        for (int y = 0; y < bins; ++y) {
+          const double c = block[static_cast<size_t>(x) * bins + y];
+          lidar_marginal[x] += c;
+          photo_marginal[y] += c;
+          total += c;
+        }
+      }
+      if (!(total > 0) || !(all > 0)) continue;
+      const double weight = total / all;
+      const double hx = Entropy(lidar_marginal, total);
+      const double hy = Entropy(photo_marginal, total);
+      const double hxy = Entropy(block, total);
+      const double mi = hx + hy - hxy;
+      result.joint_entropy += weight * hxy;
+      result.mi += weight * mi;
+      result.nmi += weight * (hxy > 0 ? (hx + hy) / hxy : 1.0);
+      result.nid += weight * (hxy > 0 ? 1.0 - mi / hxy : 1.0);
+    }
+    switch (options_.kind) {
+      case MetricKind::kMi: result.value = result.mi; break;
+      case MetricKind::kNmi: result.value = result.nmi; break;
+      case MetricKind::kNid: result.value = -result.nid; break;
+    }
+    return result;
   }
   std::vector<double> lidar_marginal(lidar_bins, 0.0), photo_marginal(bins, 0.0);
   double total = 0;

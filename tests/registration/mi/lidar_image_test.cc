@@ -379,7 +379,7 @@ TEST(LidarImage, IntensityIsStretchedBetweenPercentiles) {
 
 // Surface classes: the synthetic street's ground (z = −1.8) is horizontal, its façades, end
 // wall and boxes' fronts are not; a tilted frame (up not z) follows `up`. The encoding puts
-// each class in its own half of [0, 1].
+// class 0 in [0, 0.4] and class 1 in [0.6, 1].
 TEST(SurfaceClasses, GroundAgainstWalls) {
   const io::PointCloud cloud = testing::StreetCloud(0.06);
   const std::vector<uint8_t> classes = SurfaceClasses(
@@ -412,7 +412,7 @@ TEST(SurfaceClasses, GroundAgainstWalls) {
   const std::vector<float> before = points.intensity01;
   EncodeSurfaceClasses(classes, &points);
   for (size_t i = 0; i < classes.size(); i += 97) {
-    EXPECT_NEAR(points.intensity01[i], 0.5f * (classes[i] + std::min(before[i], 0.999f)), 1e-6f);
+    EXPECT_NEAR(points.intensity01[i], (classes[i] ? 0.6f : 0.f) + 0.4f * before[i], 1e-6f);
     EXPECT_EQ(points.intensity01[i] >= 0.5f, classes[i] == 1);
   }
 }

@@ -55,9 +55,10 @@ LidarPoints PrepareLidarPoints(const io::PointCloud& cloud);
 /// alone peaks at it.
 std::vector<uint8_t> SurfaceClasses(const std::vector<Eigen::Vector3f>& points,
                                     const Eigen::Vector3f& up, float voxel_m);
-/// Splits the LiDAR value's range by class, intensity01 ← (class + intensity01) / 2, so that
-/// the joint histogram's LiDAR axis has one half per class and its MI is
-/// I(class; photo) + I(intensity; photo | class). Needs intensity and one class per point.
+/// Splits the LiDAR value's range by class: class 0 to 0.4·intensity01, class 1 to
+/// 0.6 + 0.4·intensity01 (a gap wider than the B-spline histogram's support at 64 bins), for
+/// MetricOptions::lidar_classes = 2, which conditions the metric on the class. Needs
+/// intensity and one class per point.
 void EncodeSurfaceClasses(const std::vector<uint8_t>& classes, LidarPoints* points);
 
 /// One rendered view: a camera (any mmba model) and the rotation of this view relative to

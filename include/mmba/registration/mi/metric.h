@@ -40,6 +40,12 @@ struct MetricOptions {
   Smoothing smoothing = Smoothing::kBSpline;
   double parzen_sigma_bins = 1.0;
   Region region = Region::kOverlap;  ///< measured better on KITTI (bench/RESULTS.md)
+  /// 2: the LiDAR values carry a surface class (EncodeSurfaceClasses: class 0 in [0, 0.4],
+  /// class 1 in [0.6, 1]) and the metric is conditioned on it: Σ_c p(c)·metric_c, each
+  /// metric_c from the joint histogram's LiDAR rows of class c alone (values below / above
+  /// 0.5), so that I(intensity; photo | class) is measured, not the MI of the classes' mixture
+  /// (bench/RESULTS.md "Surface classes"). 1 = the plain metric.
+  int lidar_classes = 1;
   bool Check(std::string* error) const;
 };
 
