@@ -50,7 +50,6 @@ using internal::PhotoBlock;
 using internal::SphereBlock;
 using internal::RigBlock;
 using internal::AdjustFailure;
-using internal::ReadPose;
 using internal::InterpolateTrajectory;
 
 /// A stage's result: logged now and listed in the report.
@@ -509,48 +508,21 @@ void LoadRig(JointState* s) {
   RigBlock rig;
   rig.config = &config;
   // Calibration: body_from_rig (lever arm, boresight) and the cameras.
-  const io::YamlReader r(config.calibration);
-  const YAML::Node root = r.Load("rig calibration");
-  bool have_body = false;
+  const io::RigYaml calibration = io::ReadRigYaml(config.calibration);
+  if (!calibration.body_from_rig) {
+    throw InputError(config.calibration, 1, "body_from_rig", "nothing", "the key to be present");
+  }
+  rig.body_from_rig = *calibration.body_from_rig;
   uint64_t next_camera = 2000001;
-  r.Map(root, "", {{"body_from_rig", [&](const YAML::Node& n, const std::string& f) {
-                      rig.body_from_rig = ReadPose(r, n, f);
-                      have_body = true;
-                    }},
-                   {"cameras", [&](const YAML::Node& n, const std::string& f) {
-                      if (!n.IsSequence() || n.size() == 0) r.Fail(n, f, "a list of cameras", io::YamlReader::Kind(n));
-                      for (size_t i = 0; i < n.size(); ++i) {
-                        const std::string fi = f + "[" + std::to_string(i) + "]";
-                        sensors::Camera camera;
-                        std::string name, model;
-                        Rigid3d cam_from_rig;
-                        r.Map(n[i], fi, {{"name", [&](const YAML::Node& v, const std::string& g) { name = r.String(v, g); }},
-                                         {"model", [&](const YAML::Node& v, const std::string& g) {
-                                            model = r.String(v, g);
-                                            camera.model_id = sensors::CameraModelFromName(model);
-                                            if (camera.model_id == sensors::CameraModelId::kInvalid) {
-                                              r.Fail(v, g, "one of " + sensors::KnownCameraModelNames(), model);
-                                            }
-                                          }},
-                                         {"width", [&](const YAML::Node& v, const std::string& g) { camera.width = r.Integer(v, g); }},
-                                         {"height", [&](const YAML::Node& v, const std::string& g) { camera.height = r.Integer(v, g); }},
-                                         {"params", [&](const YAML::Node& v, const std::string& g) { camera.params = r.NumberList(v, g); }},
-                                         {"cam_from_rig", [&](const YAML::Node& v, const std::string& g) { cam_from_rig = ReadPose(r, v, g); }}});
-                        r.Require(n[i], fi, {"name", "model", "width", "height", "params", "cam_from_rig"});
-                        if (static_cast<int>(camera.params.size()) != sensors::CameraModelNumParams(camera.model_id)) {
-                          r.Fail(n[i]["params"], fi + ".params", std::to_string(sensors::CameraModelNumParams(camera.model_id)) +
-                                 " numbers for " + model, std::to_string(camera.params.size()) + " numbers");
-                        }
-                        camera.camera_id = CameraId(next_camera++);
-                        s->scene.AddCamera(camera);
-                        rig.cameras.push_back(camera.camera_id);
-                        rig.camera_names.push_back(name);
-                        rig.cam_from_rig.push_back(cam_from_rig);
-                        rig.initial_params.push_back(camera.params);
-                      }
-                    }},
-                   {"beams", [](const YAML::Node&, const std::string&) {}}});
-  if (!have_body) r.Fail(root, "body_from_rig", "the key to be present", "nothing");
+  for (size_t k = 0; k < calibration.cameras.size(); ++k) {
+    sensors::Camera camera = calibration.cameras[k];
+    camera.camera_id = CameraId(next_camera++);
+    s->scene.AddCamera(camera);
+    rig.cameras.push_back(camera.camera_id);
+    rig.camera_names.push_back(calibration.names[k]);
+    rig.cam_from_rig.push_back(calibration.cam_from_rig[k]);
+    rig.initial_params.push_back(camera.params);
+  }
   rig.cam_from_rig_initial = rig.cam_from_rig;
   // Frames and their GNSS/INS pose priors.
   const std::vector<std::pair<double, Rigid3d>> trajectory = internal::ReadTrajectory(config.trajectory);

@@ -208,8 +208,6 @@ class AdjustFailure : public std::runtime_error {
   std::string status_;
 };
 
-/// A pose {qvec_wxyz, tvec} of a calibration YAML.
-Rigid3d ReadPose(const io::YamlReader& r, const YAML::Node& n, const std::string& field);
 /// A GNSS/INS trajectory CSV time_s,x_east_m,y_north_m,z_up_m,qw,qx,qy,qz (world_from_body),
 /// times increasing, at least two rows.
 std::vector<std::pair<double, Rigid3d>> ReadTrajectory(const std::string& path);

@@ -11,18 +11,9 @@
 #include "internal.h"
 #include "mmba/core/error.h"
 #include "mmba/io/csv_table.h"
+#include "mmba/io/kitti.h"
 
 namespace mmba::adjust::internal {
-
-Rigid3d ReadPose(const io::YamlReader& r, const YAML::Node& n, const std::string& f) {
-  std::vector<double> q, t;
-  r.Map(n, f, {{"qvec_wxyz", [&](const YAML::Node& v, const std::string& g) { q = r.NumberList(v, g); }},
-               {"tvec", [&](const YAML::Node& v, const std::string& g) { t = r.NumberList(v, g); }}});
-  if (q.size() != 4 || t.size() != 3) r.Fail(n, f, "{qvec_wxyz: [4 numbers], tvec: [3 numbers]}", "other sizes");
-  const Eigen::Quaterniond rotation(q[0], q[1], q[2], q[3]);
-  if (std::abs(rotation.norm() - 1.0) > 1e-3) r.Fail(n, f + ".qvec_wxyz", "a unit quaternion", "norm " + std::to_string(rotation.norm()));
-  return Rigid3d(rotation.normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
-}
 
 std::vector<std::pair<double, Rigid3d>> ReadTrajectory(const std::string& path) {
   std::vector<std::pair<double, Rigid3d>> trajectory;
@@ -61,7 +52,7 @@ void LoadMobile(JointState* s) {
   bool have_mounting = false;
   const auto ignore = [](const YAML::Node&, const std::string&) {};
   r.Map(root, "", {{"body_from_lidar", [&](const YAML::Node& n, const std::string& f) {
-                      m.body_from_lidar_nominal = ReadPose(r, n, f);
+                      m.body_from_lidar_nominal = io::ReadYamlPose(r, n, f);
                       have_mounting = true;
                     }},
                    {"beams", ignore}, {"elevation_deg", ignore}, {"rotation_hz", ignore}});

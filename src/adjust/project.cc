@@ -6,6 +6,7 @@
 #include <set>
 
 #include "mmba/core/error.h"
+#include "mmba/io/kitti.h"
 #include "mmba/io/yaml_reader.h"
 #include "internal.h"
 
@@ -170,7 +171,7 @@ class ProjectReader {
                          scan.line = v[i].Mark().line + 1;
                          r_.Map(v[i], gi, {{"file", path(&scan.file, false)},
                                            {"world_from_scan", [&](Node w, Field h) {
-                                              scan.world_from_scan = internal::ReadPose(r_, w, h);
+                                              scan.world_from_scan = io::ReadYamlPose(r_, w, h);
                                               scan.has_pose = true;
                                             }},
                                            {"approximate", [&](Node w, Field h) { scan.approximate = r_.Bool(w, h); }}});

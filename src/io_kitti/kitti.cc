@@ -335,9 +335,7 @@ CameraYaml ReadCameraYaml(const std::string& path) {
   return result;
 }
 
-namespace {
-
-Rigid3d RigPose(const YamlReader& r, const YAML::Node& n, const std::string& f) {
+Rigid3d ReadYamlPose(const YamlReader& r, const YAML::Node& n, const std::string& f) {
   std::vector<double> q, t;
   r.Map(n, f, {{"qvec_wxyz", [&](const YAML::Node& v, const std::string& g) { q = r.NumberList(v, g); }},
                {"tvec", [&](const YAML::Node& v, const std::string& g) { t = r.NumberList(v, g); }}});
@@ -351,6 +349,8 @@ Rigid3d RigPose(const YamlReader& r, const YAML::Node& n, const std::string& f) 
   }
   return Rigid3d(rotation.normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
 }
+
+namespace {
 
 /// 16 numbers row-major, or 4 rows of 4 numbers.
 Rigid3d Matrix4Pose(const YamlReader& r, const YAML::Node& n, const std::string& f) {
@@ -375,7 +375,7 @@ RigYaml ReadRigYaml(const std::string& path) {
   const YAML::Node root = r.Load("rig calibration");
   RigYaml rig;
   r.Map(root, "",
-        {{"body_from_rig", [&](const YAML::Node& v, const std::string& g) { RigPose(r, v, g); }},
+        {{"body_from_rig", [&](const YAML::Node& v, const std::string& g) { rig.body_from_rig = ReadYamlPose(r, v, g); }},
          {"rig_from_lidar", [&](const YAML::Node& v, const std::string& g) { rig.rig_from_lidar = Matrix4Pose(r, v, g); }},
          {"cameras", [&](const YAML::Node& n, const std::string& f) {
             if (!n.IsSequence() || n.size() == 0) r.Fail(n, f, "a list of cameras", YamlReader::Kind(n));
@@ -404,7 +404,7 @@ RigYaml ReadRigYaml(const std::string& path) {
                         camera.height = static_cast<uint64_t>(size);
                       }},
                      {"params", [&](const YAML::Node& v, const std::string& g) { camera.params = r.NumberList(v, g); }},
-                     {"cam_from_rig", [&](const YAML::Node& v, const std::string& g) { cam_from_rig = RigPose(r, v, g); }},
+                     {"cam_from_rig", [&](const YAML::Node& v, const std::string& g) { cam_from_rig = ReadYamlPose(r, v, g); }},
                      {"sigma", [](const YAML::Node&, const std::string&) {}},
                      {"cam_from_rig_tvec_sigma", [](const YAML::Node&, const std::string&) {}}});
               r.Require(n[i], fi, {"name", "model", "width", "height", "params", "cam_from_rig"});
@@ -424,7 +424,8 @@ RigYaml ReadRigYaml(const std::string& path) {
               rig.cameras.push_back(camera);
               rig.cam_from_rig.push_back(cam_from_rig);
             }
-          }}});
+          }},
+         {"beams", [](const YAML::Node&, const std::string&) {}}});
   r.Require(root, "", {"cameras"});
   return rig;
 }

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include "mmba/geometry/rigid3d.h"
+#include "mmba/io/yaml_reader.h"
 #include "mmba/sensors/camera.h"
 
 namespace mmba::io {
@@ -61,13 +62,15 @@ void WriteCameraYaml(const CameraYaml& camera_yaml, const std::string& path);
 
 /// The rig YAML of a Ladybug-style multi-camera rig (calib/README.md, `camera_rig`), as
 /// `mmba register-mi --rig` reads it:
-///   body_from_rig: {qvec_wxyz: [...], tvec: [...]}    # optional here, not used
+///   body_from_rig: {qvec_wxyz: [...], tvec: [...]}    # optional (mmba adjust requires it)
 ///   rig_from_lidar: [16 numbers, 4×4 row-major]        # optional: the start pose
 ///   cameras:
 ///     - {name: cam0, model: OPENCV_FISHEYE, width: 320, height: 400, params: [...],
 ///        cam_from_rig: {qvec_wxyz: [...], tvec: [...]}}
-/// The rig calibration `mmba adjust` writes (with `sigma`, `cam_from_rig_tvec_sigma`) reads too.
+/// The rig calibration `mmba adjust` writes (with `sigma`, `cam_from_rig_tvec_sigma`) reads
+/// too; a `beams` key is ignored.
 struct RigYaml {
+  std::optional<Rigid3d> body_from_rig;  ///< lever arm and boresight on the vehicle (mmba adjust)
   std::vector<std::string> names;
   std::vector<sensors::Camera> cameras;
   std::vector<Rigid3d> cam_from_rig;
@@ -75,7 +78,12 @@ struct RigYaml {
 };
 /// Throws InputError naming the file, line, field and value on any problem (unknown keys,
 /// a camera without its model, size, params or cam_from_rig, duplicate names, no cameras).
+/// Used by `register-mi --rig` and by `mmba adjust`'s camera_rig sensor.
 RigYaml ReadRigYaml(const std::string& path);
+
+/// A pose {qvec_wxyz: [w, x, y, z], tvec: [x, y, z]} in a YAML file read by `reader`;
+/// InputError naming `field` unless 4 + 3 numbers and a unit quaternion (within 1e-3).
+Rigid3d ReadYamlPose(const YamlReader& reader, const YAML::Node& node, const std::string& field);
 
 /// A 4×4 row-major matrix from 16 numbers as a rigid transform; throws InputError (naming
 /// `where` and `field`) unless the last row is (0 0 0 1) and the rotation is orthonormal

@@ -133,6 +133,7 @@ std::vector<uint8_t> SurfaceClasses(const std::vector<Eigen::Vector3f>& points,
     double n = 0;
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
+    uint8_t cls = 255;
   };
   std::vector<uint64_t> keys(points.size());
   for (const float size : {0.5f * voxel_m, voxel_m, 2.f * voxel_m}) {
@@ -153,10 +154,7 @@ std::vector<uint8_t> SurfaceClasses(const std::vector<Eigen::Vector3f>& points,
       m.sum += q;
       m.outer += q * q.transpose();
     }
-    std::unordered_map<uint64_t, uint8_t> voxel_class;
-    voxel_class.reserve(voxels.size());
-    for (const auto& [key, m] : voxels) {
-      uint8_t cls = 255;
+    for (auto& [key, m] : voxels) {
       if (m.n >= 6) {
         const Eigen::Vector3d mean = m.sum / m.n;
         const Eigen::Matrix3d covariance = m.outer / m.n - mean * mean.transpose();
@@ -164,13 +162,12 @@ std::vector<uint8_t> SurfaceClasses(const std::vector<Eigen::Vector3f>& points,
         eigen.computeDirect(covariance);
         const Eigen::Vector3d l = eigen.eigenvalues();  // ascending
         if (l[1] >= 0.1 * l[2] && l[0] <= 0.25 * l[1]) {
-          cls = std::abs(eigen.eigenvectors().col(0).dot(up_unit)) >= std::cos(M_PI / 4) ? 0 : 1;
+          m.cls = std::abs(eigen.eigenvectors().col(0).dot(up_unit)) >= std::cos(M_PI / 4) ? 0 : 1;
         }
       }
-      voxel_class.emplace(key, cls);
     }
     for (size_t i = 0; i < points.size(); ++i) {
-      if (classes[i] == 255) classes[i] = voxel_class.at(keys[i]);
+      if (classes[i] == 255) classes[i] = voxels.at(keys[i]).cls;
     }
   }
   for (uint8_t& c : classes) c = c == 255 ? 1 : c;

@@ -94,9 +94,10 @@ void JointHistogram::Clear() {
 
 namespace {
 
-double Entropy(const std::vector<double>& p, double total) {
+double Entropy(const double* p, size_t count, double total) {
   double h = 0;
-  for (double c : p) {
+  for (size_t i = 0; i < count; ++i) {
+    const double c = p[i];
     if (c > 0) {
       const double q = c / total;
       h -= q * std::log2(q);
@@ -575,64 +576,46 @@ MetricValue JointHistogram::Evaluate() const {
       }
     }
   }
+  // LiDAR rows evaluated as one histogram each: all of them, or with lidar_classes = 2 the
+  // rows of values < 0.5 (class 0), of values ≥ 0.5 (class 1) and, in whole-image mode, the
+  // empty row; the result is then the metric conditioned on the class, Σ_c p(c)·metric_c.
+  std::vector<std::pair<int, int>> blocks = {{0, lidar_bins}};
   if (options_.lidar_classes == 2) {
-    // Conditioned on the class: the LiDAR rows of values < 0.5 (class 0), of values ≥ 0.5
-    // (class 1) and, in whole-image mode, the empty row each form their own histogram.
     const int split = first + static_cast<int>(std::floor(0.5 * (bins - 1))) + 1;
-    std::vector<std::pair<int, int>> blocks = {{first, split}, {split, lidar_bins}};
+    blocks = {{first, split}, {split, lidar_bins}};
     if (whole) blocks.push_back({0, 1});
-    double all = 0;
-    for (double c : joint) all += c;
-    result.nid = 0;  // a sum over the classes below
-    for (const auto& [begin, end] : blocks) {
-      std::vector<double> block(joint.begin() + static_cast<size_t>(begin) * bins,
-                                joint.begin() + static_cast<size_t>(end) * bins);
-      std::vector<double> lidar_marginal(end - begin, 0.0), photo_marginal(bins, 0.0);
-      double total = 0;
-      for (int x = 0; x < end - begin; ++x) {
-        for (int y = 0; y < bins; ++y) {
-          const double c = block[static_cast<size_t>(x) * bins + y];
-          lidar_marginal[x] += c;
-          photo_marginal[y] += c;
-          total += c;
-        }
+  }
+  double all = 0;
+  for (double c : joint) all += c;
+  if (!(all > 0)) return result;
+  result.nid = 0;  // a sum over the blocks below
+  std::vector<double> lidar_marginal, photo_marginal;
+  for (const auto& [begin, end] : blocks) {
+    const double* block = &joint[static_cast<size_t>(begin) * bins];
+    const size_t size = static_cast<size_t>(end - begin) * bins;
+    lidar_marginal.assign(end - begin, 0.0);
+    photo_marginal.assign(bins, 0.0);
+    double total = 0;
+    for (int x = 0; x < end - begin; ++x) {
+      for (int y = 0; y < bins; ++y) {
+        const double c = block[static_cast<size_t>(x) * bins + y];
+        lidar_marginal[x] += c;
+        photo_marginal[y] += c;
+        total += c;
       }
-      if (!(total > 0) || !(all > 0)) continue;
-      const double weight = total / all;
-      const double hx = Entropy(lidar_marginal, total);
-      const double hy = Entropy(photo_marginal, total);
-      const double hxy = Entropy(block, total);
-      const double mi = hx + hy - hxy;
-      result.joint_entropy += weight * hxy;
-      result.mi += weight * mi;
-      result.nmi += weight * (hxy > 0 ? (hx + hy) / hxy : 1.0);
-      result.nid += weight * (hxy > 0 ? 1.0 - mi / hxy : 1.0);
     }
-    switch (options_.kind) {
-      case MetricKind::kMi: result.value = result.mi; break;
-      case MetricKind::kNmi: result.value = result.nmi; break;
-      case MetricKind::kNid: result.value = -result.nid; break;
-    }
-    return result;
+    if (!(total > 0)) continue;
+    const double weight = total / all;  // exactly 1 for the single block
+    // Eq. (1)–(3), Wang et al. 2012: MI = H(X) + H(Y) − H(X,Y).
+    const double hx = Entropy(lidar_marginal.data(), lidar_marginal.size(), total);
+    const double hy = Entropy(photo_marginal.data(), photo_marginal.size(), total);
+    const double hxy = Entropy(block, size, total);
+    const double mi = hx + hy - hxy;
+    result.joint_entropy += weight * hxy;
+    result.mi += weight * mi;
+    result.nmi += weight * (hxy > 0 ? (hx + hy) / hxy : 1.0);
+    result.nid += weight * (hxy > 0 ? 1.0 - mi / hxy : 1.0);
   }
-  std::vector<double> lidar_marginal(lidar_bins, 0.0), photo_marginal(bins, 0.0);
-  double total = 0;
-  for (int x = 0; x < lidar_bins; ++x) {
-    for (int y = 0; y < bins; ++y) {
-      const double c = joint[static_cast<size_t>(x) * bins + y];
-      lidar_marginal[x] += c;
-      photo_marginal[y] += c;
-      total += c;
-    }
-  }
-  // Eq. (1)–(3), Wang et al. 2012: MI = H(X) + H(Y) − H(X,Y).
-  const double hx = Entropy(lidar_marginal, total);
-  const double hy = Entropy(photo_marginal, total);
-  const double hxy = Entropy(joint, total);
-  result.joint_entropy = hxy;
-  result.mi = hx + hy - hxy;
-  result.nmi = hxy > 0 ? (hx + hy) / hxy : 1.0;
-  result.nid = hxy > 0 ? 1.0 - result.mi / hxy : 1.0;
   switch (options_.kind) {
     case MetricKind::kMi: result.value = result.mi; break;
     case MetricKind::kNmi: result.value = result.nmi; break;
