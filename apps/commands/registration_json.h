@@ -105,6 +105,7 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
           {"sigma_translation_m", VectorJson(result.sigma_translation_m)},
           {"sigma_rotation_deg", VectorJson(result.sigma_rotation_deg)},
           {"sigma_rms_m", FiniteOrNull(result.sigma_rms_m)},
+          {"gate_sensitivity_m", result.gate_sensitivity_m},
           {"constraint_ratio", result.constraint_ratio},
           {"weakest_motion", result.weakest_motion},
           {"num_keypoints", {{"source", result.num_keypoints_source},

@@ -283,6 +283,13 @@ struct CloudRegistrationResult {
   /// Standard deviation of the RMS displacement of the source along its least-determined
   /// motion (the largest eigenvalue of the covariance in the RMS-displacement metric), m.
   double sigma_rms_m = std::numeric_limits<double>::infinity();
+  /// How far the pose moves when its last fine ICP ends at half and at twice its final
+  /// correspondence distance (RMS over the source of the two moves, m): the error of a model
+  /// that departs from the target on one side (a plane proxy of a detailed façade) pulled
+  /// towards whatever falls inside the distance, which the residuals' covariance cannot see.
+  /// Included in covariance and sigma_rms_m as a systematic part, ½ Σ ξ_k ξ_kᵀ over the two
+  /// moves. 0 without ICP.
+  double gate_sensitivity_m = 0.0;
   /// That motion, in words ("mostly a turn about (0, 0, 1)", "mostly a shift along …").
   std::string weakest_motion;
   /// Condition of the fit: the smallest over the largest eigenvalue of H in the RMS metric
