@@ -126,8 +126,10 @@ TEST_F(SceneEvaluationTest, BestMethodPerCell) {
   eval.success_threshold_m = 3.0;
   eval.accurate_m = 0.05;
   auto row = [](const std::string& experiment, const std::string& source,
-                const std::string& method, const std::string& status, double rms) {
+                const std::string& method, const std::string& status, double rms,
+                double sigma = 0.01) {
     EvalRow r;
+    r.sigma_rms_m = sigma;
     r.experiment = experiment;
     r.source = source;
     r.target = "lidar";
@@ -138,24 +140,31 @@ TEST_F(SceneEvaluationTest, BestMethodPerCell) {
     r.accurate = rms < 0.05;
     return r;
   };
-  eval.rows = {row("to-lidar", "a", "m1", "ok", 0.02), row("to-lidar", "a", "m2", "ok", 0.01),
+  // In d_part the wrong ok states the larger σ, so the ok chosen without the truth is right; in
+  // a the closer ok states the larger σ, so the chosen one is the other (also accurate); in e
+  // the chosen one is the inaccurate ok.
+  eval.rows = {row("to-lidar", "a", "m1", "ok", 0.02, 0.005), row("to-lidar", "a", "m2", "ok", 0.01),
+               row("to-lidar", "e", "m1", "ok", 0.02, 0.02), row("to-lidar", "e", "m2", "ok", 0.08, 0.01),
                row("cross-modal", "b_part", "m1", "failed", 0.01),  // right, but refused
                row("cross-modal", "b_part", "m2", "ok", 0.2),
                row("cross-modal", "c_part", "m1", "failed", 5.0),
                row("cross-modal", "c_part", "m2", "failed", 0.01),
-               row("cross-modal", "d_part", "m1", "ok", 7.0),  // a wrong ok
+               row("cross-modal", "d_part", "m1", "ok", 7.0, 0.5),  // a wrong ok
                row("cross-modal", "d_part", "m2", "ok", 0.03)};
   const fs::path out = dir_ / "summary";
   WriteSceneEvaluation(eval, out.string());
   std::stringstream md;
   md << std::ifstream(out / "tables.md").rdbuf();
   const std::string text = md.str();
-  EXPECT_NE(text.find("| to-lidar | a → lidar | m2 | 0.01 |"), std::string::npos) << text;
-  EXPECT_NE(text.find("| cross-modal | c_part → lidar | – (every method failed) | – |"),
+  EXPECT_NE(text.find("| to-lidar | a → lidar | m2 | 0.01 | m1 | 0.005 | 0.02 |"), std::string::npos) << text;
+  EXPECT_NE(text.find("| to-lidar | e → lidar | m1 | 0.02 | m2 | 0.01 | 0.08 |"), std::string::npos) << text;
+  EXPECT_NE(text.find("| cross-modal | d_part → lidar | m2 | 0.03 | m2 | 0.01 | 0.03 |"), std::string::npos) << text;
+  EXPECT_NE(text.find("| cross-modal | c_part → lidar | – (every method failed) | – | – | – | – |"),
             std::string::npos) << text;
-  EXPECT_NE(text.find("Registered with the best method (ok and RMS < 0.05 m): 2 of 4 cells; "
+  EXPECT_NE(text.find("Registered with the best method (ok and RMS < 0.05 m): 3 of 5 cells; "
                       "every method failed: 1; best ok but RMS ≥ 0.05 m: 1 (b_part → lidar 0.2 m); "
-                      "wrong ok (any method, RMS ≥ 3 m): 1."),
+                      "wrong ok (any method, RMS ≥ 3 m): 1.\nRegistered with the method chosen by "
+                      "its stated σ (ok and RMS < 0.05 m): 2 of 5 cells."),
             std::string::npos) << text;
 }
 
