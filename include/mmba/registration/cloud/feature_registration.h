@@ -270,8 +270,9 @@ struct CloudRegistrationResult {
   /// Cluster-robust ("sandwich") estimate H⁻¹ (Σ_b g_b g_bᵀ) H⁻¹ over blocks of R_s (H the
   /// Gauss–Newton matrix of the point-to-plane residuals, g_b a block's gradient): residuals
   /// correlated within a block (a reconstruction's smooth noise) count once per block, not
-  /// once per point. Infinite (and pose_determined false) when the inliers leave a motion
-  /// free (a plane: in-plane shifts, the turn about its normal).
+  /// once per point. Plus the systematic part of gate_sensitivity_m (below). Infinite (and
+  /// pose_determined false) when the inliers leave a motion free (a plane: in-plane shifts,
+  /// the turn about its normal).
   Eigen::Matrix<double, 6, 6> covariance =
       Eigen::Matrix<double, 6, 6>::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector3d covariance_centre = Eigen::Vector3d::Zero();
