@@ -1119,6 +1119,7 @@ Matrix6d DisplacementMetric(const std::vector<Eigen::Vector3d>& q, const Eigen::
 struct FitUncertainty {
   Matrix6d covariance = Matrix6d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  Matrix6d metric = Matrix6d::Zero();  // M about `centre` (set whenever sigma_rms is finite)
   double sigma_rms = std::numeric_limits<double>::infinity();
   double constraint_ratio = 0.0;
   Vector6d weakest = Vector6d::Zero();  // the least-determined motion, unit RMS
@@ -1167,7 +1168,8 @@ FitUncertainty EstimateFitUncertainty(const std::vector<Eigen::Vector3d>& src,
   }
   out.blocks = static_cast<int>(gradients.size());
   if (m < 12) return out;
-  const Eigen::LLT<Matrix6d> llt(DisplacementMetric(q, c));
+  out.metric = DisplacementMetric(q, c);
+  const Eigen::LLT<Matrix6d> llt(out.metric);
   if (llt.info() != Eigen::Success) return out;  // a degenerate (linear) source
   const Matrix6d l = llt.matrixL();
   const Matrix6d l_inv = l.inverse();
@@ -2129,9 +2131,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     // said 0.7 cm.
     if (options.icp && f.icp_end > 0 && std::isfinite(u.sigma_rms)) {
       const Eigen::Matrix4d inv = f.h.transform.inverse();
-      std::vector<Eigen::Vector3d> q(fine_src.size());
-      for (size_t i = 0; i < q.size(); ++i) q[i] = Apply(f.h.transform, fine_src[i]);
-      const Matrix6d metric = DisplacementMetric(q, u.centre);
+      const Matrix6d& metric = u.metric;
       Matrix6d systematic = Matrix6d::Zero();
       double sum_sq = 0.0;
       for (const double factor : {0.5, 2.0}) {
