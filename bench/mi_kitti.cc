@@ -82,6 +82,7 @@ int main(int argc, char** argv) {
   }
   // MI_ALL_CHECKS=1: every acceptance check measured also after one failed (as before 1 Dec, night).
   if (const char* v = std::getenv("MI_ALL_CHECKS")) options.measure_all_checks = std::atoi(v) != 0;
+  if (const char* v = std::getenv("MI_POLISH")) options.polish_rounds = std::atoi(v);
   if (const char* v = std::getenv("MI_POINT_RADIUS_M")) {
     options.render.point_radius_m = std::atof(v);
   }

@@ -365,6 +365,7 @@ int main(int argc, char** argv) {
     std::sscanf(v, "%lf,%lf", &options.restart_offset_m, &options.restart_offset_deg);
   }
   if (const char* v = std::getenv("MI_RESTARTS")) options.restarts = std::atoi(v);
+  if (const char* v = std::getenv("MI_POLISH")) options.polish_rounds = std::atoi(v);
   if (const char* v = std::getenv("MI_WHOLE_IMAGE_CHECKS")) {
     options.whole_image_checks = std::atoi(v) != 0;
   }

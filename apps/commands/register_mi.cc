@@ -51,6 +51,7 @@ struct RegisterMiArgs {
   int coarse_candidates = mi::RegistrationOptions().coarse_candidates;
   double coarse_spread = mi::RegistrationOptions().coarse_start_spread;
   int restarts = 3;
+  int polish_rounds = 2;
   int restart_level = 1;
   int threads = 2;
   double restart_tolerance_px = 1.0;
@@ -157,6 +158,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.coarse_candidates = args.coarse_candidates;
   options.coarse_start_spread = args.coarse_spread;
   options.restarts = args.restarts;
+  options.polish_rounds = args.polish_rounds;
   options.restart_level = args.restart_level;
   options.threads = args.threads;
   options.restart_tolerance_px = args.restart_tolerance_px;
@@ -587,6 +589,10 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
       ->capture_default_str();
   sub->add_option("--restarts", args->restarts,
                   "Acceptance: re-optimisations from around the optimum that must agree")
+      ->capture_default_str();
+  sub->add_option("--polish-rounds", args->polish_rounds,
+                  "Search: a restart that ends beyond the tolerance where the metric is higher "
+                  "becomes the optimum, at most this often (0 = off)")
       ->capture_default_str();
   sub->add_option("--restart-level", args->restart_level,
                   "Pyramid level of the restarts (0 = full resolution: more precise, ~4x cost)")

@@ -162,6 +162,10 @@ bool RegistrationOptions::Check(std::string* error) const {
              " must be in 0..5 (levels beyond the pyramid mean its coarsest)";
     return false;
   }
+  if (polish_rounds < 0 || polish_rounds > 3) {
+    *error = "polish_rounds " + std::to_string(polish_rounds) + " must be in 0..3";
+    return false;
+  }
   if (restart_level < 0 || restart_level > 5) {
     *error = "restart_level " + std::to_string(restart_level) +
              " must be in 0..5 (levels beyond the pyramid mean its coarsest)";
@@ -1812,6 +1816,101 @@ RegistrationResult Finish(RegistrationResult& result, const std::vector<std::str
 
 }  // namespace
 
+// The restarts' start points around an optimum (offset ±restart_offset per parameter,
+// deterministic signs, in opposite pairs), as check (3) uses them.
+std::vector<Vector6d> RestartOffsets(const RegistrationOptions& options) {
+  Vector6d offset;
+  offset << options.restart_offset_m, options.restart_offset_m, options.restart_offset_m,
+      options.restart_offset_deg, options.restart_offset_deg, options.restart_offset_deg;
+  std::mt19937 rng(6);
+  std::vector<Vector6d> starts;
+  for (int k = 0; k < options.restarts; ++k) {
+    Vector6d signs;
+    for (int i = 0; i < 6; ++i) signs[i] = (rng() & 1u) ? 1.0 : -1.0;
+    if (k % 2 == 1) signs = -starts.back().cwiseQuotient(offset).cwiseSign();  // opposite pair
+    starts.push_back(signs.cwiseProduct(offset));
+  }
+  return starts;
+}
+
+// RegistrationOptions::polish_rounds: the restarts of check (3) run from the optimum x; the one
+// ending highest in the full-resolution metric, if above x, is refined at level 0 (and by the
+// gradient when the main search was) and replaces x when it is still higher.
+// The restarts' options: the search's, with point samples only if the checks use them.
+RegistrationOptions RestartOptions(const RegistrationOptions& options) {
+  RegistrationOptions restart_options = options;
+  restart_options.point_samples = options.point_samples && options.point_samples_in_checks;
+  return restart_options;
+}
+
+struct PolishResult {
+  Vector6d x = Vector6d::Zero();
+  std::vector<SearchResult> ends;  // the last round's restarts, run from `x` (check (3)'s own)
+  std::vector<double> values;      // their full-resolution metric
+};
+
+PolishResult Polish(const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x0,
+                    const RegistrationOptions& options, StageClock* clock, int* iterations) {
+  PolishResult out;
+  out.x = x0;
+  Vector6d& x = out.x;
+  if (options.polish_rounds <= 0 || options.restarts <= 0) return out;
+  const RegistrationOptions restart_options = RestartOptions(options);
+  const Vector6d bound = BoundVector(options);
+  const int levels = evaluator.levels();
+  const int restart_level = std::min(options.restart_level, levels - 1);
+  const double tolerance = options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1);
+  Vector6d offset;
+  offset << options.restart_offset_m, options.restart_offset_m, options.restart_offset_m,
+      options.restart_offset_deg, options.restart_offset_deg, options.restart_offset_deg;
+  const std::vector<Vector6d> starts = RestartOffsets(options);
+  int evaluations = 0;
+  for (int round = 0; round < options.polish_rounds; ++round) {
+    const double current = evaluator.Evaluate(ApplyCorrection(start, x), 0).value;
+    std::vector<SearchResult> ends(starts.size());
+    std::vector<double> values(starts.size());
+    ParallelFor(static_cast<int>(starts.size()), options.threads, [&](int k) {
+      const Vector6d from = (x + starts[k]).cwiseMax(-bound).cwiseMin(bound);
+      ends[k] = Search(evaluator, start, from, restart_level, restart_level, 2.0 * offset,
+                       tolerance, false, restart_options, nullptr,
+                       "restart " + std::to_string(k) + " ", &x);
+      values[k] = evaluator.Evaluate(ApplyCorrection(start, ends[k].x), 0).value;
+    });
+    out.ends = ends;
+    out.values = values;
+    // Only a restart that the check would count as disagreeing (beyond its tolerance) moves
+    // the optimum: one nearer is the same maximum, to within the tolerance.
+    const Rigid3d pose = ApplyCorrection(start, x);
+    const std::vector<FrameSetEvaluator::VisiblePoint> sample =
+        evaluator.SampleVisiblePoints(pose, 2000);
+    int best = -1;
+    for (size_t k = 0; k < ends.size(); ++k) {
+      evaluations += ends[k].evaluations + 1;
+      *iterations += ends[k].iterations;
+      if (!(values[k] > current) || (best >= 0 && values[k] <= values[best])) continue;
+      const double distance =
+          evaluator.MedianPixelDistance(sample, pose, ApplyCorrection(start, ends[k].x));
+      if (distance > options.restart_tolerance_px) best = static_cast<int>(k);
+    }
+    evaluations += 1;
+    if (best < 0) break;
+    const SearchResult refined = Search(evaluator, start, ends[best].x, 0, 0, 2.0 * offset,
+                                        tolerance, options.gradient_refinement, options, nullptr,
+                                        "polish ");
+    evaluations += refined.evaluations + 1;
+    *iterations += refined.iterations;
+    const double value = evaluator.Evaluate(ApplyCorrection(start, refined.x), 0).value;
+    spdlog::debug("MI polish round {}: a restart ends {:+.6f} above the optimum; refined {:+.6f}",
+                  round, values[best] - current, value - current);
+    if (!(value > current)) break;
+    x = refined.x;
+    out.ends.clear();  // run about the previous optimum
+    out.values.clear();
+  }
+  if (clock != nullptr) clock->Mark("polish", evaluations);
+  return out;
+}
+
 RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
                                   const Rigid3d& cam_from_lidar_start,
                                   const RegistrationOptions& options) {
@@ -1866,7 +1965,9 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   const int levels = evaluator.levels();
   const SearchResult main_search = MainSearch(evaluator, cam_from_lidar_start, options, &clock);
   result.iterations += main_search.iterations;
-  Vector6d x = main_search.x;
+  const PolishResult polish =
+      Polish(evaluator, cam_from_lidar_start, main_search.x, options, &clock, &result.iterations);
+  Vector6d x = polish.x;
   result.correction = x;
   result.cam_from_lidar = ApplyCorrection(cam_from_lidar_start, x);
   result.metric_after = evaluator.Evaluate(result.cam_from_lidar, 0);
@@ -2063,37 +2164,37 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     // The restarts stop where the main run stopped: at its finest tolerance.
     const double tolerance =
         options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1);
-    std::mt19937 rng(6);
     int evaluations = 0;
     checks.restart_spread_px = 0;
     checks.restart_best_gain = -std::numeric_limits<double>::infinity();
-    std::vector<Vector6d> starts;
-    for (int k = 0; k < options.restarts; ++k) {
-      Vector6d signs;
-      for (int i = 0; i < 6; ++i) signs[i] = (rng() & 1u) ? 1.0 : -1.0;
-      if (k % 2 == 1) signs = -starts.back().cwiseQuotient(offset).cwiseSign();  // opposite pair
-      starts.push_back(signs.cwiseProduct(offset));
-    }
+    const std::vector<Vector6d> starts = RestartOffsets(options);
     double restart_displacement2 = 0;
     size_t restart_displacement_count = 0;
     std::vector<SearchResult> restarts(options.restarts);
     std::vector<double> restart_values(options.restarts);
-    RegistrationOptions restart_options = options;
-    restart_options.point_samples = options.point_samples && options.point_samples_in_checks;
+    const RegistrationOptions restart_options = RestartOptions(options);
     std::vector<double> restart_distances(options.restarts, 0.0);
     // Stopping at the first failure: a restart is not started once one before it (in index
     // order) is known to have ended too far; only the restarts up to the first that did are
     // reported, so the result does not depend on which thread finished first.
     std::atomic<int> first_far{options.restarts};
     std::vector<char> restart_run(options.restarts, 0);
-    ParallelFor(options.restarts, options.threads, [&](int k) {
+    // The polish's last round ran these very restarts from this optimum (the same starts,
+    // level, tolerance and options): their ends are taken, not searched again.
+    const bool polished = polish.ends.size() == static_cast<size_t>(options.restarts);
+    auto run_restart = [&](int k) {
       if (fail_fast && first_far.load() < k) return;
-      const Vector6d x0 = (x + starts[k]).cwiseMax(-bound).cwiseMin(bound);
-      restarts[k] = Search(evaluator, cam_from_lidar_start, x0, restart_level, restart_level,
-                           2.0 * offset, tolerance, false, restart_options, nullptr,
-                           "restart " + std::to_string(k) + " ", &x);
-      restart_values[k] =
-          evaluator.Evaluate(ApplyCorrection(cam_from_lidar_start, restarts[k].x), 0).value;
+      if (polished) {
+        restarts[k] = polish.ends[k];
+        restart_values[k] = polish.values[k];
+      } else {
+        const Vector6d x0 = (x + starts[k]).cwiseMax(-bound).cwiseMin(bound);
+        restarts[k] = Search(evaluator, cam_from_lidar_start, x0, restart_level, restart_level,
+                             2.0 * offset, tolerance, false, restart_options, nullptr,
+                             "restart " + std::to_string(k) + " ", &x);
+        restart_values[k] =
+            evaluator.Evaluate(ApplyCorrection(cam_from_lidar_start, restarts[k].x), 0).value;
+      }
       restart_distances[k] = evaluator.MedianPixelDistance(
           sample, result.cam_from_lidar, ApplyCorrection(cam_from_lidar_start, restarts[k].x));
       restart_run[k] = 1;
@@ -2102,7 +2203,12 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
         while (k < seen && !first_far.compare_exchange_weak(seen, k)) {
         }
       }
-    });
+    };
+    if (polished) {
+      for (int k = 0; k < options.restarts; ++k) run_restart(k);
+    } else {
+      ParallelFor(options.restarts, options.threads, run_restart);
+    }
     // The restarts reported: all, or (stopping at the first failure) those up to the first
     // that ended too far — each of which ran.
     int reported = options.restarts;
@@ -2110,7 +2216,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     for (int k = 0; k < reported; ++k) {
       // (Only the reported restarts' evaluations are counted: a later one that happened to
       // run on the other thread would make the count depend on the timing.)
-      evaluations += restarts[k].evaluations + 1;
+      if (!polished) evaluations += restarts[k].evaluations + 1;  // else the polish's
       CHECK(restart_run[k]) << "restart " << k << " reported but not run";
       const Rigid3d pose = ApplyCorrection(cam_from_lidar_start, restarts[k].x);
       const double distance = restart_distances[k];

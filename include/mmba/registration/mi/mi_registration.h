@@ -161,6 +161,12 @@ struct RegistrationOptions {
   /// frame's image as for max_sigma_px) of the optimum. Level 1 costs a quarter of level 0.
   int restarts = 3;
   int restart_level = 1;
+  /// Polish: before the acceptance, the restarts above are run from the search's optimum; one
+  /// that ends beyond restart_tolerance_px where the full-resolution metric is higher (the
+  /// optimum was not the maximum: the level-0 Nelder–Mead can stop on a ridge) is refined at
+  /// level 0 and becomes the optimum, at most this many times (0: off). The last round's
+  /// restarts are the acceptance's own (not run twice).
+  int polish_rounds = 2;
   double restart_offset_m = 0.05;
   double restart_offset_deg = 0.5;
   double restart_tolerance_px = 1.0;
