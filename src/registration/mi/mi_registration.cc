@@ -1833,9 +1833,6 @@ std::vector<Vector6d> RestartOffsets(const RegistrationOptions& options) {
   return starts;
 }
 
-// RegistrationOptions::polish_rounds: the restarts of check (3) run from the optimum x; the one
-// ending highest in the full-resolution metric, if above x, is refined at level 0 (and by the
-// gradient when the main search was) and replaces x when it is still higher.
 // The restarts' options: the search's, with point samples only if the checks use them.
 RegistrationOptions RestartOptions(const RegistrationOptions& options) {
   RegistrationOptions restart_options = options;
@@ -1849,6 +1846,11 @@ struct PolishResult {
   std::vector<double> values;      // their full-resolution metric
 };
 
+// RegistrationOptions::polish_rounds: the restarts of check (3) run from the optimum x; the one
+// ending highest in the full-resolution metric, if above x and beyond the restart tolerance, is
+// refined at level 0 (and by the gradient when the main search was) and replaces x when it is
+// still higher. `iterations` counts the refinements only (the restarts are the acceptance's
+// work, which was not counted before either).
 PolishResult Polish(const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x0,
                     const RegistrationOptions& options, StageClock* clock, int* iterations) {
   PolishResult out;
@@ -1886,7 +1888,6 @@ PolishResult Polish(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
     int best = -1;
     for (size_t k = 0; k < ends.size(); ++k) {
       evaluations += ends[k].evaluations + 1;
-      *iterations += ends[k].iterations;
       if (!(values[k] > current) || (best >= 0 && values[k] <= values[best])) continue;
       const double distance =
           evaluator.MedianPixelDistance(sample, pose, ApplyCorrection(start, ends[k].x));
