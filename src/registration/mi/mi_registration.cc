@@ -1816,12 +1816,19 @@ RegistrationResult Finish(RegistrationResult& result, const std::vector<std::str
 
 }  // namespace
 
-// The restarts' start points around an optimum (offset ±restart_offset per parameter,
-// deterministic signs, in opposite pairs), as check (3) uses them.
-std::vector<Vector6d> RestartOffsets(const RegistrationOptions& options) {
+// The restarts' offset per parameter: restart_offset_m on the shifts, restart_offset_deg on
+// the angles.
+Vector6d RestartStep(const RegistrationOptions& options) {
   Vector6d offset;
   offset << options.restart_offset_m, options.restart_offset_m, options.restart_offset_m,
       options.restart_offset_deg, options.restart_offset_deg, options.restart_offset_deg;
+  return offset;
+}
+
+// The restarts' start points around an optimum (offset ±restart_offset per parameter,
+// deterministic signs, in opposite pairs), as check (3) uses them.
+std::vector<Vector6d> RestartOffsets(const RegistrationOptions& options) {
+  const Vector6d offset = RestartStep(options);
   std::mt19937 rng(6);
   std::vector<Vector6d> starts;
   for (int k = 0; k < options.restarts; ++k) {
@@ -1862,9 +1869,7 @@ PolishResult Polish(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
   const int levels = evaluator.levels();
   const int restart_level = std::min(options.restart_level, levels - 1);
   const double tolerance = options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1);
-  Vector6d offset;
-  offset << options.restart_offset_m, options.restart_offset_m, options.restart_offset_m,
-      options.restart_offset_deg, options.restart_offset_deg, options.restart_offset_deg;
+  const Vector6d offset = RestartStep(options);
   const std::vector<Vector6d> starts = RestartOffsets(options);
   int evaluations = 0;
   for (int round = 0; round < options.polish_rounds; ++round) {
@@ -2158,9 +2163,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   // (3) Restarts: the fine levels re-optimised from points around the optimum must come back
   // to it (a clear maximum draws them back; a plateau or a ridge leaves them elsewhere).
   {
-    Vector6d offset;
-    offset << options.restart_offset_m, options.restart_offset_m, options.restart_offset_m,
-        options.restart_offset_deg, options.restart_offset_deg, options.restart_offset_deg;
+    const Vector6d offset = RestartStep(options);
     const int restart_level = std::min(options.restart_level, levels - 1);
     // The restarts stop where the main run stopped: at its finest tolerance.
     const double tolerance =
@@ -2271,9 +2274,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   std::string split_kind;
   const std::array<std::vector<Frame>, 2> halves = SplitIntoHalves(frames, &split_kind);
   if (options.split_check && !halves[0].empty() && !halves[1].empty()) {
-    Vector6d offset;
-    offset << options.restart_offset_m, options.restart_offset_m, options.restart_offset_m,
-        options.restart_offset_deg, options.restart_offset_deg, options.restart_offset_deg;
+    const Vector6d offset = RestartStep(options);
     const double tolerance =
         options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1);
     RegistrationOptions half_options = options;
