@@ -7,6 +7,8 @@
 
 #include <glog/logging.h>
 
+#include "registration/mi/bilinear_avx2.h"
+
 namespace mmba::registration::mi {
 
 std::string MetricName(MetricKind kind) {
@@ -185,17 +187,9 @@ __attribute__((target("avx2"))) int ZBufferSamplesAvx2(const LidarImage& lidar,
   const bool ranked = !points.tie_rank.empty();
   const int* index_of_rank = reinterpret_cast<const int*>(points.index_of_rank.data());
   const float* intensity01 = points.intensity01.data();
-  const float* pixels = photo.pixels.data();
-  const __m256 half = _mm256_set1_ps(0.5f), one = _mm256_set1_ps(1.f), zero = _mm256_setzero_ps();
+  const internal::BilinearAvx2 bilinear(photo);
+  const __m256 half = bilinear.half, one = bilinear.one;
   const __m256 row_centre = _mm256_set1_ps(r + 0.5f);
-  const __m256 u_max = _mm256_set1_ps(static_cast<float>(photo.width - 1));
-  const __m256 v_max = _mm256_set1_ps(static_cast<float>(photo.height - 1));
-  const __m256i c_last = _mm256_set1_epi32(std::max(0, photo.width - 2));
-  const __m256i r_last = _mm256_set1_epi32(std::max(0, photo.height - 2));
-  const __m256i c_max = _mm256_set1_epi32(photo.width - 1);
-  const __m256i r_max = _mm256_set1_epi32(photo.height - 1);
-  const __m256i width = _mm256_set1_epi32(photo.width);
-  const __m256i ones = _mm256_set1_epi32(1);
   const __m256i low_dwords = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
   const __m256 lscale = _mm256_set1_ps(lidar_scale), pscale = _mm256_set1_ps(photo_scale);
   int j = 0;
@@ -218,34 +212,11 @@ __attribute__((target("avx2"))) int ZBufferSamplesAvx2(const LidarImage& lidar,
     const __m256 offset_y = _mm256_sub_ps(py, _mm256_add_ps(_mm256_floor_ps(py), half));
     const __m256 x = _mm256_add_ps(_mm256_add_ps(_mm256_cvtepi32_ps(col), half), offset_x);
     const __m256 y = _mm256_add_ps(row_centre, offset_y);
-    // SampleClamped: std::clamp(v, lo, hi) = min(hi, max(lo, v)) operand for operand.
-    const __m256 u = _mm256_min_ps(u_max, _mm256_max_ps(zero, _mm256_sub_ps(x, half)));
-    const __m256 v = _mm256_min_ps(v_max, _mm256_max_ps(zero, _mm256_sub_ps(y, half)));
-    const __m256i c0 = _mm256_min_epi32(_mm256_cvttps_epi32(u), c_last);
-    const __m256i r0 = _mm256_min_epi32(_mm256_cvttps_epi32(v), r_last);
-    const __m256i c1 = _mm256_min_epi32(_mm256_add_epi32(c0, ones), c_max);
-    const __m256i r1 = _mm256_min_epi32(_mm256_add_epi32(r0, ones), r_max);
-    const __m256 a = _mm256_sub_ps(u, _mm256_cvtepi32_ps(c0));
-    const __m256 b = _mm256_sub_ps(v, _mm256_cvtepi32_ps(r0));
-    const __m256i row0 = _mm256_mullo_epi32(r0, width);
-    const __m256i row1 = _mm256_mullo_epi32(r1, width);
-    const __m256 p00 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row0, c0), 4);
-    const __m256 p01 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row0, c1), 4);
-    const __m256 p10 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row1, c0), 4);
-    const __m256 p11 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row1, c1), 4);
-    const __m256 one_a = _mm256_sub_ps(one, a), one_b = _mm256_sub_ps(one, b);
-    const __m256 top = _mm256_add_ps(_mm256_mul_ps(one_a, p00), _mm256_mul_ps(a, p01));
-    const __m256 bottom = _mm256_add_ps(_mm256_mul_ps(one_a, p10), _mm256_mul_ps(a, p11));
-    const __m256 sample = _mm256_add_ps(_mm256_mul_ps(one_b, top), _mm256_mul_ps(b, bottom));
+    const __m256 sample = bilinear.Sample(x, y);
     _mm256_storeu_ps(lidar_pos + j, _mm256_mul_ps(value, lscale));
     _mm256_storeu_ps(photo_pos + j, _mm256_mul_ps(sample, pscale));
   }
   return j;
-}
-
-bool CpuHasAvx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
 }
 
 struct ZBufferPixels {
@@ -259,7 +230,7 @@ struct ZBufferPixels {
     const Representation representation = value_of.representation();
     // (The gathers take signed 32-bit indices: points and photo pixels below 2^31.)
     constexpr size_t kIndexLimit = size_t{1} << 31;
-    if (representation == Representation::kDepth || !CpuHasAvx2() ||
+    if (representation == Representation::kDepth || !internal::CpuHasAvx2() ||
         points.size() >= kIndexLimit || photo.pixels.size() >= kIndexLimit) {
       return 0;
     }
@@ -466,7 +437,7 @@ __attribute__((target_clones("avx2", "default"))) void AddCoveredBatchTo(
     JointHistogram::CubicBSplineWeights(pos[k] - by[k], w);
     for (int q = 0; q < 4; ++q) wy[k][q] = w[q] * weight[k];
   }
-  if (CpuHasAvx2()) {
+  if (internal::CpuHasAvx2()) {
     AddBatchRowsAvx2(counts, stride, count, bx, by, wx, wy);
     return;
   }

@@ -10,6 +10,7 @@
 #include <glog/logging.h>
 
 #include "mmba/registration/mi/image.h"
+#include "registration/mi/bilinear_avx2.h"
 #include "registration/mi/pinhole_block.h"
 
 namespace mmba::registration::mi {
@@ -35,51 +36,16 @@ inline bool ProjectLikeRenderer(const double* params, const Eigen::Vector3f& p, 
   return xy[0] >= 0 && xy[1] >= 0 && xy[0] < width && xy[1] < height;
 }
 
-// AVX2: SampleClamped(photo, x[k], y[k]) for k < count, 8 at a time with gathers: the same
-// float operations in the same order as the scalar function (no FMA; std::clamp(v, lo, hi)
-// as min(hi, max(lo, v))), so the same values bit for bit (as metric.cc's ZBufferSamplesAvx2).
-// Returns how many it did (a multiple of 8); the caller samples the rest.
+// AVX2: SampleClamped(photo, x[k], y[k]) for k < count, 8 at a time (BilinearAvx2: the same
+// values bit for bit). Returns how many it did (a multiple of 8); the caller samples the rest.
 __attribute__((target("avx2"))) int SampleClampedAvx2(const GrayImage& photo, const float* x,
                                                       const float* y, int count, float* out) {
-  const float* pixels = photo.pixels.data();
-  const __m256 half = _mm256_set1_ps(0.5f), one = _mm256_set1_ps(1.f), zero = _mm256_setzero_ps();
-  const __m256 u_max = _mm256_set1_ps(static_cast<float>(photo.width - 1));
-  const __m256 v_max = _mm256_set1_ps(static_cast<float>(photo.height - 1));
-  const __m256i c_last = _mm256_set1_epi32(std::max(0, photo.width - 2));
-  const __m256i r_last = _mm256_set1_epi32(std::max(0, photo.height - 2));
-  const __m256i c_max = _mm256_set1_epi32(photo.width - 1);
-  const __m256i r_max = _mm256_set1_epi32(photo.height - 1);
-  const __m256i width = _mm256_set1_epi32(photo.width);
-  const __m256i ones = _mm256_set1_epi32(1);
+  const internal::BilinearAvx2 bilinear(photo);
   int k = 0;
   for (; k + 8 <= count; k += 8) {
-    const __m256 xs = _mm256_loadu_ps(x + k), ys = _mm256_loadu_ps(y + k);
-    const __m256 u = _mm256_min_ps(u_max, _mm256_max_ps(zero, _mm256_sub_ps(xs, half)));
-    const __m256 v = _mm256_min_ps(v_max, _mm256_max_ps(zero, _mm256_sub_ps(ys, half)));
-    const __m256i c0 = _mm256_min_epi32(_mm256_cvttps_epi32(u), c_last);
-    const __m256i r0 = _mm256_min_epi32(_mm256_cvttps_epi32(v), r_last);
-    const __m256i c1 = _mm256_min_epi32(_mm256_add_epi32(c0, ones), c_max);
-    const __m256i r1 = _mm256_min_epi32(_mm256_add_epi32(r0, ones), r_max);
-    const __m256 a = _mm256_sub_ps(u, _mm256_cvtepi32_ps(c0));
-    const __m256 b = _mm256_sub_ps(v, _mm256_cvtepi32_ps(r0));
-    const __m256i row0 = _mm256_mullo_epi32(r0, width);
-    const __m256i row1 = _mm256_mullo_epi32(r1, width);
-    const __m256 p00 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row0, c0), 4);
-    const __m256 p01 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row0, c1), 4);
-    const __m256 p10 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row1, c0), 4);
-    const __m256 p11 = _mm256_i32gather_ps(pixels, _mm256_add_epi32(row1, c1), 4);
-    const __m256 one_a = _mm256_sub_ps(one, a), one_b = _mm256_sub_ps(one, b);
-    const __m256 top = _mm256_add_ps(_mm256_mul_ps(one_a, p00), _mm256_mul_ps(a, p01));
-    const __m256 bottom = _mm256_add_ps(_mm256_mul_ps(one_a, p10), _mm256_mul_ps(a, p11));
-    _mm256_storeu_ps(out + k,
-                     _mm256_add_ps(_mm256_mul_ps(one_b, top), _mm256_mul_ps(b, bottom)));
+    _mm256_storeu_ps(out + k, bilinear.Sample(_mm256_loadu_ps(x + k), _mm256_loadu_ps(y + k)));
   }
   return k;
-}
-
-bool CpuHasAvx2() {
-  static const bool has = __builtin_cpu_supports("avx2");
-  return has;
 }
 
 // AccumulateWithModel for the pinhole camera when every point has one sample (per-point
@@ -117,7 +83,7 @@ bool CpuHasAvx2() {
     histogram->LidarWeights(1.f, &last_bin, unused);
   }
   const float lidar_scale = static_cast<float>(last_bin);
-  const bool gather = CpuHasAvx2() && view.image.pixels.size() < (size_t{1} << 31);
+  const bool gather = internal::CpuHasAvx2() && view.image.pixels.size() < (size_t{1} << 31);
   auto flush = [&]() __attribute__((always_inline)) {
     const int done = gather ? SampleClampedAvx2(view.image, batch_x, batch_y, n, batch_photo) : 0;
     for (int k = done; k < n; ++k) batch_photo[k] = SampleClamped(view.image, batch_x[k], batch_y[k]);
@@ -206,7 +172,7 @@ template <typename Model>
       return;
     }
   }
-  const bool gather = kPinhole && CpuHasAvx2() && view.image.pixels.size() < (size_t{1} << 31);
+  const bool gather = kPinhole && internal::CpuHasAvx2() && view.image.pixels.size() < (size_t{1} << 31);
   auto flush = [&]() __attribute__((always_inline)) {
     if constexpr (kPinhole) {
       const int done = gather ? SampleClampedAvx2(view.image, batch_x, batch_y, n, batch_photo) : 0;
