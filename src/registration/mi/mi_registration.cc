@@ -1847,6 +1847,15 @@ RegistrationOptions RestartOptions(const RegistrationOptions& options) {
   return restart_options;
 }
 
+// The first parameter of x within 10 % of its search bound (the acceptance's "optimum on the
+// search bound"), or -1.
+int OnBound(const Vector6d& x, const Vector6d& bound) {
+  for (int i = 0; i < 6; ++i) {
+    if (std::abs(x[i]) >= 0.9 * bound[i]) return i;
+  }
+  return -1;
+}
+
 struct PolishResult {
   Vector6d x = Vector6d::Zero();
   std::vector<SearchResult> ends;  // the last round's restarts, run from `x` (check (3)'s own)
@@ -1856,16 +1865,19 @@ struct PolishResult {
 // RegistrationOptions::polish_rounds: the restarts of check (3) run from the optimum x; the one
 // ending highest in the full-resolution metric, if above x and beyond the restart tolerance, is
 // refined at level 0 (and by the gradient when the main search was) and replaces x when it is
-// still higher. `iterations` counts the refinements only (the restarts are the acceptance's
-// work, which was not counted before either).
+// still higher and not on the search bound. Not run from an optimum on the bound: the
+// acceptance refuses it whatever the polish does, and the climb only runs on along the bound
+// (measured: a cathedral rig panorama from 0.3 m / 2°, 12.65 → 17.20 px, 1.8 → 5.8 s CPU, failed
+// both ways). `iterations` counts the refinements only (the restarts are the acceptance's work,
+// which was not counted before either).
 PolishResult Polish(const FrameSetEvaluator& evaluator, const Rigid3d& start, const Vector6d& x0,
                     const RegistrationOptions& options, StageClock* clock, int* iterations) {
   PolishResult out;
   out.x = x0;
   Vector6d& x = out.x;
-  if (options.polish_rounds <= 0 || options.restarts <= 0) return out;
-  const RegistrationOptions restart_options = RestartOptions(options);
   const Vector6d bound = BoundVector(options);
+  if (options.polish_rounds <= 0 || options.restarts <= 0 || OnBound(x0, bound) >= 0) return out;
+  const RegistrationOptions restart_options = RestartOptions(options);
   const int levels = evaluator.levels();
   const int restart_level = std::min(options.restart_level, levels - 1);
   const double tolerance = options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1);
@@ -1908,7 +1920,7 @@ PolishResult Polish(const FrameSetEvaluator& evaluator, const Rigid3d& start, co
     const double value = evaluator.Evaluate(ApplyCorrection(start, refined.x), 0).value;
     spdlog::debug("MI polish round {}: a restart ends {:+.6f} above the optimum; refined {:+.6f}",
                   round, values[best] - current, value - current);
-    if (!(value > current)) break;
+    if (!(value > current) || OnBound(refined.x, bound) >= 0) break;
     x = refined.x;
     out.ends.clear();  // run about the previous optimum
     out.values.clear();
@@ -2013,13 +2025,10 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     failures.push_back("the search ended below the start: metric " + Fixed(search_before, 5) +
                        " at the start, " + Fixed(search_after, 5) + " at the optimum found");
   }
-  for (int i = 0; i < 6; ++i) {
-    if (std::abs(x[i]) >= 0.9 * bound[i]) {
-      checks.on_bound = true;
-      failures.push_back(std::string("optimum on the search bound of ") + ParameterName(i) +
-                         " (" + Fixed(x[i]) + ")");
-      break;
-    }
+  if (const int i = OnBound(x, bound); i >= 0) {
+    checks.on_bound = true;
+    failures.push_back(std::string("optimum on the search bound of ") + ParameterName(i) + " (" +
+                       Fixed(x[i]) + ")");
   }
   if (decided("the search's end")) return Finish(result, failures, timer, evaluator);
 
