@@ -40,6 +40,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -155,6 +156,66 @@ std::vector<TrueView> ReadViews(const fs::path& dir, const std::vector<std::stri
     }
   }
   return views;
+}
+
+// The stitched rig panorama's geometry (MI_STITCH_WARP): the simulator stitches each panorama
+// pixel from the camera with the largest margin at the point `stitch_distance` away along the
+// pixel's ray from the rig centre, so a point at another range appears where that camera's
+// ray through it meets the stitching sphere — not in its own direction from the rig centre.
+// Each point moved along its range (the z-buffer order is kept) to that direction, for the
+// rig pose `rig_from_world`; points no camera sees consistently are kept as they are.
+LidarPoints StitchWarp(const LidarPoints& points, const Rigid3d& rig_from_world,
+                       const std::vector<sensors::Camera>& cameras,
+                       const std::vector<Rigid3d>& cam_from_rig, double stitch_distance) {
+  LidarPoints out = points;
+  const Rigid3d world_from_rig = rig_from_world.Inverse();
+  std::vector<Eigen::Vector3d> centres;
+  for (const Rigid3d& c : cam_from_rig) centres.push_back(c.Inverse().translation);
+  auto margin = [&](size_t c, const Eigen::Vector3d& x_rig, double* m) {
+    const Eigen::Vector3d p = cam_from_rig[c] * x_rig;
+    if (!(p.z() > 0)) return false;
+    const std::optional<Eigen::Vector2d> xy = cameras[c].ImgFromCam(p);
+    if (!xy) return false;
+    *m = std::min(std::min(xy->x(), cameras[c].width - xy->x()),
+                  std::min(xy->y(), cameras[c].height - xy->y()));
+    return *m > 0;
+  };
+  size_t moved = 0;
+  std::vector<double> shifts;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d x = rig_from_world * points.points_in_lidar[i].cast<double>();
+    double best = 0;
+    Eigen::Vector3d best_dir = Eigen::Vector3d::Zero();
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      double m;
+      if (!margin(c, x, &m) || m <= best) continue;
+      const Eigen::Vector3d& o = centres[c];
+      const Eigen::Vector3d d = (x - o).normalized();
+      const double b = o.dot(d);
+      const double disc = b * b - o.squaredNorm() + stitch_distance * stitch_distance;
+      if (disc < 0) continue;
+      const Eigen::Vector3d sphere = o + (-b + std::sqrt(disc)) * d;
+      bool chosen = true;  // would the stitcher take camera c at `sphere`?
+      for (size_t k = 0; k < cameras.size() && chosen; ++k) {
+        double mk;
+        if (k != c && margin(k, sphere, &mk) && mk > m) chosen = false;
+      }
+      if (!chosen) continue;
+      best = m;
+      best_dir = sphere.normalized();
+    }
+    if (best > 0) {
+      out.points_in_lidar[i] = (world_from_rig * (x.norm() * best_dir)).cast<float>();
+      shifts.push_back(std::acos(std::min(1.0, best_dir.dot(x.normalized()))));
+      ++moved;
+    }
+  }
+  std::sort(shifts.begin(), shifts.end());
+  std::printf("  stitch warp: %zu of %zu points moved, by %.4f (median) / %.4f (p90) / %.4f (max) deg\n",
+              moved, points.size(), shifts.empty() ? 0.0 : shifts[shifts.size() / 2] * 180 / M_PI,
+              shifts.empty() ? 0.0 : shifts[shifts.size() * 9 / 10] * 180 / M_PI,
+              shifts.empty() ? 0.0 : shifts.back() * 180 / M_PI);
+  return out;
 }
 
 std::vector<std::string> Split(const std::string& text) {
@@ -298,6 +359,21 @@ int main(int argc, char** argv) {
                                      : (dir / "truth" / "mobile_lidar_true.ply").string();
   Timer setup;
   LidarPoints points = PrepareLidarPoints(io::ReadPointCloud(cloud_path));
+  // MI_STITCH_WARP=truth|start: the rig panoramas registered against the cloud warped to the
+  // stitching's geometry (StitchWarp) at the true or the start pose — an experiment.
+  const char* stitch_warp = std::getenv("MI_STITCH_WARP");
+  std::vector<sensors::Camera> rig_cameras;
+  std::vector<Rigid3d> rig_cam_from_rig;
+  double stitch_distance = 0;
+  if (stitch_warp != nullptr) {
+    std::ifstream in(dir / "truth" / "truth.json");
+    const nlohmann::json rig = nlohmann::json::parse(in).at("rig");
+    for (const nlohmann::json& c : rig.at("cameras")) {
+      rig_cameras.push_back(CameraFromJson(c.at("camera")));
+      rig_cam_from_rig.push_back(PoseFromJson(c.at("cam_from_rig")));
+    }
+    stitch_distance = rig.at("stitch_distance_m").get<double>();
+  }
   if (const char* v = std::getenv("MI_SURFACE_CLASSES"); v != nullptr && std::atof(v) > 0) {
     // register-mi --surface-classes true --surface-voxel-m V (MI_SURFACE_CLASSES=V).
     EncodeSurfaceClasses(SurfaceClasses(points.points_in_lidar, Eigen::Vector3f::UnitZ(),
@@ -473,7 +549,14 @@ int main(int argc, char** argv) {
         const Rigid3d start = ApplyCorrection(tv.cam_from_world, p);
         Timer timer;
         const double cpu0 = CpuSeconds();
-        const Frame frame = make_frame(start);
+        Frame frame = make_frame(start);
+        LidarPoints warped;
+        if (stitch_warp != nullptr && tv.kind == "rig_panoramas") {
+          warped = StitchWarp(points,
+                              std::string(stitch_warp) == "truth" ? tv.cam_from_world : start,
+                              rig_cameras, rig_cam_from_rig, stitch_distance);
+          frame.points = &warped;
+        }
         const RegistrationResult r = RegisterFrames({frame}, start, options);
         const double seconds = timer.ElapsedSeconds();
         const double cpu = CpuSeconds() - cpu0;
