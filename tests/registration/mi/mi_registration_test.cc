@@ -1,5 +1,6 @@
 #include "mmba/registration/mi/mi_registration.h"
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -155,6 +156,24 @@ class StreetTest : public ::testing::Test {
     Vector6d perturbation;
     perturbation << 0.1, -0.08, 0.06, 1.0, -0.8, 0.9;
     return ApplyCorrection(truth_, perturbation);
+  }
+  // For the polish tests: one pyramid level and one path, no halves, no gradient step.
+  RegistrationOptions OneLevelOptions() const {
+    RegistrationOptions options = Options();
+    options.split_check = false;
+    options.gradient_refinement = false;
+    options.pyramid_levels = 1;
+    options.pyramid_paths = 1;
+    return options;
+  }
+  // `options` registered from the paper's start without the polish, then with 2 rounds of it.
+  std::array<RegistrationResult, 2> PlainAndPolished(const Frame& frame,
+                                                     RegistrationOptions options) const {
+    RegistrationOptions without = options;
+    without.polish_rounds = 0;
+    options.polish_rounds = 2;
+    return {RegisterFrames({frame}, PaperStart(), without),
+            RegisterFrames({frame}, PaperStart(), options)};
   }
   // For tests of the search, not of the acceptance: no restarts, no halves.
   RegistrationOptions SearchOptions() const {
@@ -537,19 +556,10 @@ TEST_F(StreetTest, PyramidPathsRankAtFullResolution) {
 // the acceptance's restarts are the polish's last ones (no second run: 0 evaluations).
 TEST_F(StreetTest, PolishMovesTheOptimumToAHigherRestart) {
   const Frame frame = MakeFrame(photo_, &points_);
-  const Rigid3d start = PaperStart();
-  RegistrationOptions options = Options();
-  options.split_check = false;
-  options.gradient_refinement = false;
-  options.pyramid_levels = 1;
-  options.pyramid_paths = 1;
+  RegistrationOptions options = OneLevelOptions();
   options.nelder_mead.max_iterations = 8;
   options.measure_all_checks = true;
-  RegistrationOptions without = options;
-  without.polish_rounds = 0;
-  options.polish_rounds = 2;
-  const RegistrationResult plain = RegisterFrames({frame}, start, without);
-  const RegistrationResult polished = RegisterFrames({frame}, start, options);
+  const auto [plain, polished] = PlainAndPolished(frame, options);
   SCOPED_TRACE(polished.BriefReport());
   EXPECT_GT(polished.metric_after.value, plain.metric_after.value);
   const double plain_px =
@@ -578,18 +588,9 @@ TEST_F(StreetTest, PolishMovesTheOptimumToAHigherRestart) {
 // polish stage.
 TEST_F(StreetTest, NoPolishFromAnOptimumOnTheSearchBound) {
   const Frame frame = MakeFrame(photo_, &points_);
-  const Rigid3d start = PaperStart();
-  RegistrationOptions options = Options();
-  options.split_check = false;
-  options.gradient_refinement = false;
-  options.pyramid_levels = 1;
-  options.pyramid_paths = 1;
+  RegistrationOptions options = OneLevelOptions();
   options.bound_translation_m = 0.02;
-  RegistrationOptions without = options;
-  without.polish_rounds = 0;
-  options.polish_rounds = 2;
-  const RegistrationResult plain = RegisterFrames({frame}, start, without);
-  const RegistrationResult polished = RegisterFrames({frame}, start, options);
+  const auto [plain, polished] = PlainAndPolished(frame, options);
   SCOPED_TRACE(polished.BriefReport());
   EXPECT_TRUE(polished.checks.on_bound);
   EXPECT_FALSE(polished.ok());
