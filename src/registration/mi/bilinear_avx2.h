@@ -5,9 +5,9 @@
 // SampleClampedAvx2). The same float operations in the same order as the scalar
 // SampleClamped (no FMA; std::clamp(v, lo, hi) as min(hi, max(lo, v)) operand for operand),
 // so the same values bit for bit (tests Metric.ZBufferHistogramEqualsTheRenderedImages and
-// PointSamplesTest.PinholeBlocksAccumulateAsTheGenericModel). Every member is compiled for AVX2 and always inlined into its
-// AVX2 caller; call it only where CpuHasAvx2() and the photo has fewer than 2^31 pixels (the
-// gathers take signed 32-bit indices).
+// PointSamplesTest.PinholeBlocksAccumulateAsTheGenericModel). Every member is compiled for
+// AVX2 and always inlined into its AVX2 caller; call it only where CpuHasAvx2() and the photo
+// has fewer than 2^31 pixels (the gathers take signed 32-bit indices).
 
 #include <algorithm>
 
