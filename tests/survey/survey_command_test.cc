@@ -45,7 +45,9 @@ TEST(SurveyCommand, WritesResultsAndExitCodes) {
       EXPECT_GT(p["sigma_x"].get<double>(), 0.0);
       EXPECT_GE(p["ellipse_a"].get<double>(), p["ellipse_b"].get<double>());
     }
-    if (p["id"] == "1") EXPECT_EQ(p["status_y"], "fixed");
+    if (p["id"] == "1") {
+      EXPECT_EQ(p["status_y"], "fixed");
+    }
   }
   EXPECT_TRUE(found);
   std::ifstream csv(out / "observations.csv");
