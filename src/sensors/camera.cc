@@ -114,6 +114,16 @@ Eigen::Vector3d Camera::CamFromImg(const Eigen::Vector2d& xy) const {
   if (model_id == Model::kModelId) Model::CamFromImg(params.data(), xy.x(), xy.y(), ray.data());
   MMBA_FOR_EACH_CAMERA_MODEL(MMBA_CASE)
 #undef MMBA_CASE
+  // A perspective model's ray is (u, v, 1): it cannot represent a direction 90° or more from
+  // the axis, which a fisheye's corners can see (the simulated rig's 320×400 fisheyes: 8.6 % of
+  // their pixels), and there the iterative undistortion returns a ray that does not image back
+  // to the pixel. Such a pixel is outside the model's domain: NaN, as for any other.
+  if (ray.allFinite() && !IsSpherical()) {
+    const std::optional<Eigen::Vector2d> back = ImgFromCam(ray);
+    if (!back || !((*back - xy).norm() <= 0.01)) {
+      ray.setConstant(std::numeric_limits<double>::quiet_NaN());
+    }
+  }
   return ray;
 }
 

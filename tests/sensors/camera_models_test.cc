@@ -176,5 +176,26 @@ TEST(Camera, RuntimeDispatchAndNames) {
   EXPECT_FALSE(camera.ImgFromCam(Eigen::Vector3d(0, 0, -1)).has_value());
 }
 
+// A fisheye whose image corners lie beyond 90° from its axis (equidistant, f = 100 px on a
+// 400×400 image: the corner is 283 px = 2.83 rad from the centre): a perspective model's ray
+// (u, v, 1) cannot point there, so the corner's ray is NaN, while a pixel 80° off the axis gets
+// a ray that images back to it.
+TEST(Camera, FisheyePixelsBeyondNinetyDegreesHaveNoRay) {
+  Camera camera;
+  camera.model_id = CameraModelId::kOpenCVFisheye;
+  camera.width = 400;
+  camera.height = 400;
+  camera.params = {100, 100, 200, 200, 0, 0, 0, 0};
+  EXPECT_FALSE(camera.CamFromImg(Eigen::Vector2d(2, 2)).allFinite());
+  EXPECT_FALSE(camera.CamFromImg(Eigen::Vector2d(200 + 100 * M_PI * 0.55, 200)).allFinite());
+  const Eigen::Vector2d inside(200 + 100 * 80.0 * M_PI / 180.0, 200);
+  const Eigen::Vector3d ray = camera.CamFromImg(inside);
+  ASSERT_TRUE(ray.allFinite());
+  EXPECT_NEAR(std::acos(ray.normalized().z()), 80.0 * M_PI / 180.0, 1e-9);
+  const auto back = camera.ImgFromCam(ray);
+  ASSERT_TRUE(back.has_value());
+  EXPECT_LT((*back - inside).norm(), 1e-6);
+}
+
 }  // namespace
 }  // namespace mmba::sensors

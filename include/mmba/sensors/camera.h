@@ -44,7 +44,9 @@ struct Camera {
 
   /// Pixel of a point in the camera frame; nullopt where the model cannot image it.
   std::optional<Eigen::Vector2d> ImgFromCam(const Eigen::Vector3d& point_in_cam) const;
-  /// Viewing ray of a pixel: (u, v, 1) for perspective models, unit vector for panoramas.
+  /// Viewing ray of a pixel: (u, v, 1) for perspective models, unit vector for panoramas; NaN
+  /// where the pixel is outside the model's domain (its ray does not image back to it within
+  /// 0.01 px: a fisheye's corners beyond 90° from the axis).
   Eigen::Vector3d CamFromImg(const Eigen::Vector2d& xy) const;
   /// True for models whose residuals are measured on the sphere.
   bool IsSpherical() const { return model_id == CameraModelId::kEquirectangular; }
