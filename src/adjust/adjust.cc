@@ -226,6 +226,8 @@ std::map<std::string, std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>>> 
     const ImagePose& image = scene.Image(m.image_id);
     const Rigid3d world_from_cam = image.cam_from_world.Inverse();
     const Eigen::Vector3d d = world_from_cam.rotation * scene.Camera(image.camera_id).CamFromImg(m.xy);
+    // A pixel outside the camera model's domain has no ray (NaN): it does not intersect.
+    if (!d.allFinite() || !(d.norm() > 0)) continue;
     rays[m.point_id].emplace_back(world_from_cam.translation, d.normalized());
   }
   return rays;
