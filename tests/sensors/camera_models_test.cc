@@ -197,5 +197,48 @@ TEST(Camera, FisheyePixelsBeyondNinetyDegreesHaveNoRay) {
   EXPECT_LT((*back - inside).norm(), 1e-6);
 }
 
+// Real calibrations with strong distortion keep a ray for every pixel of their image: the
+// domain check of CamFromImg (its ray images back within 0.01 px) must not cut off the corners
+// of an ordinary lens. The OpenCV sample's left camera (data/SOURCES.md's chessboard row:
+// k1 -0.266, k3 +0.238, FULL_OPENCV), the Balbianello photos' SIMPLE_RADIAL (data/colmap) and
+// a wide fisheye (OPENCV_FISHEYE, 75° at the corner), every 4th pixel of each image.
+TEST(Camera, StronglyDistortedRealCalibrationsHaveARayForEveryPixel) {
+  std::vector<Camera> cameras(3);
+  cameras[0].model_id = CameraModelId::kFullOpenCV;
+  cameras[0].width = 640;
+  cameras[0].height = 480;
+  cameras[0].params = {535.91573396163199, 535.91573396163199, 342.28315473308373,
+                       235.57082909788173, -0.26637260909660682, -0.038588898922304653,
+                       0.0017831947042852964, -0.00028122100441115472, 0.23839153080878486,
+                       0, 0, 0};
+  cameras[1].model_id = CameraModelId::kSimpleRadial;
+  cameras[1].width = 640;
+  cameras[1].height = 427;
+  cameras[1].params = {528.84624146002591, 320, 213.5, -0.1069875854982123};
+  cameras[2].model_id = CameraModelId::kOpenCVFisheye;
+  cameras[2].width = 1920;
+  cameras[2].height = 1080;
+  cameras[2].params = {841, 841, 960, 540, 0.02, -0.01, 0.003, -0.001};
+  for (const Camera& camera : cameras) {
+    int missing = 0;
+    double worst = 0;
+    for (int y = 0; y <= static_cast<int>(camera.height); y += 4) {
+      for (int x = 0; x <= static_cast<int>(camera.width); x += 4) {
+        const Eigen::Vector2d xy(x, y);
+        const Eigen::Vector3d ray = camera.CamFromImg(xy);
+        if (!ray.allFinite()) {
+          ++missing;
+          continue;
+        }
+        const auto back = camera.ImgFromCam(ray);
+        ASSERT_TRUE(back.has_value());
+        worst = std::max(worst, (*back - xy).norm());
+      }
+    }
+    EXPECT_EQ(missing, 0) << CameraModelName(camera.model_id);
+    EXPECT_LT(worst, 1e-6) << CameraModelName(camera.model_id);
+  }
+}
+
 }  // namespace
 }  // namespace mmba::sensors
