@@ -72,20 +72,15 @@ RayTable MakeRayTable(const sensors::Camera& camera, int samples_per_axis, int t
   const int width = static_cast<int>(camera.width), height = static_cast<int>(camera.height);
   table.rays.assign(static_cast<size_t>(width) * height * n * n,
                     Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
-  const bool fisheye = camera.model_id == sensors::CameraModelId::kOpenCVFisheye;
   internal::ParallelFor(static_cast<size_t>(height), threads, [&](size_t begin, size_t end) {
     for (size_t y = begin; y < end; ++y) {
       for (int x = 0; x < width; ++x) {
         for (int sy = 0; sy < n; ++sy) {
           for (int sx = 0; sx < n; ++sx) {
             const Eigen::Vector2d xy(x + (sx + 0.5) / n, static_cast<double>(y) + (sy + 0.5) / n);
+            // NaN outside the model's domain (a fisheye's corners beyond 90°): no ray, black.
             const Eigen::Vector3d ray = camera.CamFromImg(xy);
             if (!ray.allFinite()) continue;
-            if (fisheye) {
-              // The undistorted ray must map back to the same pixel (domain of the model).
-              const auto back = camera.ImgFromCam(ray);
-              if (!back || (*back - xy).norm() > 0.01) continue;
-            }
             table.rays[((y * width + x) * n + sy) * n + sx] = ray.normalized();
           }
         }
