@@ -95,7 +95,8 @@ void ReadSceneFile(const std::string& path, SimulateOptions* o) {
        }},
       {"render", [&](Node n, F f) {
          r.Map(n, f, {{"samples_per_axis", integer(&o->render.samples_per_axis)},
-                      {"noise_sigma_dn", num(&o->render.noise_sigma_dn)}});
+                      {"noise_sigma_dn", num(&o->render.noise_sigma_dn)},
+                      {"ambient", num(&o->render.ambient)}});
        }},
       {"clouds", [&](Node n, F f) {
          r.Map(n, f, {{"surface_samples", integer(&o->clouds.surface_samples)}});

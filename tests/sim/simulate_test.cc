@@ -283,6 +283,18 @@ TEST(Simulate, ImpossibleParametersAreInputErrors) {
   }
   std::ofstream(dir / "unknown.yaml") << "scene: gate\nphotoz: 3\n";
   EXPECT_THROW(ReadSceneFile((dir / "unknown.yaml").string(), &o), InputError);
+  // The lighting of the rendered images: ambient 1 = albedo only (no sun shading).
+  std::ofstream(dir / "flat.yaml") << "scene: gate\nrender: {ambient: 1.0}\n";
+  SimulateOptions flat = Tiny();
+  ReadSceneFile((dir / "flat.yaml").string(), &flat);
+  EXPECT_EQ(flat.render.ambient, 1.0);
+  std::ofstream(dir / "dark.yaml") << "scene: gate\nrender: {ambient: 1.5}\n";
+  try {
+    ReadSceneFile((dir / "dark.yaml").string(), &flat);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("ambient"), std::string::npos) << e.what();
+  }
   std::ofstream(dir / "empty.obj") << "# no faces\n";
   std::ofstream(dir / "mesh.yaml") << "mesh: empty.obj\n";
   SimulateOptions from_file = Tiny();
