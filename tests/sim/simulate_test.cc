@@ -288,9 +288,9 @@ TEST(Simulate, ImpossibleParametersAreInputErrors) {
   SimulateOptions flat = Tiny();
   ReadSceneFile((dir / "flat.yaml").string(), &flat);
   EXPECT_EQ(flat.render.ambient, 1.0);
-  std::ofstream(dir / "dark.yaml") << "scene: gate\nrender: {ambient: 1.5}\n";
+  std::ofstream(dir / "bright.yaml") << "scene: gate\nrender: {ambient: 1.5}\n";
   try {
-    ReadSceneFile((dir / "dark.yaml").string(), &flat);
+    ReadSceneFile((dir / "bright.yaml").string(), &flat);
     FAIL();
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("ambient"), std::string::npos) << e.what();
