@@ -380,6 +380,17 @@ int main(int argc, char** argv) {
                                         static_cast<float>(std::atof(v))),
                          &points);
   }
+  // MI_ORIENTATION="sectors[,voxel]": register-mi --orientation-classes sectors
+  // [--surface-voxel-m voxel]: the classes seen from each start's camera centre.
+  int orientation_sectors = 0;
+  float orientation_voxel = 0.5f;
+  std::vector<Eigen::Vector3f> plane_normals;
+  if (const char* v = std::getenv("MI_ORIENTATION")) {
+    std::sscanf(v, "%d,%f", &orientation_sectors, &orientation_voxel);
+    if (orientation_sectors > 0) {
+      plane_normals = LocalPlaneNormals(points.points_in_lidar, orientation_voxel);
+    }
+  }
   const std::vector<TrueView> views = ReadViews(dir, kinds);
   std::printf("%s: %zu points, %zu views, setup %.1f s\n", cloud_path.c_str(), points.size(),
               views.size(), setup.ElapsedSeconds());
@@ -435,6 +446,9 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_SURFACE_CLASSES"); v != nullptr && std::atof(v) > 0) {
     options.metric.lidar_classes = 2;
   }
+  if (orientation_sectors > 0) options.metric.lidar_classes = orientation_sectors + 3;
+  // MI_BINS: the joint histogram's bins per axis (register-mi --bins).
+  if (const char* v = std::getenv("MI_BINS")) options.metric.bins = std::atoi(v);
   // MI_ALL_CHECKS=1: every acceptance check measured also after one failed (as before 1 Dec, night).
   if (const char* v = std::getenv("MI_ALL_CHECKS")) options.measure_all_checks = std::atoi(v) != 0;
   if (const char* v = std::getenv("MI_RESTART_OFFSET")) {  // "m,deg"
@@ -556,6 +570,17 @@ int main(int argc, char** argv) {
                               std::string(stitch_warp) == "truth" ? tv.cam_from_world : start,
                               rig_cameras, rig_cam_from_rig, stitch_distance);
           frame.points = &warped;
+        }
+        LidarPoints classed;
+        if (orientation_sectors > 0) {
+          classed = frame.points == &warped ? warped : points;
+          const Eigen::Vector3f centre =
+              (-(start.rotation.conjugate() * start.translation)).cast<float>();
+          EncodeSurfaceClasses(OrientationClasses(classed.points_in_lidar, plane_normals,
+                                                  Eigen::Vector3f::UnitZ(), centre,
+                                                  orientation_sectors),
+                               &classed);
+          frame.points = &classed;
         }
         const RegistrationResult r = RegisterFrames({frame}, start, options);
         const double seconds = timer.ElapsedSeconds();

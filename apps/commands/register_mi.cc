@@ -71,6 +71,7 @@ struct RegisterMiArgs {
   int max_point_radius_px = 2;
   double max_range_m = 200.0;
   bool surface_classes = false;
+  int orientation_classes = 0;
   double surface_voxel_m = 0.5;
   std::vector<double> perturb;
   std::string probe;
@@ -179,6 +180,19 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.render.max_range_m = args.max_range_m;
   if (args.surface_classes && options.render.representation == mi::Representation::kIntensity) {
     options.metric.lidar_classes = 2;
+  }
+  if (args.orientation_classes > 0) {
+    if (args.surface_classes) {
+      throw InputError::Message("--orientation-classes", "cannot be combined with --surface-classes "
+                                                         "(both set the metric's classes)");
+    }
+    if (options.render.representation != mi::Representation::kIntensity) {
+      throw InputError::Message("--orientation-classes",
+                                "conditions the intensity on the surface's orientation; it needs "
+                                "--representation intensity");
+    }
+    // Facing up, facing down, the sectors, no plane.
+    options.metric.lidar_classes = args.orientation_classes + 3;
   }
   if (options.metric.region == mi::Region::kOverlap &&
       options.render.representation == mi::Representation::kPoints) {
@@ -360,6 +374,26 @@ int RunRegisterMi(const RegisterMiArgs& args) {
       spdlog::info("{}: surface classes: {} points on horizontal planes, {} others", lidar_path,
                    horizontal, classes.size() - horizontal);
     }
+    if (args.orientation_classes > 0) {
+      // The metric conditioned on which way each surface faces, seen from the start's camera
+      // (rig) centre (bench/RESULTS.md "Orientation classes").
+      const Rigid3d cam_from_local = to_local(start);
+      const Eigen::Vector3f viewpoint =
+          (-(cam_from_local.rotation.conjugate() * cam_from_local.translation)).cast<float>();
+      const std::vector<Eigen::Vector3f> normals =
+          mi::LocalPlaneNormals(clouds.back().points_in_lidar, static_cast<float>(args.surface_voxel_m));
+      const std::vector<uint8_t> classes =
+          mi::OrientationClasses(clouds.back().points_in_lidar, normals, Eigen::Vector3f::UnitZ(),
+                                 viewpoint, args.orientation_classes);
+      mi::EncodeSurfaceClasses(classes, &clouds.back());
+      std::vector<size_t> per_class(args.orientation_classes + 3, 0);
+      for (uint8_t c : classes) ++per_class[c];
+      std::string counts;
+      for (size_t c = 2; c < per_class.size() - 1; ++c) counts += (c > 2 ? "/" : "") + std::to_string(per_class[c]);
+      spdlog::info("{}: orientation classes: {} facing up, {} facing down, {} steep by azimuth, {} "
+                   "without a plane",
+                   lidar_path, per_class[0], per_class[1], counts, per_class.back());
+    }
     spdlog::info("read {}: {} points{}", lidar_path, cloud.size(),
                  cloud.has_intensity() ? " with intensity" : "");
   }
@@ -441,6 +475,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"covariance_pixel_floor", args.covariance_pixel_floor},
                      {"covariance_per_point_samples", options.covariance_per_point_samples},
                      {"surface_classes", args.surface_classes},
+                     {"orientation_classes", args.orientation_classes},
                      {"surface_voxel_m", args.surface_voxel_m}};
   if (rig_mode) {
     // The pose is the rig's: rig_from_lidar (the correction about the rig's origin), and each
@@ -670,8 +705,14 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
                   "Metric conditioned on the surface: horizontal planes (normal within 45 deg of the "
                   "cloud's z axis) against the rest, one joint histogram each (intensity)")
       ->capture_default_str();
+  sub->add_option("--orientation-classes", args->orientation_classes,
+                  "Metric conditioned on which way each surface faces (sun shading): facing up, "
+                  "facing down, steep faces in this many azimuth sectors, no plane; one joint "
+                  "histogram each (intensity; 0 = off)")
+      ->check(CLI::Range(0, mmba::registration::mi::kMaxLidarClasses - 3))
+      ->capture_default_str();
   sub->add_option("--surface-voxel-m", args->surface_voxel_m,
-                  "Voxel of the local planes of --surface-classes, m")
+                  "Voxel of the local planes of --surface-classes and --orientation-classes, m")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   sub->add_option("--max-range-m", args->max_range_m, "Ignore points farther than this")

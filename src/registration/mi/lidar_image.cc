@@ -121,19 +121,19 @@ LidarPoints PrepareLidarPoints(const io::PointCloud& cloud) {
   return prepared;
 }
 
-std::vector<uint8_t> SurfaceClasses(const std::vector<Eigen::Vector3f>& points,
-                                    const Eigen::Vector3f& up, float voxel_m) {
+std::vector<Eigen::Vector3f> LocalPlaneNormals(const std::vector<Eigen::Vector3f>& points,
+                                               float voxel_m) {
   CHECK(voxel_m > 0.f) << "voxel_m " << voxel_m;
-  const Eigen::Vector3d up_unit = up.normalized().cast<double>();
   // Per point, the plane of its voxel at the finest of three scales (voxel_m / 2, voxel_m,
   // 2 voxel_m) that holds a clear plane: fine voxels keep the ground and a wall's foot apart,
-  // coarse ones give sparse far ground enough points. 255 = no clear plane yet.
-  std::vector<uint8_t> classes(points.size(), 255);
+  // coarse ones give sparse far ground enough points. Zero = no clear plane yet.
+  std::vector<Eigen::Vector3f> normals(points.size(), Eigen::Vector3f::Zero());
+  std::vector<char> done(points.size(), 0);
   struct Moments {
     double n = 0;
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     Eigen::Matrix3d outer = Eigen::Matrix3d::Zero();
-    uint8_t cls = 255;
+    Eigen::Vector3f normal = Eigen::Vector3f::Zero();
   };
   std::vector<uint64_t> keys(points.size());
   for (const float size : {0.5f * voxel_m, voxel_m, 2.f * voxel_m}) {
@@ -142,7 +142,7 @@ std::vector<uint8_t> SurfaceClasses(const std::vector<Eigen::Vector3f>& points,
     std::unordered_map<uint64_t, Moments> voxels;
     voxels.reserve(points.size() / 8 + 16);
     for (size_t i = 0; i < points.size(); ++i) {
-      if (classes[i] != 255) continue;
+      if (done[i]) continue;
       const Eigen::Vector3f cell = (points[i] / size).array().floor().matrix();
       uint64_t key = 0;
       for (int a = 0; a < 3; ++a) key = (key << 21) | (static_cast<uint64_t>(static_cast<int64_t>(cell[a])) & 0x1FFFFF);
@@ -162,15 +162,65 @@ std::vector<uint8_t> SurfaceClasses(const std::vector<Eigen::Vector3f>& points,
         eigen.computeDirect(covariance);
         const Eigen::Vector3d l = eigen.eigenvalues();  // ascending
         if (l[1] >= 0.1 * l[2] && l[0] <= 0.25 * l[1]) {
-          m.cls = std::abs(eigen.eigenvectors().col(0).dot(up_unit)) >= std::cos(M_PI / 4) ? 0 : 1;
+          m.normal = eigen.eigenvectors().col(0).normalized().cast<float>();
         }
       }
     }
     for (size_t i = 0; i < points.size(); ++i) {
-      if (classes[i] == 255) classes[i] = voxels.at(keys[i]).cls;
+      if (done[i]) continue;
+      normals[i] = voxels.at(keys[i]).normal;
+      done[i] = !normals[i].isZero();
     }
   }
-  for (uint8_t& c : classes) c = c == 255 ? 1 : c;
+  return normals;
+}
+
+std::vector<uint8_t> SurfaceClasses(const std::vector<Eigen::Vector3f>& points,
+                                    const Eigen::Vector3f& up, float voxel_m) {
+  const Eigen::Vector3d up_unit = up.normalized().cast<double>();
+  const std::vector<Eigen::Vector3f> normals = LocalPlaneNormals(points, voxel_m);
+  std::vector<uint8_t> classes(points.size(), 1);
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (normals[i].isZero()) continue;
+    classes[i] = std::abs(normals[i].cast<double>().dot(up_unit)) >= std::cos(M_PI / 4) ? 0 : 1;
+  }
+  return classes;
+}
+
+std::vector<uint8_t> OrientationClasses(const std::vector<Eigen::Vector3f>& points,
+                                        const std::vector<Eigen::Vector3f>& normals,
+                                        const Eigen::Vector3f& up,
+                                        const Eigen::Vector3f& viewpoint, int sectors) {
+  CHECK(sectors >= 1 && sectors + 3 <= kMaxLidarClasses) << "sectors " << sectors;
+  CHECK_EQ(normals.size(), points.size());
+  const Eigen::Vector3f z = up.normalized();
+  // Azimuths about `up` from the cloud's x axis projected onto the horizontal (its y axis
+  // where x is vertical).
+  Eigen::Vector3f e1 = Eigen::Vector3f::UnitX() - z * z.x();
+  if (e1.norm() < 0.1f) e1 = Eigen::Vector3f::UnitY() - z * z.y();
+  e1.normalize();
+  const Eigen::Vector3f e2 = z.cross(e1);
+  const float steep = static_cast<float>(std::cos(M_PI / 4));
+  const double sector = 2.0 * M_PI / sectors;
+  std::vector<uint8_t> classes(points.size(), static_cast<uint8_t>(sectors + 2));
+  for (size_t i = 0; i < points.size(); ++i) {
+    Eigen::Vector3f n = normals[i];
+    if (n.isZero()) continue;
+    // The side seen from the viewpoint: a surface is lit (and photographed) on that side.
+    if (n.dot(viewpoint - points[i]) < 0.f) n = -n;
+    const float vertical = n.dot(z);
+    if (vertical >= steep) {
+      classes[i] = 0;
+    } else if (vertical <= -steep) {
+      classes[i] = 1;
+    } else {
+      // Sectors centred on the azimuths 0, 360°/sectors, …: walls along the grid's axes fall
+      // in the middle of a sector, not on a boundary.
+      const double azimuth = std::atan2(n.dot(e2), n.dot(e1)) + 0.5 * sector;
+      const int s = static_cast<int>(std::floor(azimuth / sector));
+      classes[i] = static_cast<uint8_t>(2 + ((s % sectors) + sectors) % sectors);
+    }
+  }
   return classes;
 }
 
@@ -178,8 +228,11 @@ void EncodeSurfaceClasses(const std::vector<uint8_t>& classes, LidarPoints* poin
   CHECK(points->has_intensity() && classes.size() == points->size())
       << "classes " << classes.size() << " for " << points->size() << " points";
   for (size_t i = 0; i < classes.size(); ++i) {
-    const float value = 0.4f * std::clamp(points->intensity01[i], 0.f, 1.f);
-    points->intensity01[i] = classes[i] != 0 ? 0.6f + value : value;
+    CHECK_LT(classes[i], kMaxLidarClasses) << "point " << i;
+    // Class + fraction (MetricOptions::lidar_classes): the fraction below 1, so that
+    // floor(value) is the class.
+    points->intensity01[i] =
+        static_cast<float>(classes[i]) + 0.999f * std::clamp(points->intensity01[i], 0.f, 1.f);
   }
 }
 
@@ -577,7 +630,9 @@ size_t CountVisiblePoints(const LidarImage& image) {
 GrayImage LidarImageToGray(const LidarImage& image) {
   GrayImage gray(image.width, image.height);
   for (size_t k = 0; k < image.value.size(); ++k) {
-    gray.pixels[k] = image.value[k] < 0 ? 0.f : 255.f * image.value[k];
+    // (Values of several surface classes are class + fraction: the fraction is shown.)
+    const float v = image.value[k];
+    gray.pixels[k] = v < 0 ? 0.f : 255.f * (v > 1.f ? v - std::floor(v) : v);
   }
   return gray;
 }

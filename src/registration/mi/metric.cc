@@ -69,8 +69,9 @@ bool MetricOptions::Check(std::string* error) const {
     *error = "bins " + std::to_string(bins) + " must be in 4..1024";
     return false;
   }
-  if (lidar_classes != 1 && lidar_classes != 2) {
-    *error = "lidar_classes " + std::to_string(lidar_classes) + " must be 1 or 2";
+  if (lidar_classes < 1 || lidar_classes > kMaxLidarClasses) {
+    *error = "lidar_classes " + std::to_string(lidar_classes) + " must be in 1.." +
+             std::to_string(kMaxLidarClasses);
     return false;
   }
   if (smoothing == Smoothing::kParzen && !(parzen_sigma_bins > 0 && parzen_sigma_bins < 32)) {
@@ -83,7 +84,8 @@ bool MetricOptions::Check(std::string* error) const {
 JointHistogram::JointHistogram(const MetricOptions& options)
     : options_(options),
       bins_(options.bins),
-      counts_(static_cast<size_t>(options.bins + 3) * (options.bins + 3), 0.0),
+      classes_(std::clamp(options.lidar_classes, 1, kMaxLidarClasses)),
+      counts_(static_cast<size_t>(classes_) * (options.bins + 3) * (options.bins + 3), 0.0),
       empty_counts_(options.bins + 3, 0.0),
       photo_scale_(static_cast<float>((options.bins - 1) / 255.0)) {}
 
@@ -113,8 +115,8 @@ double Entropy(const double* p, size_t count, double total) {
 // One sample's bins; the caller counts it (total_, lidar_total_): counts are integers, so
 // adding them once per call instead of once per sample gives the same sums without a
 // dependency through memory per sample.
-[[gnu::always_inline]] inline void JointHistogram::AddSample(float lidar_pos, float photo_pos,
-                                                             bool lidar_empty) {
+[[gnu::always_inline]] inline void JointHistogram::AddSample(int lidar_row, float lidar_pos,
+                                                             float photo_pos, bool lidar_empty) {
   const int bins = bins_;
   const int stride = bins + 3;
   if (lidar_empty) {
@@ -131,7 +133,7 @@ double Entropy(const double* p, size_t count, double total) {
   if (options_.smoothing != Smoothing::kBSpline) {
     const int py = std::clamp(static_cast<int>(photo_pos + 0.5f), 0, bins - 1);
     const int lx = std::clamp(static_cast<int>(lidar_pos + 0.5f), 0, bins - 1);
-    counts_[static_cast<size_t>(lx + 1) * stride + py + 1] += 1;
+    counts_[static_cast<size_t>(lidar_row + lx + 1) * stride + py + 1] += 1;
     return;
   }
   float wx[4], wy[4];
@@ -141,7 +143,7 @@ double Entropy(const double* p, size_t count, double total) {
   JointHistogram::CubicBSplineWeights(lidar_pos - bx, wx);
   JointHistogram::CubicBSplineWeights(photo_pos - by, wy);
   // Padded index of bin (bx − 1 + i, by − 1 + j) is (bx + i) · stride + by + j.
-  double* base = &counts_[static_cast<size_t>(bx) * stride + by];
+  double* base = &counts_[static_cast<size_t>(lidar_row + bx) * stride + by];
   for (int i = 0; i < 4; ++i) {
     double* row = base + static_cast<size_t>(i) * stride;
     row[0] += wx[i] * wy[0];
@@ -272,7 +274,7 @@ template <typename Pixels>
   size_t samples = 0, lidar_samples = 0;
   int cols[kChunk];
   float lidar_pos[kChunk], photo_pos[kChunk];
-  int bx[kChunk], by[kChunk];
+  int bx[kChunk], by[kChunk], class_row[kChunk];
   float wx[4][kChunk], wy[4][kChunk];
   for (int r = 0; r < height; ++r) {
     const size_t row = static_cast<size_t>(r) * width;
@@ -283,14 +285,16 @@ template <typename Pixels>
         cols[m] = c;
         m += pixels.Covered(row + c);
       }
-      const int batched = pixels.GetBatch(cols, m, r, photo, lidar_scale, photo_scale,
-                                          lidar_pos, photo_pos);
+      // (Several classes: one value at a time, for each value's class row.)
+      const int batched = classes_ == 1 ? pixels.GetBatch(cols, m, r, photo, lidar_scale,
+                                                          photo_scale, lidar_pos, photo_pos)
+                                        : 0;
       for (int j = batched; j < m; ++j) {
         float value, x, y;
         pixels.Get(row + cols[j], cols[j], r, &value, &x, &y);
         // Sample the photo where the point really falls: smooth in the pose.
         const float photo_value = SampleClamped(photo, x, y);
-        lidar_pos[j] = value * lidar_scale;
+        lidar_pos[j] = classes_ == 1 ? value * lidar_scale : LidarPosition(value, &class_row[j]);
         photo_pos[j] = photo_value * photo_scale;
       }
       for (int j = 0; j < m; ++j) {
@@ -306,8 +310,10 @@ template <typename Pixels>
         for (int i = 0; i < 4; ++i) wy[i][j] = w[i];
       }
       for (int j = 0; j < m; ++j) {
-        // Padded index of bin (bx − 1 + i, by − 1 + q) is (bx + i) · stride + by + q.
-        double* base = &counts_[static_cast<size_t>(bx[j]) * stride + by[j]];
+        // Padded index of bin (bx − 1 + i, by − 1 + q) is (bx + i) · stride + by + q (in the
+        // block of the sample's class).
+        const int first_row = classes_ == 1 ? 0 : class_row[j];
+        double* base = &counts_[static_cast<size_t>(first_row + bx[j]) * stride + by[j]];
         for (int i = 0; i < 4; ++i) {
           double* line = base + static_cast<size_t>(i) * stride;
           line[0] += wx[i][j] * wy[0][j];
@@ -386,7 +392,11 @@ void JointHistogram::Add(const LidarImage& lidar, const GrayImage& photo) {
         // Sample the photo where the point really falls: smooth in the pose.
         photo_value = SampleClamped(photo, c + 0.5f + lidar.offset_x[k], r + 0.5f + lidar.offset_y[k]);
       }
-      AddSample(empty ? 0.f : lidar.value[k] * lidar_scale, photo_value * photo_scale, empty);
+      int lidar_row = 0;
+      const float lidar_pos = empty ? 0.f
+                              : classes_ == 1 ? lidar.value[k] * lidar_scale
+                                              : LidarPosition(lidar.value[k], &lidar_row);
+      AddSample(lidar_row, lidar_pos, photo_value * photo_scale, empty);
       ++samples;
       if (!empty) ++lidar_samples;
     }
@@ -474,8 +484,11 @@ void JointHistogram::AddPairs(const float* lidar01, const float* photo255, size_
   for (size_t k = 0; k < count; ++k) {
     const bool empty = lidar01[k] < 0;
     if (empty && !whole) continue;
-    AddSample(empty ? 0.f : std::min(lidar01[k], 1.f) * lidar_scale,
-              std::clamp(photo255[k], 0.f, 255.f) * photo_scale, empty);
+    int lidar_row = 0;
+    const float lidar_pos = empty ? 0.f
+                            : classes_ == 1 ? std::min(lidar01[k], 1.f) * lidar_scale
+                                            : LidarPosition(lidar01[k], &lidar_row);
+    AddSample(lidar_row, lidar_pos, std::clamp(photo255[k], 0.f, 255.f) * photo_scale, empty);
     ++samples;
     if (!empty) ++lidar_samples;
   }
@@ -499,8 +512,9 @@ MetricValue JointHistogram::Evaluate() const {
   const int bins = bins_;
   const int stride = bins + 3;
   const bool whole = options_.region == Region::kWholeImage;
-  // Rows: the empty-LiDAR bin first in whole-image mode, then the LiDAR bins.
-  const int lidar_bins = whole ? bins + 1 : bins;
+  // Rows: the empty-LiDAR bin first in whole-image mode, then the LiDAR bins of each class.
+  const int classes = classes_;
+  const int lidar_bins = (whole ? 1 : 0) + classes * bins;
   const int first = whole ? 1 : 0;
   // Fold the padding onto the edge bins (padded index p ↦ bin clamp(p − 1, 0, bins − 1)).
   auto fold = [bins](int p) { return std::clamp(p - 1, 0, bins - 1); };
@@ -508,13 +522,40 @@ MetricValue JointHistogram::Evaluate() const {
   if (whole) {
     for (int q = 0; q < stride; ++q) joint[fold(q)] += empty_counts_[q];
   }
-  for (int p = 0; p < stride; ++p) {
-    double* row = &joint[static_cast<size_t>(first + fold(p)) * bins];
-    const double* padded = &counts_[static_cast<size_t>(p) * stride];
-    for (int q = 0; q < stride; ++q) row[fold(q)] += padded[q];
+  for (int c = 0; c < classes; ++c) {
+    for (int p = 0; p < stride; ++p) {
+      double* row = &joint[static_cast<size_t>(first + c * bins + fold(p)) * bins];
+      const double* padded = &counts_[static_cast<size_t>(c * stride + p) * stride];
+      for (int q = 0; q < stride; ++q) row[fold(q)] += padded[q];
+    }
+  }
+  // LiDAR rows evaluated as one histogram each: all of them, or with several classes the
+  // rows of each class and, in whole-image mode, the empty row; the result is then the
+  // metric conditioned on the class, Σ_c p(c)·metric_c.
+  std::vector<std::pair<int, int>> blocks = {{0, lidar_bins}};
+  if (classes > 1) {
+    blocks.clear();
+    for (int c = 0; c < classes; ++c) blocks.push_back({first + c * bins, first + (c + 1) * bins});
+    if (whole) blocks.push_back({0, 1});
+  }
+  // Each block's weight p(c) from its counts before any Parzen window (whose clamped edges
+  // do not keep a block's sum).
+  std::vector<double> block_weight;
+  {
+    double raw_all = 0;
+    for (const auto& [begin, end] : blocks) {
+      double sum = 0;
+      for (size_t k = static_cast<size_t>(begin) * bins; k < static_cast<size_t>(end) * bins; ++k) {
+        sum += joint[k];
+      }
+      block_weight.push_back(sum);
+      raw_all += sum;
+    }
+    for (double& w : block_weight) w = raw_all > 0 ? w / raw_all : 0.0;
   }
   if (options_.smoothing == Smoothing::kParzen) {
-    // Separable Gaussian Parzen window over the bins (not across the empty LiDAR bin).
+    // Separable Gaussian Parzen window over the bins (not across the empty LiDAR bin nor
+    // across classes).
     const double sigma = options_.parzen_sigma_bins;
     const int radius = static_cast<int>(std::ceil(3 * sigma));
     std::vector<double> kernel(2 * radius + 1);
@@ -536,32 +577,25 @@ MetricValue JointHistogram::Evaluate() const {
       }
     }
     joint = tmp;
-    for (int x = first; x < lidar_bins; ++x) {  // along the LiDAR axis
+    for (int x = first; x < lidar_bins; ++x) {  // along the LiDAR axis, within the class
+      const int class_first = first + (x - first) / bins * bins;
       for (int y = 0; y < bins; ++y) {
         double v = 0;
         for (int i = -radius; i <= radius; ++i) {
-          const int xx = std::clamp(x + i, first, lidar_bins - 1);
+          const int xx = std::clamp(x + i, class_first, class_first + bins - 1);
           v += kernel[i + radius] * tmp[static_cast<size_t>(xx) * bins + y];
         }
         joint[static_cast<size_t>(x) * bins + y] = v;
       }
     }
   }
-  // LiDAR rows evaluated as one histogram each: all of them, or with lidar_classes = 2 the
-  // rows of values < 0.5 (class 0), of values ≥ 0.5 (class 1) and, in whole-image mode, the
-  // empty row; the result is then the metric conditioned on the class, Σ_c p(c)·metric_c.
-  std::vector<std::pair<int, int>> blocks = {{0, lidar_bins}};
-  if (options_.lidar_classes == 2) {
-    const int split = first + static_cast<int>(std::floor(0.5 * (bins - 1))) + 1;
-    blocks = {{first, split}, {split, lidar_bins}};
-    if (whole) blocks.push_back({0, 1});
-  }
   double all = 0;
   for (double c : joint) all += c;
   if (!(all > 0)) return result;
   result.nid = 0;  // a sum over the blocks below
   std::vector<double> lidar_marginal, photo_marginal;
-  for (const auto& [begin, end] : blocks) {
+  for (size_t b = 0; b < blocks.size(); ++b) {
+    const auto& [begin, end] = blocks[b];
     const double* block = &joint[static_cast<size_t>(begin) * bins];
     const size_t size = static_cast<size_t>(end - begin) * bins;
     lidar_marginal.assign(end - begin, 0.0);
@@ -576,7 +610,7 @@ MetricValue JointHistogram::Evaluate() const {
       }
     }
     if (!(total > 0)) continue;
-    const double weight = total / all;  // exactly 1 for the single block
+    const double weight = block_weight[b];  // exactly 1 for the single block
     // Eq. (1)–(3), Wang et al. 2012: MI = H(X) + H(Y) − H(X,Y).
     const double hx = Entropy(lidar_marginal.data(), lidar_marginal.size(), total);
     const double hy = Entropy(photo_marginal.data(), photo_marginal.size(), total);

@@ -737,6 +737,12 @@ double FrameSetEvaluator::EffectiveSamples(const Rigid3d& cam_from_lidar, int le
       const int w = buffer.width, h = buffer.height;
       const size_t pixels = buffer.value.size();
       auto covered = [&](size_t k) { return buffer.point_index[k] >= 0; };
+      // The intensity without its surface class (class + fraction with several classes).
+      const bool classed = options_.metric.lidar_classes > 1;
+      auto value = [&](size_t k) {
+        const float v = buffer.value[k];
+        return classed ? v - std::floor(v) : v;
+      };
       // The pose is found from where the two images change: the score of a registration is a
       // sum of gradient-weighted terms, so the correlation that matters is that of the
       // gradient fields (central differences where both neighbours are covered).
@@ -751,8 +757,8 @@ double FrameSetEvaluator::EffectiveSamples(const Rigid3d& cam_from_lidar, int le
             continue;
           }
           on[k] = 1;
-          lx[k] = buffer.value[k + 1] - buffer.value[k - 1];
-          ly[k] = buffer.value[k + w] - buffer.value[k - w];
+          lx[k] = value(k + 1) - value(k - 1);
+          ly[k] = value(k + w) - value(k - w);
           px[k] = view.image.pixels[k + 1] - view.image.pixels[k - 1];
           py[k] = view.image.pixels[k + w] - view.image.pixels[k - w];
           n += 1;

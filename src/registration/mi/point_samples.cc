@@ -83,17 +83,27 @@ __attribute__((target("avx2"))) int SampleClampedAvx2(const GrayImage& photo, co
     histogram->LidarWeights(1.f, &last_bin, unused);
   }
   const float lidar_scale = static_cast<float>(last_bin);
+  const int classes = histogram->lidar_classes();
   const bool gather = internal::CpuHasAvx2() && view.image.pixels.size() < (size_t{1} << 31);
   auto flush = [&]() __attribute__((always_inline)) {
     const int done = gather ? SampleClampedAvx2(view.image, batch_x, batch_y, n, batch_photo) : 0;
     for (int k = done; k < n; ++k) batch_photo[k] = SampleClamped(view.image, batch_x[k], batch_y[k]);
-    for (int k = 0; k < n; ++k) {
-      const float pos = batch_value[k] * lidar_scale;
-      const int bx = static_cast<int>(std::min(std::max(pos, 0.f), lidar_scale));
-      float w[4];
-      JointHistogram::CubicBSplineWeights(pos - bx, w);
-      batch_bx[k] = bx;
-      for (int i = 0; i < 4; ++i) batch_wx[i][k] = w[i];
+    if (classes > 1) {
+      // Several classes: each value's class block (JointHistogram::LidarWeights).
+      for (int k = 0; k < n; ++k) {
+        float w[4];
+        histogram->LidarWeights(batch_value[k], &batch_bx[k], w);
+        for (int i = 0; i < 4; ++i) batch_wx[i][k] = w[i];
+      }
+    } else {
+      for (int k = 0; k < n; ++k) {
+        const float pos = batch_value[k] * lidar_scale;
+        const int bx = static_cast<int>(std::min(std::max(pos, 0.f), lidar_scale));
+        float w[4];
+        JointHistogram::CubicBSplineWeights(pos - bx, w);
+        batch_bx[k] = bx;
+        for (int i = 0; i < 4; ++i) batch_wx[i][k] = w[i];
+      }
     }
     for (int k = 0; k < n; ++k) count += batch_weight[k];
     histogram->AddCoveredBatch(n, batch_bx, batch_wx, batch_photo, batch_weight);

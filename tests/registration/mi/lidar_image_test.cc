@@ -412,9 +412,58 @@ TEST(SurfaceClasses, GroundAgainstWalls) {
   const std::vector<float> before = points.intensity01;
   EncodeSurfaceClasses(classes, &points);
   for (size_t i = 0; i < classes.size(); i += 97) {
-    EXPECT_NEAR(points.intensity01[i], (classes[i] ? 0.6f : 0.f) + 0.4f * before[i], 1e-6f);
-    EXPECT_EQ(points.intensity01[i] >= 0.5f, classes[i] == 1);
+    EXPECT_EQ(std::floor(points.intensity01[i]), classes[i]);
+    EXPECT_NEAR(points.intensity01[i] - classes[i], 0.999f * before[i], 1e-6f);
   }
+}
+
+// Orientation classes seen from the middle of the street (the origin): the ground faces up
+// (0), the façade at y = 6 faces −y (azimuth −90°: with 4 sectors centred on 0°, 90°, 180°,
+// −90°, class 2 + 3), the façade at y = −6 faces +y (class 2 + 1), the end wall at x = 28
+// faces −x (class 2 + 2). Seen from beyond the end wall, that wall faces +x (class 2 + 0).
+TEST(SurfaceClasses, OrientationTowardsTheViewpoint) {
+  const io::PointCloud cloud = testing::StreetCloud(0.06);
+  const std::vector<Eigen::Vector3f> points = PrepareLidarPoints(cloud).points_in_lidar;
+  const std::vector<Eigen::Vector3f> normals = LocalPlaneNormals(points, 0.5f);
+  const std::vector<uint8_t> classes =
+      OrientationClasses(points, normals, Eigen::Vector3f::UnitZ(), Eigen::Vector3f::Zero(), 4);
+  const std::vector<uint8_t> behind = OrientationClasses(
+      points, normals, Eigen::Vector3f::UnitZ(), Eigen::Vector3f(40.f, 0.f, 0.f), 4);
+  ASSERT_EQ(classes.size(), cloud.size());
+  // Per part: points, right ones (from the middle), right ones (from behind the end wall).
+  struct Part {
+    int expected, expected_behind;
+    size_t n = 0, right = 0, right_behind = 0;
+  };
+  Part ground{0, 0}, left{5, 5}, right{3, 3}, end{4, 2};
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const Eigen::Vector3d& p = cloud.points[i];
+    Part* part = nullptr;
+    if (std::abs(p.z() + 1.8) < 0.02 && std::abs(std::abs(p.y()) - 6.0) > 0.5 && p.x() < 7.5) {
+      part = &ground;
+    } else if (p.z() > -1.2 && p.x() < 27.5 && std::abs(p.y() - 6.0) < 0.05) {
+      part = &left;
+    } else if (p.z() > -1.2 && p.x() < 27.5 && std::abs(p.y() + 6.0) < 0.05) {
+      part = &right;
+    } else if (p.z() > -1.2 && std::abs(p.x() - 28.0) < 0.05 && std::abs(p.y()) < 5.5) {
+      part = &end;
+    }
+    if (part == nullptr) continue;
+    ++part->n;
+    part->right += classes[i] == part->expected;
+    part->right_behind += behind[i] == part->expected_behind;
+  }
+  for (const Part* part : {&ground, &left, &right, &end}) {
+    SCOPED_TRACE(part->expected);
+    ASSERT_GT(part->n, 1000u);
+    EXPECT_GT(part->right, 0.95 * part->n);
+    EXPECT_GT(part->right_behind, 0.95 * part->n);
+  }
+  // No plane: isolated points.
+  const std::vector<Eigen::Vector3f> scattered = {{0, 0, 0}, {5, 5, 5}, {-7, 2, 9}};
+  EXPECT_EQ(OrientationClasses(scattered, LocalPlaneNormals(scattered, 0.5f),
+                               Eigen::Vector3f::UnitZ(), Eigen::Vector3f::Zero(), 4),
+            std::vector<uint8_t>(3, 6));
 }
 
 }  // namespace

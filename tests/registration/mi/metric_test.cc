@@ -300,46 +300,72 @@ TEST(Metric, ZBufferHistogramEqualsTheRenderedImages) {
   }
 }
 
-// lidar_classes = 2: the metric conditioned on the class, Σ_c p(c)·metric_c, equals the
-// weighted sum of each class's histogram evaluated alone (two classes with opposite relations
-// to the photo, encoded as EncodeSurfaceClasses does), for MI, NMI and NID.
+// lidar_classes = K: the metric conditioned on the class, Σ_c p(c)·metric_c, equals the
+// weighted sum of each class's histogram evaluated alone (three classes with different
+// relations to the photo, encoded as EncodeSurfaceClasses does: class + fraction), for MI,
+// NMI and NID, with each smoothing.
 TEST(Metric, ClassConditionedMetricIsTheWeightedSumOfTheClasses) {
   std::mt19937 rng(5);
-  std::uniform_real_distribution<float> u(0.f, 1.f);
-  std::vector<float> lidar[2], photo[2], all_lidar, all_photo;
-  for (int c = 0; c < 2; ++c) {
-    for (int i = 0; i < (c == 0 ? 20000 : 10000); ++i) {
-      const float value = u(rng);
-      const float grey = 255.f * (c == 0 ? value : 1.f - value);
-      // Encoded as EncodeSurfaceClasses does: class 0 in [0, 0.4], class 1 in [0.6, 1].
-      lidar[c].push_back(c == 0 ? 0.4f * value : 0.6f + 0.4f * value);
+  std::uniform_int_distribution<int> u(0, 4091);
+  constexpr int kClasses = 3;
+  const int count[kClasses] = {20000, 10000, 10000};
+  std::vector<float> lidar[kClasses], photo[kClasses], all_lidar, all_photo;
+  for (int c = 0; c < kClasses; ++c) {
+    std::vector<float> encoded;
+    for (int i = 0; i < count[c]; ++i) {
+      // Fractions k / 4096: class + fraction is exact in float, so each class's positions
+      // are those of its values alone.
+      const float value = static_cast<float>(u(rng)) / 4096.f;
+      const float grey = c == 0 ? 255.f * value
+                         : c == 1 ? 255.f * (1.f - value)
+                                  : 128.f + 100.f * std::sin(12.f * value);
+      lidar[c].push_back(value);
+      encoded.push_back(static_cast<float>(c) + value);
       photo[c].push_back(grey);
     }
-    all_lidar.insert(all_lidar.end(), lidar[c].begin(), lidar[c].end());
+    all_lidar.insert(all_lidar.end(), encoded.begin(), encoded.end());
     all_photo.insert(all_photo.end(), photo[c].begin(), photo[c].end());
   }
-  for (const MetricKind kind : {MetricKind::kMi, MetricKind::kNmi, MetricKind::kNid}) {
-    MetricOptions plain;
-    plain.kind = kind;
-    MetricOptions conditioned = plain;
-    conditioned.lidar_classes = 2;
-    JointHistogram both(conditioned), part0(plain), part1(plain);
-    both.AddPairs(all_lidar, all_photo);
-    part0.AddPairs(lidar[0], photo[0]);
-    part1.AddPairs(lidar[1], photo[1]);
-    const MetricValue v = both.Evaluate(), a = part0.Evaluate(), b = part1.Evaluate();
-    const double p0 = 2.0 / 3.0, p1 = 1.0 / 3.0;
-    EXPECT_NEAR(v.mi, p0 * a.mi + p1 * b.mi, 1e-9);
-    EXPECT_NEAR(v.nmi, p0 * a.nmi + p1 * b.nmi, 1e-9);
-    EXPECT_NEAR(v.nid, p0 * a.nid + p1 * b.nid, 1e-9);
-    EXPECT_NEAR(v.joint_entropy, p0 * a.joint_entropy + p1 * b.joint_entropy, 1e-9);
-    EXPECT_EQ(v.samples, 30000);
+  for (const Smoothing smoothing : {Smoothing::kBSpline, Smoothing::kParzen, Smoothing::kNone}) {
+    for (const MetricKind kind : {MetricKind::kMi, MetricKind::kNmi, MetricKind::kNid}) {
+      MetricOptions plain;
+      plain.kind = kind;
+      plain.smoothing = smoothing;
+      MetricOptions conditioned = plain;
+      conditioned.lidar_classes = kClasses;
+      JointHistogram all(conditioned);
+      all.AddPairs(all_lidar, all_photo);
+      const MetricValue v = all.Evaluate();
+      MetricValue expected;
+      expected.nid = 0;
+      for (int c = 0; c < kClasses; ++c) {
+        JointHistogram part(plain);
+        part.AddPairs(lidar[c], photo[c]);
+        const MetricValue m = part.Evaluate();
+        const double p = count[c] / 40000.0;
+        expected.mi += p * m.mi;
+        expected.nmi += p * m.nmi;
+        expected.nid += p * m.nid;
+        expected.joint_entropy += p * m.joint_entropy;
+      }
+      SCOPED_TRACE(SmoothingName(smoothing) + " " + MetricName(kind));
+      EXPECT_NEAR(v.mi, expected.mi, 1e-9);
+      EXPECT_NEAR(v.nmi, expected.nmi, 1e-9);
+      EXPECT_NEAR(v.nid, expected.nid, 1e-9);
+      EXPECT_NEAR(v.joint_entropy, expected.joint_entropy, 1e-9);
+      EXPECT_EQ(v.samples, 40000);
+      // Conditioned on the class, each class's own relation counts in full: more than the MI
+      // of the mixture of the three.
+      JointHistogram mixed(plain);
+      for (int c = 0; c < kClasses; ++c) mixed.AddPairs(lidar[c], photo[c]);
+      EXPECT_GT(v.mi, mixed.Evaluate().mi + 0.3);
+    }
   }
   MetricOptions bad;
-  bad.lidar_classes = 3;
+  bad.lidar_classes = kMaxLidarClasses + 1;
   std::string error;
   EXPECT_FALSE(bad.Check(&error));
-  EXPECT_NE(error.find("lidar_classes"), std::string::npos) << error;
+  EXPECT_NE(error.find("lidar_classes 17 must be in 1..16"), std::string::npos) << error;
 }
 
 TEST(Metric, OptionsCheckNamesTheField) {

@@ -44,21 +44,43 @@ struct LidarPoints {
 };
 LidarPoints PrepareLidarPoints(const io::PointCloud& cloud);
 
+/// The most surface classes a metric can be conditioned on (MetricOptions::lidar_classes).
+inline constexpr int kMaxLidarClasses = 16;
+
+/// Per point, the unit normal of the local plane through it (zero where there is none): the
+/// PCA plane of the point's cubic voxel at the finest of voxel_m / 2, voxel_m and 2 voxel_m
+/// that holds one (≥ 6 points, a second eigenvalue ≥ 10 % of the first and a smallest ≤ 25 %
+/// of the second). The sign is arbitrary.
+std::vector<Eigen::Vector3f> LocalPlaneNormals(const std::vector<Eigen::Vector3f>& points,
+                                               float voxel_m);
+
 /// Surface classes of a cloud, for MI conditioned on the surface (bench/RESULTS.md "A rig
 /// through its own cameras"): 0 = a horizontal surface (the local plane's normal within 45° of
-/// `up`), 1 = anything else (walls, and neighbourhoods with no clear plane). The plane is that of
-/// the point's cubic voxel at the finest of voxel_m / 2, voxel_m and 2 voxel_m that holds one
-/// (PCA; a plane needs ≥ 6 points, a second eigenvalue ≥ 10 % of the first and a smallest
-/// ≤ 25 % of the second). Where two kinds of surface relate to
-/// the photo differently (ground dark in the LiDAR at grazing incidence but bright in the photo,
-/// walls the other way round), the MI of the mixture can peak off the truth while each class
-/// alone peaks at it.
+/// `up`, LocalPlaneNormals), 1 = anything else (walls, and neighbourhoods with no clear plane).
+/// Where two kinds of surface relate to the photo differently (ground dark in the LiDAR at
+/// grazing incidence but bright in the photo, walls the other way round), the MI of the
+/// mixture can peak off the truth while each class alone peaks at it.
 std::vector<uint8_t> SurfaceClasses(const std::vector<Eigen::Vector3f>& points,
                                     const Eigen::Vector3f& up, float voxel_m);
-/// Splits the LiDAR value's range by class: class 0 to 0.4·intensity01, class 1 to
-/// 0.6 + 0.4·intensity01 (a gap wider than the B-spline histogram's support at 64 bins), for
-/// MetricOptions::lidar_classes = 2, which conditions the metric on the class. Needs
-/// intensity and one class per point.
+
+/// Orientation classes, for MI conditioned on which way a surface faces (bench/RESULTS.md
+/// "Orientation classes"): in sunlight a photo's grey level is albedo × a shading factor of
+/// the surface's orientation (Lambert), while the LiDAR's reflectance is not shaded by the
+/// sun, so the relation of the two differs between a lit and a shaded face; within one
+/// orientation it is one relation. The local plane's normal (LocalPlaneNormals) is turned
+/// towards `viewpoint` (the camera: the side that is photographed) and classed: 0 = facing
+/// up (within 45° of `up`), 1 = facing down, 2 .. sectors + 1 = steep faces by the azimuth of
+/// their normal about `up` in `sectors` equal sectors (centred on the cloud's x axis and
+/// multiples of 360°/sectors from it), sectors + 2 = no clear plane (a zero normal).
+/// `normals` from LocalPlaneNormals; sectors + 3 ≤ kMaxLidarClasses.
+std::vector<uint8_t> OrientationClasses(const std::vector<Eigen::Vector3f>& points,
+                                        const std::vector<Eigen::Vector3f>& normals,
+                                        const Eigen::Vector3f& up,
+                                        const Eigen::Vector3f& viewpoint, int sectors);
+
+/// Puts each point's class into its LiDAR value as class + 0.999 · intensity01, for
+/// MetricOptions::lidar_classes = the number of classes, which conditions the metric on the
+/// class. Needs intensity and one class (< kMaxLidarClasses) per point.
 void EncodeSurfaceClasses(const std::vector<uint8_t>& classes, LidarPoints* points);
 
 /// One rendered view: a camera (any mmba model) and the rotation of this view relative to

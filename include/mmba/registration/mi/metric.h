@@ -4,6 +4,8 @@
 // insist, Eq. (1)–(3)), normalised MI (Studholme et al. 1999) and the normalised information
 // distance NID = 1 − MI/H(X,Y) (Li et al. 2004), from a joint histogram.
 
+#include <algorithm>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -40,11 +42,12 @@ struct MetricOptions {
   Smoothing smoothing = Smoothing::kBSpline;
   double parzen_sigma_bins = 1.0;
   Region region = Region::kOverlap;  ///< measured better on KITTI (bench/RESULTS.md)
-  /// 2: the LiDAR values carry a surface class (EncodeSurfaceClasses: class 0 in [0, 0.4],
-  /// class 1 in [0.6, 1]) and the metric is conditioned on it: Σ_c p(c)·metric_c, each
-  /// metric_c from the joint histogram's LiDAR rows of class c alone (values below / above
-  /// 0.5), so that I(intensity; photo | class) is measured, not the MI of the classes' mixture
-  /// (bench/RESULTS.md "Surface classes"). 1 = the plain metric.
+  /// K > 1: the LiDAR values carry a surface class c in 0..K−1 as c + fraction (fraction
+  /// in [0, 1): EncodeSurfaceClasses) and the metric is conditioned on it: Σ_c p(c)·metric_c,
+  /// each metric_c from a joint histogram of class c's samples alone with the full `bins`,
+  /// so that I(intensity; photo | class) is measured, not the MI of the classes' mixture
+  /// (bench/RESULTS.md "Surface classes", "Orientation classes"). 1 = the plain metric
+  /// (values in [0, 1]). At most kMaxLidarClasses.
   int lidar_classes = 1;
   bool Check(std::string* error) const;
 };
@@ -88,10 +91,26 @@ class JointHistogram {
   /// once for its point (bx = LiDAR bin, wx its four weights: LidarWeights) and whose photo
   /// value is `photo255` (0..255). Same sums as Add/AddPairs of the same values.
   [[gnu::always_inline]] void LidarWeights(float lidar01, int* bx, float wx[4]) const {
-    const float pos = lidar01 * static_cast<float>(bins_ - 1);
-    *bx = pos <= 0.f ? 0 : (pos >= bins_ - 1 ? bins_ - 1 : static_cast<int>(pos));
-    CubicBSplineWeights(pos - *bx, wx);
+    int row = 0;
+    const float pos = LidarPosition(lidar01, &row);
+    const int local = pos <= 0.f ? 0 : (pos >= bins_ - 1 ? bins_ - 1 : static_cast<int>(pos));
+    CubicBSplineWeights(pos - local, wx);
+    *bx = row + local;
   }
+  /// A LiDAR value's continuous bin position within its class (0 .. bins − 1) and the first
+  /// padded row of its class's block in the histogram (`row`; 0 with one class). With
+  /// lidar_classes = K > 1 the value is class + fraction (the class clamped to 0 .. K − 1).
+  [[gnu::always_inline]] float LidarPosition(float value, int* row) const {
+    const float scale = static_cast<float>(bins_ - 1);
+    if (classes_ == 1) {
+      *row = 0;
+      return value * scale;
+    }
+    const int c = std::clamp(static_cast<int>(std::floor(value)), 0, classes_ - 1);
+    *row = c * (bins_ + 3);
+    return (value - static_cast<float>(c)) * scale;
+  }
+  int lidar_classes() const { return classes_; }
   /// `weight`: the number of samples this one stands for (1, or a point's footprint pixels).
   [[gnu::always_inline]] void AddCovered(int bx, const float wx[4], float photo255,
                                          float weight = 1.f) {
@@ -142,7 +161,8 @@ class JointHistogram {
  private:
   /// One sample's bins (continuous bin positions); the caller adds it to total_ and
   /// lidar_total_ (once for many samples: Add, AddPairs).
-  void AddSample(float lidar_pos, float photo_pos, bool lidar_empty);
+  /// `lidar_row`: the first padded row of the sample's class block (LidarPosition).
+  void AddSample(int lidar_row, float lidar_pos, float photo_pos, bool lidar_empty);
   /// Add() for the B-spline histogram (the default), the same sums in fewer instructions.
   void AddBSpline(const LidarImage& lidar, const GrayImage& photo);
   void AddBSplineZBuffer(const LidarImage& lidar, const LidarPoints& points,
@@ -153,9 +173,11 @@ class JointHistogram {
   void AddBSplineChunks(const Pixels& pixels, int width, int height, const GrayImage& photo);
   MetricOptions options_;
   int bins_;
+  int classes_ = 1;  ///< options_.lidar_classes
   /// LiDAR-covered samples: (bins+3)² bins with one bin of padding below and two above on
   /// both axes, so that the 4×4 B-spline footprint needs no clamping; Evaluate() folds the
-  /// padding onto the edge bins (the same as clamping each contribution).
+  /// padding onto the edge bins (the same as clamping each contribution). With K classes, K
+  /// such blocks one after the other along the LiDAR axis (rows c·(bins+3) ..).
   std::vector<double> counts_;
   std::vector<double> empty_counts_;  ///< photo histogram of samples without LiDAR (bins+3)
   double total_ = 0;
