@@ -9,7 +9,8 @@
 // MI_POINT_RADIUS_M, MI_MAX_POINT_RADIUS_PX, MI_REPRESENTATION, MI_LEVELS, MI_RESTART_LEVEL,
 // MI_SPLIT_LEVEL, MI_PYRAMID_PATHS, MI_COARSE_STARTS, MI_POINT_SAMPLES, MI_SAMPLE_BLOCK override
 // the defaults;
-// MI_PHOTO_BLUR=SIGMA_PX smooths the photo (diagnostic).
+// MI_PHOTO_BLUR=SIGMA_PX smooths the photo (diagnostic). MI_ORIENTATION=N: the orientation
+// classes' sectors (register-mi --orientation-classes; default its default, 0 = plain metric).
 // Diagnostics: MI_PROBE=1 (per-axis probe at every level, then exit); MI_COMPARE=1 (the
 // metric at the calibration, the start and the result at every level, and on the line from
 // the calibration to the result); MI_OVERLAY=PREFIX [MI_CROP=x0,y0,w,h] (PREFIX_<start>.png:
@@ -126,6 +127,17 @@ int main(int argc, char** argv) {
     EncodeSurfaceClasses(SurfaceClasses(points.points_in_lidar, Eigen::Vector3f::UnitZ(),
                                         static_cast<float>(std::atof(v))),
                          &points);
+  }
+  // register-mi --orientation-classes N (MI_ORIENTATION=N; by default register-mi's, none with
+  // MI_SURFACE_CLASSES; 0 = the plain metric, the figures before 4 Dec, session 31): seen
+  // from the calibration's camera centre.
+  int sectors = points.classes > 1 ? 0 : kDefaultOrientationSectors;
+  if (const char* v = std::getenv("MI_ORIENTATION")) sectors = std::atoi(v);
+  if (sectors > 0 && points.has_intensity() &&
+      options.render.representation == Representation::kIntensity) {
+    const Eigen::Vector3f centre =
+        (-(kitti.cam_from_lidar.rotation.conjugate() * kitti.cam_from_lidar.translation)).cast<float>();
+    options.metric.lidar_classes = EncodeOrientationClasses(centre, sectors, 0.5f, &points);
   }
   if (const char* mask = std::getenv("MI_MASK")) {
     // Diagnostic: drop the points that project (with the calibration) into the image box

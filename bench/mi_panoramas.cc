@@ -21,6 +21,8 @@
 // Writes OUT_DIR/runs.csv (one row per registration), OUT_DIR/hist_views.csv and
 // hist_views.svg (per-view median offset before/after), OUT_DIR/hist_points.csv and
 // hist_points.svg (offsets of all points, pooled), and prints a summary.
+// MI_ORIENTATION="N[,VOXEL]" the orientation classes (register-mi --orientation-classes N;
+// default its default, 0 = the plain metric), MI_BINS the histogram's bins.
 // MMBA_DEBUG=1 logs each stage. MI_ONLY selects registrations (below), MI_PERTURB sets their
 // start, MI_THREADS the registration's threads (default 2), MI_RESTARTS / MI_RESTART_OFFSET
 // ("m,deg") the restarts, MI_POINT_RADIUS ("m,px") the registration's z-buffer footprint
@@ -381,15 +383,19 @@ int main(int argc, char** argv) {
                          &points);
   }
   // MI_ORIENTATION="sectors[,voxel]": register-mi --orientation-classes sectors
-  // [--surface-voxel-m voxel]: the classes seen from each start's camera centre.
-  int orientation_sectors = 0;
+  // [--surface-voxel-m voxel]: the classes seen from each start's camera centre. By default
+  // register-mi's (kDefaultOrientationSectors, 0.5 m; none with MI_SURFACE_CLASSES);
+  // MI_ORIENTATION=0: the plain metric (the figures before 4 Dec, session 31).
+  const char* surface_env = std::getenv("MI_SURFACE_CLASSES");
+  int orientation_sectors =
+      surface_env != nullptr && std::atof(surface_env) > 0 ? 0 : kDefaultOrientationSectors;
   float orientation_voxel = 0.5f;
   std::vector<Eigen::Vector3f> plane_normals;
   if (const char* v = std::getenv("MI_ORIENTATION")) {
     std::sscanf(v, "%d,%f", &orientation_sectors, &orientation_voxel);
-    if (orientation_sectors > 0) {
-      plane_normals = LocalPlaneNormals(points.points_in_lidar, orientation_voxel);
-    }
+  }
+  if (orientation_sectors > 0) {
+    plane_normals = LocalPlaneNormals(points.points_in_lidar, orientation_voxel);
   }
   const std::vector<TrueView> views = ReadViews(dir, kinds);
   std::printf("%s: %zu points, %zu views, setup %.1f s\n", cloud_path.c_str(), points.size(),

@@ -71,7 +71,7 @@ struct RegisterMiArgs {
   int max_point_radius_px = 2;
   double max_range_m = 200.0;
   bool surface_classes = false;
-  int orientation_classes = 0;
+  int orientation_classes = -1;  ///< -1: kDefaultOrientationSectors with intensity, else 0
   double surface_voxel_m = 0.5;
   std::vector<double> perturb;
   std::string probe;
@@ -181,7 +181,14 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   if (args.surface_classes && options.render.representation == mi::Representation::kIntensity) {
     options.metric.lidar_classes = 2;
   }
-  if (args.orientation_classes > 0) {
+  // The default: conditioned on the orientation where the intensity is compared and no other
+  // classes were asked for.
+  const int orientation_sectors =
+      args.orientation_classes >= 0 ? args.orientation_classes
+      : options.render.representation == mi::Representation::kIntensity && !args.surface_classes
+          ? mi::kDefaultOrientationSectors
+          : 0;
+  if (orientation_sectors > 0) {
     if (args.surface_classes) {
       throw InputError::Message("--orientation-classes", "cannot be combined with --surface-classes "
                                                          "(both set the metric's classes)");
@@ -192,7 +199,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                                 "--representation intensity");
     }
     // Facing up, facing down, the sectors, no plane.
-    options.metric.lidar_classes = args.orientation_classes + 3;
+    options.metric.lidar_classes = orientation_sectors + 3;
   }
   if (options.metric.region == mi::Region::kOverlap &&
       options.render.representation == mi::Representation::kPoints) {
@@ -374,22 +381,17 @@ int RunRegisterMi(const RegisterMiArgs& args) {
       spdlog::info("{}: surface classes: {} points on horizontal planes, {} others", lidar_path,
                    horizontal, classes.size() - horizontal);
     }
-    if (args.orientation_classes > 0) {
+    if (orientation_sectors > 0) {
       // The metric conditioned on which way each surface faces, seen from the start's camera
       // (rig) centre (bench/RESULTS.md "Orientation classes").
       const Rigid3d cam_from_local = to_local(start);
       const Eigen::Vector3f viewpoint =
           (-(cam_from_local.rotation.conjugate() * cam_from_local.translation)).cast<float>();
-      const std::vector<Eigen::Vector3f> normals =
-          mi::LocalPlaneNormals(clouds.back().points_in_lidar, static_cast<float>(args.surface_voxel_m));
-      const std::vector<uint8_t> classes =
-          mi::OrientationClasses(clouds.back().points_in_lidar, normals, Eigen::Vector3f::UnitZ(),
-                                 viewpoint, args.orientation_classes);
-      mi::EncodeSurfaceClasses(classes, &clouds.back());
-      std::vector<size_t> per_class(args.orientation_classes + 3, 0);
-      for (uint8_t c : classes) ++per_class[c];
+      std::vector<size_t> per_class;
+      mi::EncodeOrientationClasses(viewpoint, orientation_sectors,
+                                   static_cast<float>(args.surface_voxel_m), &clouds.back(), &per_class);
       std::string counts;
-      for (size_t c = 2; c < per_class.size() - 1; ++c) counts += (c > 2 ? "/" : "") + std::to_string(per_class[c]);
+      for (size_t c = 2; c + 1 < per_class.size(); ++c) counts += (c > 2 ? "/" : "") + std::to_string(per_class[c]);
       spdlog::info("{}: orientation classes: {} facing up, {} facing down, {} steep by azimuth, {} "
                    "without a plane",
                    lidar_path, per_class[0], per_class[1], counts, per_class.back());
@@ -475,7 +477,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"covariance_pixel_floor", args.covariance_pixel_floor},
                      {"covariance_per_point_samples", options.covariance_per_point_samples},
                      {"surface_classes", args.surface_classes},
-                     {"orientation_classes", args.orientation_classes},
+                     {"orientation_classes", orientation_sectors},
                      {"surface_voxel_m", args.surface_voxel_m}};
   if (rig_mode) {
     // The pose is the rig's: rig_from_lidar (the correction about the rig's origin), and each
@@ -708,9 +710,10 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
   sub->add_option("--orientation-classes", args->orientation_classes,
                   "Metric conditioned on which way each surface faces (sun shading): facing up, "
                   "facing down, steep faces in this many azimuth sectors, no plane; one joint "
-                  "histogram each (intensity; 0 = off)")
-      ->check(CLI::Range(0, mmba::registration::mi::kMaxLidarClasses - 3))
-      ->capture_default_str();
+                  "histogram each (intensity; 0 = off; default " +
+                      std::to_string(mmba::registration::mi::kDefaultOrientationSectors) +
+                      " with --representation intensity)")
+      ->check(CLI::Range(0, mmba::registration::mi::kMaxLidarClasses - 3));
   sub->add_option("--surface-voxel-m", args->surface_voxel_m,
                   "Voxel of the local planes of --surface-classes and --orientation-classes, m")
       ->check(CLI::PositiveNumber)

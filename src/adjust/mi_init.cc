@@ -381,6 +381,8 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
   }
   if (tasks.empty()) return;
   mi::RegistrationOptions options;  // register-mi's defaults
+  constexpr float kSurfaceVoxel = 0.5f;  // register-mi --surface-voxel-m
+  options.metric.lidar_classes = mi::kDefaultOrientationSectors + 3;
   constexpr double kRadius = 60.0;  // m: what a street-level image sees of a building's LiDAR
   constexpr size_t kMaxPoints = 8000000;
   Timer timer;
@@ -388,7 +390,13 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
   // One task against the LiDAR points `cloud` (already cut to the task where it must be).
   const auto register_one = [&](size_t i, const io::PointCloud& near, const std::string& cloud_path) {
     const MiTask& t = tasks[i];
-    const mi::LidarPoints points = mi::PrepareLidarPoints(near);
+    mi::LidarPoints points = mi::PrepareLidarPoints(near);
+    if (points.has_intensity()) {
+      // register-mi's default: the metric conditioned on the surfaces' orientation, seen
+      // from the camera's start centre.
+      mi::EncodeOrientationClasses(CameraCentre(t.start).cast<float>(), mi::kDefaultOrientationSectors,
+                                   kSurfaceVoxel, &points);
+    }
     ++done;
     json entry = {{"image", t.name}, {"kind", t.kind}, {"file", "mi/" + fs::path(t.name).stem().string() + ".json"},
                   {"lidar", "static"}};
@@ -529,6 +537,9 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
         continue;
       }
       points.push_back(mi::PrepareLidarPoints(local));
+      // register-mi's default orientation classes, seen from the rig's start centre.
+      mi::EncodeOrientationClasses(CameraCentre(start).cast<float>(), mi::kDefaultOrientationSectors,
+                                   kSurfaceVoxel, &points.back());
       mi::Frame frame;
       frame.name = t.name;
       frame.points = &points.back();

@@ -401,6 +401,32 @@ TEST_F(CliTest, RegisterMiRigRegistersTheRigPoseFromItsCameras) {
     EXPECT_LT(view["after"]["median_px"].get<double>(), 1.0) << view["view"];
   }
 
+  // The metric conditioned on which way the surfaces face (--orientation-classes) registers
+  // the same rig from the same start (this street has no sun shading to undo: it must not
+  // hurt); it is refused with --surface-classes, with another representation, and beyond 13
+  // sectors (16 classes).
+  const RunResult classed = Mmba(common + " --image " + Tmp("f_{camera}.png") +
+                                 " --perturb 0.1,-0.08,0.06,1,-0.8,0.9 --orientation-classes 4 --output " +
+                                 Tmp("classed.json"));
+  EXPECT_EQ(classed.exit_code, 0) << classed.output;
+  const nlohmann::json by_class = nlohmann::json::parse(std::ifstream(Tmp("classed.json")));
+  EXPECT_EQ(by_class["status"], "ok") << by_class["reason"];
+  EXPECT_EQ(by_class["settings"]["orientation_classes"], 4);
+  for (const nlohmann::json& view : by_class["pixel_offset_vs_reference"]) {
+    EXPECT_LT(view["after"]["median_px"].get<double>(), 1.0) << view["view"];
+  }
+  for (const auto& [extra, expected] :
+       std::vector<std::pair<std::string, std::string>>{{" --surface-classes true", "--surface-classes"},
+                                                        {" --representation depth", "--representation intensity"},
+                                                        {"", "--orientation-classes"}}) {
+    const std::string sectors = extra.empty() ? "14" : "4";
+    const RunResult refused = Mmba(common + " --image " + Tmp("f_{camera}.png") + " --orientation-classes " +
+                                   sectors + extra + " --output " + Tmp("bad0.json"));
+    EXPECT_EQ(refused.exit_code, 2) << extra;
+    EXPECT_THAT(refused.output, HasSubstr(expected)) << refused.output;
+    EXPECT_FALSE(fs::exists(Tmp("bad0.json")));
+  }
+
   // Bad input: exit 2, one error naming what is wrong, nothing written.
   const RunResult no_pattern = Mmba(common + " --image " + Tmp("f_left.png") + " --output " + Tmp("bad1.json"));
   EXPECT_EQ(no_pattern.exit_code, 2);

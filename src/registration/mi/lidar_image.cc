@@ -234,6 +234,21 @@ void EncodeSurfaceClasses(const std::vector<uint8_t>& classes, LidarPoints* poin
     points->intensity01[i] =
         static_cast<float>(classes[i]) + 0.999f * std::clamp(points->intensity01[i], 0.f, 1.f);
   }
+  points->classes = 1;
+  for (uint8_t c : classes) points->classes = std::max(points->classes, c + 1);
+}
+
+int EncodeOrientationClasses(const Eigen::Vector3f& viewpoint, int sectors, float voxel_m,
+                             LidarPoints* points, std::vector<size_t>* per_class) {
+  const std::vector<uint8_t> classes =
+      OrientationClasses(points->points_in_lidar, LocalPlaneNormals(points->points_in_lidar, voxel_m),
+                         Eigen::Vector3f::UnitZ(), viewpoint, sectors);
+  EncodeSurfaceClasses(classes, points);
+  if (per_class != nullptr) {
+    per_class->assign(sectors + 3, 0);
+    for (uint8_t c : classes) ++(*per_class)[c];
+  }
+  return sectors + 3;
 }
 
 namespace {

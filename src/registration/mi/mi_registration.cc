@@ -442,6 +442,11 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
                                      const RegistrationOptions& options,
                                      const FrameSetEvaluator* parent)
     : frames_(frames), options_(options), start_(cam_from_lidar_start) {
+  for (const Frame& frame : frames_) {
+    CHECK(frame.points == nullptr || frame.points->classes <= options.metric.lidar_classes)
+        << frame.name << ": points carry " << frame.points->classes
+        << " surface classes but the metric is conditioned on " << options.metric.lidar_classes;
+  }
   const int levels = options.pyramid_levels;
   pyramid_.resize(levels);
   points_.resize(levels);

@@ -33,6 +33,9 @@ bool ParseRepresentation(const std::string& name, Representation* representation
 struct LidarPoints {
   std::vector<Eigen::Vector3f> points_in_lidar;
   std::vector<float> intensity01;  ///< empty when the cloud has no intensity
+  /// Surface classes carried by intensity01 (EncodeSurfaceClasses: class + fraction); a
+  /// registration needs MetricOptions::lidar_classes ≥ this (checked).
+  int classes = 1;
   /// Optional, both empty or both size(): each point's rank among equally near points in
   /// the z-buffer (the lower rank wins; empty = the index), and its inverse (rank → index).
   /// FrameSetEvaluator sorts its points for a cache-friendly render and keeps their rank in
@@ -80,8 +83,20 @@ std::vector<uint8_t> OrientationClasses(const std::vector<Eigen::Vector3f>& poin
 
 /// Puts each point's class into its LiDAR value as class + 0.999 · intensity01, for
 /// MetricOptions::lidar_classes = the number of classes, which conditions the metric on the
-/// class. Needs intensity and one class (< kMaxLidarClasses) per point.
+/// class; sets points->classes to the largest class + 1. Needs intensity and one class
+/// (< kMaxLidarClasses) per point.
 void EncodeSurfaceClasses(const std::vector<uint8_t>& classes, LidarPoints* points);
+
+/// register-mi's default (--orientation-classes): four azimuth sectors, 7 classes. Measured
+/// on the simulated gate and cathedral (bench/RESULTS.md "Orientation classes").
+inline constexpr int kDefaultOrientationSectors = 4;
+
+/// OrientationClasses of `points` (normals of voxel_m, LocalPlaneNormals; `up` = the frame's
+/// z axis) seen from `viewpoint` (in the points' frame: the camera's or rig's centre),
+/// encoded into their values (EncodeSurfaceClasses). Returns the number of classes,
+/// sectors + 3, for MetricOptions::lidar_classes; `per_class` (optional) the points of each.
+int EncodeOrientationClasses(const Eigen::Vector3f& viewpoint, int sectors, float voxel_m,
+                             LidarPoints* points, std::vector<size_t>* per_class = nullptr);
 
 /// One rendered view: a camera (any mmba model) and the rotation of this view relative to
 /// the frame's image camera (identity for the image itself; a perspective cut of a panorama
