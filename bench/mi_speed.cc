@@ -4,7 +4,8 @@
 // memory and pixel offsets before/after for each representation.
 //   mi_speed [MILLION_POINTS=1] [REPRESENTATION=all|intensity|points|depth] [STARTS=1]
 // STARTS = 1: the start below; 6: also five more (0.1 m / 1° and 0.3 m / 2°, mixed signs).
-// MMBA_DEBUG=1 in the environment logs each stage (time, evaluations).
+// MMBA_DEBUG=1 in the environment logs each stage (time, evaluations). MI_ORIENTATION=N: the
+// intensity registrations' orientation classes (register-mi's default; 0 = the plain metric).
 #include <sys/resource.h>
 
 #include <cmath>
@@ -58,6 +59,21 @@ int main(int argc, char** argv) {
   perturbations[4] << -0.3, 0.3, -0.3, -2.0, 2.0, -2.0;
   perturbations[5] << 0.0, 0.3, 0.0, 0.0, 0.0, 2.0;
   perturbations.resize(std::clamp(starts, 1, 6));
+  // The intensity registrations as register-mi runs them: conditioned on the surfaces'
+  // orientation (MI_ORIENTATION=N sectors; default register-mi's, 0 = the plain metric), the
+  // classes seen from the first start's camera centre, timed apart.
+  int sectors = kDefaultOrientationSectors;
+  if (const char* v = std::getenv("MI_ORIENTATION")) sectors = std::atoi(v);
+  LidarPoints classed;
+  if (sectors > 0 && (which == "all" || which == "intensity")) {
+    Timer classify;
+    classed = points;
+    const Rigid3d first = ApplyCorrection(truth, perturbations[0]);
+    EncodeOrientationClasses((-(first.rotation.conjugate() * first.translation)).cast<float>(), sectors, 0.5f,
+                             &classed);
+    std::printf("orientation classes (%d sectors): %.2f s, peak %.0f MiB\n", sectors,
+                classify.ElapsedSeconds(), PeakRssMiB());
+  }
   for (Representation r :
        {Representation::kIntensity, Representation::kPoints, Representation::kDepth}) {
     if (which != "all" && which != RepresentationName(r)) continue;
@@ -95,6 +111,11 @@ int main(int argc, char** argv) {
     if (const char* v = std::getenv("MI_ALL_CHECKS")) options.measure_all_checks = std::atoi(v) != 0;
     // Points-only images carry information only against the empty background.
     if (r == Representation::kPoints) options.metric.region = Region::kWholeImage;
+    frame.points = &points;
+    if (r == Representation::kIntensity && sectors > 0) {
+      options.metric.lidar_classes = sectors + 3;
+      frame.points = &classed;
+    }
     Timer one;
     const RegistrationResult result = RegisterFrames({frame}, start, options);
     const double seconds = one.ElapsedSeconds();
