@@ -84,15 +84,24 @@ __attribute__((target("avx2"))) int SampleClampedAvx2(const GrayImage& photo, co
   }
   const float lidar_scale = static_cast<float>(last_bin);
   const int classes = histogram->lidar_classes();
+  const float last_class = static_cast<float>(classes - 1);
+  const float class_scale = static_cast<float>(histogram->bins() - 1);
+  const int class_stride = histogram->bins() + 3;
   const bool gather = internal::CpuHasAvx2() && view.image.pixels.size() < (size_t{1} << 31);
   auto flush = [&]() __attribute__((always_inline)) {
     const int done = gather ? SampleClampedAvx2(view.image, batch_x, batch_y, n, batch_photo) : 0;
     for (int k = done; k < n; ++k) batch_photo[k] = SampleClamped(view.image, batch_x[k], batch_y[k]);
     if (classes > 1) {
-      // Several classes: each value's class block (JointHistogram::LidarWeights).
+      // Several classes: each value's class block, as JointHistogram::LidarWeights (the same
+      // operations; the clamps as min/max, so that the loop has no branch).
       for (int k = 0; k < n; ++k) {
+        const float value = batch_value[k];
+        const float c = std::min(std::max(std::floor(value), 0.f), last_class);
+        const float pos = (value - c) * class_scale;
+        const int local = static_cast<int>(std::min(std::max(pos, 0.f), class_scale));
         float w[4];
-        histogram->LidarWeights(batch_value[k], &batch_bx[k], w);
+        JointHistogram::CubicBSplineWeights(pos - local, w);
+        batch_bx[k] = static_cast<int>(c) * class_stride + local;
         for (int i = 0; i < 4; ++i) batch_wx[i][k] = w[i];
       }
     } else {

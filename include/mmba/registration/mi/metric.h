@@ -111,6 +111,7 @@ class JointHistogram {
     return (value - static_cast<float>(c)) * scale;
   }
   int lidar_classes() const { return classes_; }
+  int bins() const { return bins_; }
   /// `weight`: the number of samples this one stands for (1, or a point's footprint pixels).
   [[gnu::always_inline]] void AddCovered(int bx, const float wx[4], float photo255,
                                          float weight = 1.f) {
