@@ -9,8 +9,8 @@
 // MI_POINT_RADIUS_M, MI_MAX_POINT_RADIUS_PX, MI_REPRESENTATION, MI_LEVELS, MI_RESTART_LEVEL,
 // MI_SPLIT_LEVEL, MI_PYRAMID_PATHS, MI_COARSE_STARTS, MI_POINT_SAMPLES, MI_SAMPLE_BLOCK override
 // the defaults;
-// MI_PHOTO_BLUR=SIGMA_PX smooths the photo (diagnostic). MI_ORIENTATION=N: the orientation
-// classes' sectors (register-mi --orientation-classes; default its default, 0 = plain metric).
+// MI_PHOTO_BLUR=SIGMA_PX smooths the photo (diagnostic). MI_ORIENTATION=N[,VOXEL]: the orientation
+// classes' sectors and voxel (register-mi --orientation-classes; default its default, 0 = plain metric).
 // Diagnostics: MI_PROBE=1 (per-axis probe at every level, then exit); MI_COMPARE=1 (the
 // metric at the calibration, the start and the result at every level, and on the line from
 // the calibration to the result); MI_OVERLAY=PREFIX [MI_CROP=x0,y0,w,h] (PREFIX_<start>.png:
@@ -132,12 +132,17 @@ int main(int argc, char** argv) {
   // MI_SURFACE_CLASSES; 0 = the plain metric, the figures before 4 Dec, session 31): seen
   // from the calibration's camera centre.
   int sectors = points.classes > 1 ? 0 : kDefaultOrientationSectors;
-  if (const char* v = std::getenv("MI_ORIENTATION")) sectors = std::atoi(v);
+  float voxel = 0.5f;
+  if (const char* v = std::getenv("MI_ORIENTATION")) std::sscanf(v, "%d,%f", &sectors, &voxel);
   if (sectors > 0 && points.has_intensity() &&
       options.render.representation == Representation::kIntensity) {
     const Eigen::Vector3f centre =
         (-(kitti.cam_from_lidar.rotation.conjugate() * kitti.cam_from_lidar.translation)).cast<float>();
-    options.metric.lidar_classes = EncodeOrientationClasses(centre, sectors, 0.5f, &points);
+    std::vector<size_t> per_class;
+    options.metric.lidar_classes = EncodeOrientationClasses(centre, sectors, voxel, &points, &per_class);
+    std::printf("orientation classes (%d sectors, voxel %.2f m):", sectors, voxel);
+    for (size_t n : per_class) std::printf(" %zu", n);
+    std::printf("\n");
   }
   if (const char* mask = std::getenv("MI_MASK")) {
     // Diagnostic: drop the points that project (with the calibration) into the image box
