@@ -96,7 +96,8 @@ __attribute__((target("avx2"))) int SampleClampedAvx2(const GrayImage& photo, co
       // operations; the clamps as min/max, so that the loop has no branch).
       for (int k = 0; k < n; ++k) {
         const float value = batch_value[k];
-        const float c = std::min(std::max(std::floor(value), 0.f), last_class);
+        // (Truncation instead of floor: the same class after the clamp to 0.)
+        const float c = std::min(std::max(static_cast<float>(static_cast<int>(value)), 0.f), last_class);
         const float pos = (value - c) * class_scale;
         const int local = static_cast<int>(std::min(std::max(pos, 0.f), class_scale));
         float w[4];
