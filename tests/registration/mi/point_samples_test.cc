@@ -56,6 +56,55 @@ TEST_F(PointSamplesTest, PerPixelSamplesAtTheReferenceEqualTheRenderedMetric) {
   }
 }
 
+// With the orientation classes (seven histogram blocks, values class + fraction): per-pixel
+// samples at the reference equal the rendered metric, and the pinhole's batch path (one sample
+// per point, the class weights without a branch) fills the same histogram as the generic
+// model's, bit for bit, away from the reference too.
+TEST_F(PointSamplesTest, ClassedSamplesEqualTheRenderedMetricAndTheGenericModel) {
+  LidarPoints classed = points_;
+  const Eigen::Vector3f centre = (-(truth_.rotation.conjugate() * truth_.translation)).cast<float>();
+  const int classes = EncodeOrientationClasses(centre, 4, 0.5f, &classed);
+  ASSERT_GE(classed.classes, 4);
+  Frame frame = frame_;
+  frame.points = &classed;
+  RegistrationOptions options = SampledOptions();
+  options.metric.lidar_classes = classes;
+  const FrameSetEvaluator evaluator({frame}, truth_, options);
+  for (int level = 0; level < evaluator.levels(); ++level) {
+    const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth_, level, false);
+    const MetricValue rendered = evaluator.Evaluate(truth_, level, options.metric);
+    const MetricValue sampled = evaluator.Evaluate(truth_, level, options.metric, &set);
+    EXPECT_DOUBLE_EQ(sampled.samples, rendered.samples) << "level " << level;
+    EXPECT_NEAR(sampled.mi, rendered.mi, 1e-6) << "level " << level;
+  }
+  sensors::Camera opencv = camera_;
+  opencv.model_id = sensors::CameraModelId::kOpenCV;
+  opencv.params = {camera_.params[0], camera_.params[1], camera_.params[2], camera_.params[3],
+                   0.0, 0.0, 0.0, 0.0};
+  const GrayImage photo = frame_.views[0].image;
+  const View pinhole_view = MakeViews(photo, camera_, ViewOptions(), "pinhole")[0];
+  const View opencv_view = MakeViews(photo, opencv, ViewOptions(), "opencv")[0];
+  RenderOptions render;
+  LidarImage rendered;
+  RenderLidarImage(classed, pinhole_view, truth_, render, &rendered);
+  const ViewSamples samples = MakeViewSamples(classed, rendered, render, true);
+  MetricOptions metric;
+  metric.lidar_classes = classes;
+  for (double scale : {0.0, 3.0}) {
+    Vector6d offset;
+    offset << 0.02, -0.03, 0.01, 0.1, -0.2, 0.15;
+    const Rigid3d pose = ApplyCorrection(truth_, scale * offset);
+    JointHistogram a(metric), b(metric);
+    AccumulateViewSamples(samples, pinhole_view, pose, render, 0, samples.points(), &a);
+    AccumulateViewSamples(samples, opencv_view, pose, render, 0, samples.points(), &b);
+    const MetricValue va = a.Evaluate(), vb = b.Evaluate();
+    EXPECT_GT(va.samples, 1000) << "offset x " << scale;
+    EXPECT_EQ(va.samples, vb.samples) << "offset x " << scale;
+    EXPECT_EQ(va.mi, vb.mi) << "offset x " << scale;
+    EXPECT_EQ(va.joint_entropy, vb.joint_entropy) << "offset x " << scale;
+  }
+}
+
 // One weighted sample per point: the weights add up to (nearly all) the covered pixels, and
 // the metric still peaks at the true pose along every parameter.
 TEST_F(PointSamplesTest, PerPointSamplesKeepThePixelWeightsAndThePeak) {
