@@ -382,7 +382,10 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
   if (tasks.empty()) return;
   mi::RegistrationOptions options;  // register-mi's defaults
   constexpr float kSurfaceVoxel = 0.5f;  // register-mi --surface-voxel-m
-  options.metric.lidar_classes = mi::kDefaultOrientationSectors + 3;
+  // register-mi --orientation-classes of the photos (`mi_orientation_classes`, default
+  // register-mi's) and of the rig.
+  const int photo_sectors = s->photos ? s->photos->config->mi_orientation_classes : 0;
+  const int rig_sectors = s->rig ? s->rig->config->mi_orientation_classes : 0;
   constexpr double kRadius = 60.0;  // m: what a street-level image sees of a building's LiDAR
   constexpr size_t kMaxPoints = 8000000;
   Timer timer;
@@ -391,11 +394,13 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
   const auto register_one = [&](size_t i, const io::PointCloud& near, const std::string& cloud_path) {
     const MiTask& t = tasks[i];
     mi::LidarPoints points = mi::PrepareLidarPoints(near);
-    if (points.has_intensity()) {
-      // register-mi's default: the metric conditioned on the surfaces' orientation, seen
-      // from the camera's start centre.
-      mi::EncodeOrientationClasses(CameraCentre(t.start).cast<float>(), mi::kDefaultOrientationSectors,
-                                   kSurfaceVoxel, &points);
+    mi::RegistrationOptions task_options = options;
+    const int sectors = t.kind == "photo" ? photo_sectors : rig_sectors;
+    if (sectors > 0 && points.has_intensity()) {
+      // The metric conditioned on the surfaces' orientation, seen from the camera's start
+      // centre (register-mi --orientation-classes).
+      task_options.metric.lidar_classes =
+          mi::EncodeOrientationClasses(CameraCentre(t.start).cast<float>(), sectors, kSurfaceVoxel, &points);
     }
     ++done;
     json entry = {{"image", t.name}, {"kind", t.kind}, {"file", "mi/" + fs::path(t.name).stem().string() + ".json"},
@@ -414,7 +419,7 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     mi::Frame frame;
     frame.name = t.name;
     frame.points = &points;
-    frame.views = TaskViews(t, images[i], points, t.start, s->rig ? &*s->rig : nullptr, s->scene, options);
+    frame.views = TaskViews(t, images[i], points, t.start, s->rig ? &*s->rig : nullptr, s->scene, task_options);
     if (frame.views.empty()) {
       entry["status"] = "failed";
       entry["reason"] = "none of the frame's cameras sees 1000 LiDAR points at the start";
@@ -425,10 +430,11 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
       return;
     }
     Timer one;
-    const mi::RegistrationResult result = mi::RegisterFrames({frame}, t.start, options);
-    json file = mi::ResultToJson(result, options, t.start);
+    const mi::RegistrationResult result = mi::RegisterFrames({frame}, t.start, task_options);
+    json file = mi::ResultToJson(result, task_options, t.start);
     file["image"] = t.path;
-    file["registered_by"] = "mmba adjust (mi_register), register-mi's default settings, LiDAR = " + cloud_path;
+    file["registered_by"] = "mmba adjust (mi_register), register-mi's default settings with --orientation-classes " +
+                            std::to_string(sectors) + ", LiDAR = " + cloud_path;
     s->mi_files.emplace_back(fs::path(t.name).stem().string(), file);
     entry["status"] = result.status;
     entry["reason"] = result.reason;
@@ -537,9 +543,10 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
         continue;
       }
       points.push_back(mi::PrepareLidarPoints(local));
-      // register-mi's default orientation classes, seen from the rig's start centre.
-      mi::EncodeOrientationClasses(CameraCentre(start).cast<float>(), mi::kDefaultOrientationSectors,
-                                   kSurfaceVoxel, &points.back());
+      if (rig_sectors > 0) {
+        // The rig's orientation classes, seen from the rig's start centre.
+        mi::EncodeOrientationClasses(CameraCentre(start).cast<float>(), rig_sectors, kSurfaceVoxel, &points.back());
+      }
       mi::Frame frame;
       frame.name = t.name;
       frame.points = &points.back();
@@ -559,6 +566,7 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     if (!frames.empty()) {
       mi::RigOptions rig_options;
       rig_options.registration = options;
+      if (rig_sectors > 0) rig_options.registration.metric.lidar_classes = rig_sectors + 3;
       spdlog::info("adjust: MI rig calibration: {} frame(s) jointly against the mobile LiDAR {}", frames.size(), cloud_path);
       const mi::RegistrationResult result = mi::RegisterRig(frames, start, rig_options);
       // Each frame's own screening registration, reported (not a prior: the joint one is).
@@ -576,7 +584,7 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
         s->mi_registration.push_back(entry);
         s->mi_registered.push_back(t.start);
       }
-      json file = mi::ResultToJson(result, options, start);
+      json file = mi::ResultToJson(result, rig_options.registration, start);
       file["registered_by"] = "mmba adjust (mi_register, mi_lidar: mobile): register-mi's multi-frame rig calibration, "
                               "cam_from_lidar = rig_from_lidar, LiDAR = " + cloud_path + " (points within " +
                               std::to_string(window) + " s of each frame, in the LiDAR frame at that time)";

@@ -8,6 +8,7 @@
 #include "mmba/core/error.h"
 #include "mmba/io/kitti.h"
 #include "mmba/io/yaml_reader.h"
+#include "mmba/registration/mi/lidar_image.h"
 #include "internal.h"
 
 namespace mmba::adjust {
@@ -82,6 +83,16 @@ class ProjectReader {
     return value;
   }
 
+  /// `mi_orientation_classes`: register-mi --orientation-classes, 0 (the plain metric) to 13.
+  int MiOrientationClasses(Node n, Field f) const {
+    const int value = r_.Integer(n, f);
+    constexpr int kMax = registration::mi::kMaxLidarClasses - 3;
+    if (value < 0 || value > kMax) {
+      r_.Fail(n, f, "0 (the plain metric) to " + std::to_string(kMax) + " azimuth sectors", io::YamlReader::Text(n));
+    }
+    return value;
+  }
+
   /// `mi_register`: true, false, or a list of image/frame names (only those are registered).
   void MiRegister(Node n, Field f, bool* on, std::vector<std::string>* only) const {
     if (n.IsSequence()) {
@@ -115,6 +126,7 @@ class ProjectReader {
                     {"control_measurements", path(&p.control_measurements, false)},
                     {"mi_results", path(&p.mi_results, true)},
                     {"mi_register", [&](Node v, Field g) { MiRegister(v, g, &p.mi_register, &p.mi_only); }},
+                    {"mi_orientation_classes", [&](Node v, Field g) { p.mi_orientation_classes = MiOrientationClasses(v, g); }},
                     {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
                     {"control_sigma_px", [&](Node v, Field g) { p.control_sigma_px = SigmaPx(v, g); }},
                     {"gnss_lever_arm_m", [&](Node v, Field g) {
@@ -285,6 +297,7 @@ class ProjectReader {
                       {"panoramas", path(&p.panoramas, true)}, {"calibration", path(&p.calibration, false)},
                       {"mi_results", path(&p.mi_results, true)},
                       {"mi_register", [&](Node v, Field g) { MiRegister(v, g, &p.mi_register, &p.mi_only); }},
+                    {"mi_orientation_classes", [&](Node v, Field g) { p.mi_orientation_classes = MiOrientationClasses(v, g); }},
                       {"mi_lidar", [&](Node v, Field g) {
                          p.mi_lidar = r_.String(v, g);
                          if (p.mi_lidar != "static" && p.mi_lidar != "mobile") r_.Fail(v, g, "static or mobile", p.mi_lidar);

@@ -137,6 +137,10 @@ TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {
        "sensors[1].mi_lidar"},
       {photos_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, mi_views: fisheyes}\n", "",
        "panoramas or cameras"},
+      {"  - {id: p, type: photo_collection, images: images, mi_orientation_classes: 14}\n" + ts_, "",
+       "sensors[0].mi_orientation_classes"},
+      {photos_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, mi_orientation_classes: -1}\n",
+       "", "0 (the plain metric) to 13 azimuth sectors"},
       // Against the mobile LiDAR: one must carry the rig.
       {photos_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, observations: gnss.csv, "
                  "frames_file: gnss.csv, trajectory: gnss.csv, tie_block: p, panoramas: images, mi_register: true, "

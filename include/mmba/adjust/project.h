@@ -42,6 +42,11 @@ struct PhotoCollection {
   /// registers only those images (names or stems).
   bool mi_register = false;
   std::vector<std::string> mi_only;  ///< the list of `mi_register: [...]`; empty = every image
+  /// `mi_orientation_classes`: register-mi --orientation-classes of `mi_register` (the
+  /// metric conditioned on the surfaces' orientation; 0 = the plain metric, the photos'
+  /// default: with the classes the adjusted photo centres were worse, gate 5.6 → 9.0 mm,
+  /// cathedral 16.0 → 16.5 mm RMSE; bench/RESULTS.md "Orientation classes").
+  int mi_orientation_classes = 0;
   double sigma_px = 1.0;              ///< σ of a tie-point image coordinate
   double control_sigma_px = 0.0;      ///< σ of a target measurement; 0 = the CSV's, else sigma_px
   /// GNSS antenna in the camera frame (x right, y down, z forward; metres) for the GNSS CSV's
@@ -168,6 +173,9 @@ struct CameraRig {
   /// `mi_register: [frames]` registers only those frames.
   bool mi_register = false;
   std::vector<std::string> mi_only;  ///< the list of `mi_register: [...]`; empty = every frame
+  /// `mi_orientation_classes`: as the photo collection's; default register-mi's (4), which
+  /// registers the rigs' own cameras right far more often (bench/RESULTS.md).
+  int mi_orientation_classes = 4;
   /// The cloud the panoramas' MI poses refer to (registered by `mi_register` or read from
   /// `mi_results`): "static" = the static LiDAR's reference cloud (world frame: an absolute
   /// prior on the frame), or "mobile" = the mobile LiDAR's delivered cloud (georeferenced by
