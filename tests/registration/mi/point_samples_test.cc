@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -22,6 +23,17 @@ class PointSamplesTest : public ::testing::Test {
     frame_.views = MakeViews(testing::StreetPhoto(camera_, truth_), camera_, ViewOptions(),
                              "street.png");
     frame_.points = &points_;
+  }
+  /// The street photo through its pinhole camera and through the same camera as a
+  /// distortion-free OPENCV model (the generic model's path).
+  std::pair<View, View> PinholeAndGenericViews() const {
+    sensors::Camera opencv = camera_;
+    opencv.model_id = sensors::CameraModelId::kOpenCV;
+    opencv.params = {camera_.params[0], camera_.params[1], camera_.params[2], camera_.params[3],
+                     0.0, 0.0, 0.0, 0.0};
+    const GrayImage photo = frame_.views[0].image;
+    return {MakeViews(photo, camera_, ViewOptions(), "pinhole")[0],
+            MakeViews(photo, opencv, ViewOptions(), "opencv")[0]};
   }
   sensors::Camera camera_;
   Rigid3d truth_;
@@ -77,13 +89,7 @@ TEST_F(PointSamplesTest, ClassedSamplesEqualTheRenderedMetricAndTheGenericModel)
     EXPECT_DOUBLE_EQ(sampled.samples, rendered.samples) << "level " << level;
     EXPECT_NEAR(sampled.mi, rendered.mi, 1e-6) << "level " << level;
   }
-  sensors::Camera opencv = camera_;
-  opencv.model_id = sensors::CameraModelId::kOpenCV;
-  opencv.params = {camera_.params[0], camera_.params[1], camera_.params[2], camera_.params[3],
-                   0.0, 0.0, 0.0, 0.0};
-  const GrayImage photo = frame_.views[0].image;
-  const View pinhole_view = MakeViews(photo, camera_, ViewOptions(), "pinhole")[0];
-  const View opencv_view = MakeViews(photo, opencv, ViewOptions(), "opencv")[0];
+  const auto [pinhole_view, opencv_view] = PinholeAndGenericViews();
   RenderOptions render;
   LidarImage rendered;
   RenderLidarImage(classed, pinhole_view, truth_, render, &rendered);
@@ -153,13 +159,7 @@ TEST_F(PointSamplesTest, PerPointSamplesKeepThePixelWeightsAndThePeak) {
 // of the points that an evaluation on two threads fills.
 TEST_F(PointSamplesTest, PinholeBlocksAccumulateAsTheGenericModel) {
   ASSERT_EQ(camera_.model_id, sensors::CameraModelId::kPinhole);
-  sensors::Camera opencv = camera_;
-  opencv.model_id = sensors::CameraModelId::kOpenCV;
-  opencv.params = {camera_.params[0], camera_.params[1], camera_.params[2], camera_.params[3],
-                   0.0, 0.0, 0.0, 0.0};
-  const GrayImage photo = frame_.views[0].image;
-  const View pinhole_view = MakeViews(photo, camera_, ViewOptions(), "pinhole")[0];
-  const View opencv_view = MakeViews(photo, opencv, ViewOptions(), "opencv")[0];
+  const auto [pinhole_view, opencv_view] = PinholeAndGenericViews();
   for (Representation representation :
        {Representation::kIntensity, Representation::kPoints, Representation::kDepth}) {
     RenderOptions render;
