@@ -137,7 +137,7 @@ int main(int argc, char** argv) {
   if (sectors > 0 && points.has_intensity() &&
       options.render.representation == Representation::kIntensity) {
     const Eigen::Vector3f centre =
-        (-(kitti.cam_from_lidar.rotation.conjugate() * kitti.cam_from_lidar.translation)).cast<float>();
+        kitti.cam_from_lidar.Inverse().translation.cast<float>();
     std::vector<size_t> per_class;
     options.metric.lidar_classes = EncodeOrientationClasses(centre, sectors, voxel, &points, &per_class);
     std::printf("orientation classes (%d sectors, voxel %.2f m):", sectors, voxel);

@@ -581,7 +581,7 @@ int main(int argc, char** argv) {
         if (orientation_sectors > 0) {
           classed = frame.points == &warped ? warped : points;
           const Eigen::Vector3f centre =
-              (-(start.rotation.conjugate() * start.translation)).cast<float>();
+              start.Inverse().translation.cast<float>();
           EncodeSurfaceClasses(OrientationClasses(classed.points_in_lidar, plane_normals,
                                                   Eigen::Vector3f::UnitZ(), centre,
                                                   orientation_sectors),

@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
     Timer classify;
     classed = points;
     const Rigid3d first = ApplyCorrection(truth, perturbations[0]);
-    EncodeOrientationClasses((-(first.rotation.conjugate() * first.translation)).cast<float>(), sectors, 0.5f,
+    EncodeOrientationClasses(first.Inverse().translation.cast<float>(), sectors, 0.5f,
                              &classed);
     std::printf("orientation classes (%d sectors): %.2f s, peak %.0f MiB\n", sectors,
                 classify.ElapsedSeconds(), PeakRssMiB());

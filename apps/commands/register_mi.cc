@@ -386,7 +386,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
       // (rig) centre (bench/RESULTS.md "Orientation classes").
       const Rigid3d cam_from_local = to_local(start);
       const Eigen::Vector3f viewpoint =
-          (-(cam_from_local.rotation.conjugate() * cam_from_local.translation)).cast<float>();
+          cam_from_local.Inverse().translation.cast<float>();
       std::vector<size_t> per_class;
       mi::EncodeOrientationClasses(viewpoint, orientation_sectors,
                                    static_cast<float>(args.surface_voxel_m), &clouds.back(), &per_class);

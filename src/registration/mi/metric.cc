@@ -376,8 +376,7 @@ void JointHistogram::Add(const LidarImage& lidar, const GrayImage& photo) {
     AddBSpline(lidar, photo);
     return;
   }
-  // Continuous bin coordinates: value 0..1 (LiDAR) and 0..255 (photo) onto 0..bins−1.
-  const float lidar_scale = static_cast<float>(bins - 1);
+  // Continuous bin coordinates: LiDAR value (LidarPosition) and 0..255 (photo) onto 0..bins−1.
   const float photo_scale = static_cast<float>((bins - 1) / 255.0);
   size_t samples = 0, lidar_samples = 0;
   for (int r = 0; r < lidar.height; ++r) {
@@ -393,9 +392,7 @@ void JointHistogram::Add(const LidarImage& lidar, const GrayImage& photo) {
         photo_value = SampleClamped(photo, c + 0.5f + lidar.offset_x[k], r + 0.5f + lidar.offset_y[k]);
       }
       int lidar_row = 0;
-      const float lidar_pos = empty ? 0.f
-                              : classes_ == 1 ? lidar.value[k] * lidar_scale
-                                              : LidarPosition(lidar.value[k], &lidar_row);
+      const float lidar_pos = empty ? 0.f : LidarPosition(lidar.value[k], &lidar_row);
       AddSample(lidar_row, lidar_pos, photo_value * photo_scale, empty);
       ++samples;
       if (!empty) ++lidar_samples;

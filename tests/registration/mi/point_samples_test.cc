@@ -74,7 +74,7 @@ TEST_F(PointSamplesTest, PerPixelSamplesAtTheReferenceEqualTheRenderedMetric) {
 // model's, bit for bit, away from the reference too.
 TEST_F(PointSamplesTest, ClassedSamplesEqualTheRenderedMetricAndTheGenericModel) {
   LidarPoints classed = points_;
-  const Eigen::Vector3f centre = (-(truth_.rotation.conjugate() * truth_.translation)).cast<float>();
+  const Eigen::Vector3f centre = truth_.Inverse().translation.cast<float>();
   const int classes = EncodeOrientationClasses(centre, 4, 0.5f, &classed);
   ASSERT_GE(classed.classes, 4);
   Frame frame = frame_;
