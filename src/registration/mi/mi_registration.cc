@@ -985,9 +985,21 @@ View CropView(const View& view, int col0, int col1) {
 std::array<std::vector<Frame>, 2> SplitIntoHalves(const std::vector<Frame>& frames,
                                                   std::string* kind) {
   std::array<std::vector<Frame>, 2> halves;
-  size_t total = 0;
-  for (const Frame& frame : frames) total += frame.views.size();
-  if (total >= 2) {
+  size_t total = 0, with_views = 0;
+  for (const Frame& frame : frames) {
+    total += frame.views.size();
+    with_views += frame.views.empty() ? 0 : 1;
+  }
+  if (with_views >= 2) {
+    // Several frames sharing one pose (the rig calibration): whole frames alternately. What
+    // differs between frames — their scene, the LiDAR's georeferencing over each frame's
+    // time window — is what must agree; halves that each hold part of every frame share it.
+    size_t index = 0;
+    for (const Frame& frame : frames) {
+      if (!frame.views.empty()) halves[index++ % 2].push_back(frame);
+    }
+    if (kind != nullptr) *kind = "frames";
+  } else if (total >= 2) {
     size_t index = 0;
     for (const Frame& frame : frames) {
       std::array<Frame, 2> parts;

@@ -816,6 +816,18 @@ TEST(Split, HalvesAlternateViewsOrCutASingleView) {
   halves = SplitIntoHalves({Frame{"narrow", {narrow}, &points}}, &kind);
   EXPECT_TRUE(halves[0].empty());
   EXPECT_TRUE(halves[1].empty());
+  // Several frames (a rig calibration): whole frames alternately, a frame without views
+  // skipped, so that each half holds frames the other does not.
+  Frame empty{"empty", {}, &points};
+  Frame three{"three", {a, b}, &points};
+  halves = SplitIntoHalves({two, empty, one, three}, &kind);
+  EXPECT_EQ(kind, "frames");
+  ASSERT_EQ(halves[0].size(), 2u);
+  ASSERT_EQ(halves[1].size(), 1u);
+  EXPECT_EQ(halves[0][0].name, "two");
+  EXPECT_EQ(halves[0][0].views.size(), 2u);
+  EXPECT_EQ(halves[1][0].name, "one");
+  EXPECT_EQ(halves[0][1].name, "three");
 }
 
 TEST_F(StreetTest, ImageThatDoesNotOverlapTheCloudFails) {

@@ -176,8 +176,8 @@ struct RegistrationOptions {
   int shuffles = 8;
   double min_mi_gain_bits = 0.02;
   double min_mi_significance = 10.0;
-  /// Independent halves (SplitIntoHalves: alternate views, or the left and right halves of
-  /// a single view): each half is re-optimised alone by Nelder–Mead at `split_level` from the
+  /// Independent halves (SplitIntoHalves: alternate frames, alternate views, or the left and
+  /// right halves of a single view): each half is re-optimised alone by Nelder–Mead at `split_level` from the
   /// optimum (simplex 2·restart offset, the restarts' tolerance); each half's optimum must put
   /// that half's own visible points within split_tolerance_px (median, pixels of the frame's
   /// image) of where the joint optimum puts them. The restarts test the shape of one metric
@@ -449,11 +449,13 @@ class FrameSetEvaluator {
   mutable std::atomic<int> sample_evaluations_{0};
 };
 
-/// Two independent halves of a frame set (for the split check): with two or more views in
-/// all, the views alternately (a frame's two perspective cuts: one each; a cube's four faces:
-/// two opposite faces each); with a single view, its left and right halves (CropView).
-/// `kind` (optional) receives "views" or "left/right halves". Both empty when there is
-/// nothing to halve (no view, or a single view narrower than 16 pixels).
+/// Two independent halves of a frame set (for the split check): with two or more frames that
+/// have views, the frames alternately (a rig calibration's frames: one half must agree with
+/// the other); with one frame of two or more views, the views alternately (a frame's two
+/// perspective cuts: one each; a cube's four faces: two opposite faces each); with a single
+/// view, its left and right halves (CropView). `kind` (optional) receives "frames", "views"
+/// or "left/right halves". Both empty when there is nothing to halve (no view, or a single
+/// view narrower than 16 pixels).
 std::array<std::vector<Frame>, 2> SplitIntoHalves(const std::vector<Frame>& frames,
                                                   std::string* kind = nullptr);
 /// Columns [col0, col1) of a view: the image cropped and the principal point shifted (any
