@@ -177,13 +177,14 @@ struct RegistrationOptions {
   double min_mi_gain_bits = 0.02;
   double min_mi_significance = 10.0;
   /// Independent halves (SplitIntoHalves: alternate frames, alternate views, or the left and
-  /// right halves of a single view): each half is re-optimised alone by Nelder–Mead at `split_level` from the
-  /// optimum (simplex 2·restart offset, the restarts' tolerance); each half's optimum must put
-  /// that half's own visible points within split_tolerance_px (median, pixels of the frame's
-  /// image) of where the joint optimum puts them. The restarts test the shape of one metric
-  /// surface; this tests whether independent parts of the data agree on the pose — a
-  /// systematic error that affects the parts differently (a stitched panorama's parallax, a
-  /// lens model error, a moving object) moves their optima apart.
+  /// right halves of a single view): each half is re-optimised alone by Nelder–Mead at
+  /// `split_level` from the optimum (simplex 2·restart offset, the restarts' tolerance); each
+  /// half's optimum must put that half's own visible points within split_tolerance_px
+  /// (median, pixels of the frame's image) of where the joint optimum puts them. The restarts
+  /// test the shape of one metric surface; this tests whether independent parts of the data
+  /// agree on the pose — a systematic error that affects the parts differently (a stitched
+  /// panorama's parallax, a lens model error, a moving object, one frame's georeferencing)
+  /// moves their optima apart.
   bool split_check = true;
   int split_level = 0;
   double split_tolerance_px = 1.0;
