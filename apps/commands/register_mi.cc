@@ -648,8 +648,9 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
                   "reported: the halves' and restarts' scatter included)")
       ->capture_default_str();
   sub->add_option("--halves", args->halves,
-                  "Acceptance: re-optimise two independent halves of the data (the views "
-                  "alternately, or the left/right halves of one image) alone; each must agree "
+                  "Acceptance: re-optimise two independent halves of the data (several frames: "
+                  "the frames alternately; one frame: its views alternately, or the left/right "
+                  "halves of one image) alone; each must agree "
                   "with the joint optimum (and they calibrate the covariance)")
       ->capture_default_str();
   sub->add_option("--whole-image-checks", args->whole_image_checks,
