@@ -1209,6 +1209,17 @@ bool ApplyVarianceComponents(JointState* s, const stats::NetworkStatistics& st) 
 
 }  // namespace
 
+namespace internal {
+
+std::string VarianceComponentExemption(const std::string& group_name) {
+  if (group_name == kCheck) return "check points";
+  if (IsConstraintGroup(group_name)) return "constraint";
+  if (IsPriorGroup(group_name)) return "prior";
+  return "";
+}
+
+}  // namespace internal
+
 AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options) {
   AdjustOutcome outcome;
   Timer timer;

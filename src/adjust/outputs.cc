@@ -143,6 +143,13 @@ json Ellipse(const Eigen::Matrix3d& enu) {
   return {{"a", Num(e.a)}, {"b", Num(e.b)}, {"azimuth_deg", azimuth}};
 }
 
+/// How the variance components treated a group (report.json `groups[].reweighting`).
+std::string Reweighting(const std::string& group_name, double redundancy) {
+  const std::string exemption = VarianceComponentExemption(group_name);
+  if (!exemption.empty()) return exemption + ": not re-weighted";
+  return redundancy < 5 ? "redundancy below 5: not re-weighted" : "variance components";
+}
+
 json Histogram(const FactorGroup& group) {
   json values = json::array();
   for (const ObservationResidual& o : group.Evaluate().observations) {
@@ -498,6 +505,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
                       {"loss", group.loss().ToString()}, {"outliers", e.num_outliers},
                       {"variance_component", Num(gs.variance_component)}, {"redundancy", Num(gs.redundancy)},
                       {"sigma_factor", s.sigma_factor.count(group.name()) ? s.sigma_factor.at(group.name()) : 1.0},
+                      {"reweighting", Reweighting(group.name(), gs.redundancy)},
                       {"variance_component_given_weights",
                        g < given.groups.size() ? Num(given.groups[g].variance_component) : 0.0},
                       {"whitened", Histogram(group)}});
@@ -1067,7 +1075,13 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
     sum << "  " << std::left << std::setw(44) << g["name"].get<std::string>() << std::right << std::setw(7)
         << g["observations"].get<size_t>() << " obs  RMS " << std::setprecision(4) << g["rms"].get<double>() << " "
         << g["unit"].get<std::string>() << "  variance component " << std::setprecision(3)
-        << g["variance_component_given_weights"].get<double>() << " (sigma x " << g["sigma_factor"].get<double>() << ")\n";
+        << g["variance_component_given_weights"].get<double>();
+    const std::string exemption = VarianceComponentExemption(g["name"].get<std::string>());
+    if (exemption.empty()) {
+      sum << " (sigma x " << g["sigma_factor"].get<double>() << ")\n";
+    } else {
+      sum << " (" << exemption << ": not re-weighted)\n";
+    }
   }
   if (report.contains("check_summary")) {
     const json& c = report["check_summary"];

@@ -169,6 +169,17 @@ std::string Mm(double metres, int decimals = 1) { return FormatFixed(metres * 10
 std::string Td(const std::string& content) { return "<td class=\"num\">" + content + "</td>"; }
 std::string TdText(const std::string& escaped) { return "<td>" + escaped + "</td>"; }
 
+// How the variance components treated a group (`reweighting`, `sigma_factor`): "σ × f" for a
+// re-weighted group, the reason for one that is not (a prior, a constraint, …); "—" when the
+// report predates the field.
+std::string Reweighting(const json& group, const std::string& path) {
+  const std::optional<std::string> how = OptString(group, "reweighting", path);
+  if (!how) return kDash;
+  if (*how != "variance components") return *how;
+  const double factor = Num(group, "sigma_factor", path);
+  return std::isfinite(factor) ? "\xCF\x83 \xC3\x97 " + FormatFixed(factor, 3) : *how;
+}
+
 // ---------------------------------------------------------------------------------------
 // Statistics helpers.
 
@@ -485,7 +496,8 @@ void RenderGroups(const json& groups, std::ostringstream& html) {
   html << "<table>\n<tr><th>group</th><th>unit</th><th>obser&shy;vations</th><th>resi&shy;duals</th>"
           "<th>redun&shy;dancy &Sigma;r</th><th>"
        << kSigma << " a-priori</th><th>RMS</th><th>mean</th><th>max</th><th>"
-       << kSigma << "&#770;<sup>2</sup><sub>k</sub></th><th>out&shy;liers</th><th>robust loss</th></tr>\n";
+       << kSigma << "&#770;<sup>2</sup><sub>k</sub></th><th>re-weighting</th><th>out&shy;liers</th>"
+          "<th>robust loss</th></tr>\n";
   struct Plot {
     std::string name, unit;
     std::vector<double> whitened;
@@ -507,7 +519,7 @@ void RenderGroups(const json& groups, std::ostringstream& html) {
          << Td(Sig(Num(g, "sigma", path), 4)) << Td(Sig(Num(g, "rms", path), 4))
          << Td(Sig(Num(g, "mean", path), 4)) << Td(Sig(Num(g, "max", path), 4))
          << Td(FormatFixed(Num(g, "variance_component", path), 3))
-         << Td(Count(Num(g, "outliers", path))) << TdText(loss.empty() ? "none" : Esc(loss))
+         << TdText(Esc(Reweighting(g, path))) << Td(Count(Num(g, "outliers", path))) << TdText(loss.empty() ? "none" : Esc(loss))
          << "</tr>\n";
     plot.whitened = NumberArray(g, "whitened", path);
     const auto kind = OptString(g, "whitened_kind", path);

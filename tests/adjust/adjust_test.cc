@@ -320,6 +320,10 @@ TEST_F(AdjustTest, FlagsInjectedBlunders) {
     // (the good ones are 5 mm off with σ 1 cm, which Förstner's estimate would tighten).
     if (g["name"] == "rig: MI frame priors" || g["name"] == "photos: MI pose priors") {
       EXPECT_EQ(g["sigma_factor"].get<double>(), 1.0) << g.dump();
+      EXPECT_EQ(g["reweighting"], "prior: not re-weighted") << g.dump();
+    }
+    if (g["name"] == "photos: tie points") {
+      EXPECT_EQ(g["reweighting"], "variance components") << g.dump();
     }
   }
   EXPECT_TRUE(rig_group);

@@ -51,6 +51,11 @@ TEST(AdjustReport, FullSampleHasEverySectionAndNoExternalAsset) {
   EXPECT_NE(html.find("N(0,1) density"), std::string::npos);
   EXPECT_NE(html.find("\xCF\x87 density, k = 2"), std::string::npos);  // reprojection norms
   EXPECT_NE(html.find("huber 3"), std::string::npos);
+  // How the variance components treated each group: a factor, a reason, or "—" (a report
+  // from before the field).
+  EXPECT_NE(html.find("<td>\xCF\x83 \xC3\x97 0.985</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td>prior: not re-weighted</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td>\xE2\x80\x94</td><td class=\"num\">0</td><td>huber 3</td>"), std::string::npos);
   EXPECT_NE(html.find("direction M1-&gt;T3 (network.xml:45)"), std::string::npos);
   EXPECT_NE(html.find("photo camera"), std::string::npos);
   EXPECT_NE(html.find("UTM zone"), std::string::npos);

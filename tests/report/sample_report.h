@@ -42,7 +42,8 @@ inline nlohmann::json MakeSampleReport() {
     groups.push_back({{"name", "total station"}, {"unit", "mm / cc"}, {"observations", 401},
                       {"residuals", 401}, {"rms", 1.9}, {"mean", 0.1}, {"max", 12.2}, {"sigma", 2.0},
                       {"loss", "huber 3"}, {"outliers", 1}, {"variance_component", 0.97},
-                      {"redundancy", 250.5}, {"whitened", w}, {"whitened_kind", "components"}});
+                      {"redundancy", 250.5}, {"whitened", w}, {"whitened_kind", "components"},
+                      {"reweighting", "variance components"}, {"sigma_factor", 0.985}});
   }
   {
     std::vector<double> w;
@@ -58,7 +59,8 @@ inline nlohmann::json MakeSampleReport() {
     groups.push_back({{"name", "lidar point-to-plane"}, {"unit", "m"}, {"observations", 900},
                       {"residuals", 900}, {"rms", 0.0055}, {"mean", 0.0001}, {"max", 0.02},
                       {"sigma", 0.005}, {"loss", "cauchy 2"}, {"outliers", 3},
-                      {"variance_component", 1.21}, {"redundancy", 870.0}, {"whitened", w}});
+                      {"variance_component", 1.21}, {"redundancy", 870.0}, {"whitened", w},
+                      {"reweighting", "prior: not re-weighted"}});
   }
   report["groups"] = groups;
 
