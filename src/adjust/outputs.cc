@@ -1076,11 +1076,10 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
         << g["observations"].get<size_t>() << " obs  RMS " << std::setprecision(4) << g["rms"].get<double>() << " "
         << g["unit"].get<std::string>() << "  variance component " << std::setprecision(3)
         << g["variance_component_given_weights"].get<double>();
-    const std::string exemption = VarianceComponentExemption(g["name"].get<std::string>());
-    if (exemption.empty()) {
+    if (g["reweighting"] == "variance components") {
       sum << " (sigma x " << g["sigma_factor"].get<double>() << ")\n";
     } else {
-      sum << " (" << exemption << ": not re-weighted)\n";
+      sum << " (" << g["reweighting"].get<std::string>() << ")\n";
     }
   }
   if (report.contains("check_summary")) {
