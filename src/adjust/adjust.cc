@@ -1174,6 +1174,23 @@ size_t Snoop(JointState* s, const stats::NetworkStatistics& st) {
   return worst.size();
 }
 
+}  // namespace
+
+namespace internal {
+
+std::string VarianceComponentExemption(const JointState& s, const std::string& group_name, double redundancy) {
+  if (!s.project->settings.variance_components) return "variance_components: false";
+  if (group_name == kCheck) return "check points";
+  if (IsConstraintGroup(group_name)) return "constraint";
+  if (IsPriorGroup(group_name)) return "prior";
+  if (redundancy < 5) return "redundancy below 5";
+  return "";
+}
+
+}  // namespace internal
+
+namespace {
+
 /// Variance-component estimation (Förstner 1979): each group's σ is multiplied by the square
 /// root of its variance component σ̂²_k = Σe²/Σr (groups with Σr ≥ 5; the check points are
 /// not weighted). Survey groups scale their observations' σ and cluster covariances in the
@@ -1184,7 +1201,7 @@ bool ApplyVarianceComponents(JointState* s, const stats::NetworkStatistics& st) 
   const auto& groups = s->builder->groups();
   for (size_t g = 0; g < groups.size(); ++g) {
     const stats::GroupStatistic& gs = st.groups.at(g);
-    if (IsConstraintGroup(groups[g]->name()) || IsPriorGroup(groups[g]->name()) || gs.redundancy < 5 ||
+    if (!internal::VarianceComponentExemption(*s, groups[g]->name(), gs.redundancy).empty() ||
         !(gs.variance_component > 0)) {
       continue;
     }
@@ -1208,17 +1225,6 @@ bool ApplyVarianceComponents(JointState* s, const stats::NetworkStatistics& st) 
 }
 
 }  // namespace
-
-namespace internal {
-
-std::string VarianceComponentExemption(const std::string& group_name) {
-  if (group_name == kCheck) return "check points";
-  if (IsConstraintGroup(group_name)) return "constraint";
-  if (IsPriorGroup(group_name)) return "prior";
-  return "";
-}
-
-}  // namespace internal
 
 AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options) {
   AdjustOutcome outcome;

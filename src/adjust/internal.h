@@ -278,11 +278,12 @@ bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* wh
 enum class MiStage { kRigFrames, kPhotos };
 void RegisterImagesByMi(JointState* s, MiStage stage);
 
-/// Why a factor group's σ is never re-weighted by the variance components: "check points",
-/// "constraint" (a modelling constraint) or "prior" (a prior on parameters, whose σ is the
-/// user's or the registration's statement: adjust.cc, IsPriorGroup); empty for the groups
-/// that are (those with a redundancy of 5 or more).
-std::string VarianceComponentExemption(const std::string& group_name);
+/// Why a factor group's σ is not re-weighted by the variance components (the one rule
+/// ApplyVarianceComponents and the report use): "variance_components: false" (the project's
+/// setting), "check points", "constraint" (a modelling constraint), "prior" (a prior on
+/// parameters, whose σ is the user's or the registration's statement: adjust.cc,
+/// IsPriorGroup) or "redundancy below 5"; empty for a group that is re-weighted.
+std::string VarianceComponentExemption(const JointState& s, const std::string& group_name, double redundancy);
 
 /// Writes lidar_coloured.ply (the static LiDAR around the photo block coloured from the
 /// adjusted photos, with a z-buffer visibility test) into `stage`; returns the report entry

@@ -144,10 +144,9 @@ json Ellipse(const Eigen::Matrix3d& enu) {
 }
 
 /// How the variance components treated a group (report.json `groups[].reweighting`).
-std::string Reweighting(const std::string& group_name, double redundancy) {
-  const std::string exemption = VarianceComponentExemption(group_name);
-  if (!exemption.empty()) return exemption + ": not re-weighted";
-  return redundancy < 5 ? "redundancy below 5: not re-weighted" : "variance components";
+std::string Reweighting(const JointState& s, const std::string& group_name, double redundancy) {
+  const std::string exemption = VarianceComponentExemption(s, group_name, redundancy);
+  return exemption.empty() ? "variance components" : exemption + ": not re-weighted";
 }
 
 json Histogram(const FactorGroup& group) {
@@ -505,7 +504,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
                       {"loss", group.loss().ToString()}, {"outliers", e.num_outliers},
                       {"variance_component", Num(gs.variance_component)}, {"redundancy", Num(gs.redundancy)},
                       {"sigma_factor", s.sigma_factor.count(group.name()) ? s.sigma_factor.at(group.name()) : 1.0},
-                      {"reweighting", Reweighting(group.name(), gs.redundancy)},
+                      {"reweighting", Reweighting(s, group.name(), gs.redundancy)},
                       {"variance_component_given_weights",
                        g < given.groups.size() ? Num(given.groups[g].variance_component) : 0.0},
                       {"whitened", Histogram(group)}});

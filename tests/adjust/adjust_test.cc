@@ -347,6 +347,28 @@ TEST_F(AdjustTest, FlagsInjectedBlunders) {
   EXPECT_LT(outcome.report["truth_evaluation"]["photo_positions"]["max_m"].get<double>(), 0.02);
 }
 
+// `variance_components: false` keeps every group's σ, and the report says so for each group
+// rather than "variance components" with a factor of 1.
+TEST_F(AdjustTest, VarianceComponentsOffIsReportedPerGroup) {
+  const fs::path sim = Root() / "sim", dir = Root() / "vc_off";
+  fs::create_directories(dir);
+  std::ofstream(dir / "project.yaml")
+      << "mmba_project: 1\norigin: {latitude_deg: 45.5048, longitude_deg: -73.5772, height_m: 60}\n"
+      << "adjustment: {variance_components: false}\nsensors:\n"
+      << "  - {id: photos, type: photo_collection, images: " << (sim / "images/photos").string()
+      << ", colmap_model: " << (sim / "colmap/photos").string()
+      << ", calibration: " << (sim / "calib/photo_camera.yaml").string()
+      << ", control_measurements: " << (sim / "survey/image_points.csv").string() << "}\n"
+      << "  - {id: ts, type: total_station, file: " << (sim / "survey/network.xml").string() << "}\n";
+  const AdjustOutcome outcome = Run((dir / "project.yaml").string(), (dir / "out").string());
+  ASSERT_TRUE(outcome.ok) << outcome.reason;
+  ASSERT_FALSE(outcome.report["groups"].empty());
+  for (const json& g : outcome.report["groups"]) {
+    EXPECT_EQ(g["reweighting"], "variance_components: false: not re-weighted") << g.dump();
+    EXPECT_EQ(g["sigma_factor"].get<double>(), 1.0) << g.dump();
+  }
+}
+
 TEST_F(AdjustTest, FailureKeepsTheEarlierOutput) {
   const fs::path sim = Root() / "sim", dir = Root() / "nooverlap";
   fs::create_directories(dir / "out");
