@@ -21,6 +21,8 @@
 // Writes OUT_DIR/runs.csv (one row per registration), OUT_DIR/hist_views.csv and
 // hist_views.svg (per-view median offset before/after), OUT_DIR/hist_points.csv and
 // hist_points.svg (offsets of all points, pooled), and prints a summary.
+// MI_INCIDENCE=0 leaves the mobile cloud's intensity uncorrected for the angle of incidence
+// (default: corrected, IncidenceCorrection, with the true trajectory).
 // MI_ORIENTATION="N[,VOXEL]" the orientation classes (register-mi --orientation-classes N;
 // default its default, 0 = the plain metric), MI_BINS the histogram's bins.
 // MMBA_DEBUG=1 logs each stage. MI_ONLY selects registrations (below), MI_PERTURB sets their
@@ -54,6 +56,7 @@
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
 #include "mmba/io/point_cloud.h"
+#include "mmba/io/trajectory.h"
 #include "mmba/registration/mi/mi_registration.h"
 
 using namespace mmba;
@@ -360,7 +363,33 @@ int main(int argc, char** argv) {
                                      ? (dir / "clouds" / "lidar.ply").string()
                                      : (dir / "truth" / "mobile_lidar_true.ply").string();
   Timer setup;
-  LidarPoints points = PrepareLidarPoints(io::ReadPointCloud(cloud_path));
+  // MI_INCIDENCE=0: the mobile cloud's intensity as measured; by default it is corrected for
+  // the angle of incidence (IncidenceCorrection, register-mi --incidence-correction) with the
+  // scanner's centre at each point's time from the true trajectory and mounting (the cloud is
+  // the mobile scan at its true positions). The static model merges scans whose origins the
+  // cloud does not carry: never corrected here.
+  const char* incidence_env = std::getenv("MI_INCIDENCE");
+  const bool incidence = cloud_kind == "mobile" && (incidence_env == nullptr || std::atoi(incidence_env) != 0);
+  LidarPoints points;
+  {
+    const io::PointCloud cloud = io::ReadPointCloud(cloud_path);
+    if (incidence) {
+      std::ifstream in(dir / "truth" / "truth.json");
+      const Rigid3d body_from_lidar =
+          PoseFromJson(nlohmann::json::parse(in).at("lidar").at("mobile").at("body_from_lidar"));
+      const auto trajectory = io::ReadTrajectory((dir / "truth" / "trajectory_true.csv").string());
+      IncidenceCorrection correction;
+      correction.scanner = [&](size_t i) -> Eigen::Vector3d {
+        return (io::InterpolateTrajectory(trajectory, cloud.time.at(i)) * body_from_lidar).translation;
+      };
+      IncidenceFit fit;
+      points = PrepareLidarPoints(cloud, correction, &fit);
+      std::printf("incidence correction: exponent %.3f (correlation %.3f, %zu points)\n", fit.exponent,
+                  fit.correlation, fit.points);
+    } else {
+      points = PrepareLidarPoints(cloud);
+    }
+  }
   // MI_STITCH_WARP=truth|start: the rig panoramas registered against the cloud warped to the
   // stitching's geometry (StitchWarp) at the true or the start pose — an experiment.
   const char* stitch_warp = std::getenv("MI_STITCH_WARP");

@@ -16,6 +16,7 @@
 #include "mmba/io/kitti.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/io/text_reader.h"
+#include "mmba/io/trajectory.h"
 #include "mmba/registration/mi/mi_registration.h"
 #include "mmba/registration/mi/result_json.h"
 
@@ -73,6 +74,10 @@ struct RegisterMiArgs {
   bool surface_classes = false;
   int orientation_classes = -1;  ///< -1: kDefaultOrientationSectors with intensity, else 0
   double surface_voxel_m = 0.5;
+  std::string incidence_correction = "auto";
+  std::vector<double> scanner_origin;
+  std::string trajectory;
+  std::string lidar_mount;
   std::vector<double> perturb;
   std::string probe;
   int probe_level = 0;
@@ -212,6 +217,26 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     throw InputError::Message("--perturb", "found " + std::to_string(args.perturb.size()) +
                                                " values, expected 6: tx,ty,tz,roll,pitch,yaw");
   }
+  // Incidence correction (mi::IncidenceCorrection): where the scanner's position is known.
+  if (args.incidence_correction != "auto" && args.incidence_correction != "on" &&
+      args.incidence_correction != "off") {
+    throw InputError::Message("--incidence-correction",
+                              "found '" + args.incidence_correction + "', expected auto, on or off");
+  }
+  if (!args.scanner_origin.empty() && args.scanner_origin.size() != 3) {
+    throw InputError::Message("--scanner-origin", "found " + std::to_string(args.scanner_origin.size()) +
+                                                      " values, expected 3: x,y,z in the cloud's frame");
+  }
+  if (args.trajectory.empty() != args.lidar_mount.empty()) {
+    throw InputError::Message(args.trajectory.empty() ? "--lidar-mount" : "--trajectory",
+                              "--trajectory and --lidar-mount go together (the scanner's centre at "
+                              "a point's time is world_from_body(t) * body_from_lidar)");
+  }
+  if (!args.scanner_origin.empty() && !args.trajectory.empty()) {
+    throw InputError::Message("--scanner-origin", "give either --scanner-origin or --trajectory, not both");
+  }
+  const bool correct_incidence = args.incidence_correction != "off" &&
+                                 options.render.representation == mi::Representation::kIntensity;
   const bool rig_mode = !args.rig.empty();
   if (rig_mode) {
     if (!args.camera.empty() || !args.kitti_calib.empty()) {
@@ -350,7 +375,14 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     cam_from_local.translation -= cam_from_local.rotation * origin;
     return cam_from_local;
   };
+  std::vector<std::pair<double, Rigid3d>> trajectory;
+  Rigid3d body_from_lidar;
+  if (!args.trajectory.empty()) {
+    trajectory = io::ReadTrajectory(args.trajectory);
+    body_from_lidar = io::ReadLidarMountYaml(args.lidar_mount);
+  }
   std::vector<mi::LidarPoints> clouds;
+  nlohmann::json incidence_json = nlohmann::json::array();
   for (const auto& [image_path, lidar_path] : pairs) {
     io::PointCloud cloud = io::ReadPointCloud(lidar_path);
     if (cloud.empty()) throw InputError::Message(lidar_path, "cloud has no points");
@@ -369,7 +401,47 @@ int RunRegisterMi(const RegisterMiArgs& args) {
       throw InputError::Message(lidar_path, "cloud has no intensity but --representation "
                                             "intensity was asked for (use points or depth)");
     }
-    clouds.push_back(mi::PrepareLidarPoints(cloud));
+    // The scanner's centre for each point, in the local frame: given, from the trajectory at
+    // the point's time, or the origin of a KITTI scan (its sensor frame).
+    mi::IncidenceCorrection correction;
+    if (!args.scanner_origin.empty()) {
+      const Eigen::Vector3d at =
+          Eigen::Vector3d(args.scanner_origin[0], args.scanner_origin[1], args.scanner_origin[2]) - origin;
+      correction.scanner = [at](size_t) -> Eigen::Vector3d { return at; };
+    } else if (!trajectory.empty()) {
+      if (!cloud.has_time()) {
+        throw InputError::Message(lidar_path, "has no per-point time, which --trajectory needs to place the "
+                                              "scanner of each point");
+      }
+      correction.scanner = [&](size_t i) -> Eigen::Vector3d {
+        // (An explicit return type: `.translation - origin` would return an Eigen expression
+        // referring to the destroyed temporary.)
+        return (io::InterpolateTrajectory(trajectory, cloud.time[i]) * body_from_lidar).translation - origin;
+      };
+    } else if (fs::path(lidar_path).extension() == ".bin") {
+      correction.scanner = [&origin](size_t) -> Eigen::Vector3d { return -origin; };
+    }
+    if (args.incidence_correction == "on" && !correction.scanner) {
+      throw InputError::Message("--incidence-correction", "on needs the scanner's position of " + lidar_path +
+                                                              ": --scanner-origin, --trajectory with "
+                                                              "--lidar-mount, or a KITTI .bin scan");
+    }
+    std::vector<Eigen::Vector3f> normals;  // the local planes, when computed for the correction
+    if (correct_incidence && correction.scanner && cloud.has_intensity()) {
+      correction.voxel_m = static_cast<float>(args.surface_voxel_m);
+      mi::IncidenceFit fit;
+      clouds.push_back(mi::PrepareLidarPoints(cloud, correction, &fit, &normals));
+      spdlog::info("{}: intensity corrected for the angle of incidence: I / cos^{:.2f} (fitted to {} points, "
+                   "correlation {:.2f})",
+                   lidar_path, fit.exponent, fit.points, fit.correlation);
+      incidence_json.push_back({{"lidar", lidar_path},
+                                {"exponent", fit.exponent},
+                                {"correlation", fit.correlation},
+                                {"points", fit.points}});
+    } else {
+      clouds.push_back(mi::PrepareLidarPoints(cloud));
+      incidence_json.push_back(nullptr);
+    }
     if (args.surface_classes && options.render.representation == mi::Representation::kIntensity) {
       // The metric conditioned on the surface: ground (a plane within 45° of the cloud's z
       // axis) against the rest (bench/RESULTS.md "Surface classes").
@@ -388,8 +460,12 @@ int RunRegisterMi(const RegisterMiArgs& args) {
       const Eigen::Vector3f viewpoint =
           cam_from_local.Inverse().translation.cast<float>();
       std::vector<size_t> per_class;
-      mi::EncodeOrientationClasses(viewpoint, orientation_sectors,
-                                   static_cast<float>(args.surface_voxel_m), &clouds.back(), &per_class);
+      if (normals.empty()) {
+        mi::EncodeOrientationClasses(viewpoint, orientation_sectors,
+                                     static_cast<float>(args.surface_voxel_m), &clouds.back(), &per_class);
+      } else {
+        mi::EncodeOrientationClasses(viewpoint, orientation_sectors, normals, &clouds.back(), &per_class);
+      }
       std::string counts;
       for (size_t c = 2; c + 1 < per_class.size(); ++c) counts += (c > 2 ? "/" : "") + std::to_string(per_class[c]);
       spdlog::info("{}: orientation classes: {} facing up, {} facing down, {} steep by azimuth, {} "
@@ -478,7 +554,10 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"covariance_per_point_samples", options.covariance_per_point_samples},
                      {"surface_classes", args.surface_classes},
                      {"orientation_classes", orientation_sectors},
-                     {"surface_voxel_m", args.surface_voxel_m}};
+                     {"surface_voxel_m", args.surface_voxel_m},
+                     {"incidence_correction", args.incidence_correction}};
+  // Per cloud: the fitted exponent of I = rho * cos^k (null: not corrected).
+  out["incidence_correction"] = incidence_json;
   if (rig_mode) {
     // The pose is the rig's: rig_from_lidar (the correction about the rig's origin), and each
     // camera's own cam_from_lidar = cam_from_rig · rig_from_lidar.
@@ -719,6 +798,21 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
                   "Voxel of the local planes of --surface-classes and --orientation-classes, m")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  sub->add_option("--incidence-correction", args->incidence_correction,
+                  "Intensity corrected for the angle of incidence, I / cos^k with k fitted to the "
+                  "cloud (Lambert: 1; a normalising scanner: 0): auto = where the scanner's position "
+                  "is known (--scanner-origin, --trajectory + --lidar-mount, a KITTI .bin), on "
+                  "(error without it), off")
+      ->capture_default_str();
+  sub->add_option("--scanner-origin", args->scanner_origin,
+                  "The scanner's centre in the cloud's frame (a static scan): x,y,z")
+      ->delimiter(',');
+  sub->add_option("--trajectory", args->trajectory,
+                  "GNSS/INS trajectory CSV of a mobile cloud (time_s,x_east_m,y_north_m,z_up_m,"
+                  "qw,qx,qy,qz: world_from_body); with --lidar-mount and the cloud's per-point time "
+                  "it places the scanner of each point");
+  sub->add_option("--lidar-mount", args->lidar_mount,
+                  "The mobile LiDAR's calibration YAML (body_from_lidar: {qvec_wxyz, tvec})");
   sub->add_option("--max-range-m", args->max_range_m, "Ignore points farther than this")
       ->capture_default_str();
   sub->add_option("--perturb", args->perturb,

@@ -17,6 +17,7 @@
 #include "mmba/geodesy/geodesy.h"
 #include "mmba/io/colmap_model.h"
 #include "mmba/io/point_cloud.h"
+#include "mmba/io/trajectory.h"
 #include "mmba/io/yaml_reader.h"
 #include "mmba/problem/problem_builder.h"
 #include "mmba/problem/reprojection_group.h"
@@ -208,11 +209,9 @@ class AdjustFailure : public std::runtime_error {
   std::string status_;
 };
 
-/// A GNSS/INS trajectory CSV time_s,x_east_m,y_north_m,z_up_m,qw,qx,qy,qz (world_from_body),
-/// times increasing, at least two rows.
-std::vector<std::pair<double, Rigid3d>> ReadTrajectory(const std::string& path);
-/// world_from_body at `time` from the trajectory rows (linear position, slerp rotation).
-Rigid3d InterpolateTrajectory(const std::vector<std::pair<double, Rigid3d>>& rows, double time);
+/// GNSS/INS trajectories (world_from_body rows): mmba/io/trajectory.h.
+using io::InterpolateTrajectory;
+using io::ReadTrajectory;
 
 /// Reads the mobile LiDAR (cloud, trajectory, calibration), samples its points evenly over
 /// time and places the trajectory nodes. Needs the rig loaded first when it shares the vehicle.

@@ -527,9 +527,13 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
       const Rigid3d body_from_lidar = m.body_from_vehicle * start;
       const Rigid3d lidar_from_world_t = (m.frames.at(t.frame).ins * body_from_lidar).Inverse();
       const Rigid3d mounting = body_from_lidar * m.body_from_lidar_nominal.Inverse();
+      // The scanner's centre when each point was measured, in the same frame (the same map
+      // applied to the LiDAR origin at t_p): for the intensity's incidence correction.
+      std::vector<Eigen::Vector3f> scanner(local.size());
       for (size_t k = 0; k < local.size(); ++k) {
         const Rigid3d ins = InterpolateTrajectory(m.trajectory, local.time[k]);
         local.points[k] = lidar_from_world_t * (ins * (mounting * (ins.Inverse() * local.points[k])));
+        scanner[k] = (lidar_from_world_t * (ins * body_from_lidar).translation).cast<float>();
       }
       spdlog::info("adjust: MI rig calibration: frame {} sees {} mobile points within {:.0f} m and {:.1f} s", t.name,
                    local.size(), kRadius, window);
@@ -542,10 +546,19 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
         s->warnings.push_back("MI rig calibration: frame " + t.name + " not used: " + entry["reason"].get<std::string>());
         continue;
       }
-      points.push_back(mi::PrepareLidarPoints(local));
+      // The intensity corrected for the angle of incidence, I / cos^k with k fitted to the
+      // frame's points (register-mi --incidence-correction; bench/RESULTS.md "Incidence").
+      mi::IncidenceCorrection correction;
+      correction.scanner = [&scanner](size_t k) -> Eigen::Vector3d { return scanner[k].cast<double>(); };
+      correction.voxel_m = kSurfaceVoxel;
+      mi::IncidenceFit fit;
+      std::vector<Eigen::Vector3f> normals;
+      points.push_back(mi::PrepareLidarPoints(local, correction, &fit, &normals));
+      spdlog::info("adjust: MI rig calibration: frame {}: intensity corrected for the angle of incidence, I / cos^{:.2f}",
+                   t.name, fit.exponent);
       if (rig_sectors > 0) {
         // The rig's orientation classes, seen from the rig's start centre.
-        mi::EncodeOrientationClasses(CameraCentre(start).cast<float>(), rig_sectors, kSurfaceVoxel, &points.back());
+        mi::EncodeOrientationClasses(CameraCentre(start).cast<float>(), rig_sectors, normals, &points.back());
       }
       mi::Frame frame;
       frame.name = t.name;

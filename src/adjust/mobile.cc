@@ -15,48 +15,13 @@
 
 namespace mmba::adjust::internal {
 
-std::vector<std::pair<double, Rigid3d>> ReadTrajectory(const std::string& path) {
-  std::vector<std::pair<double, Rigid3d>> trajectory;
-  const io::CsvTable ins = io::CsvTable::Read(path, {"time_s", "x_east_m", "y_north_m", "z_up_m", "qw", "qx", "qy", "qz"});
-  for (const io::CsvTable::Row& row : ins.rows()) {
-    const Eigen::Quaterniond q(ins.Double(row, "qw"), ins.Double(row, "qx"), ins.Double(row, "qy"), ins.Double(row, "qz"));
-    if (std::abs(q.norm() - 1.0) > 1e-3) ins.Fail(row, "qw", std::to_string(q.norm()), "a unit quaternion (norm 1)");
-    const double time = ins.Double(row, "time_s");
-    if (!trajectory.empty() && !(time > trajectory.back().first)) ins.Fail(row, "time_s", ins.String(row, "time_s"), "increasing times");
-    trajectory.emplace_back(time, Rigid3d(q.normalized(), Eigen::Vector3d(ins.Double(row, "x_east_m"), ins.Double(row, "y_north_m"),
-                                                                          ins.Double(row, "z_up_m"))));
-  }
-  if (trajectory.size() < 2) throw InputError::Message(path, "fewer than 2 trajectory rows");
-  return trajectory;
-}
-
-Rigid3d InterpolateTrajectory(const std::vector<std::pair<double, Rigid3d>>& rows, double time) {
-  auto it = std::lower_bound(rows.begin(), rows.end(), time,
-                             [](const std::pair<double, Rigid3d>& row, double t) { return row.first < t; });
-  if (it == rows.begin()) return it->second;
-  if (it == rows.end()) return rows.back().second;
-  const auto& [t1, b] = *it;
-  const auto& [t0, a] = *(it - 1);
-  const double u = (time - t0) / (t1 - t0);
-  return Rigid3d(a.rotation.slerp(u, b.rotation), (1 - u) * a.translation + u * b.translation);
-}
-
 void LoadMobile(JointState* s) {
   if (s->project->lidar_mobile.empty()) return;
   const LidarMobile& config = s->project->lidar_mobile.front();
   MobileBlock m;
   m.config = &config;
   // Calibration: the mounting the delivered cloud was georeferenced with.
-  const io::YamlReader r(config.calibration);
-  const YAML::Node root = r.Load("mobile LiDAR calibration");
-  bool have_mounting = false;
-  const auto ignore = [](const YAML::Node&, const std::string&) {};
-  r.Map(root, "", {{"body_from_lidar", [&](const YAML::Node& n, const std::string& f) {
-                      m.body_from_lidar_nominal = io::ReadYamlPose(r, n, f);
-                      have_mounting = true;
-                    }},
-                   {"beams", ignore}, {"elevation_deg", ignore}, {"rotation_hz", ignore}});
-  if (!have_mounting) r.Fail(root, "body_from_lidar", "the key to be present", "nothing");
+  m.body_from_lidar_nominal = io::ReadLidarMountYaml(config.calibration);
   m.trajectory = ReadTrajectory(config.trajectory);
   // One streamed pass over the cloud (memory: one chunk and the sample, whatever the cloud's
   // size): check every point's time against the trajectory, and keep `points` of them evenly

@@ -335,6 +335,17 @@ CameraYaml ReadCameraYaml(const std::string& path) {
   return result;
 }
 
+Rigid3d ReadLidarMountYaml(const std::string& path) {
+  const YamlReader r(path);
+  const YAML::Node root = r.Load("mobile LiDAR calibration");
+  std::optional<Rigid3d> mounting;
+  const auto ignore = [](const YAML::Node&, const std::string&) {};
+  r.Map(root, "", {{"body_from_lidar", [&](const YAML::Node& n, const std::string& f) { mounting = ReadYamlPose(r, n, f); }},
+                   {"beams", ignore}, {"elevation_deg", ignore}, {"rotation_hz", ignore}});
+  if (!mounting) r.Fail(root, "body_from_lidar", "the key to be present", "nothing");
+  return *mounting;
+}
+
 Rigid3d ReadYamlPose(const YamlReader& r, const YAML::Node& n, const std::string& f) {
   std::vector<double> q, t;
   r.Map(n, f, {{"qvec_wxyz", [&](const YAML::Node& v, const std::string& g) { q = r.NumberList(v, g); }},

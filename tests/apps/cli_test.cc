@@ -309,11 +309,51 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
   nlohmann::json pose = {{"cam_from_lidar", nlohmann::json::array()}};
   for (int i = 0; i < 16; ++i) pose["cam_from_lidar"].push_back(cam_from_grid(i / 4, i % 4));
   std::ofstream(Tmp("pose.json")) << pose.dump();
+  // The KITTI scan's intensity is corrected for incidence with the scanner at its origin (by
+  // default, --incidence-correction auto); the grid cloud's scanner is given in the grid.
+  const std::string scanner = " --scanner-origin 512000,5412000,1000";
   const RunResult in_grid = Mmba("register-mi --lidar " + Tmp("grid.ply") + " --initial " +
-                                 Tmp("pose.json") + common + " --output " + Tmp("grid.json"));
+                                 Tmp("pose.json") + scanner + common + " --output " + Tmp("grid.json"));
   EXPECT_EQ(in_grid.exit_code, given.exit_code) << in_grid.output;
   const nlohmann::json b = nlohmann::json::parse(std::ifstream(Tmp("grid.json")));
   EXPECT_EQ(b["status"], a["status"]);
+  // KITTI's reflectance hardly depends on the incidence (the exponent fitted ~0.04): corrected
+  // all the same, and alike in both runs.
+  ASSERT_TRUE(a["incidence_correction"][0].is_object()) << a["incidence_correction"].dump();
+  EXPECT_LT(a["incidence_correction"][0]["exponent"].get<double>(), 0.2);
+  EXPECT_GT(a["incidence_correction"][0]["points"].get<int>(), 10000);
+  EXPECT_NEAR(b["incidence_correction"][0]["exponent"].get<double>(),
+              a["incidence_correction"][0]["exponent"].get<double>(), 1e-6);
+  // The same scanner from a trajectory: the body 1.9 m below the grid origin and turned 90°
+  // about z (a mounting lever (0, 0.5, 1.9) in the body frame puts the head at the origin),
+  // every point measured at t = 0.5 s.
+  std::ofstream(Tmp("trajectory.csv")) << "time_s,x_east_m,y_north_m,z_up_m,qw,qx,qy,qz\n"
+                                       << "0,512000.5,5412000,998.1,0.70710678118,0,0,0.70710678118\n"
+                                       << "1,512000.5,5412000,998.1,0.70710678118,0,0,0.70710678118\n";
+  std::ofstream(Tmp("mount.yaml")) << "body_from_lidar: {qvec_wxyz: [1, 0, 0, 0], tvec: [0, 0.5, 1.9]}\n";
+  cloud.time.assign(cloud.size(), 0.5);
+  io::WritePly(cloud, Tmp("grid_timed.ply"));
+  const RunResult on_trajectory =
+      Mmba("register-mi --lidar " + Tmp("grid_timed.ply") + " --initial " + Tmp("pose.json") + " --trajectory " +
+           Tmp("trajectory.csv") + " --lidar-mount " + Tmp("mount.yaml") + common + " --output " + Tmp("timed.json"));
+  EXPECT_EQ(on_trajectory.exit_code, given.exit_code) << on_trajectory.output;
+  const nlohmann::json t = nlohmann::json::parse(std::ifstream(Tmp("timed.json")));
+  EXPECT_NEAR(t["incidence_correction"][0]["exponent"].get<double>(),
+              b["incidence_correction"][0]["exponent"].get<double>(), 1e-6);
+  EXPECT_EQ(t["incidence_correction"][0]["points"], b["incidence_correction"][0]["points"]);
+  // Bad incidence options: exit 2 naming the option or the file, nothing written.
+  const std::string grid_run = "register-mi --lidar " + Tmp("grid.ply") + " --initial " + Tmp("pose.json") + common;
+  for (const auto& [flags, named] : std::vector<std::pair<std::string, std::string>>{
+           {" --incidence-correction sometimes", "--incidence-correction"},
+           {" --scanner-origin 1,2", "--scanner-origin"},
+           {" --trajectory " + Tmp("trajectory.csv"), "--trajectory and --lidar-mount go together"},
+           {" --incidence-correction on", "on needs the scanner's position"},
+           {" --trajectory " + Tmp("trajectory.csv") + " --lidar-mount " + Tmp("mount.yaml"), "has no per-point time"}}) {
+    const RunResult bad_incidence = Mmba(grid_run + flags + " --output " + Tmp("bad_incidence.json"));
+    EXPECT_EQ(bad_incidence.exit_code, 2) << flags << ": " << bad_incidence.output;
+    EXPECT_THAT(bad_incidence.output, HasSubstr(named)) << flags;
+    EXPECT_FALSE(std::filesystem::exists(Tmp("bad_incidence.json"))) << flags;
+  }
   for (const char* k : {"tx", "ty", "tz"}) {
     EXPECT_NEAR(b["correction"][k].get<double>(), a["correction"][k].get<double>(), 1e-4) << k;
   }

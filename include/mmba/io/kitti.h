@@ -81,6 +81,12 @@ struct RigYaml {
 /// Used by `register-mi --rig` and by `mmba adjust`'s camera_rig sensor.
 RigYaml ReadRigYaml(const std::string& path);
 
+/// The mounting of a mobile LiDAR head on its vehicle (calib/README.md, the mobile LiDAR
+/// calibration `mmba simulate` writes): `body_from_lidar: {qvec_wxyz, tvec}` (required);
+/// `beams`, `elevation_deg` and `rotation_hz` are allowed and ignored. InputError naming the
+/// file, line and field otherwise. Used by `mmba adjust` and `register-mi --lidar-mount`.
+Rigid3d ReadLidarMountYaml(const std::string& path);
+
 /// A pose {qvec_wxyz: [w, x, y, z], tvec: [x, y, z]} in a YAML file read by `reader`;
 /// InputError naming `field` unless 4 + 3 numbers and a unit quaternion (within 1e-3).
 Rigid3d ReadYamlPose(const YamlReader& reader, const YAML::Node& node, const std::string& field);

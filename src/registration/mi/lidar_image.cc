@@ -98,25 +98,118 @@ bool RenderOptions::Check(std::string* error) const {
   return true;
 }
 
+namespace {
+
+// Stretch between the 1st and 99th percentile: raw reflectance scales differ between
+// scanners (0..1, 0..255, 0..65535) and a few specular returns would crush the rest.
+void StretchIntensity(const std::vector<float>& raw, LidarPoints* prepared) {
+  std::vector<float> sorted = raw;
+  const size_t lo_i = sorted.size() / 100;
+  const size_t hi_i = sorted.size() - 1 - sorted.size() / 100;
+  std::nth_element(sorted.begin(), sorted.begin() + lo_i, sorted.end());
+  const float lo = sorted[lo_i];
+  std::nth_element(sorted.begin(), sorted.begin() + hi_i, sorted.end());
+  const float hi = sorted[hi_i];
+  const float scale = hi > lo ? 1.f / (hi - lo) : 0.f;
+  prepared->intensity01.resize(raw.size());
+  for (size_t i = 0; i < raw.size(); ++i) {
+    prepared->intensity01[i] = std::clamp((raw[i] - lo) * scale, 0.f, 1.f);
+  }
+}
+
+// cos θ of point i's beam on its local plane (0 without a plane).
+double IncidenceCosine(const io::PointCloud& cloud, const std::vector<Eigen::Vector3f>& normals,
+                       const IncidenceCorrection& correction, size_t i) {
+  if (normals[i].isZero()) return 0.0;
+  const Eigen::Vector3d beam = cloud.points[i] - correction.scanner(i);
+  const double range = beam.norm();
+  return range > 0 ? std::abs(normals[i].cast<double>().dot(beam)) / range : 0.0;
+}
+
+}  // namespace
+
+IncidenceFit FitIncidenceExponent(const io::PointCloud& cloud,
+                                  const std::vector<Eigen::Vector3f>& normals,
+                                  const IncidenceCorrection& correction) {
+  CHECK(cloud.has_intensity() && normals.size() == cloud.size() && correction.scanner);
+  // Per orientation group: n, Σx, Σy, Σxx, Σxy, Σyy of x = log cos θ, y = log I.
+  struct Sums {
+    double n = 0, x = 0, y = 0, xx = 0, xy = 0, yy = 0;
+  };
+  Sums groups[3];
+  const double steep = std::cos(M_PI / 4);
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const double c = IncidenceCosine(cloud, normals, correction, i);
+    if (c < correction.min_cos || !(cloud.intensity[i] > 0.f)) continue;
+    const Eigen::Vector3f& n = normals[i];
+    // Horizontal; steep faces by the azimuth of their (unsigned) normal in two halves.
+    const int g = std::abs(n.z()) >= steep ? 0 : (std::abs(n.x()) >= std::abs(n.y()) ? 1 : 2);
+    const double x = std::log(c), y = std::log(static_cast<double>(cloud.intensity[i]));
+    Sums& s = groups[g];
+    s.n += 1;
+    s.x += x;
+    s.y += y;
+    s.xx += x * x;
+    s.xy += x * y;
+    s.yy += y * y;
+  }
+  IncidenceFit fit;
+  double sxx = 0, sxy = 0, syy = 0;
+  for (const Sums& s : groups) {
+    if (s.n < 2) continue;
+    fit.points += static_cast<size_t>(s.n);
+    sxx += s.xx - s.x * s.x / s.n;
+    sxy += s.xy - s.x * s.y / s.n;
+    syy += s.yy - s.y * s.y / s.n;
+  }
+  if (fit.points < 1000 || !(sxx > 0) || !(syy > 0)) return fit;
+  fit.correlation = sxy / std::sqrt(sxx * syy);
+  fit.exponent = std::clamp(sxy / sxx, 0.0, correction.max_exponent);
+  return fit;
+}
+
+LidarPoints PrepareLidarPoints(const io::PointCloud& cloud, const IncidenceCorrection& correction,
+                               IncidenceFit* fit, std::vector<Eigen::Vector3f>* normals_out) {
+  LidarPoints prepared;
+  prepared.points_in_lidar.reserve(cloud.size());
+  for (const Eigen::Vector3d& p : cloud.points) prepared.points_in_lidar.push_back(p.cast<float>());
+  std::vector<Eigen::Vector3f> normals = LocalPlaneNormals(prepared.points_in_lidar, correction.voxel_m);
+  IncidenceFit result;
+  if (cloud.has_intensity()) {
+    result = FitIncidenceExponent(cloud, normals, correction);
+    std::vector<float> raw = cloud.intensity;
+    if (result.exponent > 0) {
+      // Each point's factor max(cos θ, min_cos)^-k; points without a plane get the median
+      // factor of those with one.
+      std::vector<float> factor(cloud.size(), 0.f);
+      std::vector<float> planar;
+      planar.reserve(cloud.size());
+      for (size_t i = 0; i < cloud.size(); ++i) {
+        if (normals[i].isZero()) continue;
+        const double c = std::max<double>(IncidenceCosine(cloud, normals, correction, i), correction.min_cos);
+        factor[i] = static_cast<float>(std::pow(c, -result.exponent));
+        planar.push_back(factor[i]);
+      }
+      float median = 1.f;
+      if (!planar.empty()) {
+        std::nth_element(planar.begin(), planar.begin() + planar.size() / 2, planar.end());
+        median = planar[planar.size() / 2];
+      }
+      for (size_t i = 0; i < cloud.size(); ++i) raw[i] *= factor[i] > 0.f ? factor[i] : median;
+    }
+    StretchIntensity(raw, &prepared);
+  }
+  if (fit != nullptr) *fit = result;
+  if (normals_out != nullptr) *normals_out = std::move(normals);
+  return prepared;
+}
+
 LidarPoints PrepareLidarPoints(const io::PointCloud& cloud) {
   LidarPoints prepared;
   prepared.points_in_lidar.reserve(cloud.size());
   for (const Eigen::Vector3d& p : cloud.points) prepared.points_in_lidar.push_back(p.cast<float>());
   if (cloud.has_intensity()) {
-    // Stretch between the 1st and 99th percentile: raw reflectance scales differ between
-    // scanners (0..1, 0..255, 0..65535) and a few specular returns would crush the rest.
-    std::vector<float> sorted = cloud.intensity;
-    const size_t lo_i = sorted.size() / 100;
-    const size_t hi_i = sorted.size() - 1 - sorted.size() / 100;
-    std::nth_element(sorted.begin(), sorted.begin() + lo_i, sorted.end());
-    const float lo = sorted[lo_i];
-    std::nth_element(sorted.begin(), sorted.begin() + hi_i, sorted.end());
-    const float hi = sorted[hi_i];
-    const float scale = hi > lo ? 1.f / (hi - lo) : 0.f;
-    prepared.intensity01.resize(cloud.size());
-    for (size_t i = 0; i < cloud.size(); ++i) {
-      prepared.intensity01[i] = std::clamp((cloud.intensity[i] - lo) * scale, 0.f, 1.f);
-    }
+    StretchIntensity(cloud.intensity, &prepared);
   }
   return prepared;
 }
@@ -240,9 +333,15 @@ void EncodeSurfaceClasses(const std::vector<uint8_t>& classes, LidarPoints* poin
 
 int EncodeOrientationClasses(const Eigen::Vector3f& viewpoint, int sectors, float voxel_m,
                              LidarPoints* points, std::vector<size_t>* per_class) {
+  return EncodeOrientationClasses(viewpoint, sectors, LocalPlaneNormals(points->points_in_lidar, voxel_m),
+                                  points, per_class);
+}
+
+int EncodeOrientationClasses(const Eigen::Vector3f& viewpoint, int sectors,
+                             const std::vector<Eigen::Vector3f>& normals, LidarPoints* points,
+                             std::vector<size_t>* per_class) {
   const std::vector<uint8_t> classes =
-      OrientationClasses(points->points_in_lidar, LocalPlaneNormals(points->points_in_lidar, voxel_m),
-                         Eigen::Vector3f::UnitZ(), viewpoint, sectors);
+      OrientationClasses(points->points_in_lidar, normals, Eigen::Vector3f::UnitZ(), viewpoint, sectors);
   EncodeSurfaceClasses(classes, points);
   if (per_class != nullptr) {
     per_class->assign(sectors + 3, 0);

@@ -377,6 +377,64 @@ TEST(LidarImage, IntensityIsStretchedBetweenPercentiles) {
   EXPECT_FALSE(PrepareLidarPoints(cloud).has_intensity());
 }
 
+// Incidence correction: the synthetic street's intensity taken as the albedo ρ and measured
+// by a scanner at the origin as ρ·cos^k θ (θ on the local plane; points without one at a
+// fixed cos 0.5). The fitted exponent is k, for Lambert (k = 1) and a rougher surface (0.5),
+// and the corrected values follow ρ again; for k = 0 (a scanner that already normalises)
+// the values stay as they were; a cloud too small to fit is not corrected.
+TEST(IncidenceCorrection, FitsTheExponentAndGivesTheAlbedoBack) {
+  const io::PointCloud street = testing::StreetCloud(0.06);
+  const std::vector<Eigen::Vector3f> normals =
+      LocalPlaneNormals(PrepareLidarPoints(street).points_in_lidar, 0.5f);
+  IncidenceCorrection correction;
+  correction.scanner = [](size_t) -> Eigen::Vector3d { return Eigen::Vector3d::Zero(); };
+  const auto cos_incidence = [&](size_t i) {
+    if (normals[i].isZero()) return 0.5;
+    return std::max(0.1, std::abs(normals[i].cast<double>().dot(street.points[i].normalized())));
+  };
+  // Correlation of two value lists over the points with a plane.
+  const auto correlation = [&](const std::vector<float>& a, const std::vector<float>& b) {
+    double n = 0, sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+    for (size_t i = 0; i < a.size(); ++i) {
+      if (normals[i].isZero()) continue;
+      n += 1, sa += a[i], sb += b[i], saa += a[i] * a[i], sbb += b[i] * b[i], sab += a[i] * b[i];
+    }
+    return (sab - sa * sb / n) / std::sqrt((saa - sa * sa / n) * (sbb - sb * sb / n));
+  };
+  const std::vector<float> albedo = PrepareLidarPoints(street).intensity01;
+  for (const double k : {1.0, 0.5, 0.0}) {
+    io::PointCloud measured = street;
+    for (size_t i = 0; i < measured.size(); ++i) {
+      measured.intensity[i] = static_cast<float>(street.intensity[i] * std::pow(cos_incidence(i), k));
+    }
+    IncidenceFit fit;
+    std::vector<Eigen::Vector3f> normals_out;
+    const LidarPoints corrected = PrepareLidarPoints(measured, correction, &fit, &normals_out);
+    const LidarPoints plain = PrepareLidarPoints(measured);
+    EXPECT_NEAR(fit.exponent, k, 0.02) << "k " << k;
+    EXPECT_GT(fit.points, street.size() / 2);
+    EXPECT_EQ(normals_out, normals);
+    EXPECT_GT(correlation(corrected.intensity01, albedo), 0.99) << "k " << k;
+    if (k == 1.0) {
+      EXPECT_LT(correlation(plain.intensity01, albedo), 0.9);  // what the correction is for
+    }
+    if (k == 0.0) {
+      for (size_t i = 0; i < measured.size(); i += 7) {
+        ASSERT_NEAR(corrected.intensity01[i], plain.intensity01[i], 0.02f) << "point " << i;
+      }
+    }
+  }
+  // Too few points with a plane to fit: the values as measured.
+  io::PointCloud small;
+  for (size_t i = 0; i < 500; ++i) {
+    small.points.push_back(street.points[i * 97]);
+    small.intensity.push_back(street.intensity[i * 97]);
+  }
+  IncidenceFit fit;
+  EXPECT_EQ(PrepareLidarPoints(small, correction, &fit).intensity01, PrepareLidarPoints(small).intensity01);
+  EXPECT_EQ(fit.exponent, 0.0);
+}
+
 // Surface classes: the synthetic street's ground (z = −1.8) is horizontal, its façades, end
 // wall and boxes' fronts are not; a tilted frame (up not z) follows `up`. The encoding puts
 // class 0 in [0, 0.4] and class 1 in [0.6, 1].

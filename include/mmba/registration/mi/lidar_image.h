@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -46,6 +47,44 @@ struct LidarPoints {
   size_t size() const { return points_in_lidar.size(); }
 };
 LidarPoints PrepareLidarPoints(const io::PointCloud& cloud);
+
+/// Radiometric correction of the LiDAR intensity for the angle of incidence, before the
+/// stretch of PrepareLidarPoints. A diffuse (Lambertian) surface returns ρ·cos θ, θ between
+/// the beam and the surface normal (the radar equation for extended targets; the model- and
+/// data-driven corrections of Höfle & Pfeifer 2007, ISPRS J. Photogramm. 62(6), Eq. 8–10;
+/// Kashani et al. 2015, Sensors 15(11), Sec. 3.2), so a mobile scanner passing a façade at
+/// grazing incidence paints it in a pattern of its own trajectory that the photo does not
+/// have. Real scanners depart from Lambert (rough surfaces, a factory calibration that already
+/// normalises), so the exponent k of I = ρ·cos^k θ is fitted to the cloud itself
+/// (FitIncidenceExponent) and the value corrected as I / max(cos θ, min_cos)^k.
+struct IncidenceCorrection {
+  /// The scanner's centre when point i was measured, in the cloud's frame.
+  std::function<Eigen::Vector3d(size_t)> scanner;
+  float voxel_m = 0.5f;  ///< LocalPlaneNormals' voxel for θ
+  float min_cos = 0.1f;  ///< beams more grazing than 84° are corrected as at 84°
+  double max_exponent = 2.0;
+};
+/// What the correction did (for the log and the JSON).
+struct IncidenceFit {
+  double exponent = 0.0;   ///< k fitted (0: no correction)
+  double correlation = 0;  ///< of log I and log cos θ within the orientation groups
+  size_t points = 0;       ///< points in the fit (a plane, cos θ ≥ min_cos, I > 0)
+};
+/// k of I = ρ·cos^k θ by least squares of log I on log cos θ with one intercept (log ρ) per
+/// orientation group (horizontal, and steep faces in two azimuth halves), so that the
+/// different albedo of the ground and the walls, seen at different incidences, is not taken
+/// for the incidence's effect. Points without a plane (a zero normal) or with I ≤ 0 are
+/// left out; fewer than 1000 usable points give k = 0. Clamped to [0, max_exponent].
+IncidenceFit FitIncidenceExponent(const io::PointCloud& cloud,
+                                  const std::vector<Eigen::Vector3f>& normals,
+                                  const IncidenceCorrection& correction);
+/// PrepareLidarPoints with the intensity corrected for incidence (IncidenceCorrection): the
+/// raw values divided by max(cos θ, min_cos)^k (points without a plane by the median of the
+/// others' factor, so that they stay on the same scale), then stretched. `normals` (optional)
+/// receives LocalPlaneNormals of the points, for EncodeOrientationClasses. A cloud without
+/// intensity is prepared as by PrepareLidarPoints.
+LidarPoints PrepareLidarPoints(const io::PointCloud& cloud, const IncidenceCorrection& correction,
+                               IncidenceFit* fit, std::vector<Eigen::Vector3f>* normals = nullptr);
 
 /// The most surface classes a metric can be conditioned on (MetricOptions::lidar_classes).
 inline constexpr int kMaxLidarClasses = 16;
@@ -97,6 +136,10 @@ inline constexpr int kDefaultOrientationSectors = 4;
 /// sectors + 3, for MetricOptions::lidar_classes; `per_class` (optional) the points of each.
 int EncodeOrientationClasses(const Eigen::Vector3f& viewpoint, int sectors, float voxel_m,
                              LidarPoints* points, std::vector<size_t>* per_class = nullptr);
+/// The same with the points' LocalPlaneNormals already computed (one per point).
+int EncodeOrientationClasses(const Eigen::Vector3f& viewpoint, int sectors,
+                             const std::vector<Eigen::Vector3f>& normals, LidarPoints* points,
+                             std::vector<size_t>* per_class = nullptr);
 
 /// One rendered view: a camera (any mmba model) and the rotation of this view relative to
 /// the frame's image camera (identity for the image itself; a perspective cut of a panorama
