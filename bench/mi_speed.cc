@@ -6,6 +6,7 @@
 // STARTS = 1: the start below; 6: also five more (0.1 m / 1° and 0.3 m / 2°, mixed signs).
 // MMBA_DEBUG=1 in the environment logs each stage (time, evaluations). MI_ORIENTATION=N: the
 // intensity registrations' orientation classes (register-mi's default; 0 = the plain metric).
+// MI_INCIDENCE=1: their cloud also corrected for the angle of incidence (timed with the classes).
 #include <sys/resource.h>
 
 #include <cmath>
@@ -43,7 +44,10 @@ int main(int argc, char** argv) {
   const Rigid3d truth = testing::StreetCamFromLidar(Eigen::Vector3d(0.5, 0.3, 0.2), 4.0);
   const GrayImage photo = testing::StreetPhoto(camera, truth);
   LidarPoints points = PrepareLidarPoints(cloud);
-  cloud = io::PointCloud();  // keep only the prepared floats
+  // MI_INCIDENCE=1: the intensity registrations' cloud prepared with the incidence correction
+  // (timed with the classes; the street's intensity has no incidence term, so k ~ 0).
+  const bool incidence = std::getenv("MI_INCIDENCE") != nullptr && std::atoi(std::getenv("MI_INCIDENCE")) != 0;
+  if (!incidence) cloud = io::PointCloud();  // keep only the prepared floats
   std::printf("cloud %.2f M points (spacing %.4f m), photo 940x452, setup %.1f s, peak %.0f MiB\n",
               points.size() / 1e6, spacing, timer.ElapsedSeconds(), PeakRssMiB());
   Frame frame;
@@ -67,13 +71,27 @@ int main(int argc, char** argv) {
   LidarPoints classed;
   if (sectors > 0 && (which == "all" || which == "intensity")) {
     Timer classify;
-    classed = points;
     const Rigid3d first = ApplyCorrection(truth, perturbations[0]);
-    EncodeOrientationClasses(first.Inverse().translation.cast<float>(), sectors, 0.5f,
-                             &classed);
-    std::printf("orientation classes (%d sectors): %.2f s, peak %.0f MiB\n", sectors,
-                classify.ElapsedSeconds(), PeakRssMiB());
+    if (incidence) {
+      // register-mi's path with a known scanner: the intensity corrected for the angle of
+      // incidence (the scanner at the cloud's origin) and the classes on the same planes.
+      IncidenceCorrection correction;
+      correction.scanner = [](size_t) -> Eigen::Vector3d { return Eigen::Vector3d::Zero(); };
+      IncidenceFit fit;
+      std::vector<Eigen::Vector3f> normals;
+      classed = PrepareLidarPoints(cloud, correction, &fit, &normals);
+      EncodeOrientationClasses(first.Inverse().translation.cast<float>(), sectors, normals, &classed);
+      std::printf("incidence correction (exponent %.3f) and orientation classes (%d sectors): %.2f s, peak %.0f MiB\n",
+                  fit.exponent, sectors, classify.ElapsedSeconds(), PeakRssMiB());
+    } else {
+      classed = points;
+      EncodeOrientationClasses(first.Inverse().translation.cast<float>(), sectors, 0.5f,
+                               &classed);
+      std::printf("orientation classes (%d sectors): %.2f s, peak %.0f MiB\n", sectors,
+                  classify.ElapsedSeconds(), PeakRssMiB());
+    }
   }
+  cloud = io::PointCloud();
   for (Representation r :
        {Representation::kIntensity, Representation::kPoints, Representation::kDepth}) {
     if (which != "all" && which != RepresentationName(r)) continue;
