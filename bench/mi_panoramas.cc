@@ -370,10 +370,38 @@ int main(int argc, char** argv) {
   // cloud does not carry: never corrected here.
   const char* incidence_env = std::getenv("MI_INCIDENCE");
   const bool incidence = cloud_kind == "mobile" && (incidence_env == nullptr || std::atoi(incidence_env) != 0);
+  // MI_INCIDENCE=static (an experiment, session 33): the static model corrected too, each
+  // point's scanner the delivered registration's centre of the scan it came from (the
+  // simulator writes clouds/lidar.ply as the scans in order, truth.json gives their sizes).
+  const bool static_incidence = cloud_kind == "static" && incidence_env != nullptr &&
+                                std::string(incidence_env) == "static";
   LidarPoints points;
   {
     const io::PointCloud cloud = io::ReadPointCloud(cloud_path);
-    if (incidence) {
+    if (static_incidence) {
+      std::ifstream in(dir / "truth" / "truth.json");
+      const nlohmann::json scans = nlohmann::json::parse(in).at("lidar").at("static_scans");
+      std::vector<std::pair<size_t, Eigen::Vector3d>> ends;  // (end index, scanner centre)
+      size_t end = 0;
+      for (const nlohmann::json& scan : scans) {
+        end += scan.at("points").get<size_t>();
+        ends.emplace_back(end, PoseFromJson(scan.at("world_from_scan_registered")).translation);
+      }
+      if (end != cloud.size()) {
+        std::fprintf(stderr, "%s: %zu points, the scans %zu\n", cloud_path.c_str(), cloud.size(), end);
+        return 2;
+      }
+      IncidenceCorrection correction;
+      correction.scanner = [&](size_t i) -> Eigen::Vector3d {
+        size_t s = 0;
+        while (i >= ends[s].first) ++s;
+        return ends[s].second;
+      };
+      IncidenceFit fit;
+      points = PrepareLidarPoints(cloud, correction, &fit);
+      std::printf("incidence correction (static scans): exponent %.3f (correlation %.3f, %zu points)\n",
+                  fit.exponent, fit.correlation, fit.points);
+    } else if (incidence) {
       std::ifstream in(dir / "truth" / "truth.json");
       const Rigid3d body_from_lidar =
           PoseFromJson(nlohmann::json::parse(in).at("lidar").at("mobile").at("body_from_lidar"));

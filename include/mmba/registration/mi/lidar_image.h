@@ -50,9 +50,10 @@ LidarPoints PrepareLidarPoints(const io::PointCloud& cloud);
 
 /// Radiometric correction of the LiDAR intensity for the angle of incidence, before the
 /// stretch of PrepareLidarPoints. A diffuse (Lambertian) surface returns ρ·cos θ, θ between
-/// the beam and the surface normal (the radar equation for extended targets; the model- and
-/// data-driven corrections of Höfle & Pfeifer 2007, ISPRS J. Photogramm. 62(6), Eq. 8–10;
-/// Kashani et al. 2015, Sensors 15(11), Sec. 3.2), so a mobile scanner passing a façade at
+/// the beam and the surface normal (the incidence term of the LiDAR range equation for
+/// extended targets; Höfle & Pfeifer 2007, "Correction of laser scanning intensity data:
+/// data and model-driven approaches", ISPRS J. Photogramm. 62(6); Kashani et al. 2015, "A
+/// review of LIDAR radiometric processing", Sensors 15(11)), so a mobile scanner passing a façade at
 /// grazing incidence paints it in a pattern of its own trajectory that the photo does not
 /// have. Real scanners depart from Lambert (rough surfaces, a factory calibration that already
 /// normalises), so the exponent k of I = ρ·cos^k θ is fitted to the cloud itself
