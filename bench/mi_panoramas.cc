@@ -22,7 +22,8 @@
 // hist_views.svg (per-view median offset before/after), OUT_DIR/hist_points.csv and
 // hist_points.svg (offsets of all points, pooled), and prints a summary.
 // MI_INCIDENCE=0 leaves the mobile cloud's intensity uncorrected for the angle of incidence
-// (default: corrected, IncidenceCorrection, with the true trajectory).
+// (default: corrected, IncidenceCorrection, with the true trajectory); MI_INCIDENCE=static
+// corrects the static model too, by scan (an experiment; by default it is not corrected).
 // MI_ORIENTATION="N[,VOXEL]" the orientation classes (register-mi --orientation-classes N;
 // default its default, 0 = the plain metric), MI_BINS the histogram's bins.
 // MMBA_DEBUG=1 logs each stage. MI_ONLY selects registrations (below), MI_PERTURB sets their
