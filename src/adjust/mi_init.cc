@@ -502,6 +502,7 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
       moving = spread;
     }
     std::vector<mi::LidarPoints> points;  // one per frame, kept for the joint registration
+    json incidence = json::array();         // each frame's incidence correction (exponent fitted)
     points.reserve(moving.size());
     std::vector<mi::Frame> frames;
     std::vector<size_t> frame_task;
@@ -556,6 +557,8 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
       points.push_back(mi::PrepareLidarPoints(local, correction, &fit, &normals));
       spdlog::info("adjust: MI rig calibration: frame {}: intensity corrected for the angle of incidence, I / cos^{:.2f}",
                    t.name, fit.exponent);
+      incidence.push_back({{"frame", t.name}, {"exponent", fit.exponent}, {"correlation", fit.correlation},
+                           {"points", fit.points}});
       if (rig_sectors > 0) {
         // The rig's orientation classes, seen from the rig's start centre.
         mi::EncodeOrientationClasses(CameraCentre(start).cast<float>(), rig_sectors, normals, &points.back());
@@ -598,6 +601,7 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
         s->mi_registered.push_back(t.start);
       }
       json file = mi::ResultToJson(result, rig_options.registration, start);
+      file["incidence_correction"] = incidence;  // per frame, as register-mi's OUT.json
       file["registered_by"] = "mmba adjust (mi_register, mi_lidar: mobile): register-mi's multi-frame rig calibration, "
                               "cam_from_lidar = rig_from_lidar, LiDAR = " + cloud_path + " (points within " +
                               std::to_string(window) + " s of each frame, in the LiDAR frame at that time)";
