@@ -1,5 +1,6 @@
 // mmba register-mi: mutual-information registration of LiDAR to images and panoramas
 // (Wang, Ferrie & Macfarlane, CVPRW 2012), one frame or a rig over many frames (issue 6).
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -412,6 +413,15 @@ int RunRegisterMi(const RegisterMiArgs& args) {
       if (!cloud.has_time()) {
         throw InputError::Message(lidar_path, "has no per-point time, which --trajectory needs to place the "
                                               "scanner of each point");
+      }
+      // A cloud whose times the trajectory does not span (another time base, another drive)
+      // would be corrected with the scanner at the trajectory's ends.
+      const auto [first, last] = std::minmax_element(cloud.time.begin(), cloud.time.end());
+      if (*first < trajectory.front().first || *last > trajectory.back().first) {
+        throw InputError::Message(lidar_path, "point times " + std::to_string(*first) + " .. " + std::to_string(*last) +
+                                                  " s are not within the --trajectory " + args.trajectory + "'s " +
+                                                  std::to_string(trajectory.front().first) + " .. " +
+                                                  std::to_string(trajectory.back().first) + " s");
       }
       correction.scanner = [&](size_t i) -> Eigen::Vector3d {
         // (An explicit return type: `.translation - origin` would return an Eigen expression

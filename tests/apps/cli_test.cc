@@ -341,7 +341,9 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
   EXPECT_NEAR(t["incidence_correction"][0]["exponent"].get<double>(),
               b["incidence_correction"][0]["exponent"].get<double>(), 1e-6);
   EXPECT_EQ(t["incidence_correction"][0]["points"], b["incidence_correction"][0]["points"]);
-  // Bad incidence options: exit 2 naming the option or the file, nothing written.
+  // Bad incidence options: exit 2 naming the option or the file, nothing written (late.csv:
+  // a trajectory that starts after the points were measured).
+  std::ofstream(Tmp("late.csv")) << "time_s,x_east_m,y_north_m,z_up_m,qw,qx,qy,qz\n10,0,0,0,1,0,0,0\n11,0,0,0,1,0,0,0\n";
   const std::string grid_run = "register-mi --lidar " + Tmp("grid.ply") + " --initial " + Tmp("pose.json") + common;
   for (const auto& [flags, named] : std::vector<std::pair<std::string, std::string>>{
            {" --incidence-correction sometimes", "--incidence-correction"},
@@ -354,6 +356,12 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
     EXPECT_THAT(bad_incidence.output, HasSubstr(named)) << flags;
     EXPECT_FALSE(std::filesystem::exists(Tmp("bad_incidence.json"))) << flags;
   }
+  const RunResult late = Mmba("register-mi --lidar " + Tmp("grid_timed.ply") + " --initial " + Tmp("pose.json") +
+                              " --trajectory " + Tmp("late.csv") + " --lidar-mount " + Tmp("mount.yaml") + common +
+                              " --output " + Tmp("late.json"));
+  EXPECT_EQ(late.exit_code, 2) << late.output;
+  EXPECT_THAT(late.output, HasSubstr("are not within the --trajectory"));
+  EXPECT_FALSE(std::filesystem::exists(Tmp("late.json")));
   for (const char* k : {"tx", "ty", "tz"}) {
     EXPECT_NEAR(b["correction"][k].get<double>(), a["correction"][k].get<double>(), 1e-4) << k;
   }

@@ -117,21 +117,22 @@ void StretchIntensity(const std::vector<float>& raw, LidarPoints* prepared) {
   }
 }
 
-// cos θ of point i's beam on its local plane (0 without a plane).
-double IncidenceCosine(const io::PointCloud& cloud, const std::vector<Eigen::Vector3f>& normals,
-                       const IncidenceCorrection& correction, size_t i) {
-  if (normals[i].isZero()) return 0.0;
-  const Eigen::Vector3d beam = cloud.points[i] - correction.scanner(i);
-  const double range = beam.norm();
-  return range > 0 ? std::abs(normals[i].cast<double>().dot(beam)) / range : 0.0;
+// cos θ of each point's beam on its local plane (0 without a plane).
+std::vector<double> IncidenceCosines(const io::PointCloud& cloud, const std::vector<Eigen::Vector3f>& normals,
+                                     const IncidenceCorrection& correction) {
+  std::vector<double> cosines(cloud.size(), 0.0);
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (normals[i].isZero()) continue;
+    const Eigen::Vector3d beam = cloud.points[i] - correction.scanner(i);
+    const double range = beam.norm();
+    if (range > 0) cosines[i] = std::abs(normals[i].cast<double>().dot(beam)) / range;
+  }
+  return cosines;
 }
 
-}  // namespace
-
-IncidenceFit FitIncidenceExponent(const io::PointCloud& cloud,
-                                  const std::vector<Eigen::Vector3f>& normals,
-                                  const IncidenceCorrection& correction) {
-  CHECK(cloud.has_intensity() && normals.size() == cloud.size() && correction.scanner);
+// k of I = ρ·cos^k θ (PrepareLidarPoints with an IncidenceCorrection).
+IncidenceFit FitIncidenceExponent(const io::PointCloud& cloud, const std::vector<Eigen::Vector3f>& normals,
+                                  const std::vector<double>& cosines, const IncidenceCorrection& correction) {
   // Per orientation group: n, Σx, Σy, Σxx, Σxy, Σyy of x = log cos θ, y = log I.
   struct Sums {
     double n = 0, x = 0, y = 0, xx = 0, xy = 0, yy = 0;
@@ -139,7 +140,7 @@ IncidenceFit FitIncidenceExponent(const io::PointCloud& cloud,
   Sums groups[3];
   const double steep = std::cos(M_PI / 4);
   for (size_t i = 0; i < cloud.size(); ++i) {
-    const double c = IncidenceCosine(cloud, normals, correction, i);
+    const double c = cosines[i];
     if (c < correction.min_cos || !(cloud.intensity[i] > 0.f)) continue;
     const Eigen::Vector3f& n = normals[i];
     // Horizontal; steep faces by the azimuth of their (unsigned) normal in two halves.
@@ -168,15 +169,25 @@ IncidenceFit FitIncidenceExponent(const io::PointCloud& cloud,
   return fit;
 }
 
+std::vector<Eigen::Vector3f> FloatPoints(const io::PointCloud& cloud) {
+  std::vector<Eigen::Vector3f> points;
+  points.reserve(cloud.size());
+  for (const Eigen::Vector3d& p : cloud.points) points.push_back(p.cast<float>());
+  return points;
+}
+
+}  // namespace
+
 LidarPoints PrepareLidarPoints(const io::PointCloud& cloud, const IncidenceCorrection& correction,
                                IncidenceFit* fit, std::vector<Eigen::Vector3f>* normals_out) {
+  CHECK(correction.scanner) << "IncidenceCorrection without a scanner";
   LidarPoints prepared;
-  prepared.points_in_lidar.reserve(cloud.size());
-  for (const Eigen::Vector3d& p : cloud.points) prepared.points_in_lidar.push_back(p.cast<float>());
+  prepared.points_in_lidar = FloatPoints(cloud);
   std::vector<Eigen::Vector3f> normals = LocalPlaneNormals(prepared.points_in_lidar, correction.voxel_m);
   IncidenceFit result;
   if (cloud.has_intensity()) {
-    result = FitIncidenceExponent(cloud, normals, correction);
+    const std::vector<double> cosines = IncidenceCosines(cloud, normals, correction);
+    result = FitIncidenceExponent(cloud, normals, cosines, correction);
     std::vector<float> raw = cloud.intensity;
     if (result.exponent > 0) {
       // Each point's factor max(cos θ, min_cos)^-k; points without a plane get the median
@@ -186,8 +197,7 @@ LidarPoints PrepareLidarPoints(const io::PointCloud& cloud, const IncidenceCorre
       planar.reserve(cloud.size());
       for (size_t i = 0; i < cloud.size(); ++i) {
         if (normals[i].isZero()) continue;
-        const double c = std::max<double>(IncidenceCosine(cloud, normals, correction, i), correction.min_cos);
-        factor[i] = static_cast<float>(std::pow(c, -result.exponent));
+        factor[i] = static_cast<float>(std::pow(std::max<double>(cosines[i], correction.min_cos), -result.exponent));
         planar.push_back(factor[i]);
       }
       float median = 1.f;
@@ -206,8 +216,7 @@ LidarPoints PrepareLidarPoints(const io::PointCloud& cloud, const IncidenceCorre
 
 LidarPoints PrepareLidarPoints(const io::PointCloud& cloud) {
   LidarPoints prepared;
-  prepared.points_in_lidar.reserve(cloud.size());
-  for (const Eigen::Vector3d& p : cloud.points) prepared.points_in_lidar.push_back(p.cast<float>());
+  prepared.points_in_lidar = FloatPoints(cloud);
   if (cloud.has_intensity()) {
     StretchIntensity(cloud.intensity, &prepared);
   }

@@ -56,8 +56,8 @@ LidarPoints PrepareLidarPoints(const io::PointCloud& cloud);
 /// review of LIDAR radiometric processing", Sensors 15(11)), so a mobile scanner passing a façade at
 /// grazing incidence paints it in a pattern of its own trajectory that the photo does not
 /// have. Real scanners depart from Lambert (rough surfaces, a factory calibration that already
-/// normalises), so the exponent k of I = ρ·cos^k θ is fitted to the cloud itself
-/// (FitIncidenceExponent) and the value corrected as I / max(cos θ, min_cos)^k.
+/// normalises), so the exponent k of I = ρ·cos^k θ is fitted to the cloud itself and the
+/// value corrected as I / max(cos θ, min_cos)^k.
 struct IncidenceCorrection {
   /// The scanner's centre when point i was measured, in the cloud's frame.
   std::function<Eigen::Vector3d(size_t)> scanner;
@@ -71,17 +71,14 @@ struct IncidenceFit {
   double correlation = 0;  ///< of log I and log cos θ within the orientation groups
   size_t points = 0;       ///< points in the fit (a plane, cos θ ≥ min_cos, I > 0)
 };
-/// k of I = ρ·cos^k θ by least squares of log I on log cos θ with one intercept (log ρ) per
-/// orientation group (horizontal, and steep faces in two azimuth halves), so that the
-/// different albedo of the ground and the walls, seen at different incidences, is not taken
-/// for the incidence's effect. Points without a plane (a zero normal) or with I ≤ 0 are
-/// left out; fewer than 1000 usable points give k = 0. Clamped to [0, max_exponent].
-IncidenceFit FitIncidenceExponent(const io::PointCloud& cloud,
-                                  const std::vector<Eigen::Vector3f>& normals,
-                                  const IncidenceCorrection& correction);
 /// PrepareLidarPoints with the intensity corrected for incidence (IncidenceCorrection): the
 /// raw values divided by max(cos θ, min_cos)^k (points without a plane by the median of the
-/// others' factor, so that they stay on the same scale), then stretched. `normals` (optional)
+/// others' factor, so that they stay on the same scale), then stretched. k: least squares of
+/// log I on log cos θ with one intercept (log ρ) per orientation group (horizontal, and steep
+/// faces in two azimuth halves), so that the different albedo of the ground and the walls,
+/// seen at different incidences, is not taken for the incidence's effect; points without a
+/// plane, with cos θ < min_cos or I ≤ 0 left out; fewer than 1000 usable points give k = 0
+/// (no correction); clamped to [0, max_exponent]. `normals` (optional)
 /// receives LocalPlaneNormals of the points, for EncodeOrientationClasses. A cloud without
 /// intensity is prepared as by PrepareLidarPoints.
 LidarPoints PrepareLidarPoints(const io::PointCloud& cloud, const IncidenceCorrection& correction,
