@@ -12,7 +12,8 @@
 // MI_PHOTO_BLUR=SIGMA_PX smooths the photo (diagnostic). MI_ORIENTATION=N[,VOXEL]: the orientation
 // classes' sectors and voxel (register-mi --orientation-classes; default its default, 0 = plain metric).
 // Diagnostics: MI_PROBE=1 (per-axis probe at every level, then exit); MI_COMPARE=1 (the
-// metric at the calibration, the start and the result at every level, and on the line from
+// metric at the calibration, the start and the result at every level with the samples and MI
+// at the calibration and the result, and on the line from
 // the calibration to the result); MI_OVERLAY=PREFIX [MI_CROP=x0,y0,w,h] (PREFIX_<start>.png:
 // photo / LiDAR image at the calibration / at the result).
 #include <algorithm>
@@ -311,6 +312,10 @@ int main(int argc, char** argv) {
       }
       std::printf("\n");
       for (int level = 0; level < evaluator.levels(); ++level) {
+        const MetricValue a = evaluator.Evaluate(kitti.cam_from_lidar, level, smooth);
+        const MetricValue b = evaluator.Evaluate(result.cam_from_lidar, level, smooth);
+        std::printf("  level %d samples: calibration %.0f (mi %.5f) result %.0f (mi %.5f)\n", level,
+                    a.samples, a.mi, b.samples, b.mi);
         std::printf("  level %d: %s calibration %.6f result %.6f start %.6f | none "
                     "calibration %.6f result %.6f\n",
                     level, SmoothingName(smooth.smoothing).c_str(),

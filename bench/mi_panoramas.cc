@@ -26,13 +26,18 @@
 // corrects the static model too, by scan (an experiment; by default it is not corrected).
 // MI_ORIENTATION="N[,VOXEL]" the orientation classes (register-mi --orientation-classes N;
 // default its default, 0 = the plain metric), MI_BINS the histogram's bins.
+// MI_GROUND=1 prints, per panorama, the fraction of its views' LiDAR pixels on upward
+// surfaces and the LiDAR pixels at the truth, and registers nothing; MI_SAMPLES_DIAG=1 prints,
+// per registration, the metric and the samples at the truth and at the result per level, and
+// the rendered MI with the shuffled-pairing bias (EvaluateShuffled) subtracted.
 // MMBA_DEBUG=1 logs each stage. MI_ONLY selects registrations (below), MI_PERTURB sets their
 // start, MI_THREADS the registration's threads (default 2), MI_RESTARTS / MI_RESTART_OFFSET
 // ("m,deg") the restarts, MI_POINT_RADIUS ("m,px") the registration's z-buffer footprint
 // (the cuts' headings and the scoring keep the default), MI_SAMPLE_BLOCK the per-point
 // samples' block (RegistrationOptions::sample_block_px; 0 = the won-pixel samples of
 // before session 18), MI_WHOLE_IMAGE_CHECKS=0 switches the
-// whole-panorama check off; each
+// whole-panorama check off, MI_WEAK_SCAN=0 the scan along the weakly observed direction
+// (RegistrationOptions::scan_weak_direction); each
 // registration prints its whole-image checks and a `digest` line (RegistrationResult::Digest,
 // pose and metric in hex floats) to compare runs.
 #include <sys/resource.h>
@@ -507,6 +512,7 @@ int main(int argc, char** argv) {
     std::sscanf(v, "%lf,%lf", &options.render.min_range_m, &options.render.max_range_m);
   }
   if (const char* v = std::getenv("MI_THREADS")) options.threads = std::atoi(v);
+  if (const char* v = std::getenv("MI_WEAK_SCAN")) options.scan_weak_direction = std::atoi(v) != 0;
   if (const char* v = std::getenv("MI_SURFACE_CLASSES"); v != nullptr && std::atof(v) > 0) {
     options.metric.lidar_classes = 2;
   }
@@ -585,6 +591,32 @@ int main(int argc, char** argv) {
         RenderLidarImage(points, view, tv.cam_from_world, options.render, &lidar);
         WriteGrayPng(LidarImageToGray(lidar), base + "_lidar.png");
       }
+    }
+    if (std::getenv("MI_GROUND") != nullptr && !plane_normals.empty()) {
+      // Inspection: of the views' LiDAR pixels at the true pose, the fraction on surfaces
+      // facing up (orientation class 0), per view and in all; no registration.
+      const std::vector<uint8_t> cls =
+          OrientationClasses(points.points_in_lidar, plane_normals, Eigen::Vector3f::UnitZ(),
+                             tv.cam_from_world.Inverse().translation.cast<float>(), 4);
+      LidarImage lidar;
+      double up = 0, all = 0;
+      std::vector<double> per_view;
+      for (const View& view : truth_frame.views) {
+        RenderLidarImage(points, view, tv.cam_from_world, options.render, &lidar);
+        double u = 0, a = 0;
+        for (int idx : lidar.point_index) {
+          if (idx < 0) continue;
+          a += 1;
+          u += cls[idx] == 0;
+        }
+        per_view.push_back(a > 0 ? u / a : 0);
+        up += u;
+        all += a;
+      }
+      std::printf("GROUND %s %s %.3f views", tv.kind.c_str(), tv.name.c_str(), up / all);
+      for (double v : per_view) std::printf(" %.3f", v);
+      std::printf(" covered %.0f\n", all);
+      continue;
     }
     if (std::getenv("MI_PROBE") != nullptr) {
       // Inspection: where does the metric peak along each axis around the truth?
@@ -675,6 +707,28 @@ int main(int argc, char** argv) {
           for (int level = 0; level < std::min(3, evaluator.levels()); ++level) {
             metric_true[level] = evaluator.Evaluate(tv.cam_from_world, level).value;
             metric_est[level] = evaluator.Evaluate(r.cam_from_lidar, level).value;
+            if (std::getenv("MI_SAMPLES_DIAG") != nullptr) {
+              const MetricValue a = evaluator.Evaluate(tv.cam_from_world, level);
+              const MetricValue b = evaluator.Evaluate(r.cam_from_lidar, level);
+              std::printf("  l%d true: value %.6f mi %.5f H %.4f samples %.0f | est: value %.6f mi %.5f H %.4f samples %.0f\n",
+                          level, a.value, a.mi, a.joint_entropy, a.samples, b.value, b.mi,
+                          b.joint_entropy, b.samples);
+              {
+                double mt, me;
+                std::vector<double> st, se;
+                evaluator.EvaluateShuffled(tv.cam_from_world, level, 4, &mt, &st);
+                evaluator.EvaluateShuffled(r.cam_from_lidar, level, 4, &me, &se);
+                double bt = 0, be = 0;
+                for (double v : st) bt += v / st.size();
+                for (double v : se) be += v / se.size();
+                std::printf("  l%d rendered mi true %.5f - bias %.5f = %.5f | est %.5f - bias %.5f = %.5f | corrected est-true %+.5f\n",
+                            level, mt, bt, mt - bt, me, be, me - be, (me - be) - (mt - bt));
+              }
+              if (level == 0) {
+                std::printf("  checks mi %.5f shuffled %.5f (sd %.6f)\n", r.checks.mi_bits,
+                            r.checks.mi_shuffled_bits, r.checks.mi_shuffled_sd_bits);
+              }
+            }
           }
         }
         if (std::getenv("MI_LINE_PROBE") != nullptr) {

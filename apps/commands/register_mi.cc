@@ -61,6 +61,7 @@ struct RegisterMiArgs {
   double max_calibrated_sigma_px = 1.0;
   bool halves = true;
   bool whole_image_checks = true;
+  bool weak_direction_scan = true;
   bool all_checks = false;
   bool point_samples = true;
   int sample_block_px = 8;
@@ -173,6 +174,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   options.max_calibrated_sigma_px = args.max_calibrated_sigma_px;
   options.split_check = args.halves;
   options.whole_image_checks = args.whole_image_checks;
+  options.scan_weak_direction = args.weak_direction_scan;
   options.measure_all_checks = args.all_checks;
   options.point_samples = args.point_samples;
   options.sample_block_px = args.sample_block_px;
@@ -558,6 +560,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"bound_m", args.bound_m},               {"bound_deg", args.bound_deg},
                      {"pyramid_paths", args.pyramid_paths},   {"pyramid_paths_adaptive", args.pyramid_paths_adaptive},
                      {"whole_image_checks", args.whole_image_checks},
+                     {"weak_direction_scan", args.weak_direction_scan},
                      {"all_checks", args.all_checks},         {"point_samples", args.point_samples},
                      {"sample_block_px", args.sample_block_px},
                      {"covariance_pixel_floor", args.covariance_pixel_floor},
@@ -746,6 +749,12 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
                   "Acceptance: a panorama registered on perspective/cube cuts must also pass the "
                   "calibrated-sigma check over the whole panorama (a roll the cuts barely see; "
                   "bench/RESULTS.md)")
+      ->capture_default_str();
+  sub->add_option("--weak-direction-scan", args->weak_direction_scan,
+                  "Acceptance: besides the six axes, scan the metric across the search box along "
+                  "its weakly observed direction (the combination of corrections that moves the "
+                  "visible points least, e.g. a camera lowered and tilted back); a higher or "
+                  "second peak there fails like one on an axis")
       ->capture_default_str();
   sub->add_option("--all-checks", args->all_checks,
                   "Acceptance: measure every check also after one has failed (diagnostics in "

@@ -85,6 +85,23 @@ Eigen::Matrix<double, 6, 6> RaiseToPixelFloor(
   return 0.5 * (result + result.transpose());
 }
 
+Vector6d WeaklyObservedDirection(const std::vector<Eigen::Matrix<double, 2, 6>>& jacobians,
+                                 const Vector6d& bound) {
+  if (jacobians.empty()) return Vector6d::Zero();
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  for (const Eigen::Matrix<double, 2, 6>& j : jacobians) information += j.transpose() * j;
+  const Eigen::Matrix<double, 6, 6> scaled =
+      bound.asDiagonal() * information * bound.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(scaled);
+  if (eigen.info() != Eigen::Success) return Vector6d::Zero();
+  spdlog::debug("MI weakly observed direction: eigenvalue {:.4g} (largest {:.4g})",
+                eigen.eigenvalues()[0], eigen.eigenvalues()[5]);
+  const Vector6d u = eigen.eigenvectors().col(0);  // eigenvalues ascending
+  const double largest = u.cwiseAbs().maxCoeff();
+  if (!(largest > 0)) return Vector6d::Zero();
+  return bound.cwiseProduct(u) / largest;
+}
+
 const char* ParameterName(int axis) {
   static const char* kNames[6] = {"tx", "ty", "tz", "roll", "pitch", "yaw"};
   return axis >= 0 && axis < 6 ? kNames[axis] : "?";
@@ -1038,43 +1055,68 @@ std::array<std::vector<Frame>, 2> SplitIntoHalves(const std::vector<Frame>& fram
 
 namespace {
 
-// Confidence along each axis (a reduced probe): the metric must peak near the optimum,
-// rise above the scan's minimum, and show no second comparable peak.
+std::string DescribeCorrection(const Vector6d& d) {
+  return "tx " + Fixed(d[0], 2) + ", ty " + Fixed(d[1], 2) + ", tz " + Fixed(d[2], 2) +
+         " m; roll " + Fixed(d[3], 2) + ", pitch " + Fixed(d[4], 2) + ", yaw " + Fixed(d[5], 2) +
+         " deg";
+}
+
+// Confidence along each axis (a reduced probe), and along `weak` (WeaklyObservedDirection;
+// skipped when zero): the metric must peak near the optimum, rise above the scan's minimum,
+// and show no second comparable peak.
 bool CheckConfidence(const FrameSetEvaluator& evaluator, const Rigid3d& start,
-                     const Vector6d& x, const RegistrationOptions& options, int level,
-                     std::string* reason, int* evaluations) {
+                     const Vector6d& x,
+                     const std::vector<std::pair<Vector6d, std::string>>& weak,
+                     const RegistrationOptions& options, int level, std::string* reason,
+                     int* evaluations) {
   const Vector6d bound = BoundVector(options);
   constexpr int kSide = 5;
   // Judged on MI (bits) so that the relative thresholds mean the same for every metric.
   MetricOptions metric = options.metric;
   metric.kind = MetricKind::kMi;
+  // Each scan: x + s·direction, s in [−1, 1] (the axes: ±their bound).
+  std::vector<std::pair<Vector6d, std::string>> scans;
   for (int axis = 0; axis < 6; ++axis) {
+    Vector6d d = Vector6d::Zero();
+    d[axis] = bound[axis];
+    scans.emplace_back(d, ParameterName(axis));
+  }
+  for (const auto& [direction, name] : weak) {
+    if (direction.squaredNorm() > 0) {
+      scans.emplace_back(direction, name + " (" + DescribeCorrection(direction) + ")");
+    }
+  }
+  for (const auto& [direction, name] : scans) {
     std::vector<double> values(2 * kSide + 1);
-    const double step = bound[axis] / kSide;
     ParallelFor(2 * kSide + 1, options.threads, [&](int k) {
-      Vector6d y = x;
-      y[axis] = x[axis] + (k - kSide) * step;
+      const Vector6d y = x + (static_cast<double>(k - kSide) / kSide) * direction;
       values[k] = evaluator.Evaluate(ApplyCorrection(start, y), level, metric).value;
     });
     *evaluations += 2 * kSide + 1;
+    // Offsets reported as the fraction of the scan's half-length (the axes: in m or deg).
+    const bool axis_scan = direction.cwiseAbs().maxCoeff() == direction.cwiseAbs().sum();
+    auto offset = [&](int k) {
+      const double s = static_cast<double>(k - kSide) / kSide;
+      return axis_scan ? Fixed(s * direction.cwiseAbs().maxCoeff(), 3)
+                       : Fixed(s, 2) + " of it";
+    };
     const double center = values[kSide];
     const double peak = *std::max_element(values.begin(), values.end());
     const double low = *std::min_element(values.begin(), values.end());
     const double depth = peak - low;
     const double scale = std::max(std::abs(peak), 1e-12);
     if (depth < options.min_relative_peak * scale) {
-      *reason = std::string("metric surface flat along ") + ParameterName(axis) +
-                " (peak-to-trough " + Fixed(100 * depth / scale, 3) + " % of the metric)";
+      *reason = "metric surface flat along " + name + " (peak-to-trough " +
+                Fixed(100 * depth / scale, 3) + " % of the metric)";
       return false;
     }
     if (!options.check_multiple_peaks) continue;
-    // The optimum must hold the maximum within ±2 samples of the centre.
+    // The optimum must hold the maximum within ±1 sample of the centre.
     const int argmax = static_cast<int>(std::max_element(values.begin(), values.end()) -
                                         values.begin());
     if (std::abs(argmax - kSide) > 1 && peak - center > 0.25 * depth) {
-      *reason = std::string("higher MI along ") + ParameterName(axis) + " at offset " +
-                Fixed((argmax - kSide) * step, 3) + " from the optimum: multi-peaked or not "
-                "converged";
+      *reason = "higher MI along " + name + " at offset " + offset(argmax) +
+                " from the optimum: multi-peaked or not converged";
       return false;
     }
     // A second local maximum, away from the centre, nearly as high as the peak.
@@ -1082,8 +1124,7 @@ bool CheckConfidence(const FrameSetEvaluator& evaluator, const Rigid3d& start,
       if (std::abs(k - kSide) <= 1) continue;
       if (values[k] >= values[k - 1] && values[k] >= values[k + 1] &&
           values[k] > peak - 0.1 * depth && std::abs(k - argmax) > 1) {
-        *reason = std::string("second peak along ") + ParameterName(axis) + " at offset " +
-                  Fixed((k - kSide) * step, 3);
+        *reason = "second peak along " + name + " at offset " + offset(k);
         return false;
       }
     }
@@ -2455,7 +2496,12 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   // (5) Per-axis scans: flat or multi-peaked surfaces.
   {
     int evaluations = 0;
-    checks.scans_passed = CheckConfidence(evaluator, cam_from_lidar_start, x, options,
+    std::vector<std::pair<Vector6d, std::string>> weak;
+    if (options.scan_weak_direction) {
+      weak.emplace_back(WeaklyObservedDirection(sample_jacobians, bound),
+                        "the weakly observed direction");
+    }
+    checks.scans_passed = CheckConfidence(evaluator, cam_from_lidar_start, x, weak, options,
                                           std::min(1, levels - 1), &checks.scans_reason,
                                           &evaluations);
     if (!checks.scans_passed) failures.push_back(checks.scans_reason);

@@ -94,6 +94,73 @@ TEST(PixelFloor, RaisesOnlyTheDirectionsNarrowerThanThePixelGeometry) {
   EXPECT_EQ(raised, 0);
 }
 
+// Pixel Jacobians (per m, per degree; central differences through ApplyCorrection) of a
+// pinhole camera, f = 500 px, looking along +z of the LiDAR frame, at `points`.
+std::vector<Eigen::Matrix<double, 2, 6>> PinholeJacobians(
+    const std::vector<Eigen::Vector3d>& points) {
+  const Rigid3d start;  // camera at the origin, axes those of the LiDAR frame
+  auto pixel = [&](const Vector6d& c, const Eigen::Vector3d& x) {
+    const Eigen::Vector3d p = ApplyCorrection(start, c) * x;
+    return Eigen::Vector2d(500.0 * p.x() / p.z(), 500.0 * p.y() / p.z());
+  };
+  std::vector<Eigen::Matrix<double, 2, 6>> jacobians;
+  for (const Eigen::Vector3d& x : points) {
+    Eigen::Matrix<double, 2, 6> j;
+    for (int i = 0; i < 6; ++i) {
+      Vector6d h = Vector6d::Zero();
+      h[i] = 1e-4;
+      j.col(i) = (pixel(h, x) - pixel(-h, x)) / 2e-4;
+    }
+    jacobians.push_back(j);
+  }
+  return jacobians;
+}
+
+TEST(WeakDirection, IsTheShiftAndTurnThatKeepAFarWallInPlace) {
+  // A tall, narrow wall 24 m ahead: a sideways shift of the camera (x) and a turn about the
+  // vertical (y: pitch, delta = Rz(yaw)·Ry(pitch)·Rx(roll)) of shift / 24 m rad move every
+  // point of it by nearly the same pixels, the other way round. (Up-down with a turn about
+  // x does so too, but less well: the wall's height spreads the turn's effect.)
+  std::vector<Eigen::Vector3d> wall;
+  for (int i = -2; i <= 2; ++i) {
+    for (int k = -6; k <= 6; ++k) wall.emplace_back(0.5 * i, k, 24.0);
+  }
+  Vector6d bound;
+  bound << 0.5, 0.5, 0.5, 3, 3, 3;
+  const Vector6d d = WeaklyObservedDirection(PinholeJacobians(wall), bound);
+  // Scaled so that its largest component is one bound.
+  EXPECT_NEAR(d.cwiseQuotient(bound).cwiseAbs().maxCoeff(), 1.0, 1e-12);
+  // The pixels it moves: far fewer than any single parameter moved by its bound.
+  auto moved = [&](const Vector6d& c) {
+    double sum = 0;
+    for (const auto& j : PinholeJacobians(wall)) sum += (j * c).squaredNorm();
+    return std::sqrt(sum / wall.size());
+  };
+  for (int i = 0; i < 6; ++i) {
+    Vector6d axis = Vector6d::Zero();
+    axis[i] = bound[i];
+    EXPECT_LT(moved(d), 0.1 * moved(axis)) << "axis " << i;
+  }
+  // It is the shift along x with the turn about y, the turn's angle the shift over the
+  // wall's distance; the other four components nearly zero.
+  EXPECT_NEAR(std::abs(d[4]) * M_PI / 180.0 * 24.0, std::abs(d[0]), 0.05 * std::abs(d[0]));
+  EXPECT_GT(std::abs(d[0]), 0.2 * bound[0]);
+  for (int i : {1, 2, 3, 5}) EXPECT_LT(std::abs(d[i]), 0.02 * bound[i]) << "component " << i;
+  // Near points see the shift and the turn differently: then a weak direction is weak no
+  // more in the same way — the wall's direction moves the nearer scene by many pixels.
+  std::vector<Eigen::Vector3d> scene = wall;
+  for (int i = -4; i <= 4; ++i) scene.emplace_back(i, 1.5, 3.0 + std::abs(i));
+  const auto mixed = PinholeJacobians(scene);
+  double wall_direction_px = 0;
+  for (const auto& j : mixed) wall_direction_px += (j * d).squaredNorm() / mixed.size();
+  const Vector6d e = WeaklyObservedDirection(mixed, bound);
+  double mixed_px = 0;
+  for (const auto& j : mixed) mixed_px += (j * e).squaredNorm() / mixed.size();
+  EXPECT_LT(mixed_px, wall_direction_px);
+  // No Jacobians: no direction (the scan is skipped).
+  EXPECT_EQ(WeaklyObservedDirection({}, bound), Vector6d::Zero());
+}
+
 TEST(Options, OnePyramidLevelIsValidAndBadValuesAreNamed) {
   // Levels beyond the pyramid (restarts, covariance at level 1) mean its coarsest level, so
   // a one-level run (the probe uses one) is valid.

@@ -130,6 +130,11 @@ struct RegistrationOptions {
   /// fraction of |peak|, and no other local maximum may come within it.
   double min_relative_peak = 0.002;
   bool check_multiple_peaks = true;
+  /// The scans also cross the search box along its weakly observed direction: the
+  /// combination of the corrections that moves the visible points least relative to the
+  /// bounds (e.g. a camera lowered and tilted back), where a distant second maximum hides
+  /// from the one-parameter scans.
+  bool scan_weak_direction = true;
   /// Threads for independent evaluations (covariance fit, restarts, scans, gradient).
   int threads = 2;
   /// Laplace covariance: the number of independent samples is the covered pixels over
@@ -511,6 +516,19 @@ PixelOffsetStats PixelOffsets(const LidarPoints& points, const View& view,
                               const Rigid3d& cam_from_lidar_reference,
                               const Rigid3d& cam_from_lidar_estimate,
                               const RenderOptions& render);
+
+/// The weakly observed direction of the search box (the scan of
+/// RegistrationOptions::scan_weak_direction): the combination of the six corrections that
+/// moves the visible points least relative to the bounds — the eigenvector of the smallest
+/// eigenvalue of B·M·B, M = Σ JᵀJ over `jacobians` (∂pixel/∂correction, pixels per m and
+/// per degree, as in RaiseToPixelFloor), B = diag(`bound`). Returned as a correction (m,
+/// deg) whose largest component relative to its bound is ±1 bound (the sign is arbitrary).
+/// Along it the image changes least, so the metric can have a second maximum far off along
+/// it while the pixels barely differ — a camera lowered and tilted back with its far scene
+/// in place (bench/RESULTS.md, "The weakly observed direction") — which the one-parameter
+/// axis scans do not cross. Zero without Jacobians.
+Vector6d WeaklyObservedDirection(const std::vector<Eigen::Matrix<double, 2, 6>>& jacobians,
+                                 const Vector6d& bound);
 
 /// The pixel-isotropic floor of the reported covariance (RegistrationOptions::
 /// covariance_pixel_floor), for `jacobians` ∂pixel/∂correction of the visible points (pixels
