@@ -548,20 +548,29 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
         continue;
       }
       // The intensity corrected for the angle of incidence, I / cos^k with k fitted to the
-      // frame's points (register-mi --incidence-correction; bench/RESULTS.md "Incidence").
-      mi::IncidenceCorrection correction;
-      correction.scanner = [&scanner](size_t k) -> Eigen::Vector3d { return scanner[k].cast<double>(); };
-      correction.voxel_m = kSurfaceVoxel;
-      mi::IncidenceFit fit;
-      std::vector<Eigen::Vector3f> normals;
-      points.push_back(mi::PrepareLidarPoints(local, correction, &fit, &normals));
-      spdlog::info("adjust: MI rig calibration: frame {}: intensity corrected for the angle of incidence, I / cos^{:.2f}",
-                   t.name, fit.exponent);
-      incidence.push_back({{"frame", t.name}, {"exponent", fit.exponent}, {"correlation", fit.correlation},
-                           {"points", fit.points}});
-      if (rig_sectors > 0) {
-        // The rig's orientation classes, seen from the rig's start centre.
-        mi::EncodeOrientationClasses(CameraCentre(start).cast<float>(), rig_sectors, normals, &points.back());
+      // frame's points (register-mi --incidence-correction; bench/RESULTS.md "Incidence"),
+      // unless the rig's `mi_incidence_correction` is false.
+      if (s->rig->config->mi_incidence_correction) {
+        mi::IncidenceCorrection correction;
+        correction.scanner = [&scanner](size_t k) -> Eigen::Vector3d { return scanner[k].cast<double>(); };
+        correction.voxel_m = kSurfaceVoxel;
+        mi::IncidenceFit fit;
+        std::vector<Eigen::Vector3f> normals;
+        points.push_back(mi::PrepareLidarPoints(local, correction, &fit, &normals));
+        spdlog::info("adjust: MI rig calibration: frame {}: intensity corrected for the angle of incidence, I / cos^{:.2f}",
+                     t.name, fit.exponent);
+        incidence.push_back({{"frame", t.name}, {"exponent", fit.exponent}, {"correlation", fit.correlation},
+                             {"points", fit.points}});
+        if (rig_sectors > 0) {
+          // The rig's orientation classes, seen from the rig's start centre.
+          mi::EncodeOrientationClasses(CameraCentre(start).cast<float>(), rig_sectors, normals, &points.back());
+        }
+      } else {
+        points.push_back(mi::PrepareLidarPoints(local));
+        incidence.push_back({{"frame", t.name}, {"exponent", nullptr}});  // not corrected
+        if (rig_sectors > 0) {
+          mi::EncodeOrientationClasses(CameraCentre(start).cast<float>(), rig_sectors, kSurfaceVoxel, &points.back());
+        }
       }
       mi::Frame frame;
       frame.name = t.name;

@@ -302,6 +302,7 @@ class ProjectReader {
                          p.mi_lidar = r_.String(v, g);
                          if (p.mi_lidar != "static" && p.mi_lidar != "mobile") r_.Fail(v, g, "static or mobile", p.mi_lidar);
                        }},
+                      {"mi_incidence_correction", [&](Node v, Field g) { p.mi_incidence_correction = r_.Bool(v, g); }},
                       {"mi_time_window_s", [&](Node v, Field g) { p.mi_time_window_s = r_.Positive(v, g, 60.0, "seconds"); }},
                       {"mi_views", [&](Node v, Field g) {
                          p.mi_views = r_.String(v, g);

@@ -82,6 +82,18 @@ TEST_F(ProjectTest, MobileRangeLimitFollowsTheGateAndTheAttitudeSigma) {
   EXPECT_DOUBLE_EQ(MobileMaxRange(mobile(", max_range_m: 0")), 0.0);
 }
 
+// The rig's MI against the mobile LiDAR corrects the intensity for incidence unless told not to.
+TEST_F(ProjectTest, RigIncidenceCorrectionIsOnUnlessSwitchedOff) {
+  const auto rig = [&](const std::string& keys) {
+    return LoadProject(Write(photos_ + ts_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, "
+                                             "observations: gnss.csv, frames_file: gnss.csv, trajectory: gnss.csv, tie_block: p" + keys + "}\n"))
+        .rigs.at(0);
+  };
+  EXPECT_TRUE(rig("").mi_incidence_correction);
+  EXPECT_FALSE(rig(", mi_incidence_correction: false").mi_incidence_correction);
+  EXPECT_TRUE(rig(", mi_incidence_correction: true").mi_incidence_correction);
+}
+
 TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {
   struct Case {
     std::string sensors, extra, expect;
@@ -137,6 +149,8 @@ TEST_F(ProjectTest, NamesTheKeyOfEveryProblem) {
        "sensors[1].mi_lidar"},
       {photos_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, mi_views: fisheyes}\n", "",
        "panoramas or cameras"},
+      {photos_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, mi_incidence_correction: maybe}\n",
+       "", "sensors[1].mi_incidence_correction"},
       {"  - {id: p, type: photo_collection, images: images, mi_orientation_classes: 14}\n" + ts_, "",
        "sensors[0].mi_orientation_classes"},
       {photos_ + "  - {id: r, type: camera_rig, images: images, calibration: gnss.csv, mi_orientation_classes: -1}\n",

@@ -183,6 +183,11 @@ struct CameraRig {
   /// mobile LiDAR near the frame's time, a factor on the frame, the trajectory correction and
   /// the camera–LiDAR extrinsic. Needs a lidar_mobile with `rig` = this rig.
   std::string mi_lidar = "static";
+  /// `mi_incidence_correction` (with mi_lidar: mobile): each frame's mobile points' intensity
+  /// corrected for the angle of incidence before the MI (register-mi --incidence-correction;
+  /// the exponent is fitted per frame, ≈ 0 for a scanner that normalises its reflectance);
+  /// false = the values as delivered (register-mi's `off`).
+  bool mi_incidence_correction = true;
   /// What `mi_register` registers of each frame: "panoramas" = its stitched panorama (two
   /// perspective cuts where the LiDAR is), or "cameras" = the rig's own images of the frame
   /// (`images`/<frame>_<camera>.*), each with its calibration and cam_from_rig, as the views
