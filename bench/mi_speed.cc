@@ -7,6 +7,7 @@
 // MMBA_DEBUG=1 in the environment logs each stage (time, evaluations). MI_ORIENTATION=N: the
 // intensity registrations' orientation classes (register-mi's default; 0 = the plain metric).
 // MI_INCIDENCE=1: their cloud also corrected for the angle of incidence (timed with the classes).
+// MI_WEAK_SCAN=0: without the acceptance scan along the weakly observed direction.
 #include <sys/resource.h>
 
 #include <cmath>
@@ -121,6 +122,7 @@ int main(int argc, char** argv) {
       options.max_points_per_pixel = std::atof(cap);
     }
     if (const char* v = std::getenv("MI_THREADS")) options.threads = std::atoi(v);
+    if (const char* v = std::getenv("MI_WEAK_SCAN")) options.scan_weak_direction = std::atoi(v) != 0;
     if (const char* v = std::getenv("MI_PYRAMID_PATHS")) options.pyramid_paths = std::atoi(v);
     if (const char* v = std::getenv("MI_PATHS_ADAPTIVE")) {
       options.pyramid_paths_adaptive = std::atoi(v) != 0;
