@@ -753,8 +753,8 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
   sub->add_option("--weak-direction-scan", args->weak_direction_scan,
                   "Acceptance: besides the six axes, scan the metric across the search box along "
                   "its weakly observed direction (the combination of corrections that moves the "
-                  "visible points least, e.g. a camera lowered and tilted back); a higher or "
-                  "second peak there fails like one on an axis")
+                  "visible points least, e.g. a camera lowered and tilted back); a higher MI "
+                  "or a flat metric there fails as on an axis")
       ->capture_default_str();
   sub->add_option("--all-checks", args->all_checks,
                   "Acceptance: measure every check also after one has failed (diagnostics in "

@@ -132,8 +132,9 @@ struct RegistrationOptions {
   bool check_multiple_peaks = true;
   /// The scans also cross the search box along its weakly observed direction: the
   /// combination of the corrections that moves the visible points least relative to the
-  /// bounds (e.g. a camera lowered and tilted back), where a distant second maximum hides
-  /// from the one-parameter scans.
+  /// bounds (e.g. a camera lowered and tilted back), where a distant higher maximum hides
+  /// from the one-parameter scans. Tested for a higher MI and for flatness, not for a second
+  /// lower peak (the metric is bumpy along it; bench/RESULTS.md "The weakly observed direction").
   bool scan_weak_direction = true;
   /// Threads for independent evaluations (covariance fit, restarts, scans, gradient).
   int threads = 2;
