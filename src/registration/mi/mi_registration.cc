@@ -49,6 +49,15 @@ std::string Fixed(double v, int digits = 3) {
   return out.str();
 }
 
+// Σ JᵀJ of the points' pixel Jacobians: the information the points' pixels hold on the
+// correction (RaiseToPixelFloor, WeaklyObservedDirection).
+Eigen::Matrix<double, 6, 6> PixelInformation(
+    const std::vector<Eigen::Matrix<double, 2, 6>>& jacobians) {
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
+  for (const Eigen::Matrix<double, 2, 6>& j : jacobians) information += j.transpose() * j;
+  return information;
+}
+
 }  // namespace
 
 Eigen::Matrix<double, 6, 6> RaiseToPixelFloor(
@@ -57,9 +66,8 @@ Eigen::Matrix<double, 6, 6> RaiseToPixelFloor(
     int* raised) {
   *raised = 0;
   if (jacobians.empty() || !(mean_variance > 0)) return covariance;
-  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
-  for (const Eigen::Matrix<double, 2, 6>& j : jacobians) information += j.transpose() * j;
-  information /= static_cast<double>(jacobians.size());
+  const Eigen::Matrix<double, 6, 6> information =
+      PixelInformation(jacobians) / static_cast<double>(jacobians.size());
   Eigen::LLT<Eigen::Matrix<double, 6, 6>> information_llt(information);
   if (information_llt.info() != Eigen::Success) return covariance;
   const Eigen::Matrix<double, 6, 6> floor =
@@ -88,10 +96,8 @@ Eigen::Matrix<double, 6, 6> RaiseToPixelFloor(
 Vector6d WeaklyObservedDirection(const std::vector<Eigen::Matrix<double, 2, 6>>& jacobians,
                                  const Vector6d& bound) {
   if (jacobians.empty()) return Vector6d::Zero();
-  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Zero();
-  for (const Eigen::Matrix<double, 2, 6>& j : jacobians) information += j.transpose() * j;
   const Eigen::Matrix<double, 6, 6> scaled =
-      bound.asDiagonal() * information * bound.asDiagonal();
+      bound.asDiagonal() * PixelInformation(jacobians) * bound.asDiagonal();
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(scaled);
   if (eigen.info() != Eigen::Success) return Vector6d::Zero();
   spdlog::debug("MI weakly observed direction: eigenvalue {:.4g} (largest {:.4g})",
@@ -1063,12 +1069,10 @@ std::string DescribeCorrection(const Vector6d& d) {
 
 // Confidence along each axis (a reduced probe), and along `weak` (WeaklyObservedDirection;
 // skipped when zero): the metric must peak near the optimum, rise above the scan's minimum,
-// and show no second comparable peak.
+// and (the axes) show no second comparable peak.
 bool CheckConfidence(const FrameSetEvaluator& evaluator, const Rigid3d& start,
-                     const Vector6d& x,
-                     const std::vector<std::pair<Vector6d, std::string>>& weak,
-                     const RegistrationOptions& options, int level, std::string* reason,
-                     int* evaluations) {
+                     const Vector6d& x, const Vector6d& weak, const RegistrationOptions& options,
+                     int level, std::string* reason, int* evaluations) {
   const Vector6d bound = BoundVector(options);
   constexpr int kSide = 5;
   // Judged on MI (bits) so that the relative thresholds mean the same for every metric.
@@ -1079,29 +1083,32 @@ bool CheckConfidence(const FrameSetEvaluator& evaluator, const Rigid3d& start,
   // so the metric is flat and bumpy there, and a lower bump does not contradict the optimum
   // (measured: that test refused 5 right photo registrations of the cathedral, 0.19–0.83 px;
   // bench/RESULTS.md "The weakly observed direction"); a higher value does.
-  std::vector<std::pair<Vector6d, std::string>> scans;
+  struct Scan {
+    Vector6d direction;
+    std::string name;
+    bool axis;
+  };
+  std::vector<Scan> scans;
   for (int axis = 0; axis < 6; ++axis) {
     Vector6d d = Vector6d::Zero();
     d[axis] = bound[axis];
-    scans.emplace_back(d, ParameterName(axis));
+    scans.push_back({d, ParameterName(axis), true});
   }
-  for (const auto& [direction, name] : weak) {
-    if (direction.squaredNorm() > 0) {
-      scans.emplace_back(direction, name + " (" + DescribeCorrection(direction) + ")");
-    }
+  if (weak.squaredNorm() > 0) {
+    scans.push_back({weak, "the weakly observed direction (" + DescribeCorrection(weak) + ")",
+                     false});
   }
-  for (const auto& [direction, name] : scans) {
+  for (const Scan& scan : scans) {
     std::vector<double> values(2 * kSide + 1);
     ParallelFor(2 * kSide + 1, options.threads, [&](int k) {
-      const Vector6d y = x + (static_cast<double>(k - kSide) / kSide) * direction;
+      const Vector6d y = x + (static_cast<double>(k - kSide) / kSide) * scan.direction;
       values[k] = evaluator.Evaluate(ApplyCorrection(start, y), level, metric).value;
     });
     *evaluations += 2 * kSide + 1;
-    // Offsets reported as the fraction of the scan's half-length (the axes: in m or deg).
-    const bool axis_scan = direction.cwiseAbs().maxCoeff() == direction.cwiseAbs().sum();
+    // Offsets in m or deg along an axis, as the fraction of the scan's half-length otherwise.
     auto offset = [&](int k) {
       const double s = static_cast<double>(k - kSide) / kSide;
-      return axis_scan ? Fixed(s * direction.cwiseAbs().maxCoeff(), 3)
+      return scan.axis ? Fixed(s * scan.direction.cwiseAbs().maxCoeff(), 3)
                        : Fixed(s, 2) + " of it";
     };
     const double center = values[kSide];
@@ -1110,7 +1117,7 @@ bool CheckConfidence(const FrameSetEvaluator& evaluator, const Rigid3d& start,
     const double depth = peak - low;
     const double scale = std::max(std::abs(peak), 1e-12);
     if (depth < options.min_relative_peak * scale) {
-      *reason = "metric surface flat along " + name + " (peak-to-trough " +
+      *reason = "metric surface flat along " + scan.name + " (peak-to-trough " +
                 Fixed(100 * depth / scale, 3) + " % of the metric)";
       return false;
     }
@@ -1119,17 +1126,17 @@ bool CheckConfidence(const FrameSetEvaluator& evaluator, const Rigid3d& start,
     const int argmax = static_cast<int>(std::max_element(values.begin(), values.end()) -
                                         values.begin());
     if (std::abs(argmax - kSide) > 1 && peak - center > 0.25 * depth) {
-      *reason = "higher MI along " + name + " at offset " + offset(argmax) +
+      *reason = "higher MI along " + scan.name + " at offset " + offset(argmax) +
                 " from the optimum: multi-peaked or not converged";
       return false;
     }
     // A second local maximum, away from the centre, nearly as high as the peak (the axes).
-    if (!axis_scan) continue;
+    if (!scan.axis) continue;
     for (int k = 1; k + 1 < static_cast<int>(values.size()); ++k) {
       if (std::abs(k - kSide) <= 1) continue;
       if (values[k] >= values[k - 1] && values[k] >= values[k + 1] &&
           values[k] > peak - 0.1 * depth && std::abs(k - argmax) > 1) {
-        *reason = "second peak along " + name + " at offset " + offset(k);
+        *reason = "second peak along " + scan.name + " at offset " + offset(k);
         return false;
       }
     }
@@ -2501,11 +2508,9 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   // (5) Per-axis scans: flat or multi-peaked surfaces.
   {
     int evaluations = 0;
-    std::vector<std::pair<Vector6d, std::string>> weak;
-    if (options.scan_weak_direction) {
-      weak.emplace_back(WeaklyObservedDirection(sample_jacobians, bound),
-                        "the weakly observed direction");
-    }
+    const Vector6d weak = options.scan_weak_direction
+                              ? WeaklyObservedDirection(sample_jacobians, bound)
+                              : Vector6d::Zero();
     checks.scans_passed = CheckConfidence(evaluator, cam_from_lidar_start, x, weak, options,
                                           std::min(1, levels - 1), &checks.scans_reason,
                                           &evaluations);
