@@ -10,7 +10,8 @@ namespace {
 
 struct RegisterEvalArgs {
   std::string scene, output;
-  std::vector<std::string> methods = {"fpfh", "shot", "si", "sc3d", "mmba"};
+  std::vector<std::string> methods = registration::SceneEvalOptions().methods;
+  std::vector<double> truth_window;
   double success_fraction = 0.1;
   double accurate_m = 0.05;
   bool no_cross_modal = false;
@@ -30,6 +31,15 @@ int RunRegisterEval(const RegisterEvalArgs& args) {
   options.base.min_fitness = args.min_fitness;
   options.use_viewpoints = !args.no_viewpoints;
   options.cells = args.cells;
+  if (!args.truth_window.empty()) {
+    if (args.truth_window.size() != 2 || !(args.truth_window[0] > 0) ||
+        !(args.truth_window[1] > 0) || args.truth_window[1] > 180) {
+      throw InputError::Message("--truth-window",
+                                "expected two positive numbers: metres and degrees (<= 180)");
+    }
+    options.truth_window_m = args.truth_window[0];
+    options.truth_window_deg = args.truth_window[1];
+  }
   std::string error;
   if (!options.base.Check(&error)) throw InputError::Message("--min-fitness", error);
   if (!(args.success_fraction > 0)) {
@@ -56,8 +66,14 @@ std::function<int()> SetupRegisterEval(CLI::App& app, CommonOptions* common) {
   sub->add_option("--scene", args->scene, "scene folder (e.g. written by mmba simulate)")
       ->required();
   sub->add_option("--output", args->output, "output folder (default SCENE/registration_eval)");
-  sub->add_option("--methods", args->methods, "any of fpfh shot si sc3d mmba mmba-g (robust + --gravity-aligned)")
+  sub->add_option("--methods", args->methods,
+                  "any of fpfh shot si sc3d mmba mmba-g (robust + --gravity-aligned) from-truth "
+                  "(a reference: robust, started at the true pose and searched only near it — "
+                  "what the data allow; never a cell's best method)")
       ->capture_default_str();
+  sub->add_option("--truth-window", args->truth_window,
+                  "from-truth: search window around the truth, metres and degrees (default 0.5 5)")
+      ->expected(2);
   sub->add_option("--success-fraction", args->success_fraction,
                   "success: RMS < this × scene extent (paper: 3 m / 30 m)")
       ->capture_default_str();

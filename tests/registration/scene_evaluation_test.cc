@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -156,6 +157,8 @@ TEST_F(SceneEvaluationTest, BestMethodPerCell) {
   std::stringstream md;
   md << std::ifstream(out / "tables.md").rdbuf();
   const std::string text = md.str();
+  // Without a from-truth row the table has no reference column.
+  EXPECT_EQ(text.find("from the truth"), std::string::npos) << text;
   EXPECT_NE(text.find("| to-lidar | a → lidar | m2 | 0.01 | m1 | 0.005 | 0.02 |"), std::string::npos) << text;
   EXPECT_NE(text.find("| to-lidar | e → lidar | m1 | 0.02 | m2 | 0.01 | 0.08 |"), std::string::npos) << text;
   EXPECT_NE(text.find("| cross-modal | d_part → lidar | m2 | 0.03 | m2 | 0.01 | 0.03 |"), std::string::npos) << text;
@@ -166,6 +169,87 @@ TEST_F(SceneEvaluationTest, BestMethodPerCell) {
                       "wrong ok (any method, RMS ≥ 3 m): 1.\nRegistered with the method chosen by "
                       "its stated σ (ok and RMS < 0.05 m): 2 of 5 cells."),
             std::string::npos) << text;
+}
+
+// The from-truth reference is never a cell's best method nor a wrong ok; its column tells the
+// cells the data allow (ok and accurate from the truth) from those it does not register.
+TEST_F(SceneEvaluationTest, TheReferenceFromTheTruthIsNoMethod) {
+  SceneEvaluation eval;
+  eval.dir = "scene";
+  eval.success_threshold_m = 3.0;
+  eval.accurate_m = 0.05;
+  eval.truth_window_m = 0.5;
+  eval.truth_window_deg = 5.0;
+  auto row = [](const std::string& source, const std::string& method, const std::string& status,
+                double rms) {
+    EvalRow r;
+    r.sigma_rms_m = 0.01;
+    r.experiment = "cross-modal";
+    r.source = source;
+    r.target = "lidar";
+    r.method = method;
+    r.status = status;
+    r.rms_m = rms;
+    r.success = rms < 3.0;
+    r.accurate = rms < 0.05;
+    return r;
+  };
+  const double no_pose = std::numeric_limits<double>::quiet_NaN();
+  eval.rows = {row("a_part", "m1", "ok", 0.02), row("a_part", kFromTruth, "ok", 0.001),
+               // search-limited: refused by the method, the reference registers it
+               row("b_part", "m1", "failed", 5.0), row("b_part", kFromTruth, "ok", 0.03),
+               // data-limited: the reference's own optimum is 8 cm off (and its ok, 8 cm off,
+               // counts as no wrong ok and no best method)
+               row("c_part", "m1", "failed", 0.3), row("c_part", kFromTruth, "ok", 0.08),
+               // check-limited: refused at the truth; and a reference without a pose
+               row("d_part", "m1", "failed", 0.02), row("d_part", kFromTruth, "failed", 0.01),
+               row("e_part", "m1", "failed", 1.0), row("e_part", kFromTruth, "failed", no_pose),
+               row("f_part", kFromTruth, "ok", 7.0)};
+  const fs::path out = dir_ / "reference";
+  WriteSceneEvaluation(eval, out.string());
+  std::stringstream md;
+  md << std::ifstream(out / "tables.md").rdbuf();
+  const std::string text = md.str();
+  EXPECT_NE(text.find("| cross-modal | a_part → lidar | m1 | 0.02 | m1 | 0.01 | 0.02 | 0.001, ok |"),
+            std::string::npos) << text;
+  EXPECT_NE(text.find("| cross-modal | b_part → lidar | – (every method failed) | – | – | – | – | "
+                      "0.03, ok |"),
+            std::string::npos) << text;
+  EXPECT_NE(text.find("| e_part → lidar | – (every method failed) | – | – | – | – | no pose, failed |"),
+            std::string::npos) << text;
+  EXPECT_NE(text.find("no pose (failed)"), std::string::npos) << text;  // its Table II cell
+  EXPECT_NE(text.find("Registered with the best method (ok and RMS < 0.05 m): 1 of 6 cells; "
+                      "every method failed: 5; best ok but RMS ≥ 0.05 m: 0; wrong ok (any "
+                      "method, RMS ≥ 3 m): 0."),
+            std::string::npos) << text;
+  EXPECT_NE(text.find("From the truth (the reference, searched within 0.5 m / 5° of it): ok and "
+                      "RMS < 0.05 m in 2 of 6 cells — what the data and the checks allow; of "
+                      "those, registered with the best method: 1. Not registered even from the "
+                      "truth (data- or check-limited): c_part → lidar 0.08 m ok; d_part → lidar "
+                      "0.01 m failed; e_part → lidar no pose; f_part → lidar 7 m ok."),
+            std::string::npos) << text;
+}
+
+TEST_F(SceneEvaluationTest, TheReferenceStartsAtTheTruth) {
+  // scan0 is bun0 in its own frame, turned 34° from the LiDAR's: the reference moves it (and
+  // its scanner) to the truth first, so it registers within the window and composes its
+  // result with the truth.
+  std::ofstream(dir_ / "clouds" / "scan0.viewpoints.txt") << "0 0 0.6\n";
+  SceneEvalOptions options;
+  options.methods = {kFromTruth};
+  options.cross_modal = false;
+  options.truth_window_m = 0.02;
+  options.truth_window_deg = 2.0;
+  const SceneEvaluation eval = EvaluateScene(dir_.string(), options);
+  ASSERT_EQ(eval.rows.size(), 2u);
+  for (const EvalRow& r : eval.rows) {
+    SCOPED_TRACE(r.source);
+    EXPECT_EQ(r.status, "ok") << r.reason;
+    EXPECT_LT(r.rms_m, 0.002);
+    EXPECT_EQ(r.visibility, r.source == "scan0");
+  }
+  options.truth_window_deg = 181.0;
+  EXPECT_THROW(EvaluateScene(dir_.string(), options), InputError);
 }
 
 TEST_F(SceneEvaluationTest, CellsSelectsRegistrations) {
