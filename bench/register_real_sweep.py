@@ -11,6 +11,7 @@ compares the result with the truth: RMS of ||T·p − T_true·p|| over the sourc
 Usage (Debian's python3 with numpy and open3d, for reading PCD/PLY and writing PLY):
   /usr/bin/python3 bench/register_real_sweep.py MMBA OUTDIR [--draws N] [--seed S]
       [--cases office1,table,milk,bunny_mm,v090_bun045,v180_v090,...] [--data DIR]
+      [--overlaps 0:0.5,1:0.4]
 (vNAME = a virtual scan of bun.conf's view NAME rendered from the zipper mesh:
 stanford_virtual_scans.py)
 Writes OUTDIR/sweep.csv (one row per registration) and prints a summary table.
@@ -77,7 +78,7 @@ def stanford_conf(conf_path):
     return poses
 
 
-def make_cases(data, names, rng):
+def make_cases(data, names, rng, overlaps=((0, 0.5), (1, 0.4))):
     """(name, source points, target points, target_from_source before the random move)."""
     pcl = os.path.join(data, 'pcl_test')
     bunny = os.path.join(data, 'stanford_bunny')
@@ -87,7 +88,7 @@ def make_cases(data, names, rng):
             file = {'office1': 'office1.pcd', 'table': 'table_scene_mug_stereo_textured.pcd',
                     'milk': 'milk.pcd', 'pclbunny': 'bunny.pcd'}[name]
             p = load(os.path.join(pcl, file))
-            for axis, overlap in ((0, 0.5), (1, 0.4)):
+            for axis, overlap in overlaps:
                 s, t = split(p, axis, overlap)
                 # different samplings, as two scans of one surface have
                 s = s[rng.random(len(s)) < 0.7]
@@ -159,11 +160,16 @@ def main():
     ap.add_argument('--offset', default='', help='X,Y,Z added to both clouds (e.g. UTM '
                     'coordinates 500000,5000000,100)')
     ap.add_argument('--extra', default='', help='extra register-cloud arguments')
+    ap.add_argument('--overlaps', default='0:0.5,1:0.4',
+                    help='the pieces of office1/table/milk/pclbunny: AXIS:SHARED,... (SHARED = '
+                    'the fraction of the extent both pieces hold; each piece holds (1+SHARED)/2)')
     args = ap.parse_args()
     os.makedirs(args.outdir, exist_ok=True)
     rng = np.random.default_rng(args.seed)
     rows = []
-    for name, src, tgt, base_truth in make_cases(args.data, args.cases.split(','), rng):
+    for name, src, tgt, base_truth in make_cases(
+            args.data, args.cases.split(','), rng,
+            [(int(a), float(o)) for a, o in (x.split(':') for x in args.overlaps.split(','))]):
         s_spacing = spacing(src)
         extent = float(np.linalg.norm(np.ptp(src, axis=0)))
         target_path = os.path.join(args.outdir, f'{name}_target.ply')

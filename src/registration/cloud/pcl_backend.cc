@@ -9,6 +9,7 @@
 #include <numeric>
 
 #include <nanoflann.hpp>
+#include <pcl/console/print.h>
 #include <pcl/features/3dsc.h>
 #include <pcl/features/fpfh_omp.h>
 #include <pcl/features/normal_3d_omp.h>
@@ -18,6 +19,8 @@
 #include <pcl/keypoints/harris_3d.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
+
+#include "mmba/core/logging.h"
 
 namespace mmba::registration::internal {
 
@@ -57,6 +60,15 @@ pcl::PointCloud<pcl::Normal>::Ptr ToPclNormals(const std::vector<Eigen::Vector3d
   cloud->width = static_cast<uint32_t>(normals.size());
   cloud->height = 1;
   return cloud;
+}
+
+// PCL prints its per-point complaints to stderr ("the local reference frame is not valid!
+// Aborting description of point …": SHOT on a keypoint with too few neighbours); such a
+// keypoint gets no descriptor and the matching skips it. Shown with --verbose only.
+void QuietPcl() {
+  pcl::console::setVerbosityLevel(spdlog::should_log(spdlog::level::debug)
+                                      ? pcl::console::L_WARN
+                                      : pcl::console::L_ALWAYS);
 }
 
 }  // namespace
@@ -246,6 +258,7 @@ void FeatureIndex::KNearest(const float* query, int k, std::vector<int>* indices
 std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>& points,
                                              double radius, const Eigen::Vector3d& viewpoint,
                                              const std::vector<size_t>* only) {
+  QuietPcl();
   const Eigen::Vector3d origin = io::LocalOrigin(points);
   auto cloud = ToPcl(points, origin);
   pcl::NormalEstimationOMP<pcl::PointXYZ, pcl::Normal> estimation(kThreads);
@@ -268,6 +281,7 @@ std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>&
 
 std::vector<float> TomasiResponse(const std::vector<Eigen::Vector3d>& points,
                                   const std::vector<Eigen::Vector3d>& normals, double radius) {
+  QuietPcl();
   auto cloud = ToPcl(points, io::LocalOrigin(points));
   auto pcl_normals = ToPclNormals(normals);
   pcl::HarrisKeypoint3D<pcl::PointXYZ, pcl::PointXYZI, pcl::Normal> harris(
@@ -312,6 +326,7 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
                                const std::vector<Eigen::Vector3d>& normals,
                                const std::vector<int>& keypoints, double radius,
                                const Eigen::Vector3d* up) {
+  QuietPcl();
   const Eigen::Vector3d origin = io::LocalOrigin(points);
   auto surface = ToPcl(points, origin);
   auto surface_normals = ToPclNormals(normals);
@@ -402,6 +417,7 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
 Descriptors ComputeFpfhPcl(const std::vector<Eigen::Vector3d>& points,
                            const std::vector<Eigen::Vector3d>& normals,
                            const std::vector<int>& keypoints, double radius) {
+  QuietPcl();
   const Eigen::Vector3d origin = io::LocalOrigin(points);
   auto surface = ToPcl(points, origin);
   auto surface_normals = ToPclNormals(normals);
