@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <stdexcept>
 
 #include <opencv2/core.hpp>
@@ -22,7 +23,9 @@ GrayImage ReadGrayImage(const std::string& path) {
   }
   cv::Mat image;
   try {
-    image = codecs::ReadImage(path, cv::IMREAD_GRAYSCALE);
+    // Any depth: IMREAD_GRAYSCALE alone divides a 16-bit image by 256, which leaves a 12-bit
+    // camera's values (0..4095 in 16 bits) 16 grey levels.
+    image = codecs::ReadImage(path, cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH);
   } catch (const cv::Exception& e) {
     throw InputError::Message(path, std::string("cannot decode image: ") + e.what());
   }
@@ -30,9 +33,46 @@ GrayImage ReadGrayImage(const std::string& path) {
     throw InputError::Message(path, "cannot decode image (expected PNG, JPEG, TIFF, ...)");
   }
   GrayImage gray(image.cols, image.rows);
+  if (image.depth() == CV_8U) {
+    for (int r = 0; r < image.rows; ++r) {
+      const uint8_t* row = image.ptr<uint8_t>(r);
+      for (int c = 0; c < image.cols; ++c) gray.at(c, r) = row[c];
+    }
+    return gray;
+  }
+  // Deeper images onto the 0..255 the metric bins, as fractions (no rounding), by the sensor's
+  // range rather than the image's content, so that black stays black and saturated saturated
+  // (the contrast check): integers by the fewest of 8, 10, 12, 14 or 16 bits that hold the
+  // largest value; floating point as 0..1 when its largest value is at most 1, else 0..max.
+  cv::Mat values;
+  image.convertTo(values, CV_64F);
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (int r = 0; r < values.rows; ++r) {
+    double* row = values.ptr<double>(r);
+    for (int c = 0; c < values.cols; ++c) {
+      if (std::isnan(row[c])) row[c] = 0.0;  // no value: black
+      lo = std::min(lo, row[c]);
+      hi = std::max(hi, row[c]);
+    }
+  }
+  if (!std::isfinite(lo) || !std::isfinite(hi) || lo < 0.0) {
+    throw InputError::Message(path, "image values outside [0, inf) (smallest " +
+                                        std::to_string(lo) + ", largest " + std::to_string(hi) +
+                                        "): expected a non-negative grey level");
+  }
+  double full = 1.0;
+  if (image.depth() == CV_32F || image.depth() == CV_64F) {
+    full = hi <= 1.0 ? 1.0 : hi;
+  } else {
+    for (int bits : {8, 10, 12, 14, 16, 32}) {
+      full = std::ldexp(1.0, bits) - 1.0;
+      if (hi <= full) break;
+    }
+  }
+  const double scale = 255.0 / full;
   for (int r = 0; r < image.rows; ++r) {
-    const uint8_t* row = image.ptr<uint8_t>(r);
-    for (int c = 0; c < image.cols; ++c) gray.at(c, r) = row[c];
+    const double* row = values.ptr<double>(r);
+    for (int c = 0; c < image.cols; ++c) gray.at(c, r) = static_cast<float>(row[c] * scale);
   }
   return gray;
 }

@@ -2,6 +2,9 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -522,6 +525,44 @@ TEST(SurfaceClasses, OrientationTowardsTheViewpoint) {
   EXPECT_EQ(OrientationClasses(scattered, LocalPlaneNormals(scattered, 0.5f),
                                Eigen::Vector3f::UnitZ(), Eigen::Vector3f::Zero(), 4),
             std::vector<uint8_t>(3, 6));
+}
+
+// A binary PGM of one row: maxval above 255 stores big-endian 16-bit values.
+std::string WritePgm(const std::string& name, int maxval, const std::vector<int>& values) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / (name + std::to_string(::getpid()) + ".pgm")).string();
+  std::ofstream out(path, std::ios::binary);
+  out << "P5\n" << values.size() << " 1\n" << maxval << "\n";
+  for (int v : values) {
+    if (maxval > 255) out.put(static_cast<char>(v >> 8));
+    out.put(static_cast<char>(v & 0xff));
+  }
+  return path;
+}
+
+// Deeper images come onto the metric's 0..255 by the sensor's range: a 12-bit camera's values
+// (in 16 bits) are not divided by 256 into 16 grey levels, black stays black, the largest
+// value the depth holds is 255; 8-bit images are read as they are.
+TEST(ReadGrayImage, DeeperImagesBySensorRange) {
+  struct Case {
+    int maxval;
+    std::vector<int> values;
+    double full;  // the range the values are read against
+  };
+  for (const Case& c : {Case{255, {0, 10, 200, 255}, 255.0}, Case{4095, {0, 16, 2048, 4095}, 4095.0},
+                        Case{4095, {0, 16, 300, 1000}, 1023.0},  // only 10 bits used
+                        Case{65535, {0, 257, 32768, 65535}, 65535.0},
+                        Case{65535, {0, 3, 100, 255}, 255.0}}) {  // 8-bit values in 16 bits
+    SCOPED_TRACE(c.maxval);
+    const std::string path = WritePgm("mmba_gray", c.maxval, c.values);
+    const GrayImage image = ReadGrayImage(path);
+    std::filesystem::remove(path);
+    ASSERT_EQ(image.width, 4);
+    ASSERT_EQ(image.height, 1);
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_NEAR(image.at(i, 0), c.values[i] * 255.0 / c.full, 1e-4) << i;
+    }
+  }
 }
 
 }  // namespace

@@ -43,9 +43,12 @@ struct GrayImage {
   return (1 - b) * ((1 - a) * row0[c0] + a * row0[c1]) + b * ((1 - a) * row1[c0] + a * row1[c1]);
 }
 
-/// Reads an image file (PNG, JPEG, TIFF, ... through OpenCV) as 8-bit grey (colour converted
-/// with the usual luma weights). Throws InputError naming the file when it is missing or not
-/// an image.
+/// Reads an image file (PNG, JPEG, TIFF, PGM, ... through OpenCV) as grey on 0..255 (colour
+/// converted with the usual luma weights). 8-bit images as they are; deeper ones by the
+/// sensor's range, as fractions: integers against the fewest of 8, 10, 12, 14, 16 bits that
+/// hold the largest value (a 12-bit camera's 0..4095 onto 0..255), floating point against 1
+/// (or its largest value when above 1); NaN is black. Throws InputError naming the file when it
+/// is missing, not an image, or holds negative values.
 GrayImage ReadGrayImage(const std::string& path);
 
 /// Writes an 8-bit grey PNG atomically (values clamped to 0..255).
