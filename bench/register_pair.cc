@@ -97,6 +97,7 @@ int main(int argc, char** argv) {
     else if (key == "sac_ia_confidence") options.sac_ia_confidence = v;
     else if (key == "num_period_shifts") options.num_period_shifts = static_cast<int>(v);
     else if (key == "symmetry_turns") options.symmetry_turns = v != 0;
+    else if (key == "local_search") options.local_search = v != 0;
     else if (key == "symmetry_cone_deg") options.symmetry_cone_deg = v;
     else if (key == "symmetry_cone_step_deg") options.symmetry_cone_step_deg = v;
     else if (key == "sac_ia_alternative_ratio") options.sac_ia_alternative_ratio = v;

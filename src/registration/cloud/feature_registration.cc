@@ -1255,6 +1255,8 @@ void RegisteredMoments(const std::vector<Eigen::Vector3d>& src, const Eigen::Mat
 // pose that can slide, tilt or turn by δ without losing score is only known to δ: a thick,
 // noisy target (every displaced point still has a noise point near it), a planar or linear
 // overlap, or a pose off the score's maximum.
+// With `open_at_bound`, only the test at `bound` is made: the directions not told apart there
+// are returned in it (bound when none, else +inf).
 // Tested first at `bound` (the verdict); if resolved there, at bound/2, bound/4, bound/8 until
 // some direction is not (the reported resolution is the last resolved δ); if not, at 2·bound,
 // 4·bound, … and at `max_delta` for the unresolved directions only (a direction resolved at δ
@@ -1264,7 +1266,8 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
                       const Eigen::Matrix4d& t, const std::vector<double>& base_residuals,
                       const std::vector<bool>& base_agree, double reach, double tau, double block,
                       double bound, double max_delta, double t_min, bool principal_axes,
-                      const std::vector<Vector6d>& extra_directions) {
+                      const std::vector<Vector6d>& extra_directions,
+                      std::vector<Vector6d>* open_at_bound = nullptr) {
   if (src.size() < 10) return std::numeric_limits<double>::infinity();
   Eigen::Vector3d c;
   Eigen::Matrix3d cov;
@@ -1316,6 +1319,13 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
   std::vector<size_t> all(dirs.size());
   for (size_t d = 0; d < dirs.size(); ++d) all[d] = d;
   std::vector<size_t> open = unresolved(all, bound);
+  if (open_at_bound != nullptr) {
+    // Only the directions not told apart at the bound, as motions of 1 m RMS about c (the
+    // caller applies them with MotionAbout(δ·ξ, c)).
+    open_at_bound->clear();
+    for (size_t d : open) open_at_bound->push_back(dirs[d]);
+    return open.empty() ? bound : std::numeric_limits<double>::infinity();
+  }
   if (open.empty()) {
     double delta = bound;
     for (int k = 0; k < 3; ++k) {
@@ -1334,6 +1344,12 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
 }
 
 using internal::StrideSample;
+
+// Rounds of the local search (CloudRegistrationOptions::local_search): each starts from the
+// move of the round before that scored above the best.
+constexpr int kLocalSearchRounds = 4;
+// ICP iterations of each move's screening in the local search.
+constexpr int kLocalSearchIterations = 10;
 
 template <typename T>
 std::vector<T> Pick(const std::vector<T>& v, const std::vector<size_t>& idx) {
@@ -1717,8 +1733,11 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   double noise_sigma = std::numeric_limits<double>::infinity();
   // A finalist refined on its own crop of the target: fine ICP from `icp_start`, then its fine
   // residuals and their robust scale. False when the pose puts the source off the target.
-  auto refine = [&](Finalist* f, double icp_start) {
-    const std::shared_ptr<TargetCrop> crop = crop_for(f->h.transform);
+  // `use_crop`: refine on that crop instead of the one around f's pose (a move of a finalist
+  // within R_s, on the finalist's crop: no new crop, no new normals).
+  auto refine = [&](Finalist* f, double icp_start,
+                    const std::shared_ptr<TargetCrop>& use_crop = nullptr) {
+    const std::shared_ptr<TargetCrop> crop = use_crop ? use_crop : crop_for(f->h.transform);
     const TargetCrop& c = *crop;
     if (c.level.points.size() < 10) return false;
     f->spacing = std::max(src_fine_spacing, c.level.spacing);
@@ -2061,6 +2080,78 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     }
     if (finalists.size() > before_turns) {
       sort_finalists();
+    }
+  }
+  // Local search (options.local_search): a best pose that slides along or about a principal
+  // axis of the source at the resolution bound may sit off the score's maximum — the
+  // hypotheses' ICP stopped short on a noisy or planar overlap (the gate's multi-view part on
+  // the stereo cloud, seed 8: every hypothesis 0.7–1.4 m along the gate, the truth scoring
+  // 0.66 against 0.47). The pose is moved along each open direction by δ = bound, 2·bound, …
+  // up to R_s, refined by the fine ICP from δ, and the best-scoring move joins the finalists
+  // when it scores above the best. A resolved best has no open direction: nothing changes.
+  // Repeated from a move that scored higher, up to local_search_rounds times.
+  for (int round = 0; !options.paper_only && options.local_search && !finalists.empty() &&
+                      round < kLocalSearchRounds;
+       ++round) {
+    const Finalist& f0 = finalists.front();
+    const double bound = options.max_resolution_spacing * f0.spacing;
+    const double reach = std::min(normal_radius, options.normal_radius_spacing * f0.spacing);
+    std::vector<Vector6d> open;
+    PoseResolution(fine_src, fine_src_n, *f0.crop, f0.h.transform, f0.residuals, f0.agree, reach,
+                   fine_tau, support_radius, bound, support_radius, options.resolution_t, true, {},
+                   &open);
+    Eigen::Vector3d c;
+    Eigen::Matrix3d cov;
+    RegisteredMoments(fine_src, f0.h.transform, &c, &cov);
+    // The moves are screened on the best's crop (no new crops) by a short ICP from δ
+    // (kLocalSearchIterations); the best move is then refined in full on its own crop and
+    // scored there.
+    std::optional<Finalist> top;
+    const TargetCrop& crop0 = *f0.crop;
+    for (double delta = bound; delta <= support_radius * 1.0001 && !open.empty(); delta *= 2.0) {
+      for (const Vector6d& xi : open) {
+        Finalist m;
+        m.h = f0.h;
+        m.spacing = f0.spacing;
+        m.crop = f0.crop;
+        m.h.transform = PointToPlaneIcp(fine_src, crop0.level.points, crop0.level.normals,
+                                        *crop0.index, MotionAbout(delta * xi, c) * f0.h.transform,
+                                        delta, options.icp_distance_spacing * f0.spacing,
+                                        std::min(options.icp_iterations, kLocalSearchIterations),
+                                        nullptr);
+        if (!inside(m.h.transform)) continue;
+        FineResiduals(fine_src, fine_src_n, crop0, m.h.transform, reach, &m.residuals, &m.agree);
+        ScoreFine(m.residuals, m.agree, fine_tau, violations_of(m), &m.h);
+        if (!top || m.h.score > top->h.score) top = std::move(m);
+      }
+    }
+    if (top && top->h.score > f0.h.score) {
+      if (refine(&*top, options.icp_distance_spacing * top->spacing) && inside(top->h.transform)) {
+        top->violates = violations_of(*top);
+        ScoreFine(top->residuals, top->agree, fine_tau, top->violates, &top->h);
+      } else {
+        top.reset();
+      }
+    }
+    spdlog::debug("registration: local search round {}: {} open directions, best move scores "
+                  "{:.4g} (best {:.4g})",
+                  round + 1, open.size(), top ? top->h.score : 0.0, f0.h.score);
+    if (top && top->h.score > f0.h.score) {
+      if (round == 0) top->h.origin = f0.h.origin + ", local search";
+      top->coarse_score = f0.coarse_score;  // a refinement of the best
+      // It replaces a finalist it converged to (scoring below it), else joins them.
+      auto same = std::find_if(finalists.begin(), finalists.end(), [&](const Finalist& g) {
+        return SameTransform(top->h.transform, g.h.transform, centre, 10.0,
+                             std::max(10.0 * fine_tau, 2.0 * fine_spacing));
+      });
+      if (same == finalists.end()) {
+        finalists.push_back(std::move(*top));
+      } else if (top->h.score > same->h.score) {
+        *same = std::move(*top);
+      }
+      sort_finalists();
+    } else {
+      break;
     }
   }
   // A finalist that the visibility test contradicts (the verdict below would fail it as the
