@@ -119,6 +119,23 @@ TEST_F(SceneEvaluationTest, BothExperimentsAndTables) {
   EXPECT_NE(md.str().find("| scan0_part |"), std::string::npos);
 }
 
+// A row of a cell source → lidar (success below 3 m, accurate below 5 cm).
+EvalRow MakeRow(const std::string& experiment, const std::string& source,
+                const std::string& method, const std::string& status, double rms,
+                double sigma = 0.01) {
+  EvalRow r;
+  r.sigma_rms_m = sigma;
+  r.experiment = experiment;
+  r.source = source;
+  r.target = "lidar";
+  r.method = method;
+  r.status = status;
+  r.rms_m = rms;
+  r.success = rms < 3.0;
+  r.accurate = rms < 0.05;
+  return r;
+}
+
 // The summary picks, per cell, the method that reported ok closest to the truth, and counts
 // cells registered, refused by every method, off, and wrong oks on their own.
 TEST_F(SceneEvaluationTest, BestMethodPerCell) {
@@ -126,21 +143,7 @@ TEST_F(SceneEvaluationTest, BestMethodPerCell) {
   eval.dir = "scene";
   eval.success_threshold_m = 3.0;
   eval.accurate_m = 0.05;
-  auto row = [](const std::string& experiment, const std::string& source,
-                const std::string& method, const std::string& status, double rms,
-                double sigma = 0.01) {
-    EvalRow r;
-    r.sigma_rms_m = sigma;
-    r.experiment = experiment;
-    r.source = source;
-    r.target = "lidar";
-    r.method = method;
-    r.status = status;
-    r.rms_m = rms;
-    r.success = rms < 3.0;
-    r.accurate = rms < 0.05;
-    return r;
-  };
+  auto row = [](auto... args) { return MakeRow(args...); };
   // In d_part the wrong ok states the larger σ, so the ok chosen without the truth is right; in
   // a the closer ok states the larger σ, so the chosen one is the other (also accurate); in e
   // the chosen one is the inaccurate ok.
@@ -181,19 +184,7 @@ TEST_F(SceneEvaluationTest, TheReferenceFromTheTruthIsNoMethod) {
   eval.truth_window_m = 0.5;
   eval.truth_window_deg = 5.0;
   auto row = [](const std::string& source, const std::string& method, const std::string& status,
-                double rms) {
-    EvalRow r;
-    r.sigma_rms_m = 0.01;
-    r.experiment = "cross-modal";
-    r.source = source;
-    r.target = "lidar";
-    r.method = method;
-    r.status = status;
-    r.rms_m = rms;
-    r.success = rms < 3.0;
-    r.accurate = rms < 0.05;
-    return r;
-  };
+                double rms) { return MakeRow("cross-modal", source, method, status, rms); };
   const double no_pose = std::numeric_limits<double>::quiet_NaN();
   eval.rows = {row("a_part", "m1", "ok", 0.02), row("a_part", kFromTruth, "ok", 0.001),
                // search-limited: refused by the method, the reference registers it
