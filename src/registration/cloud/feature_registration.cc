@@ -2087,9 +2087,10 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   // hypotheses' ICP stopped short on a noisy or planar overlap (the gate's multi-view part on
   // the stereo cloud, seed 8: every hypothesis 0.7–1.4 m along the gate, the truth scoring
   // 0.66 against 0.47). The pose is moved along each open direction by δ = bound, 2·bound, …
-  // up to R_s, refined by the fine ICP from δ, and the best-scoring move joins the finalists
-  // when it scores above the best. A resolved best has no open direction: nothing changes.
-  // Repeated from a move that scored higher, up to local_search_rounds times.
+  // up to R_s, each move screened by a short ICP from δ, and the best move, refined in full,
+  // joins the finalists (or replaces the one it converged to) when it scores above the best.
+  // A resolved best has no open direction: nothing changes. Repeated from the new best, up
+  // to kLocalSearchRounds times.
   for (int round = 0; !options.paper_only && options.local_search && !finalists.empty() &&
                       round < kLocalSearchRounds;
        ++round) {

@@ -150,9 +150,10 @@ struct CloudRegistrationOptions {
   /// A best pose off the score's maximum: when some displacement of the best finalist along
   /// or about a principal axis of the source is not told apart at the resolution bound (the
   /// pose slides there), the pose is moved along each such direction by the bound, twice and
-  /// four times it… up to R_s, refined by the fine ICP from that distance, and the one
-  /// scoring best joins the finalists when it scores above the best (the verdict then
-  /// concerns it). A resolved best is left as it is.
+  /// four times it… up to R_s, each move screened by a short ICP from that distance; the best
+  /// move, refined by the fine ICP, joins the finalists when it scores above the best (the
+  /// verdict then concerns it), and the search repeats from it (up to 4 rounds). A resolved
+  /// best — every "ok" — is left as it is.
   bool local_search = true;
   /// Non-levelled symmetric turns: each principal axis is also tried with the axes within
   /// this angle of it, in rings this step apart (degrees; cone >= 0, 0 = the principal axes
