@@ -30,6 +30,7 @@ struct RegisterCloudArgs {
   std::vector<double> up = {0.0, 0.0, 1.0};
   bool no_icp = false;
   bool no_intensity = false;
+  bool no_local_search = false;
   bool paper = false;
   bool skip_invalid = false;
   double error_map_max_m = 0.0;
@@ -109,6 +110,7 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   options.up = up.normalized();
   options.icp = !args.no_icp;
   options.intensity_test = !args.no_intensity;
+  options.local_search = !args.no_local_search;
   options.paper_only = args.paper;
   options.seed = args.seed;
   options.min_fitness = args.min_fitness;
@@ -210,6 +212,8 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
                   "approximate pose applied): the identity is a hypothesis, poses outside are dropped")
       ->expected(2);
   sub->add_flag("--no-icp", args->no_icp, "skip the ICP refinement");
+  sub->add_flag("--no-local-search", args->no_local_search,
+                "do not move an unresolved best pose along the directions it slides in");
   sub->add_flag("--no-intensity", args->no_intensity,
                 "geometry only: do not let the clouds' intensity (or colour) settle a tie "
                 "between pseudo-symmetric poses");

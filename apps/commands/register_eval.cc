@@ -16,6 +16,7 @@ struct RegisterEvalArgs {
   double accurate_m = 0.05;
   bool no_cross_modal = false;
   bool gravity_aligned = false;
+  bool no_local_search = false;
   bool no_viewpoints = false;
   std::vector<std::string> cells;
   double min_fitness = registration::CloudRegistrationOptions().min_fitness;
@@ -28,6 +29,7 @@ int RunRegisterEval(const RegisterEvalArgs& args) {
   options.accurate_m = args.accurate_m;
   options.cross_modal = !args.no_cross_modal;
   options.base.gravity_aligned = args.gravity_aligned;
+  options.base.local_search = !args.no_local_search;
   options.base.min_fitness = args.min_fitness;
   options.use_viewpoints = !args.no_viewpoints;
   options.cells = args.cells;
@@ -81,6 +83,9 @@ std::function<int()> SetupRegisterEval(CLI::App& app, CommonOptions* common) {
       ->capture_default_str();
   sub->add_flag("--no-cross-modal", args->no_cross_modal, "experiment I only");
   sub->add_flag("--gravity-aligned", args->gravity_aligned, "clouds are levelled (z up)");
+  sub->add_flag("--no-local-search", args->no_local_search,
+                "robust pipeline: do not move an unresolved best pose along the directions it "
+                "slides in");
   sub->add_option("--min-fitness", args->min_fitness,
                   "robust pipeline: fraction of the source that must fit the target (0..1]")
       ->capture_default_str();
