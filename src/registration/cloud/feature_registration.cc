@@ -1348,8 +1348,9 @@ using internal::StrideSample;
 // Rounds of the local search (CloudRegistrationOptions::local_search): each starts from the
 // move of the round before that scored above the best.
 constexpr int kLocalSearchRounds = 4;
-// ICP iterations of each move's screening in the local search.
+// ICP iterations and source points of each move's screening in the local search.
 constexpr int kLocalSearchIterations = 10;
+constexpr size_t kLocalSearchScreenPoints = 2000;
 
 template <typename T>
 std::vector<T> Pick(const std::vector<T>& v, const std::vector<size_t>& idx) {
@@ -2104,30 +2105,43 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     Eigen::Vector3d c;
     Eigen::Matrix3d cov;
     RegisteredMoments(fine_src, f0.h.transform, &c, &cov);
-    // The moves are screened on the best's crop (no new crops) by a short ICP from δ
-    // (kLocalSearchIterations); the best move is then refined in full on its own crop and
-    // scored there.
+    // The moves are screened on the best's crop (no new crops) with a sample of the fine
+    // source (kLocalSearchScreenPoints): a short ICP from δ (kLocalSearchIterations), scored
+    // against the best's score on the same sample (free space left out). The move screening
+    // best is then refined in full on its own crop and scored like every finalist.
     std::optional<Finalist> top;
     const TargetCrop& crop0 = *f0.crop;
+    const std::vector<size_t> screen_idx =
+        StrideSample(fine_src.size(), kLocalSearchScreenPoints);
+    const std::vector<Eigen::Vector3d> screen_src = Pick(fine_src, screen_idx);
+    const std::vector<Eigen::Vector3d> screen_n = Pick(fine_src_n, screen_idx);
+    auto screen_score = [&](const Eigen::Matrix4d& t) {
+      std::vector<double> residuals;
+      std::vector<bool> agree;
+      FineResiduals(screen_src, screen_n, crop0, t, reach, &residuals, &agree);
+      Hypothesis h;
+      ScoreFine(residuals, agree, fine_tau, {}, &h);
+      return h.score;
+    };
+    double top_screen = open.empty() ? 0.0 : screen_score(f0.h.transform);
     for (double delta = bound; delta <= support_radius * 1.0001 && !open.empty(); delta *= 2.0) {
       for (const Vector6d& xi : open) {
-        Finalist m;
-        m.h = f0.h;
-        m.spacing = f0.spacing;
-        m.crop = f0.crop;
-        m.h.transform = PointToPlaneIcp(fine_src, crop0.level.points, crop0.level.normals,
-                                        *crop0.index, MotionAbout(delta * xi, c) * f0.h.transform,
-                                        delta, options.icp_distance_spacing * f0.spacing,
-                                        std::min(options.icp_iterations, kLocalSearchIterations),
-                                        nullptr);
-        if (!inside(m.h.transform)) continue;
-        FineResiduals(fine_src, fine_src_n, crop0, m.h.transform, reach, &m.residuals, &m.agree);
-        ScoreFine(m.residuals, m.agree, fine_tau, violations_of(m), &m.h);
-        if (!top || m.h.score > top->h.score) top = std::move(m);
+        const Eigen::Matrix4d moved = PointToPlaneIcp(
+            screen_src, crop0.level.points, crop0.level.normals, *crop0.index,
+            MotionAbout(delta * xi, c) * f0.h.transform, delta,
+            options.icp_distance_spacing * f0.spacing,
+            std::min(options.icp_iterations, kLocalSearchIterations), nullptr);
+        if (!inside(moved)) continue;
+        const double score = screen_score(moved);
+        if (score <= top_screen) continue;
+        top_screen = score;
+        top.emplace();
+        top->h = f0.h;
+        top->h.transform = moved;
       }
     }
-    if (top && top->h.score > f0.h.score) {
-      if (refine(&*top, options.icp_distance_spacing * top->spacing) && inside(top->h.transform)) {
+    if (top) {
+      if (refine(&*top, bound) && inside(top->h.transform)) {
         top->violates = violations_of(*top);
         ScoreFine(top->residuals, top->agree, fine_tau, top->violates, &top->h);
       } else {
