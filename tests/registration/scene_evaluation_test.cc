@@ -1,5 +1,6 @@
 #include "mmba/registration/cloud/scene_evaluation.h"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -241,6 +242,28 @@ TEST_F(SceneEvaluationTest, TheReferenceStartsAtTheTruth) {
   }
   options.truth_window_deg = 181.0;
   EXPECT_THROW(EvaluateScene(dir_.string(), options), InputError);
+}
+
+TEST(PlacedAtTruth, MovesPointsNormalsAndSensors) {
+  // The reference's start: a sensor left in the source's frame would look at the placed cloud
+  // from somewhere else, and the free-space test would judge the truth by the wrong rays.
+  io::PointCloud source;
+  source.points = {{1, 0, 0}, {0, 2, 0}};
+  source.normals = {{0, 0, 1}, {1, 0, 0}};
+  Eigen::Matrix4d truth = Eigen::Matrix4d::Identity();
+  truth.topLeftCorner<3, 3>() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).matrix();
+  truth.topRightCorner<3, 1>() = Eigen::Vector3d(10, 20, 30);
+  std::vector<Eigen::Vector3d> sensors = {{0, 0, 5}, {3, 0, 0}};
+  const io::PointCloud placed = PlacedAtTruth(source, truth, &sensors);
+  ASSERT_EQ(placed.size(), 2u);
+  EXPECT_TRUE(placed.points[0].isApprox(Eigen::Vector3d(10, 21, 30)));
+  EXPECT_TRUE(placed.points[1].isApprox(Eigen::Vector3d(8, 20, 30)));
+  EXPECT_TRUE(placed.normals[0].isApprox(Eigen::Vector3d(0, 0, 1)));
+  EXPECT_TRUE(placed.normals[1].isApprox(Eigen::Vector3d(0, 1, 0)));
+  ASSERT_EQ(sensors.size(), 2u);
+  EXPECT_TRUE(sensors[0].isApprox(Eigen::Vector3d(10, 20, 35)));
+  EXPECT_TRUE(sensors[1].isApprox(Eigen::Vector3d(10, 23, 30)));
+  EXPECT_TRUE(source.points[0].isApprox(Eigen::Vector3d(1, 0, 0)));  // the input is a copy
 }
 
 TEST_F(SceneEvaluationTest, CellsSelectsRegistrations) {

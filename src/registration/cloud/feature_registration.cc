@@ -1243,6 +1243,14 @@ void RegisteredMoments(const std::vector<Eigen::Vector3d>& src, const Eigen::Mat
   *cov /= static_cast<double>(std::max<size_t>(1, src.size()));
 }
 
+// PoseResolution's test at the resolution bound: the directions it did not tell apart there
+// (indices into its list of motions, and the motions themselves, 1 m RMS about the registered
+// source's centroid: the caller applies them with MotionAbout(δ·ξ, c)).
+struct BoundTest {
+  std::vector<size_t> open;
+  std::vector<Vector6d> directions;
+};
+
 // How precisely do the data fix the pose? The chosen pose is displaced by δ (RMS over the
 // source sample) along each of 12 directions — ± a translation along, and ± a rotation about
 // (through the centroid), each principal axis of the registered source — and ± along the
@@ -1256,7 +1264,9 @@ void RegisteredMoments(const std::vector<Eigen::Vector3d>& src, const Eigen::Mat
 // noisy target (every displaced point still has a noise point near it), a planar or linear
 // overlap, or a pose off the score's maximum.
 // With `open_at_bound`, only the test at `bound` is made: the directions not told apart there
-// are returned in it (bound when none, else +inf).
+// are returned in it (bound when none, else +inf). With `known_at_bound`, the test at `bound`
+// is not made again: it is that earlier result, for the same pose and arguments (the local
+// search's last test of the best it left is the verdict's first step).
 // Tested first at `bound` (the verdict); if resolved there, at bound/2, bound/4, bound/8 until
 // some direction is not (the reported resolution is the last resolved δ); if not, at 2·bound,
 // 4·bound, … and at `max_delta` for the unresolved directions only (a direction resolved at δ
@@ -1267,7 +1277,8 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
                       const std::vector<bool>& base_agree, double reach, double tau, double block,
                       double bound, double max_delta, double t_min, bool principal_axes,
                       const std::vector<Vector6d>& extra_directions,
-                      std::vector<Vector6d>* open_at_bound = nullptr) {
+                      BoundTest* open_at_bound = nullptr,
+                      const BoundTest* known_at_bound = nullptr) {
   if (src.size() < 10) return std::numeric_limits<double>::infinity();
   Eigen::Vector3d c;
   Eigen::Matrix3d cov;
@@ -1318,12 +1329,11 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
   };
   std::vector<size_t> all(dirs.size());
   for (size_t d = 0; d < dirs.size(); ++d) all[d] = d;
-  std::vector<size_t> open = unresolved(all, bound);
+  std::vector<size_t> open = known_at_bound != nullptr ? known_at_bound->open : unresolved(all, bound);
   if (open_at_bound != nullptr) {
-    // Only the directions not told apart at the bound, as motions of 1 m RMS about c (the
-    // caller applies them with MotionAbout(δ·ξ, c)).
-    open_at_bound->clear();
-    for (size_t d : open) open_at_bound->push_back(dirs[d]);
+    open_at_bound->open = open;
+    open_at_bound->directions.clear();
+    for (size_t d : open) open_at_bound->directions.push_back(dirs[d]);
     return open.empty() ? bound : std::numeric_limits<double>::infinity();
   }
   if (open.empty()) {
@@ -2092,16 +2102,25 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   // joins the finalists (or replaces the one it converged to) when it scores above the best.
   // A resolved best has no open direction: nothing changes. Repeated from the new best, up
   // to kLocalSearchRounds times.
+  // The local search's last test at the bound, of the pose and crop it was made for.
+  struct {
+    Eigen::Matrix4d transform = Eigen::Matrix4d::Zero();
+    const TargetCrop* crop = nullptr;
+    double spacing = 0.0;
+    BoundTest test;
+  } best_tested;
   for (int round = 0; !options.paper_only && options.local_search && !finalists.empty() &&
                       round < kLocalSearchRounds;
        ++round) {
     const Finalist& f0 = finalists.front();
     const double bound = options.max_resolution_spacing * f0.spacing;
     const double reach = std::min(normal_radius, options.normal_radius_spacing * f0.spacing);
-    std::vector<Vector6d> open;
+    BoundTest test;
     PoseResolution(fine_src, fine_src_n, *f0.crop, f0.h.transform, f0.residuals, f0.agree, reach,
                    fine_tau, support_radius, bound, support_radius, options.resolution_t, true, {},
-                   &open);
+                   &test);
+    best_tested = {f0.h.transform, f0.crop.get(), f0.spacing, std::move(test)};
+    const std::vector<Vector6d>& open = best_tested.test.directions;
     Eigen::Vector3d c;
     Eigen::Matrix3d cov;
     RegisteredMoments(fine_src, f0.h.transform, &c, &cov);
@@ -2280,9 +2299,13 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
           std::isfinite(u.sigma_rms) ? DescribeMotion(weakest, result.sigma_rms_m) + " (1 sigma)"
                                      : DescribeMotion(weakest, bound) + at_bound.str();
     }
+    // The local search tested this pose at the bound already when it left it as the best.
+    const bool tested = best_tested.crop == f.crop.get() && best_tested.spacing == f.spacing &&
+                        best_tested.transform == f.h.transform;
     axis_resolution = PoseResolution(fine_src, fine_src_n, *f.crop, f.h.transform, f.residuals,
                                      f.agree, reach, fine_tau, support_radius, bound,
-                                     support_radius, options.resolution_t, true, {});
+                                     support_radius, options.resolution_t, true, {}, nullptr,
+                                     tested ? &best_tested.test : nullptr);
     if (options.probe_weak_motions && !u.weak_directions.empty()) {
       // Probed first at its own bound (the δ grid ·2 / ÷2 from there).
       const double weak_bound = options.max_weak_motion_resolution_spacing * f.spacing;

@@ -63,6 +63,15 @@ Eigen::Vector3d Apply(const Eigen::Matrix4d& m, const Eigen::Vector3d& p) {
 
 }  // namespace
 
+io::PointCloud PlacedAtTruth(const io::PointCloud& source, const Eigen::Matrix4d& target_from_source,
+                             std::vector<Eigen::Vector3d>* viewpoints) {
+  io::PointCloud placed = source;
+  for (auto& p : placed.points) p = Apply(target_from_source, p);
+  for (auto& n : placed.normals) n = target_from_source.topLeftCorner<3, 3>() * n;
+  for (auto& v : *viewpoints) v = Apply(target_from_source, v);
+  return placed;
+}
+
 std::vector<Eigen::Vector3d> ReadViewpoints(const std::string& path) {
   std::istringstream in(io::ReadWholeFile(path));
   std::vector<Eigen::Vector3d> out;
@@ -191,25 +200,20 @@ SceneEvaluation EvaluateScene(const std::string& dir, const SceneEvalOptions& op
       // positions), searched only around it; its result composed with that move.
       const bool from_truth = method == kFromTruth;
       io::PointCloud placed;
-      if (from_truth) {
-        placed = cloud(source);
-        for (auto& p : placed.points) p = Apply(truth, p);
-        for (auto& n : placed.normals) n = truth.topLeftCorner<3, 3>() * n;
-        o.search_window_m = options.truth_window_m;
-        o.search_window_deg = options.truth_window_deg;
-      }
       if (method == "mmba" || method == "mmba-g" || from_truth) {
         o.descriptor = Descriptor::kAuto;
         o.paper_only = false;
         if (method == "mmba-g") o.gravity_aligned = true;
         o.source_viewpoints = viewpoints(source);
-        if (from_truth) {
-          for (auto& v : o.source_viewpoints) v = Apply(truth, v);
-        }
         o.target_viewpoints = viewpoints(target);
       } else {
         ParseDescriptor(method, &o.descriptor);
         o.paper_only = true;
+      }
+      if (from_truth) {
+        placed = PlacedAtTruth(cloud(source), truth, &o.source_viewpoints);
+        o.search_window_m = options.truth_window_m;
+        o.search_window_deg = options.truth_window_deg;
       }
       CloudRegistrationResult r =
           RegisterClouds(from_truth ? placed : cloud(source), cloud(target), o);
