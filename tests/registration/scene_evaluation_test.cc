@@ -196,7 +196,11 @@ TEST_F(SceneEvaluationTest, TheReferenceFromTheTruthIsNoMethod) {
                // check-limited: refused at the truth; and a reference without a pose
                row("d_part", "m1", "failed", 0.02), row("d_part", kFromTruth, "failed", 0.01),
                row("e_part", "m1", "failed", 1.0), row("e_part", kFromTruth, "failed", no_pose),
-               row("f_part", kFromTruth, "ok", 7.0)};
+               row("f_part", kFromTruth, "ok", 7.0),
+               // refused at the right pose: the reference registers it
+               row("g_part", "m1", "failed", 0.02), row("g_part", "m2", "failed", 0.9),
+               row("g_part", kFromTruth, "ok", 0.01)};
+  eval.rows[11].reason = "ambiguous: a different pose fits almost as well";
   const fs::path out = dir_ / "reference";
   WriteSceneEvaluation(eval, out.string());
   std::stringstream md;
@@ -210,15 +214,18 @@ TEST_F(SceneEvaluationTest, TheReferenceFromTheTruthIsNoMethod) {
   EXPECT_NE(text.find("| e_part → lidar | – (every method failed) | – | – | – | – | no pose, failed |"),
             std::string::npos) << text;
   EXPECT_NE(text.find("no pose (failed)"), std::string::npos) << text;  // its Table II cell
-  EXPECT_NE(text.find("Registered with the best method (ok and RMS < 0.05 m): 1 of 6 cells; "
-                      "every method failed: 5; best ok but RMS ≥ 0.05 m: 0; wrong ok (any "
+  EXPECT_NE(text.find("Registered with the best method (ok and RMS < 0.05 m): 1 of 7 cells; "
+                      "every method failed: 6; best ok but RMS ≥ 0.05 m: 0; wrong ok (any "
                       "method, RMS ≥ 3 m): 0."),
             std::string::npos) << text;
   EXPECT_NE(text.find("From the truth (the reference, searched within 0.5 m / 5° of it): ok and "
-                      "RMS < 0.05 m in 2 of 6 cells — what the data and the checks allow; of "
-                      "those, registered with the best method: 1. Not registered even from the "
-                      "truth (data- or check-limited): c_part → lidar 0.08 m ok; d_part → lidar "
-                      "0.01 m failed; e_part → lidar no pose; f_part → lidar 7 m ok."),
+                      "RMS < 0.05 m in 3 of 7 cells — what the data and the checks allow; of "
+                      "those, registered with the best method: 1; not registered by any method "
+                      "(search- or check-limited; 1 of them refused at a pose within 0.05 m): "
+                      "b_part → lidar (closest: m1 5 m failed); g_part → lidar (closest: m1 "
+                      "0.02 m failed, ambiguous). Not registered even from the truth (data- or "
+                      "check-limited): c_part → lidar 0.08 m ok; d_part → lidar 0.01 m failed; "
+                      "e_part → lidar no pose; f_part → lidar 7 m ok."),
             std::string::npos) << text;
 }
 

@@ -383,6 +383,7 @@ void WriteSceneEvaluation(const SceneEvaluation& eval, const std::string& out_di
       const EvalRow* best = nullptr;
       const EvalRow* chosen = nullptr;
       const EvalRow* reference = nullptr;  // the "from-truth" row, when run
+      const EvalRow* closest = nullptr;    // any status: the method row nearest the truth
     };
     std::vector<Cell> cells;
     int wrong_ok = 0;
@@ -391,10 +392,13 @@ void WriteSceneEvaluation(const SceneEvaluation& eval, const std::string& out_di
         return c.first->experiment == r.experiment && c.first->source == r.source &&
                c.first->target == r.target;
       });
-      if (it == cells.end()) it = cells.insert(cells.end(), Cell{&r, nullptr, nullptr, nullptr});
+      if (it == cells.end()) it = cells.insert(cells.end(), Cell{&r});
       if (r.method == kFromTruth) {
         it->reference = &r;
         continue;
+      }
+      if (std::isfinite(r.rms_m) && (it->closest == nullptr || r.rms_m < it->closest->rms_m)) {
+        it->closest = &r;
       }
       if (r.status != "ok") continue;
       wrong_ok += r.success ? 0 : 1;
@@ -406,10 +410,11 @@ void WriteSceneEvaluation(const SceneEvaluation& eval, const std::string& out_di
       return c.reference != nullptr;
     });
     int registered = 0, refused = 0, chosen_registered = 0;
-    int allowed = 0, allowed_registered = 0;
-    std::ostringstream off, limited;
+    int allowed = 0, allowed_registered = 0, allowed_refused_right = 0;
+    std::ostringstream off, limited, missed;
     off << std::setprecision(3);
     limited << std::setprecision(3);
+    missed << std::setprecision(3);
     out << "\nBest method per cell — of the methods that reported ok, the one closest to the "
            "ground truth; and the one chosen without it, by the smallest stated sigma_rms_m"
         << (with_reference ? "; and the reference started at the truth (from-truth: RMS m, "
@@ -447,7 +452,23 @@ void WriteSceneEvaluation(const SceneEvaluation& eval, const std::string& out_di
           }
           if (ref->status == "ok" && ref->accurate) {
             ++allowed;
-            allowed_registered += c.best != nullptr && c.best->accurate ? 1 : 0;
+            if (c.best != nullptr && c.best->accurate) {
+              ++allowed_registered;
+            } else {
+              // Search- or check-limited: the method row nearest the truth, and the first
+              // words of its reason ("ambiguous", "pose not determined", ...).
+              missed << (missed.tellp() > 0 ? "; " : "") << c.first->source << " → "
+                     << c.first->target;
+              if (c.closest == nullptr) {
+                missed << " (no method row with a pose)";
+              } else {
+                const EvalRow& n = *c.closest;
+                missed << " (closest: " << n.method << " " << n.rms_m << " m " << n.status;
+                if (!n.reason.empty()) missed << ", " << n.reason.substr(0, n.reason.find(':'));
+                missed << ")";
+                allowed_refused_right += n.accurate ? 1 : 0;  // (an accurate ok is the best)
+              }
+            }
           } else {
             limited << (limited.tellp() > 0 ? "; " : "") << c.first->source << " → "
                     << c.first->target << " ";
@@ -474,8 +495,13 @@ void WriteSceneEvaluation(const SceneEvaluation& eval, const std::string& out_di
           << allowed << " of " << cells.size()
           << " cells — what the data and the checks allow; of those, registered with the best "
              "method: "
-          << allowed_registered << ". Not registered even from the truth (data- or "
-                                    "check-limited): "
+          << allowed_registered;
+      if (missed.tellp() > 0) {
+        out << "; not registered by any method (search- or check-limited; "
+            << allowed_refused_right << " of them refused at a pose within " << eval.accurate_m
+            << " m): " << missed.str();
+      }
+      out << ". Not registered even from the truth (data- or check-limited): "
           << (limited.tellp() > 0 ? limited.str() : std::string("none")) << ".\n";
     }
   });
