@@ -76,5 +76,52 @@ TEST(CloudFpfh, IsolatedKeypointIsInvalid) {
   }
 }
 
+TEST(CloudNormals, OrientedTowardsTheNearestSensor) {
+  // Ground 20 m × 20 m at z = 0 in a frame whose origin lies on it (a merged model): the
+  // normals estimated towards the origin point up or down at random; turned towards the
+  // nearest of two scanners 1.5 m above the ground, all point up. And a wall at x = 3 seen
+  // from a scanner at x = 1 (the nearer one for the wall) faces it, towards −x.
+  std::vector<Eigen::Vector3d> points;
+  uint32_t state = 7;
+  auto noise = [&state]() {
+    state = state * 1664525u + 1013904223u;
+    return (static_cast<double>(state >> 8) / (1 << 24) - 0.5) * 0.004;
+  };
+  for (int i = 0; i < 100; ++i) {
+    for (int j = 0; j < 100; ++j) points.emplace_back(-10 + 0.2 * i, -10 + 0.2 * j, noise());
+  }
+  const size_t ground = points.size();
+  for (int i = 0; i < 20; ++i) {
+    for (int j = 0; j < 15; ++j) points.emplace_back(3.0 + noise(), -2 + 0.2 * i, 0.1 + 0.2 * j);
+  }
+  std::vector<Eigen::Vector3d> normals = EstimateNormals(points, 0.5, Eigen::Vector3d::Zero());
+  auto share_up = [&]() {
+    int up = 0;
+    for (size_t i = 0; i < ground; ++i) up += normals[i].z() > 0 ? 1 : 0;
+    return static_cast<double>(up) / static_cast<double>(ground);
+  };
+  const double before = share_up();
+  EXPECT_GT(before, 0.05);  // the failure it is for: signs at random on the ground
+  EXPECT_LT(before, 0.95);
+  const std::vector<Eigen::Vector3d> sensors = {{-5, 0, 1.5}, {1, 0, 1.5}};
+  normals[5] = Eigen::Vector3d::Constant(std::nan(""));
+  OrientTowardsNearest(points, sensors, &normals);
+  EXPECT_EQ(share_up(), 1.0 - 1.0 / static_cast<double>(ground));  // all but the NaN one
+  EXPECT_FALSE(normals[5].allFinite());
+  for (size_t i = ground; i < points.size(); ++i) {
+    if (normals[i].allFinite() && std::abs(normals[i].x()) > 0.9) {
+      EXPECT_LT(normals[i].x(), 0.0) << i;
+    }
+  }
+  // No sensors: the normals as they were.
+  const std::vector<Eigen::Vector3d> kept = normals;
+  OrientTowardsNearest(points, {}, &normals);
+  for (size_t i = 0; i < normals.size(); ++i) {
+    if (i != 5) {
+      EXPECT_EQ(normals[i], kept[i]) << i;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace mmba::registration::internal

@@ -1488,11 +1488,16 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
                 tgt_coarse.points.size(), src_fine.points.size());
   end_stage("downsample");
 
-  // --- Normals within R_n (oriented towards each cloud's origin, the scanner of a scan).
+  // --- Normals within R_n, oriented towards each cloud's sensors when they are given
+  // (internal::OrientTowardsNearest), else towards its origin (the scanner of a scan).
   for (Level* level : {&src_coarse, &tgt_coarse}) {
     if (level->normals.empty()) {
       level->normals = internal::EstimateNormals(
           level->points, normal_radius, level == &src_coarse ? source_viewpoint : target_viewpoint);
+      internal::OrientTowardsNearest(level->points,
+                           level == &src_coarse ? options.source_viewpoints
+                                                : options.target_viewpoints,
+                           &level->normals);
     }
     const size_t before = level->points.size();
     DropInvalidNormals(level);
@@ -1508,13 +1513,16 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   // 8000 points); their neighbourhoods are taken from the whole fine level.
   const std::vector<size_t> fine_idx = StrideSample(src_fine.points.size(), 8000);
   const std::vector<Eigen::Vector3d> fine_src = Pick(src_fine.points, fine_idx);
-  const std::vector<Eigen::Vector3d> fine_src_n =
+  std::vector<Eigen::Vector3d> fine_src_n =
       src_fine.normals.empty()
           ? internal::EstimateNormals(
                 src_fine.points,
                 std::min(normal_radius, options.normal_radius_spacing * src_fine_spacing),
                 source_viewpoint, &fine_idx)
           : Pick(src_fine.normals, fine_idx);
+  if (src_fine.normals.empty()) {
+    internal::OrientTowardsNearest(fine_src, options.source_viewpoints, &fine_src_n);
+  }
   end_stage("normals");
 
   // --- Keypoints.

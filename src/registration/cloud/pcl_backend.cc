@@ -279,6 +279,21 @@ std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>&
   return out;
 }
 
+void OrientTowardsNearest(const std::vector<Eigen::Vector3d>& points,
+                          const std::vector<Eigen::Vector3d>& viewpoints,
+                          std::vector<Eigen::Vector3d>* normals) {
+  if (viewpoints.empty()) return;
+  for (size_t i = 0; i < points.size(); ++i) {
+    Eigen::Vector3d& n = (*normals)[i];
+    if (!n.allFinite()) continue;
+    const Eigen::Vector3d* nearest = &viewpoints.front();
+    for (const Eigen::Vector3d& v : viewpoints) {
+      if ((v - points[i]).squaredNorm() < (*nearest - points[i]).squaredNorm()) nearest = &v;
+    }
+    if (n.dot(*nearest - points[i]) < 0.0) n = -n;
+  }
+}
+
 std::vector<float> TomasiResponse(const std::vector<Eigen::Vector3d>& points,
                                   const std::vector<Eigen::Vector3d>& normals, double radius) {
   QuietPcl();

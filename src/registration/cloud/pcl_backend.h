@@ -95,6 +95,17 @@ std::vector<Eigen::Vector3d> EstimateNormals(const std::vector<Eigen::Vector3d>&
                                              double radius, const Eigen::Vector3d& viewpoint,
                                              const std::vector<size_t>* only = nullptr);
 
+/// Turns each normal towards the nearest of the cloud's sensor positions `viewpoints` (PCL's
+/// viewpoint convention with one sensor per point; nothing when there are none; NaN normals
+/// left). Normals estimated towards the cloud's frame origin are right for a scan in its own
+/// frame; for a cloud whose origin is no sensor — a reconstruction in a frame of its own, a
+/// merged model whose origin lies on the ground — they turn at random where the origin is
+/// nearly in their plane, and the descriptors (FPFH, SHOT, spin images, 3DSC) depend on the
+/// normals' sign.
+void OrientTowardsNearest(const std::vector<Eigen::Vector3d>& points,
+                          const std::vector<Eigen::Vector3d>& viewpoints,
+                          std::vector<Eigen::Vector3d>* normals);
+
 /// Kanade–Tomasi response per point: smallest eigenvalue of the mean of n·nᵀ over the
 /// neighbours within `radius` (PCL HarrisKeypoint3D, method TOMASI, no suppression).
 std::vector<float> TomasiResponse(const std::vector<Eigen::Vector3d>& points,
