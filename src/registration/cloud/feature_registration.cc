@@ -1329,7 +1329,8 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
   };
   std::vector<size_t> all(dirs.size());
   for (size_t d = 0; d < dirs.size(); ++d) all[d] = d;
-  std::vector<size_t> open = known_at_bound != nullptr ? known_at_bound->open : unresolved(all, bound);
+  std::vector<size_t> open =
+      known_at_bound != nullptr ? known_at_bound->open : unresolved(all, bound);
   if (open_at_bound != nullptr) {
     open_at_bound->open = open;
     open_at_bound->directions.clear();
@@ -1494,10 +1495,10 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     if (level->normals.empty()) {
       level->normals = internal::EstimateNormals(
           level->points, normal_radius, level == &src_coarse ? source_viewpoint : target_viewpoint);
-      internal::OrientTowardsNearest(level->points,
-                           level == &src_coarse ? options.source_viewpoints
-                                                : options.target_viewpoints,
-                           &level->normals);
+      internal::OrientTowardsNearest(
+          level->points,
+          level == &src_coarse ? options.source_viewpoints : options.target_viewpoints,
+          &level->normals);
     }
     const size_t before = level->points.size();
     DropInvalidNormals(level);
