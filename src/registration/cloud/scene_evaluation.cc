@@ -63,7 +63,8 @@ Eigen::Vector3d Apply(const Eigen::Matrix4d& m, const Eigen::Vector3d& p) {
 
 }  // namespace
 
-io::PointCloud PlacedAtTruth(const io::PointCloud& source, const Eigen::Matrix4d& target_from_source,
+io::PointCloud PlacedAtTruth(const io::PointCloud& source,
+                             const Eigen::Matrix4d& target_from_source,
                              std::vector<Eigen::Vector3d>* viewpoints) {
   io::PointCloud placed = source;
   for (auto& p : placed.points) p = Apply(target_from_source, p);

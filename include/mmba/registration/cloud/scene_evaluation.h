@@ -84,7 +84,8 @@ std::vector<Eigen::Vector3d> ReadViewpoints(const std::string& path);
 
 /// The reference's start (kFromTruth): the source cloud moved by `target_from_source` — its
 /// points, normals and sensor positions (`viewpoints`, in the source's frame, moved in place).
-io::PointCloud PlacedAtTruth(const io::PointCloud& source, const Eigen::Matrix4d& target_from_source,
+io::PointCloud PlacedAtTruth(const io::PointCloud& source,
+                             const Eigen::Matrix4d& target_from_source,
                              std::vector<Eigen::Vector3d>* viewpoints);
 
 /// Runs the experiments. Throws InputError on a bad folder (missing files, bad JSON).
