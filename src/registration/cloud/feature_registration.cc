@@ -1753,11 +1753,8 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   double noise_sigma = std::numeric_limits<double>::infinity();
   // A finalist refined on its own crop of the target: fine ICP from `icp_start`, then its fine
   // residuals and their robust scale. False when the pose puts the source off the target.
-  // `use_crop`: refine on that crop instead of the one around f's pose (a move of a finalist
-  // within R_s, on the finalist's crop: no new crop, no new normals).
-  auto refine = [&](Finalist* f, double icp_start,
-                    const std::shared_ptr<TargetCrop>& use_crop = nullptr) {
-    const std::shared_ptr<TargetCrop> crop = use_crop ? use_crop : crop_for(f->h.transform);
+  auto refine = [&](Finalist* f, double icp_start) {
+    const std::shared_ptr<TargetCrop> crop = crop_for(f->h.transform);
     const TargetCrop& c = *crop;
     if (c.level.points.size() < 10) return false;
     f->spacing = std::max(src_fine_spacing, c.level.spacing);
