@@ -25,6 +25,7 @@ struct RegisterCloudArgs {
   std::string source_viewpoints, target_viewpoints;
   std::string descriptor = "auto";
   double normal_radius_m = 0.0, support_radius_m = 0.0;
+  std::string normal_orientation = "auto";
   bool gravity_aligned = false;
   std::vector<double> search_window;
   std::vector<double> up = {0.0, 0.0, 1.0};
@@ -92,6 +93,10 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   if (!registration::ParseDescriptor(args.descriptor, &options.descriptor)) {
     throw InputError::Message("--descriptor", "found '" + args.descriptor +
                                                   "', expected fpfh, shot, si, sc3d or auto");
+  }
+  if (!registration::ParseNormalOrientation(args.normal_orientation, &options.normal_orientation)) {
+    throw InputError::Message("--normal-orientation", "found '" + args.normal_orientation +
+                                                          "', expected auto, viewpoint or consistent");
   }
   options.normal_radius_m = args.normal_radius_m;
   options.support_radius_m = args.support_radius_m;
@@ -204,6 +209,11 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_option("--support-radius", args->support_radius_m,
                   "R_s in metres (default 12 × measured point spacing)")
       ->check(kLength);
+  sub->add_option("--normal-orientation", args->normal_orientation,
+                  "sign of estimated normals: viewpoint (towards each cloud's origin, or its "
+                  "--*-viewpoints), consistent (over the neighbour graph, Hoppe et al. 1992), auto "
+                  "(viewpoint, retried consistent when that fails)")
+      ->capture_default_str();
   sub->add_flag("--gravity-aligned", args->gravity_aligned,
                 "both clouds are levelled: search the rotation about --up only");
   sub->add_option("--up", args->up, "up direction x y z (default 0 0 1)")->expected(3);

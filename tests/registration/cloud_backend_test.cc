@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "registration/cloud/normal_orientation.h"
 #include "registration/cloud/pcl_backend.h"
 
 namespace mmba::registration::internal {
@@ -121,6 +122,51 @@ TEST(CloudNormals, OrientedTowardsTheNearestSensor) {
       EXPECT_EQ(normals[i], kept[i]) << i;
     }
   }
+}
+
+TEST(CloudNormals, OrientedConsistentlyOverTheNeighbourGraph) {
+  // Two parts far apart: a sphere of radius 1 whose normals point out at 70 % of its points
+  // and in at the rest, and a plane 10 m away whose normals point down at 60 % of its
+  // points. Each part ends with the sign most of its normals had: the sphere out, the plane
+  // down; a NaN normal stays NaN.
+  std::vector<Eigen::Vector3d> points, normals;
+  uint32_t state = 99;
+  auto uniform = [&state]() {
+    state = state * 1664525u + 1013904223u;
+    return static_cast<double>(state >> 8) / (1 << 24);
+  };
+  const int sphere = 2000;
+  for (int i = 0; i < sphere; ++i) {  // a Fibonacci sphere: even spacing
+    const double z = 1.0 - 2.0 * (i + 0.5) / sphere, r = std::sqrt(1.0 - z * z);
+    const double phi = i * M_PI * (3.0 - std::sqrt(5.0));
+    const Eigen::Vector3d p(r * std::cos(phi), r * std::sin(phi), z);
+    points.push_back(p);
+    normals.push_back(uniform() < 0.7 ? p : Eigen::Vector3d(-p));
+  }
+  for (int i = 0; i < 40; ++i) {
+    for (int j = 0; j < 40; ++j) {
+      points.emplace_back(10.0 + 0.05 * i, 0.05 * j, 0.0);
+      normals.push_back(Eigen::Vector3d(0.0, 0.0, uniform() < 0.6 ? -1.0 : 1.0));
+    }
+  }
+  normals[17] = Eigen::Vector3d::Constant(std::nan(""));
+  std::vector<Eigen::Vector3d> before = normals;
+  size_t changed = 0;
+  const size_t turned = OrientConsistently(points, 10, &normals);
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (i == 17) {
+      EXPECT_FALSE(normals[i].allFinite());
+      continue;
+    }
+    changed += normals[i] != before[i] ? 1 : 0;
+    if (i < static_cast<size_t>(sphere)) {
+      EXPECT_GT(normals[i].dot(points[i]), 0.99) << i;
+    } else {
+      EXPECT_EQ(normals[i], -Eigen::Vector3d::UnitZ()) << i;
+    }
+  }
+  EXPECT_EQ(turned, changed);
+  EXPECT_GT(turned, 0.25 * sphere);
 }
 
 }  // namespace

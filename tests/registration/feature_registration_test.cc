@@ -54,6 +54,36 @@ TEST(FeatureRegistration, PclBun0ToBun4WithinPclTolerance) {
   }
 }
 
+TEST(FeatureRegistration, SourceMovedPastItsOriginIsRetriedWithTurnedNormals) {
+  // bun4 moved by −2 × its centroid: its origin, towards which its estimated normals face,
+  // now lies on the far side of it, so its normals are turned against bun0's. FPFH depends on
+  // the sign; with the normals as estimated the registration fails, and NormalOrientation::
+  // kAuto retries it with the source's normals turned (and consistent over the neighbour
+  // graph).
+  const io::PointCloud bun0 = io::ReadPointCloud(kPclDir + "bun0.pcd");
+  io::PointCloud bun4 = io::ReadPointCloud(kPclDir + "bun4.pcd");
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const auto& p : bun4.points) centroid += p;
+  centroid /= static_cast<double>(bun4.size());
+  Eigen::Matrix4d move = Eigen::Matrix4d::Identity();
+  move.topRightCorner<3, 1>() = -2.0 * centroid;
+  const io::PointCloud source = Transformed(bun4, move);
+  CloudRegistrationOptions options;
+  options.descriptor = Descriptor::kFpfh;
+  options.normal_orientation = NormalOrientation::kViewpoint;
+  const CloudRegistrationResult first = RegisterClouds(source, bun0, options);
+  EXPECT_FALSE(first.ok());  // the failure the retry is for
+  options.normal_orientation = NormalOrientation::kAuto;
+  const CloudRegistrationResult r = RegisterClouds(source, bun0, options);
+  ASSERT_TRUE(r.ok()) << r.reason;
+  const Eigen::Matrix4d truth = Bun0ToBun4().inverse() * move.inverse();
+  EXPECT_LT((r.target_from_source - truth).cwiseAbs().maxCoeff(), 0.1) << r.target_from_source;
+  ASSERT_FALSE(r.notes.empty());
+  EXPECT_NE(r.notes.front().find("the source's turned"), std::string::npos) << r.notes.front();
+  EXPECT_EQ(r.runtime.front().stage, "first try (normals towards the origin)");
+  EXPECT_GT(r.total_seconds(), r.runtime.front().seconds);
+}
+
 TEST(FeatureRegistration, MapGridCoordinatesGiveTheSameRegistration) {
   // Survey clouds come in map-grid coordinates (UTM: 10^5–10^7 m), where a float resolves
   // only 0.25–0.5 m: before, two such clouds failed ("all points of a cloud coincide", "too

@@ -31,6 +31,7 @@
 #include "mmba/registration/cloud/robust_estimators.h"
 #include "registration/cloud/free_space.h"
 #include "registration/cloud/intensity_test.h"
+#include "registration/cloud/normal_orientation.h"
 #include "registration/cloud/pcl_backend.h"
 #include "registration/cloud/score_significance.h"
 
@@ -48,6 +49,14 @@ bool ParseDescriptor(const std::string& name, Descriptor* descriptor) {
   else if (name == "si" || name == "spin") *descriptor = Descriptor::kSpinImage;
   else if (name == "sc3d" || name == "3dsc") *descriptor = Descriptor::kShapeContext;
   else if (name == "auto") *descriptor = Descriptor::kAuto;
+  else return false;
+  return true;
+}
+
+bool ParseNormalOrientation(const std::string& name, NormalOrientation* orientation) {
+  if (name == "viewpoint") *orientation = NormalOrientation::kViewpoint;
+  else if (name == "consistent") *orientation = NormalOrientation::kConsistent;
+  else if (name == "auto") *orientation = NormalOrientation::kAuto;
   else return false;
   return true;
 }
@@ -1400,7 +1409,8 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
                                                  const io::PointCloud& target,
                                                  const CloudRegistrationOptions& options,
                                                  const Eigen::Vector3d& source_viewpoint,
-                                                 const Eigen::Vector3d& target_viewpoint) {
+                                                 const Eigen::Vector3d& target_viewpoint,
+                                                 bool turn_source_normals = false) {
   std::string option_error;
   if (!options.Check(&option_error)) throw InputError::Message("registration options", option_error);
   CloudRegistrationResult result;
@@ -1490,15 +1500,28 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   end_stage("downsample");
 
   // --- Normals within R_n, oriented towards each cloud's sensors when they are given
-  // (internal::OrientTowardsNearest), else towards its origin (the scanner of a scan).
+  // (internal::OrientTowardsNearest), else towards its origin (the scanner of a scan) and,
+  // with NormalOrientation::kConsistent, then made consistent over the neighbour graph. Only
+  // the coarse level's signs matter: the fine verification and ICP use |n_s·n_t| and squared
+  // point-to-plane residuals.
   for (Level* level : {&src_coarse, &tgt_coarse}) {
     if (level->normals.empty()) {
-      level->normals = internal::EstimateNormals(
-          level->points, normal_radius, level == &src_coarse ? source_viewpoint : target_viewpoint);
-      internal::OrientTowardsNearest(
-          level->points,
-          level == &src_coarse ? options.source_viewpoints : options.target_viewpoints,
-          &level->normals);
+      const bool is_source = level == &src_coarse;
+      const std::vector<Eigen::Vector3d>& sensors =
+          is_source ? options.source_viewpoints : options.target_viewpoints;
+      level->normals = internal::EstimateNormals(level->points, normal_radius,
+                                                 is_source ? source_viewpoint : target_viewpoint);
+      internal::OrientTowardsNearest(level->points, sensors, &level->normals);
+      if (sensors.empty() && options.normal_orientation == NormalOrientation::kConsistent) {
+        const size_t turned = internal::OrientConsistently(level->points, 10, &level->normals);
+        std::ostringstream note;
+        note << (is_source ? "source" : "target") << " normals oriented consistently over the "
+             << "neighbour graph: " << turned << " of " << level->points.size() << " turned";
+        result.notes.push_back(note.str());
+      }
+    }
+    if (turn_source_normals && level == &src_coarse) {
+      for (Eigen::Vector3d& n : level->normals) n = -n;
     }
     const size_t before = level->points.size();
     DropInvalidNormals(level);
@@ -2557,6 +2580,73 @@ Eigen::Vector3d GridViewpoint(const io::PointCloud& cloud, const Eigen::Vector3d
   const Eigen::Vector3d centroid = sum / static_cast<double>(std::max<size_t>(1, cloud.size()));
   return centroid + std::max(100.0, 10.0 * (hi - lo).norm()) * up.normalized();
 }
+
+// NormalOrientation::kAuto: RegisterCloudsNearOrigin with the normals towards each cloud's
+// origin and, when that fails after the normals (not on bad input) and the signs of the two
+// clouds' normals are not both fixed by sensor positions, again with the normals consistent
+// over the neighbour graph and the source's turned — both signs of a cloud whose origin is
+// no sensor: a scan moved into another frame (bench/RESULTS.md, issue 5: the table piece
+// at draw 3, its origin moved behind the table) — and then, when a cloud's normals are
+// estimated without sensors, with the consistent normals as they are (part of a cloud turned
+// against the rest). A retry's result is taken only when it is "ok"; the runtime counts every
+// try.
+CloudRegistrationResult RegisterCloudsNearOriginRetrying(const io::PointCloud& source,
+                                                         const io::PointCloud& target,
+                                                         const CloudRegistrationOptions& options,
+                                                         const Eigen::Vector3d& source_viewpoint,
+                                                         const Eigen::Vector3d& target_viewpoint) {
+  if (options.normal_orientation != NormalOrientation::kAuto) {
+    return RegisterCloudsNearOrigin(source, target, options, source_viewpoint, target_viewpoint);
+  }
+  CloudRegistrationOptions first_options = options;
+  first_options.normal_orientation = NormalOrientation::kViewpoint;
+  CloudRegistrationResult first =
+      RegisterCloudsNearOrigin(source, target, first_options, source_viewpoint, target_viewpoint);
+  const bool past_normals =
+      std::any_of(first.runtime.begin(), first.runtime.end(),
+                  [](const StageTime& t) { return t.stage == "normals"; });
+  if (first.status != "failed" || !past_normals ||
+      (!options.source_viewpoints.empty() && !options.target_viewpoints.empty())) {
+    return first;
+  }
+  const auto estimated = [&](const io::PointCloud& cloud, const std::vector<Eigen::Vector3d>& sensors) {
+    return sensors.empty() && !(options.use_existing_normals && cloud.has_normals());
+  };
+  const bool any_estimated =
+      estimated(source, options.source_viewpoints) || estimated(target, options.target_viewpoints);
+  // One stage per try that did not give the result, so runtime_seconds counts every try.
+  const auto as_stage = [](const std::string& name, const CloudRegistrationResult& r) {
+    StageTime t{name, 0.0, 0.0};
+    for (const StageTime& s : r.runtime) {
+      t.seconds += s.seconds;
+      t.cpu_seconds += s.cpu_seconds;
+    }
+    return t;
+  };
+  CloudRegistrationOptions retry_options = options;
+  retry_options.normal_orientation = NormalOrientation::kConsistent;
+  std::vector<StageTime> tries = {as_stage("first try (normals towards the origin)", first)};
+  for (const bool turn : {true, false}) {
+    if (!turn && !any_estimated) break;
+    const std::string what = any_estimated
+                                 ? (turn ? "consistent normals, the source's turned"
+                                         : "consistent normals")
+                                 : "the source's normals turned";
+    CloudRegistrationResult retry = RegisterCloudsNearOrigin(
+        source, target, retry_options, source_viewpoint, target_viewpoint, turn);
+    if (retry.ok()) {
+      retry.notes.insert(retry.notes.begin(),
+                         "registered with " + what + " (Hoppe et al. 1992); with the normals "
+                         "towards each cloud's origin it failed: " + first.reason);
+      retry.runtime.insert(retry.runtime.begin(), tries.begin(), tries.end());
+      return retry;
+    }
+    first.notes.push_back("retried with " + what + ": failed too (" + retry.reason + ")");
+    tries.push_back(as_stage("retry (" + what + ")", retry));
+  }
+  first.runtime.insert(first.runtime.end(), tries.begin() + 1, tries.end());
+  return first;
+}
 }  // namespace
 
 CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
@@ -2567,15 +2657,15 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
       options.search_window_m > 0.0 ? o_t : io::LocalOrigin(source.points);
   if (!o_t.allFinite() || !o_s.allFinite()) o_t = o_s = Eigen::Vector3d::Zero();  // NaN: fails
   if (o_t.isZero() && o_s.isZero()) {
-    return RegisterCloudsNearOrigin(source, target, options, Eigen::Vector3d::Zero(),
-                                    Eigen::Vector3d::Zero());
+    return RegisterCloudsNearOriginRetrying(source, target, options, Eigen::Vector3d::Zero(),
+                                            Eigen::Vector3d::Zero());
   }
   CloudRegistrationOptions local = options;
   for (Eigen::Vector3d& v : local.source_viewpoints) v -= o_s;
   for (Eigen::Vector3d& v : local.target_viewpoints) v -= o_t;
   const Eigen::Vector3d v_s = o_s.isZero() ? o_s : GridViewpoint(source, o_s, options.up);
   const Eigen::Vector3d v_t = o_t.isZero() ? o_t : GridViewpoint(target, o_t, options.up);
-  CloudRegistrationResult result = RegisterCloudsNearOrigin(
+  CloudRegistrationResult result = RegisterCloudsNearOriginRetrying(
       Shifted(source, -o_s), Shifted(target, -o_t), local, v_s, v_t);
   const auto back = [&](const Eigen::Matrix4d& t) {
     Eigen::Matrix4d out = t;

@@ -33,6 +33,25 @@ enum class Descriptor {
   kAuto,          ///< FPFH and SHOT both tried; the best verified hypothesis wins
 };
 
+/// How estimated normals are turned (their sign: FPFH, spin images and 3D shape context
+/// depend on it). A cloud's given sensor positions (source_viewpoints / target_viewpoints)
+/// always decide: each normal faces the nearest.
+enum class NormalOrientation {
+  /// towards the cloud's frame origin (PCL's convention: the scanner of a scan in its own
+  /// frame)
+  kViewpoint,
+  /// consistent over the neighbour graph (Hoppe et al. 1992), each connected part keeping
+  /// the sign most of its normals had towards the origin: independent of where the origin
+  /// lies, for a cloud moved into another frame (src/registration/cloud/normal_orientation.h)
+  kConsistent,
+  /// kViewpoint; when that fails after the normals, once more with kConsistent for the
+  /// clouds that have neither sensor positions nor stored normals
+  kAuto,
+};
+
+/// "viewpoint", "consistent", "auto". Returns false on an unknown name.
+bool ParseNormalOrientation(const std::string& name, NormalOrientation* orientation);
+
 /// "fpfh", "shot", "si", "sc3d", "auto". Returns false on an unknown name.
 bool ParseDescriptor(const std::string& name, Descriptor* descriptor);
 std::string DescriptorName(Descriptor descriptor);
@@ -63,6 +82,7 @@ struct CloudRegistrationOptions {
   int max_points_icp = 100000;      ///< fine level for ICP (>= 1000); the target is cropped
                                     ///< to each hypothesis' footprint before it is thinned
   bool use_existing_normals = true;  ///< use normals stored in the clouds when present
+  NormalOrientation normal_orientation = NormalOrientation::kAuto;  ///< see NormalOrientation
 
   // Hypotheses.
   int sac_ia_iterations = 4000;     ///< SAC-IA samples scored (Rusu et al. 2009) (>= 1)
