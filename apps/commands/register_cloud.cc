@@ -96,7 +96,7 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   }
   if (!registration::ParseNormalOrientation(args.normal_orientation, &options.normal_orientation)) {
     throw InputError::Message("--normal-orientation", "found '" + args.normal_orientation +
-                                                          "', expected auto, viewpoint or consistent");
+                                                          "', expected auto, viewpoint, consistent or consistent-turned");
   }
   options.normal_radius_m = args.normal_radius_m;
   options.support_radius_m = args.support_radius_m;
@@ -211,8 +211,9 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
       ->check(kLength);
   sub->add_option("--normal-orientation", args->normal_orientation,
                   "sign of estimated normals: viewpoint (towards each cloud's origin, or its "
-                  "--*-viewpoints), consistent (over the neighbour graph, Hoppe et al. 1992), auto "
-                  "(viewpoint, retried consistent when that fails)")
+                  "--*-viewpoints), consistent (over the neighbour graph, Hoppe et al. 1992), "
+                  "consistent-turned (and the source's turned), auto (viewpoint; when no pose "
+                  "fits, retried consistent-turned, then consistent; not with --scale-range)")
       ->capture_default_str();
   sub->add_flag("--gravity-aligned", args->gravity_aligned,
                 "both clouds are levelled: search the rotation about --up only");

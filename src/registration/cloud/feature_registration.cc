@@ -56,6 +56,7 @@ bool ParseDescriptor(const std::string& name, Descriptor* descriptor) {
 bool ParseNormalOrientation(const std::string& name, NormalOrientation* orientation) {
   if (name == "viewpoint") *orientation = NormalOrientation::kViewpoint;
   else if (name == "consistent") *orientation = NormalOrientation::kConsistent;
+  else if (name == "consistent-turned") *orientation = NormalOrientation::kConsistentTurned;
   else if (name == "auto") *orientation = NormalOrientation::kAuto;
   else return false;
   return true;
@@ -1410,7 +1411,6 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
                                                  const CloudRegistrationOptions& options,
                                                  const Eigen::Vector3d& source_viewpoint,
                                                  const Eigen::Vector3d& target_viewpoint,
-                                                 bool turn_source_normals = false,
                                                  bool* best_fits = nullptr) {
   std::string option_error;
   if (!options.Check(&option_error)) throw InputError::Message("registration options", option_error);
@@ -1513,7 +1513,8 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
       level->normals = internal::EstimateNormals(level->points, normal_radius,
                                                  is_source ? source_viewpoint : target_viewpoint);
       internal::OrientTowardsNearest(level->points, sensors, &level->normals);
-      if (sensors.empty() && options.normal_orientation == NormalOrientation::kConsistent) {
+      if (sensors.empty() && (options.normal_orientation == NormalOrientation::kConsistent ||
+                              options.normal_orientation == NormalOrientation::kConsistentTurned)) {
         const size_t turned = internal::OrientConsistently(level->points, 10, &level->normals);
         std::ostringstream note;
         note << (is_source ? "source" : "target") << " normals oriented consistently over the "
@@ -1521,7 +1522,8 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
         result.notes.push_back(note.str());
       }
     }
-    if (turn_source_normals && level == &src_coarse) {
+    if (options.normal_orientation == NormalOrientation::kConsistentTurned &&
+        level == &src_coarse) {
       for (Eigen::Vector3d& n : level->normals) n = -n;
     }
     const size_t before = level->points.size();
@@ -2605,7 +2607,7 @@ CloudRegistrationResult RegisterCloudsNearOriginRetrying(const io::PointCloud& s
   first_options.normal_orientation = NormalOrientation::kViewpoint;
   bool best_fits = false;
   CloudRegistrationResult first = RegisterCloudsNearOrigin(
-      source, target, first_options, source_viewpoint, target_viewpoint, false, &best_fits);
+      source, target, first_options, source_viewpoint, target_viewpoint, &best_fits);
   const bool past_normals =
       std::any_of(first.runtime.begin(), first.runtime.end(),
                   [](const StageTime& t) { return t.stage == "normals"; });
@@ -2633,7 +2635,6 @@ CloudRegistrationResult RegisterCloudsNearOriginRetrying(const io::PointCloud& s
     return t;
   };
   CloudRegistrationOptions retry_options = options;
-  retry_options.normal_orientation = NormalOrientation::kConsistent;
   std::vector<StageTime> tries = {as_stage("first try (normals towards the origin)", first)};
   for (const bool turn : {true, false}) {
     if (!turn && !any_estimated) break;
@@ -2641,8 +2642,10 @@ CloudRegistrationResult RegisterCloudsNearOriginRetrying(const io::PointCloud& s
                                  ? (turn ? "consistent normals, the source's turned"
                                          : "consistent normals")
                                  : "the source's normals turned";
+    retry_options.normal_orientation =
+        turn ? NormalOrientation::kConsistentTurned : NormalOrientation::kConsistent;
     CloudRegistrationResult retry = RegisterCloudsNearOrigin(
-        source, target, retry_options, source_viewpoint, target_viewpoint, turn);
+        source, target, retry_options, source_viewpoint, target_viewpoint);
     if (retry.ok()) {
       retry.notes.insert(retry.notes.begin(),
                          "registered with " + what + " (Hoppe et al. 1992); with the normals "
@@ -2903,6 +2906,9 @@ ScaleSearchResult RegisterCloudsOverScales(
         for (const Eigen::Vector3d& x : source.points) scaled.points.push_back(scale * (x - centroid));
         CloudRegistrationOptions trial_options = options;
         for (Eigen::Vector3d& c : trial_options.source_viewpoints) c = scale * (c - centroid);
+        if (trial_options.normal_orientation == NormalOrientation::kAuto) {
+          trial_options.normal_orientation = NormalOrientation::kViewpoint;  // no retries
+        }
         Outcome& o = outcomes[k];
         o.rigid = RegisterClouds(scaled, target, trial_options);
         ScaleTrial& trial = trials[k];

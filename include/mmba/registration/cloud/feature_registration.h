@@ -44,12 +44,18 @@ enum class NormalOrientation {
   /// the sign most of its normals had towards the origin: independent of where the origin
   /// lies, for a cloud moved into another frame (src/registration/cloud/normal_orientation.h)
   kConsistent,
-  /// kViewpoint; when that fails after the normals, once more with kConsistent for the
-  /// clouds that have neither sensor positions nor stored normals
+  /// kConsistent, then every normal of the source turned (the source's normals face away
+  /// from where the target's do: its origin lies behind its surfaces)
+  kConsistentTurned,
+  /// kViewpoint; when that fails after the normals with no pose that fits (not when it is
+  /// refused as ambiguous or not fixed) and the two clouds do not both have sensor
+  /// positions, once more with kConsistentTurned and then with kConsistent. A retry's result
+  /// is taken only when it is "ok"; notes say which try registered. RegisterCloudsOverScales
+  /// does not retry (it would multiply every failing trial): its trials use kViewpoint.
   kAuto,
 };
 
-/// "viewpoint", "consistent", "auto". Returns false on an unknown name.
+/// "viewpoint", "consistent", "consistent-turned", "auto". Returns false on an unknown name.
 bool ParseNormalOrientation(const std::string& name, NormalOrientation* orientation);
 
 /// "fpfh", "shot", "si", "sc3d", "auto". Returns false on an unknown name.
