@@ -192,7 +192,8 @@ TEST_F(CliTest, RegisterCloudScaleRange) {
            {" --scale-range 3 2", "--scale-range"},
            {" --scale-range 1 2 --scale-step 0.9", "--scale-step"},
            {" --normal-radius -1", "--normal-radius"},
-           {" --min-fitness 1.5", "--min-fitness"}}) {
+           {" --min-fitness 1.5", "--min-fitness"},
+           {" --normal-orientation sideways", "--normal-orientation"}}) {
     const RunResult bad = Mmba(pair + flags);
     EXPECT_EQ(bad.exit_code, 2) << flags;
     EXPECT_THAT(bad.output, HasSubstr(named));
