@@ -1502,9 +1502,9 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
 
   // --- Normals within R_n, oriented towards each cloud's sensors when they are given
   // (internal::OrientTowardsNearest), else towards its origin (the scanner of a scan) and,
-  // with NormalOrientation::kConsistent, then made consistent over the neighbour graph. Only
-  // the coarse level's signs matter: the fine verification and ICP use |n_s·n_t| and squared
-  // point-to-plane residuals.
+  // with NormalOrientation::kConsistent(Turned), then made consistent over the neighbour
+  // graph (and the source's turned). Only the coarse level's signs matter: the fine
+  // verification and ICP use |n_s·n_t| and squared point-to-plane residuals.
   for (Level* level : {&src_coarse, &tgt_coarse}) {
     if (level->normals.empty()) {
       const bool is_source = level == &src_coarse;
@@ -2587,14 +2587,12 @@ Eigen::Vector3d GridViewpoint(const io::PointCloud& cloud, const Eigen::Vector3d
 }
 
 // NormalOrientation::kAuto: RegisterCloudsNearOrigin with the normals towards each cloud's
-// origin and, when that fails after the normals (not on bad input) with no hypothesis that
-// fits, and the signs of the two clouds' normals are not both fixed by sensor positions, again with the normals consistent
-// over the neighbour graph and the source's turned — both signs of a cloud whose origin is
-// no sensor: a scan moved into another frame (bench/RESULTS.md, issue 5: the table piece
-// at draw 3, its origin moved behind the table) — and then, when a cloud's normals are
-// estimated without sensors, with the consistent normals as they are (part of a cloud turned
-// against the rest). A retry's result is taken only when it is "ok"; the runtime counts every
-// try.
+// origin (or sensors). When that fails after the normals stage with no pose that fits, and
+// the two clouds do not both have sensor positions, it is tried again with kConsistentTurned
+// (a scan moved into another frame, its origin behind its surfaces: bench/RESULTS.md, issue 5,
+// "Normals retried") and, when a cloud's normals are estimated without sensors, with
+// kConsistent (part of a cloud turned against the rest). A retry's result is taken only when
+// it is "ok"; the runtime counts every try.
 CloudRegistrationResult RegisterCloudsNearOriginRetrying(const io::PointCloud& source,
                                                          const io::PointCloud& target,
                                                          const CloudRegistrationOptions& options,
@@ -2639,8 +2637,8 @@ CloudRegistrationResult RegisterCloudsNearOriginRetrying(const io::PointCloud& s
   for (const bool turn : {true, false}) {
     if (!turn && !any_estimated) break;
     const std::string what = any_estimated
-                                 ? (turn ? "consistent normals, the source's turned"
-                                         : "consistent normals")
+                                 ? (turn ? "consistent normals (Hoppe et al. 1992), the source's turned"
+                                         : "consistent normals (Hoppe et al. 1992)")
                                  : "the source's normals turned";
     retry_options.normal_orientation =
         turn ? NormalOrientation::kConsistentTurned : NormalOrientation::kConsistent;
@@ -2648,8 +2646,8 @@ CloudRegistrationResult RegisterCloudsNearOriginRetrying(const io::PointCloud& s
         source, target, retry_options, source_viewpoint, target_viewpoint);
     if (retry.ok()) {
       retry.notes.insert(retry.notes.begin(),
-                         "registered with " + what + " (Hoppe et al. 1992); with the normals "
-                         "towards each cloud's origin it failed: " + first.reason);
+                         "registered with " + what + "; with the normals towards each "
+                         "cloud's origin it failed: " + first.reason);
       retry.runtime.insert(retry.runtime.begin(), tries.begin(), tries.end());
       return retry;
     }
