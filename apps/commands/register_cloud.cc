@@ -95,8 +95,9 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
                                                   "', expected fpfh, shot, si, sc3d or auto");
   }
   if (!registration::ParseNormalOrientation(args.normal_orientation, &options.normal_orientation)) {
-    throw InputError::Message("--normal-orientation", "found '" + args.normal_orientation +
-                                                          "', expected auto, viewpoint, consistent or consistent-turned");
+    throw InputError::Message("--normal-orientation",
+                              "found '" + args.normal_orientation +
+                                  "', expected auto, viewpoint, consistent or consistent-turned");
   }
   options.normal_radius_m = args.normal_radius_m;
   options.support_radius_m = args.support_radius_m;
