@@ -1403,6 +1403,12 @@ double EstimatePointSpacing(const io::PointCloud& cloud, size_t max_samples) {
 
 namespace {
 
+// How far a failed registration got, for the normals retry (RegisterCloudsNearOriginRetrying).
+struct TryProgress {
+  bool past_normals = false;  // the normals were estimated (the input passed its checks)
+  bool best_fits = false;     // the best pose passed overlap, visibility and normals checks
+};
+
 // RegisterClouds on clouds whose coordinates are small (see RegisterClouds below):
 // `source_viewpoint` / `target_viewpoint` = each cloud's own origin in these coordinates,
 // towards which its normals are oriented (the scanner of a scan in its own frame).
@@ -1411,7 +1417,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
                                                  const CloudRegistrationOptions& options,
                                                  const Eigen::Vector3d& source_viewpoint,
                                                  const Eigen::Vector3d& target_viewpoint,
-                                                 bool* best_fits = nullptr) {
+                                                 TryProgress* progress = nullptr) {
   std::string option_error;
   if (!options.Check(&option_error)) throw InputError::Message("registration options", option_error);
   CloudRegistrationResult result;
@@ -1551,6 +1557,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     internal::OrientTowardsNearest(fine_src, options.source_viewpoints, &fine_src_n);
   }
   end_stage("normals");
+  if (progress != nullptr) progress->past_normals = true;
 
   // --- Keypoints.
   // The larger cloud gets keypoints in proportion to its coarse size (at most
@@ -2455,7 +2462,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     return fail(why.str());
   }
   // The best pose fits; what follows asks whether it is the only one and whether it is fixed.
-  if (best_fits != nullptr) *best_fits = true;
+  if (progress != nullptr) progress->best_fits = true;
   if (!options.paper_only && runner != nullptr && result.significance < options.min_significance) {
     const Eigen::Matrix3d r = runner->target_from_source.topLeftCorner<3, 3>().transpose() *
                               best.transform.topLeftCorner<3, 3>();
@@ -2603,18 +2610,15 @@ CloudRegistrationResult RegisterCloudsNearOriginRetrying(const io::PointCloud& s
   }
   CloudRegistrationOptions first_options = options;
   first_options.normal_orientation = NormalOrientation::kViewpoint;
-  bool best_fits = false;
+  TryProgress got;
   CloudRegistrationResult first = RegisterCloudsNearOrigin(
-      source, target, first_options, source_viewpoint, target_viewpoint, &best_fits);
-  const bool past_normals =
-      std::any_of(first.runtime.begin(), first.runtime.end(),
-                  [](const StageTime& t) { return t.stage == "normals"; });
+      source, target, first_options, source_viewpoint, target_viewpoint, &got);
   // A first try whose best pose fits (overlap, normals, visibility) and was refused as
   // ambiguous or not fixed found its poses: a retry would only draw other hypotheses, and an
   // "ok" among them would lack the competitor the first try saw (on the simulated gate, seed 2,
   // the multi-view part onto the proxy: its 180° twin, refused at t 2.5 against the right
   // pose, became a wrong "ok" 5.9 m off on the retry, where the right pose came out worse).
-  if (first.status != "failed" || !past_normals || best_fits ||
+  if (first.status != "failed" || !got.past_normals || got.best_fits ||
       (!options.source_viewpoints.empty() && !options.target_viewpoints.empty())) {
     return first;
   }
