@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <map>
 #include <vector>
@@ -21,6 +22,36 @@ std::vector<std::pair<int, CommandSetup>>& Registry() {
 void AddCommonOptions(CLI::App* sub, CommonOptions* common) {
   sub->add_flag("-q,--quiet", common->quiet, "Print only errors and the final summary");
   sub->add_flag("-v,--verbose", common->verbose, "Print debugging detail");
+}
+
+void RefuseToOverwriteInputs(const std::vector<FileArg>& outputs, const std::vector<FileArg>& inputs) {
+  namespace fs = std::filesystem;
+  // Existing files compare by identity (links, "./a" and "a"); an output not written yet
+  // compares with the other outputs by its normalised absolute path.
+  const auto same = [](const std::string& a, const std::string& b) {
+    std::error_code ec_a, ec_b;
+    if (fs::exists(a, ec_a) && fs::exists(b, ec_b)) {
+      std::error_code ec;
+      return fs::equivalent(a, b, ec) && !ec;
+    }
+    return fs::absolute(a).lexically_normal() == fs::absolute(b).lexically_normal();
+  };
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    const FileArg& out = outputs[i];
+    if (out.path.empty()) continue;
+    for (const FileArg& in : inputs) {
+      if (!in.path.empty() && same(out.path, in.path)) {
+        throw InputError::Message(out.option, "'" + out.path + "' is the input " + in.option +
+                                                  "; mmba never overwrites its inputs, give another file");
+      }
+    }
+    for (size_t j = 0; j < i; ++j) {
+      if (!outputs[j].path.empty() && same(out.path, outputs[j].path)) {
+        throw InputError::Message(out.option, "'" + out.path + "' is also given as " + outputs[j].option +
+                                                  "; give each output its own file");
+      }
+    }
+  }
 }
 
 bool RegisterCommand(int order, CommandSetup setup) {

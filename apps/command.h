@@ -8,6 +8,7 @@
 #include <functional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -40,6 +41,17 @@ bool RegisterCommand(int order, CommandSetup setup);
 
 /// Called by main().
 int RunMain(int argc, char** argv);
+
+/// A file a command reads or writes, named by its option (e.g. {"--target", "scan.ply"}).
+struct FileArg {
+  std::string option;
+  std::string path;
+};
+
+/// mmba never overwrites its inputs: throws InputError (exit 2) naming the option when an
+/// output is the same file as an input (an existing file, however the path is spelled) or as
+/// another output. Call before any work. Empty paths are skipped.
+void RefuseToOverwriteInputs(const std::vector<FileArg>& outputs, const std::vector<FileArg>& inputs);
 
 }  // namespace mmba::app
 

@@ -30,6 +30,7 @@ int RunBal(const BalArgs& args) {
   options.log_progress = GetVerbosity() != Verbosity::kQuiet;
   std::string error;
   if (!options.Check(&error)) throw InputError::Message("options", error);
+  RefuseToOverwriteInputs({{"--json", args.json}}, {{"FILE", args.file}});
 
   Timer read_timer;
   io::BalProblem problem = io::ReadBal(args.file);

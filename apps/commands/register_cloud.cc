@@ -89,6 +89,11 @@ int RunScaleSearch(const RegisterCloudArgs& args, const registration::CloudRegis
 }
 
 int RunRegisterCloud(const RegisterCloudArgs& args) {
+  RefuseToOverwriteInputs({{"--output", args.output}, {"--error-map", args.error_map}},
+                          {{"--source", args.source},
+                           {"--target", args.target},
+                           {"--source-viewpoints", args.source_viewpoints},
+                           {"--target-viewpoints", args.target_viewpoints}});
   registration::CloudRegistrationOptions options;
   if (!registration::ParseDescriptor(args.descriptor, &options.descriptor)) {
     throw InputError::Message("--descriptor", "found '" + args.descriptor +

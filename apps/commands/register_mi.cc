@@ -280,6 +280,17 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     throw InputError::Message("--image/--lidar", "no frame given (use --image and --lidar, "
                                                  "or --list)");
   }
+  std::vector<FileArg> inputs = {{"--list", args.list},         {"--camera", args.camera},
+                                 {"--kitti-calib", args.kitti_calib}, {"--rig", args.rig},
+                                 {"--initial", args.initial},     {"--trajectory", args.trajectory},
+                                 {"--lidar-mount", args.lidar_mount}};
+  for (const auto& [image, lidar] : pairs) {
+    inputs.push_back({"--image", image});
+    inputs.push_back({"--lidar", lidar});
+  }
+  RefuseToOverwriteInputs(
+      {{"--output", args.output}, {"--lidar-image", args.lidar_image}, {"--overlay", args.overlay}},
+      inputs);
   // ---- Read everything before any work.
   std::vector<mi::GrayImage> images;
   sensors::Camera camera;

@@ -50,6 +50,11 @@ std::string Fixed(double v, int digits) {
 }
 
 int RunSurvey(const SurveyArgs& args) {
+  const fs::path out_dir(args.output);
+  RefuseToOverwriteInputs({{"--output", (out_dir / "adjusted.json").string()},
+                           {"--output", (out_dir / "observations.csv").string()},
+                           {"--output", (out_dir / "report.md").string()}},
+                          {{"--input", args.input}});
   if (args.confidence != 0.0 && !(args.confidence > 0 && args.confidence < 1)) {
     throw InputError::Message("--confidence", "found " + std::to_string(args.confidence) +
                                                   ", expected 0 < p < 1");

@@ -122,6 +122,48 @@ TEST_F(CliTest, BadInputIsOneErrorLineExitTwoAndNothingWritten) {
   EXPECT_FALSE(fs::exists(Tmp("ba.json")));
 }
 
+// An output that names an input file (however spelled) or another output is bad input,
+// refused before any work: exit 2 naming the option, the input byte for byte unchanged.
+TEST_F(CliTest, OutputsNeverReplaceInputs) {
+  const auto bytes = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+  };
+  for (const char* name : {"bun0.pcd", "bun4.pcd"}) {
+    fs::copy_file(kSource + "/data/pointclouds/pcl_test/" + name, Tmp(name));
+  }
+  fs::copy_file(kSource + "/data/gama/gama-local.xml", Tmp("observations.csv"));
+  fs::copy_file(kSource + "/data/bal/dubrovnik-3-7-pre.txt", Tmp("problem.txt"));
+  const std::string target_before = bytes(Tmp("bun4.pcd"));
+  const std::string survey_before = bytes(Tmp("observations.csv"));
+  const std::string bal_before = bytes(Tmp("problem.txt"));
+  const std::string pair = "register-cloud --source " + Tmp("bun0.pcd") + " --target " + Tmp("bun4.pcd");
+  for (const auto& [args, named] : std::vector<std::pair<std::string, std::string>>{
+           {pair + " --output " + Tmp("bun4.pcd"), "--output: '" + Tmp("bun4.pcd") + "' is the input --target"},
+           {pair + " --output " + tmp_.string() + "/./bun4.pcd", "is the input --target"},
+           {pair + " --output " + Tmp("o.json") + " --error-map " + Tmp("bun0.pcd"),
+            "--error-map: '" + Tmp("bun0.pcd") + "' is the input --source"},
+           {pair + " --output " + Tmp("o.json") + " --error-map " + Tmp("o.json"),
+            "is also given as --output"},
+           {"register-mi --lidar " + Tmp("bun0.pcd") + " --image " + Tmp("bun4.pcd") +
+                " --kitti-calib " + kSource + "/data/kitti/calib/000000.txt --output " + Tmp("bun0.pcd"),
+            "is the input --lidar"},
+           {"bal " + Tmp("problem.txt") + " --json " + Tmp("problem.txt"), "--json"},
+           {"survey --input " + Tmp("observations.csv") + " --output " + tmp_.string(), "is the input --input"}}) {
+    const RunResult run = Mmba(args);
+    EXPECT_EQ(run.exit_code, 2) << args << "\n" << run.output;
+    EXPECT_THAT(run.output, HasSubstr(named)) << args;
+    EXPECT_THAT(run.output, HasSubstr("mmba: error: "));
+  }
+  EXPECT_EQ(bytes(Tmp("bun4.pcd")), target_before);
+  EXPECT_EQ(bytes(Tmp("observations.csv")), survey_before);
+  EXPECT_EQ(bytes(Tmp("problem.txt")), bal_before);
+  EXPECT_FALSE(fs::exists(Tmp("o.json")));
+  EXPECT_FALSE(fs::exists(Tmp("adjusted.json")));
+}
+
 // mmba re-executes itself once with glibc's huge-page malloc (core/huge_pages.h): the
 // arguments (one with a space) and the exit code survive, MMBA_HUGE_PAGES=0 keeps the
 // default allocator, and small named inputs skip it.
