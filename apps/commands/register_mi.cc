@@ -337,6 +337,16 @@ int RunRegisterMi(const RegisterMiArgs& args) {
           io::KittiCamera(calibration, args.kitti_camera, images[0].width, images[0].height,
                           args.kitti_calib);
       camera = kitti.camera;
+      // The calibration has no image size; the image's is taken. An image whose frame does not
+      // hold the principal point is not one of this camera (a crop, a thumbnail, another camera).
+      const double cx = camera.params[2], cy = camera.params[3];
+      if (!(cx > 0 && cx < images[0].width && cy > 0 && cy < images[0].height)) {
+        std::ostringstream why;
+        why << "image is " << images[0].width << "x" << images[0].height << " but the principal point of KITTI camera "
+            << args.kitti_camera << " in " << args.kitti_calib << " is (" << cx << ", " << cy
+            << "): expected an image of that camera (KITTI: about 1242x375)";
+        throw InputError::Message(pairs[0].first, why.str());
+      }
       cam_from_lidar_calibration = kitti.cam_from_lidar;
       have_calibration_pose = true;
     } else {

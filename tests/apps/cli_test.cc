@@ -309,6 +309,15 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
   EXPECT_THAT(bad.output, HasSubstr("--sample-block-px"));
   EXPECT_FALSE(std::filesystem::exists(Tmp("bad_block.json")));
 
+  // A thumbnail (here 200x100) is not an image of KITTI's camera 2: its frame does not hold
+  // the calibration's principal point (609.6, 172.9). Exit 2 naming the image.
+  registration::mi::WriteGrayPng(registration::mi::GrayImage(200, 100, 0.5f), Tmp("thumb.png"));
+  const RunResult thumb = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin --image " + Tmp("thumb.png") +
+                               " --kitti-calib " + kitti + "calib/000000.txt --output " + Tmp("thumb.json"));
+  EXPECT_EQ(thumb.exit_code, 2) << thumb.output;
+  EXPECT_THAT(thumb.output, HasSubstr(Tmp("thumb.png") + ": image is 200x100 but the principal point"));
+  EXPECT_FALSE(std::filesystem::exists(Tmp("thumb.json")));
+
   // --initial as 4 rows of 4 numbers (numpy's tolist()): the calibration itself as the start
   // gives the registration of the default start (the calibration; the start's last bits differ
   // through the JSON round trip).
