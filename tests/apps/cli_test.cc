@@ -310,7 +310,7 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
   EXPECT_FALSE(std::filesystem::exists(Tmp("bad_block.json")));
 
   // A thumbnail (here 200x100) is not an image of KITTI's camera 2: its frame does not hold
-  // the calibration's principal point (609.6, 172.9). Exit 2 naming the image.
+  // the calibration's principal point (604.1, 180.5). Exit 2 naming the image.
   registration::mi::WriteGrayPng(registration::mi::GrayImage(200, 100, 0.5f), Tmp("thumb.png"));
   const RunResult thumb = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin --image " + Tmp("thumb.png") +
                                " --kitti-calib " + kitti + "calib/000000.txt --output " + Tmp("thumb.json"));
