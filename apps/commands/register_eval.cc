@@ -1,4 +1,5 @@
 // mmba register-eval: the two experiments of Kim & Hilton (3DV 2013) on a scene folder.
+#include <filesystem>
 #include <iostream>
 
 #include "command.h"
@@ -23,6 +24,11 @@ struct RegisterEvalArgs {
 };
 
 int RunRegisterEval(const RegisterEvalArgs& args) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(args.scene, ec)) {
+    throw InputError::Message("--scene", "found '" + args.scene +
+                                             "', expected a scene folder (as written by mmba simulate)");
+  }
   registration::SceneEvalOptions options;
   options.methods = args.methods;
   options.success_fraction = args.success_fraction;
