@@ -62,6 +62,7 @@ int RunScaleSearch(const RegisterCloudArgs& args, const registration::CloudRegis
   nlohmann::ordered_json trials = nlohmann::ordered_json::array();
   for (const registration::ScaleTrial& t : result.trials) {
     nlohmann::ordered_json trial = {{"scale", t.scale}, {"status", t.status}, {"fitness", t.fitness}};
+    if (t.from_refinement) trial["from_refinement"] = true;
     if (t.refined) {
       trial["refined_scale"] = t.refined_scale;
       trial["refined_fitness"] = t.refined_fitness;

@@ -1403,21 +1403,16 @@ double EstimatePointSpacing(const io::PointCloud& cloud, size_t max_samples) {
 
 namespace {
 
-// How far a failed registration got, for the normals retry (RegisterCloudsNearOriginRetrying).
-struct TryProgress {
-  bool past_normals = false;  // the normals were estimated (the input passed its checks)
-  bool best_fits = false;     // the best pose passed overlap, visibility and normals checks
-};
-
 // RegisterClouds on clouds whose coordinates are small (see RegisterClouds below):
 // `source_viewpoint` / `target_viewpoint` = each cloud's own origin in these coordinates,
 // towards which its normals are oriented (the scanner of a scan in its own frame).
+// `past_normals` (optional): set when the normals were estimated (the input passed its checks).
 CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
                                                  const io::PointCloud& target,
                                                  const CloudRegistrationOptions& options,
                                                  const Eigen::Vector3d& source_viewpoint,
                                                  const Eigen::Vector3d& target_viewpoint,
-                                                 TryProgress* progress = nullptr) {
+                                                 bool* past_normals = nullptr) {
   std::string option_error;
   if (!options.Check(&option_error)) throw InputError::Message("registration options", option_error);
   CloudRegistrationResult result;
@@ -1557,7 +1552,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     internal::OrientTowardsNearest(fine_src, options.source_viewpoints, &fine_src_n);
   }
   end_stage("normals");
-  if (progress != nullptr) progress->past_normals = true;
+  if (past_normals != nullptr) *past_normals = true;
 
   // --- Keypoints.
   // The larger cloud gets keypoints in proportion to its coarse size (at most
@@ -2462,7 +2457,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     return fail(why.str());
   }
   // The best pose fits; what follows asks whether it is the only one and whether it is fixed.
-  if (progress != nullptr) progress->best_fits = true;
+  result.best_pose_fits = true;
   if (!options.paper_only && runner != nullptr && result.significance < options.min_significance) {
     const Eigen::Matrix3d r = runner->target_from_source.topLeftCorner<3, 3>().transpose() *
                               best.transform.topLeftCorner<3, 3>();
@@ -2610,15 +2605,15 @@ CloudRegistrationResult RegisterCloudsNearOriginRetrying(const io::PointCloud& s
   }
   CloudRegistrationOptions first_options = options;
   first_options.normal_orientation = NormalOrientation::kViewpoint;
-  TryProgress got;
+  bool past_normals = false;
   CloudRegistrationResult first = RegisterCloudsNearOrigin(
-      source, target, first_options, source_viewpoint, target_viewpoint, &got);
+      source, target, first_options, source_viewpoint, target_viewpoint, &past_normals);
   // A first try whose best pose fits (overlap, normals, visibility) and was refused as
   // ambiguous or not fixed found its poses: a retry would only draw other hypotheses, and an
   // "ok" among them would lack the competitor the first try saw (on the simulated gate, seed 2,
   // the multi-view part onto the proxy: its 180° twin, refused at t 2.5 against the right
   // pose, became a wrong "ok" 5.9 m off on the retry, where the right pose came out worse).
-  if (first.status != "failed" || !got.past_normals || got.best_fits ||
+  if (first.status != "failed" || !past_normals || first.best_pose_fits ||
       (!options.source_viewpoints.empty() && !options.target_viewpoints.empty())) {
     return first;
   }
@@ -2851,6 +2846,31 @@ double RobustExtent(const std::vector<Eigen::Vector3d>& points) {
   return span.norm();
 }
 
+namespace {
+// Runs job(0) … job(n − 1), two at a time on a machine with two cores or more (each is mostly
+// single-threaded); the first exception is rethrown once both workers have stopped.
+void RunTwoAtATime(size_t n, const std::function<void(size_t)>& job) {
+  std::atomic<size_t> next{0};
+  std::mutex error_mutex;
+  std::exception_ptr error;
+  const auto work = [&]() {
+    try {
+      for (size_t k = next++; k < n; k = next++) job(k);
+    } catch (...) {
+      const std::lock_guard<std::mutex> lock(error_mutex);
+      if (!error) error = std::current_exception();
+      next = n;
+    }
+  };
+  const size_t workers = std::min<size_t>({2, std::max(1u, std::thread::hardware_concurrency()), n});
+  std::vector<std::thread> pool;
+  for (size_t w = 1; w < workers; ++w) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+}
+}  // namespace
+
 double ScaleSearchTolerance(const io::PointCloud& target) {
   return std::max(3.0 * EstimatePointSpacing(target), 0.005 * RobustExtent(target.points));
 }
@@ -2886,66 +2906,88 @@ ScaleSearchResult RegisterCloudsOverScales(
     double trial_scale;
     SimilarityFit fit;
   };
-  // The trials are independent: two at a time on a machine with two cores or more (each
-  // registration is mostly single-threaded), then taken in the order of their scales, so the
-  // result does not depend on which finished first.
   struct Outcome {
     CloudRegistrationResult rigid;
     std::optional<SimilarityFit> fit;
   };
+  // One trial: the source at `scale` (about its centroid) registered rigidly; an "ok" one is
+  // refined as a similarity (a rigid pose at a scale 5 % off leaves the source's ends 5 % of
+  // its half extent off).
+  const auto run_trial = [&](double scale, Outcome* o, ScaleTrial* trial) {
+    io::PointCloud scaled;
+    scaled.points.reserve(source.size());
+    for (const Eigen::Vector3d& x : source.points) scaled.points.push_back(scale * (x - centroid));
+    CloudRegistrationOptions trial_options = options;
+    for (Eigen::Vector3d& c : trial_options.source_viewpoints) c = scale * (c - centroid);
+    if (trial_options.normal_orientation == NormalOrientation::kAuto) {
+      trial_options.normal_orientation = NormalOrientation::kViewpoint;  // no retries
+    }
+    o->rigid = RegisterClouds(scaled, target, trial_options);
+    trial->scale = scale;
+    trial->status = o->rigid.ok() ? "ok" : "failed: " + o->rigid.reason;
+    trial->fitness = o->rigid.fitness;
+  };
+  // The similarity target ← source of a trial's rigid pose, refined with the scale free.
+  const auto refine = [&](double scale, const CloudRegistrationResult& rigid) {
+    Eigen::Matrix4d start = Eigen::Matrix4d::Identity();
+    start.topLeftCorner<3, 3>() = scale * rigid.target_from_source.topLeftCorner<3, 3>();
+    start.topRightCorner<3, 1>() =
+        rigid.target_from_source.topRightCorner<3, 1>() - start.topLeftCorner<3, 3>() * centroid;
+    const double reach = std::max(10.0 * tau, 0.05 * scale * extent);
+    return RefineSimilarity(source, target, start, reach, tau);
+  };
   std::vector<Outcome> outcomes(scales.size());
   std::vector<ScaleTrial> trials(scales.size());
-  std::atomic<size_t> next{0};
   std::mutex progress_mutex;
   size_t finished = 0;
-  std::exception_ptr error;
-  const auto work = [&]() {
-    try {
-      for (size_t k = next++; k < scales.size(); k = next++) {
-        const double scale = scales[k];
-        io::PointCloud scaled;
-        scaled.points.reserve(source.size());
-        for (const Eigen::Vector3d& x : source.points) scaled.points.push_back(scale * (x - centroid));
-        CloudRegistrationOptions trial_options = options;
-        for (Eigen::Vector3d& c : trial_options.source_viewpoints) c = scale * (c - centroid);
-        if (trial_options.normal_orientation == NormalOrientation::kAuto) {
-          trial_options.normal_orientation = NormalOrientation::kViewpoint;  // no retries
-        }
-        Outcome& o = outcomes[k];
-        o.rigid = RegisterClouds(scaled, target, trial_options);
-        ScaleTrial& trial = trials[k];
-        trial.scale = scale;
-        trial.status = o.rigid.ok() ? "ok" : "failed: " + o.rigid.reason;
-        trial.fitness = o.rigid.fitness;
-        if (o.rigid.ok()) {
-          // The similarity target ← source of this trial, refined with the scale free. A rigid
-          // pose at a scale 5 % off leaves the source's ends 5 % of its half extent off.
-          Eigen::Matrix4d start = Eigen::Matrix4d::Identity();
-          start.topLeftCorner<3, 3>() = scale * o.rigid.target_from_source.topLeftCorner<3, 3>();
-          start.topRightCorner<3, 1>() =
-              o.rigid.target_from_source.topRightCorner<3, 1>() - start.topLeftCorner<3, 3>() * centroid;
-          const double reach = std::max(10.0 * tau, 0.05 * scale * extent);
-          o.fit = RefineSimilarity(source, target, start, reach, tau);
-          trial.refined = true;
-          trial.refined_scale = o.fit->scale;
-          trial.refined_fitness = o.fit->fitness;
-        }
-        const std::lock_guard<std::mutex> lock(progress_mutex);
-        ++finished;
-        if (progress) progress(finished, scales.size(), trial);
-      }
-    } catch (...) {
-      const std::lock_guard<std::mutex> lock(progress_mutex);
-      if (!error) error = std::current_exception();
-      next = scales.size();
+  // The trials are independent: two at a time, then taken in the order of their scales, so the
+  // result does not depend on which finished first.
+  const auto trial_job = [&](size_t k) {
+    Outcome& o = outcomes[k];
+    ScaleTrial& trial = trials[k];
+    run_trial(scales[k], &o, &trial);
+    if (o.rigid.ok()) {
+      o.fit = refine(scales[k], o.rigid);
+      trial.refined = true;
+      trial.refined_scale = o.fit->scale;
+      trial.refined_fitness = o.fit->fitness;
     }
+    const std::lock_guard<std::mutex> lock(progress_mutex);
+    ++finished;
+    if (progress) progress(finished, trials.size(), trial);
   };
-  const size_t workers = std::min<size_t>({2, std::max(1u, std::thread::hardware_concurrency()), scales.size()});
-  std::vector<std::thread> pool;
-  for (size_t w = 1; w < workers; ++w) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
+  RunTwoAtATime(scales.size(), trial_job);
+  // Second pass, when no trial scale registered: the checks of a rigid registration refuse a
+  // pose whose scale is a few per cent off (its ends lie beyond the fine tolerance, so it is
+  // "not resolved" or "not determined" though it fits). Every failed trial whose pose fits is
+  // refined as a similarity; the two refined scales that fit best (distinct, within the range
+  // widened by a step) are each registered again from scratch, with every check. An "ok" there
+  // is a trial like the others.
+  if (std::none_of(outcomes.begin(), outcomes.end(), [](const Outcome& o) { return o.rigid.ok(); })) {
+    std::vector<std::optional<SimilarityFit>> fits(scales.size());
+    RunTwoAtATime(scales.size(), [&](size_t k) {
+      if (outcomes[k].rigid.best_pose_fits) fits[k] = refine(scales[k], outcomes[k].rigid);
+    });
+    std::vector<SimilarityFit> refined;
+    for (const std::optional<SimilarityFit>& fit : fits) {
+      if (fit && fit->scale >= min_scale / step && fit->scale <= max_scale * step) refined.push_back(*fit);
+    }
+    std::stable_sort(refined.begin(), refined.end(),
+                     [](const SimilarityFit& a, const SimilarityFit& b) { return a.fitness > b.fitness; });
+    std::vector<double> tried = scales;
+    for (const SimilarityFit& fit : refined) {
+      if (tried.size() == scales.size() + 2) break;
+      if (std::none_of(tried.begin(), tried.end(), [&](double t) { return std::abs(fit.scale / t - 1.0) < 1e-3; })) {
+        tried.push_back(fit.scale);
+      }
+    }
+    const size_t first_new = scales.size();
+    scales.assign(tried.begin(), tried.end());
+    outcomes.resize(scales.size());
+    trials.resize(scales.size());
+    for (size_t k = first_new; k < scales.size(); ++k) trials[k].from_refinement = true;
+    RunTwoAtATime(scales.size() - first_new, [&](size_t i) { trial_job(first_new + i); });
+  }
   std::vector<Candidate> candidates;
   std::string closest;  // the reason of the failed trial that fitted best
   double closest_fitness = -1.0;

@@ -272,6 +272,9 @@ struct CloudRegistrationResult {
   double inlier_rmse = 0.0;       ///< metres
   double normal_agreement = 0.0;
   double conflict = 0.0;          ///< see RegistrationHypothesis::conflict
+  /// The best pose passed the overlap, visibility and normal checks: a failure after them
+  /// (ambiguous, not resolved, not determined) found a pose that fits but is not sure of it.
+  bool best_pose_fits = false;
   bool visibility_tested = false;  ///< sensor positions were given (free-space test done)
   double violation = 0.0;         ///< see RegistrationHypothesis::violation
   double significance = 0.0;      ///< best vs the least distinguishable distinct finalist, in
@@ -384,6 +387,9 @@ struct ScaleTrial {
   std::string status;            ///< "ok" or "failed: <reason>" of the rigid registration
   double fitness = 0.0;          ///< the rigid registration's
   bool refined = false;          ///< an "ok" trial, refined as a similarity
+  /// A second-pass trial: when no trial scale registered, the scale refined from a failed trial
+  /// whose pose fits (CloudRegistrationResult::best_pose_fits), registered again from scratch.
+  bool from_refinement = false;
   double refined_scale = 0.0;    ///< target units per source unit after the refinement
   double refined_fitness = 0.0;  ///< fraction of the source within the tolerance after it
 };
