@@ -73,6 +73,14 @@ int RunBa(const BaArgs& args) {
                                               "its inputs, give another folder");
   }
 
+  std::vector<FileArg> model_files;
+  for (const char* name : {"cameras", "images", "points3D"}) {
+    for (const char* ext : {".txt", ".bin"}) {
+      model_files.push_back({"--input", (fs::path(args.input) / (std::string(name) + ext)).string()});
+    }
+  }
+  RefuseToOverwriteInputs({{"--json", args.json}}, model_files);
+
   io::ColmapFormat format;
   io::ColmapModel model = io::ReadColmapModel(args.input, &format);
   spdlog::info("read {} ({}): {} cameras, {} images, {} points, {} observations", args.input,

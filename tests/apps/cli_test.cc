@@ -136,6 +136,8 @@ TEST_F(CliTest, OutputsNeverReplaceInputs) {
   }
   fs::copy_file(kSource + "/data/gama/gama-local.xml", Tmp("observations.csv"));
   fs::copy_file(kSource + "/data/bal/dubrovnik-3-7-pre.txt", Tmp("problem.txt"));
+  fs::copy(kModel, Tmp("model"));
+  const std::string images_before = bytes(Tmp("model/images.txt"));
   const std::string target_before = bytes(Tmp("bun4.pcd"));
   const std::string survey_before = bytes(Tmp("observations.csv"));
   const std::string bal_before = bytes(Tmp("problem.txt"));
@@ -151,6 +153,8 @@ TEST_F(CliTest, OutputsNeverReplaceInputs) {
                 " --kitti-calib " + kSource + "/data/kitti/calib/000000.txt --output " + Tmp("bun0.pcd"),
             "is the input --lidar"},
            {"bal " + Tmp("problem.txt") + " --json " + Tmp("problem.txt"), "--json"},
+           {"ba --input " + Tmp("model") + " --output " + Tmp("adjusted") + " --json " + Tmp("model/images.txt"),
+            "--json: '" + Tmp("model/images.txt") + "' is the input --input"},
            {"survey --input " + Tmp("observations.csv") + " --output " + tmp_.string(), "is the input --input"}}) {
     const RunResult run = Mmba(args);
     EXPECT_EQ(run.exit_code, 2) << args << "\n" << run.output;
@@ -160,6 +164,8 @@ TEST_F(CliTest, OutputsNeverReplaceInputs) {
   EXPECT_EQ(bytes(Tmp("bun4.pcd")), target_before);
   EXPECT_EQ(bytes(Tmp("observations.csv")), survey_before);
   EXPECT_EQ(bytes(Tmp("problem.txt")), bal_before);
+  EXPECT_EQ(bytes(Tmp("model/images.txt")), images_before);
+  EXPECT_FALSE(fs::exists(Tmp("adjusted")));
   EXPECT_FALSE(fs::exists(Tmp("o.json")));
   EXPECT_FALSE(fs::exists(Tmp("adjusted.json")));
 }
