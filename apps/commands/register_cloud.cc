@@ -14,6 +14,7 @@
 #include "mmba/core/progress.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/registration/cloud/feature_registration.h"
+#include "mmba/registration/cloud/scale_trial_json.h"
 #include "mmba/registration/cloud/scene_evaluation.h"
 #include "registration_json.h"
 
@@ -60,15 +61,7 @@ int RunScaleSearch(const RegisterCloudArgs& args, const registration::CloudRegis
   json["tolerance_m"] = result.tolerance_m;
   json["runtime_seconds"] = {{"total", result.seconds}};
   nlohmann::ordered_json trials = nlohmann::ordered_json::array();
-  for (const registration::ScaleTrial& t : result.trials) {
-    nlohmann::ordered_json trial = {{"scale", t.scale}, {"status", t.status}, {"fitness", t.fitness}};
-    if (t.from_refinement) trial["from_refinement"] = true;
-    if (t.refined) {
-      trial["refined_scale"] = t.refined_scale;
-      trial["refined_fitness"] = t.refined_fitness;
-    }
-    trials.push_back(trial);
-  }
+  for (const registration::ScaleTrial& t : result.trials) trials.push_back(registration::ScaleTrialJson(t));
   json["trials"] = trials;
   json["source"] = args.source;
   json["target"] = args.target;

@@ -21,6 +21,7 @@
 
 #include "internal.h"
 #include "mmba/registration/cloud/feature_registration.h"
+#include "mmba/registration/cloud/scale_trial_json.h"
 
 namespace mmba::adjust::internal {
 
@@ -292,14 +293,7 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
         spdlog::info("adjust: scale {} of {} ({:.4g}): {}", done, total, t.scale, t.status.substr(0, 160));
       });
   nlohmann::json trials = nlohmann::json::array();
-  for (const registration::ScaleTrial& t : r.trials) {
-    nlohmann::json trial = {{"scale", t.scale}, {"status", t.status}, {"fitness", t.fitness}};
-    if (t.refined) {
-      trial["refined_scale"] = t.refined_scale;
-      trial["refined_fitness"] = t.refined_fitness;
-    }
-    trials.push_back(trial);
-  }
+  for (const registration::ScaleTrial& t : r.trials) trials.push_back(nlohmann::json(registration::ScaleTrialJson(t)));
   entry["trials"] = trials;
   entry["scale_range"] = {lo, hi};
   entry["seconds"] = r.seconds;
