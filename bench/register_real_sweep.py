@@ -11,7 +11,7 @@ compares the result with the truth: RMS of ||T·p − T_true·p|| over the sourc
 Usage (Debian's python3 with numpy and open3d, for reading PCD/PLY and writing PLY):
   /usr/bin/python3 bench/register_real_sweep.py MMBA OUTDIR [--draws N] [--seed S]
       [--cases office1,table,milk,bunny_mm,v090_bun045,v180_v090,...] [--data DIR]
-      [--overlaps 0:0.5,1:0.4]
+      [--overlaps 0:0.5,1:0.4] [--noise-spacings K] [--source-keep F] [--outliers F]
 (vNAME = a virtual scan of bun.conf's view NAME rendered from the zipper mesh:
 stanford_virtual_scans.py)
 Writes OUTDIR/sweep.csv (one row per registration) and prints a summary table.
@@ -78,8 +78,15 @@ def stanford_conf(conf_path):
     return poses
 
 
-def make_cases(data, names, rng, overlaps=((0, 0.5), (1, 0.4))):
-    """(name, source points, target points, target_from_source before the random move)."""
+def make_cases(data, names, rng, overlaps=((0, 0.5), (1, 0.4)), noise_spacings=0.0,
+               source_keep=0.7, outliers=0.0):
+    """(name, source points, target points, target_from_source before the random move).
+    noise_spacings > 0: each piece of a cut cloud gets independent isotropic Gaussian noise of
+    that many times the cloud's median point spacing, so that the two pieces share no point
+    exactly (as two scans of one surface do not). source_keep: the fraction of the source piece
+    kept (the target keeps 0.7; a smaller value gives a sparser source, as a photogrammetric
+    cloud against a scan). outliers > 0: that fraction of each piece's count added as uniform
+    points in the piece's bounding box (a dense matcher's blunders)."""
     pcl = os.path.join(data, 'pcl_test')
     bunny = os.path.join(data, 'stanford_bunny')
     out = []
@@ -88,12 +95,23 @@ def make_cases(data, names, rng, overlaps=((0, 0.5), (1, 0.4))):
             file = {'office1': 'office1.pcd', 'table': 'table_scene_mug_stereo_textured.pcd',
                     'milk': 'milk.pcd', 'pclbunny': 'bunny.pcd'}[name]
             p = load(os.path.join(pcl, file))
+            sigma = noise_spacings * spacing(p)
             for axis, overlap in overlaps:
                 s, t = split(p, axis, overlap)
                 # different samplings, as two scans of one surface have
-                s = s[rng.random(len(s)) < 0.7]
+                s = s[rng.random(len(s)) < source_keep]
                 t = t[rng.random(len(t)) < 0.7]
-                out.append((f'{name}_ax{axis}_ov{overlap}', s, t, np.eye(4)))
+                if sigma > 0:
+                    s = s + rng.normal(scale=sigma, size=s.shape)
+                    t = t + rng.normal(scale=sigma, size=t.shape)
+                if outliers > 0:
+                    s, t = (np.vstack([c, rng.uniform(c.min(0), c.max(0),
+                                                      size=(int(outliers * len(c)), 3))])
+                            for c in (s, t))
+                tag = f'_n{noise_spacings:g}' if sigma > 0 else ''
+                tag += f'_k{source_keep:g}' if source_keep != 0.7 else ''
+                tag += f'_o{outliers:g}' if outliers > 0 else ''
+                out.append((f'{name}_ax{axis}_ov{overlap}{tag}', s, t, np.eye(4)))
         elif name.startswith('bun') or name.startswith('zipper'):
             # SOURCE_TARGET[_mm] of the Stanford scans, aligned by bun.conf (the zipper
             # reconstruction is in bun000's frame)
@@ -160,6 +178,13 @@ def main():
     ap.add_argument('--offset', default='', help='X,Y,Z added to both clouds (e.g. UTM '
                     'coordinates 500000,5000000,100)')
     ap.add_argument('--extra', default='', help='extra register-cloud arguments')
+    ap.add_argument('--noise-spacings', type=float, default=0.0,
+                    help='independent Gaussian noise on each piece of office1/table/milk/'
+                    'pclbunny, in median point spacings (default 0: the pieces share points)')
+    ap.add_argument('--source-keep', type=float, default=0.7,
+                    help='fraction of the source piece kept (the target keeps 0.7)')
+    ap.add_argument('--outliers', type=float, default=0.0,
+                    help='uniform outliers added to each piece, as a fraction of its points')
     ap.add_argument('--overlaps', default='0:0.5,1:0.4',
                     help='the pieces of office1/table/milk/pclbunny: AXIS:SHARED,... (SHARED = '
                     'the fraction of the extent both pieces hold; each piece holds (1+SHARED)/2)')
@@ -169,7 +194,8 @@ def main():
     rows = []
     for name, src, tgt, base_truth in make_cases(
             args.data, args.cases.split(','), rng,
-            [(int(a), float(o)) for a, o in (x.split(':') for x in args.overlaps.split(','))]):
+            [(int(a), float(o)) for a, o in (x.split(':') for x in args.overlaps.split(','))],
+            args.noise_spacings, args.source_keep, args.outliers):
         s_spacing = spacing(src)
         extent = float(np.linalg.norm(np.ptp(src, axis=0)))
         target_path = os.path.join(args.outdir, f'{name}_target.ply')

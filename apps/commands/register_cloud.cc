@@ -33,6 +33,7 @@ struct RegisterCloudArgs {
   bool no_icp = false;
   bool no_intensity = false;
   bool no_local_search = false;
+  bool keep_isolated = false;
   bool paper = false;
   bool skip_invalid = false;
   double error_map_max_m = 0.0;
@@ -117,6 +118,7 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   options.intensity_test = !args.no_intensity;
   options.local_search = !args.no_local_search;
   options.paper_only = args.paper;
+  if (args.keep_isolated) options.isolated_cell_spacing = 0.0;
   options.seed = args.seed;
   options.min_fitness = args.min_fitness;
   if (!args.source_viewpoints.empty()) {
@@ -228,6 +230,10 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_flag("--no-intensity", args->no_intensity,
                 "geometry only: do not let the clouds' intensity (or colour) settle a tie "
                 "between pseudo-symmetric poses");
+  sub->add_flag("--keep-isolated", args->keep_isolated,
+                "keep isolated points (default: a point with fewer than 4 others within about 3 "
+                "times the cloud's 90th-percentile point spacing is removed from either cloud "
+                "first: a matcher's blunders, stray returns)");
   sub->add_flag("--paper", args->paper,
                 "the paper's pipeline only: best SAC-IA hypothesis + ICP, no verification "
                 "(status \"unverified\", exit 3)");

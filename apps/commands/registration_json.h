@@ -113,6 +113,8 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
           {"num_correspondences", result.num_correspondences},
           {"num_inliers", result.num_inliers},
           {"point_spacing_m", result.point_spacing_m},
+          {"isolated_points_removed", {{"source", result.isolated_removed_source},
+                                       {"target", result.isolated_removed_target}}},
           {"normal_radius_m", result.normal_radius_m},
           {"support_radius_m", result.support_radius_m},
           {"runtime_seconds", runtime},

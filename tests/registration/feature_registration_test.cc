@@ -376,6 +376,73 @@ TEST(FeatureRegistration, ObjectInsideALargeReference) {
   EXPECT_GT(r.sigma_rotation_deg.minCoeff(), 0.0);
 }
 
+// `fraction` × the cloud's size of uniform points in its bounding box (a dense matcher's
+// blunders), appended after the cloud's own points.
+io::PointCloud WithScatter(const io::PointCloud& cloud, double fraction, uint32_t seed) {
+  std::mt19937 rng(seed);
+  Eigen::Vector3d lo = cloud.points[0], hi = cloud.points[0];
+  for (const Eigen::Vector3d& p : cloud.points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  io::PointCloud out = cloud;
+  const size_t n = static_cast<size_t>(fraction * static_cast<double>(cloud.size()));
+  for (size_t i = 0; i < n; ++i) {
+    out.points.push_back(lo + Eigen::Vector3d(u(rng), u(rng), u(rng)).cwiseProduct(hi - lo));
+  }
+  return out;
+}
+
+TEST(FeatureRegistration, ScatteredBlundersAreRemovedFirst) {
+  // Two overlapping pieces of PCL's table scan (a stereo camera's), each a different 70 %
+  // of its points with 0.5 mm of noise of its own, and each with 5 % of its points scattered
+  // uniformly over its box. The blunders are removed before anything else, so the coarse
+  // level and the spacing (hence R_n and R_s) are those of the clean pieces.
+  io::ReadOptions read;
+  read.skip_invalid_points = true;
+  const io::PointCloud table = io::ReadPointCloud(kPclDir + "table_scene_mug_stereo_textured.pcd", read);
+  std::vector<double> xs;
+  for (const Eigen::Vector3d& p : table.points) xs.push_back(p.x());
+  const double lo = Percentile(xs, 1), hi = Percentile(xs, 99), mid = Percentile(xs, 50);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, 0.0005);
+  io::PointCloud clean_source, clean_target;
+  for (const Eigen::Vector3d& p : table.points) {
+    const Eigen::Vector3d jitter(noise(rng), noise(rng), noise(rng));
+    if (p.x() <= mid + 0.25 * (hi - lo) && u(rng) < 0.7) clean_source.points.push_back(p + jitter);
+    if (p.x() >= mid - 0.25 * (hi - lo) && u(rng) < 0.7) clean_target.points.push_back(p - jitter);
+  }
+  const Eigen::Matrix4d source_from_target = BlockPose();
+  clean_source = Transformed(clean_source, source_from_target);
+  const io::PointCloud source = WithScatter(clean_source, 0.05, 4);
+  const io::PointCloud target = WithScatter(clean_target, 0.05, 5);
+  const CloudRegistrationOptions options;
+  const CloudRegistrationResult clean = RegisterClouds(clean_source, clean_target, options);
+  ASSERT_TRUE(clean.ok()) << clean.BriefReport();
+  EXPECT_LE(clean.isolated_removed_source, clean_source.size() / 200);  // <= 0.5 %
+  EXPECT_LE(clean.isolated_removed_target, clean_target.size() / 200);
+  const CloudRegistrationResult r = RegisterClouds(source, target, options);
+  ASSERT_TRUE(r.ok()) << r.BriefReport();
+  EXPECT_LT(TransformRmsOnCloud(clean_source, r.target_from_source, source_from_target.inverse()), 0.002)
+      << r.BriefReport();
+  // Most of the blunders go, hardly any surface point.
+  const size_t scattered_source = source.size() - clean_source.size();
+  const size_t scattered_target = target.size() - clean_target.size();
+  EXPECT_GE(r.isolated_removed_source, scattered_source * 9 / 10);
+  EXPECT_LE(r.isolated_removed_source, scattered_source + clean_source.size() / 200);
+  EXPECT_GE(r.isolated_removed_target, scattered_target * 9 / 10);
+  EXPECT_LE(r.isolated_removed_target, scattered_target + clean_target.size() / 200);
+  EXPECT_NEAR(r.point_spacing_m, clean.point_spacing_m, 0.1 * clean.point_spacing_m);
+  // Kept, they take voxels of their own at the coarse level and coarsen it.
+  CloudRegistrationOptions keep = options;
+  keep.isolated_cell_spacing = 0.0;
+  const CloudRegistrationResult kept = RegisterClouds(source, target, keep);
+  EXPECT_EQ(kept.isolated_removed_source + kept.isolated_removed_target, 0u);
+  EXPECT_GT(kept.point_spacing_m, 1.2 * clean.point_spacing_m) << kept.BriefReport();
+}
+
 TEST(FeatureRegistration, ModelWithoutTheReliefStatesItsBias) {
   // A model that leaves out relief the reference has (a plane proxy of a detailed façade).
   // The fine ICP pulls the source's faces towards whatever relief falls within its last

@@ -98,6 +98,8 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   if (!(coarse_voxel_spacing >= 1)) return fail("coarse_voxel_spacing", coarse_voxel_spacing, ">= 1");
   if (min_points_coarse < 10) return fail("min_points_coarse", min_points_coarse, ">= 10");
   if (!(larger_cloud_factor >= 1)) return fail("larger_cloud_factor", larger_cloud_factor, ">= 1");
+  if (!(isolated_cell_spacing >= 0)) return fail("isolated_cell_spacing", isolated_cell_spacing, ">= 0");
+  if (isolated_min_neighbours < 1) return fail("isolated_min_neighbours", isolated_min_neighbours, ">= 1");
   if (!(inlier_sigma > 0)) return fail("inlier_sigma", inlier_sigma, "> 0");
   if (sac_ia_iterations < 1) return fail("sac_ia_iterations", sac_ia_iterations, ">= 1");
   if (sac_ia_draws_per_iteration < 1) {
@@ -233,6 +235,14 @@ class VoxelTable {
       }
     }
   }
+  // Dense index of `key`, or -1 when it was never inserted.
+  int Find(const VoxelKey& key) const {
+    if (slots_.empty()) return -1;
+    for (size_t s = Hash(key) & mask_;; s = (s + 1) & mask_) {
+      const int v = slots_[s];
+      if (v < 0 || keys_[static_cast<size_t>(v)] == key) return v;
+    }
+  }
   size_t size() const { return keys_.size(); }
 
  private:
@@ -312,10 +322,10 @@ Level VoxelDownsample(const std::vector<Eigen::Vector3d>& points,
   return out;
 }
 
-// Median distance to the nearest other point over every (size / max_samples)-th point, on
-// `index` (built on `points`).
-double MedianSpacing(const PointIndex& index, const std::vector<Eigen::Vector3d>& points,
-                     size_t max_samples) {
+// The `quantile` of the distance to the nearest other point over every
+// (size / max_samples)-th point, on `index` (built on `points`); 0.5: the median spacing.
+double SpacingQuantile(const PointIndex& index, const std::vector<Eigen::Vector3d>& points,
+                       size_t max_samples, double quantile) {
   if (points.size() < 2) return 0.0;
   const size_t step = std::max<size_t>(1, points.size() / max_samples);
   std::vector<double> d;
@@ -326,8 +336,71 @@ double MedianSpacing(const PointIndex& index, const std::vector<Eigen::Vector3d>
     if (sq.size() == 2) d.push_back(std::sqrt(sq[1]));
   }
   if (d.empty()) return 0.0;
-  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-  return d[d.size() / 2];
+  const size_t k = std::min(d.size() - 1, static_cast<size_t>(quantile * static_cast<double>(d.size())));
+  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(k), d.end());
+  return d[k];
+}
+
+double MedianSpacing(const PointIndex& index, const std::vector<Eigen::Vector3d>& points,
+                     size_t max_samples) {
+  return SpacingQuantile(index, points, max_samples, 0.5);
+}
+
+// Marks the isolated points of `points`: fewer than `min_neighbours` other points in the
+// 3 × 3 × 3 cells of size `cell` around the point's own cell (so none of its min_neighbours
+// nearest lies within `cell`). Counted per occupied cell, not per point.
+std::vector<char> IsolatedPoints(const std::vector<Eigen::Vector3d>& points, double cell,
+                                 int min_neighbours) {
+  VoxelTable table;
+  std::vector<int> cell_of(points.size());
+  std::vector<int64_t> count;
+  std::vector<VoxelKey> keys;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const VoxelKey key = KeyOf(points[i], cell);
+    bool inserted = false;
+    cell_of[i] = table.Insert(key, &inserted);
+    if (inserted) {
+      count.push_back(0);
+      keys.push_back(key);
+    }
+    ++count[static_cast<size_t>(cell_of[i])];
+  }
+  std::vector<char> cell_isolated(table.size());
+  for (size_t c = 0; c < keys.size(); ++c) {
+    int64_t around = -1;  // the point itself
+    for (int dx = -1; dx <= 1; ++dx) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dz = -1; dz <= 1; ++dz) {
+          const int n = table.Find({keys[c].x + dx, keys[c].y + dy, keys[c].z + dz});
+          if (n >= 0) around += count[static_cast<size_t>(n)];
+        }
+      }
+    }
+    cell_isolated[c] = around < min_neighbours;
+  }
+  std::vector<char> isolated(points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    isolated[i] = cell_isolated[static_cast<size_t>(cell_of[i])];
+  }
+  return isolated;
+}
+
+// `cloud` without the points marked in `marked` (every per-point attribute kept in step).
+io::PointCloud WithoutMarked(const io::PointCloud& cloud, const std::vector<char>& marked) {
+  io::PointCloud out;
+  const auto keep = [&](const auto& in, auto* kept) {
+    if (in.empty()) return;
+    kept->reserve(in.size());
+    for (size_t i = 0; i < in.size(); ++i) {
+      if (!marked[i]) kept->push_back(in[i]);
+    }
+  };
+  keep(cloud.points, &out.points);
+  keep(cloud.normals, &out.normals);
+  keep(cloud.intensity, &out.intensity);
+  keep(cloud.colors, &out.colors);
+  keep(cloud.time, &out.time);
+  return out;
 }
 
 double MedianSpacing(const std::vector<Eigen::Vector3d>& points, size_t max_samples) {
@@ -1407,8 +1480,8 @@ namespace {
 // `source_viewpoint` / `target_viewpoint` = each cloud's own origin in these coordinates,
 // towards which its normals are oriented (the scanner of a scan in its own frame).
 // `past_normals` (optional): set when the normals were estimated (the input passed its checks).
-CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
-                                                 const io::PointCloud& target,
+CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in,
+                                                 const io::PointCloud& target_in,
                                                  const CloudRegistrationOptions& options,
                                                  const Eigen::Vector3d& source_viewpoint,
                                                  const Eigen::Vector3d& target_viewpoint,
@@ -1421,9 +1494,9 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
   // Long work shows progress: once a registration has run 10 s (large clouds), each stage
   // is logged as it ends; a quick one stays silent.
   const Timer total_timer;
-  if (source.size() + target.size() > 4000000) {
+  if (source_in.size() + target_in.size() > 4000000) {
     spdlog::info("registration: {} source and {} target points; thinning them to the coarse "
-                 "and fine levels first", source.size(), target.size());
+                 "and fine levels first", source_in.size(), target_in.size());
   }
   auto end_stage = [&](const std::string& name) {
     const std::clock_t now = std::clock();
@@ -1441,24 +1514,50 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source,
     result.reason = reason;
     return result;
   };
-  for (const auto& [cloud, which] : {std::pair{&source, "source"}, std::pair{&target, "target"}}) {
+  for (const auto& [cloud, which] : {std::pair{&source_in, "source"}, std::pair{&target_in, "target"}}) {
     const std::string problem = CheckCloud(*cloud, which);
     if (!problem.empty()) return fail(problem);
   }
+
+  // --- Each cloud's spacing (median nearest-neighbour distance) and its isolated points
+  // (options.isolated_cell_spacing), from one kd-tree per cloud: on tens of millions of
+  // points each tree takes seconds. The source's spacing on 20,000 and (for the fine level's
+  // budget search below) on 5,000 samples.
+  double s_src = 0.0, s_src_5000 = 0.0, s_tgt = 0.0;
+  io::PointCloud kept_source, kept_target;
+  const io::PointCloud* source_ptr = &source_in;
+  const io::PointCloud* target_ptr = &target_in;
+  for (const bool is_source : {true, false}) {
+    const io::PointCloud& cloud = is_source ? source_in : target_in;
+    if (cloud.size() < 2) continue;
+    const PointIndex index(cloud.points);
+    (is_source ? s_src : s_tgt) = MedianSpacing(index, cloud.points, 20000);
+    if (is_source) s_src_5000 = MedianSpacing(index, cloud.points, 5000);
+    if (options.paper_only || options.isolated_cell_spacing <= 0) continue;
+    const double cell =
+        options.isolated_cell_spacing * SpacingQuantile(index, cloud.points, 20000, 0.9);
+    if (!(cell > 0)) continue;
+    const std::vector<char> isolated =
+        IsolatedPoints(cloud.points, cell, options.isolated_min_neighbours);
+    const size_t removed = static_cast<size_t>(std::count(isolated.begin(), isolated.end(), 1));
+    if (removed == 0 || removed == cloud.size()) continue;
+    (is_source ? kept_source : kept_target) = WithoutMarked(cloud, isolated);
+    (is_source ? source_ptr : target_ptr) = is_source ? &kept_source : &kept_target;
+    (is_source ? result.isolated_removed_source : result.isolated_removed_target) = removed;
+    std::ostringstream note;
+    note << "removed " << removed << " isolated point" << (removed == 1 ? "" : "s") << " of "
+         << cloud.size() << " from the " << (is_source ? "source" : "target") << " (fewer than "
+         << options.isolated_min_neighbours << " others in the 3 x 3 x 3 cells of " << cell
+         << " m around)";
+    result.notes.push_back(note.str());
+  }
+  const io::PointCloud& source = *source_ptr;
+  const io::PointCloud& target = *target_ptr;
 
   // --- Levels: a common coarse voxel for the features (clouds of different density are
   // matched at the density of the sparser one; the larger cloud may keep
   // larger_cloud_factor × as many points), a finer one for ICP (the target is cropped to each
   // hypothesis there).
-  // The source's spacing on 20,000 and (for the fine level's budget search below) on 5,000
-  // samples, from one kd-tree: on tens of millions of points each tree takes seconds.
-  double s_src = 0.0, s_src_5000 = 0.0;
-  if (source.size() >= 2) {
-    const PointIndex source_index(source.points);
-    s_src = MedianSpacing(source_index, source.points, 20000);
-    s_src_5000 = MedianSpacing(source_index, source.points, 5000);
-  }
-  const double s_tgt = EstimatePointSpacing(target);
   if (s_src <= 0 || s_tgt <= 0) return fail("all points of a cloud coincide (spacing 0)");
   const bool source_larger = source.size() > target.size();
   const size_t small_budget = static_cast<size_t>(options.max_points_features);
