@@ -231,9 +231,9 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
                 "geometry only: do not let the clouds' intensity (or colour) settle a tie "
                 "between pseudo-symmetric poses");
   sub->add_flag("--keep-isolated", args->keep_isolated,
-                "keep isolated points (default: a point with fewer than 4 others within about 3 "
-                "times the cloud's 90th-percentile point spacing is removed from either cloud "
-                "first: a matcher's blunders, stray returns)");
+                "keep isolated points (default: when at least 1 % of a cloud's points have fewer "
+                "than 4 others within about 3 times its 90th-percentile point spacing — a "
+                "matcher's blunders, stray returns — they are removed first)");
   sub->add_flag("--paper", args->paper,
                 "the paper's pipeline only: best SAC-IA hypothesis + ICP, no verification "
                 "(status \"unverified\", exit 3)");

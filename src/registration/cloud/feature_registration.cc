@@ -100,6 +100,9 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   if (!(larger_cloud_factor >= 1)) return fail("larger_cloud_factor", larger_cloud_factor, ">= 1");
   if (!(isolated_cell_spacing >= 0)) return fail("isolated_cell_spacing", isolated_cell_spacing, ">= 0");
   if (isolated_min_neighbours < 1) return fail("isolated_min_neighbours", isolated_min_neighbours, ">= 1");
+  if (!(isolated_min_fraction >= 0 && isolated_min_fraction <= 1)) {
+    return fail("isolated_min_fraction", isolated_min_fraction, "0 <= x <= 1");
+  }
   if (!(inlier_sigma > 0)) return fail("inlier_sigma", inlier_sigma, "> 0");
   if (sac_ia_iterations < 1) return fail("sac_ia_iterations", sac_ia_iterations, ">= 1");
   if (sac_ia_draws_per_iteration < 1) {
@@ -1540,7 +1543,10 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
     const std::vector<char> isolated =
         IsolatedPoints(cloud.points, cell, options.isolated_min_neighbours);
     const size_t removed = static_cast<size_t>(std::count(isolated.begin(), isolated.end(), 1));
-    if (removed == 0 || removed == cloud.size()) continue;
+    if (removed == 0 || removed == cloud.size() ||
+        static_cast<double>(removed) < options.isolated_min_fraction * static_cast<double>(cloud.size())) {
+      continue;
+    }
     (is_source ? kept_source : kept_target) = WithoutMarked(cloud, isolated);
     (is_source ? source_ptr : target_ptr) = is_source ? &kept_source : &kept_target;
     (is_source ? result.isolated_removed_source : result.isolated_removed_target) = removed;
