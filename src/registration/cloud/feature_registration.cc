@@ -325,11 +325,13 @@ Level VoxelDownsample(const std::vector<Eigen::Vector3d>& points,
   return out;
 }
 
-// The `quantile` of the distance to the nearest other point over every
+// The `quantiles` (ascending) of the distance to the nearest other point over every
 // (size / max_samples)-th point, on `index` (built on `points`); 0.5: the median spacing.
-double SpacingQuantile(const PointIndex& index, const std::vector<Eigen::Vector3d>& points,
-                       size_t max_samples, double quantile) {
-  if (points.size() < 2) return 0.0;
+std::vector<double> SpacingQuantiles(const PointIndex& index,
+                                     const std::vector<Eigen::Vector3d>& points,
+                                     size_t max_samples, const std::vector<double>& quantiles) {
+  std::vector<double> out(quantiles.size(), 0.0);
+  if (points.size() < 2) return out;
   const size_t step = std::max<size_t>(1, points.size() / max_samples);
   std::vector<double> d;
   std::vector<int> idx;
@@ -338,15 +340,19 @@ double SpacingQuantile(const PointIndex& index, const std::vector<Eigen::Vector3
     index.KNearest(points[i], 2, &idx, &sq);
     if (sq.size() == 2) d.push_back(std::sqrt(sq[1]));
   }
-  if (d.empty()) return 0.0;
-  const size_t k = std::min(d.size() - 1, static_cast<size_t>(quantile * static_cast<double>(d.size())));
-  std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(k), d.end());
-  return d[k];
+  if (d.empty()) return out;
+  for (size_t q = 0; q < quantiles.size(); ++q) {
+    const size_t k =
+        std::min(d.size() - 1, static_cast<size_t>(quantiles[q] * static_cast<double>(d.size())));
+    std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(k), d.end());
+    out[q] = d[k];
+  }
+  return out;
 }
 
 double MedianSpacing(const PointIndex& index, const std::vector<Eigen::Vector3d>& points,
                      size_t max_samples) {
-  return SpacingQuantile(index, points, max_samples, 0.5);
+  return SpacingQuantiles(index, points, max_samples, {0.5})[0];
 }
 
 // Marks the isolated points of `points`: fewer than `min_neighbours` other points in the
@@ -1534,11 +1540,11 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
     const io::PointCloud& cloud = is_source ? source_in : target_in;
     if (cloud.size() < 2) continue;
     const PointIndex index(cloud.points);
-    (is_source ? s_src : s_tgt) = MedianSpacing(index, cloud.points, 20000);
+    const std::vector<double> spacing = SpacingQuantiles(index, cloud.points, 20000, {0.5, 0.9});
+    (is_source ? s_src : s_tgt) = spacing[0];
     if (is_source) s_src_5000 = MedianSpacing(index, cloud.points, 5000);
     if (options.paper_only || options.isolated_cell_spacing <= 0) continue;
-    const double cell =
-        options.isolated_cell_spacing * SpacingQuantile(index, cloud.points, 20000, 0.9);
+    const double cell = options.isolated_cell_spacing * spacing[1];
     if (!(cell > 0)) continue;
     const std::vector<char> isolated =
         IsolatedPoints(cloud.points, cell, options.isolated_min_neighbours);
