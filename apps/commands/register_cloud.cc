@@ -33,7 +33,7 @@ struct RegisterCloudArgs {
   bool no_icp = false;
   bool no_intensity = false;
   bool no_local_search = false;
-  bool keep_isolated = false;
+  bool remove_isolated = false;
   bool paper = false;
   bool skip_invalid = false;
   double error_map_max_m = 0.0;
@@ -118,7 +118,7 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   options.intensity_test = !args.no_intensity;
   options.local_search = !args.no_local_search;
   options.paper_only = args.paper;
-  if (args.keep_isolated) options.isolated_cell_spacing = 0.0;
+  options.remove_isolated = args.remove_isolated;
   options.seed = args.seed;
   options.min_fitness = args.min_fitness;
   if (!args.source_viewpoints.empty()) {
@@ -230,10 +230,11 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_flag("--no-intensity", args->no_intensity,
                 "geometry only: do not let the clouds' intensity (or colour) settle a tie "
                 "between pseudo-symmetric poses");
-  sub->add_flag("--keep-isolated", args->keep_isolated,
-                "keep isolated points (default: when at least 1 % of a cloud's points have fewer "
-                "than 4 others within about 3 times its 90th-percentile point spacing — a "
-                "matcher's blunders, stray returns — they are removed first)");
+  sub->add_flag("--remove-isolated", args->remove_isolated,
+                "remove isolated points from both clouds first — fewer than 4 others within about "
+                "3 times the cloud's 90th-percentile point spacing: a dense matcher's blunders, "
+                "stray returns (not for a clean scan whose density varies: its sparse far points "
+                "go too)");
   sub->add_flag("--paper", args->paper,
                 "the paper's pipeline only: best SAC-IA hypothesis + ICP, no verification "
                 "(status \"unverified\", exit 3)");

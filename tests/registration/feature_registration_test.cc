@@ -397,8 +397,8 @@ io::PointCloud WithScatter(const io::PointCloud& cloud, double fraction, uint32_
 TEST(FeatureRegistration, ScatteredBlundersAreRemovedFirst) {
   // Two overlapping pieces of PCL's table scan (a stereo camera's), each a different 70 %
   // of its points with 0.5 mm of noise of its own, and each with 5 % of its points scattered
-  // uniformly over its box. The blunders are removed before anything else, so the coarse
-  // level and the spacing (hence R_n and R_s) are those of the clean pieces.
+  // uniformly over its box. With remove_isolated the blunders are removed before anything
+  // else, so the coarse level and the spacing (hence R_n and R_s) are those of the clean pieces.
   io::ReadOptions read;
   read.skip_invalid_points = true;
   const io::PointCloud table = io::ReadPointCloud(kPclDir + "table_scene_mug_stereo_textured.pcd", read);
@@ -418,7 +418,8 @@ TEST(FeatureRegistration, ScatteredBlundersAreRemovedFirst) {
   clean_source = Transformed(clean_source, source_from_target);
   const io::PointCloud source = WithScatter(clean_source, 0.05, 4);
   const io::PointCloud target = WithScatter(clean_target, 0.05, 5);
-  const CloudRegistrationOptions options;
+  CloudRegistrationOptions options;
+  options.remove_isolated = true;
   const CloudRegistrationResult clean = RegisterClouds(clean_source, clean_target, options);
   ASSERT_TRUE(clean.ok()) << clean.BriefReport();
   EXPECT_LE(clean.isolated_removed_source, clean_source.size() / 200);  // <= 0.5 %
@@ -435,10 +436,8 @@ TEST(FeatureRegistration, ScatteredBlundersAreRemovedFirst) {
   EXPECT_GE(r.isolated_removed_target, scattered_target * 9 / 10);
   EXPECT_LE(r.isolated_removed_target, scattered_target + clean_target.size() / 200);
   EXPECT_NEAR(r.point_spacing_m, clean.point_spacing_m, 0.1 * clean.point_spacing_m);
-  // Kept, they take voxels of their own at the coarse level and coarsen it.
-  CloudRegistrationOptions keep = options;
-  keep.isolated_cell_spacing = 0.0;
-  const CloudRegistrationResult kept = RegisterClouds(source, target, keep);
+  // Kept (the default), they take voxels of their own at the coarse level and coarsen it.
+  const CloudRegistrationResult kept = RegisterClouds(source, target, CloudRegistrationOptions());
   EXPECT_EQ(kept.isolated_removed_source + kept.isolated_removed_target, 0u);
   EXPECT_GT(kept.point_spacing_m, 1.2 * clean.point_spacing_m) << kept.BriefReport();
 }

@@ -98,11 +98,8 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   if (!(coarse_voxel_spacing >= 1)) return fail("coarse_voxel_spacing", coarse_voxel_spacing, ">= 1");
   if (min_points_coarse < 10) return fail("min_points_coarse", min_points_coarse, ">= 10");
   if (!(larger_cloud_factor >= 1)) return fail("larger_cloud_factor", larger_cloud_factor, ">= 1");
-  if (!(isolated_cell_spacing >= 0)) return fail("isolated_cell_spacing", isolated_cell_spacing, ">= 0");
+  if (!(isolated_cell_spacing > 0)) return fail("isolated_cell_spacing", isolated_cell_spacing, "> 0");
   if (isolated_min_neighbours < 1) return fail("isolated_min_neighbours", isolated_min_neighbours, ">= 1");
-  if (!(isolated_min_fraction >= 0 && isolated_min_fraction <= 1)) {
-    return fail("isolated_min_fraction", isolated_min_fraction, "0 <= x <= 1");
-  }
   if (!(inlier_sigma > 0)) return fail("inlier_sigma", inlier_sigma, "> 0");
   if (sac_ia_iterations < 1) return fail("sac_ia_iterations", sac_ia_iterations, ">= 1");
   if (sac_ia_draws_per_iteration < 1) {
@@ -1528,8 +1525,8 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
     if (!problem.empty()) return fail(problem);
   }
 
-  // --- Each cloud's spacing (median nearest-neighbour distance) and its isolated points
-  // (options.isolated_cell_spacing), from one kd-tree per cloud: on tens of millions of
+  // --- Each cloud's spacing (median nearest-neighbour distance) and, with
+  // options.remove_isolated, its isolated points, from one kd-tree per cloud: on tens of millions of
   // points each tree takes seconds. The source's spacing on 20,000 and (for the fine level's
   // budget search below) on 5,000 samples.
   double s_src = 0.0, s_src_5000 = 0.0, s_tgt = 0.0;
@@ -1543,16 +1540,13 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
     const std::vector<double> spacing = SpacingQuantiles(index, cloud.points, 20000, {0.5, 0.9});
     (is_source ? s_src : s_tgt) = spacing[0];
     if (is_source) s_src_5000 = MedianSpacing(index, cloud.points, 5000);
-    if (options.paper_only || options.isolated_cell_spacing <= 0) continue;
+    if (options.paper_only || !options.remove_isolated) continue;
     const double cell = options.isolated_cell_spacing * spacing[1];
     if (!(cell > 0)) continue;
     const std::vector<char> isolated =
         IsolatedPoints(cloud.points, cell, options.isolated_min_neighbours);
     const size_t removed = static_cast<size_t>(std::count(isolated.begin(), isolated.end(), 1));
-    if (removed == 0 || removed == cloud.size() ||
-        static_cast<double>(removed) < options.isolated_min_fraction * static_cast<double>(cloud.size())) {
-      continue;
-    }
+    if (removed == 0 || removed == cloud.size()) continue;
     (is_source ? kept_source : kept_target) = WithoutMarked(cloud, isolated);
     (is_source ? source_ptr : target_ptr) = is_source ? &kept_source : &kept_target;
     (is_source ? result.isolated_removed_source : result.isolated_removed_target) = removed;

@@ -88,19 +88,18 @@ struct CloudRegistrationOptions {
   int max_points_icp = 100000;      ///< fine level for ICP (>= 1000); the target is cropped
                                     ///< to each hypothesis' footprint before it is thinned
   bool use_existing_normals = true;  ///< use normals stored in the clouds when present
-  /// Isolated points — a dense matcher's blunders, a scanner's stray returns — are removed
-  /// from both clouds before anything else (not in paper_only runs): a point is isolated when
-  /// fewer than isolated_min_neighbours other points lie in the 3 × 3 × 3 cells of size
+  /// Remove isolated points — a dense matcher's blunders, a scanner's stray returns — from
+  /// both clouds before anything else (not in paper_only runs): a point is isolated when fewer
+  /// than isolated_min_neighbours other points lie in the 3 × 3 × 3 cells of size
   /// isolated_cell_spacing × the cloud's 90th-percentile nearest-neighbour distance around it.
   /// Scattered blunders otherwise take voxels of their own at the coarse level, which the
   /// point budget answers with a coarser voxel, and inflate the measured spacing and with it
-  /// R_n and R_s. 0 = keep every point (>= 0). They are removed only when they are at least
-  /// isolated_min_fraction of the cloud: the few sparse points at the edge of a clean scan
-  /// (0–0.6 % in the scans measured, 1.5 % of a Velodyne sweep's far rings) barely move the
-  /// levels, and such a cloud is registered exactly as given.
-  double isolated_cell_spacing = 3.0;
-  int isolated_min_neighbours = 4;  ///< see isolated_cell_spacing (>= 1)
-  double isolated_min_fraction = 0.01;  ///< see isolated_cell_spacing (0..1)
+  /// R_n and R_s. Off by default: in a clean model whose density varies (a merged terrestrial
+  /// scan) the rule also takes the sparse far points, and on the simulated cathedral that
+  /// turned registrations that were right into refusals (bench/RESULTS.md, session 39).
+  bool remove_isolated = false;
+  double isolated_cell_spacing = 3.0;  ///< see remove_isolated (> 0)
+  int isolated_min_neighbours = 4;     ///< see remove_isolated (>= 1)
   NormalOrientation normal_orientation = NormalOrientation::kAuto;  ///< see NormalOrientation
 
   // Hypotheses.
@@ -302,8 +301,8 @@ struct CloudRegistrationResult {
   size_t num_correspondences = 0;  ///< descriptor matches
   size_t num_inliers = 0;          ///< fine source points within the inlier distance
   double point_spacing_m = 0.0;    ///< s
-  /// Isolated points removed before the registration (see isolated_cell_spacing); the
-  /// fitness and the checks are over the remaining points.
+  /// Isolated points removed before the registration (see remove_isolated); the fitness and
+  /// the checks are over the remaining points.
   size_t isolated_removed_source = 0, isolated_removed_target = 0;
   double fine_inlier_distance_m = 0.0;  ///< τ of the fine verification (inlier residual)
   /// Smallest RMS displacement of the source (any direction: translation or rotation) the
