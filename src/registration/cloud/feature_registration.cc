@@ -353,8 +353,8 @@ double MedianSpacing(const PointIndex& index, const std::vector<Eigen::Vector3d>
 }
 
 // Marks the isolated points of `points`: fewer than `min_neighbours` other points in the
-// 3 × 3 × 3 cells of size `cell` around the point's own cell (so none of its min_neighbours
-// nearest lies within `cell`). Counted per occupied cell, not per point.
+// 3 × 3 × 3 cells of size `cell` around the point's own cell (so its min_neighbours-th
+// nearest other point lies farther than `cell`). Counted per occupied cell, not per point.
 std::vector<char> IsolatedPoints(const std::vector<Eigen::Vector3d>& points, double cell,
                                  int min_neighbours) {
   VoxelTable table;
@@ -1526,9 +1526,9 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
   }
 
   // --- Each cloud's spacing (median nearest-neighbour distance) and, with
-  // options.remove_isolated, its isolated points, from one kd-tree per cloud: on tens of millions of
-  // points each tree takes seconds. The source's spacing on 20,000 and (for the fine level's
-  // budget search below) on 5,000 samples.
+  // options.remove_isolated, its isolated points, from one kd-tree per cloud: on tens of
+  // millions of points each tree takes seconds. The source's spacing on 20,000 and (for the
+  // fine level's budget search below) on 5,000 samples.
   double s_src = 0.0, s_src_5000 = 0.0, s_tgt = 0.0;
   io::PointCloud kept_source, kept_target;
   const io::PointCloud* source_ptr = &source_in;
