@@ -33,7 +33,7 @@ struct RegisterCloudArgs {
   bool no_icp = false;
   bool no_intensity = false;
   bool no_local_search = false;
-  bool remove_isolated = false;
+  bool keep_blunders = false;
   bool paper = false;
   bool skip_invalid = false;
   double error_map_max_m = 0.0;
@@ -118,7 +118,7 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   options.intensity_test = !args.no_intensity;
   options.local_search = !args.no_local_search;
   options.paper_only = args.paper;
-  options.remove_isolated = args.remove_isolated;
+  options.remove_blunders = !args.keep_blunders;
   options.seed = args.seed;
   options.min_fitness = args.min_fitness;
   if (!args.source_viewpoints.empty()) {
@@ -230,11 +230,10 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_flag("--no-intensity", args->no_intensity,
                 "geometry only: do not let the clouds' intensity (or colour) settle a tie "
                 "between pseudo-symmetric poses");
-  sub->add_flag("--remove-isolated", args->remove_isolated,
-                "remove isolated points from both clouds first — fewer than 4 others within about "
-                "3 times the cloud's 90th-percentile point spacing: a dense matcher's blunders, "
-                "stray returns (not for a clean scan whose density varies: its sparse far points "
-                "go too)");
+  sub->add_flag("--keep-blunders", args->keep_blunders,
+                "keep scattered blunders (default: points with fewer than 4 others within about "
+                "3 times the cloud's 90th-percentile spacing and off the surface of their "
+                "neighbours are removed first when they are >= 1 % of a cloud)");
   sub->add_flag("--paper", args->paper,
                 "the paper's pipeline only: best SAC-IA hypothesis + ICP, no verification "
                 "(status \"unverified\", exit 3)");

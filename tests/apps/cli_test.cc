@@ -256,13 +256,13 @@ TEST_F(CliTest, RegisterCloudScaleRange) {
 }
 
 // register-cloud's intensity test fields: PCL's bunnies carry no brightness, so the test
-// cannot run (false / null), with or without --no-intensity (or --remove-isolated), and the
+// cannot run (false / null), with or without --no-intensity (or --keep-blunders), and the
 // registration is ok.
 TEST_F(CliTest, RegisterCloudReportsTheIntensityTest) {
   const std::string pair = "register-cloud --source " + kSource +
                            "/data/pointclouds/pcl_test/bun0.pcd --target " + kSource +
                            "/data/pointclouds/pcl_test/bun4.pcd -q --output ";
-  for (const std::string flag : {"", " --no-intensity", " --remove-isolated"}) {
+  for (const std::string flag : {"", " --no-intensity", " --keep-blunders"}) {
     const RunResult run = Mmba(pair + Tmp("out.json") + flag);
     ASSERT_EQ(run.exit_code, 0) << run.output;
     // The terminal summary says how sure the pose is.
@@ -274,13 +274,9 @@ TEST_F(CliTest, RegisterCloudReportsTheIntensityTest) {
     EXPECT_TRUE(j["intensity_significance"].is_null());
     ASSERT_FALSE(j["hypotheses"].empty());
     EXPECT_TRUE(j["hypotheses"][0]["intensity_correlation"].is_null());
-    // Isolated points are removed only when asked (from these clean scans: at most a few).
-    ASSERT_TRUE(j["isolated_points_removed"]["source"].is_number_unsigned()) << j.dump();
-    ASSERT_TRUE(j["isolated_points_removed"]["target"].is_number_unsigned()) << j.dump();
-    if (flag != " --remove-isolated") {
-      EXPECT_EQ(j["isolated_points_removed"]["source"], 0);
-      EXPECT_EQ(j["isolated_points_removed"]["target"], 0);
-    }
+    // No scattered blunders in these clean scans: nothing removed, with or without the flag.
+    EXPECT_EQ(j["blunders_removed"]["source"], 0) << j.dump();
+    EXPECT_EQ(j["blunders_removed"]["target"], 0) << j.dump();
   }
 }
 

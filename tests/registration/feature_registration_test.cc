@@ -397,8 +397,9 @@ io::PointCloud WithScatter(const io::PointCloud& cloud, double fraction, uint32_
 TEST(FeatureRegistration, ScatteredBlundersAreRemovedFirst) {
   // Two overlapping pieces of PCL's table scan (a stereo camera's), each a different 70 %
   // of its points with 0.5 mm of noise of its own, and each with 5 % of its points scattered
-  // uniformly over its box. With remove_isolated the blunders are removed before anything
-  // else, so the coarse level and the spacing (hence R_n and R_s) are those of the clean pieces.
+  // uniformly over its box. The blunders are removed before anything else (by default), so
+  // the coarse level and the spacing (hence R_n and R_s) are those of the clean pieces; the
+  // clean pieces are registered as given.
   io::ReadOptions read;
   read.skip_invalid_points = true;
   const io::PointCloud table = io::ReadPointCloud(kPclDir + "table_scene_mug_stereo_textured.pcd", read);
@@ -418,12 +419,10 @@ TEST(FeatureRegistration, ScatteredBlundersAreRemovedFirst) {
   clean_source = Transformed(clean_source, source_from_target);
   const io::PointCloud source = WithScatter(clean_source, 0.05, 4);
   const io::PointCloud target = WithScatter(clean_target, 0.05, 5);
-  CloudRegistrationOptions options;
-  options.remove_isolated = true;
+  const CloudRegistrationOptions options;
   const CloudRegistrationResult clean = RegisterClouds(clean_source, clean_target, options);
   ASSERT_TRUE(clean.ok()) << clean.BriefReport();
-  EXPECT_LE(clean.isolated_removed_source, clean_source.size() / 200);  // <= 0.5 %
-  EXPECT_LE(clean.isolated_removed_target, clean_target.size() / 200);
+  EXPECT_EQ(clean.blunders_removed_source + clean.blunders_removed_target, 0u);
   const CloudRegistrationResult r = RegisterClouds(source, target, options);
   ASSERT_TRUE(r.ok()) << r.BriefReport();
   EXPECT_LT(TransformRmsOnCloud(clean_source, r.target_from_source, source_from_target.inverse()), 0.002)
@@ -431,14 +430,16 @@ TEST(FeatureRegistration, ScatteredBlundersAreRemovedFirst) {
   // Most of the blunders go, hardly any surface point.
   const size_t scattered_source = source.size() - clean_source.size();
   const size_t scattered_target = target.size() - clean_target.size();
-  EXPECT_GE(r.isolated_removed_source, scattered_source * 9 / 10);
-  EXPECT_LE(r.isolated_removed_source, scattered_source + clean_source.size() / 200);
-  EXPECT_GE(r.isolated_removed_target, scattered_target * 9 / 10);
-  EXPECT_LE(r.isolated_removed_target, scattered_target + clean_target.size() / 200);
+  EXPECT_GE(r.blunders_removed_source, scattered_source * 9 / 10);
+  EXPECT_LE(r.blunders_removed_source, scattered_source + clean_source.size() / 200);
+  EXPECT_GE(r.blunders_removed_target, scattered_target * 9 / 10);
+  EXPECT_LE(r.blunders_removed_target, scattered_target + clean_target.size() / 200);
   EXPECT_NEAR(r.point_spacing_m, clean.point_spacing_m, 0.1 * clean.point_spacing_m);
-  // Kept (the default), they take voxels of their own at the coarse level and coarsen it.
-  const CloudRegistrationResult kept = RegisterClouds(source, target, CloudRegistrationOptions());
-  EXPECT_EQ(kept.isolated_removed_source + kept.isolated_removed_target, 0u);
+  // Kept, they take voxels of their own at the coarse level and coarsen it.
+  CloudRegistrationOptions keep = options;
+  keep.remove_blunders = false;
+  const CloudRegistrationResult kept = RegisterClouds(source, target, keep);
+  EXPECT_EQ(kept.blunders_removed_source + kept.blunders_removed_target, 0u);
   EXPECT_GT(kept.point_spacing_m, 1.2 * clean.point_spacing_m) << kept.BriefReport();
 }
 

@@ -100,6 +100,9 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   if (!(larger_cloud_factor >= 1)) return fail("larger_cloud_factor", larger_cloud_factor, ">= 1");
   if (!(isolated_cell_spacing > 0)) return fail("isolated_cell_spacing", isolated_cell_spacing, "> 0");
   if (isolated_min_neighbours < 1) return fail("isolated_min_neighbours", isolated_min_neighbours, ">= 1");
+  if (!(isolated_min_fraction >= 0 && isolated_min_fraction <= 1)) {
+    return fail("isolated_min_fraction", isolated_min_fraction, "0 <= x <= 1");
+  }
   if (!(inlier_sigma > 0)) return fail("inlier_sigma", inlier_sigma, "> 0");
   if (sac_ia_iterations < 1) return fail("sac_ia_iterations", sac_ia_iterations, ">= 1");
   if (sac_ia_draws_per_iteration < 1) {
@@ -389,6 +392,42 @@ std::vector<char> IsolatedPoints(const std::vector<Eigen::Vector3d>& points, dou
     isolated[i] = cell_isolated[static_cast<size_t>(cell_of[i])];
   }
   return isolated;
+}
+
+// Of the `candidates` (IsolatedPoints), those that do not lie on a surface: the point's
+// `neighbours` nearest others either do not form a surface (the smallest singular value of
+// their centred coordinates above max_thickness × the largest) or the point lies off their
+// plane by more than max_offset × their spread along it (the largest singular value / √k).
+// A clean model's sparse far points (a far wall, grazing ground) lie on the surface their
+// neighbours form; blunders floating in space do not.
+std::vector<char> OffTheSurface(const PointIndex& index, const std::vector<Eigen::Vector3d>& points,
+                                const std::vector<char>& candidates, int neighbours,
+                                double max_thickness, double max_offset) {
+  std::vector<char> off(points.size(), 0);
+  std::vector<int> idx;
+  std::vector<float> sq;
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (!candidates[i]) continue;
+    index.KNearest(points[i], neighbours + 1, &idx, &sq);
+    Eigen::MatrixXd q(3, static_cast<Eigen::Index>(idx.size()));
+    Eigen::Index n = 0;
+    for (const int j : idx) {
+      if (static_cast<size_t>(j) != i) q.col(n++) = points[static_cast<size_t>(j)];
+    }
+    if (n < 3) {
+      off[i] = 1;
+      continue;
+    }
+    q.conservativeResize(3, n);
+    const Eigen::Vector3d centre = q.rowwise().mean();
+    q.colwise() -= centre;
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(q, Eigen::ComputeThinU);
+    const Eigen::Vector3d sv = svd.singularValues();  // descending
+    const double spread = sv(0) / std::sqrt(static_cast<double>(n));
+    const double offset = std::abs(svd.matrixU().col(2).dot(points[i] - centre));
+    off[i] = !(sv(0) > 0) || sv(2) > max_thickness * sv(0) || offset > max_offset * spread;
+  }
+  return off;
 }
 
 // `cloud` without the points marked in `marked` (every per-point attribute kept in step).
@@ -1525,8 +1564,8 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
     if (!problem.empty()) return fail(problem);
   }
 
-  // --- Each cloud's spacing (median nearest-neighbour distance) and, with
-  // options.remove_isolated, its isolated points, from one kd-tree per cloud: on tens of
+  // --- Each cloud's spacing (median nearest-neighbour distance) and (options.remove_blunders)
+  // its scattered blunders, from one kd-tree per cloud: on tens of
   // millions of points each tree takes seconds. The source's spacing on 20,000 and (for the
   // fine level's budget search below) on 5,000 samples.
   double s_src = 0.0, s_src_5000 = 0.0, s_tgt = 0.0;
@@ -1540,21 +1579,25 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
     const std::vector<double> spacing = SpacingQuantiles(index, cloud.points, 20000, {0.5, 0.9});
     (is_source ? s_src : s_tgt) = spacing[0];
     if (is_source) s_src_5000 = MedianSpacing(index, cloud.points, 5000);
-    if (options.paper_only || !options.remove_isolated) continue;
+    if (options.paper_only || !options.remove_blunders) continue;
     const double cell = options.isolated_cell_spacing * spacing[1];
     if (!(cell > 0)) continue;
-    const std::vector<char> isolated =
-        IsolatedPoints(cloud.points, cell, options.isolated_min_neighbours);
+    const std::vector<char> isolated = OffTheSurface(
+        index, cloud.points, IsolatedPoints(cloud.points, cell, options.isolated_min_neighbours),
+        8, 0.25, 0.3);
     const size_t removed = static_cast<size_t>(std::count(isolated.begin(), isolated.end(), 1));
-    if (removed == 0 || removed == cloud.size()) continue;
+    if (removed == 0 || removed == cloud.size() ||
+        static_cast<double>(removed) < options.isolated_min_fraction * static_cast<double>(cloud.size())) {
+      continue;
+    }
     (is_source ? kept_source : kept_target) = WithoutMarked(cloud, isolated);
     (is_source ? source_ptr : target_ptr) = is_source ? &kept_source : &kept_target;
-    (is_source ? result.isolated_removed_source : result.isolated_removed_target) = removed;
+    (is_source ? result.blunders_removed_source : result.blunders_removed_target) = removed;
     std::ostringstream note;
-    note << "removed " << removed << " isolated point" << (removed == 1 ? "" : "s") << " of "
+    note << "removed " << removed << " scattered point" << (removed == 1 ? "" : "s") << " of "
          << cloud.size() << " from the " << (is_source ? "source" : "target") << " (fewer than "
          << options.isolated_min_neighbours << " others in the 3 x 3 x 3 cells of " << cell
-         << " m around)";
+         << " m around, and off the surface of their 8 nearest)";
     result.notes.push_back(note.str());
   }
   const io::PointCloud& source = *source_ptr;
