@@ -1,6 +1,7 @@
 // Runs the mmba binary as a user would: exit codes, the one error line, files written.
 #include <sys/wait.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -277,6 +278,36 @@ TEST_F(CliTest, RegisterCloudReportsTheIntensityTest) {
     // No scattered blunders in these clean scans: nothing removed, with or without the flag.
     EXPECT_EQ(j["blunders_removed"]["source"], 0) << j.dump();
     EXPECT_EQ(j["blunders_removed"]["target"], 0) << j.dump();
+  }
+  // The target with 5 % of its points scattered over three times its box: removed by default
+  // (whatever the registration's verdict, the JSON says so), kept with --keep-blunders.
+  io::PointCloud scattered = io::ReadPointCloud(kSource + "/data/pointclouds/pcl_test/bun4.pcd");
+  Eigen::Vector3d lo = scattered.points[0], hi = lo;
+  for (const Eigen::Vector3d& p : scattered.points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const size_t count = scattered.size() / 20;
+  for (size_t i = 0; i < count; ++i) {
+    const double u = (i + 0.5) / count;  // a deterministic spread over the box
+    scattered.points.push_back(lo - (hi - lo) + Eigen::Vector3d(u, std::fmod(7.31 * u, 1.0), std::fmod(3.77 * u, 1.0))
+                                                     .cwiseProduct(3.0 * (hi - lo)));
+  }
+  io::WritePly(scattered, Tmp("bun4_scattered.ply"));
+  const std::string blunders = "register-cloud --source " + kSource + "/data/pointclouds/pcl_test/bun0.pcd --target " +
+                               Tmp("bun4_scattered.ply") + " -q --output " + Tmp("scattered.json");
+  for (const bool keep : {false, true}) {
+    const RunResult run = Mmba(blunders + (keep ? " --keep-blunders" : ""));
+    ASSERT_TRUE(run.exit_code == 0 || run.exit_code == 3) << run.output;
+    std::ifstream in(Tmp("scattered.json"));
+    const nlohmann::json j = nlohmann::json::parse(in);
+    EXPECT_EQ(j["blunders_removed"]["source"], 0) << j.dump();
+    if (keep) {
+      EXPECT_EQ(j["blunders_removed"]["target"], 0) << j.dump();
+    } else {
+      EXPECT_GE(j["blunders_removed"]["target"].get<size_t>(), count / 2) << j.dump();
+      EXPECT_LE(j["blunders_removed"]["target"].get<size_t>(), count + scattered.size() / 100) << j.dump();
+    }
   }
 }
 

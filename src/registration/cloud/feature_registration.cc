@@ -1565,9 +1565,9 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
   }
 
   // --- Each cloud's spacing (median nearest-neighbour distance) and (options.remove_blunders)
-  // its scattered blunders, from one kd-tree per cloud: on tens of
-  // millions of points each tree takes seconds. The source's spacing on 20,000 and (for the
-  // fine level's budget search below) on 5,000 samples.
+  // its scattered blunders, from one kd-tree per cloud: on tens of millions of points each
+  // tree takes seconds. The source's spacing on 20,000 and (for the fine level's budget
+  // search below) on 5,000 samples.
   double s_src = 0.0, s_src_5000 = 0.0, s_tgt = 0.0;
   io::PointCloud kept_source, kept_target;
   const io::PointCloud* source_ptr = &source_in;
@@ -1582,9 +1582,11 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
     if (options.paper_only || !options.remove_blunders) continue;
     const double cell = options.isolated_cell_spacing * spacing[1];
     if (!(cell > 0)) continue;
+    // The surface test's constants (CloudRegistrationOptions::remove_blunders): 8 neighbours,
+    // thickness 0.25, offset 0.3.
     const std::vector<char> isolated = OffTheSurface(
         index, cloud.points, IsolatedPoints(cloud.points, cell, options.isolated_min_neighbours),
-        8, 0.25, 0.3);
+        /*neighbours=*/8, /*max_thickness=*/0.25, /*max_offset=*/0.3);
     const size_t removed = static_cast<size_t>(std::count(isolated.begin(), isolated.end(), 1));
     if (removed == 0 || removed == cloud.size() ||
         static_cast<double>(removed) < options.isolated_min_fraction * static_cast<double>(cloud.size())) {
