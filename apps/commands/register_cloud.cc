@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <ctime>
 #include <iostream>
+#include <limits>
 #include <sstream>
 #include <string>
 
@@ -36,7 +37,7 @@ struct RegisterCloudArgs {
   bool keep_blunders = false;
   bool paper = false;
   bool skip_invalid = false;
-  double error_map_max_m = 0.0;
+  double error_map_max_m = std::numeric_limits<double>::quiet_NaN();  // NaN: not given
   uint64_t seed = 42;
   double min_fitness = registration::CloudRegistrationOptions().min_fitness;
   std::vector<double> scale_range;
@@ -126,6 +127,26 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   }
   if (!args.target_viewpoints.empty()) {
     options.target_viewpoints = registration::ReadViewpoints(args.target_viewpoints);
+  }
+  // The checks a user's flags can fail, named by the flags (options.Check names the fields).
+  if (args.normal_radius_m > 0 && args.support_radius_m > 0 &&
+      args.support_radius_m < args.normal_radius_m) {
+    std::ostringstream what;
+    what << "found " << args.support_radius_m << ", expected >= --normal-radius "
+         << args.normal_radius_m << " (descriptors are computed over at least the normals' "
+         << "neighbourhood)";
+    throw InputError::Message("--support-radius", what.str());
+  }
+  const auto found = [](double v) {
+    std::ostringstream s;
+    s << "found " << v;
+    return s.str();
+  };
+  if (!(args.min_fitness > 0 && args.min_fitness <= 1)) {
+    throw InputError::Message("--min-fitness", found(args.min_fitness) + ", expected a fraction in (0, 1]");
+  }
+  if (!std::isnan(args.error_map_max_m) && !(args.error_map_max_m > 0)) {
+    throw InputError::Message("--error-map-max", found(args.error_map_max_m) + ", expected metres > 0");
   }
   std::string error;
   if (!options.Check(&error)) throw InputError::Message("options", error);
@@ -242,11 +263,10 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_option("--error-map", args->error_map,
                   "PLY of the registered source coloured by distance to the target");
   sub->add_option("--error-map-max", args->error_map_max_m,
-                  "distance shown red in metres (default 5 × point spacing)");
+                  "distance shown red in metres (> 0; default 5 × point spacing)");
   sub->add_option("--seed", args->seed, "random seed")->capture_default_str();
   sub->add_option("--min-fitness", args->min_fitness,
-                  "fraction of the source that must lie on the target for \"ok\" (0..1]")
-      ->check(CLI::Range(0.0, 1.0))
+                  "fraction of the source that must lie on the target for \"ok\", in (0, 1]")
       ->capture_default_str();
   sub->add_option("--scale-range", args->scale_range,
                   "MIN MAX: the source is in a scale of its own (an SfM cloud): registered at trial scales "

@@ -56,11 +56,19 @@ int RunRegisterEval(const RegisterEvalArgs& args) {
   const std::string output = args.output.empty() ? args.scene + "/registration_eval" : args.output;
   const registration::SceneEvaluation eval = registration::EvaluateScene(args.scene, options);
   registration::WriteSceneEvaluation(eval, output);
-  size_t success = 0;
-  for (const auto& r : eval.rows) success += r.success ? 1 : 0;
-  std::cout << "register-eval: " << eval.rows.size() << " registrations, " << success
-            << " within " << eval.success_threshold_m << " m of the ground truth; tables in "
-            << output << "/tables.md\n";
+  // The paper's success is the RMS alone (its methods report no failure); a pose the method
+  // refused is counted apart, so that "within" never reads as "registered".
+  size_t ok = 0, ok_within = 0, refused_within = 0;
+  for (const auto& r : eval.rows) {
+    ok += r.status == "ok" ? 1 : 0;
+    ok_within += r.status == "ok" && r.success ? 1 : 0;
+    refused_within += r.status != "ok" && r.success ? 1 : 0;
+  }
+  std::cout << "register-eval: " << eval.rows.size() << " registrations: " << ok << " ok ("
+            << ok_within << " of them within " << eval.success_threshold_m
+            << " m of the ground truth), " << eval.rows.size() - ok << " failed ("
+            << refused_within << " of them within it all the same); tables in " << output
+            << "/tables.md\n";
   return kExitOk;
 }
 

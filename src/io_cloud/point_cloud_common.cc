@@ -78,15 +78,42 @@ std::string ToLower(std::string_view s) {
 
 }  // namespace internal
 
+Eigen::Vector3d MedianCentre(const std::vector<Eigen::Vector3d>& points) {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  if (points.empty()) return centre;
+  const size_t step = std::max<size_t>(1, points.size() / 100000);
+  std::vector<double> v;
+  v.reserve(points.size() / step + 1);
+  for (int axis = 0; axis < 3; ++axis) {
+    v.clear();
+    bool finite = true;
+    for (size_t i = 0; i < points.size(); i += step) {
+      v.push_back(points[i](axis));
+      finite = finite && std::isfinite(v.back());
+    }
+    if (!finite) {  // nth_element on NaN is undefined: the non-finite value is the answer
+      centre(axis) = std::numeric_limits<double>::quiet_NaN();
+      continue;
+    }
+    const auto middle = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+    std::nth_element(v.begin(), middle, v.end());
+    centre(axis) = *middle;
+  }
+  return centre;
+}
+
 Eigen::Vector3d LocalOrigin(const std::vector<Eigen::Vector3d>& points) {
   if (points.empty()) return Eigen::Vector3d::Zero();
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : points) sum += p;
-  return (sum / static_cast<double>(points.size()) / 1000.0).array().round().matrix() * 1000.0;
+  return (MedianCentre(points) / 1000.0).array().round().matrix() * 1000.0;
 }
 
 using internal::CloudBuilder;
 using internal::ToLower;
+
+namespace {
+// Six unnamed XYZ columns are a normal when the last three are a unit vector to within this.
+constexpr double kGuessedNormalTolerance = 0.01;
+}  // namespace
 
 PointCloud ReadPointCloud(const std::string& path) { return ReadPointCloud(path, {}); }
 
@@ -226,21 +253,38 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
     throw InputError::Message(path, "no points (expected lines of x y z ...)");
   }
   TokenLine first(path, pending[0].first, pending[0].second);
+  bool guessed_normals = false, colors_0_1 = false;
   if (columns.empty()) {
     switch (first.size()) {
       case 3: columns = {Column::kX, Column::kY, Column::kZ}; break;
       case 4: columns = {Column::kX, Column::kY, Column::kZ, Column::kIntensity}; break;
       case 6: {
-        bool rgb = true;
+        // Columns 4–6: integer colours 0..255, else a unit normal, else colours 0..1 (as
+        // CloudCompare can write them); anything else is not guessed.
+        bool rgb = true, unit_rgb = true;
+        double length2 = 0.0;
         for (size_t i = 3; i < 6; ++i) {
           int64_t c;
           if (!ParseInt(first.Str(i, "value"), &c) || c < 0 || c > 255) rgb = false;
+          const double v = first.Double(i, "value");
+          length2 += v * v;
+          if (!(v >= 0.0 && v <= 1.0)) unit_rgb = false;
         }
+        const bool normal = std::abs(std::sqrt(length2) - 1.0) <= kGuessedNormalTolerance;
         columns = {Column::kX, Column::kY, Column::kZ};
         if (rgb) {
           columns.insert(columns.end(), {Column::kR, Column::kG, Column::kB});
-        } else {
+        } else if (normal) {
           columns.insert(columns.end(), {Column::kNx, Column::kNy, Column::kNz});
+          guessed_normals = true;
+        } else if (unit_rgb) {
+          columns.insert(columns.end(), {Column::kR, Column::kG, Column::kB});
+          colors_0_1 = true;
+        } else {
+          first.Fail("columns 4-6", first.Str(3, "value") + " " + first.Str(4, "value") + " " +
+                                        first.Str(5, "value"),
+                     "colours 0..255 or 0..1, or a unit normal (or a first line naming the "
+                     "columns)");
         }
         break;
       }
@@ -296,10 +340,27 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
     for (int k = 0; k < 3; ++k) xyz[k] = value(index[static_cast<int>(Column::kX) + k], names[k]);
     if (normals) {
       for (int k = 0; k < 3; ++k) n[k] = value(index[static_cast<int>(Column::kNx) + k], nnames[k]);
+      // Six unnamed columns taken for a normal from the first line: every line must hold one.
+      const double length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+      if (guessed_normals && !(std::abs(length - 1.0) <= kGuessedNormalTolerance)) {
+        t.Fail("nx ny nz", "a vector of length " + std::to_string(length),
+               "a unit normal, as on line " + std::to_string(first.line_number()) +
+                   " (six unnamed columns are x y z nx ny nz when the first line's last three "
+                   "are a unit vector; name the columns in a first line otherwise)");
+      }
     }
     if (intensity) inten = static_cast<float>(value(index[static_cast<int>(Column::kIntensity)], "intensity"));
     if (colors) {
       for (int k = 0; k < 3; ++k) {
+        if (colors_0_1) {
+          const double c = t.Double(index[static_cast<int>(Column::kR) + k], cnames[k]);
+          if (!(c >= 0.0 && c <= 1.0)) {
+            t.Fail(cnames[k], t.Str(index[static_cast<int>(Column::kR) + k], cnames[k]),
+                   "a colour in 0..1, as on line " + std::to_string(first.line_number()));
+          }
+          rgb[k] = static_cast<uint8_t>(std::lround(255.0 * c));
+          continue;
+        }
         const uint64_t c = t.UInt(index[static_cast<int>(Column::kR) + k], cnames[k]);
         if (c > 255) t.Fail(cnames[k], std::to_string(c), "an integer in 0..255");
         rgb[k] = static_cast<uint8_t>(c);

@@ -295,6 +295,19 @@ TEST_F(PointCloudIoTest, XyzVariants) {
   c = ReadPointCloud(Write("c.xyz", "1 2 3 0 0.6 0.8\n"));
   ASSERT_TRUE(c.has_normals());
   EXPECT_DOUBLE_EQ(c.normals[0].z(), 0.8);
+  // Six unnamed columns: colours 0..1 are not taken for a normal (they are not a unit vector);
+  // a normal guessed from the first line must be one on every line.
+  c = ReadPointCloud(Write("c2.xyz", "1 2 3 0.2 0.5 1\n4 5 6 0 1 0.5\n"));
+  ASSERT_TRUE(c.has_colors());
+  EXPECT_FALSE(c.has_normals());
+  EXPECT_EQ(c.colors[0][1], 128);
+  EXPECT_EQ(c.colors[1][2], 128);
+  ExpectInputError([&] { ReadPointCloud(Write("c3.xyz", "1 2 3 0 0.6 0.8\n4 5 6 0.3 0.2 0.1\n")); },
+                   {"c3.xyz:2", "unit normal", "line 1"});
+  ExpectInputError([&] { ReadPointCloud(Write("c4.xyz", "1 2 3 0.5 -2 7\n")); },
+                   {"c4.xyz:1", "columns 4-6", "0.5 -2 7"});
+  ExpectInputError([&] { ReadPointCloud(Write("c5.xyz", "1 2 3 0.2 0.5 1\n4 5 6 0 1 2\n")); },
+                   {"c5.xyz:2", "0..1"});
   c = ReadPointCloud(Write("d.csv", "X,Y,Z,Intensity\n1,2,3,0.25\n"));
   ASSERT_TRUE(c.has_intensity());
   EXPECT_FLOAT_EQ(c.intensity[0], 0.25f);

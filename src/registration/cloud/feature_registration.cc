@@ -327,6 +327,9 @@ Level VoxelDownsample(const std::vector<Eigen::Vector3d>& points,
 
 // The `quantiles` (ascending) of the distance to the nearest other point over every
 // (size / max_samples)-th point, on `index` (built on `points`); 0.5: the median spacing.
+// Points at the same place count once (a tiled LAS or a mesh export repeats its points: the
+// nearest other point is then a copy at distance 0, and the median of every point written
+// twice would be 0); a sample whose 16 nearest are all copies of it is left out.
 std::vector<double> SpacingQuantiles(const PointIndex& index,
                                      const std::vector<Eigen::Vector3d>& points,
                                      size_t max_samples, const std::vector<double>& quantiles) {
@@ -338,7 +341,10 @@ std::vector<double> SpacingQuantiles(const PointIndex& index,
   std::vector<float> sq;
   for (size_t i = 0; i < points.size(); i += step) {
     index.KNearest(points[i], 2, &idx, &sq);
-    if (sq.size() == 2) d.push_back(std::sqrt(sq[1]));
+    if (sq.size() == 2 && sq[1] <= 0.f) index.KNearest(points[i], 16, &idx, &sq);
+    const auto other = std::find_if(sq.begin() + (sq.empty() ? 0 : 1), sq.end(),
+                                    [](float v) { return v > 0.f; });
+    if (other != sq.end()) d.push_back(std::sqrt(*other));
   }
   if (d.empty()) return out;
   for (size_t q = 0; q < quantiles.size(); ++q) {
@@ -2144,7 +2150,13 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
   // coarse level is refined by the fine ICP from R_s/2 (the vote's cells are 2 R_n wide) and
   // scored like the other finalists, unless it scores below half the best's coarse score; a
   // distinct one enters the ambiguity test, and one that scores better becomes the best.
-  if (!options.paper_only && options.symmetry_turns && !finalists.empty()) {
+  // A turn that becomes the best is turned in its turn, once: the first best may be neither
+  // pose (a wrong hypothesis whose turn lands on the twin; the symmetric gate's part with
+  // three keypoints, test PartTurnedAboutTheTargetsCentroid), and the twin's own turn is then
+  // the rival that makes the result ambiguous.
+  for (int round = 0;
+       round < 2 && !options.paper_only && options.symmetry_turns && !finalists.empty();
+       ++round) {
     const Eigen::Matrix4d best_t = finalists.front().h.transform;
     Eigen::Vector3d c;
     Eigen::Matrix3d cov;
@@ -2276,6 +2288,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
     if (finalists.size() > before_turns) {
       sort_finalists();
     }
+    if (finalists.front().h.transform == best_t) break;
   }
   // Local search (options.local_search): a best pose that slides along or about a principal
   // axis of the source at the resolution bound may sit off the score's maximum — the
@@ -2438,28 +2451,44 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
     // distance (at most the reach). On the simulated cathedral's plane proxy → LiDAR the pose
     // moved 3.1 cm (twice) and 18.6 cm (half) from one 8 cm off the truth whose covariance
     // said 0.7 cm.
-    if (options.icp && f.icp_end > 0 && std::isfinite(u.sigma_rms)) {
+    // Without ICP (--no-icp) the pose is a sample consensus's, not the fit's optimum: its
+    // distance to that optimum (the same ICP it skipped) enters whole, so that the stated σ
+    // covers the error it left (Stanford bun000 → bun045: 0.66 mm RMS off, σ 0.09 mm without
+    // this term).
+    const std::vector<std::pair<double, double>> moves =  // (ICP end distance, weight)
+        options.icp ? std::vector<std::pair<double, double>>{{0.5 * f.icp_end, 0.5},
+                                                             {2.0 * f.icp_end, 0.5}}
+                    : std::vector<std::pair<double, double>>{
+                          {options.icp_distance_spacing * f.spacing, 1.0}};
+    if ((!options.icp || f.icp_end > 0) && std::isfinite(u.sigma_rms)) {
       const Eigen::Matrix4d inv = f.h.transform.inverse();
       const Matrix6d& metric = u.metric;
       Matrix6d systematic = Matrix6d::Zero();
       double sum_sq = 0.0;
-      for (const double factor : {0.5, 2.0}) {
-        const double end = std::min(reach, factor * f.icp_end);
-        const Eigen::Matrix4d moved = PointToPlaneIcp(fine_src, f.crop->level.points,
-                                                      f.crop->level.normals, *f.crop->index,
-                                                      f.h.transform, end, end,
-                                                      options.icp_iterations, nullptr);
+      for (const auto& [distance, weight] : moves) {
+        const double end = std::min(reach, distance);
+        const Eigen::Matrix4d moved = PointToPlaneIcp(
+            fine_src, f.crop->level.points, f.crop->level.normals, *f.crop->index, f.h.transform,
+            options.icp ? end : std::max(end, reach), end,
+            options.icp_iterations, nullptr);
         const Eigen::Matrix4d delta = moved * inv;  // as MotionAbout(ξ, centre)
         const Eigen::Matrix3d r = delta.topLeftCorner<3, 3>();
         const Eigen::AngleAxisd aa(r);
         Vector6d xi;
         xi.head<3>() = aa.angle() * aa.axis();
         xi.tail<3>() = delta.topRightCorner<3, 1>() - u.centre + r * u.centre;
-        systematic += 0.5 * xi * xi.transpose();
-        sum_sq += 0.5 * xi.dot(metric * xi);
+        systematic += weight * xi * xi.transpose();
+        sum_sq += weight * xi.dot(metric * xi);
       }
       result.gate_sensitivity_m = std::sqrt(sum_sq);
       result.covariance += systematic;
+      if (!options.icp) {
+        std::ostringstream note;
+        note << std::setprecision(3) << "not refined by ICP (--no-icp): the pose is "
+             << result.gate_sensitivity_m
+             << " m RMS over the source from the fit's optimum; its covariance includes that";
+        result.notes.push_back(note.str());
+      }
       const Eigen::LLT<Matrix6d> llt(metric);
       if (llt.info() == Eigen::Success) {
         const Matrix6d l = llt.matrixL();
@@ -2712,30 +2741,29 @@ io::PointCloud Shifted(const io::PointCloud& cloud, const Eigen::Vector3d& offse
 
 }  // namespace
 
-// Map-grid coordinates (UTM, national grids: 10^5–10^7 m) leave the float kd-trees and
-// PCL a resolution of 0.01–0.5 m and make the ICP's rotation about the grid's origin
-// ill-conditioned. Each cloud is therefore registered relative to its own origin o
-// (io::LocalOrigin: its centroid rounded to whole km; 0 for clouds within 500 m of
-// their origin, which are registered exactly as given), and the result is mapped back:
-// T = [I | o_t] · T_local · [I | −o_s]. With a search window both clouds share the target's
-// o, so that the given (identity) pose stays the identity.
-// The normals of a cloud in a grid cannot be oriented towards its origin (thousands of km
-// away, nearly level: ground normals would flip at random); they are oriented towards a
-// point high above its centroid along `up` instead — ground up, walls towards the middle of
-// the cloud, as a levelled scanner standing inside it sees them.
+// Each cloud is registered about its own centre c (io::MedianCentre: a blunder far away does
+// not move it), and the result is mapped back:
+// T = [I | c_t] · T_local · [I | −c_s]. Two reasons:
+// - The ICP turns the source about the origin of the coordinates. An object far from that
+//   origin against its size (a statue 400 m from a site grid's origin, the bunny 30 m above
+//   its scanner's origin) then moves by the angle's second-order term at the distance
+//   (10° at 30 m: 0.46 m) where its correspondences allow millimetres, and no hypothesis
+//   converges. About the centroid the same turn moves it by that term at its own size.
+// - Map-grid coordinates (UTM, national grids: 10^5–10^7 m) leave the float kd-trees and PCL
+//   a resolution of 0.01–0.5 m.
+// With a search window both clouds share the target's c, so that the given (identity) pose
+// stays the identity.
+// The normals of a cloud within 500 m of its origin (io::LocalOrigin is zero) are oriented
+// towards that origin, its scanner when it is a scan in its own frame. Those of a cloud in a
+// grid cannot be (its origin is thousands of km away, nearly level: ground normals would flip
+// at random); they are oriented towards a point high above its centroid along `up` instead —
+// ground up, walls towards the middle of the cloud, as a levelled scanner standing inside it
+// sees them.
 namespace {
-Eigen::Vector3d GridViewpoint(const io::PointCloud& cloud, const Eigen::Vector3d& origin,
-                              const Eigen::Vector3d& up) {
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector3d hi = -lo;
-  for (const Eigen::Vector3d& p : cloud.points) {
-    sum += p - origin;
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  const Eigen::Vector3d centroid = sum / static_cast<double>(std::max<size_t>(1, cloud.size()));
-  return centroid + std::max(100.0, 10.0 * (hi - lo).norm()) * up.normalized();
+// In the cloud's coordinates about its centre (io::MedianCentre): high above it, ten times the
+// cloud's robust extent (a blunder far away does not send the viewpoint there).
+Eigen::Vector3d GridViewpoint(const io::PointCloud& cloud, const Eigen::Vector3d& up) {
+  return std::max(100.0, 10.0 * RobustExtent(cloud.points)) * up.normalized();
 }
 
 // NormalOrientation::kAuto: RegisterCloudsNearOrigin with the normals towards each cloud's
@@ -2811,19 +2839,18 @@ CloudRegistrationResult RegisterCloudsNearOriginRetrying(const io::PointCloud& s
 CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
                                        const io::PointCloud& target,
                                        const CloudRegistrationOptions& options) {
-  Eigen::Vector3d o_t = io::LocalOrigin(target.points);
-  Eigen::Vector3d o_s =
-      options.search_window_m > 0.0 ? o_t : io::LocalOrigin(source.points);
+  Eigen::Vector3d o_t = io::MedianCentre(target.points);
+  Eigen::Vector3d o_s = options.search_window_m > 0.0 ? o_t : io::MedianCentre(source.points);
   if (!o_t.allFinite() || !o_s.allFinite()) o_t = o_s = Eigen::Vector3d::Zero();  // NaN: fails
-  if (o_t.isZero() && o_s.isZero()) {
-    return RegisterCloudsNearOriginRetrying(source, target, options, Eigen::Vector3d::Zero(),
-                                            Eigen::Vector3d::Zero());
-  }
   CloudRegistrationOptions local = options;
   for (Eigen::Vector3d& v : local.source_viewpoints) v -= o_s;
   for (Eigen::Vector3d& v : local.target_viewpoints) v -= o_t;
-  const Eigen::Vector3d v_s = o_s.isZero() ? o_s : GridViewpoint(source, o_s, options.up);
-  const Eigen::Vector3d v_t = o_t.isZero() ? o_t : GridViewpoint(target, o_t, options.up);
+  const auto viewpoint = [&](const io::PointCloud& cloud, const Eigen::Vector3d& o) {
+    return io::LocalOrigin(cloud.points).isZero() ? Eigen::Vector3d(-o)
+                                                  : GridViewpoint(cloud, options.up);
+  };
+  const Eigen::Vector3d v_s = viewpoint(source, o_s);
+  const Eigen::Vector3d v_t = viewpoint(target, o_t);
   CloudRegistrationResult result = RegisterCloudsNearOriginRetrying(
       Shifted(source, -o_s), Shifted(target, -o_t), local, v_s, v_t);
   const auto back = [&](const Eigen::Matrix4d& t) {
