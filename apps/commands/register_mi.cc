@@ -252,6 +252,10 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   } else if (args.camera.empty() == args.kitti_calib.empty()) {
     throw InputError::Message("--camera/--kitti-calib", "give exactly one of them (or --rig)");
   }
+  if (args.kitti_camera < 0 || args.kitti_camera > 3) {
+    throw InputError::Message("--kitti-camera", "found " + std::to_string(args.kitti_camera) +
+                                                    ", expected a KITTI camera index 0..3");
+  }
   // ---- Frames: --image/--lidar pairs or a list file (IMAGE LIDAR per line).
   std::vector<std::pair<std::string, std::string>> pairs;
   if (args.image.size() != args.lidar.size()) {
@@ -332,7 +336,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   } else {
     for (const auto& [image_path, lidar_path] : pairs) images.push_back(mi::ReadGrayImage(image_path));
     if (!args.kitti_calib.empty()) {
-      const io::KittiCalibration calibration = io::ReadKittiCalibration(args.kitti_calib);
+      const io::KittiCalibration calibration = io::ReadKittiCalibration(args.kitti_calib, args.kitti_camera);
       const io::KittiCameraPose kitti =
           io::KittiCamera(calibration, args.kitti_camera, images[0].width, images[0].height,
                           args.kitti_calib);
