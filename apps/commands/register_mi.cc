@@ -579,7 +579,8 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   result.cam_from_lidar = to_given(result.cam_from_lidar);
   for (mi::RegistrationResult& r : result.frame_results) r.cam_from_lidar = to_given(r.cam_from_lidar);
   nlohmann::json out = mi::ResultToJson(result, options, start_given);
-  out["settings"] = {{"representation", args.representation}, {"view", args.view},
+  out["settings"] = {{"metric", args.metric},
+                     {"representation", args.representation}, {"view", args.view},
                      {"bins", args.bins},                     {"smoothing", args.smoothing},
                      {"region", args.region},                 {"pyramid_levels", args.pyramid_levels},
                      {"bound_m", args.bound_m},               {"bound_deg", args.bound_deg},

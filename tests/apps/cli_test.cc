@@ -591,6 +591,24 @@ TEST_F(CliTest, RegisterMiRigRegistersTheRigPoseFromItsCameras) {
   }
 }
 
+// --metric is recorded in OUT.json's settings, and the console line gives the metric's values
+// as OUT.json holds them: NID itself (minimised), not the −NID the search maximises.
+TEST_F(CliTest, RegisterMiReportsTheMetricAsOutJsonHoldsIt) {
+  const std::string kitti = kSource + "/data/kitti/";
+  const RunResult run = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin --image " + kitti +
+                             "image_2/000000.png --kitti-calib " + kitti + "calib/000000.txt --metric nid "
+                             "--restarts 0 --halves false -q --output " + Tmp("nid.json"));
+  ASSERT_TRUE(run.exit_code == 0 || run.exit_code == 3) << run.output;
+  const nlohmann::json json = nlohmann::json::parse(std::ifstream(Tmp("nid.json")));
+  EXPECT_EQ(json["settings"]["metric"], "nid");
+  const double before = json["metric_before"], after = json["metric_after"];
+  EXPECT_GT(before, 0.0);  // NID is in 0..1
+  EXPECT_LT(before, 1.0);
+  char expected[128];
+  std::snprintf(expected, sizeof(expected), "nid %.5f -> %.5f (minimised)", before, after);
+  EXPECT_THAT(run.output, HasSubstr(expected));
+}
+
 TEST_F(CliTest, NonConvergenceIsExitThreeAndNoModel) {
   fs::create_directories(Tmp("in"));
   io::ColmapModel model = io::ReadColmapModel(kModel);

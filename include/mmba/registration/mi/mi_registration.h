@@ -337,6 +337,9 @@ struct RegistrationResult {
   AcceptanceChecks checks;
   MetricValue metric_before;
   MetricValue metric_after;
+  /// The metric optimised (RegistrationOptions::metric.kind). MetricValue::value is "larger =
+  /// better", so it holds −NID for NID; BriefReport and ResultToJson give NID itself.
+  MetricKind metric_kind = MetricKind::kNmi;
   int iterations = 0;              ///< Nelder–Mead + gradient iterations, all levels
   int evaluations = 0;
   double runtime_seconds = 0;
