@@ -609,6 +609,24 @@ TEST_F(CliTest, RegisterMiReportsTheMetricAsOutJsonHoldsIt) {
   EXPECT_THAT(run.output, HasSubstr(expected));
 }
 
+// A registration that fails before its covariance and checks (a black photo) writes them as
+// null — not an all-zero covariance that reads as a perfectly known pose, nor 0/false checks.
+TEST_F(CliTest, RegisterMiWritesWhatWasNotMeasuredAsNull) {
+  const std::string kitti = kSource + "/data/kitti/";
+  registration::mi::WriteGrayPng(registration::mi::GrayImage(1242, 375, 0.0f), Tmp("black.png"));
+  const RunResult run = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin --image " + Tmp("black.png") +
+                             " --kitti-calib " + kitti + "calib/000000.txt -q --output " + Tmp("out.json"));
+  EXPECT_EQ(run.exit_code, 3) << run.output;
+  const nlohmann::json out = nlohmann::json::parse(std::ifstream(Tmp("out.json")));
+  EXPECT_EQ(out["covariance_valid"], false);
+  EXPECT_TRUE(out["covariance"].is_null()) << out["covariance"];
+  EXPECT_TRUE(out["covariance_laplace"].is_null());
+  for (const char* key : {"mi_bits", "mi_shuffled_bits", "mi_significance", "effective_samples", "axis_scans_passed"}) {
+    EXPECT_TRUE(out["checks"][key].is_null()) << key << ": " << out["checks"][key];
+  }
+  EXPECT_EQ(out["checks"]["sigma_px"], -1.0);
+}
+
 TEST_F(CliTest, NonConvergenceIsExitThreeAndNoModel) {
   fs::create_directories(Tmp("in"));
   io::ColmapModel model = io::ReadColmapModel(kModel);
