@@ -99,10 +99,28 @@ nlohmann::json OffsetJson(const mi::PixelOffsetStats& s) {
 Rigid3d ReadPoseJson(const std::string& path, const std::string& key) {
   const std::string text = io::ReadWholeFile(path);
   nlohmann::json json;
+  // The last key read names the field of a number out of range (1e400), which nlohmann
+  // reports without a position.
+  std::string last_key = "json";
+  const nlohmann::json::parser_callback_t track_key = [&last_key](int, nlohmann::json::parse_event_t event,
+                                                                 nlohmann::json& parsed) {
+    if (event == nlohmann::json::parse_event_t::key && parsed.is_string()) last_key = parsed.get<std::string>();
+    return true;
+  };
   try {
-    json = nlohmann::json::parse(text);
+    json = nlohmann::json::parse(text, track_key);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError::AtByte(path, e.byte, "json", e.what(), "valid JSON");
+  } catch (const nlohmann::json::exception& e) {
+    // e.g. "[json.exception.out_of_range.406] number overflow parsing '1e400'"
+    std::string found = e.what();
+    const size_t quote = found.find('\'');
+    if (quote != std::string::npos) found = found.substr(quote + 1, found.rfind('\'') - quote - 1);
+    int64_t line = 0;
+    if (const size_t at = text.find(found); quote != std::string::npos && at != std::string::npos) {
+      line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n');
+    }
+    throw InputError(path, line, last_key, found, "a finite number (a double)");
   }
   if (!json.is_object() || !json.contains(key)) {
     throw InputError(path, 0, key, "(missing)",
@@ -116,9 +134,37 @@ Rigid3d ReadPoseJson(const std::string& path, const std::string& key) {
   return io::RigidFromRowMajor4x4(v, path, key);
 }
 
+// A number option must be finite: CLI11 reads "nan" and "inf" as numbers, and a NaN passes
+// every "> 0" check written as a negated "<= 0".
+void RequireFinite(const std::string& option, const std::vector<double>& values) {
+  for (const double v : values) {
+    if (!std::isfinite(v)) {
+      std::ostringstream found;
+      found << v;
+      throw InputError::Message(option, "found '" + found.str() + "', expected a finite number");
+    }
+  }
+}
+
 int RunRegisterMi(const RegisterMiArgs& args) {
   Timer wall;
   // ---- Options (validated before any reading).
+  for (const auto& [option, values] : std::vector<std::pair<const char*, std::vector<double>>>{
+           {"--bound-m", {args.bound_m}},
+           {"--bound-deg", {args.bound_deg}},
+           {"--simplex", {args.simplex}},
+           {"--coarse-spread", {args.coarse_spread}},
+           {"--restart-tolerance-px", {args.restart_tolerance_px}},
+           {"--max-sigma-px", {args.max_sigma_px}},
+           {"--max-calibrated-sigma-px", {args.max_calibrated_sigma_px}},
+           {"--split-tolerance-px", {args.split_tolerance_px}},
+           {"--point-radius-m", {args.point_radius_m}},
+           {"--max-range-m", {args.max_range_m}},
+           {"--surface-voxel-m", {args.surface_voxel_m}},
+           {"--scanner-origin", args.scanner_origin},
+           {"--perturb", args.perturb}}) {
+    RequireFinite(option, values);
+  }
   mi::RegistrationOptions options;
   if (!mi::ParseMetric(args.metric, &options.metric.kind)) {
     throw InputError::Message("--metric", "found '" + args.metric + "', expected mi, nmi or nid");
@@ -295,6 +341,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   RefuseToOverwriteInputs(
       {{"--output", args.output}, {"--lidar-image", args.lidar_image}, {"--overlay", args.overlay}},
       inputs);
+  CheckOutputFolders({{"--probe", args.probe}});
   // ---- Read everything before any work.
   std::vector<mi::GrayImage> images;
   sensors::Camera camera;

@@ -591,6 +591,53 @@ TEST_F(CliTest, RegisterMiRigRegistersTheRigPoseFromItsCameras) {
   }
 }
 
+// register-mi refuses, before any work, numbers that are not finite (CLI11 reads "nan" and
+// "inf") and outputs it could not write: exit 2, one line naming the option or file, nothing
+// written. The output check is the shared one (RefuseToOverwriteInputs), so bal has it too.
+TEST_F(CliTest, RegisterMiRefusesNonFiniteNumbersAndUnwritableOutputsBeforeAnyWork) {
+  const std::string kitti = kSource + "/data/kitti/";
+  const std::string frame = "register-mi --lidar " + kitti + "velodyne/000000.bin --image " + kitti +
+                            "image_2/000000.png --kitti-calib " + kitti + "calib/000000.txt";
+  fs::create_directories(Tmp("adir"));
+  std::ofstream(Tmp("afile")) << "a file\n";
+  {
+    // The calibration's pose with one number beyond a double's range.
+    std::ofstream(Tmp("pose_inf.json"))
+        << "{\"cam_from_lidar\": [0, -1, 0, 1e400, 0, 0, -1, 0,\n 1, 0, 0, 0, 0, 0, 0, 1]}\n";
+  }
+  const std::string out = " --output " + Tmp("out.json");
+  for (const auto& [flags, named] : std::vector<std::pair<std::string, std::string>>{
+           {" --perturb nan,0,0,0,0,0" + out, "--perturb: found 'nan', expected a finite number"},
+           {" --perturb 0,0,0,0,0,inf" + out, "--perturb: found 'inf', expected a finite number"},
+           {" --max-range-m inf" + out, "--max-range-m: found 'inf', expected a finite number"},
+           {" --point-radius-m nan" + out, "--point-radius-m: found 'nan'"},
+           {" --surface-voxel-m nan" + out, "--surface-voxel-m: found 'nan'"},
+           {" --max-sigma-px nan" + out, "--max-sigma-px: found 'nan'"},
+           {" --scanner-origin 0,nan,0" + out, "--scanner-origin: found 'nan'"},
+           {" --output " + Tmp("adir"), "--output: cannot write '" + Tmp("adir") + "': it is an existing folder; "
+                                        "expected a file to write"},
+           {" --output " + Tmp("afile") + "/out.json", "is a file, not a folder; expected a file to write"},
+           {" --output /proc/nope/out.json", "--output: cannot write '/proc/nope/out.json': cannot create a folder in '/proc'"},
+           {out + " --overlay /proc/nope/o.png", "--overlay: cannot write '/proc/nope/o.png'"},
+           {out + " --lidar-image " + Tmp("adir"), "--lidar-image: cannot write"},
+           {out + " --probe " + Tmp("afile"), "--probe: cannot write '" + Tmp("afile") +
+                                                  "': it is an existing file, not a folder; expected a folder"},
+           {out + " --initial " + Tmp("pose_inf.json"),
+            Tmp("pose_inf.json") + ":1: field 'cam_from_lidar': found '1e400', expected a finite number"}}) {
+    const RunResult run = Mmba(frame + flags);
+    EXPECT_EQ(run.exit_code, 2) << flags << "\n" << run.output;
+    EXPECT_THAT(run.output, HasSubstr("mmba: error: ")) << flags;
+    EXPECT_THAT(run.output, HasSubstr(named)) << flags;
+    EXPECT_THAT(run.output, ::testing::Not(HasSubstr("registration"))) << flags;  // no work done
+    EXPECT_FALSE(fs::exists(Tmp("out.json"))) << flags;
+  }
+  EXPECT_TRUE(fs::is_empty(Tmp("adir")));
+  EXPECT_EQ(std::distance(fs::directory_iterator(tmp_), fs::directory_iterator()), 3);  // adir, afile, pose_inf.json
+  const RunResult bal = Mmba("bal " + kSource + "/data/bal/dubrovnik-3-7-pre.txt --json " + Tmp("adir"));
+  EXPECT_EQ(bal.exit_code, 2) << bal.output;
+  EXPECT_THAT(bal.output, HasSubstr("--json: cannot write '" + Tmp("adir") + "': it is an existing folder"));
+}
+
 // --metric is recorded in OUT.json's settings, and the console line gives the metric's values
 // as OUT.json holds them: NID itself (minimised), not the −NID the search maximises.
 TEST_F(CliTest, RegisterMiReportsTheMetricAsOutJsonHoldsIt) {
