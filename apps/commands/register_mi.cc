@@ -39,6 +39,8 @@ struct RegisterMiArgs {
   std::string representation = "intensity";
   std::string smoothing = "bspline";
   std::string region = "overlap";
+  bool region_given = false;          ///< --region on the command line (not the default)
+  bool representation_given = false;  ///< --representation on the command line
   std::string view = "image";
   std::string headings = "-90,90";
   int bins = 64;
@@ -181,6 +183,16 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     throw InputError::Message("--region", "found '" + args.region +
                                               "', expected whole or overlap");
   }
+  // A points image is constant over the overlap (MI = 0 there): points are compared over the
+  // whole image unless --region was given.
+  std::string region = args.region;
+  std::string region_note;
+  if (options.render.representation == mi::Representation::kPoints && !args.region_given) {
+    region = "whole";
+    options.metric.region = mi::Region::kWholeImage;
+    region_note = "whole: the default for --representation points (its LiDAR image is constant over the overlap)";
+    spdlog::info("--representation points: the metric over the whole image (--region whole)");
+  }
   mi::ViewOptions view_options;
   if (!mi::ParseViewKind(args.view, &view_options.kind)) {
     throw InputError::Message("--view", "found '" + args.view +
@@ -257,8 +269,9 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   }
   if (options.metric.region == mi::Region::kOverlap &&
       options.render.representation == mi::Representation::kPoints) {
-    throw InputError::Message("--representation", "points with --region overlap has a constant "
-                                                  "LiDAR image (MI = 0); use --region whole");
+    throw InputError::Message("--region", "overlap with --representation points has a constant "
+                                          "LiDAR image (MI = 0); use --region whole (the default "
+                                          "for points)");
   }
   std::string error;
   if (!options.Check(&error)) throw InputError::Message("options", error);
@@ -291,7 +304,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     if (!args.camera.empty() || !args.kitti_calib.empty()) {
       throw InputError::Message("--rig", "give either --rig or one of --camera/--kitti-calib, not both");
     }
-    if (view_options.kind != mi::ViewKind::kImage) {
+    if (args.view != "image") {
       throw InputError::Message("--view", "found '" + args.view + "' with --rig; a rig's cameras are "
                                                                   "registered as their own images (image)");
     }
@@ -388,15 +401,21 @@ int RunRegisterMi(const RegisterMiArgs& args) {
           io::KittiCamera(calibration, args.kitti_camera, images[0].width, images[0].height,
                           args.kitti_calib);
       camera = kitti.camera;
-      // The calibration has no image size; the image's is taken. An image whose frame does not
-      // hold the principal point is not one of this camera (a crop, a thumbnail, another camera).
+      // The calibration has no image size; the image's is taken. KITTI's principal points lie
+      // near the image centre (cx ~ 609 of 1242, cy ~ 173 of 375; raw sequences 1224..1242 x
+      // 370..376), so an image whose centre is more than 20 % of its size from the principal
+      // point is not one of this camera (a crop, a thumbnail, a panorama, another camera).
       const double cx = camera.params[2], cy = camera.params[3];
-      if (!(cx > 0 && cx < images[0].width && cy > 0 && cy < images[0].height)) {
-        std::ostringstream why;
-        why << "image is " << images[0].width << "x" << images[0].height << " but the principal point of KITTI camera "
-            << args.kitti_camera << " in " << args.kitti_calib << " is (" << cx << ", " << cy
-            << "): expected an image of that camera (KITTI: about 1242x375)";
-        throw InputError::Message(pairs[0].first, why.str());
+      for (size_t i = 0; i < images.size(); ++i) {
+        const double w = images[i].width, h = images[i].height;
+        if (std::abs(2 * cx - w) > 0.2 * w || std::abs(2 * cy - h) > 0.2 * h) {
+          std::ostringstream why;
+          why << "image is " << images[i].width << "x" << images[i].height << " but the principal point of KITTI camera "
+              << args.kitti_camera << " in " << args.kitti_calib << " is (" << cx << ", " << cy
+              << "): expected an image of about " << std::lround(2 * cx) << "x" << std::lround(2 * cy)
+              << " (2 cx x 2 cy, within 20 %; KITTI: about 1242x375)";
+          throw InputError::Message(pairs[i].first, why.str());
+        }
       }
       cam_from_lidar_calibration = kitti.cam_from_lidar;
       have_calibration_pose = true;
@@ -408,6 +427,14 @@ int RunRegisterMi(const RegisterMiArgs& args) {
         have_calibration_pose = true;
       }
     }
+  }
+  // --view: image = the image with its own camera; equirect (its synonym), perspective and cube
+  // = the whole panorama or cuts of it, for an EQUIRECTANGULAR camera only.
+  if (!rig_mode && args.view != "image" && camera.model_id != sensors::CameraModelId::kEquirectangular) {
+    throw InputError::Message("--view", "found '" + args.view + "' but the camera of " +
+                                            (args.camera.empty() ? args.kitti_calib : args.camera) + " is " +
+                                            camera.ModelName() + "; equirect, perspective and cube need an "
+                                            "EQUIRECTANGULAR camera (a panorama), expected image");
   }
   for (size_t i = 0; i < images.size(); ++i) {  // (none with --rig: checked above)
     if (images[i].width != static_cast<int>(camera.width) ||
@@ -473,8 +500,10 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     }
     if (options.render.representation == mi::Representation::kIntensity &&
         !cloud.has_intensity()) {
-      throw InputError::Message(lidar_path, "cloud has no intensity but --representation "
-                                            "intensity was asked for (use points or depth)");
+      throw InputError::Message(lidar_path, std::string("cloud has no intensity, which --representation intensity") +
+                                                (args.representation_given ? "" : " (the default)") +
+                                                " needs; use --representation depth or points (points are "
+                                                "compared over the whole image)");
     }
     // The scanner's centre for each point, in the local frame: given, from the trajectory at
     // the point's time, or the origin of a KITTI scan (its sensor frame).
@@ -629,7 +658,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   out["settings"] = {{"metric", args.metric},
                      {"representation", args.representation}, {"view", args.view},
                      {"bins", args.bins},                     {"smoothing", args.smoothing},
-                     {"region", args.region},                 {"pyramid_levels", args.pyramid_levels},
+                     {"region", region},                      {"pyramid_levels", args.pyramid_levels},
                      {"bound_m", args.bound_m},               {"bound_deg", args.bound_deg},
                      {"pyramid_paths", args.pyramid_paths},   {"pyramid_paths_adaptive", args.pyramid_paths_adaptive},
                      {"whole_image_checks", args.whole_image_checks},
@@ -642,6 +671,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"orientation_classes", orientation_sectors},
                      {"surface_voxel_m", args.surface_voxel_m},
                      {"incidence_correction", args.incidence_correction}};
+  if (!region_note.empty()) out["settings"]["region_note"] = region_note;
   // Per cloud: the fitted exponent of I = rho * cos^k (null: not corrected).
   out["incidence_correction"] = incidence_json;
   if (rig_mode) {
@@ -922,7 +952,11 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
                   "the start (top) and at the result (bottom)");
   sub->add_option("--output", args->output, "OUT.json")->required();
   AddCommonOptions(sub, common);
-  return [args] { return RunRegisterMi(*args); };
+  return [args, sub] {
+    args->region_given = sub->count("--region") > 0;
+    args->representation_given = sub->count("--representation") > 0;
+    return RunRegisterMi(*args);
+  };
 }
 
 }  // namespace

@@ -656,6 +656,76 @@ TEST_F(CliTest, RegisterMiReportsTheMetricAsOutJsonHoldsIt) {
   EXPECT_THAT(run.output, HasSubstr(expected));
 }
 
+// Bad KITTI input is refused before any work, exit 2 naming what is wrong: a calibration
+// without R0_rect or with a key twice, or without the P of the camera asked for; --view
+// equirect (like perspective and cube) with a pinhole camera; an image whose size does not fit
+// the calibration's principal point (here KITTI's image at twice its size: 2484x750 for
+// cx ~ 604, cy ~ 181); --representation points with an explicit --region overlap.
+TEST_F(CliTest, RegisterMiRefusesMismatchedKittiInput) {
+  const std::string kitti = kSource + "/data/kitti/";
+  const std::string data = kSource + "/tests/io_kitti/data/";
+  const std::string cloud = "register-mi --lidar " + kitti + "velodyne/000000.bin";
+  const std::string frame = cloud + " --image " + kitti + "image_2/000000.png";
+  const std::string calib = " --kitti-calib " + kitti + "calib/000000.txt";
+  const std::string out = " --output " + Tmp("out.json");
+  registration::mi::WriteGrayPng(registration::mi::GrayImage(2484, 750, 0.5f), Tmp("big.png"));
+  for (const auto& [flags, named] : std::vector<std::pair<std::string, std::string>>{
+           {frame + " --kitti-calib " + data + "calib_missing_r0.txt" + out,
+            data + "calib_missing_r0.txt: missing calibration key R0_rect"},
+           {frame + " --kitti-calib " + data + "calib_duplicate_p2.txt" + out,
+            data + "calib_duplicate_p2.txt:4: field 'P2': found 'a second 'P2:' line"},
+           {frame + " --kitti-calib " + data + "calib_only_p2.txt --kitti-camera 3" + out,
+            data + "calib_only_p2.txt: missing calibration key P3 or P_rect_03"},
+           {frame + calib + " --kitti-camera 4" + out, "--kitti-camera: found 4, expected a KITTI camera index 0..3"},
+           {frame + calib + " --view equirect" + out,
+            "--view: found 'equirect' but the camera of " + kitti + "calib/000000.txt is PINHOLE"},
+           {frame + calib + " --view cube" + out, "--view: found 'cube' but the camera"},
+           {cloud + " --image " + Tmp("big.png") + calib + out,
+            Tmp("big.png") + ": image is 2484x750 but the principal point of KITTI camera 2"},
+           {frame + calib + " --representation points --region overlap" + out,
+            "--region: overlap with --representation points has a constant LiDAR image"}}) {
+    const RunResult run = Mmba(flags);
+    EXPECT_EQ(run.exit_code, 2) << flags << "\n" << run.output;
+    EXPECT_THAT(run.output, HasSubstr(named)) << flags;
+    EXPECT_FALSE(fs::exists(Tmp("out.json"))) << flags;
+  }
+  const RunResult big = Mmba(cloud + " --image " + Tmp("big.png") + calib + out);
+  EXPECT_THAT(big.output, HasSubstr("expected an image of about 1208x361"));
+}
+
+// Only P2 in the calibration serves camera 2. --representation points without --region is
+// compared over the whole image (recorded in settings); a cloud without intensity is refused
+// with a hint that leads to a representation that runs.
+TEST_F(CliTest, RegisterMiRunsOnlyP2AndPointsOverTheWholeImage) {
+  const std::string kitti = kSource + "/data/kitti/";
+  const std::string data = kSource + "/tests/io_kitti/data/";
+  const std::string frame = "register-mi --lidar " + kitti + "velodyne/000000.bin --image " + kitti + "image_2/000000.png";
+  const std::string calib = " --kitti-calib " + kitti + "calib/000000.txt";
+  const std::string out = " --output " + Tmp("out.json");
+  const RunResult only_p2 = Mmba(frame + " --kitti-calib " + data + "calib_only_p2.txt --restarts 0 "
+                                 "--halves false -q" + out);
+  EXPECT_TRUE(only_p2.exit_code == 0 || only_p2.exit_code == 3) << only_p2.output;
+  fs::remove(Tmp("out.json"));
+  // Points without --region: the whole image, said so in settings.
+  const RunResult points = Mmba(frame + calib + " --representation points --restarts 0 --halves false -q" + out);
+  ASSERT_TRUE(points.exit_code == 0 || points.exit_code == 3) << points.output;
+  const nlohmann::json json = nlohmann::json::parse(std::ifstream(Tmp("out.json")));
+  EXPECT_EQ(json["settings"]["representation"], "points");
+  EXPECT_EQ(json["settings"]["region"], "whole");
+  EXPECT_THAT(json["settings"]["region_note"].get<std::string>(), HasSubstr("default for --representation points"));
+  // A cloud without intensity: the hint leads to a representation that runs.
+  io::PointCloud xyz = io::ReadPointCloud(kitti + "velodyne/000000.bin");
+  xyz.intensity.clear();
+  io::WritePly(xyz, Tmp("xyz.ply"));
+  const RunResult no_intensity = Mmba("register-mi --lidar " + Tmp("xyz.ply") + " --image " + kitti +
+                                      "image_2/000000.png" + calib + " --output " + Tmp("xyz.json"));
+  EXPECT_EQ(no_intensity.exit_code, 2) << no_intensity.output;
+  EXPECT_THAT(no_intensity.output,
+              HasSubstr("cloud has no intensity, which --representation intensity (the default) needs; use "
+                        "--representation depth or points"));
+  EXPECT_FALSE(fs::exists(Tmp("xyz.json")));
+}
+
 // A registration that fails before its covariance and checks (a black photo) writes them as
 // null — not an all-zero covariance that reads as a perfectly known pose, nor 0/false checks.
 TEST_F(CliTest, RegisterMiWritesWhatWasNotMeasuredAsNull) {
