@@ -325,10 +325,13 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   }
   for (size_t i = 0; i < args.image.size(); ++i) pairs.emplace_back(args.image[i], args.lidar[i]);
   if (!args.list.empty()) {
+    // IMAGE LIDAR per line; relative paths are relative to the list file's folder. A file
+    // not found is named with the list's line (with --rig, IMAGE is a pattern: checked later).
     const std::string text = io::ReadWholeFile(args.list);
     const fs::path base = fs::path(args.list).parent_path();
     io::LineCursor cursor(text);
     std::string_view line_text;
+    const size_t before = pairs.size();
     while (cursor.Next(&line_text)) {
       io::TokenLine line(args.list, cursor.line_number(), line_text);
       if (line.size() == 0 || line.Str(0, "image").front() == '#') continue;
@@ -336,7 +339,23 @@ int RunRegisterMi(const RegisterMiArgs& args) {
       auto resolve = [&](const std::string& p) {
         return fs::path(p).is_absolute() ? p : (base / p).string();
       };
-      pairs.emplace_back(resolve(line.Str(0, "image")), resolve(line.Str(1, "lidar")));
+      const std::string image = resolve(line.Str(0, "image")), lidar = resolve(line.Str(1, "lidar"));
+      for (const auto& [what, path] : {std::pair<std::string, std::string>{"image", image}, {"lidar", lidar}}) {
+        if (what == "image" && rig_mode) continue;
+        std::error_code ec;
+        if (!fs::is_regular_file(path, ec)) {
+          throw InputError::Message(args.list + ":" + std::to_string(line.line_number()),
+                                    what + " file not found: '" + path + "'" +
+                                        (fs::path(line.Str(what == "image" ? 0 : 1, what)).is_absolute()
+                                             ? ""
+                                             : " (a relative path in a list is relative to the list file's folder)"));
+        }
+      }
+      pairs.emplace_back(image, lidar);
+    }
+    if (pairs.size() == before) {
+      throw InputError::Message(args.list, "no frames in the list (expected lines IMAGE LIDAR; blank lines and "
+                                           "lines starting with # are skipped)");
     }
   }
   if (pairs.empty()) {
@@ -697,18 +716,44 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     out["cameras"] = cameras;
   }
   if (frames.size() > 1) {
+    // Each frame by its index (its order in --image/--lidar, then --list), image and cloud;
+    // its status in the calibration: used, rejected (with the reason: alone it carried no
+    // information, or it disagreed with the others), or not used (the calibration stopped
+    // before the frames' agreement was tested); and its own screening registration.
+    const auto index_of = [&](const std::string& name) {
+      for (size_t i = 0; i < frames.size(); ++i) {
+        if (frames[i].name == name) return static_cast<int>(i);
+      }
+      return -1;
+    };
     out["used_frames"] = result.used_frames;
     nlohmann::json rejected = nlohmann::json::array();
     for (const auto& [name, why] : result.rejected_frames) {
-      rejected.push_back({{"frame", name}, {"reason", why}});
+      const int i = index_of(name);
+      rejected.push_back({{"index", i},
+                          {"image", name},
+                          {"lidar", i >= 0 ? nlohmann::json(pairs[i].second) : nlohmann::json(nullptr)},
+                          {"frame", name},
+                          {"reason", why}});
     }
     out["rejected_frames"] = rejected;
     nlohmann::json per_frame = nlohmann::json::array();
     for (size_t i = 0; i < result.frame_results.size(); ++i) {
       const mi::RegistrationResult& r = result.frame_results[i];
-      per_frame.push_back({{"frame", frames[i].name},
-                           {"status", r.status},
-                           {"reason", r.reason},
+      std::string status = "not used", reason = result.reason;
+      for (const auto& [name, why] : result.rejected_frames) {
+        if (name == frames[i].name) status = "rejected", reason = why;
+      }
+      for (const std::string& name : result.used_frames) {
+        if (name == frames[i].name) status = "used", reason.clear();
+      }
+      per_frame.push_back({{"index", i},
+                           {"image", pairs[i].first},
+                           {"lidar", pairs[i].second},
+                           {"frame", frames[i].name},
+                           {"status", status},
+                           {"reason", reason},
+                           {"screening", {{"status", r.status}, {"reason", r.reason}}},
                            {"correction", mi::CorrectionToJson(r.correction)}});
     }
     out["frames"] = per_frame;

@@ -18,6 +18,7 @@
 #include "mmba/io/kitti.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/registration/mi/image.h"
+#include "mmba/registration/mi/mi_registration.h"
 #include "../registration/mi/synthetic_scene.h"
 
 namespace mmba {
@@ -724,6 +725,60 @@ TEST_F(CliTest, RegisterMiRunsOnlyP2AndPointsOverTheWholeImage) {
               HasSubstr("cloud has no intensity, which --representation intensity (the default) needs; use "
                         "--representation depth or points"));
   EXPECT_FALSE(fs::exists(Tmp("xyz.json")));
+}
+
+// Several frames (--list, paths relative to the list file's folder): each frame in frames[]
+// by its index, image and cloud; the frame taken from elsewhere (turned 1.6 degrees) is
+// "rejected" with the reason in units, the others "used". Bad lists name the list file and
+// line.
+TEST_F(CliTest, RegisterMiListNamesItsFramesAndItsErrors) {
+  namespace mit = registration::mi::testing;
+  const Rigid3d truth = mit::StreetCamFromLidar(Eigen::Vector3d(0.5, 0.3, 0.2), 4.0);
+  fs::create_directories(Tmp("frames"));
+  io::WritePly(mit::StreetCloud(0.06), Tmp("street.ply"));
+  io::CameraYaml camera;
+  camera.camera = mit::StreetCamera();
+  camera.cam_from_lidar = truth;
+  io::WriteCameraYaml(camera, Tmp("camera.yaml"));
+  registration::mi::Vector6d elsewhere;
+  elsewhere << 0.0, 0.0, 0.0, 0.0, 0.0, 1.6;
+  registration::mi::WriteGrayPng(mit::StreetPhoto(camera.camera, truth, 11), Tmp("frames/f0.png"));
+  registration::mi::WriteGrayPng(mit::StreetPhoto(camera.camera, truth, 12), Tmp("frames/f1.png"));
+  registration::mi::WriteGrayPng(
+      mit::StreetPhoto(camera.camera, registration::mi::ApplyCorrection(truth, elsewhere), 13), Tmp("frames/f2.png"));
+  std::ofstream(Tmp("frames/list.txt")) << "# image lidar\nf0.png ../street.ply\n\nf1.png ../street.ply\nf2.png "
+                                        << Tmp("street.ply") << "\n";
+  const std::string common = "register-mi --camera " + Tmp("camera.yaml") + " --region overlap -q";
+  const RunResult run = Mmba(common + " --list " + Tmp("frames/list.txt") +
+                             " --perturb 0.05,-0.05,0.05,0.5,-0.5,0.5 --output " + Tmp("out.json"));
+  ASSERT_TRUE(run.exit_code == 0 || run.exit_code == 3) << run.output;
+  const nlohmann::json out = nlohmann::json::parse(std::ifstream(Tmp("out.json")));
+  ASSERT_EQ(out["frames"].size(), 3u) << out.dump(1);
+  for (int i = 0; i < 3; ++i) {
+    const nlohmann::json& f = out["frames"][i];
+    EXPECT_EQ(f["index"], i);
+    EXPECT_EQ(f["image"], Tmp("frames") + "/f" + std::to_string(i) + ".png");
+    EXPECT_EQ(fs::canonical(f["lidar"].get<std::string>()), fs::canonical(Tmp("street.ply")));
+    EXPECT_EQ(f["status"], i < 2 ? "used" : "rejected") << f.dump();
+  }
+  EXPECT_EQ(out["frames"][0]["reason"], "");
+  EXPECT_THAT(out["frames"][2]["reason"].get<std::string>(),
+              ::testing::MatchesRegex(".*off the median by -?[0-9.]+ (m|deg) \\(limit [0-9.]+ (m|deg)\\)"));
+  ASSERT_EQ(out["rejected_frames"].size(), 1u);
+  EXPECT_EQ(out["rejected_frames"][0]["index"], 2);
+  EXPECT_EQ(out["rejected_frames"][0]["reason"], out["frames"][2]["reason"]);
+
+  std::ofstream(Tmp("frames/missing.txt")) << "f0.png ../street.ply\n# next\nf9.png ../street.ply\n";
+  std::ofstream(Tmp("frames/empty.txt")) << "# nothing\n\n";
+  for (const auto& [list, named] : std::vector<std::pair<std::string, std::string>>{
+           {Tmp("frames/missing.txt"), Tmp("frames/missing.txt") + ":3: image file not found: '" + Tmp("frames") +
+                                           "/f9.png' (a relative path in a list is relative to the list file's folder)"},
+           {Tmp("frames/empty.txt"), Tmp("frames/empty.txt") + ": no frames in the list"}}) {
+    const RunResult bad = Mmba(common + " --list " + list + " --output " + Tmp("bad.json"));
+    EXPECT_EQ(bad.exit_code, 2) << bad.output;
+    EXPECT_THAT(bad.output, HasSubstr(named));
+    EXPECT_FALSE(fs::exists(Tmp("bad.json")));
+  }
 }
 
 // A registration that fails before its covariance and checks (a black photo) writes them as

@@ -2616,8 +2616,9 @@ RegistrationResult RegisterRig(const std::vector<Frame>& frames,
       const double floor = k < 3 ? options.disagree_floor_m : options.disagree_floor_deg;
       const double limit = std::max(3 * mad[k], floor);
       if (std::abs(d[k]) > limit) {
+        const char* unit = k < 3 ? " m" : " deg";
         why = std::string("disagrees with the other frames: ") + ParameterName(k) + " off the " +
-              "median by " + Fixed(d[k]) + " (limit " + Fixed(limit) + ")";
+              "median by " + Fixed(d[k]) + unit + " (limit " + Fixed(limit) + unit + ")";
       }
     }
     if (why.empty()) {
