@@ -136,6 +136,36 @@ Rigid3d ReadPoseJson(const std::string& path, const std::string& key) {
   return io::RigidFromRowMajor4x4(v, path, key);
 }
 
+// Keeps the points of `cloud` (and their attributes) within `range_m` of any of `centres`
+// and finite; returns the number dropped.
+size_t KeepNearAny(const std::vector<Eigen::Vector3d>& centres, double range_m, io::PointCloud* cloud) {
+  const double range_sq = range_m * range_m;
+  size_t kept = 0;
+  for (size_t i = 0; i < cloud->size(); ++i) {
+    const Eigen::Vector3d& p = cloud->points[i];
+    bool keep = false;
+    if (p.allFinite()) {
+      for (const Eigen::Vector3d& c : centres) keep = keep || (p - c).squaredNorm() <= range_sq;
+    }
+    if (!keep) continue;
+    if (kept != i) {
+      cloud->points[kept] = p;
+      if (cloud->has_normals()) cloud->normals[kept] = cloud->normals[i];
+      if (cloud->has_intensity()) cloud->intensity[kept] = cloud->intensity[i];
+      if (cloud->has_colors()) cloud->colors[kept] = cloud->colors[i];
+      if (cloud->has_time()) cloud->time[kept] = cloud->time[i];
+    }
+    ++kept;
+  }
+  const size_t dropped = cloud->size() - kept;
+  cloud->points.resize(kept);
+  if (cloud->has_normals()) cloud->normals.resize(kept);
+  if (cloud->has_intensity()) cloud->intensity.resize(kept);
+  if (cloud->has_colors()) cloud->colors.resize(kept);
+  if (cloud->has_time()) cloud->time.resize(kept);
+  return dropped;
+}
+
 // A number option must be finite: CLI11 reads "nan" and "inf" as numbers, and a NaN passes
 // every "> 0" check written as a negated "<= 0".
 void RequireFinite(const std::string& option, const std::vector<double>& values) {
@@ -502,11 +532,41 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     trajectory = io::ReadTrajectory(args.trajectory);
     body_from_lidar = io::ReadLidarMountYaml(args.lidar_mount);
   }
+  // The camera centres in the clouds' frame (each rig camera's; the start's and, with
+  // --perturb, the unperturbed reference's). A point farther than --max-range-m from all of
+  // them (plus the search bound, or the probe's 2 m) is never rendered: it is dropped before
+  // anything else uses the cloud, so that one absurd point (a 1e12 m glitch) does not move the
+  // map-grid origin or enter the incidence fit and the surface classes.
+  std::vector<Eigen::Vector3d> camera_centres;
+  for (const Rigid3d& pose : {start, reference}) {
+    if (rig_mode) {
+      for (const Rigid3d& cam_from_rig : rig_yaml.cam_from_rig) {
+        camera_centres.push_back((cam_from_rig * pose).Inverse().translation);
+      }
+    } else {
+      camera_centres.push_back(pose.Inverse().translation);
+    }
+  }
+  const double keep_within_m = args.max_range_m + std::max(args.bound_m, 2.0);
   std::vector<mi::LidarPoints> clouds;
   nlohmann::json incidence_json = nlohmann::json::array();
+  nlohmann::json clouds_json = nlohmann::json::array();
   for (const auto& [image_path, lidar_path] : pairs) {
     io::PointCloud cloud = io::ReadPointCloud(lidar_path);
     if (cloud.empty()) throw InputError::Message(lidar_path, "cloud has no points");
+    const size_t points_read = cloud.size();
+    const size_t dropped = KeepNearAny(camera_centres, keep_within_m, &cloud);
+    if (dropped > 0) {
+      spdlog::info("{}: {} of {} points farther than {:.1f} m from the camera (--max-range-m + the search bound) "
+                   "or not finite, dropped",
+                   lidar_path, dropped, points_read, keep_within_m);
+    }
+    clouds_json.push_back({{"lidar", lidar_path}, {"points_read", points_read}, {"points_beyond_range", dropped}});
+    if (cloud.empty()) {
+      throw InputError::Message(lidar_path, "no point within " + std::to_string(keep_within_m) +
+                                                " m of the camera (--max-range-m + the search bound): is the "
+                                                "start pose (--initial, the calibration) one of this cloud?");
+    }
     if (clouds.empty()) {
       origin = io::LocalOrigin(cloud.points);
       if (!origin.isZero()) {
@@ -691,6 +751,8 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"surface_voxel_m", args.surface_voxel_m},
                      {"incidence_correction", args.incidence_correction}};
   if (!region_note.empty()) out["settings"]["region_note"] = region_note;
+  // Per cloud: points read, and dropped as beyond every camera's range (or not finite).
+  out["clouds"] = clouds_json;
   // Per cloud: the fitted exponent of I = rho * cos^k (null: not corrected).
   out["incidence_correction"] = incidence_json;
   if (rig_mode) {

@@ -727,6 +727,36 @@ TEST_F(CliTest, RegisterMiRunsOnlyP2AndPointsOverTheWholeImage) {
   EXPECT_FALSE(fs::exists(Tmp("xyz.json")));
 }
 
+// One absurd point (1e12 m away, a glitch of a scanner's record) changes nothing: points
+// beyond --max-range-m of every camera are dropped before the cloud is used (before the
+// map-grid origin, the incidence fit, the surface classes), and OUT.json counts them.
+TEST_F(CliTest, RegisterMiIgnoresAFarOutlierPoint) {
+  const std::string kitti = kSource + "/data/kitti/";
+  io::PointCloud cloud = io::ReadPointCloud(kitti + "velodyne/000000.bin");
+  io::WritePly(cloud, Tmp("clean.ply"));
+  cloud.points.push_back(Eigen::Vector3d(1e12, 2e11, 5e10));
+  cloud.intensity.push_back(0.5f);
+  io::WritePly(cloud, Tmp("outlier.ply"));
+  const std::string common = " --image " + kitti + "image_2/000000.png --kitti-calib " + kitti +
+                             "calib/000000.txt --scanner-origin 0,0,0 --perturb 0.05,0,0,0,0.5,0 "
+                             "--restarts 0 --halves false -q";
+  const RunResult clean = Mmba("register-mi --lidar " + Tmp("clean.ply") + common + " --output " + Tmp("clean.json"));
+  const RunResult outlier = Mmba("register-mi --lidar " + Tmp("outlier.ply") + common + " --output " + Tmp("outlier.json"));
+  ASSERT_TRUE(clean.exit_code == 0 || clean.exit_code == 3) << clean.output;
+  EXPECT_EQ(outlier.exit_code, clean.exit_code) << outlier.output;
+  const nlohmann::json a = nlohmann::json::parse(std::ifstream(Tmp("clean.json")));
+  const nlohmann::json b = nlohmann::json::parse(std::ifstream(Tmp("outlier.json")));
+  EXPECT_EQ(b["status"], a["status"]);
+  EXPECT_EQ(b["reason"], a["reason"]);
+  EXPECT_EQ(b["cam_from_lidar"], a["cam_from_lidar"]);
+  EXPECT_EQ(b["correction"], a["correction"]);
+  EXPECT_EQ(b["metric_after"], a["metric_after"]);
+  EXPECT_EQ(b["incidence_correction"][0]["exponent"], a["incidence_correction"][0]["exponent"]);
+  EXPECT_EQ(a["clouds"][0]["points_beyond_range"], 0);
+  EXPECT_EQ(b["clouds"][0]["points_beyond_range"], 1);
+  EXPECT_EQ(b["clouds"][0]["points_read"].get<size_t>(), a["clouds"][0]["points_read"].get<size_t>() + 1);
+}
+
 // Several frames (--list, paths relative to the list file's folder): each frame in frames[]
 // by its index, image and cloud; the frame taken from elsewhere (turned 1.6 degrees) is
 // "rejected" with the reason in units, the others "used". Bad lists name the list file and
