@@ -1,7 +1,13 @@
 #include "command.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <map>
@@ -22,6 +28,62 @@ std::vector<std::pair<int, CommandSetup>>& Registry() {
 void AddCommonOptions(CLI::App* sub, CommonOptions* common) {
   sub->add_flag("-q,--quiet", common->quiet, "Print only errors and the final summary");
   sub->add_flag("-v,--verbose", common->verbose, "Print debugging detail");
+}
+
+namespace {
+
+// Throws unless `path` (a file, or a folder when `folder`) can be created or replaced: an
+// existing path must be of the right kind, the nearest existing ancestor a folder in which an
+// entry can be created (probed by creating and removing one: permission bits say nothing
+// for root or for /proc).
+void CheckOutputPath(const FileArg& arg, bool folder) {
+  namespace fs = std::filesystem;
+  if (arg.path.empty()) return;
+  const std::string what = folder ? "a folder to write into (created if missing)" : "a file to write";
+  const auto fail = [&](const std::string& why) {
+    throw InputError::Message(arg.option, "cannot write '" + arg.path + "': " + why + "; expected " + what);
+  };
+  std::error_code ec;
+  const fs::path path = fs::absolute(arg.path, ec).lexically_normal();
+  if (ec) fail(ec.message());
+  const fs::file_status status = fs::status(path, ec);
+  if (fs::exists(status)) {
+    if (!folder && fs::is_directory(status)) fail("it is an existing folder");
+    if (folder && !fs::is_directory(status)) fail("it is an existing file, not a folder");
+  }
+  // The nearest existing ancestor (the path itself for an existing folder).
+  fs::path existing = folder && fs::is_directory(status) ? path : path.parent_path();
+  while (!existing.empty() && !fs::exists(existing, ec) && existing != existing.root_path()) {
+    existing = existing.parent_path();
+  }
+  if (!fs::is_directory(existing, ec)) {
+    fail("'" + existing.string() + "' is a file, not a folder");
+  }
+  // A probe entry: a file where the output's folder exists, else a folder (what
+  // AtomicFileSet's create_directories will do there).
+  const bool parent_exists = existing == (folder && fs::is_directory(status) ? path : path.parent_path());
+  const std::string probe = (existing / (".mmba-write-check-" + std::to_string(getpid()))).string();
+  if (parent_exists) {
+    const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
+    if (fd < 0) fail("cannot create a file in '" + existing.string() + "' (" + std::strerror(errno) + ")");
+    ::close(fd);
+    ::unlink(probe.c_str());
+  } else {
+    if (::mkdir(probe.c_str(), 0700) != 0) {
+      fail("cannot create a folder in '" + existing.string() + "' (" + std::strerror(errno) + ")");
+    }
+    ::rmdir(probe.c_str());
+  }
+}
+
+}  // namespace
+
+void CheckOutputFiles(const std::vector<FileArg>& outputs) {
+  for (const FileArg& out : outputs) CheckOutputPath(out, /*folder=*/false);
+}
+
+void CheckOutputFolders(const std::vector<FileArg>& folders) {
+  for (const FileArg& out : folders) CheckOutputPath(out, /*folder=*/true);
 }
 
 void RefuseToOverwriteInputs(const std::vector<FileArg>& outputs, const std::vector<FileArg>& inputs) {
@@ -52,6 +114,7 @@ void RefuseToOverwriteInputs(const std::vector<FileArg>& outputs, const std::vec
       }
     }
   }
+  CheckOutputFiles(outputs);
 }
 
 bool RegisterCommand(int order, CommandSetup setup) {

@@ -50,8 +50,22 @@ struct FileArg {
 
 /// mmba never overwrites its inputs: throws InputError (exit 2) naming the option when an
 /// output is the same file as an input (an existing file, however the path is spelled) or as
-/// another output. Call before any work. Empty paths are skipped.
+/// another output, or when an output file cannot be written (CheckOutputFiles). Call before
+/// any work. Empty paths are skipped.
 void RefuseToOverwriteInputs(const std::vector<FileArg>& outputs, const std::vector<FileArg>& inputs);
+
+/// Output files must be writable where they are named, checked before any work: throws
+/// InputError (exit 2) naming the option, the path and what was expected when a path is an
+/// existing folder, when a part of its folder path is an existing file, or when nothing can be
+/// created in its nearest existing folder (read-only, /proc, no permission). Missing folders
+/// are fine (AtomicFileSet creates them). The check creates and removes one probe entry in
+/// that folder and leaves nothing behind. Empty paths are skipped. RefuseToOverwriteInputs
+/// calls it for its outputs.
+void CheckOutputFiles(const std::vector<FileArg>& outputs);
+
+/// The same for output folders (a command writing several files into one, e.g. register-mi
+/// --probe): an existing path must be a folder.
+void CheckOutputFolders(const std::vector<FileArg>& folders);
 
 }  // namespace mmba::app
 

@@ -39,6 +39,8 @@ struct RegisterMiArgs {
   std::string representation = "intensity";
   std::string smoothing = "bspline";
   std::string region = "overlap";
+  bool region_given = false;          ///< --region on the command line (not the default)
+  bool representation_given = false;  ///< --representation on the command line
   std::string view = "image";
   std::string headings = "-90,90";
   int bins = 64;
@@ -99,10 +101,28 @@ nlohmann::json OffsetJson(const mi::PixelOffsetStats& s) {
 Rigid3d ReadPoseJson(const std::string& path, const std::string& key) {
   const std::string text = io::ReadWholeFile(path);
   nlohmann::json json;
+  // The last key read names the field of a number out of range (1e400), which nlohmann
+  // reports without a position.
+  std::string last_key = "json";
+  const nlohmann::json::parser_callback_t track_key = [&last_key](int, nlohmann::json::parse_event_t event,
+                                                                 nlohmann::json& parsed) {
+    if (event == nlohmann::json::parse_event_t::key && parsed.is_string()) last_key = parsed.get<std::string>();
+    return true;
+  };
   try {
-    json = nlohmann::json::parse(text);
+    json = nlohmann::json::parse(text, track_key);
   } catch (const nlohmann::json::parse_error& e) {
     throw InputError::AtByte(path, e.byte, "json", e.what(), "valid JSON");
+  } catch (const nlohmann::json::exception& e) {
+    // e.g. "[json.exception.out_of_range.406] number overflow parsing '1e400'"
+    std::string found = e.what();
+    const size_t quote = found.find('\'');
+    if (quote != std::string::npos) found = found.substr(quote + 1, found.rfind('\'') - quote - 1);
+    int64_t line = 0;
+    if (const size_t at = text.find(found); quote != std::string::npos && at != std::string::npos) {
+      line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n');
+    }
+    throw InputError(path, line, last_key, found, "a finite number (a double)");
   }
   if (!json.is_object() || !json.contains(key)) {
     throw InputError(path, 0, key, "(missing)",
@@ -116,9 +136,67 @@ Rigid3d ReadPoseJson(const std::string& path, const std::string& key) {
   return io::RigidFromRowMajor4x4(v, path, key);
 }
 
+// Keeps the points of `cloud` (and their attributes) within `range_m` of any of `centres`
+// and finite; returns the number dropped.
+size_t KeepNearAny(const std::vector<Eigen::Vector3d>& centres, double range_m, io::PointCloud* cloud) {
+  const double range_sq = range_m * range_m;
+  size_t kept = 0;
+  for (size_t i = 0; i < cloud->size(); ++i) {
+    const Eigen::Vector3d& p = cloud->points[i];
+    bool keep = false;
+    if (p.allFinite()) {
+      for (const Eigen::Vector3d& c : centres) keep = keep || (p - c).squaredNorm() <= range_sq;
+    }
+    if (!keep) continue;
+    if (kept != i) {
+      cloud->points[kept] = p;
+      if (cloud->has_normals()) cloud->normals[kept] = cloud->normals[i];
+      if (cloud->has_intensity()) cloud->intensity[kept] = cloud->intensity[i];
+      if (cloud->has_colors()) cloud->colors[kept] = cloud->colors[i];
+      if (cloud->has_time()) cloud->time[kept] = cloud->time[i];
+    }
+    ++kept;
+  }
+  const size_t dropped = cloud->size() - kept;
+  cloud->points.resize(kept);
+  if (cloud->has_normals()) cloud->normals.resize(kept);
+  if (cloud->has_intensity()) cloud->intensity.resize(kept);
+  if (cloud->has_colors()) cloud->colors.resize(kept);
+  if (cloud->has_time()) cloud->time.resize(kept);
+  return dropped;
+}
+
+// A number option must be finite: CLI11 reads "nan" and "inf" as numbers, and a NaN passes
+// every "> 0" check written as a negated "<= 0".
+void RequireFinite(const std::string& option, const std::vector<double>& values) {
+  for (const double v : values) {
+    if (!std::isfinite(v)) {
+      std::ostringstream found;
+      found << v;
+      throw InputError::Message(option, "found '" + found.str() + "', expected a finite number");
+    }
+  }
+}
+
 int RunRegisterMi(const RegisterMiArgs& args) {
   Timer wall;
   // ---- Options (validated before any reading).
+  for (const auto& [option, values] : std::vector<std::pair<const char*, std::vector<double>>>{
+           {"--bound-m", {args.bound_m}},
+           {"--bound-deg", {args.bound_deg}},
+           {"--simplex", {args.simplex}},
+           {"--coarse-spread", {args.coarse_spread}},
+           {"--restart-tolerance-px", {args.restart_tolerance_px}},
+           {"--max-sigma-px", {args.max_sigma_px}},
+           {"--max-calibrated-sigma-px", {args.max_calibrated_sigma_px}},
+           {"--split-tolerance-px", {args.split_tolerance_px}},
+           {"--point-radius-m", {args.point_radius_m}},
+           {"--max-range-m", {args.max_range_m}},
+           {"--surface-voxel-m", {args.surface_voxel_m}},
+           {"--scanner-origin", args.scanner_origin},
+           {"--perturb", args.perturb}}) {
+    RequireFinite(option, values);
+  }
   mi::RegistrationOptions options;
   if (!mi::ParseMetric(args.metric, &options.metric.kind)) {
     throw InputError::Message("--metric", "found '" + args.metric + "', expected mi, nmi or nid");
@@ -134,6 +212,16 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   if (!mi::ParseRegion(args.region, &options.metric.region)) {
     throw InputError::Message("--region", "found '" + args.region +
                                               "', expected whole or overlap");
+  }
+  // A points image is constant over the overlap (MI = 0 there): points are compared over the
+  // whole image unless --region was given.
+  std::string region = args.region;
+  std::string region_note;
+  if (options.render.representation == mi::Representation::kPoints && !args.region_given) {
+    region = "whole";
+    options.metric.region = mi::Region::kWholeImage;
+    region_note = "whole: the default for --representation points (its LiDAR image is constant over the overlap)";
+    spdlog::info("--representation points: the metric over the whole image (--region whole)");
   }
   mi::ViewOptions view_options;
   if (!mi::ParseViewKind(args.view, &view_options.kind)) {
@@ -211,8 +299,9 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   }
   if (options.metric.region == mi::Region::kOverlap &&
       options.render.representation == mi::Representation::kPoints) {
-    throw InputError::Message("--representation", "points with --region overlap has a constant "
-                                                  "LiDAR image (MI = 0); use --region whole");
+    throw InputError::Message("--region", "overlap with --representation points has a constant "
+                                          "LiDAR image (MI = 0); use --region whole (the default "
+                                          "for points)");
   }
   std::string error;
   if (!options.Check(&error)) throw InputError::Message("options", error);
@@ -245,12 +334,16 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     if (!args.camera.empty() || !args.kitti_calib.empty()) {
       throw InputError::Message("--rig", "give either --rig or one of --camera/--kitti-calib, not both");
     }
-    if (view_options.kind != mi::ViewKind::kImage) {
+    if (args.view != "image") {
       throw InputError::Message("--view", "found '" + args.view + "' with --rig; a rig's cameras are "
                                                                   "registered as their own images (image)");
     }
   } else if (args.camera.empty() == args.kitti_calib.empty()) {
     throw InputError::Message("--camera/--kitti-calib", "give exactly one of them (or --rig)");
+  }
+  if (args.kitti_camera < 0 || args.kitti_camera > 3) {
+    throw InputError::Message("--kitti-camera", "found " + std::to_string(args.kitti_camera) +
+                                                    ", expected a KITTI camera index 0..3");
   }
   // ---- Frames: --image/--lidar pairs or a list file (IMAGE LIDAR per line).
   std::vector<std::pair<std::string, std::string>> pairs;
@@ -262,10 +355,13 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   }
   for (size_t i = 0; i < args.image.size(); ++i) pairs.emplace_back(args.image[i], args.lidar[i]);
   if (!args.list.empty()) {
+    // IMAGE LIDAR per line; relative paths are relative to the list file's folder. A file
+    // not found is named with the list's line (with --rig, IMAGE is a pattern: checked later).
     const std::string text = io::ReadWholeFile(args.list);
     const fs::path base = fs::path(args.list).parent_path();
     io::LineCursor cursor(text);
     std::string_view line_text;
+    const size_t before = pairs.size();
     while (cursor.Next(&line_text)) {
       io::TokenLine line(args.list, cursor.line_number(), line_text);
       if (line.size() == 0 || line.Str(0, "image").front() == '#') continue;
@@ -273,7 +369,23 @@ int RunRegisterMi(const RegisterMiArgs& args) {
       auto resolve = [&](const std::string& p) {
         return fs::path(p).is_absolute() ? p : (base / p).string();
       };
-      pairs.emplace_back(resolve(line.Str(0, "image")), resolve(line.Str(1, "lidar")));
+      const std::string image = resolve(line.Str(0, "image")), lidar = resolve(line.Str(1, "lidar"));
+      for (const auto& [what, path] : {std::pair<std::string, std::string>{"image", image}, {"lidar", lidar}}) {
+        if (what == "image" && rig_mode) continue;
+        std::error_code ec;
+        if (!fs::is_regular_file(path, ec)) {
+          throw InputError::Message(args.list + ":" + std::to_string(line.line_number()),
+                                    what + " file not found: '" + path + "'" +
+                                        (fs::path(line.Str(what == "image" ? 0 : 1, what)).is_absolute()
+                                             ? ""
+                                             : " (a relative path in a list is relative to the list file's folder)"));
+        }
+      }
+      pairs.emplace_back(image, lidar);
+    }
+    if (pairs.size() == before) {
+      throw InputError::Message(args.list, "no frames in the list (expected lines IMAGE LIDAR; blank lines and "
+                                           "lines starting with # are skipped)");
     }
   }
   if (pairs.empty()) {
@@ -291,6 +403,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   RefuseToOverwriteInputs(
       {{"--output", args.output}, {"--lidar-image", args.lidar_image}, {"--overlay", args.overlay}},
       inputs);
+  CheckOutputFolders({{"--probe", args.probe}});
   // ---- Read everything before any work.
   std::vector<mi::GrayImage> images;
   sensors::Camera camera;
@@ -332,20 +445,26 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   } else {
     for (const auto& [image_path, lidar_path] : pairs) images.push_back(mi::ReadGrayImage(image_path));
     if (!args.kitti_calib.empty()) {
-      const io::KittiCalibration calibration = io::ReadKittiCalibration(args.kitti_calib);
+      const io::KittiCalibration calibration = io::ReadKittiCalibration(args.kitti_calib, args.kitti_camera);
       const io::KittiCameraPose kitti =
           io::KittiCamera(calibration, args.kitti_camera, images[0].width, images[0].height,
                           args.kitti_calib);
       camera = kitti.camera;
-      // The calibration has no image size; the image's is taken. An image whose frame does not
-      // hold the principal point is not one of this camera (a crop, a thumbnail, another camera).
+      // The calibration has no image size; the image's is taken. KITTI's principal points lie
+      // near the image centre (cx ~ 609 of 1242, cy ~ 173 of 375; raw sequences 1224..1242 x
+      // 370..376), so an image whose centre is more than 20 % of its size from the principal
+      // point is not one of this camera (a crop, a thumbnail, a panorama, another camera).
       const double cx = camera.params[2], cy = camera.params[3];
-      if (!(cx > 0 && cx < images[0].width && cy > 0 && cy < images[0].height)) {
-        std::ostringstream why;
-        why << "image is " << images[0].width << "x" << images[0].height << " but the principal point of KITTI camera "
-            << args.kitti_camera << " in " << args.kitti_calib << " is (" << cx << ", " << cy
-            << "): expected an image of that camera (KITTI: about 1242x375)";
-        throw InputError::Message(pairs[0].first, why.str());
+      for (size_t i = 0; i < images.size(); ++i) {
+        const double w = images[i].width, h = images[i].height;
+        if (std::abs(2 * cx - w) > 0.2 * w || std::abs(2 * cy - h) > 0.2 * h) {
+          std::ostringstream why;
+          why << "image is " << images[i].width << "x" << images[i].height << " but the principal point of KITTI camera "
+              << args.kitti_camera << " in " << args.kitti_calib << " is (" << cx << ", " << cy
+              << "): expected an image of about " << std::lround(2 * cx) << "x" << std::lround(2 * cy)
+              << " (2 cx x 2 cy, within 20 %; KITTI: about 1242x375)";
+          throw InputError::Message(pairs[i].first, why.str());
+        }
       }
       cam_from_lidar_calibration = kitti.cam_from_lidar;
       have_calibration_pose = true;
@@ -357,6 +476,14 @@ int RunRegisterMi(const RegisterMiArgs& args) {
         have_calibration_pose = true;
       }
     }
+  }
+  // --view: image = the image with its own camera; equirect (its synonym), perspective and cube
+  // = the whole panorama or cuts of it, for an EQUIRECTANGULAR camera only.
+  if (!rig_mode && args.view != "image" && camera.model_id != sensors::CameraModelId::kEquirectangular) {
+    throw InputError::Message("--view", "found '" + args.view + "' but the camera of " +
+                                            (args.camera.empty() ? args.kitti_calib : args.camera) + " is " +
+                                            camera.ModelName() + "; equirect, perspective and cube need an "
+                                            "EQUIRECTANGULAR camera (a panorama), expected image");
   }
   for (size_t i = 0; i < images.size(); ++i) {  // (none with --rig: checked above)
     if (images[i].width != static_cast<int>(camera.width) ||
@@ -405,11 +532,41 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     trajectory = io::ReadTrajectory(args.trajectory);
     body_from_lidar = io::ReadLidarMountYaml(args.lidar_mount);
   }
+  // The camera centres in the clouds' frame (each rig camera's; the start's and, with
+  // --perturb, the unperturbed reference's). A point farther than --max-range-m from all of
+  // them (plus the search bound, or the probe's 2 m) is never rendered: it is dropped before
+  // anything else uses the cloud, so that one absurd point (a 1e12 m glitch) does not move the
+  // map-grid origin or enter the incidence fit and the surface classes.
+  std::vector<Eigen::Vector3d> camera_centres;
+  for (const Rigid3d& pose : {start, reference}) {
+    if (rig_mode) {
+      for (const Rigid3d& cam_from_rig : rig_yaml.cam_from_rig) {
+        camera_centres.push_back((cam_from_rig * pose).Inverse().translation);
+      }
+    } else {
+      camera_centres.push_back(pose.Inverse().translation);
+    }
+  }
+  const double keep_within_m = args.max_range_m + std::max(args.bound_m, 2.0);
   std::vector<mi::LidarPoints> clouds;
   nlohmann::json incidence_json = nlohmann::json::array();
+  nlohmann::json clouds_json = nlohmann::json::array();
   for (const auto& [image_path, lidar_path] : pairs) {
     io::PointCloud cloud = io::ReadPointCloud(lidar_path);
     if (cloud.empty()) throw InputError::Message(lidar_path, "cloud has no points");
+    const size_t points_read = cloud.size();
+    const size_t dropped = KeepNearAny(camera_centres, keep_within_m, &cloud);
+    if (dropped > 0) {
+      spdlog::info("{}: {} of {} points farther than {:.1f} m from the camera (--max-range-m + the search bound) "
+                   "or not finite, dropped",
+                   lidar_path, dropped, points_read, keep_within_m);
+    }
+    clouds_json.push_back({{"lidar", lidar_path}, {"points_read", points_read}, {"points_beyond_range", dropped}});
+    if (cloud.empty()) {
+      throw InputError::Message(lidar_path, "no point within " + std::to_string(keep_within_m) +
+                                                " m of the camera (--max-range-m + the search bound): is the "
+                                                "start pose (--initial, the calibration) one of this cloud?");
+    }
     if (clouds.empty()) {
       origin = io::LocalOrigin(cloud.points);
       if (!origin.isZero()) {
@@ -422,8 +579,10 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     }
     if (options.render.representation == mi::Representation::kIntensity &&
         !cloud.has_intensity()) {
-      throw InputError::Message(lidar_path, "cloud has no intensity but --representation "
-                                            "intensity was asked for (use points or depth)");
+      throw InputError::Message(lidar_path, std::string("cloud has no intensity, which --representation intensity") +
+                                                (args.representation_given ? "" : " (the default)") +
+                                                " needs; use --representation depth or points (points are "
+                                                "compared over the whole image)");
     }
     // The scanner's centre for each point, in the local frame: given, from the trajectory at
     // the point's time, or the origin of a KITTI scan (its sensor frame).
@@ -575,9 +734,10 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   result.cam_from_lidar = to_given(result.cam_from_lidar);
   for (mi::RegistrationResult& r : result.frame_results) r.cam_from_lidar = to_given(r.cam_from_lidar);
   nlohmann::json out = mi::ResultToJson(result, options, start_given);
-  out["settings"] = {{"representation", args.representation}, {"view", args.view},
+  out["settings"] = {{"metric", args.metric},
+                     {"representation", args.representation}, {"view", args.view},
                      {"bins", args.bins},                     {"smoothing", args.smoothing},
-                     {"region", args.region},                 {"pyramid_levels", args.pyramid_levels},
+                     {"region", region},                      {"pyramid_levels", args.pyramid_levels},
                      {"bound_m", args.bound_m},               {"bound_deg", args.bound_deg},
                      {"pyramid_paths", args.pyramid_paths},   {"pyramid_paths_adaptive", args.pyramid_paths_adaptive},
                      {"whole_image_checks", args.whole_image_checks},
@@ -590,6 +750,9 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                      {"orientation_classes", orientation_sectors},
                      {"surface_voxel_m", args.surface_voxel_m},
                      {"incidence_correction", args.incidence_correction}};
+  if (!region_note.empty()) out["settings"]["region_note"] = region_note;
+  // Per cloud: points read, and dropped as beyond every camera's range (or not finite).
+  out["clouds"] = clouds_json;
   // Per cloud: the fitted exponent of I = rho * cos^k (null: not corrected).
   out["incidence_correction"] = incidence_json;
   if (rig_mode) {
@@ -615,18 +778,44 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     out["cameras"] = cameras;
   }
   if (frames.size() > 1) {
+    // Each frame by its index (its order in --image/--lidar, then --list), image and cloud;
+    // its status in the calibration: used, rejected (with the reason: alone it carried no
+    // information, or it disagreed with the others), or not used (the calibration stopped
+    // before the frames' agreement was tested); and its own screening registration.
+    const auto index_of = [&](const std::string& name) {
+      for (size_t i = 0; i < frames.size(); ++i) {
+        if (frames[i].name == name) return static_cast<int>(i);
+      }
+      return -1;
+    };
     out["used_frames"] = result.used_frames;
     nlohmann::json rejected = nlohmann::json::array();
     for (const auto& [name, why] : result.rejected_frames) {
-      rejected.push_back({{"frame", name}, {"reason", why}});
+      const int i = index_of(name);
+      rejected.push_back({{"index", i},
+                          {"image", name},
+                          {"lidar", i >= 0 ? nlohmann::json(pairs[i].second) : nlohmann::json(nullptr)},
+                          {"frame", name},
+                          {"reason", why}});
     }
     out["rejected_frames"] = rejected;
     nlohmann::json per_frame = nlohmann::json::array();
     for (size_t i = 0; i < result.frame_results.size(); ++i) {
       const mi::RegistrationResult& r = result.frame_results[i];
-      per_frame.push_back({{"frame", frames[i].name},
-                           {"status", r.status},
-                           {"reason", r.reason},
+      std::string status = "not used", reason = result.reason;
+      for (const auto& [name, why] : result.rejected_frames) {
+        if (name == frames[i].name) status = "rejected", reason = why;
+      }
+      for (const std::string& name : result.used_frames) {
+        if (name == frames[i].name) status = "used", reason.clear();
+      }
+      per_frame.push_back({{"index", i},
+                           {"image", pairs[i].first},
+                           {"lidar", pairs[i].second},
+                           {"frame", frames[i].name},
+                           {"status", status},
+                           {"reason", reason},
+                           {"screening", {{"status", r.status}, {"reason", r.reason}}},
                            {"correction", mi::CorrectionToJson(r.correction)}});
     }
     out["frames"] = per_frame;
@@ -870,7 +1059,11 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
                   "the start (top) and at the result (bottom)");
   sub->add_option("--output", args->output, "OUT.json")->required();
   AddCommonOptions(sub, common);
-  return [args] { return RunRegisterMi(*args); };
+  return [args, sub] {
+    args->region_given = sub->count("--region") > 0;
+    args->representation_given = sub->count("--representation") > 0;
+    return RunRegisterMi(*args);
+  };
 }
 
 }  // namespace

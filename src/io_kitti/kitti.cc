@@ -71,6 +71,11 @@ std::map<std::string, CalibRow> ReadCalibRows(const std::string& path) {
     }
     key.pop_back();
     if (key == "calib_time") continue;
+    // A key given twice leaves the file's meaning open (which one did its writer mean?).
+    if (const auto earlier = rows.find(key); earlier != rows.end()) {
+      line.Fail(key, "a second '" + key + ":' line (the first on line " + std::to_string(earlier->second.line) + ")",
+                "each key once");
+    }
     CalibRow row;
     row.line = line.line_number();
     for (size_t i = 1; i < line.size(); ++i) {
@@ -86,7 +91,7 @@ constexpr const char* kRawVeloToCam = "calib_velo_to_cam.txt";
 
 }  // namespace
 
-KittiCalibration ReadKittiCalibration(const std::string& path_or_folder) {
+KittiCalibration ReadKittiCalibration(const std::string& path_or_folder, int camera) {
   // A raw recording's calibration is two files in the date folder: calib_cam_to_cam.txt
   // (P_rect_0X, R_rect_00) and calib_velo_to_cam.txt (R, T: velodyne → camera 0). Given the
   // folder or either file, both are read; rows of the second file are named by it.
@@ -144,8 +149,8 @@ KittiCalibration ReadKittiCalibration(const std::string& path_or_folder) {
     const auto it = row_file.find(key);
     return it == row_file.end() ? path : it->second;
   };
-  auto find = [&](std::initializer_list<const char*> names, size_t count,
-                  bool required) -> const CalibRow* {
+  auto find = [&](std::initializer_list<const char*> names, size_t count, bool required,
+                  const std::string& why = "") -> const CalibRow* {
     for (const char* name : names) {
       auto it = rows.find(name);
       if (it == rows.end()) continue;
@@ -159,27 +164,41 @@ KittiCalibration ReadKittiCalibration(const std::string& path_or_folder) {
     if (required) {
       std::string list;
       for (const char* name : names) list += (list.empty() ? "" : " or ") + std::string(name);
-      throw InputError::Message(path, "missing calibration key " + list +
+      throw InputError::Message(path, "missing calibration key " + list + why +
                                           " (expected a KITTI object/odometry calib file, or a raw "
                                           "recording's calib_cam_to_cam.txt + calib_velo_to_cam.txt)");
     }
     return nullptr;
   };
+  if (camera < -1 || camera > 3) {
+    throw InputError::Message(path, "KITTI camera index " + std::to_string(camera) + " out of range 0..3");
+  }
   KittiCalibration calibration;
+  calibration.path = path;
+  // Only the projection of the camera used is required (a file with P2 alone serves camera 2).
   for (int i = 0; i < 4; ++i) {
     const std::string a = "P" + std::to_string(i);
     const std::string b = "P_rect_0" + std::to_string(i);
-    calibration.p[i] = Matrix3x4(*find({a.c_str(), b.c_str()}, 12, true));
+    const bool required = camera == -1 || camera == i;
+    if (const CalibRow* row = find({a.c_str(), b.c_str()}, 12, required, " (KITTI camera " + std::to_string(i) + ")")) {
+      calibration.p[i] = Matrix3x4(*row);
+      calibration.has_p[i] = true;
+    }
   }
-  if (const CalibRow* r0 = find({"R0_rect", "R_rect_00", "R_rect"}, 9, false)) {
+  // The odometry format's "Tr" maps velodyne to the (rectified) camera 0 directly; it has no
+  // R0_rect and the identity is right for it. With the object format's Tr_velo_to_cam (the
+  // tracking format's Tr_velo_cam, a raw recording's R, T) the rectifying rotation is part of
+  // the projection (KITTI devkit: P2 · R0_rect · Tr_velo_to_cam), and a file without it is
+  // refused rather than read with the identity (a 1-2 px error on KITTI).
+  const CalibRow* tr = find({"Tr_velo_to_cam", "Tr_velo_cam", "Tr"}, 12, true);
+  const bool odometry = rows.count("Tr_velo_to_cam") == 0 && rows.count("Tr_velo_cam") == 0;
+  if (const CalibRow* r0 = find({"R0_rect", "R_rect_00", "R_rect"}, 9, !odometry,
+                                " (the rectifying rotation, which goes with Tr_velo_to_cam)")) {
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c) calibration.r0_rect(r, c) = r0->values[3 * r + c];
     }
     CheckRotation(calibration.r0_rect, path, r0->line, "R0_rect", 1e-4);
   }
-  // The odometry format's "Tr" maps velodyne to the (rectified) camera 0 directly; without
-  // R0_rect the identity is right for it.
-  const CalibRow* tr = find({"Tr_velo_to_cam", "Tr_velo_cam", "Tr"}, 12, true);
   calibration.tr_velo_to_cam = Matrix3x4(*tr);
   CheckRotation(calibration.tr_velo_to_cam.leftCols<3>(), file_of("Tr_velo_to_cam"), tr->line,
                 velo_path.empty() ? "Tr_velo_to_cam" : "R", 1e-4);
@@ -191,6 +210,12 @@ KittiCameraPose KittiCamera(const KittiCalibration& calibration, int index, uint
   if (index < 0 || index > 3) {
     throw InputError::Message(source, "KITTI camera index " + std::to_string(index) +
                                           " out of range 0..3");
+  }
+  if (!calibration.has_p[index]) {
+    throw InputError::Message(calibration.path.empty() ? source : calibration.path,
+                              "missing calibration key P" + std::to_string(index) + " or P_rect_0" +
+                                  std::to_string(index) + " (KITTI camera " + std::to_string(index) +
+                                  ", the camera asked for)");
   }
   const Eigen::Matrix<double, 3, 4>& p = calibration.p[index];
   const Eigen::Matrix3d k = p.leftCols<3>();

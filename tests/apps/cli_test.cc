@@ -18,6 +18,7 @@
 #include "mmba/io/kitti.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/registration/mi/image.h"
+#include "mmba/registration/mi/mi_registration.h"
 #include "../registration/mi/synthetic_scene.h"
 
 namespace mmba {
@@ -589,6 +590,243 @@ TEST_F(CliTest, RegisterMiRigRegistersTheRigPoseFromItsCameras) {
   for (const char* name : {"bad1.json", "bad2.json", "bad3.json", "bad4.json"}) {
     EXPECT_FALSE(fs::exists(Tmp(name))) << name;
   }
+}
+
+// register-mi refuses, before any work, numbers that are not finite (CLI11 reads "nan" and
+// "inf") and outputs it could not write: exit 2, one line naming the option or file, nothing
+// written. The output check is the shared one (RefuseToOverwriteInputs), so bal has it too.
+TEST_F(CliTest, RegisterMiRefusesNonFiniteNumbersAndUnwritableOutputsBeforeAnyWork) {
+  const std::string kitti = kSource + "/data/kitti/";
+  const std::string frame = "register-mi --lidar " + kitti + "velodyne/000000.bin --image " + kitti +
+                            "image_2/000000.png --kitti-calib " + kitti + "calib/000000.txt";
+  fs::create_directories(Tmp("adir"));
+  std::ofstream(Tmp("afile")) << "a file\n";
+  {
+    // The calibration's pose with one number beyond a double's range.
+    std::ofstream(Tmp("pose_inf.json"))
+        << "{\"cam_from_lidar\": [0, -1, 0, 1e400, 0, 0, -1, 0,\n 1, 0, 0, 0, 0, 0, 0, 1]}\n";
+  }
+  const std::string out = " --output " + Tmp("out.json");
+  for (const auto& [flags, named] : std::vector<std::pair<std::string, std::string>>{
+           {" --perturb nan,0,0,0,0,0" + out, "--perturb: found 'nan', expected a finite number"},
+           {" --perturb 0,0,0,0,0,inf" + out, "--perturb: found 'inf', expected a finite number"},
+           {" --max-range-m inf" + out, "--max-range-m: found 'inf', expected a finite number"},
+           {" --point-radius-m nan" + out, "--point-radius-m: found 'nan'"},
+           {" --surface-voxel-m nan" + out, "--surface-voxel-m: found 'nan'"},
+           {" --max-sigma-px nan" + out, "--max-sigma-px: found 'nan'"},
+           {" --scanner-origin 0,nan,0" + out, "--scanner-origin: found 'nan'"},
+           {" --output " + Tmp("adir"), "--output: cannot write '" + Tmp("adir") + "': it is an existing folder; "
+                                        "expected a file to write"},
+           {" --output " + Tmp("afile") + "/out.json", "is a file, not a folder; expected a file to write"},
+           {" --output /proc/nope/out.json", "--output: cannot write '/proc/nope/out.json': cannot create a folder in '/proc'"},
+           {out + " --overlay /proc/nope/o.png", "--overlay: cannot write '/proc/nope/o.png'"},
+           {out + " --lidar-image " + Tmp("adir"), "--lidar-image: cannot write"},
+           {out + " --probe " + Tmp("afile"), "--probe: cannot write '" + Tmp("afile") +
+                                                  "': it is an existing file, not a folder; expected a folder"},
+           {out + " --initial " + Tmp("pose_inf.json"),
+            Tmp("pose_inf.json") + ":1: field 'cam_from_lidar': found '1e400', expected a finite number"}}) {
+    const RunResult run = Mmba(frame + flags);
+    EXPECT_EQ(run.exit_code, 2) << flags << "\n" << run.output;
+    EXPECT_THAT(run.output, HasSubstr("mmba: error: ")) << flags;
+    EXPECT_THAT(run.output, HasSubstr(named)) << flags;
+    EXPECT_THAT(run.output, ::testing::Not(HasSubstr("registration"))) << flags;  // no work done
+    EXPECT_FALSE(fs::exists(Tmp("out.json"))) << flags;
+  }
+  EXPECT_TRUE(fs::is_empty(Tmp("adir")));
+  EXPECT_EQ(std::distance(fs::directory_iterator(tmp_), fs::directory_iterator()), 3);  // adir, afile, pose_inf.json
+  const RunResult bal = Mmba("bal " + kSource + "/data/bal/dubrovnik-3-7-pre.txt --json " + Tmp("adir"));
+  EXPECT_EQ(bal.exit_code, 2) << bal.output;
+  EXPECT_THAT(bal.output, HasSubstr("--json: cannot write '" + Tmp("adir") + "': it is an existing folder"));
+}
+
+// --metric is recorded in OUT.json's settings, and the console line gives the metric's values
+// as OUT.json holds them: NID itself (minimised), not the −NID the search maximises.
+TEST_F(CliTest, RegisterMiReportsTheMetricAsOutJsonHoldsIt) {
+  const std::string kitti = kSource + "/data/kitti/";
+  const RunResult run = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin --image " + kitti +
+                             "image_2/000000.png --kitti-calib " + kitti + "calib/000000.txt --metric nid "
+                             "--restarts 0 --halves false -q --output " + Tmp("nid.json"));
+  ASSERT_TRUE(run.exit_code == 0 || run.exit_code == 3) << run.output;
+  const nlohmann::json json = nlohmann::json::parse(std::ifstream(Tmp("nid.json")));
+  EXPECT_EQ(json["settings"]["metric"], "nid");
+  const double before = json["metric_before"], after = json["metric_after"];
+  EXPECT_GT(before, 0.0);  // NID is in 0..1
+  EXPECT_LT(before, 1.0);
+  char expected[128];
+  std::snprintf(expected, sizeof(expected), "nid %.5f -> %.5f (minimised)", before, after);
+  EXPECT_THAT(run.output, HasSubstr(expected));
+}
+
+// Bad KITTI input is refused before any work, exit 2 naming what is wrong: a calibration
+// without R0_rect or with a key twice, or without the P of the camera asked for; --view
+// equirect (like perspective and cube) with a pinhole camera; an image whose size does not fit
+// the calibration's principal point (here KITTI's image at twice its size: 2484x750 for
+// cx ~ 604, cy ~ 181); --representation points with an explicit --region overlap.
+TEST_F(CliTest, RegisterMiRefusesMismatchedKittiInput) {
+  const std::string kitti = kSource + "/data/kitti/";
+  const std::string data = kSource + "/tests/io_kitti/data/";
+  const std::string cloud = "register-mi --lidar " + kitti + "velodyne/000000.bin";
+  const std::string frame = cloud + " --image " + kitti + "image_2/000000.png";
+  const std::string calib = " --kitti-calib " + kitti + "calib/000000.txt";
+  const std::string out = " --output " + Tmp("out.json");
+  registration::mi::WriteGrayPng(registration::mi::GrayImage(2484, 750, 0.5f), Tmp("big.png"));
+  for (const auto& [flags, named] : std::vector<std::pair<std::string, std::string>>{
+           {frame + " --kitti-calib " + data + "calib_missing_r0.txt" + out,
+            data + "calib_missing_r0.txt: missing calibration key R0_rect"},
+           {frame + " --kitti-calib " + data + "calib_duplicate_p2.txt" + out,
+            data + "calib_duplicate_p2.txt:4: field 'P2': found 'a second 'P2:' line"},
+           {frame + " --kitti-calib " + data + "calib_only_p2.txt --kitti-camera 3" + out,
+            data + "calib_only_p2.txt: missing calibration key P3 or P_rect_03"},
+           {frame + calib + " --kitti-camera 4" + out, "--kitti-camera: found 4, expected a KITTI camera index 0..3"},
+           {frame + calib + " --view equirect" + out,
+            "--view: found 'equirect' but the camera of " + kitti + "calib/000000.txt is PINHOLE"},
+           {frame + calib + " --view cube" + out, "--view: found 'cube' but the camera"},
+           {cloud + " --image " + Tmp("big.png") + calib + out,
+            Tmp("big.png") + ": image is 2484x750 but the principal point of KITTI camera 2"},
+           {frame + calib + " --representation points --region overlap" + out,
+            "--region: overlap with --representation points has a constant LiDAR image"}}) {
+    const RunResult run = Mmba(flags);
+    EXPECT_EQ(run.exit_code, 2) << flags << "\n" << run.output;
+    EXPECT_THAT(run.output, HasSubstr(named)) << flags;
+    EXPECT_FALSE(fs::exists(Tmp("out.json"))) << flags;
+  }
+  const RunResult big = Mmba(cloud + " --image " + Tmp("big.png") + calib + out);
+  EXPECT_THAT(big.output, HasSubstr("expected an image of about 1208x361"));
+}
+
+// Only P2 in the calibration serves camera 2. --representation points without --region is
+// compared over the whole image (recorded in settings); a cloud without intensity is refused
+// with a hint that leads to a representation that runs.
+TEST_F(CliTest, RegisterMiRunsOnlyP2AndPointsOverTheWholeImage) {
+  const std::string kitti = kSource + "/data/kitti/";
+  const std::string data = kSource + "/tests/io_kitti/data/";
+  const std::string frame = "register-mi --lidar " + kitti + "velodyne/000000.bin --image " + kitti + "image_2/000000.png";
+  const std::string calib = " --kitti-calib " + kitti + "calib/000000.txt";
+  const std::string out = " --output " + Tmp("out.json");
+  const RunResult only_p2 = Mmba(frame + " --kitti-calib " + data + "calib_only_p2.txt --restarts 0 "
+                                 "--halves false -q" + out);
+  EXPECT_TRUE(only_p2.exit_code == 0 || only_p2.exit_code == 3) << only_p2.output;
+  fs::remove(Tmp("out.json"));
+  // Points without --region: the whole image, said so in settings.
+  const RunResult points = Mmba(frame + calib + " --representation points --restarts 0 --halves false -q" + out);
+  ASSERT_TRUE(points.exit_code == 0 || points.exit_code == 3) << points.output;
+  const nlohmann::json json = nlohmann::json::parse(std::ifstream(Tmp("out.json")));
+  EXPECT_EQ(json["settings"]["representation"], "points");
+  EXPECT_EQ(json["settings"]["region"], "whole");
+  EXPECT_THAT(json["settings"]["region_note"].get<std::string>(), HasSubstr("default for --representation points"));
+  // A cloud without intensity: the hint leads to a representation that runs.
+  io::PointCloud xyz = io::ReadPointCloud(kitti + "velodyne/000000.bin");
+  xyz.intensity.clear();
+  io::WritePly(xyz, Tmp("xyz.ply"));
+  const RunResult no_intensity = Mmba("register-mi --lidar " + Tmp("xyz.ply") + " --image " + kitti +
+                                      "image_2/000000.png" + calib + " --output " + Tmp("xyz.json"));
+  EXPECT_EQ(no_intensity.exit_code, 2) << no_intensity.output;
+  EXPECT_THAT(no_intensity.output,
+              HasSubstr("cloud has no intensity, which --representation intensity (the default) needs; use "
+                        "--representation depth or points"));
+  EXPECT_FALSE(fs::exists(Tmp("xyz.json")));
+}
+
+// One absurd point (1e12 m away, a glitch of a scanner's record) changes nothing: points
+// beyond --max-range-m of every camera are dropped before the cloud is used (before the
+// map-grid origin, the incidence fit, the surface classes), and OUT.json counts them.
+TEST_F(CliTest, RegisterMiIgnoresAFarOutlierPoint) {
+  const std::string kitti = kSource + "/data/kitti/";
+  io::PointCloud cloud = io::ReadPointCloud(kitti + "velodyne/000000.bin");
+  io::WritePly(cloud, Tmp("clean.ply"));
+  cloud.points.push_back(Eigen::Vector3d(1e12, 2e11, 5e10));
+  cloud.intensity.push_back(0.5f);
+  io::WritePly(cloud, Tmp("outlier.ply"));
+  const std::string common = " --image " + kitti + "image_2/000000.png --kitti-calib " + kitti +
+                             "calib/000000.txt --scanner-origin 0,0,0 --perturb 0.05,0,0,0,0.5,0 "
+                             "--restarts 0 --halves false -q";
+  const RunResult clean = Mmba("register-mi --lidar " + Tmp("clean.ply") + common + " --output " + Tmp("clean.json"));
+  const RunResult outlier = Mmba("register-mi --lidar " + Tmp("outlier.ply") + common + " --output " + Tmp("outlier.json"));
+  ASSERT_TRUE(clean.exit_code == 0 || clean.exit_code == 3) << clean.output;
+  EXPECT_EQ(outlier.exit_code, clean.exit_code) << outlier.output;
+  const nlohmann::json a = nlohmann::json::parse(std::ifstream(Tmp("clean.json")));
+  const nlohmann::json b = nlohmann::json::parse(std::ifstream(Tmp("outlier.json")));
+  EXPECT_EQ(b["status"], a["status"]);
+  EXPECT_EQ(b["reason"], a["reason"]);
+  EXPECT_EQ(b["cam_from_lidar"], a["cam_from_lidar"]);
+  EXPECT_EQ(b["correction"], a["correction"]);
+  EXPECT_EQ(b["metric_after"], a["metric_after"]);
+  EXPECT_EQ(b["incidence_correction"][0]["exponent"], a["incidence_correction"][0]["exponent"]);
+  EXPECT_EQ(a["clouds"][0]["points_beyond_range"], 0);
+  EXPECT_EQ(b["clouds"][0]["points_beyond_range"], 1);
+  EXPECT_EQ(b["clouds"][0]["points_read"].get<size_t>(), a["clouds"][0]["points_read"].get<size_t>() + 1);
+}
+
+// Several frames (--list, paths relative to the list file's folder): each frame in frames[]
+// by its index, image and cloud; the frame taken from elsewhere (turned 1.6 degrees) is
+// "rejected" with the reason in units, the others "used". Bad lists name the list file and
+// line.
+TEST_F(CliTest, RegisterMiListNamesItsFramesAndItsErrors) {
+  namespace mit = registration::mi::testing;
+  const Rigid3d truth = mit::StreetCamFromLidar(Eigen::Vector3d(0.5, 0.3, 0.2), 4.0);
+  fs::create_directories(Tmp("frames"));
+  io::WritePly(mit::StreetCloud(0.06), Tmp("street.ply"));
+  io::CameraYaml camera;
+  camera.camera = mit::StreetCamera();
+  camera.cam_from_lidar = truth;
+  io::WriteCameraYaml(camera, Tmp("camera.yaml"));
+  registration::mi::Vector6d elsewhere;
+  elsewhere << 0.0, 0.0, 0.0, 0.0, 0.0, 1.6;
+  registration::mi::WriteGrayPng(mit::StreetPhoto(camera.camera, truth, 11), Tmp("frames/f0.png"));
+  registration::mi::WriteGrayPng(mit::StreetPhoto(camera.camera, truth, 12), Tmp("frames/f1.png"));
+  registration::mi::WriteGrayPng(
+      mit::StreetPhoto(camera.camera, registration::mi::ApplyCorrection(truth, elsewhere), 13), Tmp("frames/f2.png"));
+  std::ofstream(Tmp("frames/list.txt")) << "# image lidar\nf0.png ../street.ply\n\nf1.png ../street.ply\nf2.png "
+                                        << Tmp("street.ply") << "\n";
+  const std::string common = "register-mi --camera " + Tmp("camera.yaml") + " --region overlap -q";
+  const RunResult run = Mmba(common + " --list " + Tmp("frames/list.txt") +
+                             " --perturb 0.05,-0.05,0.05,0.5,-0.5,0.5 --output " + Tmp("out.json"));
+  ASSERT_TRUE(run.exit_code == 0 || run.exit_code == 3) << run.output;
+  const nlohmann::json out = nlohmann::json::parse(std::ifstream(Tmp("out.json")));
+  ASSERT_EQ(out["frames"].size(), 3u) << out.dump(1);
+  for (int i = 0; i < 3; ++i) {
+    const nlohmann::json& f = out["frames"][i];
+    EXPECT_EQ(f["index"], i);
+    EXPECT_EQ(f["image"], Tmp("frames") + "/f" + std::to_string(i) + ".png");
+    EXPECT_EQ(fs::canonical(f["lidar"].get<std::string>()), fs::canonical(Tmp("street.ply")));
+    EXPECT_EQ(f["status"], i < 2 ? "used" : "rejected") << f.dump();
+  }
+  EXPECT_EQ(out["frames"][0]["reason"], "");
+  EXPECT_THAT(out["frames"][2]["reason"].get<std::string>(),
+              ::testing::MatchesRegex(".*off the median by -?[0-9.]+ (m|deg) \\(limit [0-9.]+ (m|deg)\\)"));
+  ASSERT_EQ(out["rejected_frames"].size(), 1u);
+  EXPECT_EQ(out["rejected_frames"][0]["index"], 2);
+  EXPECT_EQ(out["rejected_frames"][0]["reason"], out["frames"][2]["reason"]);
+
+  std::ofstream(Tmp("frames/missing.txt")) << "f0.png ../street.ply\n# next\nf9.png ../street.ply\n";
+  std::ofstream(Tmp("frames/empty.txt")) << "# nothing\n\n";
+  for (const auto& [list, named] : std::vector<std::pair<std::string, std::string>>{
+           {Tmp("frames/missing.txt"), Tmp("frames/missing.txt") + ":3: image file not found: '" + Tmp("frames") +
+                                           "/f9.png' (a relative path in a list is relative to the list file's folder)"},
+           {Tmp("frames/empty.txt"), Tmp("frames/empty.txt") + ": no frames in the list"}}) {
+    const RunResult bad = Mmba(common + " --list " + list + " --output " + Tmp("bad.json"));
+    EXPECT_EQ(bad.exit_code, 2) << bad.output;
+    EXPECT_THAT(bad.output, HasSubstr(named));
+    EXPECT_FALSE(fs::exists(Tmp("bad.json")));
+  }
+}
+
+// A registration that fails before its covariance and checks (a black photo) writes them as
+// null — not an all-zero covariance that reads as a perfectly known pose, nor 0/false checks.
+TEST_F(CliTest, RegisterMiWritesWhatWasNotMeasuredAsNull) {
+  const std::string kitti = kSource + "/data/kitti/";
+  registration::mi::WriteGrayPng(registration::mi::GrayImage(1242, 375, 0.0f), Tmp("black.png"));
+  const RunResult run = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin --image " + Tmp("black.png") +
+                             " --kitti-calib " + kitti + "calib/000000.txt -q --output " + Tmp("out.json"));
+  EXPECT_EQ(run.exit_code, 3) << run.output;
+  const nlohmann::json out = nlohmann::json::parse(std::ifstream(Tmp("out.json")));
+  EXPECT_EQ(out["covariance_valid"], false);
+  EXPECT_TRUE(out["covariance"].is_null()) << out["covariance"];
+  EXPECT_TRUE(out["covariance_laplace"].is_null());
+  for (const char* key : {"mi_bits", "mi_shuffled_bits", "mi_significance", "effective_samples", "axis_scans_passed"}) {
+    EXPECT_TRUE(out["checks"][key].is_null()) << key << ": " << out["checks"][key];
+  }
+  EXPECT_EQ(out["checks"]["sigma_px"], -1.0);
 }
 
 TEST_F(CliTest, NonConvergenceIsExitThreeAndNoModel) {

@@ -88,6 +88,46 @@ TEST(KittiCalibration, ReadsARawRecordingsTwoFiles) {
   ExpectInputError("raw_without_velo", "calib_velo_to_cam.txt");
 }
 
+// R0_rect goes with the object format's Tr_velo_to_cam: a file without it is refused, not
+// read with the identity (only the odometry format's Tr has none). A key given twice is
+// refused naming both lines. Only the projection of the camera used is required.
+TEST(KittiCalibration, RequiresR0RectOnceEachKeyAndOnlyTheCameraUsed) {
+  ExpectInputError("calib_missing_r0.txt", "missing calibration key R0_rect or R_rect_00 or R_rect");
+  ExpectInputError("calib_duplicate_p2.txt",
+                   "calib_duplicate_p2.txt:4: field 'P2': found 'a second 'P2:' line (the first on line 3)', "
+                   "expected each key once");
+  const KittiCalibration object = ReadKittiCalibration(Fixture("calib_ok.txt"));
+  const KittiCalibration odometry = ReadKittiCalibration(Fixture("calib_odometry.txt"));
+  EXPECT_EQ(odometry.r0_rect, Eigen::Matrix3d::Identity());
+  EXPECT_EQ(odometry.tr_velo_to_cam, object.tr_velo_to_cam);
+  const KittiCalibration only_p2 = ReadKittiCalibration(Fixture("calib_only_p2.txt"));
+  EXPECT_TRUE(only_p2.has_p[2]);
+  EXPECT_FALSE(only_p2.has_p[0]);
+  EXPECT_EQ(only_p2.p[2], object.p[2]);
+  EXPECT_EQ(KittiCamera(only_p2, 2, 1242, 375).cam_from_lidar.ToMatrix4(),
+            KittiCamera(object, 2, 1242, 375).cam_from_lidar.ToMatrix4());
+  // Camera 3 asked of a file without P3: at reading, and at KittiCamera (naming the file).
+  try {
+    ReadKittiCalibration(Fixture("calib_only_p2.txt"), 3);
+    FAIL() << "no error for camera 3";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("calib_only_p2.txt: missing calibration key P3 or P_rect_03"),
+              std::string::npos)
+        << e.what();
+  }
+  try {
+    KittiCamera(only_p2, 0, 1242, 375);
+    FAIL() << "no error for camera 0";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("calib_only_p2.txt: missing calibration key P0 or P_rect_00"),
+              std::string::npos)
+        << e.what();
+  }
+  // All four asked for (camera −1), as before.
+  EXPECT_THROW(ReadKittiCalibration(Fixture("calib_only_p2.txt"), -1), InputError);
+  EXPECT_TRUE(ReadKittiCalibration(Fixture("calib_ok.txt"), -1).has_p[3]);
+}
+
 TEST(KittiCalibration, SingularKIsRejected) {
   KittiCalibration calibration = ReadKittiCalibration(Fixture("calib_ok.txt"));
   calibration.p[2](0, 0) = 0;

@@ -1878,8 +1878,12 @@ std::string RegistrationResult::BriefReport() const {
   if (!reason.empty()) out << " (" << reason << ")";
   out << "; correction t = (" << Fixed(correction[0]) << ", " << Fixed(correction[1]) << ", "
       << Fixed(correction[2]) << ") m, r/p/y = (" << Fixed(correction[3]) << ", "
-      << Fixed(correction[4]) << ", " << Fixed(correction[5]) << ") deg; metric "
-      << Fixed(metric_before.value, 5) << " -> " << Fixed(metric_after.value, 5) << "; "
+      << Fixed(correction[4]) << ", " << Fixed(correction[5]) << ") deg; ";
+  // The values OUT.json holds (metric_before/after): NID itself, which is minimised.
+  const bool nid = metric_kind == MetricKind::kNid;
+  const double sign = nid ? -1.0 : 1.0;
+  out << MetricName(metric_kind) << " " << Fixed(sign * metric_before.value, 5) << " -> "
+      << Fixed(sign * metric_after.value, 5) << (nid ? " (minimised)" : " (maximised)") << "; "
       << iterations << " iterations, " << Fixed(runtime_seconds, 2) << " s";
   return out.str();
 }
@@ -2011,6 +2015,7 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   Timer timer;
   RegistrationResult result;
   result.cam_from_lidar = cam_from_lidar_start;
+  result.metric_kind = options.metric.kind;
   auto fail = [&](const std::string& reason) {
     result.status = "failed";
     result.reason = reason;
@@ -2555,6 +2560,7 @@ RegistrationResult RegisterRig(const std::vector<Frame>& frames,
   Timer timer;
   RegistrationResult result;
   result.cam_from_lidar = cam_from_lidar_start;
+  result.metric_kind = options.registration.metric.kind;
   std::vector<int> candidates;
   // Screening: each frame alone must carry information about the pose — an optimum inside
   // the search bound and above the start, MI above the shuffled baseline, a metric surface
@@ -2610,8 +2616,9 @@ RegistrationResult RegisterRig(const std::vector<Frame>& frames,
       const double floor = k < 3 ? options.disagree_floor_m : options.disagree_floor_deg;
       const double limit = std::max(3 * mad[k], floor);
       if (std::abs(d[k]) > limit) {
+        const char* unit = k < 3 ? " m" : " deg";
         why = std::string("disagrees with the other frames: ") + ParameterName(k) + " off the " +
-              "median by " + Fixed(d[k]) + " (limit " + Fixed(limit) + ")";
+              "median by " + Fixed(d[k]) + unit + " (limit " + Fixed(limit) + unit + ")";
       }
     }
     if (why.empty()) {

@@ -82,8 +82,11 @@ json ResultToJson(const RegistrationResult& result, const RegistrationOptions& o
   out["correction_convention"] =
       "lidar_from_cam' = [Rz(yaw) Ry(pitch) Rx(roll) R | c + t] about the camera centre, "
       "axes of the LiDAR frame; metres and degrees";
-  out["covariance"] = MatrixJson(result.covariance);
-  out["covariance_laplace"] = MatrixJson(result.covariance_laplace);
+  // null when not determined (a registration that failed before the covariance, or one
+  // without curvature): an all-zero matrix would read as a perfectly known pose.
+  out["covariance"] = result.covariance_valid ? MatrixJson(result.covariance) : json(nullptr);
+  const bool laplace_computed = result.covariance_laplace.allFinite() && !result.covariance_laplace.isZero(0);
+  out["covariance_laplace"] = laplace_computed ? MatrixJson(result.covariance_laplace) : json(nullptr);
   out["covariance_units"] = "m^2, deg^2 in the order tx ty tz roll pitch yaw";
   out["covariance_valid"] = result.covariance_valid;
   out["trusted"] = result.trusted;
@@ -121,7 +124,10 @@ json ResultToJson(const RegistrationResult& result, const RegistrationOptions& o
                    {"image_sigma_px_calibrated", checks.image_sigma_px_calibrated},
                    {"covariance_factor", checks.covariance_factor},
                    {"covariance_floor_directions", checks.covariance_floor_directions},
-                   {"axis_scans_passed", checks.scans_passed},
+                   // null: not measured (the checks stopped before the scans)
+                   {"axis_scans_passed", checks.scans_passed || !checks.scans_reason.empty()
+                                             ? json(checks.scans_passed)
+                                             : json(nullptr)},
                    {"axis_scans_reason", checks.scans_reason},
                    {"stopped_after", checks.stopped_after}};
   json stages = json::array();

@@ -248,16 +248,18 @@ struct AcceptanceChecks {
   bool below_start = false;         ///< optimum's full-resolution search metric below the start's
   double sigma_px = -1;             ///< predicted pixel σ (median over visible points)
   int weak_directions = 0;          ///< no positive curvature / less than the box: box σ
-  double effective_samples = 0;     ///< N_eff of the Laplace covariance
+  // NaN: not measured (the registration failed or the checks stopped before; JSON null).
+  double effective_samples = std::numeric_limits<double>::quiet_NaN();  ///< N_eff of the Laplace covariance
   double sample_inflation = 1;      ///< covered pixels / N_eff (correlated pixels)
   int restarts_run = 0;
   double restart_spread_px = -1;    ///< largest median pixel distance restart ↔ optimum
   double restart_rms_px = -1;       ///< RMS pixel distance restart ↔ optimum, all points
-  double restart_best_gain = 0;     ///< best restart metric − optimum metric (> 0: higher)
-  double mi_bits = 0;               ///< MI at the optimum (pixel-centre samples)
-  double mi_shuffled_bits = 0;      ///< mean MI of the shuffled pairings
-  double mi_shuffled_sd_bits = 0;   ///< their standard deviation
-  double mi_significance = 0;       ///< (mi − shuffled mean) / shuffled sd
+  /// best restart metric − optimum metric (> 0: higher)
+  double restart_best_gain = std::numeric_limits<double>::quiet_NaN();
+  double mi_bits = std::numeric_limits<double>::quiet_NaN();           ///< MI at the optimum (pixel-centre samples)
+  double mi_shuffled_bits = std::numeric_limits<double>::quiet_NaN();  ///< mean MI of the shuffled pairings
+  double mi_shuffled_sd_bits = std::numeric_limits<double>::quiet_NaN();  ///< their standard deviation
+  double mi_significance = std::numeric_limits<double>::quiet_NaN();   ///< (mi − shuffled mean) / shuffled sd
   bool scans_passed = false;        ///< per-axis scans: single peak, not flat
   std::string scans_reason;
   /// The check after which the acceptance stopped, the ones after it not measured
@@ -337,6 +339,9 @@ struct RegistrationResult {
   AcceptanceChecks checks;
   MetricValue metric_before;
   MetricValue metric_after;
+  /// The metric optimised (RegistrationOptions::metric.kind). MetricValue::value is "larger =
+  /// better", so it holds −NID for NID; BriefReport and ResultToJson give NID itself.
+  MetricKind metric_kind = MetricKind::kNmi;
   int iterations = 0;              ///< Nelder–Mead + gradient iterations, all levels
   int evaluations = 0;
   double runtime_seconds = 0;
