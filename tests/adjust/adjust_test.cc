@@ -755,7 +755,11 @@ TEST_F(AdjustTest, PlacesABlockByTheLidarAloneAtTrialScales) {
   ASSERT_TRUE(outcome.ok) << outcome.reason;
   const json& registration = outcome.report["photo_block"]["registration_to_lidar"];
   EXPECT_EQ(registration["status"], "ok") << registration.dump();
-  EXPECT_EQ(registration["trials"].size(), 5u) << registration.dump();  // 2.4 × 1.05^k
+  // 2.4 × 1.05^k: five trials, and two more ("from_refinement") when the second pass ran
+  // because none of the five was ok (since session 40 the trials at 2.65 and 2.78 are refused
+  // as "pose not determined"; the second pass registers at the refined scale).
+  EXPECT_GE(registration["trials"].size(), 5u) << registration.dump();
+  EXPECT_LE(registration["trials"].size(), 7u) << registration.dump();
   EXPECT_NEAR(registration["scale"].get<double>(), 1 / 0.37, 0.02) << registration.dump();
   const std::string georeference = outcome.report["photo_block"]["georeference"];
   EXPECT_NE(georeference.find("to the LiDAR over trial scales"), std::string::npos) << georeference;

@@ -202,6 +202,19 @@ TEST(FeatureRegistration, GravityAlignedYawOnly) {
   // Hypotheses turn about y only; the final free ICP may tilt by a little.
   const Eigen::Vector3d y = r.target_from_source.topLeftCorner<3, 3>() * Eigen::Vector3d::UnitY();
   EXPECT_GT(y.y(), std::cos(2.0 * M_PI / 180.0));
+  const auto tilt_note = [](const CloudRegistrationResult& result) {
+    for (const std::string& n : result.notes) {
+      if (n.find("--gravity-aligned: the pose tilts") != std::string::npos) return true;
+    }
+    return false;
+  };
+  EXPECT_FALSE(tilt_note(r));
+  // The wrong axis: the scans turn 34° about y, not about z. A pose found all the same must
+  // say that it tilts the source against the levelling the user asserted.
+  options.up = Eigen::Vector3d::UnitZ();
+  const CloudRegistrationResult wrong_up = RegisterClouds(bun0, bun4, options);
+  ASSERT_TRUE(wrong_up.ok()) << wrong_up.BriefReport();  // the free fine ICP finds the tilt
+  EXPECT_TRUE(tilt_note(wrong_up)) << wrong_up.BriefReport();
 }
 
 TEST(FeatureRegistration, AnObjectFarFromItsOriginRegistersAsNearIt) {

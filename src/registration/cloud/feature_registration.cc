@@ -2760,6 +2760,9 @@ io::PointCloud Shifted(const io::PointCloud& cloud, const Eigen::Vector3d& offse
 // ground up, walls towards the middle of the cloud, as a levelled scanner standing inside it
 // sees them.
 namespace {
+// A levelled pair whose registered pose tilts the source by more than this gets a note.
+constexpr double kLevelledTiltNote = 2.0 * M_PI / 180.0;
+
 // In the cloud's coordinates about its centre (io::MedianCentre): high above it, ten times the
 // cloud's robust extent (a blunder far away does not send the viewpoint there).
 Eigen::Vector3d GridViewpoint(const io::PointCloud& cloud, const Eigen::Vector3d& up) {
@@ -2863,6 +2866,20 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     h.target_from_source = back(h.target_from_source);
   }
   result.covariance_centre += o_t;
+  // Levelled clouds were assumed (--gravity-aligned): the hypotheses turn about `up` only, but
+  // the fine ICP is free, so a pose that tilts the source says the assumption did not hold.
+  if (options.gravity_aligned && result.ok()) {
+    const Eigen::Vector3d up = options.up.normalized();
+    const double tilt = std::acos(std::clamp(
+        (result.target_from_source.topLeftCorner<3, 3>() * up).normalized().dot(up), -1.0, 1.0));
+    if (tilt > kLevelledTiltNote) {
+      std::ostringstream note;
+      note << std::setprecision(3) << "--gravity-aligned: the pose tilts the source by "
+           << tilt * 180.0 / M_PI << " deg against --up; the clouds were not both levelled "
+           << "about that axis (the result was found all the same)";
+      result.notes.push_back(note.str());
+    }
+  }
   return result;
 }
 
