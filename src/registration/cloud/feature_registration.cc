@@ -853,6 +853,13 @@ Eigen::Matrix4d PointToPlaneIcp(const std::vector<Eigen::Vector3d>& src,
                                 double start_distance, double end_distance, int iterations,
                                 const Eigen::Vector3d* up) {
   double distance = std::max(start_distance, end_distance);
+  // Each step turns the source about its own centroid c (where it lies under the current
+  // transform), not about the origin of the coordinates: a source far from that origin
+  // against its size would move by the step's second-order term at that distance (a part
+  // registered onto a whole model: the model's centre can be tens of metres away).
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : src) c += p;
+  c /= static_cast<double>(std::max<size_t>(1, src.size()));
   for (int it = 0; it < iterations; ++it) {
     Eigen::Matrix<double, 6, 6> jtj = Eigen::Matrix<double, 6, 6>::Zero();
     Eigen::Matrix<double, 6, 1> jtr = Eigen::Matrix<double, 6, 1>::Zero();
@@ -860,6 +867,7 @@ Eigen::Matrix4d PointToPlaneIcp(const std::vector<Eigen::Vector3d>& src,
     int index;
     double sq;
     const double d2 = distance * distance;
+    const Eigen::Vector3d centre = Apply(transform, c);
     for (const Eigen::Vector3d& p : src) {
       const Eigen::Vector3d q = Apply(transform, p);
       if (!tgt_index.NearestWithin(q, d2, &index, &sq)) continue;
@@ -869,7 +877,7 @@ Eigen::Matrix4d PointToPlaneIcp(const std::vector<Eigen::Vector3d>& src,
       // Tukey-like down-weighting of the far residuals.
       const double w = 1.0 / (1.0 + (r * r) / (0.25 * d2));
       Eigen::Matrix<double, 6, 1> j;
-      j.head<3>() = q.cross(n);
+      j.head<3>() = (q - centre).cross(n);
       j.tail<3>() = n;
       jtj += w * j * j.transpose();
       jtr += w * j * r;
@@ -894,7 +902,7 @@ Eigen::Matrix4d PointToPlaneIcp(const std::vector<Eigen::Vector3d>& src,
     if (omega.norm() > 1e-12) {
       delta.topLeftCorner<3, 3>() = Eigen::AngleAxisd(omega.norm(), omega.normalized()).toRotationMatrix();
     }
-    delta.topRightCorner<3, 1>() = x.tail<3>();
+    delta.topRightCorner<3, 1>() = centre + x.tail<3>() - delta.topLeftCorner<3, 3>() * centre;
     transform = delta * transform;
     const bool small = omega.norm() < 1e-6 && x.tail<3>().norm() < 1e-3 * end_distance;
     if (small && distance <= end_distance) break;
