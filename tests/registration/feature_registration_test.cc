@@ -218,10 +218,10 @@ TEST(FeatureRegistration, GravityAlignedYawOnly) {
 }
 
 TEST(FeatureRegistration, AnObjectFarFromItsOriginRegistersAsNearIt) {
-  // The ICP turns about the coordinates' origin: 30 m from it, the 15 cm bunny moved by the
+  // The ICP turned about the coordinates' origin: 30 m from it, the 15 cm bunny moved by the
   // second-order term of each step's turn (0.46 m at 10°) and no hypothesis converged ("only
   // 0 % within τ"), though the same pair registers at the origin. Each cloud is now registered
-  // about its own centre. Also: every point written twice (a tiled LAS, a mesh export) made the
+  // about its own centre (and the ICP turns the source about its centroid). Also: every point written twice (a tiled LAS, a mesh export) made the
   // median spacing 0 ("all points of a cloud coincide"); one blunder a million km away must not
   // move the centre.
   const io::PointCloud bun0 = io::ReadPointCloud(kPclDir + "bun0.pcd");

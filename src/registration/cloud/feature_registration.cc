@@ -2750,15 +2750,14 @@ io::PointCloud Shifted(const io::PointCloud& cloud, const Eigen::Vector3d& offse
 }  // namespace
 
 // Each cloud is registered about its own centre c (io::MedianCentre: a blunder far away does
-// not move it), and the result is mapped back:
-// T = [I | c_t] · T_local · [I | −c_s]. Two reasons:
-// - The ICP turns the source about the origin of the coordinates. An object far from that
-//   origin against its size (a statue 400 m from a site grid's origin, the bunny 30 m above
-//   its scanner's origin) then moves by the angle's second-order term at the distance
-//   (10° at 30 m: 0.46 m) where its correspondences allow millimetres, and no hypothesis
-//   converges. About the centroid the same turn moves it by that term at its own size.
-// - Map-grid coordinates (UTM, national grids: 10^5–10^7 m) leave the float kd-trees and PCL
-//   a resolution of 0.01–0.5 m.
+// not move it), and the result is mapped back: T = [I | c_t] · T_local · [I | −c_s]. The
+// floats of the kd-trees and PCL then resolve a cloud at its own size (map-grid coordinates,
+// 10^5–10^7 m, left them 0.01–0.5 m), and no step but the normals' orientation (below)
+// depends on where the frame's origin lies.
+// Before session 40 a cloud within 500 m of its origin was registered as given, and an object
+// far from that origin against its size (the bunny 30 m above it) failed: the ICP turned it
+// about the origin, so each step moved it by the turn's second-order term at that distance
+// (10° at 30 m: 0.46 m). The ICP now also turns the source about its own centroid.
 // With a search window both clouds share the target's c, so that the given (identity) pose
 // stays the identity.
 // The normals of a cloud within 500 m of its origin (io::LocalOrigin is zero) are oriented
