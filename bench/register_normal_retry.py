@@ -55,7 +55,8 @@ def main():
             subprocess.run([a.mmba, 'register-cloud', '--source', src, '--target', tgt,
                             '--normal-orientation', mode, '--output', out, '-q'], capture_output=True)
             d = json.load(open(out))
-            e = np.array(d['target_from_source']).reshape(4, 4) @ MOVE
+            attempt = d['target_from_source'] or d.get('failed_attempt_target_from_source')
+            e = np.array(attempt if attempt else np.full((4, 4), np.nan)).reshape(4, 4) @ MOVE
             angle = np.degrees(np.arccos(np.clip((np.trace(e[:3, :3]) - 1) / 2, -1, 1)))
             shift = np.linalg.norm(e[:3, 3])
             shift_text = f'{1000 * shift:.3g} mm' if shift < 0.1 else f'{shift:.3g} m'

@@ -227,7 +227,9 @@ def main():
                                  reason=r.stderr.strip()[:200]))
                 continue
             res = json.load(open(out_json))
-            est = np.array(res['target_from_source'], dtype=np.float64).reshape(4, 4)
+            # a failed result's transform is its best attempt, kept apart (null when there was none)
+            attempt = res['target_from_source'] or res.get('failed_attempt_target_from_source')
+            est = np.array(attempt if attempt else np.full((4, 4), np.nan), dtype=np.float64).reshape(4, 4)
             rms = float(np.sqrt(np.mean(np.sum(
                 (moved @ (est[:3, :3] - truth[:3, :3]).T + (est[:3, 3] - truth[:3, 3])) ** 2,
                 axis=1))))

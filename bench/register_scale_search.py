@@ -61,7 +61,8 @@ def main():
             print('| %s | error %d: %s |' % (name, run.returncode, run.stderr.strip()[:200]))
             continue
         result = json.load(open(out))
-        t = np.array(result['target_from_source']).reshape(4, 4)
+        attempt = result['target_from_source'] or result.get('failed_attempt_target_from_source')
+        t = np.array(attempt if attempt else np.full((4, 4), np.nan)).reshape(4, 4)
         err = (points @ t[:3, :3].T + t[:3, 3]) - (points @ t_true[:3, :3].T + t_true[:3, 3])
         rms = float(np.sqrt((err ** 2).sum(axis=1).mean()))
         first = [x for x in result['trials'] if not x.get('from_refinement')]

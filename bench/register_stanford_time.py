@@ -56,7 +56,8 @@ for run in range(runs):
         p, wall, cpu, rss = timed([os.path.join(build, "apps", "mmba"), "register-cloud",
                                    "--source", src, "--target", tgt, "--output", out, "-q"])
         j = json.load(open(out))
-        est = np.array(j["target_from_source"], dtype=float).reshape(4, 4)
+        attempt = j["target_from_source"] or j.get("failed_attempt_target_from_source")
+        est = np.array(attempt if attempt else np.full((4, 4), np.nan), dtype=float).reshape(4, 4)
         angle, dt = pose_error(est, truth(conf, src, tgt))
         rows.setdefault((s, t, "mmba"), []).append((wall, cpu, rss, angle, dt, j["status"]))
         p, wall, cpu, rss = timed(["/usr/bin/python3", os.path.join(here, "register_open3d.py"),

@@ -56,7 +56,12 @@ int RunScaleSearch(const RegisterCloudArgs& args, const registration::CloudRegis
   nlohmann::ordered_json json;
   json["status"] = result.status;
   json["reason"] = result.reason;
-  json["target_from_source"] = MatrixJson(result.target_from_source);
+  // As for a single registration (registration_json.h): no transform when it failed.
+  json["target_from_source"] = result.ok() ? nlohmann::ordered_json(MatrixJson(result.target_from_source))
+                                           : nlohmann::ordered_json(nullptr);
+  json["failed_attempt_target_from_source"] =
+      result.ok() || result.trials.empty() ? nlohmann::ordered_json(nullptr)
+                                           : nlohmann::ordered_json(MatrixJson(result.target_from_source));
   json["scale"] = result.scale;
   json["fitness"] = result.fitness;
   json["inlier_rmse"] = result.inlier_rmse;
@@ -196,8 +201,11 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   } else {
     files.Commit();
   }
-  spdlog::info("{}", result.BriefReport());
-  if (!result.ok()) throw CommandFailed("registration failed: " + result.reason);
+  // The summary once: on stdout when registered; in the log before the failure's message.
+  if (!result.ok()) {
+    spdlog::info("{}", result.BriefReport());
+    throw CommandFailed("registration failed: " + result.reason);
+  }
   std::cout << result.BriefReport() << "\n";
   return kExitOk;
 }

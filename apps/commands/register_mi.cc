@@ -834,6 +834,20 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     out["perturbation"] = mi::CorrectionToJson(Eigen::Map<const mi::Vector6d>(args.perturb.data()));
     out["pixel_offset_vs_reference"] = offsets;
   }
+  if (!args.initial.empty() && have_calibration_pose) {
+    // A start from --initial while the calibration file (or camera/rig YAML) holds its own
+    // pose: how far the start and the result put the points from where the calibration puts
+    // them, first frame's views — the check, also for a start not made by --perturb.
+    const Rigid3d calibration_local = to_local(cam_from_lidar_calibration);
+    nlohmann::json offsets = nlohmann::json::array();
+    for (const mi::View& view : frames[0].views) {
+      offsets.push_back(
+          {{"view", view.name},
+           {"before", OffsetJson(mi::PixelOffsets(clouds[0], view, calibration_local, start, options.render))},
+           {"after", OffsetJson(mi::PixelOffsets(clouds[0], view, calibration_local, cam_from_local, options.render))}});
+    }
+    out["pixel_offset_vs_calibration"] = offsets;
+  }
   AtomicFileSet files;
   files.Add(args.output, [&](std::ostream& stream) { stream << out.dump(2) << "\n"; });
   if (!args.lidar_image.empty()) {

@@ -57,7 +57,14 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
   return {{"status", result.status},
           {"reason", result.reason},
           {"descriptor", result.descriptor},
-          {"target_from_source", MatrixJson(result.target_from_source)},
+          // null when the registration failed: a failed result carries no transform a reader
+          // could take for the answer; its best attempt is kept apart, for diagnosis only
+          {"target_from_source", result.ok() ? nlohmann::ordered_json(MatrixJson(result.target_from_source))
+                                             : nlohmann::ordered_json(nullptr)},
+          {"failed_attempt_target_from_source",
+           !result.ok() && !result.hypotheses.empty()
+               ? nlohmann::ordered_json(MatrixJson(result.target_from_source))
+               : nlohmann::ordered_json(nullptr)},
           {"fitness", result.fitness},
           {"inlier_rmse", result.inlier_rmse},
           {"normal_agreement", result.normal_agreement},

@@ -109,6 +109,7 @@ Eigen::Vector3d LocalOrigin(const std::vector<Eigen::Vector3d>& points) {
 
 using internal::CloudBuilder;
 using internal::ToLower;
+using internal::NonFiniteText;
 
 namespace {
 // Six unnamed XYZ columns are a normal when the last three are a unit vector to within this.
@@ -206,6 +207,12 @@ std::string CommasToSpaces(std::string_view line) {
 
 PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStats* stats) {
   const std::string text = ReadWholeFile(path);
+  // A text cloud holds no NUL byte: such a file is binary (or damaged), not an empty cloud.
+  if (const size_t nul = text.find('\0'); nul != std::string::npos) {
+    const int64_t line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(nul), '\n');
+    throw InputError(path, line, "character", "a NUL byte (binary data)",
+                     "text: x y z [...] per line (a binary cloud needs its extension: .ply, .pcd, .las, .bin)");
+  }
   LineCursor cursor(text);
   std::string_view line;
   std::vector<Column> columns;
@@ -250,7 +257,15 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
     break;
   }
   if (pending.empty()) {
-    throw InputError::Message(path, "no points (expected lines of x y z ...)");
+    // A file without a point is an empty cloud, as a PLY with "element vertex 0" is: the
+    // command that reads it says what it cannot do without points. A header that does not
+    // name x, y and z is not a cloud's.
+    const auto named = [&columns](Column c) { return std::find(columns.begin(), columns.end(), c) != columns.end(); };
+    if (!columns.empty() && !(named(Column::kX) && named(Column::kY) && named(Column::kZ))) {
+      throw InputError(path, 0, "columns", std::to_string(columns.size()) + " named columns and no point",
+                       "a header naming x, y and z, and lines of x y z ...");
+    }
+    return CloudBuilder(path, options, false, false, false, 0).Finish("xyz", stats);
   }
   TokenLine first(path, pending[0].first, pending[0].second);
   bool guessed_normals = false, colors_0_1 = false;
@@ -330,11 +345,8 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
     // Non-finite values: ParseDouble refuses "nan"/"inf", so check the text ourselves to give
     // the finiteness error (or skip) instead of a parse error.
     auto value = [&](int i, const char* field) {
-      const std::string& s = t.Str(i, field);
-      const std::string l = ToLower(s);
-      if (l.find("nan") != std::string::npos || l.find("inf") != std::string::npos) {
-        return std::numeric_limits<double>::quiet_NaN();
-      }
+      double v;
+      if (NonFiniteText(t.Str(i, field), &v)) return v;
       return t.Double(i, field);
     };
     for (int k = 0; k < 3; ++k) xyz[k] = value(index[static_cast<int>(Column::kX) + k], names[k]);
@@ -384,7 +396,7 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
 PointCloud ReadKittiBin(const std::string& path, const ReadOptions& options,
                         ReadStats* stats) {
   const std::string data = ReadWholeFile(path);
-  if (data.empty()) throw InputError::Message(path, "empty file (expected float32 x y z r records)");
+  if (data.empty()) return CloudBuilder(path, options, false, true, false, 0).Finish("kitti-bin", stats);
   if (data.size() % 16 != 0) {
     throw InputError::AtByte(path, data.size() - data.size() % 16, "file size",
                              std::to_string(data.size()) + " bytes",

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <string>
 #include <string_view>
 
@@ -56,10 +57,10 @@ class CloudBuilder {
         return false;
       }
       throw InputError::Message(describe_location(),
-                                "point " + std::to_string(index) +
-                                    ": non-finite coordinate, normal, intensity or time (NaN/Inf); "
-                                    "expected finite values (register-cloud --skip-invalid drops such points, e.g. the "
-                                    "empty pixels of an organized depth-camera PCD)");
+                                "point " + std::to_string(index) + ": " +
+                                    NonFiniteFields(xyz, normal, intensity, time) +
+                                    "; expected finite values (register-cloud --skip-invalid drops such points, "
+                                    "e.g. the empty pixels of an organized depth-camera PCD)");
     }
     cloud_.points.emplace_back(xyz[0], xyz[1], xyz[2]);
     if (has_normals_) cloud_.normals.emplace_back(normal[0], normal[1], normal[2]);
@@ -67,6 +68,26 @@ class CloudBuilder {
     if (has_colors_) cloud_.colors.push_back({rgb[0], rgb[1], rgb[2]});
     if (has_time_) cloud_.time.push_back(time);
     return true;
+  }
+  /// Names the non-finite fields of a point and their values, e.g. "non-finite z = nan".
+  std::string NonFiniteFields(const double xyz[3], const double* normal, float intensity, double time) const {
+    std::string out;
+    auto name = [&out](const char* field, double v) {
+      if (std::isfinite(v)) return;
+      if (!out.empty()) out += ", ";
+      out += std::string(field) + " = " + (std::isnan(v) ? "nan" : (v > 0 ? "inf" : "-inf"));
+    };
+    name("x", xyz[0]);
+    name("y", xyz[1]);
+    name("z", xyz[2]);
+    if (normal != nullptr) {
+      name("nx", normal[0]);
+      name("ny", normal[1]);
+      name("nz", normal[2]);
+    }
+    if (has_intensity_) name("intensity", intensity);
+    if (has_time_) name("time", time);
+    return "non-finite " + out;
   }
   /// Counts a point that is dropped without a check (e.g. PCD NaN padding).
   void CountSkipped() { ++skipped_; }
@@ -83,6 +104,21 @@ class CloudBuilder {
 };
 
 std::string ToLower(std::string_view s);
+
+/// A number written as text "nan" or "inf" in any case and sign (which the number parser
+/// refuses): true with the value (NaN, +inf or -inf), so the finiteness check can name it.
+inline bool NonFiniteText(std::string_view text, double* value) {
+  const std::string lower = ToLower(text);
+  if (lower.find("nan") != std::string::npos) {
+    *value = std::numeric_limits<double>::quiet_NaN();
+    return true;
+  }
+  if (lower.find("inf") != std::string::npos) {
+    *value = lower[0] == '-' ? -std::numeric_limits<double>::infinity() : std::numeric_limits<double>::infinity();
+    return true;
+  }
+  return false;
+}
 
 /// Streams a binary PLY from disk chunk by chunk (StreamPointCloud). Returns false, having
 /// read nothing, when the file is not a binary PLY whose records up to the vertices have a

@@ -218,11 +218,8 @@ PointCloud ReadPcd(const std::string& path, const ReadOptions& options, ReadStat
       if (t.size() == 0) continue;
       t.ExpectCount(tokens_per_point, "point");
       auto value_of = [&](int f) -> double {
-        const std::string& s = t.Str(token_offset[f], fields[f].name);
-        const std::string lower = internal::ToLower(s);
-        if (lower.find("nan") != std::string::npos || lower.find("inf") != std::string::npos) {
-          return std::numeric_limits<double>::quiet_NaN();
-        }
+        double v;
+        if (internal::NonFiniteText(t.Str(token_offset[f], fields[f].name), &v)) return v;
         return t.Double(token_offset[f], fields[f].name);
       };
       auto rgb_bits_of = [&](int f) -> uint32_t {

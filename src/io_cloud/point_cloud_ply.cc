@@ -294,11 +294,7 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
             token += count;
             continue;
           }
-          const std::string& s = t.Str(token, prop.name);
-          const std::string lower = internal::ToLower(s);
-          if (lower.find("nan") != std::string::npos || lower.find("inf") != std::string::npos) {
-            values[p] = std::numeric_limits<double>::quiet_NaN();
-          } else {
+          if (!internal::NonFiniteText(t.Str(token, prop.name), &values[p])) {
             values[p] = t.Double(token, prop.name);
           }
           ++token;

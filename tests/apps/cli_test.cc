@@ -255,6 +255,29 @@ TEST_F(CliTest, RegisterCloudScaleRange) {
   const nlohmann::json j = nlohmann::json::parse(in);
   EXPECT_EQ(j["status"], "failed");
   EXPECT_EQ(j["trials"].size(), 3u);  // 4, 4.2, 4.41
+  // A failed result carries no transform to be taken for the answer, only its best attempt.
+  EXPECT_TRUE(j["target_from_source"].is_null());
+  EXPECT_EQ(j["failed_attempt_target_from_source"].size(), 4u);
+}
+
+// An empty cloud, in any format, is a reported failure (exit 3, the JSON saying why) with no
+// transform, not a reading error.
+TEST_F(CliTest, RegisterCloudEmptySourceIsAFailureWithoutATransform) {
+  for (const std::string& name : {"empty.xyz", "empty.ply"}) {
+    std::ofstream(Tmp(name)) << (name == "empty.xyz" ? "# x y z\n"
+                                                     : "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\n"
+                                                       "property float y\nproperty float z\nend_header\n");
+    const RunResult run = Mmba("register-cloud --source " + Tmp(name) + " --target " + kSource +
+                               "/data/pointclouds/pcl_test/bun4.pcd -q --output " + Tmp("out.json"));
+    EXPECT_EQ(run.exit_code, 3) << name << ": " << run.output;
+    EXPECT_THAT(run.output, HasSubstr("source cloud is empty"));
+    std::ifstream in(Tmp("out.json"));
+    const nlohmann::json j = nlohmann::json::parse(in);
+    EXPECT_EQ(j["status"], "failed");
+    EXPECT_TRUE(j["target_from_source"].is_null());
+    EXPECT_TRUE(j["failed_attempt_target_from_source"].is_null());
+    fs::remove(Tmp("out.json"));
+  }
 }
 
 // register-cloud's intensity test fields: PCL's bunnies carry no brightness, so the test
@@ -272,6 +295,8 @@ TEST_F(CliTest, RegisterCloudReportsTheIntensityTest) {
     std::ifstream in(Tmp("out.json"));
     const nlohmann::json j = nlohmann::json::parse(in);
     EXPECT_EQ(j["intensity_tested"], false);
+    EXPECT_EQ(j["target_from_source"].size(), 4u);
+    EXPECT_TRUE(j["failed_attempt_target_from_source"].is_null());
     EXPECT_TRUE(j["intensity_correlation"].is_null());
     EXPECT_TRUE(j["intensity_significance"].is_null());
     ASSERT_FALSE(j["hypotheses"].empty());
@@ -823,10 +848,40 @@ TEST_F(CliTest, RegisterMiWritesWhatWasNotMeasuredAsNull) {
   EXPECT_EQ(out["covariance_valid"], false);
   EXPECT_TRUE(out["covariance"].is_null()) << out["covariance"];
   EXPECT_TRUE(out["covariance_laplace"].is_null());
-  for (const char* key : {"mi_bits", "mi_shuffled_bits", "mi_significance", "effective_samples", "axis_scans_passed"}) {
+  for (const char* key : {"mi_bits", "mi_shuffled_bits", "mi_significance", "effective_samples", "axis_scans_passed",
+                          "sigma_px", "weak_directions", "restarts", "restart_spread_px", "restart_rms_px",
+                          "halves_spread_px", "sigma_px_calibrated"}) {
     EXPECT_TRUE(out["checks"][key].is_null()) << key << ": " << out["checks"][key];
   }
-  EXPECT_EQ(out["checks"]["sigma_px"], -1.0);
+}
+
+// --initial with a KITTI calibration: the pixel offsets of the start and of the result are
+// reported against the calibration's own pose (here a failure on a black photo, whose result
+// is its start, 0.1 m to the camera's right of the calibration).
+TEST_F(CliTest, RegisterMiReportsOffsetsAgainstTheCalibrationForAnInitialPose) {
+  const std::string kitti = kSource + "/data/kitti/";
+  registration::mi::WriteGrayPng(registration::mi::GrayImage(1242, 375, 0.0f), Tmp("black.png"));
+  const io::KittiCameraPose calibration =
+      io::KittiCamera(io::ReadKittiCalibration(kitti + "calib/000000.txt"), 2, 1242, 375);
+  Rigid3d moved = calibration.cam_from_lidar;
+  moved.translation.x() += 0.1;  // the camera frame's x: right, a shift of the image
+  const Eigen::Matrix4d m = moved.ToMatrix4();
+  nlohmann::json pose;
+  for (int r = 0; r < 4; ++r) pose["cam_from_lidar"].push_back({m(r, 0), m(r, 1), m(r, 2), m(r, 3)});
+  std::ofstream(Tmp("initial.json")) << pose.dump();
+  const RunResult run = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin --image " + Tmp("black.png") +
+                             " --kitti-calib " + kitti + "calib/000000.txt --initial " + Tmp("initial.json") +
+                             " -q --output " + Tmp("out.json"));
+  EXPECT_EQ(run.exit_code, 3) << run.output;
+  const nlohmann::json out = nlohmann::json::parse(std::ifstream(Tmp("out.json")));
+  ASSERT_EQ(out["pixel_offset_vs_calibration"].size(), 1u) << out.dump();
+  const nlohmann::json& before = out["pixel_offset_vs_calibration"][0]["before"];
+  EXPECT_GT(before["points"], 1000);
+  // 0.1 m sideways is fx · 0.1 / depth: about 7 px at KITTI's median depth of some 10 m.
+  EXPECT_GT(before["median_px"], 2.0);
+  EXPECT_LT(before["median_px"], 30.0);
+  EXPECT_EQ(out["pixel_offset_vs_calibration"][0]["after"]["median_px"], before["median_px"]);
+  EXPECT_FALSE(out.contains("pixel_offset_vs_reference"));
 }
 
 TEST_F(CliTest, NonConvergenceIsExitThreeAndNoModel) {

@@ -173,7 +173,7 @@ TEST_F(PointCloudIoTest, PlyBrokenFixtures) {
   ExpectInputError([&] { ReadPly(Write("w.ply", head + "1 2 3\n4 5 abc\n7 8 9\n")); },
                    {"w.ply:9", "'z'", "abc"});
   ExpectInputError([&] { ReadPly(Write("n.ply", head + "1 2 3\n4 nan 6\n7 8 9\n")); },
-                   {"n.ply:9", "non-finite"});
+                   {"n.ply:9", "non-finite y = nan"});
   ReadOptions skip;
   skip.skip_invalid_points = true;
   ReadStats stats;
@@ -319,10 +319,19 @@ TEST_F(PointCloudIoTest, XyzVariants) {
   ExpectInputError([&] { ReadPointCloud(Write("g.xyz", "1 2 3\n4 5\n")); }, {"g.xyz:2", "2 values"});
   ExpectInputError([&] { ReadPointCloud(Write("h.xyz", "1 2 3\n4 5 z\n")); }, {"h.xyz:2", "'z'"});
   ExpectInputError([&] { ReadPointCloud(Write("i.xyz", "1 2 3\n4 NaN 6\n")); },
-                   {"i.xyz:2", "non-finite"});
+                   {"i.xyz:2", "non-finite y = nan"});
+  ExpectInputError([&] { ReadPointCloud(Write("i2.xyz", "1 2 3 1\n4 5 -inf inf\n")); },
+                   {"i2.xyz:2", "non-finite z = -inf, intensity = inf"});
   ExpectInputError([&] { ReadPointCloud(Write("j.xyz", "1 2 3 4 5\n")); },
                    {"j.xyz:1", "column count"});
-  ExpectInputError([&] { ReadPointCloud(Write("k.xyz", "# nothing\n")); }, {"k.xyz", "no points"});
+  // A file without a point is an empty cloud, as a PLY with 0 vertices is.
+  EXPECT_TRUE(ReadPointCloud(Write("k.xyz", "# nothing\n")).empty());
+  EXPECT_TRUE(ReadPointCloud(Write("k2.xyz", "")).empty());
+  EXPECT_TRUE(ReadPointCloud(Write("k3.xyz", "x y z intensity\n")).empty());
+  // ... but a header that names no coordinates, or binary data, is not a cloud.
+  ExpectInputError([&] { ReadPointCloud(Write("k4.xyz", "alpha beta gamma\n")); }, {"k4.xyz", "x, y and z"});
+  ExpectInputError([&] { ReadPointCloud(Write("k5.xyz", std::string("1 2 3\n\0\0\0\n", 10))); },
+                   {"k5.xyz:2", "NUL byte"});
   ExpectInputError([&] { ReadPointCloud(Write("l.obj", "v 1 2 3\n")); }, {"l.obj", ".obj"});
 }
 
@@ -448,8 +457,9 @@ TEST_F(PointCloudIoTest, KittiBin) {
   std::string n = s;
   const float nan = std::numeric_limits<float>::quiet_NaN();
   std::memcpy(&n[4], &nan, 4);
-  ExpectInputError([&] { ReadPointCloud(Write("n.bin", n)); }, {"n.bin (byte 0)", "non-finite"});
-  ExpectInputError([&] { ReadPointCloud(Write("e.bin", "")); }, {"e.bin", "empty"});
+  ExpectInputError([&] { ReadPointCloud(Write("n.bin", n)); }, {"n.bin (byte 0)", "non-finite y = nan"});
+  const PointCloud empty = ReadPointCloud(Write("e.bin", ""));
+  EXPECT_TRUE(empty.empty());
 }
 
 // StreamPointCloud hands over the same points as ReadPointCloud, in file order and in chunks

@@ -293,6 +293,13 @@ TEST(FeatureRegistration, FailuresAreReportedNotGuessed) {
   r = RegisterClouds(bun0, bun0, tiny);
   EXPECT_EQ(r.status, "failed");
   EXPECT_NE(r.reason.find("sparse"), std::string::npos) << r.reason;
+  // A dozen points of the bunny (above the hard minimum of 10): the failure says the cloud has
+  // too few points, not only its symptom.
+  io::PointCloud dozen;
+  for (size_t i = 0; i < 12; ++i) dozen.points.push_back(bun0.points[i * (bun0.size() - 1) / 11]);
+  r = RegisterClouds(dozen, bun0, options);
+  EXPECT_EQ(r.status, "failed") << r.BriefReport();
+  EXPECT_NE(r.reason.find("the source has only 12 points: too few"), std::string::npos) << r.reason;
   // No overlap: a random blob registered to the bunny.
   std::mt19937 rng(1);
   std::normal_distribution<double> g(0.0, 0.05);

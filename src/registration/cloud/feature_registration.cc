@@ -1498,6 +1498,9 @@ double PoseResolution(const std::vector<Eigen::Vector3d>& src,
 
 using internal::StrideSample;
 
+// Below this many points in a cloud, a failure's reason says the cloud has too few points
+// (PCL's bunny thinned to 10-20 points fails, to 30 registers: bench/RESULTS.md, session 41).
+constexpr size_t kFewPointsForDescriptors = 30;
 // Rounds of the local search (CloudRegistrationOptions::local_search): each starts from the
 // move of the round before that scored above the best.
 constexpr int kLocalSearchRounds = 4;
@@ -2875,6 +2878,15 @@ CloudRegistrationResult RegisterClouds(const io::PointCloud& source,
     h.target_from_source = back(h.target_from_source);
   }
   result.covariance_centre += o_t;
+  // A failure with a cloud of a few points (above the hard minimum of 10) is most likely that:
+  // say so, rather than leave only the symptom ("do not overlap", "not resolved").
+  const size_t fewest = std::min(source.size(), target.size());
+  if (!result.ok() && fewest >= 10 && fewest < kFewPointsForDescriptors) {
+    std::ostringstream hint;
+    hint << "; the " << (source.size() <= target.size() ? "source" : "target") << " has only " << fewest
+         << " points: too few for local descriptors (a few dozen at least in each cloud)";
+    result.reason += hint.str();
+  }
   // Levelled clouds were assumed (--gravity-aligned): the hypotheses turn about `up` only, but
   // the fine ICP is free, so a pose that tilts the source says the assumption did not hold.
   if (options.gravity_aligned && result.ok()) {

@@ -1,5 +1,8 @@
 #include "mmba/registration/mi/result_json.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace mmba::registration::mi {
 
 using json = nlohmann::json;
@@ -92,36 +95,47 @@ json ResultToJson(const RegistrationResult& result, const RegistrationOptions& o
   out["trusted"] = result.trusted;
   out["confidence_reason"] = result.confidence_reason;
   const AcceptanceChecks& checks = result.checks;
+  // A check that did not run (the registration failed before it, or the acceptance stopped
+  // at an earlier failure) is null: 0 restarts or 0 weak directions would read as measured.
+  auto ran = [&result](const std::string& stage) {
+    return std::any_of(result.stages.begin(), result.stages.end(),
+                       [&stage](const StageStat& s) { return s.name == stage; });
+  };
+  auto count_if_ran = [&ran](const std::string& stage, int count) {
+    return ran(stage) ? json(count) : json(nullptr);
+  };
+  // Pixel distances, σ and the image's variance factor are -1 until measured.
+  auto pixels = [](double px) { return px >= 0 && std::isfinite(px) ? json(px) : json(nullptr); };
   out["checks"] = {{"on_bound", checks.on_bound},
                    {"below_start", checks.below_start},
-                   {"sigma_px", checks.sigma_px},
+                   {"sigma_px", pixels(checks.sigma_px)},
                    {"max_sigma_px", options.max_sigma_px},
                    {"max_calibrated_sigma_px", options.max_calibrated_sigma_px},
-                   {"weak_directions", checks.weak_directions},
+                   {"weak_directions", count_if_ran("covariance", checks.weak_directions)},
                    {"effective_samples", checks.effective_samples},
                    {"sample_inflation", checks.sample_inflation},
-                   {"restarts", checks.restarts_run},
-                   {"restart_spread_px", checks.restart_spread_px},
+                   {"restarts", count_if_ran("restarts", checks.restarts_run)},
+                   {"restart_spread_px", pixels(checks.restart_spread_px)},
                    {"restart_tolerance_px", options.restart_tolerance_px},
                    {"restart_best_gain", checks.restart_best_gain},
                    {"mi_bits", checks.mi_bits},
                    {"mi_shuffled_bits", checks.mi_shuffled_bits},
                    {"mi_shuffled_sd_bits", checks.mi_shuffled_sd_bits},
                    {"mi_significance", checks.mi_significance},
-                   {"restart_rms_px", checks.restart_rms_px},
+                   {"restart_rms_px", pixels(checks.restart_rms_px)},
                    {"halves", checks.split_parts},
                    {"halves_kind", checks.split_kind},
-                   {"halves_spread_px", checks.split_spread_px},
+                   {"halves_spread_px", pixels(checks.split_spread_px)},
                    {"halves_tolerance_px", options.split_tolerance_px},
                    {"variance_factor", checks.variance_factor},
                    {"variance_factor_halves", checks.variance_factor_halves},
                    {"variance_factor_restarts", checks.variance_factor_restarts},
-                   {"sigma_px_calibrated", checks.sigma_px_calibrated},
-                   {"image_sigma_px", checks.image_sigma_px},
-                   {"image_restart_spread_px", checks.image_restart_spread_px},
-                   {"image_halves_spread_px", checks.image_split_spread_px},
-                   {"image_variance_factor", checks.image_variance_factor},
-                   {"image_sigma_px_calibrated", checks.image_sigma_px_calibrated},
+                   {"sigma_px_calibrated", pixels(checks.sigma_px_calibrated)},
+                   {"image_sigma_px", pixels(checks.image_sigma_px)},
+                   {"image_restart_spread_px", pixels(checks.image_restart_spread_px)},
+                   {"image_halves_spread_px", pixels(checks.image_split_spread_px)},
+                   {"image_variance_factor", pixels(checks.image_variance_factor)},
+                   {"image_sigma_px_calibrated", pixels(checks.image_sigma_px_calibrated)},
                    {"covariance_factor", checks.covariance_factor},
                    {"covariance_floor_directions", checks.covariance_floor_directions},
                    // null: not measured (the checks stopped before the scans)
