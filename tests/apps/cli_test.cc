@@ -263,7 +263,7 @@ TEST_F(CliTest, RegisterCloudScaleRange) {
 // An empty cloud, in any format, is a reported failure (exit 3, the JSON saying why) with no
 // transform, not a reading error.
 TEST_F(CliTest, RegisterCloudEmptySourceIsAFailureWithoutATransform) {
-  for (const std::string& name : {"empty.xyz", "empty.ply"}) {
+  for (const std::string name : {"empty.xyz", "empty.ply"}) {
     std::ofstream(Tmp(name)) << (name == "empty.xyz" ? "# x y z\n"
                                                      : "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\n"
                                                        "property float y\nproperty float z\nend_header\n");
