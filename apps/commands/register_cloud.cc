@@ -56,12 +56,9 @@ int RunScaleSearch(const RegisterCloudArgs& args, const registration::CloudRegis
   nlohmann::ordered_json json;
   json["status"] = result.status;
   json["reason"] = result.reason;
-  // As for a single registration (registration_json.h): no transform when it failed.
-  json["target_from_source"] = result.ok() ? nlohmann::ordered_json(MatrixJson(result.target_from_source))
-                                           : nlohmann::ordered_json(nullptr);
+  json["target_from_source"] = TransformIfOk(result.ok(), result.target_from_source);
   json["failed_attempt_target_from_source"] =
-      result.ok() || result.trials.empty() ? nlohmann::ordered_json(nullptr)
-                                           : nlohmann::ordered_json(MatrixJson(result.target_from_source));
+      FailedAttempt(result.ok(), !result.trials.empty(), result.target_from_source);
   json["scale"] = result.scale;
   json["fitness"] = result.fitness;
   json["inlier_rmse"] = result.inlier_rmse;

@@ -140,29 +140,16 @@ Rigid3d ReadPoseJson(const std::string& path, const std::string& key) {
 // and finite; returns the number dropped.
 size_t KeepNearAny(const std::vector<Eigen::Vector3d>& centres, double range_m, io::PointCloud* cloud) {
   const double range_sq = range_m * range_m;
-  size_t kept = 0;
+  std::vector<char> far(cloud->size(), 1);
+  size_t dropped = 0;
   for (size_t i = 0; i < cloud->size(); ++i) {
     const Eigen::Vector3d& p = cloud->points[i];
-    bool keep = false;
     if (p.allFinite()) {
-      for (const Eigen::Vector3d& c : centres) keep = keep || (p - c).squaredNorm() <= range_sq;
+      for (const Eigen::Vector3d& c : centres) far[i] = far[i] && (p - c).squaredNorm() > range_sq;
     }
-    if (!keep) continue;
-    if (kept != i) {
-      cloud->points[kept] = p;
-      if (cloud->has_normals()) cloud->normals[kept] = cloud->normals[i];
-      if (cloud->has_intensity()) cloud->intensity[kept] = cloud->intensity[i];
-      if (cloud->has_colors()) cloud->colors[kept] = cloud->colors[i];
-      if (cloud->has_time()) cloud->time[kept] = cloud->time[i];
-    }
-    ++kept;
+    dropped += far[i] ? 1 : 0;
   }
-  const size_t dropped = cloud->size() - kept;
-  cloud->points.resize(kept);
-  if (cloud->has_normals()) cloud->normals.resize(kept);
-  if (cloud->has_intensity()) cloud->intensity.resize(kept);
-  if (cloud->has_colors()) cloud->colors.resize(kept);
-  if (cloud->has_time()) cloud->time.resize(kept);
+  if (dropped > 0) *cloud = io::WithoutMarked(*cloud, far);
   return dropped;
 }
 
@@ -820,33 +807,26 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     }
     out["frames"] = per_frame;
   }
-  if (!args.perturb.empty()) {
-    // Against the unperturbed start (the calibration): before and after, first frame's views.
+  // How far the start and the result put the LiDAR points from where `reference` puts them,
+  // per view of the first frame.
+  const auto offsets_against = [&](const Rigid3d& reference) {
     nlohmann::json offsets = nlohmann::json::array();
     for (const mi::View& view : frames[0].views) {
       offsets.push_back(
           {{"view", view.name},
-           {"before", OffsetJson(mi::PixelOffsets(clouds[0], view, reference_local, start,
-                                                  options.render))},
-           {"after", OffsetJson(mi::PixelOffsets(clouds[0], view, reference_local,
-                                                 cam_from_local, options.render))}});
+           {"before", OffsetJson(mi::PixelOffsets(clouds[0], view, reference, start, options.render))},
+           {"after", OffsetJson(mi::PixelOffsets(clouds[0], view, reference, cam_from_local, options.render))}});
     }
+    return offsets;
+  };
+  if (!args.perturb.empty()) {  // against the unperturbed start
     out["perturbation"] = mi::CorrectionToJson(Eigen::Map<const mi::Vector6d>(args.perturb.data()));
-    out["pixel_offset_vs_reference"] = offsets;
+    out["pixel_offset_vs_reference"] = offsets_against(reference_local);
   }
   if (!args.initial.empty() && have_calibration_pose) {
     // A start from --initial while the calibration file (or camera/rig YAML) holds its own
-    // pose: how far the start and the result put the points from where the calibration puts
-    // them, first frame's views — the check, also for a start not made by --perturb.
-    const Rigid3d calibration_local = to_local(cam_from_lidar_calibration);
-    nlohmann::json offsets = nlohmann::json::array();
-    for (const mi::View& view : frames[0].views) {
-      offsets.push_back(
-          {{"view", view.name},
-           {"before", OffsetJson(mi::PixelOffsets(clouds[0], view, calibration_local, start, options.render))},
-           {"after", OffsetJson(mi::PixelOffsets(clouds[0], view, calibration_local, cam_from_local, options.render))}});
-    }
-    out["pixel_offset_vs_calibration"] = offsets;
+    // pose: the check against the calibration, also for a start not made by --perturb.
+    out["pixel_offset_vs_calibration"] = offsets_against(to_local(cam_from_lidar_calibration));
   }
   AtomicFileSet files;
   files.Add(args.output, [&](std::ostream& stream) { stream << out.dump(2) << "\n"; });

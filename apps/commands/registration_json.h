@@ -24,6 +24,17 @@ inline nlohmann::ordered_json VectorJson(const Eigen::Vector3d& v) {
   return {FiniteOrNull(v.x()), FiniteOrNull(v.y()), FiniteOrNull(v.z())};
 }
 
+// A registration's transform: the matrix when it is ok, null when it failed (a failed file
+// holds no transform a reader could take for the answer).
+inline nlohmann::ordered_json TransformIfOk(bool ok, const Eigen::Matrix4d& m) {
+  return ok ? nlohmann::ordered_json(MatrixJson(m)) : nlohmann::ordered_json(nullptr);
+}
+
+// A failed registration's best attempt, for diagnosis only (null when ok or never attempted).
+inline nlohmann::ordered_json FailedAttempt(bool ok, bool attempted, const Eigen::Matrix4d& m) {
+  return !ok && attempted ? nlohmann::ordered_json(MatrixJson(m)) : nlohmann::ordered_json(nullptr);
+}
+
 inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistrationResult& result) {
   nlohmann::ordered_json runtime = nlohmann::ordered_json::object();
   double total = 0.0;
@@ -57,14 +68,9 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
   return {{"status", result.status},
           {"reason", result.reason},
           {"descriptor", result.descriptor},
-          // null when the registration failed: a failed result carries no transform a reader
-          // could take for the answer; its best attempt is kept apart, for diagnosis only
-          {"target_from_source", result.ok() ? nlohmann::ordered_json(MatrixJson(result.target_from_source))
-                                             : nlohmann::ordered_json(nullptr)},
+          {"target_from_source", TransformIfOk(result.ok(), result.target_from_source)},
           {"failed_attempt_target_from_source",
-           !result.ok() && !result.hypotheses.empty()
-               ? nlohmann::ordered_json(MatrixJson(result.target_from_source))
-               : nlohmann::ordered_json(nullptr)},
+           FailedAttempt(result.ok(), !result.hypotheses.empty(), result.target_from_source)},
           {"fitness", result.fitness},
           {"inlier_rmse", result.inlier_rmse},
           {"normal_agreement", result.normal_agreement},

@@ -107,6 +107,23 @@ Eigen::Vector3d LocalOrigin(const std::vector<Eigen::Vector3d>& points) {
   return (MedianCentre(points) / 1000.0).array().round().matrix() * 1000.0;
 }
 
+PointCloud WithoutMarked(const PointCloud& cloud, const std::vector<char>& marked) {
+  PointCloud out;
+  const auto keep = [&](const auto& in, auto* kept) {
+    if (in.empty()) return;
+    kept->reserve(in.size());
+    for (size_t i = 0; i < in.size(); ++i) {
+      if (!marked[i]) kept->push_back(in[i]);
+    }
+  };
+  keep(cloud.points, &out.points);
+  keep(cloud.normals, &out.normals);
+  keep(cloud.intensity, &out.intensity);
+  keep(cloud.colors, &out.colors);
+  keep(cloud.time, &out.time);
+  return out;
+}
+
 using internal::CloudBuilder;
 using internal::ToLower;
 using internal::NonFiniteText;

@@ -62,6 +62,10 @@ struct ReadStats {
   size_t num_skipped = 0;     ///< points dropped by skip_invalid_points
 };
 
+/// `cloud` without the points marked in `marked` (one flag per point; every per-point
+/// attribute kept in step).
+PointCloud WithoutMarked(const PointCloud& cloud, const std::vector<char>& marked);
+
 /// The centre of `points` robust to blunders: the median of each coordinate over at most
 /// 100,000 evenly strided points (one point a million km away moves a centroid by a
 /// million km / n, the median not at all). Zero for no points; non-finite input can give a

@@ -436,24 +436,6 @@ std::vector<char> OffTheSurface(const PointIndex& index, const std::vector<Eigen
   return off;
 }
 
-// `cloud` without the points marked in `marked` (every per-point attribute kept in step).
-io::PointCloud WithoutMarked(const io::PointCloud& cloud, const std::vector<char>& marked) {
-  io::PointCloud out;
-  const auto keep = [&](const auto& in, auto* kept) {
-    if (in.empty()) return;
-    kept->reserve(in.size());
-    for (size_t i = 0; i < in.size(); ++i) {
-      if (!marked[i]) kept->push_back(in[i]);
-    }
-  };
-  keep(cloud.points, &out.points);
-  keep(cloud.normals, &out.normals);
-  keep(cloud.intensity, &out.intensity);
-  keep(cloud.colors, &out.colors);
-  keep(cloud.time, &out.time);
-  return out;
-}
-
 double MedianSpacing(const std::vector<Eigen::Vector3d>& points, size_t max_samples) {
   if (points.size() < 2) return 0.0;
   const PointIndex index(points);
@@ -1612,7 +1594,7 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
         static_cast<double>(removed) < options.isolated_min_fraction * static_cast<double>(cloud.size())) {
       continue;
     }
-    (is_source ? kept_source : kept_target) = WithoutMarked(cloud, isolated);
+    (is_source ? kept_source : kept_target) = io::WithoutMarked(cloud, isolated);
     (is_source ? source_ptr : target_ptr) = is_source ? &kept_source : &kept_target;
     (is_source ? result.blunders_removed_source : result.blunders_removed_target) = removed;
     std::ostringstream note;
@@ -2180,6 +2162,9 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
   // 1.6 m off, its turn about the centroid 0.6 m off the truth, that one's turn the twin,
   // reported "ok" when the turns stopped after two rounds; test
   // EverySymmetricTurnOfTheGatesPartIsRefused).
+  Eigen::Vector3d target_centroid = Eigen::Vector3d::Zero();  // for the turns about it
+  for (const Eigen::Vector3d& p : tgt_coarse.points) target_centroid += p;
+  target_centroid /= static_cast<double>(std::max<size_t>(1, tgt_coarse.points.size()));
   auto symmetric_turns = [&]() {
     for (int round = 0;
          round < kSymmetryTurnRounds && !options.paper_only && options.symmetry_turns && !finalists.empty();
@@ -2188,9 +2173,6 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
       Eigen::Vector3d c;
       Eigen::Matrix3d cov;
       RegisteredMoments(fine_src, best_t, &c, &cov);
-      Eigen::Vector3d target_centroid = Eigen::Vector3d::Zero();
-      for (const Eigen::Vector3d& p : tgt_coarse.points) target_centroid += p;
-      target_centroid /= static_cast<double>(std::max<size_t>(1, tgt_coarse.points.size()));
       // Groups of turns; each group gives at most one finalist (its best on the coarse level).
       std::vector<std::vector<Vector6d>> turns;
       if (options.gravity_aligned) {

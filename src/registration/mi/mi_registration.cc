@@ -1879,11 +1879,10 @@ std::string RegistrationResult::BriefReport() const {
   out << "; correction t = (" << Fixed(correction[0]) << ", " << Fixed(correction[1]) << ", "
       << Fixed(correction[2]) << ") m, r/p/y = (" << Fixed(correction[3]) << ", "
       << Fixed(correction[4]) << ", " << Fixed(correction[5]) << ") deg; ";
-  // The values OUT.json holds (metric_before/after): NID itself, which is minimised.
-  const bool nid = metric_kind == MetricKind::kNid;
-  const double sign = nid ? -1.0 : 1.0;
-  out << MetricName(metric_kind) << " " << Fixed(sign * metric_before.value, 5) << " -> "
-      << Fixed(sign * metric_after.value, 5) << (nid ? " (minimised)" : " (maximised)") << "; "
+  // The values OUT.json holds (metric_before/after).
+  out << MetricName(metric_kind) << " " << Fixed(ReportedMetric(metric_kind, metric_before.value), 5) << " -> "
+      << Fixed(ReportedMetric(metric_kind, metric_after.value), 5)
+      << (metric_kind == MetricKind::kNid ? " (minimised)" : " (maximised)") << "; "
       << iterations << " iterations, " << Fixed(runtime_seconds, 2) << " s";
   return out.str();
 }

@@ -152,10 +152,8 @@ json ResultToJson(const RegistrationResult& result, const RegistrationOptions& o
                       {"cpu_seconds", stage.cpu_seconds}});
   }
   out["stages"] = stages;
-  // NID is minimised: the library maximises −NID; the file gives NID itself.
-  const double sign = options.metric.kind == MetricKind::kNid ? -1.0 : 1.0;
-  out["metric_before"] = sign * result.metric_before.value;
-  out["metric_after"] = sign * result.metric_after.value;
+  out["metric_before"] = ReportedMetric(options.metric.kind, result.metric_before.value);
+  out["metric_after"] = ReportedMetric(options.metric.kind, result.metric_after.value);
   out["metrics_before"] = MetricToJson(result.metric_before);
   out["metrics_after"] = MetricToJson(result.metric_after);
   out["iterations"] = result.iterations;

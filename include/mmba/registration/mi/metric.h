@@ -15,6 +15,11 @@ namespace mmba::registration::mi {
 
 enum class MetricKind { kMi, kNmi, kNid };
 std::string MetricName(MetricKind kind);
+/// The metric as reported (OUT.json, the console) from the value the search maximises: NID is
+/// minimised, so the search maximises −NID and the report gives NID itself.
+inline double ReportedMetric(MetricKind kind, double searched) {
+  return kind == MetricKind::kNid ? -searched : searched;
+}
 bool ParseMetric(const std::string& name, MetricKind* kind);
 
 /// How samples enter the joint histogram.
