@@ -45,7 +45,12 @@ def main():
     cameras = yaml.safe_load(open(sim + '/calib/ladybug.yaml'))['cameras']
     print('status', result['status'], result.get('reason', ''))
     rng = np.random.default_rng(1)
-    for key in ('cam_from_lidar_start', 'cam_from_lidar'):
+    # A failed calibration holds no pose (cam_from_lidar null); its end is the failed attempt.
+    end = 'cam_from_lidar' if result['status'] == 'ok' else 'failed_attempt_cam_from_lidar'
+    for key in ('cam_from_lidar_start', end):
+        if result.get(key) is None:
+            print(key, 'null')
+            continue
         estimate = np.array(result[key])
         d = np.linalg.inv(true) @ estimate
         angle = np.degrees(np.arccos(np.clip((np.trace(d[:3, :3]) - 1) / 2, -1, 1)))

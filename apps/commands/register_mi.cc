@@ -745,10 +745,12 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   if (rig_mode) {
     // The pose is the rig's: rig_from_lidar (the correction about the rig's origin), and each
     // camera's own cam_from_lidar = cam_from_rig · rig_from_lidar.
-    out["rig_from_lidar"] = out["cam_from_lidar"];
-    out["rig_from_lidar_start"] = out["cam_from_lidar_start"];
-    out.erase("cam_from_lidar");
-    out.erase("cam_from_lidar_start");
+    for (const char* key : {"cam_from_lidar", "cam_from_lidar_start", "failed_attempt_cam_from_lidar"}) {
+      std::string renamed = key;
+      renamed.replace(renamed.find("cam_from_lidar"), 14, "rig_from_lidar");
+      out[renamed] = out[key];
+      out.erase(key);
+    }
     out["correction_convention"] =
         "lidar_from_rig' = [Rz(yaw) Ry(pitch) Rx(roll) R | c + t] about the rig's origin, "
         "axes of the LiDAR frame; metres and degrees";
@@ -760,7 +762,8 @@ int RunRegisterMi(const RegisterMiArgs& args) {
       }
       cameras.push_back({{"name", rig_yaml.names[k]},
                          {"used", used},
-                         {"cam_from_lidar", mi::PoseToJson(rig_yaml.cam_from_rig[k] * result.cam_from_lidar)}});
+                         {"cam_from_lidar", result.ok() ? mi::PoseToJson(rig_yaml.cam_from_rig[k] * result.cam_from_lidar)
+                                                        : nlohmann::json(nullptr)}});
     }
     out["cameras"] = cameras;
   }

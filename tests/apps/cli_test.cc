@@ -58,6 +58,15 @@ class CliTest : public ::testing::Test {
 };
 
 const std::string kSource = MMBA_SOURCE_DIR;
+
+// Where a register-mi run ended: its `key` pose when ok; when failed that is null (a failed
+// file holds no pose to be used by mistake) and the end is in failed_attempt_<key>.
+nlohmann::json EndPose(const nlohmann::json& result, const std::string& key = "cam_from_lidar") {
+  const bool ok = result["status"] == "ok";
+  EXPECT_EQ(result[key].is_null(), !ok) << key << " of a result with status " << result["status"];
+  EXPECT_EQ(result["failed_attempt_" + key].is_null(), ok) << key;
+  return ok ? result[key] : result["failed_attempt_" + key];
+}
 const std::string kModel = kSource + "/data/colmap/balbianello/sparse";
 
 TEST_F(CliTest, HelpListsCommands) {
@@ -400,9 +409,10 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
     EXPECT_EQ(from_rows.exit_code, given.exit_code) << from_rows.output;
     const nlohmann::json r = nlohmann::json::parse(std::ifstream(Tmp("rows_out.json")));
     EXPECT_EQ(r["status"], a["status"]);
-    ASSERT_EQ(r["cam_from_lidar"].size(), 4u);
+    const nlohmann::json r_end = EndPose(r), a_end = EndPose(a);
+    ASSERT_EQ(r_end.size(), 4u);
     for (int i = 0; i < 16; ++i) {
-      EXPECT_NEAR(r["cam_from_lidar"][i / 4][i % 4].get<double>(), a["cam_from_lidar"][i / 4][i % 4].get<double>(), 1e-9) << i;
+      EXPECT_NEAR(r_end[i / 4][i % 4].get<double>(), a_end[i / 4][i % 4].get<double>(), 1e-9) << i;
     }
     rows[2] = {1.0, 0.0};
     std::ofstream(Tmp("bad_rows.json")) << nlohmann::json{{"cam_from_lidar", rows}}.dump();
@@ -490,9 +500,10 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
   EXPECT_NEAR(b["pixel_offset_vs_reference"][0]["after"]["median_px"].get<double>(),
               a["pixel_offset_vs_reference"][0]["after"]["median_px"].get<double>(), 0.01);
   Eigen::Matrix4d pa, pb;
+  const nlohmann::json a_end = EndPose(a), b_end = EndPose(b);
   for (int i = 0; i < 16; ++i) {
-    pa(i / 4, i % 4) = a["cam_from_lidar"][i / 4][i % 4];
-    pb(i / 4, i % 4) = b["cam_from_lidar"][i / 4][i % 4];
+    pa(i / 4, i % 4) = a_end[i / 4][i % 4];
+    pb(i / 4, i % 4) = b_end[i / 4][i % 4];
   }
   // The grid result is the delivered frame's result expressed for grid points.
   EXPECT_LT((pb - pa * lidar_from_grid).cwiseAbs().maxCoeff(), 1e-3) << pb;
@@ -547,6 +558,8 @@ TEST_F(CliTest, RegisterMiRigRegistersTheRigPoseFromItsCameras) {
   const nlohmann::json out = nlohmann::json::parse(std::ifstream(Tmp("out.json")));
   EXPECT_EQ(out["status"], "ok") << out["reason"];
   EXPECT_FALSE(out.contains("cam_from_lidar"));  // the pose is the rig's, not a camera's
+  EXPECT_FALSE(out.contains("failed_attempt_cam_from_lidar"));
+  EXPECT_TRUE(out["failed_attempt_rig_from_lidar"].is_null());
   ASSERT_EQ(out["rig_from_lidar"].size(), 4u);
   Eigen::Matrix4d estimate;
   for (int i = 0; i < 16; ++i) estimate(i / 4, i % 4) = out["rig_from_lidar"][i / 4][i % 4].get<double>();
@@ -593,6 +606,20 @@ TEST_F(CliTest, RegisterMiRigRegistersTheRigPoseFromItsCameras) {
     EXPECT_THAT(refused.output, HasSubstr(expected)) << refused.output;
     EXPECT_FALSE(fs::exists(Tmp("bad0.json")));
   }
+
+  // Featureless photos (one grey, as an overexposed frame): failed, exit 3, and no pose in
+  // the file to be used by mistake: the rig's and every camera's are null.
+  for (size_t k = 0; k < 2; ++k) {
+    registration::mi::WriteGrayPng(registration::mi::GrayImage(cameras[k].width, cameras[k].height, 0.97f),
+                                   Tmp("grey_" + names[k] + ".png"));
+  }
+  const RunResult grey = Mmba(common + " --image " + Tmp("grey_{camera}.png") + " --output " + Tmp("grey.json"));
+  EXPECT_EQ(grey.exit_code, 3) << grey.output;
+  const nlohmann::json refused_rig = nlohmann::json::parse(std::ifstream(Tmp("grey.json")));
+  EXPECT_EQ(refused_rig["status"], "failed");
+  EXPECT_TRUE(refused_rig["rig_from_lidar"].is_null()) << refused_rig["rig_from_lidar"];
+  EXPECT_FALSE(refused_rig.contains("cam_from_lidar"));
+  for (const nlohmann::json& camera : refused_rig["cameras"]) EXPECT_TRUE(camera["cam_from_lidar"].is_null());
 
   // Bad input: exit 2, one error naming what is wrong, nothing written.
   const RunResult no_pattern = Mmba(common + " --image " + Tmp("f_left.png") + " --output " + Tmp("bad1.json"));
@@ -773,7 +800,7 @@ TEST_F(CliTest, RegisterMiIgnoresAFarOutlierPoint) {
   const nlohmann::json b = nlohmann::json::parse(std::ifstream(Tmp("outlier.json")));
   EXPECT_EQ(b["status"], a["status"]);
   EXPECT_EQ(b["reason"], a["reason"]);
-  EXPECT_EQ(b["cam_from_lidar"], a["cam_from_lidar"]);
+  EXPECT_EQ(EndPose(b), EndPose(a));
   EXPECT_EQ(b["correction"], a["correction"]);
   EXPECT_EQ(b["metric_after"], a["metric_after"]);
   EXPECT_EQ(b["incidence_correction"][0]["exponent"], a["incidence_correction"][0]["exponent"]);

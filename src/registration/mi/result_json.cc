@@ -79,7 +79,11 @@ json ResultToJson(const RegistrationResult& result, const RegistrationOptions& o
   json out;
   out["status"] = result.status;
   out["reason"] = result.reason;
-  out["cam_from_lidar"] = PoseToJson(result.cam_from_lidar);
+  // A failed registration gives no pose: null, as register-cloud's target_from_source. Where
+  // its search ended is kept apart, for diagnosis only (null when no search ran).
+  out["cam_from_lidar"] = result.ok() ? PoseToJson(result.cam_from_lidar) : json(nullptr);
+  out["failed_attempt_cam_from_lidar"] =
+      !result.ok() && result.evaluations > 0 ? PoseToJson(result.cam_from_lidar) : json(nullptr);
   out["cam_from_lidar_start"] = PoseToJson(start);
   out["correction"] = CorrectionToJson(result.correction);
   out["correction_convention"] =
