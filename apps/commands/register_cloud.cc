@@ -38,6 +38,7 @@ struct RegisterCloudArgs {
   bool paper = false;
   bool skip_invalid = false;
   double error_map_max_m = std::numeric_limits<double>::quiet_NaN();  // NaN: not given
+  bool error_map_max_given = false;  ///< --error-map-max on the command line (a NaN given is refused)
   uint64_t seed = 42;
   double min_fitness = registration::CloudRegistrationOptions().min_fitness;
   std::vector<double> scale_range;
@@ -147,7 +148,7 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   if (!(args.min_fitness > 0 && args.min_fitness <= 1)) {
     throw InputError::Message("--min-fitness", found(args.min_fitness) + ", expected a fraction in (0, 1]");
   }
-  if (!std::isnan(args.error_map_max_m) && !(args.error_map_max_m > 0)) {
+  if (args.error_map_max_given && !(args.error_map_max_m > 0 && std::isfinite(args.error_map_max_m))) {
     throw InputError::Message("--error-map-max", found(args.error_map_max_m) + ", expected metres > 0");
   }
   std::string error;
@@ -286,7 +287,10 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_option("--target-viewpoints", args->target_viewpoints,
                   "the same for the target");
   AddCommonOptions(sub, common);
-  return [args] { return RunRegisterCloud(*args); };
+  return [args, sub] {
+    args->error_map_max_given = sub->count("--error-map-max") > 0;
+    return RunRegisterCloud(*args);
+  };
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // mmba register-mi: mutual-information registration of LiDAR to images and panoramas
 // (Wang, Ferrie & Macfarlane, CVPRW 2012), one frame or a rig over many frames (issue 6).
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -350,22 +351,43 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     std::string_view line_text;
     const size_t before = pairs.size();
     while (cursor.Next(&line_text)) {
-      io::TokenLine line(args.list, cursor.line_number(), line_text);
-      if (line.size() == 0 || line.Str(0, "image").front() == '#') continue;
-      line.ExpectCount(2, "frame (IMAGE LIDAR)");
+      const std::string where = args.list + ":" + std::to_string(cursor.line_number());
+      // Blank-separated; a path with blanks in double quotes: "survey 2/img 001.png" a.ply
+      std::vector<std::string> fields;
+      bool quoted = false, in_field = false;
+      for (const char c : line_text) {
+        if (c == '"') {
+          quoted = !quoted;
+          if (!in_field) fields.emplace_back();
+          in_field = true;
+        } else if (!quoted && std::isspace(static_cast<unsigned char>(c))) {
+          in_field = false;
+        } else {
+          if (!in_field) fields.emplace_back();
+          in_field = true;
+          fields.back() += c;
+        }
+      }
+      if (quoted) throw InputError::Message(where, "a '\"' is not closed: found '" + std::string(line_text) + "'");
+      if (fields.empty() || fields[0].front() == '#') continue;
+      if (fields.size() != 2) {
+        throw InputError::Message(where, "found " + std::to_string(fields.size()) +
+                                             " values, expected 2: IMAGE LIDAR (a path with blanks in "
+                                             "double quotes: \"my dir/img 1.png\" scan.ply)");
+      }
       auto resolve = [&](const std::string& p) {
         return fs::path(p).is_absolute() ? p : (base / p).string();
       };
-      const std::string image = resolve(line.Str(0, "image")), lidar = resolve(line.Str(1, "lidar"));
+      const std::string image = resolve(fields[0]), lidar = resolve(fields[1]);
       for (const auto& [what, path] : {std::pair<std::string, std::string>{"image", image}, {"lidar", lidar}}) {
         if (what == "image" && rig_mode) continue;
         std::error_code ec;
         if (!fs::is_regular_file(path, ec)) {
-          throw InputError::Message(args.list + ":" + std::to_string(line.line_number()),
-                                    what + " file not found: '" + path + "'" +
-                                        (fs::path(line.Str(what == "image" ? 0 : 1, what)).is_absolute()
-                                             ? ""
-                                             : " (a relative path in a list is relative to the list file's folder)"));
+          throw InputError::Message(where, what + " file not found: '" + path + "'" +
+                                               (fs::path(fields[what == "image" ? 0 : 1]).is_absolute()
+                                                    ? ""
+                                                    : " (a relative path in a list is relative to the list "
+                                                      "file's folder)"));
         }
       }
       pairs.emplace_back(image, lidar);
@@ -539,16 +561,29 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   nlohmann::json incidence_json = nlohmann::json::array();
   nlohmann::json clouds_json = nlohmann::json::array();
   for (const auto& [image_path, lidar_path] : pairs) {
-    io::PointCloud cloud = io::ReadPointCloud(lidar_path);
-    if (cloud.empty()) throw InputError::Message(lidar_path, "cloud has no points");
-    const size_t points_read = cloud.size();
+    // Points with a non-finite coordinate or intensity (a scanner's "no return") could never
+    // be rendered: dropped and counted, as the far ones below.
+    io::ReadOptions read_options;
+    read_options.skip_invalid_points = true;
+    io::ReadStats read_stats;
+    io::PointCloud cloud = io::ReadPointCloud(lidar_path, read_options, &read_stats);
+    const size_t not_finite = read_stats.num_skipped;
+    if (not_finite > 0) {
+      spdlog::info("{}: {} of {} points with a non-finite coordinate or intensity, dropped", lidar_path, not_finite,
+                   not_finite + cloud.size());
+    }
+    if (cloud.empty()) throw InputError::Message(lidar_path, "cloud has no (finite) points");
+    const size_t points_read = cloud.size() + not_finite;
     const size_t dropped = KeepNearAny(camera_centres, keep_within_m, &cloud);
     if (dropped > 0) {
-      spdlog::info("{}: {} of {} points farther than {:.1f} m from the camera (--max-range-m + the search bound) "
-                   "or not finite, dropped",
+      spdlog::info("{}: {} of {} points farther than {:.1f} m from the camera (--max-range-m + the search bound), "
+                   "dropped",
                    lidar_path, dropped, points_read, keep_within_m);
     }
-    clouds_json.push_back({{"lidar", lidar_path}, {"points_read", points_read}, {"points_beyond_range", dropped}});
+    clouds_json.push_back({{"lidar", lidar_path},
+                           {"points_read", points_read},
+                           {"points_not_finite", not_finite},
+                           {"points_beyond_range", dropped}});
     if (cloud.empty()) {
       throw InputError::Message(lidar_path, "no point within " + std::to_string(keep_within_m) +
                                                 " m of the camera (--max-range-m + the search bound): is the "
@@ -570,6 +605,17 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                                                 (args.representation_given ? "" : " (the default)") +
                                                 " needs; use --representation depth or points (points are "
                                                 "compared over the whole image)");
+    }
+    if (options.render.representation == mi::Representation::kIntensity) {
+      // A LAS file always has the field; a cloud without a measured intensity holds one value
+      // (often 0) in it, and an image of one grey level has no information to register by.
+      const auto [lowest, highest] = std::minmax_element(cloud.intensity.begin(), cloud.intensity.end());
+      if (*lowest == *highest) {
+        throw InputError::Message(lidar_path, "every point's intensity is " + fmt::format("{:g}", *lowest) +
+                                                  ": no intensity to register by, which --representation intensity" +
+                                                  (args.representation_given ? "" : " (the default)") +
+                                                  " needs; use --representation depth or points");
+      }
     }
     // The scanner's centre for each point, in the local frame: given, from the trajectory at
     // the point's time, or the origin of a KITTI scan (its sensor frame).

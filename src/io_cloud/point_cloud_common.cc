@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <sstream>
 
 #include "io_cloud/point_cloud_internal.h"
 #include "mmba/io/text_reader.h"
@@ -190,9 +191,18 @@ enum class Column { kX, kY, kZ, kNx, kNy, kNz, kIntensity, kR, kG, kB, kIgnore }
 Column ColumnFromName(const std::string& raw) {
   std::string name = ToLower(raw);
   while (!name.empty() && (name[0] == '/' || name[0] == '#')) name.erase(0, 1);
-  if (name == "x" || name == "//x") return Column::kX;
-  if (name == "y") return Column::kY;
-  if (name == "z") return Column::kZ;
+  // Spreadsheets quote their headers: "X","Y","Z".
+  if (name.size() >= 2 && (name.front() == '"' || name.front() == '\'') && name.back() == name.front()) {
+    name = name.substr(1, name.size() - 2);
+  }
+  // A unit written onto the name: "X[m]".
+  if (const size_t bracket = name.find_first_of("[("); bracket != std::string::npos && bracket > 0) {
+    name.erase(bracket);
+  }
+  // A surveyor's grid coordinates name the axes easting, northing, height.
+  if (name == "x" || name == "//x" || name == "e" || name == "east" || name == "easting") return Column::kX;
+  if (name == "y" || name == "n" || name == "north" || name == "northing") return Column::kY;
+  if (name == "z" || name == "h" || name == "height" || name == "elevation" || name == "elev") return Column::kZ;
   if (name == "nx" || name == "normal_x") return Column::kNx;
   if (name == "ny" || name == "normal_y") return Column::kNy;
   if (name == "nz" || name == "normal_z") return Column::kNz;
@@ -213,11 +223,63 @@ bool IsComment(std::string_view line) {
   return line[i] == '#' || line.substr(i, 2) == "//";
 }
 
-std::string CommasToSpaces(std::string_view line) {
-  std::string s(line);
-  std::replace(s.begin(), s.end(), ',', ' ');
-  std::replace(s.begin(), s.end(), ';', ' ');
-  return s;
+// How a text cloud separates its values, found from the first line holding a ',' or a ';'.
+// A ',' is either a separator ("1.5,2.5,3.5") or a decimal comma, as spreadsheets in most of
+// Europe write numbers: "1000,11;2002,27;120,81" (';' separates) or "1000,11 2002,27 120,81".
+// Reading a decimal comma as a separator would silently turn each point into six other
+// numbers (x y z r g b), so a line where ';' separates, or where blanks separate numbers that
+// hold at most one ',' each and no '.', reads ',' as the decimal point.
+class XyzSeparators {
+ public:
+  // The line with its separators as blanks and its decimal commas as points.
+  std::string Normalise(std::string_view line, int64_t line_number) {
+    if (dialect_ == Dialect::kUnknown) {
+      dialect_ = Detect(line);
+      decided_on_ = line_number;
+    }
+    std::string s(line);
+    std::replace(s.begin(), s.end(), ';', ' ');
+    std::replace(s.begin(), s.end(), ',', dialect_ == Dialect::kDecimalComma ? '.' : ' ');
+    return s;
+  }
+
+  // How the file was read, for an error on a line that does not fit: "" when commas separate.
+  std::string DecimalCommaNote() const {
+    return dialect_ == Dialect::kDecimalComma
+               ? " (read with ',' as the decimal comma and ';' or blanks between values, as line " +
+                     std::to_string(decided_on_) + " writes them)"
+               : "";
+  }
+
+ private:
+  enum class Dialect { kUnknown, kCommaSeparates, kDecimalComma };
+
+  static Dialect Detect(std::string_view line) {
+    if (line.find(';') != std::string_view::npos) return Dialect::kDecimalComma;
+    if (line.find(',') == std::string_view::npos) return Dialect::kUnknown;
+    std::istringstream in{std::string(line)};
+    std::string token;
+    int tokens = 0;
+    bool decimal = true;  // every blank-separated value a number with at most one ',' inside
+    while (in >> token) {
+      ++tokens;
+      std::string point = token;
+      std::replace(point.begin(), point.end(), ',', '.');
+      double v;
+      decimal = decimal && std::count(token.begin(), token.end(), ',') <= 1 &&
+                token.find('.') == std::string::npos && ParseDouble(point, &v);
+    }
+    return tokens >= 2 && decimal ? Dialect::kDecimalComma : Dialect::kCommaSeparates;
+  }
+
+  Dialect dialect_ = Dialect::kUnknown;
+  int64_t decided_on_ = 0;
+};
+
+std::string JoinNames(const std::vector<std::string>& names) {
+  std::string joined;
+  for (const std::string& name : names) joined += (joined.empty() ? "" : ", ") + name;
+  return joined;
 }
 
 }  // namespace
@@ -231,25 +293,30 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
                      "text: x y z [...] per line (a binary cloud needs its extension: .ply, .pcd, .las, .bin)");
   }
   LineCursor cursor(text);
+  XyzSeparators separators;
   std::string_view line;
   std::vector<Column> columns;
+  std::vector<std::string> column_names;  // as the header line writes them
+  int64_t header_line = 0;
   bool first_content = true;
   // Find the layout from the first lines.
   std::vector<std::pair<int64_t, std::string>> pending;  // first data line, if any
   while (cursor.Next(&line)) {
     const bool comment = IsComment(line);
-    const std::string s = CommasToSpaces(comment ? std::string_view() : line);
+    const std::string s = comment ? std::string() : separators.Normalise(line, cursor.line_number());
     if (comment) {
       // A CloudCompare-style "//X,Y,Z,R,G,B" header names the columns.
       std::string_view t = line;
       while (!t.empty() && std::isspace(static_cast<unsigned char>(t[0]))) t.remove_prefix(1);
       if (first_content && t.substr(0, 2) == "//" && t.size() > 2) {
-        TokenLine names(path, cursor.line_number(), CommasToSpaces(t.substr(2)));
+        TokenLine names(path, cursor.line_number(), separators.Normalise(t.substr(2), cursor.line_number()));
         double v;
         if (names.size() >= 3 && !ParseDouble(names.Str(0, "name"), &v)) {
           for (size_t i = 0; i < names.size(); ++i) {
             columns.push_back(ColumnFromName(names.Str(i, "name")));
+            column_names.push_back(names.Str(i, "name"));
           }
+          header_line = cursor.line_number();
           first_content = false;
         }
       }
@@ -259,8 +326,12 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
     double v;
     if (first_content && !ParseDouble(tokens.Str(0, "x"), &v)) {
       for (size_t i = 0; i < tokens.size(); ++i) {
-        columns.push_back(ColumnFromName(tokens.Str(i, "name")));
+        const std::string& name = tokens.Str(i, "name");
+        if (i > 0 && (name.front() == '[' || name.front() == '(')) continue;  // "X [m]": a unit
+        columns.push_back(ColumnFromName(name));
+        column_names.push_back(name);
       }
+      header_line = cursor.line_number();
       first_content = false;
       continue;
     }
@@ -279,7 +350,7 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
     // name x, y and z is not a cloud's.
     const auto named = [&columns](Column c) { return std::find(columns.begin(), columns.end(), c) != columns.end(); };
     if (!columns.empty() && !(named(Column::kX) && named(Column::kY) && named(Column::kZ))) {
-      throw InputError(path, 0, "columns", std::to_string(columns.size()) + " named columns and no point",
+      throw InputError(path, header_line, "columns", JoinNames(column_names) + " (and no point)",
                        "a header naming x, y and z, and lines of x y z ...");
     }
     return CloudBuilder(path, options, false, false, false, 0).Finish("xyz", stats);
@@ -343,8 +414,8 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
   }
   auto has = [&](Column c) { return index[static_cast<int>(c)] >= 0; };
   if (!has(Column::kX) || !has(Column::kY) || !has(Column::kZ)) {
-    throw InputError(path, 0, "columns", std::to_string(columns.size()) + " named columns",
-                     "columns named x, y and z");
+    throw InputError(path, header_line, "columns", JoinNames(column_names),
+                     "columns named x, y and z (or e/easting, n/northing, h/height/elevation)");
   }
   const bool normals = has(Column::kNx) && has(Column::kNy) && has(Column::kNz);
   const bool colors = has(Column::kR) && has(Column::kG) && has(Column::kB);
@@ -402,7 +473,12 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
   parse(first);
   while (cursor.Next(&line)) {
     if (IsComment(line)) continue;
-    parse(TokenLine(path, cursor.line_number(), CommasToSpaces(line)));
+    const TokenLine t(path, cursor.line_number(), separators.Normalise(line, cursor.line_number()));
+    if (t.size() != columns.size() && !separators.DecimalCommaNote().empty()) {
+      t.Fail("point", std::string(line.substr(0, 80)),
+             std::to_string(columns.size()) + " values" + separators.DecimalCommaNote());
+    }
+    parse(t);
   }
   return builder.Finish("xyz", stats);
 }

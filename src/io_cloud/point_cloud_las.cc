@@ -4,6 +4,7 @@
 // (public header block, Table 3; point data record formats, Tables 7–16).
 
 #include <algorithm>
+#include <limits>
 
 #include "io_cloud/point_cloud_internal.h"
 #include "mmba/io/text_reader.h"
@@ -100,10 +101,13 @@ PointCloud ReadLas(const std::string& path, const ReadOptions& options, ReadStat
     throw InputError::AtByte(path, 96, "offset to point data", std::to_string(offset_to_points),
                              ">= header size " + std::to_string(header_size));
   }
-  const uint64_t needed = offset_to_points + count * record_length;
-  if (needed > data.size()) {
+  // Compared by division: a damaged 64-bit count times the record length could wrap around.
+  const uint64_t available = data.size() > offset_to_points ? data.size() - offset_to_points : 0;
+  if (record_length > 0 && count > available / record_length) {
+    const bool fits = count <= (std::numeric_limits<uint64_t>::max() - offset_to_points) / record_length;
+    const std::string needed = fits ? std::to_string(offset_to_points + count * record_length) : "more than 2^64";
     throw InputError::AtByte(path, data.size(), "point data", "end of file",
-                             std::to_string(needed) + " bytes for " + std::to_string(count) +
+                             needed + " bytes for " + std::to_string(count) +
                                  " records of " + std::to_string(record_length) +
                                  " bytes (truncated file?)");
   }

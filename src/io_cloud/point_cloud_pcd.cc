@@ -127,6 +127,11 @@ PointCloud ReadPcd(const std::string& path, const ReadOptions& options, ReadStat
     throw InputError::Message(path, "PCD header has no DATA line (not a PCD file, or truncated)");
   }
   if (fields.empty()) throw InputError::Message(path, "PCD header has no FIELDS line");
+  // A damaged header's counts must not wrap around (the reads below would run off the data).
+  if (height != 0 && width > std::numeric_limits<uint64_t>::max() / height) {
+    throw InputError(path, 0, "WIDTH", std::to_string(width) + " x HEIGHT " + std::to_string(height),
+                     "a point count that fits in 64 bits (a damaged header?)");
+  }
   if (!have_points) points = width * height;
   if (points != width * height) {
     throw InputError(path, 0, "POINTS", std::to_string(points),
@@ -242,12 +247,17 @@ PointCloud ReadPcd(const std::string& path, const ReadOptions& options, ReadStat
   }
 
   const bool swap = !internal::HostIsLittleEndian();  // PCD binary is host (little) endian
+  if (point_size > 0 && points > std::numeric_limits<size_t>::max() / point_size) {
+    throw InputError(path, 0, "POINTS", std::to_string(points),
+                     "at most " + std::to_string(std::numeric_limits<size_t>::max() / point_size) +
+                         " points of " + std::to_string(point_size) + " bytes (a damaged header?)");
+  }
   const size_t total = static_cast<size_t>(points) * point_size;
   const char* base = nullptr;
   std::vector<uint8_t> decompressed;
   bool soa = false;
   if (mode == "binary") {
-    if (data_start + total > data.size()) {
+    if (total > data.size() - data_start) {
       throw InputError::AtByte(path, data.size(), "binary data", "end of file",
                                std::to_string(data_start + total) + " bytes for " +
                                    std::to_string(points) + " points (truncated file?)");

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -252,6 +253,8 @@ TEST_F(CliTest, RegisterCloudScaleRange) {
            {" --scale-range 1 2 --scale-step 0.9", "--scale-step"},
            {" --normal-radius -1", "--normal-radius"},
            {" --min-fitness 1.5", "--min-fitness"},
+           {" --error-map-max nan", "--error-map-max: found nan"},
+           {" --error-map-max -1", "--error-map-max"},
            {" --normal-orientation sideways", "--normal-orientation"}}) {
     const RunResult bad = Mmba(pair + flags);
     EXPECT_EQ(bad.exit_code, 2) << flags;
@@ -779,14 +782,18 @@ TEST_F(CliTest, RegisterMiRunsOnlyP2AndPointsOverTheWholeImage) {
   EXPECT_FALSE(fs::exists(Tmp("xyz.json")));
 }
 
-// One absurd point (1e12 m away, a glitch of a scanner's record) changes nothing: points
-// beyond --max-range-m of every camera are dropped before the cloud is used (before the
-// map-grid origin, the incidence fit, the surface classes), and OUT.json counts them.
+// One absurd point (1e12 m away, a glitch of a scanner's record) and one without a return
+// (NaN) change nothing: points beyond --max-range-m of every camera and non-finite ones are
+// dropped before the cloud is used (before the map-grid origin, the incidence fit, the
+// surface classes), and OUT.json counts them.
 TEST_F(CliTest, RegisterMiIgnoresAFarOutlierPoint) {
   const std::string kitti = kSource + "/data/kitti/";
   io::PointCloud cloud = io::ReadPointCloud(kitti + "velodyne/000000.bin");
   io::WritePly(cloud, Tmp("clean.ply"));
   cloud.points.push_back(Eigen::Vector3d(1e12, 2e11, 5e10));
+  cloud.intensity.push_back(0.5f);
+  // ... and a point without a return (NaN), as some scanners write them: dropped and counted.
+  cloud.points.push_back(Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
   cloud.intensity.push_back(0.5f);
   io::WritePly(cloud, Tmp("outlier.ply"));
   const std::string common = " --image " + kitti + "image_2/000000.png --kitti-calib " + kitti +
@@ -806,7 +813,35 @@ TEST_F(CliTest, RegisterMiIgnoresAFarOutlierPoint) {
   EXPECT_EQ(b["incidence_correction"][0]["exponent"], a["incidence_correction"][0]["exponent"]);
   EXPECT_EQ(a["clouds"][0]["points_beyond_range"], 0);
   EXPECT_EQ(b["clouds"][0]["points_beyond_range"], 1);
-  EXPECT_EQ(b["clouds"][0]["points_read"].get<size_t>(), a["clouds"][0]["points_read"].get<size_t>() + 1);
+  EXPECT_EQ(a["clouds"][0]["points_not_finite"], 0);
+  EXPECT_EQ(b["clouds"][0]["points_not_finite"], 1);
+  EXPECT_EQ(b["clouds"][0]["points_read"].get<size_t>(), a["clouds"][0]["points_read"].get<size_t>() + 2);
+
+  // A cloud whose intensity is one value (a LAS file without measured intensity holds 0):
+  // nothing to register the intensity by; exit 2 naming the cloud, nothing written.
+  std::fill(cloud.intensity.begin(), cloud.intensity.end(), 0.0f);
+  io::WritePly(cloud, Tmp("flat.ply"));
+  const RunResult flat = Mmba("register-mi --lidar " + Tmp("flat.ply") + common + " --output " + Tmp("flat.json"));
+  EXPECT_EQ(flat.exit_code, 2) << flat.output;
+  EXPECT_THAT(flat.output, HasSubstr(Tmp("flat.ply") + ": every point's intensity is 0: no intensity to register by"));
+  EXPECT_FALSE(fs::exists(Tmp("flat.json")));
+}
+
+// A cloud in millimetres against one in metres: failed (exit 3), and the reason says what
+// is wrong (the units) and what to do (--scale-range), not to enlarge the normal radius.
+TEST_F(CliTest, RegisterCloudNamesMillimetresAgainstMetres) {
+  const std::string pcl = kSource + "/data/pointclouds/pcl_test/";
+  io::PointCloud bun0 = io::ReadPointCloud(pcl + "bun0.pcd");
+  for (Eigen::Vector3d& p : bun0.points) p *= 1000.0;
+  io::WritePly(bun0, Tmp("bun0_mm.ply"));
+  const RunResult run = Mmba("register-cloud --source " + Tmp("bun0_mm.ply") + " --target " + pcl +
+                             "bun4.pcd --output " + Tmp("mm.json") + " -q");
+  EXPECT_EQ(run.exit_code, 3) << run.output;
+  const nlohmann::json out = nlohmann::json::parse(std::ifstream(Tmp("mm.json")));
+  EXPECT_EQ(out["status"], "failed");
+  EXPECT_THAT(out["reason"].get<std::string>(), HasSubstr("target cloud thins to only"));
+  EXPECT_THAT(out["reason"].get<std::string>(), HasSubstr("different units (millimetres against metres)"));
+  EXPECT_THAT(out["reason"].get<std::string>(), HasSubstr("--scale-range"));
 }
 
 // Several frames (--list, paths relative to the list file's folder): each frame in frames[]
@@ -828,7 +863,10 @@ TEST_F(CliTest, RegisterMiListNamesItsFramesAndItsErrors) {
   registration::mi::WriteGrayPng(mit::StreetPhoto(camera.camera, truth, 12), Tmp("frames/f1.png"));
   registration::mi::WriteGrayPng(
       mit::StreetPhoto(camera.camera, registration::mi::ApplyCorrection(truth, elsewhere), 13), Tmp("frames/f2.png"));
-  std::ofstream(Tmp("frames/list.txt")) << "# image lidar\nf0.png ../street.ply\n\nf1.png ../street.ply\nf2.png "
+  // Frame 1's cloud has blanks in its path: in double quotes.
+  fs::create_directories(Tmp("frames/my scans"));
+  fs::copy_file(Tmp("street.ply"), Tmp("frames/my scans/street 1.ply"));
+  std::ofstream(Tmp("frames/list.txt")) << "# image lidar\nf0.png ../street.ply\n\nf1.png \"my scans/street 1.ply\"\nf2.png "
                                         << Tmp("street.ply") << "\n";
   const std::string common = "register-mi --camera " + Tmp("camera.yaml") + " --region overlap -q";
   const RunResult run = Mmba(common + " --list " + Tmp("frames/list.txt") +
@@ -840,7 +878,8 @@ TEST_F(CliTest, RegisterMiListNamesItsFramesAndItsErrors) {
     const nlohmann::json& f = out["frames"][i];
     EXPECT_EQ(f["index"], i);
     EXPECT_EQ(f["image"], Tmp("frames") + "/f" + std::to_string(i) + ".png");
-    EXPECT_EQ(fs::canonical(f["lidar"].get<std::string>()), fs::canonical(Tmp("street.ply")));
+    EXPECT_EQ(fs::canonical(f["lidar"].get<std::string>()),
+              fs::canonical(Tmp(i == 1 ? "frames/my scans/street 1.ply" : "street.ply")));
     EXPECT_EQ(f["status"], i < 2 ? "used" : "rejected") << f.dump();
   }
   EXPECT_EQ(out["frames"][0]["reason"], "");
@@ -852,7 +891,12 @@ TEST_F(CliTest, RegisterMiListNamesItsFramesAndItsErrors) {
 
   std::ofstream(Tmp("frames/missing.txt")) << "f0.png ../street.ply\n# next\nf9.png ../street.ply\n";
   std::ofstream(Tmp("frames/empty.txt")) << "# nothing\n\n";
+  std::ofstream(Tmp("frames/blanks.txt")) << "f0.png my scans/street 1.ply\n";
+  std::ofstream(Tmp("frames/open.txt")) << "\n\"f0.png ../street.ply\n";
   for (const auto& [list, named] : std::vector<std::pair<std::string, std::string>>{
+           {Tmp("frames/blanks.txt"), Tmp("frames/blanks.txt") + ":1: found 4 values, expected 2: IMAGE LIDAR (a path "
+                                                                 "with blanks in double quotes"},
+           {Tmp("frames/open.txt"), Tmp("frames/open.txt") + ":2: a '\"' is not closed"},
            {Tmp("frames/missing.txt"), Tmp("frames/missing.txt") + ":3: image file not found: '" + Tmp("frames") +
                                            "/f9.png' (a relative path in a list is relative to the list file's folder)"},
            {Tmp("frames/empty.txt"), Tmp("frames/empty.txt") + ": no frames in the list"}}) {

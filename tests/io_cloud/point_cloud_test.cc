@@ -4,6 +4,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <string>
 
@@ -264,6 +265,17 @@ TEST_F(PointCloudIoTest, PcdAsciiBinaryAndCompressed) {
 
   ExpectInputError([&] { ReadPcd(Write("h.pcd", "VERSION 0.7\nFIELDS x y z\nSIZE 4 4\n")); },
                    {"h.pcd:3", "SIZE"});
+  // Damaged counts that wrap around 64 bits (POINTS × 12 bytes; WIDTH × HEIGHT): refused, not
+  // read past the data.
+  const std::string wrapping = std::to_string(std::numeric_limits<uint64_t>::max() / 12 + 1);
+  ExpectInputError([&] {
+    ReadPcd(Write("w.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " + wrapping +
+                               "\nHEIGHT 1\nPOINTS " + wrapping + "\nDATA binary\n" + std::string(48, '\0')));
+  }, {"w.pcd", "POINTS", "damaged header"});
+  ExpectInputError([&] {
+    ReadPcd(Write("wh.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 4294967297\n"
+                            "HEIGHT 4294967297\nDATA binary\n" + std::string(48, '\0')));
+  }, {"wh.pcd", "WIDTH", "64 bits"});
   ExpectInputError([&] {
     ReadPcd(Write("p.pcd", "FIELDS rgba\nSIZE 4\nTYPE U\nCOUNT 1\nWIDTH 1\nHEIGHT 1\n"
                            "POINTS 1\nDATA ascii\n5\n"));
@@ -333,6 +345,60 @@ TEST_F(PointCloudIoTest, XyzVariants) {
   ExpectInputError([&] { ReadPointCloud(Write("k5.xyz", std::string("1 2 3\n\0\0\0\n", 10))); },
                    {"k5.xyz:2", "NUL byte"});
   ExpectInputError([&] { ReadPointCloud(Write("l.obj", "v 1 2 3\n")); }, {"l.obj", ".obj"});
+}
+
+// Spreadsheets in most of Europe write a decimal comma: with ';' between the values, or with
+// blanks. Such a line must not be read as six numbers (x y z r g b, as the comma-separated
+// "1000,11,2002,27,120,81" is), and a comma-separated file must still read as one.
+TEST_F(PointCloudIoTest, XyzDecimalCommas) {
+  for (const std::string& text : {std::string("1000,11;2002,27;120,81\n-1,5;0,25;3\n"),
+                                  std::string("X;Y;Z\n1000,11;2002,27;120,81\n-1,5;0,25;3\n"),
+                                  std::string("x y z\n1000,11 2002,27 120,81\n-1,5\t0,25 3\n"),
+                                  std::string("1000,11 2002,27 120,81\n-1,5 0,25 3\n"),
+                                  std::string("1000.11;2002.27;120.81\n-1.5;0.25;3\n")}) {
+    SCOPED_TRACE(text);
+    const PointCloud c = ReadPointCloud(Write("eu.csv", text));
+    ASSERT_EQ(c.size(), 2u);
+    EXPECT_FALSE(c.has_colors());
+    EXPECT_NEAR((c.points[0] - Eigen::Vector3d(1000.11, 2002.27, 120.81)).norm(), 0.0, 1e-9);
+    EXPECT_NEAR((c.points[1] - Eigen::Vector3d(-1.5, 0.25, 3.0)).norm(), 0.0, 1e-12);
+  }
+  // Commas that separate (with or without blanks after them) stay separators.
+  for (const std::string& text : {std::string("1.5,2.5,3.5\n4,5,6\n"), std::string("1.5, 2.5, 3.5\n4, 5, 6\n")}) {
+    const PointCloud c = ReadPointCloud(Write("us.csv", text));
+    ASSERT_EQ(c.size(), 2u);
+    EXPECT_EQ(c.points[0], Eigen::Vector3d(1.5, 2.5, 3.5));
+    EXPECT_EQ(c.points[1], Eigen::Vector3d(4, 5, 6));
+  }
+  // A decimal-comma file whose later line separates by commas is refused at that line.
+  ExpectInputError([&] { ReadPointCloud(Write("mixed.csv", "1,5;2,5;3,5\n4.5,5.5,6.5\n")); },
+                   {"mixed.csv:2", "'4.5,5.5,6.5'", "decimal comma", "as line 1"});
+}
+
+// Headers as other programs write them: a UTF-8 byte-order mark, quoted names, a surveyor's
+// easting/northing/height, a unit after the name. A header without x, y and z names its line
+// and the names it holds.
+TEST_F(PointCloudIoTest, XyzHeadersOfOtherPrograms) {
+  for (const std::string& header : {std::string("\xEF\xBB\xBFx,y,z"), std::string("\"X\",\"Y\",\"Z\""),
+                                    std::string("Easting,Northing,Height"), std::string("E N H"),
+                                    std::string("X [m],Y [m],Z [m]"), std::string("X[m] Y[m] Z[m]")}) {
+    SCOPED_TRACE(header);
+    const PointCloud c = ReadPointCloud(Write("h.csv", header + "\n1,2,3\n4,5,6\n"));
+    ASSERT_EQ(c.size(), 2u);
+    EXPECT_EQ(c.points[1], Eigen::Vector3d(4, 5, 6));
+  }
+  // A byte-order mark before the first point (no header) is not part of its x.
+  const PointCloud bom = ReadPointCloud(Write("bom.xyz", "\xEF\xBB\xBF" "1 2 3\n"));
+  ASSERT_EQ(bom.size(), 1u);
+  EXPECT_EQ(bom.points[0], Eigen::Vector3d(1, 2, 3));
+  ExpectInputError([&] { ReadPointCloud(Write("lat.csv", "# exported\nLat,Lon,Alt\n1,2,3\n")); },
+                   {"lat.csv:2", "Lat, Lon, Alt", "x, y and z"});
+  // A PLY with a byte-order mark before "ply".
+  WritePly(MakeCloud(), (dir_ / "plain.ply").string(), /*ascii=*/true);
+  std::ifstream in(dir_ / "plain.ply", std::ios::binary);
+  const std::string ply((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(ReadPointCloud(Write("bom.ply", "\xEF\xBB\xBF" + ply)).points,
+            ReadPointCloud((dir_ / "plain.ply").string()).points);
 }
 
 // A LAS file made by hand after the ASPRS LAS 1.4 R15 tables.
@@ -443,6 +509,12 @@ TEST_F(PointCloudIoTest, LasBrokenFixtures) {
   std::memcpy(&sc[131], &zero, 8);
   ExpectInputError([&] { ReadLas(Write("sc.las", sc)); }, {"sc.las (byte 131)", "x scale"});
   ExpectInputError([&] { ReadPointCloud(Write("c.laz", ok)); }, {"c.laz", "LAZ"});
+  // A damaged LAS 1.4 64-bit point count (byte 247) whose product with the record length
+  // wraps around 64 bits: refused as truncated, not read past the data.
+  std::string wrap = MakeLas(4, 6, raw);
+  const uint64_t wrapping = std::numeric_limits<uint64_t>::max() / 30 + 1;
+  std::memcpy(&wrap[247], &wrapping, 8);
+  ExpectInputError([&] { ReadLas(Write("wrap.las", wrap)); }, {"wrap.las", "more than 2^64", "truncated"});
 }
 
 TEST_F(PointCloudIoTest, KittiBin) {

@@ -43,17 +43,19 @@ class TokenLine {
   std::vector<std::string> tokens_;
 };
 
-/// Iterates the lines of a text buffer, numbering them from 1.
+/// Iterates the lines of a text buffer, numbering them from 1. A UTF-8 byte-order mark before
+/// the first line (as some Windows programs write one) is not part of that line.
 class LineCursor {
  public:
-  explicit LineCursor(std::string_view text) : text_(text) {}
+  explicit LineCursor(std::string_view text)
+      : text_(text), pos_(text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0) {}
   /// Next line (without the newline and a trailing '\r'); false at the end.
   bool Next(std::string_view* line);
   int64_t line_number() const { return line_number_; }
 
  private:
   std::string_view text_;
-  size_t pos_ = 0;
+  size_t pos_;
   int64_t line_number_ = 0;
 };
 

@@ -1680,6 +1680,30 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
       for (Eigen::Vector3d& n : level->normals) n = -n;
     }
     const size_t before = level->points.size();
+    if (before < 10) {
+      // Both clouds are thinned to the sparser one's spacing: a cloud that collapses to a few
+      // points there is much smaller than the other, as a cloud in millimetres against one in
+      // metres is (the normal radius is not the cause, and a larger one would not help).
+      auto extent = [](const std::vector<Eigen::Vector3d>& points) {
+        Eigen::AlignedBox3d box;
+        for (const Eigen::Vector3d& p : points) box.extend(p);
+        return points.empty() ? 0.0 : box.diagonal().norm();
+      };
+      const bool is_source = level == &src_coarse;
+      const double own = extent(level->points), other = extent((is_source ? tgt_coarse : src_coarse).points);
+      std::ostringstream s;
+      s << (is_source ? "source" : "target") << " cloud thins to only " << before
+        << " points at the common point spacing " << spacing << " m (the sparser cloud's)";
+      if (other > 10 * own) {
+        s << ": its extent is " << other / std::max(own, 1e-300) << "x smaller than the "
+          << (is_source ? "target" : "source") << "'s (" << own << " against " << other
+          << "): are they in different units (millimetres against metres)? Convert one, or give "
+             "--scale-range";
+      } else {
+        s << ": too few points to register";
+      }
+      return fail(s.str());
+    }
     DropInvalidNormals(level);
     if (level->points.size() < before / 2 || level->points.size() < 10) {
       std::ostringstream s;
