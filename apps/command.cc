@@ -49,6 +49,9 @@ void CheckOutputPath(const FileArg& arg, bool folder) {
   const fs::file_status status = fs::status(path, ec);
   if (fs::exists(status)) {
     if (!folder && fs::is_directory(status)) fail("it is an existing folder");
+    // A device (/dev/null), pipe or socket: the output is written beside it and renamed over
+    // it (never half-written), which would replace the device or pipe by a plain file.
+    if (!folder && !fs::is_regular_file(status)) fail("it is a device, pipe or socket, not a regular file");
     if (folder && !fs::is_directory(status)) fail("it is an existing file, not a folder");
   }
   // The nearest existing ancestor (the path itself for an existing folder).

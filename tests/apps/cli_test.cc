@@ -1,4 +1,5 @@
 // Runs the mmba binary as a user would: exit codes, the one error line, files written.
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 #include <cmath>
@@ -661,8 +662,12 @@ TEST_F(CliTest, RegisterMiRefusesNonFiniteNumbersAndUnwritableOutputsBeforeAnyWo
     std::ofstream(Tmp("pose_inf.json"))
         << "{\"cam_from_lidar\": [0, -1, 0, 1e400, 0, 0, -1, 0,\n 1, 0, 0, 0, 0, 0, 0, 1]}\n";
   }
+  // A pipe (as /dev/null is a device): a file renamed over it would replace it.
+  ASSERT_EQ(mkfifo(Tmp("apipe").c_str(), 0600), 0);
   const std::string out = " --output " + Tmp("out.json");
   for (const auto& [flags, named] : std::vector<std::pair<std::string, std::string>>{
+           {out + " --overlay " + Tmp("apipe"), "--overlay: cannot write '" + Tmp("apipe") +
+                                                    "': it is a device, pipe or socket, not a regular file"},
            {" --perturb nan,0,0,0,0,0" + out, "--perturb: found 'nan', expected a finite number"},
            {" --perturb 0,0,0,0,0,inf" + out, "--perturb: found 'inf', expected a finite number"},
            {" --max-range-m inf" + out, "--max-range-m: found 'inf', expected a finite number"},
@@ -688,7 +693,8 @@ TEST_F(CliTest, RegisterMiRefusesNonFiniteNumbersAndUnwritableOutputsBeforeAnyWo
     EXPECT_FALSE(fs::exists(Tmp("out.json"))) << flags;
   }
   EXPECT_TRUE(fs::is_empty(Tmp("adir")));
-  EXPECT_EQ(std::distance(fs::directory_iterator(tmp_), fs::directory_iterator()), 3);  // adir, afile, pose_inf.json
+  EXPECT_TRUE(fs::is_fifo(Tmp("apipe")));
+  EXPECT_EQ(std::distance(fs::directory_iterator(tmp_), fs::directory_iterator()), 4);  // adir, afile, apipe, pose_inf.json
   const RunResult bal = Mmba("bal " + kSource + "/data/bal/dubrovnik-3-7-pre.txt --json " + Tmp("adir"));
   EXPECT_EQ(bal.exit_code, 2) << bal.output;
   EXPECT_THAT(bal.output, HasSubstr("--json: cannot write '" + Tmp("adir") + "': it is an existing folder"));
