@@ -28,6 +28,7 @@
 #include "mmba/core/progress.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/registration/cloud/feature_registration.h"
+#include "mmba/registration/cloud/registration_settings.h"
 #include "mmba/registration/cloud/scene_evaluation.h"
 
 namespace {
@@ -84,49 +85,22 @@ int main(int argc, char** argv) {
     const size_t eq = kv.find('=');
     const std::string key = kv.substr(0, eq);
     const double v = std::atof(kv.substr(eq + 1).c_str());
-    if (key == "conf") conf = kv.substr(eq + 1);
+    const std::string value = kv.substr(eq + 1);
+    std::string problem;
+    if (key == "conf") conf = value;
     else if (key == "normal_radius") options.normal_radius_m = v;
     else if (key == "support_radius") options.support_radius_m = v;
-    else if (key == "max_points_features") options.max_points_features = static_cast<int>(v);
-    else if (key == "max_points_icp") options.max_points_icp = static_cast<int>(v);
     else if (key == "gravity") options.gravity_aligned = v != 0;
     else if (key == "paper") options.paper_only = v != 0;
     else if (key == "icp") options.icp = v != 0;
-    else if (key == "min_keypoints") options.min_keypoints = static_cast<int>(v);
-    else if (key == "sac_ia_iterations") options.sac_ia_iterations = static_cast<int>(v);
-    else if (key == "sac_ia_confidence") options.sac_ia_confidence = v;
-    else if (key == "num_period_shifts") options.num_period_shifts = static_cast<int>(v);
-    else if (key == "symmetry_turns") options.symmetry_turns = v != 0;
-    else if (key == "local_search") options.local_search = v != 0;
-    else if (key == "symmetry_cone_deg") options.symmetry_cone_deg = v;
-    else if (key == "symmetry_cone_step_deg") options.symmetry_cone_step_deg = v;
-    else if (key == "sac_ia_alternative_ratio") options.sac_ia_alternative_ratio = v;
-    else if (key == "keypoint_threshold") options.keypoint_threshold = v;
-    else if (key == "keypoint_grid_spacing") options.keypoint_grid_spacing = v;
-    else if (key == "icp_distance_spacing") options.icp_distance_spacing = v;
-    else if (key == "icp_noise_sigmas") options.icp_noise_sigmas = v;
-    else if (key == "icp_iterations") options.icp_iterations = static_cast<int>(v);
-    else if (key == "normal_radius_spacing") options.normal_radius_spacing = v;
-    else if (key == "support_radius_spacing") options.support_radius_spacing = v;
-    else if (key == "min_significance") options.min_significance = v;
-    else if (key == "max_ambiguity") options.max_ambiguity = v;
-    else if (key == "min_coarse_agreement") options.min_coarse_agreement = v;
-    else if (key == "inlier_sigma") options.inlier_sigma = v;
-    else if (key == "larger_cloud_factor") options.larger_cloud_factor = v;
-    else if (key == "max_keypoints") options.max_keypoints = static_cast<int>(v);
-    else if (key == "min_fitness") options.min_fitness = v;
-    else if (key == "min_normal_agreement") options.min_normal_agreement = v;
-    else if (key == "max_resolution_spacing") options.max_resolution_spacing = v;
-    else if (key == "max_weak_motion_resolution_spacing") options.max_weak_motion_resolution_spacing = v;
-    else if (key == "truth") truth_file = kv.substr(eq + 1);
-    else if (key == "probe_weak_motions") options.probe_weak_motions = v != 0;
-    else if (key == "check_fit_uncertainty") options.check_fit_uncertainty = v != 0;
+    else if (key == "truth") truth_file = value;
     else if (key == "search_window_m") options.search_window_m = v;
     else if (key == "search_window_deg") options.search_window_deg = v;
-    else if (key == "source_viewpoints") options.source_viewpoints = registration::ReadViewpoints(kv.substr(eq + 1));
-    else if (key == "target_viewpoints") options.target_viewpoints = registration::ReadViewpoints(kv.substr(eq + 1));
-    else {
-      std::cerr << "unknown key " << key << "\n";
+    else if (key == "source_viewpoints") options.source_viewpoints = registration::ReadViewpoints(value);
+    else if (key == "target_viewpoints") options.target_viewpoints = registration::ReadViewpoints(value);
+    // Every other setting by its name, as `register-cloud --set NAME=VALUE` (checked).
+    else if (!registration::SetRegistrationSetting(key, value, &options, &problem)) {
+      std::cerr << problem << "\n";
       return 2;
     }
   }

@@ -15,6 +15,7 @@
 #include "mmba/core/progress.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/registration/cloud/feature_registration.h"
+#include "mmba/registration/cloud/registration_settings.h"
 #include "mmba/registration/cloud/scale_trial_json.h"
 #include "mmba/registration/cloud/scene_evaluation.h"
 #include "registration_json.h"
@@ -43,6 +44,7 @@ struct RegisterCloudArgs {
   double min_fitness = registration::CloudRegistrationOptions().min_fitness;
   std::vector<double> scale_range;
   double scale_step = 1.05;
+  std::vector<std::string> settings;  ///< --set NAME=VALUE (registration_settings.h)
 };
 
 // --scale-range: the source in a scale of its own, registered at trial scales
@@ -150,6 +152,18 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   }
   if (args.error_map_max_given && !(args.error_map_max_m > 0 && std::isfinite(args.error_map_max_m))) {
     throw InputError::Message("--error-map-max", found(args.error_map_max_m) + ", expected metres > 0");
+  }
+  // --set NAME=VALUE: any other setting of the pipeline (after the flags, so it has the last
+  // word).
+  for (const std::string& setting : args.settings) {
+    const size_t eq = setting.find('=');
+    std::string problem;
+    if (eq == std::string::npos) {
+      problem = "found '" + setting + "', expected NAME=VALUE";
+    } else {
+      registration::SetRegistrationSetting(setting.substr(0, eq), setting.substr(eq + 1), &options, &problem);
+    }
+    if (!problem.empty()) throw InputError::Message("--set", problem);
   }
   std::string error;
   if (!options.Check(&error)) throw InputError::Message("options", error);
@@ -271,6 +285,15 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_option("--error-map-max", args->error_map_max_m,
                   "distance shown red in metres (> 0; default 5 × point spacing)");
   sub->add_option("--seed", args->seed, "random seed")->capture_default_str();
+  sub->add_option("--set", args->settings,
+                  "NAME=VALUE ...: any other setting of the pipeline (F_t, keypoints, SAC-IA, ICP, the "
+                  "checks); the names are listed below");
+  std::string footer = "Settings for --set NAME=VALUE (default; accepted values):\n";
+  for (const registration::RegistrationSetting& setting : registration::RegistrationSettings()) {
+    footer += "  " + setting.name + " = " + setting.default_value + " (" + setting.range + "): " +
+              setting.description + "\n";
+  }
+  sub->footer(footer);
   sub->add_option("--min-fitness", args->min_fitness,
                   "fraction of the source that must lie on the target for \"ok\", in (0, 1]")
       ->capture_default_str();

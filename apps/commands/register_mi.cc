@@ -706,7 +706,11 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   std::vector<mi::Frame> frames;
   for (size_t i = 0; i < pairs.size(); ++i) {
     mi::Frame frame;
-    frame.name = pairs[i].first;
+    // Frames are told apart by name in the calibration's used/rejected lists: an image given
+    // for two frames (against two clouds) gets its index as well.
+    const bool shared_image =
+        std::count_if(pairs.begin(), pairs.end(), [&](const auto& p) { return p.first == pairs[i].first; }) > 1;
+    frame.name = shared_image ? pairs[i].first + " #" + std::to_string(i) : pairs[i].first;
     frame.points = &clouds[i];
     if (rig_mode) {
       // The cameras that see the cloud at the start (a Ladybug's upward camera sees no

@@ -55,8 +55,9 @@ void CheckRotation(const Eigen::Matrix3d& rotation, const std::string& file, int
 
 namespace {
 
-// "KEY: v1 v2 ..." rows of one calibration file by key. The raw recordings' "calib_time:"
-// (a date, the only key whose value is text) is skipped.
+// "KEY: v1 v2 ..." rows of one calibration file by key; the tracking benchmark writes some
+// keys without the colon ("R_rect v1 ...", "Tr_velo_cam v1 ..."). The raw recordings'
+// "calib_time:" (a date, the only key whose value is text) is skipped.
 std::map<std::string, CalibRow> ReadCalibRows(const std::string& path) {
   const std::string text = ReadWholeFile(path);
   LineCursor cursor(text);
@@ -66,10 +67,12 @@ std::map<std::string, CalibRow> ReadCalibRows(const std::string& path) {
     TokenLine line(path, cursor.line_number(), line_text);
     if (line.size() == 0) continue;
     std::string key = line.Str(0, "key");
-    if (key.empty() || key.back() != ':') {
-      line.Fail("key", key, "'NAME:' followed by numbers (KITTI calibration format)");
+    double number;
+    if (!key.empty() && key.back() == ':') {
+      key.pop_back();
+    } else if (key.find(':') != std::string::npos || ParseDouble(key, &number)) {
+      line.Fail("key", key, "'NAME:' (or NAME) followed by numbers (KITTI calibration format)");
     }
-    key.pop_back();
     if (key == "calib_time") continue;
     // A key given twice leaves the file's meaning open (which one did its writer mean?).
     if (const auto earlier = rows.find(key); earlier != rows.end()) {

@@ -98,6 +98,14 @@ TEST(KittiCalibration, RequiresR0RectOnceEachKeyAndOnlyTheCameraUsed) {
                    "expected each key once");
   const KittiCalibration object = ReadKittiCalibration(Fixture("calib_ok.txt"));
   const KittiCalibration odometry = ReadKittiCalibration(Fixture("calib_odometry.txt"));
+  // The tracking benchmark's file: R_rect and Tr_velo_cam without a colon, the same numbers.
+  const KittiCalibration tracking = ReadKittiCalibration(Fixture("calib_tracking.txt"));
+  EXPECT_EQ(tracking.r0_rect, object.r0_rect);
+  EXPECT_EQ(tracking.tr_velo_to_cam, object.tr_velo_to_cam);
+  EXPECT_EQ(KittiCamera(tracking, 2, 1242, 375).cam_from_lidar.ToMatrix4(),
+            KittiCamera(object, 2, 1242, 375).cam_from_lidar.ToMatrix4());
+  // A line of numbers without a key is refused, naming it.
+  ExpectInputError("calib_no_key.txt", "calib_no_key.txt:2: field 'key': found '0.5'");
   EXPECT_EQ(odometry.r0_rect, Eigen::Matrix3d::Identity());
   EXPECT_EQ(odometry.tr_velo_to_cam, object.tr_velo_to_cam);
   const KittiCalibration only_p2 = ReadKittiCalibration(Fixture("calib_only_p2.txt"));

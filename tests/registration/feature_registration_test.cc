@@ -1,4 +1,5 @@
 #include "mmba/registration/cloud/feature_registration.h"
+#include "mmba/registration/cloud/registration_settings.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,6 +8,7 @@
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <tuple>
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -23,11 +25,28 @@ namespace fs = std::filesystem;
 const std::string kPclDir = std::string(MMBA_SOURCE_DIR) + "/data/pointclouds/pcl_test/";
 
 // PCL's own registration test: bun0 → bun4 (test/registration/test_registration.cpp).
+// The truth of PCL's bun0 → bun4: PCL's test clouds are subsets of the Stanford scans bun000 and
+// bun045, whose alignment the Stanford repository's bun.conf gives as `bmesh NAME tx ty tz qx qy
+// qz qw`, p_common = R(q)ᵀ·p + t (the convention of bench/stanford_conf.py). bun000 is at the
+// identity, so target_from_source = common_from(bun045)⁻¹.
 Eigen::Matrix4d Bun0ToBun4() {
-  Eigen::Matrix4d m;
-  m << 0.825336, 0, -0.564642, 0.037267, 0, 1, 0, 0, 0.564642, 0, 0.825336, 0.038325, 0, 0, 0,
-      1;
-  return m;
+  const Eigen::Quaterniond q(0.955586, 0.00548449, -0.294635, -0.0038555);  // w, x, y, z
+  Eigen::Matrix4d common_from_bun045 = Eigen::Matrix4d::Identity();
+  common_from_bun045.topLeftCorner<3, 3>() = q.normalized().toRotationMatrix().transpose();
+  common_from_bun045.topRightCorner<3, 1>() = Eigen::Vector3d(-0.0520211, -0.000383981, -0.0109223);
+  return common_from_bun045.inverse();
+}
+
+// Rotation angle (degrees) between two poses, and the RMS over `points` of where they put them.
+std::pair<double, double> PoseErrors(const Eigen::Matrix4d& a, const Eigen::Matrix4d& b,
+                                     const std::vector<Eigen::Vector3d>& points) {
+  const Eigen::Matrix3d dr = a.topLeftCorner<3, 3>() * b.topLeftCorner<3, 3>().transpose();
+  const double angle = std::acos(std::clamp((dr.trace() - 1.0) / 2.0, -1.0, 1.0)) * 180.0 / M_PI;
+  double sum = 0.0;
+  for (const Eigen::Vector3d& p : points) {
+    sum += ((a - b).topLeftCorner<3, 3>() * p + (a - b).topRightCorner<3, 1>()).squaredNorm();
+  }
+  return {angle, std::sqrt(sum / static_cast<double>(points.size()))};
 }
 
 io::PointCloud Transformed(const io::PointCloud& c, const Eigen::Matrix4d& m) {
@@ -37,6 +56,12 @@ io::PointCloud Transformed(const io::PointCloud& c, const Eigen::Matrix4d& m) {
   return out;
 }
 
+// PCL's bun0 → bun4 against the truth from bun.conf. PCL's own tests of this pair
+// (test/registration/test_registration.cpp) compare its ICP's matrix entry by entry at 1e-3
+// with a matrix that is itself an ICP local minimum 6.5° from bun.conf's truth, and require of
+// SAC-IA a fitness score (mean squared distance to the nearest target point) < 0.0005 m². Here:
+// within 1° and 1.5 mm RMS of the truth (measured 0.40° / 0.54 mm with SHOT), and PCL's SAC-IA
+// criterion.
 TEST(FeatureRegistration, PclBun0ToBun4WithinPclTolerance) {
   const io::PointCloud bun0 = io::ReadPointCloud(kPclDir + "bun0.pcd");
   const io::PointCloud bun4 = io::ReadPointCloud(kPclDir + "bun4.pcd");
@@ -46,13 +71,64 @@ TEST(FeatureRegistration, PclBun0ToBun4WithinPclTolerance) {
     ASSERT_TRUE(ParseDescriptor(name, &options.descriptor));
     const CloudRegistrationResult r = RegisterClouds(bun0, bun4, options);
     ASSERT_TRUE(r.ok()) << r.reason;
-    // PCL's test checks every matrix entry within 0.1.
-    EXPECT_LT((r.target_from_source - Bun0ToBun4()).cwiseAbs().maxCoeff(), 0.1)
-        << r.target_from_source;
+    const auto [angle_deg, rms_m] = PoseErrors(r.target_from_source, Bun0ToBun4(), bun0.points);
+    EXPECT_LT(angle_deg, 1.0) << r.target_from_source;
+    EXPECT_LT(rms_m, 1.5e-3) << r.target_from_source;
+    double squared = 0.0;
+    for (const Eigen::Vector3d& p : bun0.points) {
+      const Eigen::Vector3d q = r.target_from_source.topLeftCorner<3, 3>() * p + r.target_from_source.topRightCorner<3, 1>();
+      double best = std::numeric_limits<double>::infinity();
+      for (const Eigen::Vector3d& t : bun4.points) best = std::min(best, (q - t).squaredNorm());
+      squared += best;
+    }
+    EXPECT_LT(squared / static_cast<double>(bun0.size()), 5e-4);  // PCL's SAC-IA test
+    std::printf("[ measured ] %s: %.3f deg, %.3f mm RMS from bun.conf's truth\n", name, angle_deg, rms_m * 1e3);
     EXPECT_GT(r.fitness, 0.5);
     EXPECT_GT(r.num_keypoints_source, 3u);
     EXPECT_GT(r.confidence, 0.0);
   }
+}
+
+// Every setting by name (register-cloud --set): numbers, integers and switches set, each
+// refused outside its range or of the wrong kind (the options then unchanged), unknown names
+// refused, and the list names each with its default.
+TEST(RegistrationSettings, SetByNameWithinTheirRanges) {
+  CloudRegistrationOptions options;
+  std::string problem;
+  ASSERT_TRUE(SetRegistrationSetting("keypoint_threshold", "0.05", &options, &problem)) << problem;
+  EXPECT_EQ(options.keypoint_threshold, 0.05);
+  ASSERT_TRUE(SetRegistrationSetting("sac_ia_iterations", "2000", &options, &problem)) << problem;
+  EXPECT_EQ(options.sac_ia_iterations, 2000);
+  ASSERT_TRUE(SetRegistrationSetting("symmetry_turns", "false", &options, &problem)) << problem;
+  EXPECT_FALSE(options.symmetry_turns);
+  ASSERT_TRUE(SetRegistrationSetting("symmetry_turns", "1", &options, &problem)) << problem;
+  EXPECT_TRUE(options.symmetry_turns);
+  for (const auto& [name, value, fragment] : std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"keypoint_threshold", "0.5", "expected a number 0..1/3"},
+           {"sac_ia_iterations", "2.5", "expected an integer >= 1"},
+           {"sac_ia_iterations", "0", "expected an integer >= 1"},
+           {"min_fitness", "0", "expected a number (0, 1]"},
+           {"icp_distance_spacing", "nan", "found 'nan'"},
+           {"symmetry_turns", "yes", "expected true or false"},
+           {"no_such_thing", "1", "unknown setting 'no_such_thing'"}}) {
+    const CloudRegistrationOptions before = options;
+    problem.clear();
+    EXPECT_FALSE(SetRegistrationSetting(name, value, &options, &problem)) << name << "=" << value;
+    EXPECT_NE(problem.find(fragment), std::string::npos) << problem;
+    EXPECT_EQ(options.keypoint_threshold, before.keypoint_threshold);
+    EXPECT_EQ(options.sac_ia_iterations, before.sac_ia_iterations);
+    EXPECT_EQ(options.min_fitness, before.min_fitness);
+  }
+  const std::vector<RegistrationSetting> all = RegistrationSettings();
+  ASSERT_GE(all.size(), 40u);
+  bool listed = false;
+  for (const RegistrationSetting& setting : all) {
+    listed = listed || (setting.name == "keypoint_threshold" && setting.default_value == "0.1" &&
+                        setting.kind == "number");
+    CloudRegistrationOptions defaults;  // each default is accepted as its own value
+    EXPECT_TRUE(SetRegistrationSetting(setting.name, setting.default_value, &defaults, &problem)) << problem;
+  }
+  EXPECT_TRUE(listed);
 }
 
 // Linear-interpolated percentile of `v` (numpy's default).
@@ -198,7 +274,10 @@ TEST(FeatureRegistration, GravityAlignedYawOnly) {
   options.up = Eigen::Vector3d::UnitY();  // the bunny scans turn about y
   const CloudRegistrationResult r = RegisterClouds(bun0, bun4, options);
   ASSERT_TRUE(r.ok()) << r.reason;
-  EXPECT_LT((r.target_from_source - Bun0ToBun4()).cwiseAbs().maxCoeff(), 0.1);
+  const auto [angle_deg, rms_m] = PoseErrors(r.target_from_source, Bun0ToBun4(), bun0.points);
+  std::printf("[ measured ] gravity-aligned: %.3f deg, %.3f mm RMS from bun.conf's truth\n", angle_deg, rms_m * 1e3);
+  EXPECT_LT(angle_deg, 1.0);
+  EXPECT_LT(rms_m, 1.5e-3);
   // Hypotheses turn about y only; the final free ICP may tilt by a little.
   const Eigen::Vector3d y = r.target_from_source.topLeftCorner<3, 3>() * Eigen::Vector3d::UnitY();
   EXPECT_GT(y.y(), std::cos(2.0 * M_PI / 180.0));

@@ -85,17 +85,22 @@ json ResultToJson(const RegistrationResult& result, const RegistrationOptions& o
   out["failed_attempt_cam_from_lidar"] =
       !result.ok() && result.evaluations > 0 ? PoseToJson(result.cam_from_lidar) : json(nullptr);
   out["cam_from_lidar_start"] = PoseToJson(start);
-  out["correction"] = CorrectionToJson(result.correction);
+  // Likewise the correction and its covariance: a failed file holds no pose, in any form.
+  out["correction"] = result.ok() ? CorrectionToJson(result.correction) : json(nullptr);
+  out["failed_attempt_correction"] =
+      !result.ok() && result.evaluations > 0 ? CorrectionToJson(result.correction) : json(nullptr);
   out["correction_convention"] =
       "lidar_from_cam' = [Rz(yaw) Ry(pitch) Rx(roll) R | c + t] about the camera centre, "
       "axes of the LiDAR frame; metres and degrees";
   // null when not determined (a registration that failed before the covariance, or one
   // without curvature): an all-zero matrix would read as a perfectly known pose.
-  out["covariance"] = result.covariance_valid ? MatrixJson(result.covariance) : json(nullptr);
+  // A failed registration's covariance would describe a pose the file does not give: null too.
+  const bool covariance_written = result.ok() && result.covariance_valid;
+  out["covariance"] = covariance_written ? MatrixJson(result.covariance) : json(nullptr);
   const bool laplace_computed = result.covariance_laplace.allFinite() && !result.covariance_laplace.isZero(0);
-  out["covariance_laplace"] = laplace_computed ? MatrixJson(result.covariance_laplace) : json(nullptr);
+  out["covariance_laplace"] = result.ok() && laplace_computed ? MatrixJson(result.covariance_laplace) : json(nullptr);
   out["covariance_units"] = "m^2, deg^2 in the order tx ty tz roll pitch yaw";
-  out["covariance_valid"] = result.covariance_valid;
+  out["covariance_valid"] = covariance_written;
   out["trusted"] = result.trusted;
   out["confidence_reason"] = result.confidence_reason;
   const AcceptanceChecks& checks = result.checks;
