@@ -181,8 +181,24 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   io::ReadOptions read_options;
   read_options.skip_invalid_points = args.skip_invalid;
   io::ReadStats source_stats, target_stats;
-  const io::PointCloud source = io::ReadPointCloud(args.source, read_options, &source_stats);
-  const io::PointCloud target = io::ReadPointCloud(args.target, read_options, &target_stats);
+  io::PointCloud source, target;
+  try {
+    source = io::ReadPointCloud(args.source, read_options, &source_stats);
+    target = io::ReadPointCloud(args.target, read_options, &target_stats);
+  } catch (const NonFiniteInput& e) {
+    // A readable cloud with a NaN/Inf point: a failed registration (exit 3, the JSON written
+    // with the reason), not unreadable input.
+    registration::CloudRegistrationResult failed;
+    failed.status = "failed";
+    failed.reason = std::string("a point is not finite: ") + e.what();
+    nlohmann::ordered_json json = RegistrationJson(failed);
+    json["source"] = args.source;
+    json["target"] = args.target;
+    AtomicFileSet files;
+    files.Add(args.output, [&](std::ostream& out) { out << json.dump(2) << "\n"; });
+    files.Commit();
+    throw CommandFailed("registration failed: " + failed.reason);
+  }
   const double read_seconds = read_timer.ElapsedSeconds();
   const std::clock_t read_cpu_end = std::clock();
   spdlog::info("read {} ({}, {} points, {} skipped) and {} ({}, {} points, {} skipped)",

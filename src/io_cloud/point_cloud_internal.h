@@ -56,11 +56,11 @@ class CloudBuilder {
         ++skipped_;
         return false;
       }
-      throw InputError::Message(describe_location(),
-                                "point " + std::to_string(index) + ": " +
-                                    NonFiniteFields(xyz, normal, intensity, time) +
-                                    "; expected finite values (register-cloud --skip-invalid drops such points, "
-                                    "e.g. the empty pixels of an organized depth-camera PCD)");
+      throw NonFiniteInput(InputError::Message(
+          describe_location(), "point " + std::to_string(index) + ": " +
+                                   NonFiniteFields(xyz, normal, intensity, time) +
+                                   "; expected finite values (register-cloud --skip-invalid drops such points, "
+                                   "e.g. the empty pixels of an organized depth-camera PCD)"));
     }
     cloud_.points.emplace_back(xyz[0], xyz[1], xyz[2]);
     if (has_normals_) cloud_.normals.emplace_back(normal[0], normal[1], normal[2]);

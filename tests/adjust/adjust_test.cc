@@ -462,7 +462,9 @@ TEST_F(AdjustTest, RegistersAPhotoByMutualInformation) {
   const std::string pose_key = file["status"] == "ok" ? "cam_from_lidar" : "failed_attempt_cam_from_lidar";
   ASSERT_EQ(file[pose_key].size(), 4u);
   ASSERT_EQ(file[pose_key][3].size(), 4u);
-  if (file["status"] != "ok") EXPECT_TRUE(file["cam_from_lidar"].is_null());
+  if (file["status"] != "ok") {
+    EXPECT_TRUE(file["cam_from_lidar"].is_null());
+  }
   // The covariance: 6x6 when valid, null otherwise (not an all-zero matrix).
   if (file["covariance_valid"].get<bool>()) {
     ASSERT_EQ(file["covariance"].size(), 6u);

@@ -300,6 +300,20 @@ TEST_F(CliTest, RegisterCloudEmptySourceIsAFailureWithoutATransform) {
     EXPECT_TRUE(j["failed_attempt_target_from_source"].is_null());
     fs::remove(Tmp("out.json"));
   }
+  // A NaN point (the issue: NaN/Inf points → status "failed" with a reason): exit 3, the JSON
+  // written, the reason naming the file, line and field; --skip-invalid drops the point.
+  std::ofstream(Tmp("nan.xyz")) << "0 0 0\n1 nan 0\n";
+  const std::string bun4 = " --target " + kSource + "/data/pointclouds/pcl_test/bun4.pcd -q --output " + Tmp("out.json");
+  const RunResult nan = Mmba("register-cloud --source " + Tmp("nan.xyz") + bun4);
+  EXPECT_EQ(nan.exit_code, 3) << nan.output;
+  const nlohmann::json j = nlohmann::json::parse(std::ifstream(Tmp("out.json")));
+  EXPECT_EQ(j["status"], "failed");
+  EXPECT_THAT(j["reason"].get<std::string>(),
+              HasSubstr("a point is not finite: " + Tmp("nan.xyz") + ":2: point 1: non-finite y = nan"));
+  EXPECT_TRUE(j["target_from_source"].is_null());
+  const RunResult skipped = Mmba("register-cloud --skip-invalid --source " + Tmp("nan.xyz") + bun4);
+  EXPECT_EQ(skipped.exit_code, 3) << skipped.output;  // one point left: too few, but read
+  EXPECT_THAT(skipped.output, ::testing::Not(HasSubstr("not finite")));
 }
 
 // register-cloud's intensity test fields: PCL's bunnies carry no brightness, so the test

@@ -32,6 +32,15 @@ class InputError : public std::runtime_error {
   std::string file_;
 };
 
+/// A readable cloud holding a point with a NaN/Inf coordinate (or normal, intensity, time):
+/// an InputError (exit 2) wherever it is not caught, but the file itself is readable, so
+/// register-cloud reports it as a failed registration with the reason (issue 5: NaN/Inf
+/// points → status "failed").
+class NonFiniteInput : public InputError {
+ public:
+  explicit NonFiniteInput(const InputError& error) : InputError(error) {}
+};
+
 /// Exit codes of the `mmba` binary.
 enum ExitCode : int {
   kExitOk = 0,
