@@ -2663,7 +2663,8 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
   if (fine_check.fitness < fitness_floor) {
     why << "best hypothesis (" << best.origin << ") makes only " << 100 * fine_check.fitness
         << "% of the source lie within " << fine_tau << " m of the target (need "
-        << 100 * fitness_floor << "%): the clouds do not overlap or no hypothesis is right";
+        << 100 * fitness_floor << "%): the clouds do not overlap, no hypothesis is right, or they overlap "
+        << "less than that (--min-fitness lowers the bar, at the risk of a wrong pose on a partial fit)";
     return fail(why.str());
   }
   if (contradicted(fine_check)) {
