@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -669,6 +670,40 @@ TEST_F(CliTest, RegisterMiRigRegistersTheRigPoseFromItsCameras) {
   EXPECT_THAT(bad_rig.output, HasSubstr("cameras[0]"));
   for (const char* name : {"bad1.json", "bad2.json", "bad3.json", "bad4.json"}) {
     EXPECT_FALSE(fs::exists(Tmp(name))) << name;
+  }
+}
+
+// --probe DIR (the paper's Figs. 3 and 11): probe.csv holds MI, NMI and joint entropy for each
+// of the six parameters at ±2 units in 0.1 steps around the start (41 each, metres and
+// degrees, named per row), and one PNG per parameter.
+TEST_F(CliTest, RegisterMiProbeWritesEachParameterAtTwoUnitsInTenthSteps) {
+  const std::string kitti = kSource + "/data/kitti/";
+  const RunResult run = Mmba("register-mi --lidar " + kitti + "velodyne/000000.bin --image " + kitti +
+                             "image_2/000000.png --kitti-calib " + kitti + "calib/000000.txt --probe " +
+                             Tmp("probe") + " --probe-level 2 --restarts 0 --halves false -q --output " +
+                             Tmp("out.json"));
+  ASSERT_TRUE(run.exit_code == 0 || run.exit_code == 3) << run.output;
+  std::ifstream csv(Tmp("probe") + "/probe.csv");
+  std::string line;
+  ASSERT_TRUE(std::getline(csv, line));
+  EXPECT_EQ(line, "parameter,offset,mi_bits,nmi,nid,joint_entropy_bits,samples,lidar_samples,offset_unit");
+  std::map<std::string, std::vector<double>> offsets;
+  while (std::getline(csv, line)) {
+    std::vector<std::string> f;
+    std::stringstream row(line);
+    for (std::string v; std::getline(row, v, ',');) f.push_back(v);
+    ASSERT_EQ(f.size(), 9u) << line;
+    EXPECT_EQ(f[8], f[0] == "tx" || f[0] == "ty" || f[0] == "tz" ? "m" : "deg") << line;
+    EXPECT_GT(std::stod(f[2]), 0.0) << line;  // MI in bits
+    offsets[f[0]].push_back(std::stod(f[1]));
+  }
+  ASSERT_EQ(offsets.size(), 6u);
+  for (const auto& [name, values] : offsets) {
+    ASSERT_EQ(values.size(), 41u) << name;
+    EXPECT_NEAR(values.front(), -2.0, 1e-9) << name;
+    EXPECT_NEAR(values.back(), 2.0, 1e-9) << name;
+    EXPECT_NEAR(values[21] - values[20], 0.1, 1e-9) << name;
+    EXPECT_TRUE(fs::exists(Tmp("probe") + "/probe_" + name + ".png")) << name;
   }
 }
 

@@ -75,11 +75,12 @@ void WriteProbe(const std::vector<ProbeSample>& samples, const std::string& dir)
   const std::filesystem::path base(dir);
   files.Add(base / "probe.csv", [&](std::ostream& out) {
     out.precision(9);
-    out << "parameter,offset,mi_bits,nmi,nid,joint_entropy_bits,samples,lidar_samples\n";
+    // offset_unit: metres for tx ty tz, degrees for roll pitch yaw (the correction's units).
+    out << "parameter,offset,mi_bits,nmi,nid,joint_entropy_bits,samples,lidar_samples,offset_unit\n";
     for (const ProbeSample& s : samples) {
       out << ParameterName(s.axis) << "," << s.offset << "," << s.metric.mi << ","
           << s.metric.nmi << "," << s.metric.nid << "," << s.metric.joint_entropy << ","
-          << s.metric.samples << "," << s.metric.lidar_samples << "\n";
+          << s.metric.samples << "," << s.metric.lidar_samples << "," << (s.axis < 3 ? "m" : "deg") << "\n";
     }
   });
   for (int axis = 0; axis < 6; ++axis) {
