@@ -182,35 +182,31 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   read_options.skip_invalid_points = args.skip_invalid;
   io::ReadStats source_stats, target_stats;
   io::PointCloud source, target;
+  // A readable cloud with a NaN/Inf point is a failed registration (exit 3, the JSON written
+  // with the reason), not unreadable input.
+  std::string not_finite;
   try {
     source = io::ReadPointCloud(args.source, read_options, &source_stats);
     target = io::ReadPointCloud(args.target, read_options, &target_stats);
   } catch (const NonFiniteInput& e) {
-    // A readable cloud with a NaN/Inf point: a failed registration (exit 3, the JSON written
-    // with the reason), not unreadable input.
-    registration::CloudRegistrationResult failed;
-    failed.status = "failed";
-    failed.reason = std::string("a point is not finite: ") + e.what();
-    nlohmann::ordered_json json = RegistrationJson(failed);
-    json["source"] = args.source;
-    json["target"] = args.target;
-    AtomicFileSet files;
-    files.Add(args.output, [&](std::ostream& out) { out << json.dump(2) << "\n"; });
-    files.Commit();
-    throw CommandFailed("registration failed: " + failed.reason);
+    not_finite = e.what();
   }
   const double read_seconds = read_timer.ElapsedSeconds();
   const std::clock_t read_cpu_end = std::clock();
-  spdlog::info("read {} ({}, {} points, {} skipped) and {} ({}, {} points, {} skipped)",
-               args.source, source_stats.format, source.size(), source_stats.num_skipped,
-               args.target, target_stats.format, target.size(), target_stats.num_skipped);
-
-  if (!args.scale_range.empty()) return RunScaleSearch(args, options, source, target);
-  registration::CloudRegistrationResult result =
-      registration::RegisterClouds(source, target, options);
-  result.runtime.insert(result.runtime.begin(),
-                        {"read", read_seconds,
-                         static_cast<double>(read_cpu_end - read_cpu) / CLOCKS_PER_SEC});
+  registration::CloudRegistrationResult result;
+  if (!not_finite.empty()) {
+    result.status = "failed";
+    result.reason = "a point is not finite: " + not_finite;
+  } else {
+    spdlog::info("read {} ({}, {} points, {} skipped) and {} ({}, {} points, {} skipped)",
+                 args.source, source_stats.format, source.size(), source_stats.num_skipped,
+                 args.target, target_stats.format, target.size(), target_stats.num_skipped);
+    if (!args.scale_range.empty()) return RunScaleSearch(args, options, source, target);
+    result = registration::RegisterClouds(source, target, options);
+    result.runtime.insert(result.runtime.begin(),
+                          {"read", read_seconds,
+                           static_cast<double>(read_cpu_end - read_cpu) / CLOCKS_PER_SEC});
+  }
 
   nlohmann::ordered_json json = RegistrationJson(result);
   json["source"] = args.source;
@@ -231,7 +227,7 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   }
   // The summary once: on stdout when registered; in the log before the failure's message.
   if (!result.ok()) {
-    spdlog::info("{}", result.BriefReport());
+    if (not_finite.empty()) spdlog::info("{}", result.BriefReport());
     throw CommandFailed("registration failed: " + result.reason);
   }
   std::cout << result.BriefReport() << "\n";
