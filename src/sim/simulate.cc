@@ -797,6 +797,20 @@ void SimulateLidar(Context* c, const Trajectory& trajectory, const Rigid3d& body
                  (c->out / "clouds" / "mobile_lidar.ply").string());
     io::WritePly(GeoreferenceMobileScan(scan, trajectory, body_from_lidar, false),
                  (c->out / "truth" / "mobile_lidar_true.ply").string());
+    // Each cloud's sidecar (io::ReadScannerSidecar): the trajectory and mounting it was
+    // georeferenced with, which place the scanner of each point (register-mi's incidence
+    // correction finds them without options).
+    WriteText(c->out / "clouds" / "mobile_lidar.scanner.yaml",
+              "# The scanner of each point of mobile_lidar.ply: the pose at the point's time on the GNSS/INS\n"
+              "# trajectory and the nominal mounting it was georeferenced with (paths relative to this file).\n"
+              "trajectory: ../trajectory_ins.csv\nlidar_mount: ../calib/mobile_lidar.yaml\n");
+    WriteText(c->out / "truth" / "mobile_lidar_mount_true.yaml",
+              "# The true mounting of the mobile LiDAR head on the vehicle (body: x forward, y left, z up).\n"
+              "body_from_lidar: " + YamlPose(body_from_lidar) + "\n");
+    WriteText(c->out / "truth" / "mobile_lidar_true.scanner.yaml",
+              "# The scanner of each point of mobile_lidar_true.ply: the pose at the point's time on the true\n"
+              "# trajectory and the true mounting (paths relative to this file).\n"
+              "trajectory: trajectory_true.csv\nlidar_mount: mobile_lidar_mount_true.yaml\n");
     c->result.mobile_points = scan.cloud.size();
     c->result.ghost_points += scan.num_ghosts;
     mobile = {{"file", "clouds/mobile_lidar.ply"}, {"true_file", "truth/mobile_lidar_true.ply"},
@@ -1089,6 +1103,53 @@ std::string ProjectYaml(const Context& c) {
   return y.str();
 }
 
+// truth/cameras/<images subfolder>/<image stem>.yaml: each panorama's and photo's true camera
+// and pose in register-mi's camera YAML (calib/README.md), cam_from_lidar being the pose
+// against the world frame of truth/mobile_lidar_true.ply and clouds/lidar.ply — so that
+// `mmba register-mi --lidar truth/mobile_lidar_true.ply --image IMAGE --camera YAML --perturb …`
+// starts from the truth moved by the given correction and reports the pixel offsets to it.
+void WriteTrueCameraYamls(const Context& c) {
+  const auto write = [&](const std::string& image, const json& camera, const json& cam_from_world) {
+    const fs::path rel(image);  // images/<kind>/<file>
+    const fs::path yaml = c.out / "truth" / "cameras" / rel.parent_path().filename() / (rel.stem().string() + ".yaml");
+    fs::create_directories(yaml.parent_path());
+    std::ostringstream text;
+    text << std::setprecision(17) << "# The true camera and pose of " << image
+         << " against the world frame (truth/mobile_lidar_true.ply,\n"
+            "# clouds/lidar.ply): mmba register-mi --camera (calib/README.md).\n"
+         << "model: " << camera.at("model").get<std::string>() << "\nwidth: " << camera.at("width").get<int>()
+         << "\nheight: " << camera.at("height").get<int>() << "\nparams: [";
+    const auto params = camera.at("params").get<std::vector<double>>();
+    for (size_t i = 0; i < params.size(); ++i) text << (i ? ", " : "") << params[i];
+    text << "]\ncam_from_lidar: [";
+    const json& m = cam_from_world.at("matrix");
+    for (int i = 0; i < 16; ++i) text << (i ? ", " : "") << m.at(i / 4).at(i % 4).get<double>();
+    text << "]\n";
+    WriteText(yaml, text.str());
+  };
+  if (c.truth.contains("spherical_stereo")) {
+    const json& s = c.truth.at("spherical_stereo");
+    for (const json& station : s.at("stations")) {
+      const auto images = station.at("images").get<std::vector<std::string>>();
+      write(images.at(0), s.at("lower_camera"), station.at("lower_from_world"));
+      write(images.at(1), s.at("upper_camera"), station.at("upper_from_world"));
+    }
+  }
+  if (c.truth.contains("rig") && c.truth.at("rig").contains("panorama_camera")) {
+    const json& rig = c.truth.at("rig");
+    for (const json& frame : rig.at("frames")) {
+      write("images/rig_panoramas/" + frame.at("name").get<std::string>() + ".png", rig.at("panorama_camera"),
+            frame.at("rig_from_world"));
+    }
+  }
+  if (c.truth.contains("photos")) {
+    const json& photos = c.truth.at("photos");
+    for (const json& photo : photos.at("images")) {
+      write("images/photos/" + photo.at("name").get<std::string>(), photos.at("camera"), photo.at("cam_from_world"));
+    }
+  }
+}
+
 }  // namespace
 
 SimulateResult Simulate(const SimulateOptions& options, const std::string& out_dir) {
@@ -1154,6 +1215,7 @@ SimulateResult Simulate(const SimulateOptions& options, const std::string& out_d
   c.truth["trajectory"] = {{"true", "truth/trajectory_true.csv"}, {"ins", "trajectory_ins.csv"},
                            {"duration_s", trajectory.duration_s()}};
   c.truth["registration"] = c.registration_truth;
+  WriteTrueCameraYamls(c);
   WriteText(c.out / "truth" / "truth.json", c.truth.dump(1) + "\n");
   WriteText(c.out / "ground_truth.json", c.registration_truth.dump(1) + "\n");
   WriteText(c.out / "project.yaml", ProjectYaml(c));

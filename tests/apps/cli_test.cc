@@ -379,6 +379,45 @@ TEST_F(CliTest, RegisterCloudReportsTheIntensityTest) {
 // registers relative to the cloud's centroid rounded to whole km. The KITTI frame moved by a
 // whole number of km must give the registration of the frame as delivered: the same status,
 // correction and pixel offsets, and the same pose moved back into the grid.
+// The issue's command line on a simulated panorama: the simulator's camera YAML holds the true
+// pose (--perturb starts from it moved), the mobile cloud's sidecar gives the scanner of each
+// point (the incidence correction, without options), and the perspective cuts are the two that
+// see the most LiDAR (the default --headings auto).
+TEST_F(CliTest, RegisterMiOnASimulatedPanoramaWithTheIssuesCommandLine) {
+  std::ofstream(Tmp("tiny.yaml")) << "scene: gate\nseed: 3\nphotos: {count: 2, width: 160, height: 120, focal_px: 140, "
+                                     "tie_points: 100}\nspheres: {stations: 1, width: 1024}\nrig: {frames: 1, width: 48, "
+                                     "focal_px: 20, panorama_width: 128}\nlidar: {static_scans: 1, azimuth_step_deg: 3, "
+                                     "elevation_step_deg: 3, mobile_revolutions: 20}\nclouds: {surface_samples: 2000}\n";
+  const RunResult sim = Mmba("simulate --scene " + Tmp("tiny.yaml") + " --out " + Tmp("sim") + " -q");
+  ASSERT_EQ(sim.exit_code, 0) << sim.output;
+  const std::string yaml = Tmp("sim/truth/cameras/spherical/S1_lower.yaml");
+  ASSERT_TRUE(fs::exists(yaml));
+  const RunResult run = Mmba("register-mi --lidar " + Tmp("sim/truth/mobile_lidar_true.ply") + " --image " +
+                             Tmp("sim/images/spherical/S1_lower.png") + " --camera " + yaml +
+                             " --view perspective --perturb 0.05,-0.04,0.03,0.5,-0.4,0.3 --output " + Tmp("out.json"));
+  ASSERT_TRUE(run.exit_code == 0 || run.exit_code == 3) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("the scanner's position from " + Tmp("sim/truth/mobile_lidar_true.scanner.yaml")));
+  EXPECT_THAT(run.output, HasSubstr("perspective cuts at headings"));
+  const nlohmann::json out = nlohmann::json::parse(std::ifstream(Tmp("out.json")));
+  ASSERT_TRUE(out["incidence_correction"][0].is_object()) << out["incidence_correction"].dump();
+  EXPECT_EQ(out["incidence_correction"][0]["scanner_from"], Tmp("sim/truth/mobile_lidar_true.scanner.yaml"));
+  // The simulated intensity is Lambertian: the fitted exponent near 1.
+  EXPECT_NEAR(out["incidence_correction"][0]["exponent"].get<double>(), 1.0, 0.2);
+  // Two cuts, reported against the truth (the YAML's pose): the start is several pixels off.
+  ASSERT_EQ(out["pixel_offset_vs_reference"].size(), 2u) << out.dump(1);
+  for (const nlohmann::json& view : out["pixel_offset_vs_reference"]) {
+    EXPECT_THAT(view["view"].get<std::string>(), HasSubstr("perspective_"));
+    EXPECT_GT(view["before"]["median_px"].get<double>(), 2.0) << view.dump();
+    if (out["status"] == "ok") {
+      EXPECT_LT(view["after"]["median_px"].get<double>(), 1.0) << view.dump();
+    }
+  }
+  // A failure is told on stderr (as register-cloud's), with its reason.
+  if (run.exit_code == 3) {
+    EXPECT_THAT(run.output, HasSubstr("mmba: failed: MI registration: failed ("));
+  }
+}
+
 TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
   const std::string kitti = kSource + "/data/kitti/";
   const std::string common = " --image " + kitti + "image_2/000000.png --kitti-calib " + kitti +
@@ -498,6 +537,36 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
   EXPECT_NEAR(t["incidence_correction"][0]["exponent"].get<double>(),
               b["incidence_correction"][0]["exponent"].get<double>(), 1e-6);
   EXPECT_EQ(t["incidence_correction"][0]["points"], b["incidence_correction"][0]["points"]);
+  // Without the options, the cloud's sidecar CLOUD.scanner.yaml (as mmba simulate writes for a
+  // mobile cloud) names the trajectory and the mounting, relative to its folder: the same
+  // correction. A static scan's sidecar gives its origin.
+  fs::create_directories(Tmp("side"));
+  fs::copy_file(Tmp("grid_timed.ply"), Tmp("side/grid_timed.ply"));
+  fs::copy_file(Tmp("grid.ply"), Tmp("side/grid.ply"));
+  std::ofstream(Tmp("side/grid_timed.scanner.yaml")) << "trajectory: ../trajectory.csv\nlidar_mount: ../mount.yaml\n";
+  std::ofstream(Tmp("side/grid.scanner.yaml")) << "scanner_origin: [512000, 5412000, 1000]\n";
+  for (const std::string cloud_name : {"grid_timed", "grid"}) {
+    const RunResult from_sidecar = Mmba("register-mi --lidar " + Tmp("side/" + cloud_name + ".ply") + " --initial " +
+                                        Tmp("pose.json") + common + " --output " + Tmp("sidecar.json"));
+    EXPECT_EQ(from_sidecar.exit_code, given.exit_code) << from_sidecar.output;
+    const nlohmann::json sc = nlohmann::json::parse(std::ifstream(Tmp("sidecar.json")));
+    ASSERT_TRUE(sc["incidence_correction"][0].is_object()) << cloud_name << ": " << sc["incidence_correction"].dump();
+    EXPECT_NEAR(sc["incidence_correction"][0]["exponent"].get<double>(),
+                t["incidence_correction"][0]["exponent"].get<double>(), 1e-6) << cloud_name;
+    EXPECT_THAT(sc["incidence_correction"][0]["scanner_from"].get<std::string>(),
+                HasSubstr(cloud_name + ".scanner.yaml"));
+  }
+  // A sidecar that names a missing file, or has an unknown key, is bad input naming it.
+  for (const std::string& text : {std::string("trajectory: ../nowhere.csv\nlidar_mount: ../mount.yaml\n"),
+                                  std::string("trajectory: ../trajectory.csv\n"),
+                                  std::string("scanner_orign: [1, 2, 3]\n")}) {
+    std::ofstream(Tmp("side/grid.scanner.yaml")) << text;
+    const RunResult bad_sidecar = Mmba("register-mi --lidar " + Tmp("side/grid.ply") + " --initial " +
+                                       Tmp("pose.json") + common + " --output " + Tmp("bad_sidecar.json"));
+    EXPECT_EQ(bad_sidecar.exit_code, 2) << text << bad_sidecar.output;
+    EXPECT_THAT(bad_sidecar.output, HasSubstr("grid.scanner.yaml")) << text;
+    EXPECT_FALSE(fs::exists(Tmp("bad_sidecar.json"))) << text;
+  }
   // Bad incidence options: exit 2 naming the option or the file, nothing written (late.csv:
   // a trajectory that starts after the points were measured).
   std::ofstream(Tmp("late.csv")) << "time_s,x_east_m,y_north_m,z_up_m,qw,qx,qy,qz\n10,0,0,0,1,0,0,0\n11,0,0,0,1,0,0,0\n";

@@ -12,7 +12,9 @@
 
 #include "mmba/core/error.h"
 #include "mmba/io/colmap_model.h"
+#include "mmba/io/kitti.h"
 #include "mmba/io/point_cloud.h"
+#include "mmba/io/trajectory.h"
 #include "mmba/sim/survey.h"
 
 namespace mmba::sim {
@@ -125,6 +127,38 @@ TEST_F(SimulateTiny, WritesTheDocumentedLayout) {
   const Eigen::Vector3d in_world = world_from_cloud.topLeftCorner<3, 3>() * viewpoints[0] +
                                    world_from_cloud.topRightCorner<3, 1>();
   EXPECT_LT((in_world - centre).norm(), 1e-6);
+}
+
+// Each mobile cloud names, in its sidecar, the trajectory and mounting it was georeferenced
+// with (register-mi's incidence correction reads them): with them every point lies, seen from
+// its scanner at its time, within the head's beam elevations — a wrong trajectory, mounting or
+// time base would put points outside them.
+TEST_F(SimulateTiny, MobileCloudsNameTheScannerOfEachPoint) {
+  const SimulateOptions o = Tiny();
+  const double elevation[2] = {o.mobile_scan.elevation_min_deg, o.mobile_scan.elevation_max_deg};
+  for (const char* name : {"clouds/mobile_lidar.ply", "truth/mobile_lidar_true.ply"}) {
+    const std::optional<io::ScannerSidecar> sidecar = io::ReadScannerSidecar((*dir_ / name).string());
+    ASSERT_TRUE(sidecar.has_value()) << name;
+    const auto trajectory = io::ReadTrajectory(sidecar->trajectory);
+    const Rigid3d body_from_lidar = io::ReadLidarMountYaml(sidecar->lidar_mount);
+    const io::PointCloud cloud = io::ReadPointCloud((*dir_ / name).string());
+    ASSERT_TRUE(cloud.has_time()) << name;
+    ASSERT_GT(cloud.size(), 1000u) << name;
+    double lowest = 90, highest = -90;
+    for (size_t i = 0; i < cloud.size(); ++i) {
+      ASSERT_GE(cloud.time[i], trajectory.front().first) << name;
+      ASSERT_LE(cloud.time[i], trajectory.back().first) << name;
+      const Rigid3d world_from_lidar = io::InterpolateTrajectory(trajectory, cloud.time[i]) * body_from_lidar;
+      const Eigen::Vector3d in_lidar = world_from_lidar.Inverse() * cloud.points[i];
+      const double e = std::atan2(in_lidar.z(), in_lidar.head<2>().norm()) * 180.0 / M_PI;
+      lowest = std::min(lowest, e);
+      highest = std::max(highest, e);
+    }
+    EXPECT_GT(lowest, elevation[0] - 0.5) << name;
+    EXPECT_LT(highest, elevation[1] + 0.5) << name;
+    EXPECT_LT(lowest, elevation[0] + 2) << name;
+    EXPECT_GT(highest, elevation[1] - 2) << name;
+  }
 }
 
 TEST_F(SimulateTiny, SameSeedSameBytes) {
