@@ -381,8 +381,8 @@ TEST_F(CliTest, RegisterCloudReportsTheIntensityTest) {
 // correction and pixel offsets, and the same pose moved back into the grid.
 // The issue's command line on a simulated panorama: the simulator's camera YAML holds the true
 // pose (--perturb starts from it moved), the mobile cloud's sidecar gives the scanner of each
-// point (the incidence correction, without options), and the perspective cuts are the two that
-// see the most LiDAR (the default --headings auto).
+// point (the incidence correction, without options), and a panorama is registered on
+// perspective cuts (the default --view auto), the two that see the most LiDAR (--headings auto).
 TEST_F(CliTest, RegisterMiOnASimulatedPanoramaWithTheIssuesCommandLine) {
   std::ofstream(Tmp("tiny.yaml")) << "scene: gate\nseed: 3\nphotos: {count: 2, width: 160, height: 120, focal_px: 140, "
                                      "tie_points: 100}\nspheres: {stations: 1, width: 1024}\nrig: {frames: 1, width: 48, "
@@ -394,9 +394,10 @@ TEST_F(CliTest, RegisterMiOnASimulatedPanoramaWithTheIssuesCommandLine) {
   ASSERT_TRUE(fs::exists(yaml));
   const RunResult run = Mmba("register-mi --lidar " + Tmp("sim/truth/mobile_lidar_true.ply") + " --image " +
                              Tmp("sim/images/spherical/S1_lower.png") + " --camera " + yaml +
-                             " --view perspective --perturb 0.05,-0.04,0.03,0.5,-0.4,0.3 --output " + Tmp("out.json"));
+                             " --perturb 0.05,-0.04,0.03,0.5,-0.4,0.3 --output " + Tmp("out.json"));
   ASSERT_TRUE(run.exit_code == 0 || run.exit_code == 3) << run.output;
   EXPECT_THAT(run.output, HasSubstr("the scanner's position from " + Tmp("sim/truth/mobile_lidar_true.scanner.yaml")));
+  EXPECT_THAT(run.output, HasSubstr("--view auto: perspective cuts of the panorama"));
   EXPECT_THAT(run.output, HasSubstr("perspective cuts at headings"));
   const nlohmann::json out = nlohmann::json::parse(std::ifstream(Tmp("out.json")));
   ASSERT_TRUE(out["incidence_correction"][0].is_object()) << out["incidence_correction"].dump();
