@@ -5,7 +5,7 @@ For each simulated panorama (the spherical stations' lower and upper images, the
 panoramas) it runs
 
     mmba register-mi --lidar SIM/truth/mobile_lidar_true.ply --image IMAGE \
-        --camera SIM/truth/cameras/<kind>/<name>.yaml --view perspective|image|cube \
+        --camera SIM/truth/cameras/<kind>/<name>.yaml [--view perspective|image|cube] \
         --perturb tx,ty,tz,roll,pitch,yaw --output OUT.json
 
 — nothing else: the camera YAML (written by the simulator) holds the true pose, `--perturb`
@@ -21,7 +21,7 @@ registered, in that view's own pixels: a perspective cut (940x452, 90 deg) has 2
 
 Usage:
   /usr/bin/python3 bench/mi_panoramas_cli.py MMBA SIM OUTDIR [--draws N] [--seed S]
-      [--view perspective|image|cube] [--extra "OPTIONS"] [--summarize]
+      [--view auto|perspective|image|cube] [--extra "OPTIONS"] [--summarize]
 Writes OUTDIR/runs.csv and one JSON per run; prints a summary.
 """
 import argparse
@@ -63,7 +63,7 @@ def main():
     parser.add_argument("out")
     parser.add_argument("--draws", type=int, default=1)
     parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--view", default="perspective", help="register-mi --view (perspective | image | cube)")
+    parser.add_argument("--view", default="auto", help="register-mi --view (auto, the default: perspective for a panorama | perspective | image | cube)")
     parser.add_argument("--extra", default="", help="more register-mi options, space-separated")
     parser.add_argument("--summarize", action="store_true", help="only summarise OUTDIR/runs.csv")
     args = parser.parse_args()
