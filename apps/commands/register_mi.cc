@@ -647,7 +647,8 @@ int RunRegisterMi(const RegisterMiArgs& args) {
                                                             : "";
     std::vector<std::pair<double, Rigid3d>> sidecar_trajectory;
     Rigid3d sidecar_mount;
-    if (args.incidence_correction != "off" && scanner_from.empty()) {
+    // (Read only where it is used: a depth or points image is not corrected.)
+    if ((correct_incidence || args.incidence_correction == "on") && scanner_from.empty()) {
       if (const std::optional<io::ScannerSidecar> sidecar = io::ReadScannerSidecar(lidar_path)) {
         scanner_from = sidecar->path;
         scanner_origin = sidecar->origin;

@@ -568,6 +568,11 @@ TEST_F(CliTest, RegisterMiInMapGridCoordinates) {
     EXPECT_THAT(bad_sidecar.output, HasSubstr("grid.scanner.yaml")) << text;
     EXPECT_FALSE(fs::exists(Tmp("bad_sidecar.json"))) << text;
   }
+  // Nor is it read where nothing is corrected (a depth image).
+  const RunResult depth = Mmba("register-mi --lidar " + Tmp("side/grid.ply") + " --initial " + Tmp("pose.json") +
+                               common + " --representation depth --output " + Tmp("depth.json"));
+  EXPECT_NE(depth.exit_code, 2) << depth.output;
+  EXPECT_TRUE(fs::exists(Tmp("depth.json"))) << depth.output;
   // Bad incidence options: exit 2 naming the option or the file, nothing written (late.csv:
   // a trajectory that starts after the points were measured).
   std::ofstream(Tmp("late.csv")) << "time_s,x_east_m,y_north_m,z_up_m,qw,qx,qy,qz\n10,0,0,0,1,0,0,0\n11,0,0,0,1,0,0,0\n";
