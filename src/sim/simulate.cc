@@ -1103,8 +1103,8 @@ std::string ProjectYaml(const Context& c) {
   return y.str();
 }
 
-// truth/cameras/<images subfolder>/<image stem>.yaml: each panorama's and photo's true camera
-// and pose in register-mi's camera YAML (calib/README.md), cam_from_lidar being the pose
+// truth/cameras/<images subfolder>/<image stem>.yaml: the true camera and pose of each panorama,
+// rig camera and photo in register-mi's camera YAML (calib/README.md), cam_from_lidar being the pose
 // against the world frame of truth/mobile_lidar_true.ply and clouds/lidar.ply — so that
 // `mmba register-mi --lidar truth/mobile_lidar_true.ply --image IMAGE --camera YAML --perturb …`
 // starts from the truth moved by the given correction and reports the pixel offsets to it.
@@ -1140,6 +1140,27 @@ void WriteTrueCameraYamls(const Context& c) {
     for (const json& frame : rig.at("frames")) {
       write("images/rig_panoramas/" + frame.at("name").get<std::string>() + ".png", rig.at("panorama_camera"),
             frame.at("rig_from_world"));
+    }
+  }
+  if (c.truth.contains("rig") && c.truth.at("rig").contains("cameras")) {
+    // Each rig camera's image alone (a fisheye): cam_from_world = cam_from_rig · rig_from_world.
+    const json& rig = c.truth.at("rig");
+    const auto matrix = [](const json& pose) {
+      Eigen::Matrix4d m;
+      for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = pose.at("matrix").at(i / 4).at(i % 4).get<double>();
+      return m;
+    };
+    for (const json& frame : rig.at("frames")) {
+      const std::string name = frame.at("name").get<std::string>();
+      const json& cameras = rig.at("cameras");
+      for (size_t k = 0; k < cameras.size(); ++k) {
+        const Eigen::Matrix4d cam_from_world = matrix(cameras[k].at("cam_from_rig")) * matrix(frame.at("rig_from_world"));
+        json rows = json::array();
+        for (int r = 0; r < 4; ++r) {
+          rows.push_back({cam_from_world(r, 0), cam_from_world(r, 1), cam_from_world(r, 2), cam_from_world(r, 3)});
+        }
+        write("images/rig/" + name + "_cam" + std::to_string(k) + ".png", cameras[k].at("camera"), json{{"matrix", rows}});
+      }
     }
   }
   if (c.truth.contains("photos")) {

@@ -161,6 +161,33 @@ TEST_F(SimulateTiny, MobileCloudsNameTheScannerOfEachPoint) {
   }
 }
 
+// Each photo's camera YAML (truth/cameras/photos/…) holds the pose of the true COLMAP model
+// (whose tie points project exactly: TrueColmapModelProjectsExactly…); the panoramas' and the
+// rig cameras' are written too.
+TEST_F(SimulateTiny, TrueCameraYamlsHoldTheTruePoses) {
+  const io::ColmapModel truth = io::ReadColmapModel((*dir_ / "truth" / "colmap_photos").string());
+  size_t checked = 0;
+  for (const auto& [id, image] : truth.images) {
+    const fs::path yaml = *dir_ / "truth" / "cameras" / "photos" / (fs::path(image.name).stem().string() + ".yaml");
+    ASSERT_TRUE(fs::exists(yaml)) << yaml;
+    const std::string text = Slurp(yaml);
+    const size_t at = text.find("cam_from_lidar: [");
+    ASSERT_NE(at, std::string::npos) << text;
+    std::istringstream numbers(text.substr(at + 17));
+    Eigen::Matrix4d m;
+    for (int i = 0; i < 16; ++i) {
+      numbers >> m(i / 4, i % 4);
+      numbers.ignore(1);  // ',' or ']'
+    }
+    EXPECT_LT((m - image.cam_from_world.ToMatrix4()).cwiseAbs().maxCoeff(), 1e-12) << image.name;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 4u);
+  for (const char* kind : {"spherical", "rig_panoramas", "rig"}) {
+    EXPECT_FALSE(fs::is_empty(*dir_ / "truth" / "cameras" / kind)) << kind;
+  }
+}
+
 TEST_F(SimulateTiny, SameSeedSameBytes) {
   const fs::path other = OutDir("b");
   Simulate(Tiny(), other.string());
