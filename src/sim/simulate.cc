@@ -1109,7 +1109,13 @@ std::string ProjectYaml(const Context& c) {
 // `mmba register-mi --lidar truth/mobile_lidar_true.ply --image IMAGE --camera YAML --perturb …`
 // starts from the truth moved by the given correction and reports the pixel offsets to it.
 void WriteTrueCameraYamls(const Context& c) {
-  const auto write = [&](const std::string& image, const json& camera, const json& cam_from_world) {
+  // A pose of truth.json (PoseJson) as its 4×4 matrix.
+  const auto matrix = [](const json& pose) {
+    Eigen::Matrix4d m;
+    for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = pose.at("matrix").at(i / 4).at(i % 4).get<double>();
+    return m;
+  };
+  const auto write = [&](const std::string& image, const json& camera, const Eigen::Matrix4d& cam_from_world) {
     const fs::path rel(image);  // images/<kind>/<file>
     const fs::path yaml = c.out / "truth" / "cameras" / rel.parent_path().filename() / (rel.stem().string() + ".yaml");
     fs::create_directories(yaml.parent_path());
@@ -1122,8 +1128,7 @@ void WriteTrueCameraYamls(const Context& c) {
     const auto params = camera.at("params").get<std::vector<double>>();
     for (size_t i = 0; i < params.size(); ++i) text << (i ? ", " : "") << params[i];
     text << "]\ncam_from_lidar: [";
-    const json& m = cam_from_world.at("matrix");
-    for (int i = 0; i < 16; ++i) text << (i ? ", " : "") << m.at(i / 4).at(i % 4).get<double>();
+    for (int i = 0; i < 16; ++i) text << (i ? ", " : "") << cam_from_world(i / 4, i % 4);
     text << "]\n";
     WriteText(yaml, text.str());
   };
@@ -1131,42 +1136,31 @@ void WriteTrueCameraYamls(const Context& c) {
     const json& s = c.truth.at("spherical_stereo");
     for (const json& station : s.at("stations")) {
       const auto images = station.at("images").get<std::vector<std::string>>();
-      write(images.at(0), s.at("lower_camera"), station.at("lower_from_world"));
-      write(images.at(1), s.at("upper_camera"), station.at("upper_from_world"));
+      write(images.at(0), s.at("lower_camera"), matrix(station.at("lower_from_world")));
+      write(images.at(1), s.at("upper_camera"), matrix(station.at("upper_from_world")));
     }
   }
-  if (c.truth.contains("rig") && c.truth.at("rig").contains("panorama_camera")) {
+  if (c.truth.contains("rig")) {
     const json& rig = c.truth.at("rig");
-    for (const json& frame : rig.at("frames")) {
-      write("images/rig_panoramas/" + frame.at("name").get<std::string>() + ".png", rig.at("panorama_camera"),
-            frame.at("rig_from_world"));
-    }
-  }
-  if (c.truth.contains("rig") && c.truth.at("rig").contains("cameras")) {
-    // Each rig camera's image alone (a fisheye): cam_from_world = cam_from_rig · rig_from_world.
-    const json& rig = c.truth.at("rig");
-    const auto matrix = [](const json& pose) {
-      Eigen::Matrix4d m;
-      for (int i = 0; i < 16; ++i) m(i / 4, i % 4) = pose.at("matrix").at(i / 4).at(i % 4).get<double>();
-      return m;
-    };
     for (const json& frame : rig.at("frames")) {
       const std::string name = frame.at("name").get<std::string>();
+      const Eigen::Matrix4d rig_from_world = matrix(frame.at("rig_from_world"));
+      if (rig.contains("panorama_camera")) {
+        write("images/rig_panoramas/" + name + ".png", rig.at("panorama_camera"), rig_from_world);
+      }
+      // Each rig camera's image alone (a fisheye): cam_from_world = cam_from_rig · rig_from_world.
       const json& cameras = rig.at("cameras");
       for (size_t k = 0; k < cameras.size(); ++k) {
-        const Eigen::Matrix4d cam_from_world = matrix(cameras[k].at("cam_from_rig")) * matrix(frame.at("rig_from_world"));
-        json rows = json::array();
-        for (int r = 0; r < 4; ++r) {
-          rows.push_back({cam_from_world(r, 0), cam_from_world(r, 1), cam_from_world(r, 2), cam_from_world(r, 3)});
-        }
-        write("images/rig/" + name + "_cam" + std::to_string(k) + ".png", cameras[k].at("camera"), json{{"matrix", rows}});
+        write("images/rig/" + name + "_cam" + std::to_string(k) + ".png", cameras[k].at("camera"),
+              matrix(cameras[k].at("cam_from_rig")) * rig_from_world);
       }
     }
   }
   if (c.truth.contains("photos")) {
     const json& photos = c.truth.at("photos");
     for (const json& photo : photos.at("images")) {
-      write("images/photos/" + photo.at("name").get<std::string>(), photos.at("camera"), photo.at("cam_from_world"));
+      write("images/photos/" + photo.at("name").get<std::string>(), photos.at("camera"),
+            matrix(photo.at("cam_from_world")));
     }
   }
 }
