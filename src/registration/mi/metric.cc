@@ -87,13 +87,33 @@ JointHistogram::JointHistogram(const MetricOptions& options)
       classes_(std::clamp(options.lidar_classes, 1, kMaxLidarClasses)),
       counts_(static_cast<size_t>(classes_) * (options.bins + 3) * (options.bins + 3), 0.0),
       empty_counts_(options.bins + 3, 0.0),
+      background_(options.bins + 3, 0.0),
       photo_scale_(static_cast<float>((options.bins - 1) / 255.0)) {}
 
 void JointHistogram::Clear() {
   std::fill(counts_.begin(), counts_.end(), 0.0);
   std::fill(empty_counts_.begin(), empty_counts_.end(), 0.0);
+  std::fill(background_.begin(), background_.end(), 0.0);
   total_ = 0;
   lidar_total_ = 0;
+  background_pixels_ = 0;
+}
+
+void JointHistogram::AddBackgroundComplement(const double* padded, double pixels) {
+  CHECK(options_.region == Region::kWholeImage)
+      << "a background complement belongs to the whole-image histogram";
+  for (size_t q = 0; q < background_.size(); ++q) background_[q] += padded[q];
+  background_pixels_ += pixels;
+}
+
+std::vector<double> JointHistogram::PaddedCoveredPhoto() const {
+  const size_t stride = static_cast<size_t>(bins_) + 3;
+  std::vector<double> columns(stride, 0.0);
+  for (size_t row = 0; row < counts_.size() / stride; ++row) {
+    const double* line = &counts_[row * stride];
+    for (size_t q = 0; q < stride; ++q) columns[q] += line[q];
+  }
+  return columns;
 }
 
 namespace {
@@ -497,15 +517,20 @@ void JointHistogram::Merge(const JointHistogram& other) {
   CHECK_EQ(counts_.size(), other.counts_.size()) << "histograms of different bins";
   for (size_t k = 0; k < counts_.size(); ++k) counts_[k] += other.counts_[k];
   for (size_t k = 0; k < empty_counts_.size(); ++k) empty_counts_[k] += other.empty_counts_[k];
+  for (size_t k = 0; k < background_.size(); ++k) background_[k] += other.background_[k];
   total_ += other.total_;
   lidar_total_ += other.lidar_total_;
+  background_pixels_ += other.background_pixels_;
 }
 
 MetricValue JointHistogram::Evaluate() const {
   MetricValue result;
-  result.samples = total_;
+  // With a background complement the sample count is the views' pixels (the covered
+  // samples' weights are part of them).
+  const double sample_count = total_ + std::max(0.0, background_pixels_ - lidar_total_);
+  result.samples = sample_count;
   result.lidar_samples = lidar_total_;
-  if (total_ <= 0) return result;
+  if (sample_count <= 0) return result;
   const int bins = bins_;
   const int stride = bins + 3;
   const bool whole = options_.region == Region::kWholeImage;
@@ -518,6 +543,12 @@ MetricValue JointHistogram::Evaluate() const {
   std::vector<double> joint(static_cast<size_t>(lidar_bins) * bins, 0.0);
   if (whole) {
     for (int q = 0; q < stride; ++q) joint[fold(q)] += empty_counts_[q];
+    if (background_pixels_ > 0) {
+      // The background as the complement of the covered samples' photo values.
+      const std::vector<double> covered = PaddedCoveredPhoto();
+      for (int q = 0; q < stride; ++q) joint[fold(q)] += background_[q] - covered[q];
+      for (int y = 0; y < bins; ++y) joint[y] = std::max(0.0, joint[y]);
+    }
   }
   for (int c = 0; c < classes; ++c) {
     for (int p = 0; p < stride; ++p) {

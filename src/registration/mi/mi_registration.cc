@@ -659,8 +659,10 @@ bool FrameSetEvaluator::SplitRender(const LidarPoints& points) const {
 }
 
 bool FrameSetEvaluator::UsesSamples(const MetricOptions& metric) const {
-  return options_.point_samples && metric.smoothing == Smoothing::kBSpline &&
-         metric.region == Region::kOverlap;
+  if (!options_.point_samples || metric.smoothing != Smoothing::kBSpline) return false;
+  if (metric.region == Region::kOverlap) return true;
+  // Whole image: the sample sets carry the background of the options' metric only.
+  return options_.metric.region == Region::kWholeImage && metric.bins == options_.metric.bins;
 }
 
 FrameSetEvaluator::SampleSet FrameSetEvaluator::MakeSampleSet(const Rigid3d& cam_from_lidar,
@@ -681,6 +683,22 @@ FrameSetEvaluator::SampleSet FrameSetEvaluator::MakeSampleSet(const Rigid3d& cam
       set.views.push_back(
           MakeViewSamples(points_[level][f], buffer, options_.render, per_point, placement));
       set.samples += set.views.back().samples();
+      if (options_.metric.region == Region::kWholeImage) {
+        // The reference's background pixels and its samples' photo values, one histogram:
+        // what the background is at any pose once the samples' values are taken out of it.
+        MetricOptions level_metric = options_.metric;
+        level_metric.bins = std::max(8, options_.metric.bins >> level);
+        level_metric.smoothing = Smoothing::kBSpline;
+        JointHistogram rendered(level_metric), sampled(level_metric);
+        rendered.Add(buffer, view.image);
+        AccumulateViewSamples(set.views.back(), view, cam_from_lidar, options_.render, 0,
+                              set.views.back().points(), &sampled);
+        std::vector<double> background = rendered.PaddedEmptyPhoto();
+        const std::vector<double> covered = sampled.PaddedCoveredPhoto();
+        for (size_t q = 0; q < background.size(); ++q) background[q] += covered[q];
+        set.background.push_back(std::move(background));
+        set.view_pixels.push_back(static_cast<double>(view.camera.width) * view.camera.height);
+      }
     }
   }
   ++sample_sets_;
@@ -734,6 +752,12 @@ MetricValue FrameSetEvaluator::Evaluate(const Rigid3d& cam_from_lidar, int level
     fill(1);
   }
   parts[0].Merge(parts[1]);
+  if (level_metric.region == Region::kWholeImage) {
+    CHECK_EQ(set->background.size(), set->views.size()) << "a sample set without background";
+    for (size_t v = 0; v < set->background.size(); ++v) {
+      parts[0].AddBackgroundComplement(set->background[v].data(), set->view_pixels[v]);
+    }
+  }
   const MetricValue value = parts[0].Evaluate();
   ++sample_evaluations_;
   sample_ns_ += static_cast<int64_t>(1e9 * timer.ElapsedSeconds());

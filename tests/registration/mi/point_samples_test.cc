@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <utility>
 
@@ -266,7 +267,9 @@ TEST_F(PointSamplesTest, RegistrationWithPointSamplesRecoversThePose) {
   EXPECT_LT(after.median_px, 0.5);
 }
 
-// A set of another level, or a metric the samples cannot give, falls back to rendering.
+// A set of another level, or a metric the samples cannot give, falls back to rendering: the
+// whole image when the evaluator's own region is the overlap (its sets carry no background),
+// or the whole image with other bins than the options'.
 TEST_F(PointSamplesTest, OtherLevelOrWholeImageMetricIsRendered) {
   RegistrationOptions options = SampledOptions();
   const FrameSetEvaluator evaluator({frame_}, truth_, options);
@@ -277,8 +280,65 @@ TEST_F(PointSamplesTest, OtherLevelOrWholeImageMetricIsRendered) {
   whole.region = Region::kWholeImage;
   EXPECT_FALSE(evaluator.UsesSamples(whole));
   const FrameSetEvaluator::SampleSet level1 = evaluator.MakeSampleSet(truth_, 1, true);
+  EXPECT_TRUE(level1.background.empty());
   EXPECT_EQ(evaluator.Evaluate(truth_, 1, whole, &level1).value,
             evaluator.Evaluate(truth_, 1, whole).value);
+  RegistrationOptions whole_options = options;
+  whole_options.metric.region = Region::kWholeImage;
+  const FrameSetEvaluator whole_evaluator({frame_}, truth_, whole_options);
+  EXPECT_TRUE(whole_evaluator.UsesSamples(whole_options.metric));
+  MetricOptions other_bins = whole_options.metric;
+  other_bins.bins = 32;
+  EXPECT_FALSE(whole_evaluator.UsesSamples(other_bins));
+  const FrameSetEvaluator::SampleSet whole_set = whole_evaluator.MakeSampleSet(truth_, 0, true);
+  EXPECT_EQ(whole_evaluator.Evaluate(truth_, 0, other_bins, &whole_set).value,
+            whole_evaluator.Evaluate(truth_, 0, other_bins).value);
+}
+
+// The whole image from samples (the background as the complement of the samples' photo
+// values, JointHistogram::AddBackgroundComplement): per-pixel samples at the reference give
+// the rendered whole-image metric, every pyramid level, for intensity and points; away from
+// the reference the sample count stays the view's pixels, and with one sample per point the
+// metric stays within a small margin of the rendered one and peaks where it does.
+TEST_F(PointSamplesTest, WholeImageFromSamplesEqualsTheRenderedMetric) {
+  for (Representation representation : {Representation::kIntensity, Representation::kPoints}) {
+    RegistrationOptions options = SampledOptions();
+    options.render.representation = representation;
+    options.metric.region = Region::kWholeImage;
+    const FrameSetEvaluator evaluator({frame_}, truth_, options);
+    ASSERT_TRUE(evaluator.UsesSamples(options.metric));
+    const double pixels = static_cast<double>(camera_.width) * camera_.height;
+    for (int level = 0; level < evaluator.levels(); ++level) {
+      const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth_, level, false);
+      ASSERT_EQ(set.background.size(), set.views.size());
+      const MetricValue rendered = evaluator.Evaluate(truth_, level, options.metric);
+      const MetricValue sampled = evaluator.Evaluate(truth_, level, options.metric, &set);
+      EXPECT_DOUBLE_EQ(sampled.samples, rendered.samples) << "level " << level;
+      EXPECT_DOUBLE_EQ(sampled.lidar_samples, rendered.lidar_samples) << "level " << level;
+      EXPECT_NEAR(sampled.mi, rendered.mi, 1e-6) << "level " << level;
+      EXPECT_NEAR(sampled.value, rendered.value, 1e-6) << "level " << level;
+    }
+    EXPECT_DOUBLE_EQ(evaluator.Evaluate(truth_, 0, options.metric).samples, pixels);
+    const FrameSetEvaluator::SampleSet set = evaluator.MakeSampleSet(truth_, 0, true);
+    const double at_truth = evaluator.Evaluate(truth_, 0, options.metric, &set).value;
+    const double rendered_truth = evaluator.Evaluate(truth_, 0, options.metric).value;
+    for (int axis = 0; axis < 6; ++axis) {
+      for (double sign : {-1.0, 1.0}) {
+        Vector6d offset = Vector6d::Zero();
+        offset[axis] = sign * (axis < 3 ? 0.03 : 0.3);  // a few pixels
+        const Rigid3d pose = ApplyCorrection(truth_, offset);
+        const MetricValue moved = evaluator.Evaluate(pose, 0, options.metric, &set);
+        const MetricValue rendered = evaluator.Evaluate(pose, 0, options.metric);
+        EXPECT_DOUBLE_EQ(moved.samples, pixels) << ParameterName(axis) << " " << sign;
+        std::printf("%s %s %+.0f: sampled %.6f (truth %.6f) rendered %.6f (truth %.6f)\n",
+                    RepresentationName(representation).c_str(), ParameterName(axis),
+                    sign, moved.value, at_truth, rendered.value, rendered_truth);
+        if (representation == Representation::kIntensity) {
+          EXPECT_LT(moved.value, at_truth) << ParameterName(axis) << " " << sign;
+        }
+      }
+    }
+  }
 }
 
 // The footprint decides visibility only (PerPointPlacement, block_px > 0): at the edge of a

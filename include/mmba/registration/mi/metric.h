@@ -91,6 +91,21 @@ class JointHistogram {
   void Merge(const JointHistogram& other);
   MetricValue Evaluate() const;
 
+  /// Whole-image mode from point samples: the pixels without LiDAR are not added one by one
+  /// but as a complement. `padded` (bins + 3 values, the padded photo axis) is the photo
+  /// histogram that the view's background and its samples' photo values make together at the
+  /// samples' reference pose, and `pixels` the view's pixel count. Evaluate() then takes the
+  /// background row as `padded` minus the photo histogram of the covered samples added: at
+  /// the reference exactly the rendered background; at another pose what the samples' photo
+  /// values no longer take, the background takes (the sample count stays the view's pixels,
+  /// as when each pose is rendered). Background bins that the difference would make negative
+  /// (photo values sampled off the pixel centres) count 0. CHECKs whole-image mode.
+  void AddBackgroundComplement(const double* padded, double pixels);
+  /// The padded photo histogram (bins + 3 values) of the samples without LiDAR added so far
+  /// (whole-image mode), and of the LiDAR-covered samples (summed over the LiDAR axis).
+  std::vector<double> PaddedEmptyPhoto() const { return empty_counts_; }
+  std::vector<double> PaddedCoveredPhoto() const;
+
   /// Fast path of the point-sample evaluation (point_samples.cc), B-spline histogram of the
   /// overlap region only: one LiDAR-covered sample whose LiDAR bin weights were computed
   /// once for its point (bx = LiDAR bin, wx its four weights: LidarWeights) and whose photo
@@ -186,6 +201,9 @@ class JointHistogram {
   /// such blocks one after the other along the LiDAR axis (rows c·(bins+3) ..).
   std::vector<double> counts_;
   std::vector<double> empty_counts_;  ///< photo histogram of samples without LiDAR (bins+3)
+  /// AddBackgroundComplement's sums: the reference photo histogram (bins+3) and pixels.
+  std::vector<double> background_;
+  double background_pixels_ = 0;
   double total_ = 0;
   double lidar_total_ = 0;
   float photo_scale_ = 0;  ///< photo grey level → continuous bin

@@ -87,12 +87,15 @@ struct RegistrationOptions {
   /// 0.3 m / 2° start (sparse coarse images); 0.3 made the level-1 restarts too noisy.
   double max_points_per_pixel = 0.75;
   /// Point-sample evaluation (point_samples.h; sample-based MI, Viola & Wells 1997), ON by
-  /// default: where the histogram is the B-spline one over the overlap region, the searches
-  /// render the z-buffer once at a reference pose and then move only the visible points'
-  /// samples, re-rendering when the pose has moved the image by more than
-  /// `sample_rebuild_px` pixels of the level (largest displacement of 16 probe points per
-  /// view). Whole-image histograms (the points-only representation) are always rendered:
-  /// their information is the coverage itself, which frozen samples cannot change. false =
+  /// default: where the histogram is the B-spline one, the searches render the z-buffer
+  /// once at a reference pose and then move only the visible points' samples, re-rendering
+  /// when the pose has moved the image by more than `sample_rebuild_px` pixels of the level
+  /// (largest displacement of 16 probe points per view). Over the whole image (the
+  /// points-only representation's region) the pixels without LiDAR are the complement of
+  /// the samples: the reference's background and samples make one photo histogram, and what
+  /// the moved samples' photo values no longer take the background takes (JointHistogram::
+  /// AddBackgroundComplement; rendered at every pose until session 44, on the belief that
+  /// frozen samples cannot change the coverage — they move it with the points). false =
   /// every evaluation rendered (the default until 2 Dec). Measured (bench/RESULTS.md, "Point
   /// samples as the default (session of 2 Dec)"): on the 80 simulated panorama registrations
   /// 23 ok of which 22 < 1 px and one 1.02 px off (rendered: 6 ok, all < 1 px), at about
@@ -390,9 +393,15 @@ class FrameSetEvaluator {
     Rigid3d reference;
     std::vector<ViewSamples> views;  ///< frame-major, each frame's views in order
     size_t samples = 0;
+    /// Whole-image metric (options.metric.region): per view, the padded photo histogram of
+    /// its background and its samples at the reference (JointHistogram::
+    /// AddBackgroundComplement), for options.metric's bins at this level; empty otherwise.
+    std::vector<std::vector<double>> background;
+    std::vector<double> view_pixels;
   };
   /// True when `metric` can be evaluated from samples (options.point_samples, B-spline
-  /// histogram, overlap region).
+  /// histogram; the overlap region, or the whole image when it is the options' region with
+  /// the options' bins: the background as the complement of the samples).
   bool UsesSamples(const MetricOptions& metric) const;
   /// `per_point`: one weighted sample per visible point (options.SamplePerPoint), or one
   /// per covered pixel.
