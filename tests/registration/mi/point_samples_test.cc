@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <map>
 #include <utility>
 
@@ -330,11 +329,13 @@ TEST_F(PointSamplesTest, WholeImageFromSamplesEqualsTheRenderedMetric) {
         const MetricValue moved = evaluator.Evaluate(pose, 0, options.metric, &set);
         const MetricValue rendered = evaluator.Evaluate(pose, 0, options.metric);
         EXPECT_DOUBLE_EQ(moved.samples, pixels) << ParameterName(axis) << " " << sign;
-        std::printf("%s %s %+.0f: sampled %.6f (truth %.6f) rendered %.6f (truth %.6f)\n",
-                    RepresentationName(representation).c_str(), ParameterName(axis),
-                    sign, moved.value, at_truth, rendered.value, rendered_truth);
         if (representation == Representation::kIntensity) {
           EXPECT_LT(moved.value, at_truth) << ParameterName(axis) << " " << sign;
+        } else {
+          // The street's photo shows intensity: the coverage alone tells little (changes of
+          // 1e-4 to 3e-3), and the samples follow the rendered metric's changes within 4e-4.
+          EXPECT_NEAR(moved.value - at_truth, rendered.value - rendered_truth, 4e-4)
+              << ParameterName(axis) << " " << sign;
         }
       }
     }
