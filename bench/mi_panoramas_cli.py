@@ -22,18 +22,24 @@ registered, in that view's own pixels: a perspective cut (940x452, 90 deg) has 2
 Usage:
   /usr/bin/python3 bench/mi_panoramas_cli.py MMBA SIM OUTDIR [--draws N] [--seed S]
       [--view auto|perspective|image|cube] [--extra "OPTIONS"] [--summarize]
-Writes OUTDIR/runs.csv and one JSON per run; prints a summary.
+Writes OUTDIR/runs.csv and one JSON per run; prints a summary; and, as Wang et al.'s histograms of
+pixel offsets before and after, OUTDIR/hist_{small,large,all}.{csv,svg}: each registration's
+median offset (worst view, the view's own pixels) at the start and at the end, 1 px bins.
 """
 import argparse
 import csv
 import glob
 import json
 import os
+import pathlib
 import subprocess
 import sys
 import time
 
 import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from mi_panoramas_summary import write_histogram  # noqa: E402
 
 SIZES = {"small": (0.1, 1.0), "large": (0.3, 2.0)}
 
@@ -56,6 +62,20 @@ def summarize(rows):
             np.median([float(x["wall_s"]) for x in r])))
 
 
+def write_histograms(out_dir, rows):
+    """Before/after histograms per start size and over all (the paper's Figs. 12-13 kind)."""
+    for size in list(SIZES) + ["all"]:
+        r = [x for x in rows if size == "all" or x["size"] == size]
+        if not r:
+            continue
+        label = "all starts" if size == "all" else "starts up to %g m / %g deg" % SIZES[size]
+        write_histogram(pathlib.Path(out_dir) / ("hist_" + size),
+                        "%s: %s, %d registrations (after: every status)" % (
+                            os.path.basename(os.path.normpath(out_dir)), label, len(r)),
+                        [float(x["before_px"]) for x in r], [float(x["after_px"]) for x in r],
+                        bin_px=1.0, bins=40, unit="px of the view registered")
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("mmba")
@@ -68,7 +88,9 @@ def main():
     parser.add_argument("--summarize", action="store_true", help="only summarise OUTDIR/runs.csv")
     args = parser.parse_args()
     if args.summarize:
-        summarize(list(csv.DictReader(open(os.path.join(args.out, "runs.csv")))))
+        rows = list(csv.DictReader(open(os.path.join(args.out, "runs.csv"))))
+        summarize(rows)
+        write_histograms(args.out, rows)
         return
     os.makedirs(args.out, exist_ok=True)
     cloud = os.path.join(args.sim, "truth", "mobile_lidar_true.ply")
@@ -109,6 +131,7 @@ def main():
         w.writeheader()
         w.writerows(rows)
     summarize([{k: str(v) for k, v in x.items()} for x in rows])
+    write_histograms(args.out, rows)
 
 
 if __name__ == "__main__":

@@ -18,16 +18,20 @@ BIN_PX = 0.5
 BINS = 24
 
 
-def histogram(values):
-    counts = [0] * BINS
+def histogram(values, bin_px=BIN_PX, bins=BINS):
+    counts = [0] * bins
     for v in values:
         if math.isfinite(v):
-            counts[min(BINS - 1, int(v / BIN_PX))] += 1
+            counts[min(bins - 1, int(v / bin_px))] += 1
     return counts
 
 
-def write_histogram(base, title, before, after):
-    hb, ha = histogram(before), histogram(after)
+def write_histogram(base, title, before, after, bin_px=BIN_PX, bins=BINS,
+                    unit="px of the image"):
+    """Before (red) and after (blue) bars of `before`/`after` in `bins` bins of `bin_px`, the
+    last one open: BASE.csv and BASE.svg."""
+    BIN_PX, BINS = bin_px, bins  # noqa: N806 (the module defaults, overridden per plot)
+    hb, ha = histogram(before, bin_px, bins), histogram(after, bin_px, bins)
     with open(base.with_suffix(".csv"), "w") as out:
         out.write("bin_from_px,bin_to_px,views_before,views_after\n")
         for b in range(BINS):
@@ -47,13 +51,13 @@ def write_histogram(base, title, before, after):
             bh = counts[b] / top * ph
             svg.append(f'<rect x="{x + 1 + k * bar / 2:.1f}" y="{upper + ph - bh:.1f}" '
                        f'width="{bar / 2 - 1:.1f}" height="{bh:.1f}" fill="{colour}"/>')
-        if b % 2 == 0:
+        if b % max(1, BINS // 12) == 0:
             svg.append(f'<text x="{x:.1f}" y="{upper + ph + 15}">{b * BIN_PX:g}</text>')
     svg += [f'<line x1="{left}" y1="{upper + ph}" x2="{left + pw}" y2="{upper + ph}" stroke="black"/>',
             f'<line x1="{left}" y1="{upper}" x2="{left}" y2="{upper + ph}" stroke="black"/>',
             f'<text x="5" y="{upper + 10}">{top} views</text>',
             f'<text x="{left + pw / 2 - 150}" y="{h - 12}">median pixel offset of the view '
-            f'(px of the image; last bin ≥ {(BINS - 1) * BIN_PX:g})</text>',
+            f'({unit}; last bin ≥ {(BINS - 1) * BIN_PX:g})</text>',
             f'<rect x="{w - 200}" y="30" width="12" height="12" fill="#d62728"/>'
             f'<text x="{w - 182}" y="41">before (start)</text>',
             f'<rect x="{w - 200}" y="48" width="12" height="12" fill="#1f77b4"/>'

@@ -155,15 +155,9 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   }
   // --set NAME=VALUE: any other setting of the pipeline (after the flags, so it has the last
   // word).
-  for (const std::string& setting : args.settings) {
-    const size_t eq = setting.find('=');
-    std::string problem;
-    if (eq == std::string::npos) {
-      problem = "found '" + setting + "', expected NAME=VALUE";
-    } else {
-      registration::SetRegistrationSetting(setting.substr(0, eq), setting.substr(eq + 1), &options, &problem);
-    }
-    if (!problem.empty()) throw InputError::Message("--set", problem);
+  std::string problem;
+  if (!registration::ApplyRegistrationSettings(args.settings, &options, &problem)) {
+    throw InputError::Message("--set", problem);
   }
   std::string error;
   if (!options.Check(&error)) throw InputError::Message("options", error);

@@ -4,6 +4,7 @@
 
 #include "command.h"
 #include "mmba/core/logging.h"
+#include "mmba/registration/cloud/registration_settings.h"
 #include "mmba/registration/cloud/scene_evaluation.h"
 
 namespace mmba::app {
@@ -20,6 +21,7 @@ struct RegisterEvalArgs {
   bool no_local_search = false;
   bool no_viewpoints = false;
   std::vector<std::string> cells;
+  std::vector<std::string> settings;
   double min_fitness = registration::CloudRegistrationOptions().min_fitness;
 };
 
@@ -50,6 +52,10 @@ int RunRegisterEval(const RegisterEvalArgs& args) {
   }
   std::string error;
   if (!options.base.Check(&error)) throw InputError::Message("--min-fitness", error);
+  if (!registration::ApplyRegistrationSettings(args.settings, &options.base, &error) ||
+      !options.base.Check(&error)) {
+    throw InputError::Message("--set", error);
+  }
   if (!(args.success_fraction > 0)) {
     throw InputError::Message("--success-fraction", "expected a number > 0");
   }
@@ -105,6 +111,9 @@ std::function<int()> SetupRegisterEval(CLI::App& app, CommonOptions* common) {
       ->capture_default_str();
   sub->add_option("--cells", args->cells,
                   "run only these cells, each SOURCE:TARGET (e.g. spherical_stereo_part:lidar)");
+  sub->add_option("--set", args->settings,
+                  "NAME=VALUE ...: a setting of the registration pipeline for every method, as "
+                  "register-cloud --set (mmba register-cloud --help lists them)");
   sub->add_flag("--no-viewpoints", args->no_viewpoints,
                 "ignore clouds/<m>.viewpoints.txt (no free-space test)");
   AddCommonOptions(sub, common);

@@ -639,6 +639,32 @@ TEST(FeatureRegistration, ModelWithoutTheReliefStatesItsBias) {
   EXPECT_LT(error, 2.0 * r.sigma_rms_m) << r.BriefReport();
 }
 
+// The plane-to-plane fine ICP (`icp_plane_to_plane`, opt-in; Segal et al. 2009): another
+// sample of the same gate, inside its room, registers with both objectives, each within a
+// fraction of the 7 cm spacing; and the relief case above keeps an honest σ only with the
+// default (measured: point-to-plane 3.0 mm off, σ 3.9 mm; plane-to-plane 7.9 mm, σ 3.9 mm —
+// a 4 cm step within its 14 cm reach).
+TEST(FeatureRegistration, PlaneToPlaneFineIcpRegistersTheGate) {
+  const Eigen::Matrix4d source_from_world = BlockPose();
+  const io::PointCloud source = Transformed(Gate(0.07, true, 1), source_from_world);
+  const io::PointCloud reference = Room(Gate(0.07, true, 2), 3);
+  for (const bool plane_to_plane : {false, true}) {
+    SCOPED_TRACE(plane_to_plane ? "plane-to-plane" : "point-to-plane");
+    CloudRegistrationOptions options;
+    options.descriptor = Descriptor::kFpfh;
+    options.icp_plane_to_plane = plane_to_plane;
+    const CloudRegistrationResult r = RegisterClouds(source, reference, options);
+    ASSERT_TRUE(r.ok()) << r.BriefReport();
+    const double error =
+        TransformRmsOnCloud(source, r.target_from_source, source_from_world.inverse());
+    std::printf("[ measured ] %s: %.2f mm RMS from the truth, sigma %.2f mm\n",
+                plane_to_plane ? "plane-to-plane" : "point-to-plane", error * 1e3,
+                r.sigma_rms_m * 1e3);
+    EXPECT_LT(error, 2e-3);
+    EXPECT_LT(error, 2.0 * r.sigma_rms_m);
+  }
+}
+
 // RefineSimilarity: a source in a scale of its own, started 4 % off in scale, 1° and a few
 // centimetres off in pose, comes to the scale and pose of an independent sample of the same
 // surface; without the scale parameter a rigid fit could not.

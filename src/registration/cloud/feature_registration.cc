@@ -126,6 +126,9 @@ bool CloudRegistrationOptions::Check(std::string* error) const {
   if (!(std::abs(up.norm() - 1.0) < 1e-6)) return fail("up (norm)", up.norm(), "a unit vector");
   if (icp_iterations < 1) return fail("icp_iterations", icp_iterations, ">= 1");
   if (!(icp_distance_spacing > 0)) return fail("icp_distance_spacing", icp_distance_spacing, "> 0");
+  if (!(icp_plane_distance_spacing > 0)) {
+    return fail("icp_plane_distance_spacing", icp_plane_distance_spacing, "> 0");
+  }
   if (!(icp_noise_sigmas >= 0)) return fail("icp_noise_sigmas", icp_noise_sigmas, ">= 0");
   if (!(inlier_distance_spacing > 0)) {
     return fail("inlier_distance_spacing", inlier_distance_spacing, "> 0");
@@ -824,16 +827,31 @@ void CliqueHypotheses(const Matching& m, const CloudRegistrationOptions& options
   }
 }
 
+// [a]×: [a]× b = a × b.
+Eigen::Matrix3d CrossMatrix(const Eigen::Vector3d& a) {
+  Eigen::Matrix3d m;
+  m << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
+  return m;
+}
+
 // ---------------------------------------------------------------------------------------
 // Point-to-plane ICP (Chen & Medioni 1991; linearised as Low 2004, Eq. 6–8), coarse to fine
 // in the correspondence distance; rotation about `up` only when levelled.
 
+// With `src_normals` the residual is plane-to-plane instead (Segal, Haehnel & Thrun 2009,
+// "Generalized-ICP", Eq. 2 with the plane-to-plane covariances of Sec. III-B): each pair's
+// 3-D difference d weighed by (R·C_s·Rᵀ + C_t)⁻¹, C = I − (1 − ε)·n·nᵀ (ε = 0.001) from each
+// side's normal. Both surfaces' orientations count: a simplified model (a plane proxy)
+// against a detailed scan is fitted along the model's planes, not along whatever detail
+// the scan's normals describe next to them.
 Eigen::Matrix4d PointToPlaneIcp(const std::vector<Eigen::Vector3d>& src,
                                 const std::vector<Eigen::Vector3d>& tgt,
                                 const std::vector<Eigen::Vector3d>& tgt_normals,
                                 const PointIndex& tgt_index, Eigen::Matrix4d transform,
                                 double start_distance, double end_distance, int iterations,
-                                const Eigen::Vector3d* up) {
+                                const Eigen::Vector3d* up,
+                                const std::vector<Eigen::Vector3d>* src_normals = nullptr) {
+  constexpr double kPlaneEpsilon = 1e-3;
   double distance = std::max(start_distance, end_distance);
   // Each step turns the source about its own centroid c (where it lies under the current
   // transform), not about the origin of the coordinates: a source far from that origin
@@ -850,11 +868,32 @@ Eigen::Matrix4d PointToPlaneIcp(const std::vector<Eigen::Vector3d>& src,
     double sq;
     const double d2 = distance * distance;
     const Eigen::Vector3d centre = Apply(transform, c);
-    for (const Eigen::Vector3d& p : src) {
-      const Eigen::Vector3d q = Apply(transform, p);
+    const Eigen::Matrix3d rotation = transform.topLeftCorner<3, 3>();
+    for (size_t i = 0; i < src.size(); ++i) {
+      const Eigen::Vector3d q = Apply(transform, src[i]);
       if (!tgt_index.NearestWithin(q, d2, &index, &sq)) continue;
       const Eigen::Vector3d& n = tgt_normals[index];
       if (!n.allFinite()) continue;
+      if (src_normals != nullptr && (*src_normals)[i].allFinite()) {
+        const Eigen::Vector3d ns = rotation * (*src_normals)[i];
+        const Eigen::Matrix3d cov = 2.0 * Eigen::Matrix3d::Identity() -
+                                    (1.0 - kPlaneEpsilon) * (ns * ns.transpose() + n * n.transpose());
+        const Eigen::Matrix3d info = cov.inverse();
+        const Eigen::Vector3d e = q - tgt[index];
+        // The weight from the residual a point-to-plane fit would see (eᵀ·info·e·2ε is
+        // (n·e)² where the normals agree).
+        const double r2 = e.dot(info * e) * 2.0 * kPlaneEpsilon;
+        const double w = 1.0 / (1.0 + r2 / (0.25 * d2));
+        Eigen::Matrix<double, 3, 6> j;
+        j.leftCols<3>() = -CrossMatrix(q - centre);
+        j.rightCols<3>() = Eigen::Matrix3d::Identity();
+        // Scaled by 2ε so that the normal direction weighs as in the point-to-plane sum.
+        const Eigen::Matrix3d wi = (w * 2.0 * kPlaneEpsilon) * info;
+        jtj += j.transpose() * wi * j;
+        jtr += j.transpose() * wi * e;
+        ++count;
+        continue;
+      }
       const double r = (q - tgt[index]).dot(n);
       // Tukey-like down-weighting of the far residuals.
       const double w = 1.0 / (1.0 + (r * r) / (0.25 * d2));
@@ -1957,6 +1996,12 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
   double noise_sigma = std::numeric_limits<double>::infinity();
   // A finalist refined on its own crop of the target: fine ICP from `icp_start`, then its fine
   // residuals and their robust scale. False when the pose puts the source off the target.
+  // The fine ICP: plane-to-plane from both clouds' normals, ending at its own distance, or
+  // point-to-plane ending at the coarse levels' distance.
+  const std::vector<Eigen::Vector3d>* plane_to_plane_normals =
+      options.icp_plane_to_plane ? &fine_src_n : nullptr;
+  const double fine_end_spacing = options.icp_plane_to_plane ? options.icp_plane_distance_spacing
+                                                             : options.icp_distance_spacing;
   auto refine = [&](Finalist* f, double icp_start) {
     const std::shared_ptr<TargetCrop> crop = crop_for(f->h.transform);
     const TargetCrop& c = *crop;
@@ -1965,9 +2010,10 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
     if (options.icp) {
       f->h.transform = PointToPlaneIcp(fine_src, c.level.points, c.level.normals, *c.index,
                                        f->h.transform, icp_start,
-                                       options.icp_distance_spacing * f->spacing,
-                                       options.icp_iterations, nullptr);  // free: levelled ≠ exact
-      f->icp_end = options.icp_distance_spacing * f->spacing;
+                                       fine_end_spacing * f->spacing,
+                                       options.icp_iterations, nullptr,  // free: levelled ≠ exact
+                                       plane_to_plane_normals);
+      f->icp_end = fine_end_spacing * f->spacing;
     }
     const double reach = std::min(normal_radius, options.normal_radius_spacing * f->spacing);
     FineResiduals(fine_src, fine_src_n, c, f->h.transform, reach, &f->residuals, &f->agree);
@@ -1981,10 +2027,10 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
     const double noise_distance =
         std::min(reach, options.icp_noise_sigmas * std::min(f->sigma, noise_sigma));
     if (options.icp && !options.paper_only &&
-        noise_distance > options.icp_distance_spacing * f->spacing) {
+        noise_distance > fine_end_spacing * f->spacing) {
       f->h.transform = PointToPlaneIcp(fine_src, c.level.points, c.level.normals, *c.index,
                                        f->h.transform, noise_distance, noise_distance,
-                                       options.icp_iterations, nullptr);
+                                       options.icp_iterations, nullptr, plane_to_plane_normals);
       f->icp_end = noise_distance;
       FineResiduals(fine_src, fine_src_n, c, f->h.transform, reach, &f->residuals, &f->agree);
       f->sigma = RobustScale(f->residuals);
@@ -2490,20 +2536,26 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
     result.sigma_rms_m = u.sigma_rms;
     result.constraint_ratio = u.constraint_ratio;
     Vector6d weakest = u.weakest;
-    // The fit's dependence on its last correspondence distance, a systematic error the
-    // residuals' covariance does not contain: the same ICP ended at half and at twice that
-    // distance (at most the reach). On the simulated cathedral's plane proxy → LiDAR the pose
+    // The fit's dependence on its last correspondence distance and on its objective, a
+    // systematic error the residuals' covariance does not contain: point-to-plane ICP ended
+    // at half and at twice that distance (at most the reach) — for the plane-to-plane fit
+    // (the default) also the other objective's answer, which differs where the two clouds'
+    // surfaces differ in detail (a plane proxy against a scan). On the simulated cathedral's plane proxy → LiDAR the pose
     // moved 3.1 cm (twice) and 18.6 cm (half) from one 8 cm off the truth whose covariance
     // said 0.7 cm.
     // Without ICP (--no-icp) the pose is a sample consensus's, not the fit's optimum: its
     // distance to that optimum (the same ICP it skipped) enters whole, so that the stated σ
     // covers the error it left (Stanford bun000 → bun045: 0.66 mm RMS off, σ 0.09 mm without
     // this term).
-    const std::vector<std::pair<double, double>> moves =  // (ICP end distance, weight)
+    std::vector<std::pair<double, double>> moves =  // (ICP end distance, weight)
         options.icp ? std::vector<std::pair<double, double>>{{0.5 * f.icp_end, 0.5},
                                                              {2.0 * f.icp_end, 0.5}}
                     : std::vector<std::pair<double, double>>{
                           {options.icp_distance_spacing * f.spacing, 1.0}};
+    // After a plane-to-plane fit, also point-to-plane's own answer, whole.
+    if (options.icp && options.icp_plane_to_plane) {
+      moves.push_back({options.icp_distance_spacing * f.spacing, 1.0});
+    }
     if ((!options.icp || f.icp_end > 0) && std::isfinite(u.sigma_rms)) {
       const Eigen::Matrix4d inv = f.h.transform.inverse();
       const Matrix6d& metric = u.metric;

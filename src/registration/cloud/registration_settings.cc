@@ -82,6 +82,10 @@ const std::vector<Entry>& Entries() {
        "ICP final correspondence distance in point spacings"},
       {"icp_noise_sigmas", &Options::icp_noise_sigmas, 0, kInf, false, true,
        "fine ICP again with this many robust residual scales when larger (0 = off)"},
+      {"icp_plane_to_plane", &Options::icp_plane_to_plane, 0, 1, false, false,
+       "fine ICP: plane-to-plane residuals from both clouds' normals (Generalized-ICP)"},
+      {"icp_plane_distance_spacing", &Options::icp_plane_distance_spacing, 0, kInf, true, true,
+       "plane-to-plane fine ICP: final correspondence distance in point spacings"},
       {"inlier_distance_spacing", &Options::inlier_distance_spacing, 0, kInf, true, true,
        "inlier: distance to the target below this many point spacings"},
       {"inlier_sigma", &Options::inlier_sigma, 0, kInf, true, true,
@@ -169,7 +173,7 @@ bool SetRegistrationSetting(const std::string& name, const std::string& value, C
     if (name == e.name) entry = &e;
   }
   if (entry == nullptr) {
-    *problem = "unknown setting '" + name + "' (mmba register-cloud --list-settings names them)";
+    *problem = "unknown setting '" + name + "' (mmba register-cloud --help lists them)";
     return false;
   }
   if (std::holds_alternative<bool Options::*>(entry->member)) {
@@ -196,6 +200,21 @@ bool SetRegistrationSetting(const std::string& name, const std::string& value, C
     options->*std::get<int Options::*>(entry->member) = static_cast<int>(v);
   } else {
     options->*std::get<double Options::*>(entry->member) = v;
+  }
+  return true;
+}
+
+bool ApplyRegistrationSettings(const std::vector<std::string>& settings,
+                               CloudRegistrationOptions* options, std::string* problem) {
+  for (const std::string& setting : settings) {
+    const size_t eq = setting.find('=');
+    if (eq == std::string::npos) {
+      *problem = "found '" + setting + "', expected NAME=VALUE";
+      return false;
+    }
+    if (!SetRegistrationSetting(setting.substr(0, eq), setting.substr(eq + 1), options, problem)) {
+      return false;
+    }
   }
   return true;
 }

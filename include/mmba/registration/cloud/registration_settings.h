@@ -28,4 +28,9 @@ std::vector<RegistrationSetting> RegistrationSettings();
 bool SetRegistrationSetting(const std::string& name, const std::string& value,
                             CloudRegistrationOptions* options, std::string* problem);
 
+/// SetRegistrationSetting for each "NAME=VALUE" of `settings`, in order (`--set`). Returns
+/// false at the first one that is malformed or refused, with `problem` naming it.
+bool ApplyRegistrationSettings(const std::vector<std::string>& settings,
+                               CloudRegistrationOptions* options, std::string* problem);
+
 }  // namespace mmba::registration
