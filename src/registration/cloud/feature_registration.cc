@@ -1994,14 +1994,14 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
   // The clouds' noise, once known: the smallest robust residual scale of the finalists
   // refined from the coarse hypotheses (set below; see fine_tau).
   double noise_sigma = std::numeric_limits<double>::infinity();
-  // A finalist refined on its own crop of the target: fine ICP from `icp_start`, then its fine
-  // residuals and their robust scale. False when the pose puts the source off the target.
   // The fine ICP: plane-to-plane from both clouds' normals, ending at its own distance, or
   // point-to-plane ending at the coarse levels' distance.
   const std::vector<Eigen::Vector3d>* plane_to_plane_normals =
       options.icp_plane_to_plane ? &fine_src_n : nullptr;
   const double fine_end_spacing = options.icp_plane_to_plane ? options.icp_plane_distance_spacing
                                                              : options.icp_distance_spacing;
+  // A finalist refined on its own crop of the target: fine ICP from `icp_start`, then its fine
+  // residuals and their robust scale. False when the pose puts the source off the target.
   auto refine = [&](Finalist* f, double icp_start) {
     const std::shared_ptr<TargetCrop> crop = crop_for(f->h.transform);
     const TargetCrop& c = *crop;
@@ -2538,11 +2538,11 @@ CloudRegistrationResult RegisterCloudsNearOrigin(const io::PointCloud& source_in
     Vector6d weakest = u.weakest;
     // The fit's dependence on its last correspondence distance and on its objective, a
     // systematic error the residuals' covariance does not contain: point-to-plane ICP ended
-    // at half and at twice that distance (at most the reach) — for the plane-to-plane fit
-    // (the default) also the other objective's answer, which differs where the two clouds'
-    // surfaces differ in detail (a plane proxy against a scan). On the simulated cathedral's plane proxy → LiDAR the pose
-    // moved 3.1 cm (twice) and 18.6 cm (half) from one 8 cm off the truth whose covariance
-    // said 0.7 cm.
+    // at half and at twice that distance (at most the reach); after a plane-to-plane fit
+    // (`icp_plane_to_plane`) also point-to-plane's own answer, which differs where the two
+    // clouds' surfaces differ in detail (a plane proxy against a scan). On the simulated
+    // cathedral's plane proxy → LiDAR the point-to-plane pose moved 3.1 cm (twice) and
+    // 18.6 cm (half) from one 8 cm off the truth whose covariance said 0.7 cm.
     // Without ICP (--no-icp) the pose is a sample consensus's, not the fit's optimum: its
     // distance to that optimum (the same ICP it skipped) enters whole, so that the stated σ
     // covers the error it left (Stanford bun000 → bun045: 0.66 mm RMS off, σ 0.09 mm without
