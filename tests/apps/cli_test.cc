@@ -242,6 +242,16 @@ TEST_F(CliTest, OptionErrorsAreExitTwo) {
   EXPECT_EQ(Mmba("bal " + Tmp("missing.txt")).exit_code, 2);
   EXPECT_EQ(Mmba("bal " + kSource + "/data/bal/dubrovnik-3-7-pre.txt --threads 0").exit_code, 2);
   EXPECT_FALSE(fs::exists(Tmp("o")));
+  // register-eval --set: register-cloud's settings, refused before any registration.
+  for (const auto& [flags, named] : std::vector<std::pair<std::string, std::string>>{
+           {" --set colour=blue", "--set: unknown setting 'colour'"},
+           {" --set icp_plane_to_plane=maybe", "--set: icp_plane_to_plane: found 'maybe', expected true or false"},
+           {" --set icp_plane_distance_spacing=0", "--set: icp_plane_distance_spacing: found '0'"}}) {
+    const RunResult bad = Mmba("register-eval --scene " + kSource + "/data --output " + Tmp("ev") + flags);
+    EXPECT_EQ(bad.exit_code, 2) << flags;
+    EXPECT_THAT(bad.output, HasSubstr(named));
+  }
+  EXPECT_FALSE(fs::exists(Tmp("ev")));
 }
 
 // register-cloud --scale-range: bad ranges are exit 2 naming the option, nothing written; a
