@@ -11,6 +11,9 @@ namespace mmba {
 ///
 /// what() reads, e.g.:
 ///   `model/cameras.txt:4: field 'model': found 'PINHOL', expected one of SIMPLE_PINHOLE, ...`
+/// what() is one line safe to print on a terminal: control characters (escape sequences, '\n'
+/// too) and bytes that are not UTF-8 are written as \t, \r, \n or \xHH, and the field and the
+/// value found are cut to 100 bytes (the length is said).
 class InputError : public std::runtime_error {
  public:
   /// Error at a text line (1-based). `line` <= 0 omits the line.
@@ -28,7 +31,7 @@ class InputError : public std::runtime_error {
   const std::string& file() const { return file_; }
 
  private:
-  explicit InputError(std::string message, std::string file);
+  InputError(const std::string& message, std::string file);
   std::string file_;
 };
 
