@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "mmba/core/error.h"
+#include "mmba/core/utf8.h"
 #include "mmba/io/text_reader.h"
 
 namespace mmba::io {
@@ -33,7 +34,7 @@ CsvTable CsvTable::Read(const std::string& path, const std::vector<std::string>&
   CsvTable table;
   table.path_ = path;
   const std::string text = ReadWholeFile(path);
-  LineCursor cursor(text);
+  LineCursor cursor(text, path);
   std::string_view line;
   bool have_header = false;
   size_t header_size = 0;
@@ -42,13 +43,30 @@ CsvTable CsvTable::Read(const std::string& path, const std::vector<std::string>&
     if (trimmed.empty() || trimmed[0] == '#') continue;
     const int line_number = static_cast<int>(cursor.line_number());
     std::vector<std::string> cells = Split(trimmed);
+    // Cells become ids and names in the outputs: text is checked here, where the line is known.
+    for (size_t i = 0; i < cells.size(); ++i) {
+      if (const size_t bad = InvalidUtf8Offset(cells[i]); bad != std::string::npos) {
+        const std::string column = have_header ? (i < header_size ? table.header_[i] : "column " + std::to_string(i + 1))
+                                               : "header cell " + std::to_string(i + 1);
+        throw InputError(path, line_number, column, "invalid UTF-8 at byte " + std::to_string(bad) + " of the cell",
+                         "UTF-8 text");
+      }
+    }
     if (!have_header) {
       for (size_t i = 0; i < cells.size(); ++i) table.columns_[cells[i]] = i;
       for (const std::string& column : required) {
         if (!table.columns_.count(column)) {
-          throw InputError(path, line_number, "header", trimmed, "a column named '" + column + "'");
+          // The header is not quoted back: the file may not be a table at all (any file can
+          // be named here), and the required names say what is missing.
+          std::string needed;
+          for (const std::string& name : required) needed += (needed.empty() ? "" : ", ") + name;
+          throw InputError(path, line_number, "header",
+                           std::to_string(cells.size()) + (cells.size() == 1 ? " cell" : " cells") +
+                               ", none named " + column,
+                           "a header line naming the columns " + needed);
         }
       }
+      table.header_ = cells;
       header_size = cells.size();
       have_header = true;
       continue;

@@ -4,22 +4,46 @@
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
+#include <sys/stat.h>
+
 #include "mmba/core/error.h"
+#include "mmba/core/utf8.h"
 
 namespace mmba::io {
+namespace {
+
+// What a file that is not a regular file is, for the message.
+const char* KindOfFile(mode_t mode) {
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISFIFO(mode)) return "a FIFO (named pipe)";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+}  // namespace
+
+void RequireRegularFile(const std::string& path) {
+  // stat() follows links and does not open the file (opening a FIFO would wait for a writer).
+  struct stat status {};
+  if (::stat(path.c_str(), &status) != 0) {
+    if (errno == ENOENT || errno == ENOTDIR) throw InputError::Message(path, "file not found");
+    throw InputError::Message(path, std::string("cannot read the file's status: ") + std::strerror(errno));
+  }
+  if (!S_ISREG(status.st_mode)) {
+    throw InputError::Message(path, std::string("is ") + KindOfFile(status.st_mode) + ", expected a regular file");
+  }
+}
 
 std::string ReadWholeFile(const std::string& path) {
+  RequireRegularFile(path);
   std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) {
-    throw InputError::Message(path, "file not found");
-  }
-  if (std::filesystem::is_directory(path, ec)) {
-    throw InputError::Message(path, "is a directory, expected a file");
-  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError::Message(path, "cannot open file for reading");
   // Read straight into the string when the size is known (one copy, not two).
@@ -95,6 +119,14 @@ const std::string& TokenLine::Str(size_t i, const std::string& field) const {
   return tokens_[i];
 }
 
+const std::string& TokenLine::Name(size_t i, const std::string& field) const {
+  const std::string& token = Str(i, field);
+  if (const size_t bad = InvalidUtf8Offset(token); bad != std::string::npos) {
+    Fail(field, "invalid UTF-8 at byte " + std::to_string(bad) + " of the value", "UTF-8 text");
+  }
+  return token;
+}
+
 double TokenLine::Double(size_t i, const std::string& field) const {
   double v = 0.0;
   if (!ParseDouble(Str(i, field), &v)) Fail(field, tokens_[i], "a finite number");
@@ -124,6 +156,10 @@ bool LineCursor::Next(std::string_view* line) {
   *line = l;
   pos_ = end + 1;
   ++line_number_;
+  if (l.size() > max_line_bytes_) {
+    throw InputError(file_, line_number_, "line", std::to_string(l.size()) + " bytes",
+                     "at most " + std::to_string(max_line_bytes_) + " bytes per line (not a text file of this format?)");
+  }
   return true;
 }
 

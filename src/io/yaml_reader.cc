@@ -5,13 +5,17 @@
 #include <sstream>
 
 #include "mmba/core/error.h"
+#include "mmba/core/utf8.h"
+#include "mmba/io/text_reader.h"
 
 namespace mmba::io {
 
 YAML::Node YamlReader::Load(const std::string& what) const {
-  if (!std::filesystem::exists(path_)) throw InputError::Message(path_, what + " not found");
+  std::error_code ec;
+  if (!std::filesystem::exists(path_, ec)) throw InputError::Message(path_, what + " not found");
+  const std::string text = ReadWholeFile(path_);
   try {
-    return YAML::LoadFile(path_);
+    return YAML::Load(text);
   } catch (const YAML::Exception& e) {
     throw InputError(path_, e.mark.line + 1, "YAML", e.msg, "valid YAML");
   }
@@ -20,9 +24,14 @@ YAML::Node YamlReader::Load(const std::string& what) const {
 void YamlReader::Map(const YAML::Node& node, const std::string& field,
                      const std::map<std::string, Handler>& handlers) const {
   if (!node.IsMap()) Fail(node, field.empty() ? "(file)" : field, "a mapping", "a " + Kind(node));
+  std::map<std::string, int> seen_on_line;  // key → its (1-based) line
   for (const auto& item : node) {
-    const std::string key = item.first.as<std::string>();
+    const std::string key = String(item.first, field.empty() ? "(key)" : field + ".(key)");
     const std::string sub = field.empty() ? key : field + "." + key;
+    const int line = item.first.Mark().line + 1;
+    if (const auto [earlier, first] = seen_on_line.emplace(key, line); !first) {
+      Fail(item.first, sub, "each key once", "the key a second time (first on line " + std::to_string(earlier->second) + ")");
+    }
     const auto it = handlers.find(key);
     if (it == handlers.end()) {
       std::string known;
@@ -83,7 +92,11 @@ bool YamlReader::Bool(const YAML::Node& node, const std::string& field) const {
 
 std::string YamlReader::String(const YAML::Node& node, const std::string& field) const {
   if (!node.IsScalar()) Fail(node, field, "a string", "a " + Kind(node));
-  return node.as<std::string>();
+  const std::string& text = node.Scalar();
+  if (const size_t bad = InvalidUtf8Offset(text); bad != std::string::npos) {
+    Fail(node, field, "UTF-8 text", "invalid UTF-8 at byte " + std::to_string(bad) + " of the value");
+  }
+  return text;
 }
 
 std::vector<std::string> YamlReader::StringList(const YAML::Node& node,

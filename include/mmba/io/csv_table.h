@@ -17,7 +17,8 @@ class CsvTable {
   };
 
   /// Reads `path`; the first non-comment line is the header and must name every column of
-  /// `required` (other columns are allowed). Every row must have as many cells as the header.
+  /// `required` (other columns are allowed). Every row must have as many cells as the header,
+  /// and every cell must be UTF-8 text.
   static CsvTable Read(const std::string& path, const std::vector<std::string>& required);
 
   bool Has(const std::string& column) const { return columns_.count(column) > 0; }
@@ -35,6 +36,7 @@ class CsvTable {
  private:
   std::string path_;
   std::map<std::string, size_t> columns_;
+  std::vector<std::string> header_;  ///< column names in file order
   std::vector<Row> rows_;
 };
 

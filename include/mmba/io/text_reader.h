@@ -1,15 +1,26 @@
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace mmba::io {
 
-/// Reads a whole file into memory. Throws InputError naming the file when it is missing or
-/// unreadable.
+/// Throws InputError naming the file unless `path` is an existing regular file (or a link to
+/// one): a folder, a FIFO, a device or a socket is refused before it is opened, as opening a
+/// FIFO blocks and a device such as /dev/zero never ends.
+void RequireRegularFile(const std::string& path);
+
+/// Reads a whole regular file into memory (RequireRegularFile first). Throws InputError naming
+/// the file when it is missing, not a regular file or unreadable.
 std::string ReadWholeFile(const std::string& path);
+
+/// Longest line (bytes, without the newline) a LineCursor accepts unless told otherwise:
+/// far above any line of the formats read here, and a bound on what one line can cost.
+constexpr size_t kMaxLineBytes = size_t{1} << 20;
 
 /// One whitespace-separated line of a text file, with strict, located conversions: every
 /// failure throws InputError("file:line: field 'F': found 'V', expected ...").
@@ -26,6 +37,9 @@ class TokenLine {
   void ExpectAtLeast(size_t count, const std::string& what) const;
 
   const std::string& Str(size_t i, const std::string& field) const;
+  /// A token that becomes a name or an id in mmba's outputs: valid UTF-8, else InputError
+  /// ("... found invalid UTF-8 at byte N of the value").
+  const std::string& Name(size_t i, const std::string& field) const;
   /// A finite double (NaN and Inf rejected).
   double Double(size_t i, const std::string& field) const;
   /// A signed integer.
@@ -47,14 +61,22 @@ class TokenLine {
 /// the first line (as some Windows programs write one) is not part of that line.
 class LineCursor {
  public:
-  explicit LineCursor(std::string_view text)
-      : text_(text), pos_(text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0) {}
+  /// `file` names the text in errors; a line longer than `max_line_bytes` is an InputError
+  /// (file:line, its length and the limit).
+  explicit LineCursor(std::string_view text, std::string file = "(text)",
+                      size_t max_line_bytes = kMaxLineBytes)
+      : text_(text),
+        file_(std::move(file)),
+        max_line_bytes_(max_line_bytes),
+        pos_(text.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0) {}
   /// Next line (without the newline and a trailing '\r'); false at the end.
   bool Next(std::string_view* line);
   int64_t line_number() const { return line_number_; }
 
  private:
   std::string_view text_;
+  std::string file_;
+  size_t max_line_bytes_;
   size_t pos_;
   int64_t line_number_ = 0;
 };

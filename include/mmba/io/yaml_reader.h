@@ -17,10 +17,13 @@ class YamlReader {
 
   explicit YamlReader(std::string path) : path_(std::move(path)) {}
 
-  /// Loads the file; a missing file or a YAML syntax error is an InputError.
+  /// Loads the file; a missing file, one that is not a regular file (RequireRegularFile) or a
+  /// YAML syntax error is an InputError.
   YAML::Node Load(const std::string& what) const;
 
-  /// Reads the keys of `node` (a mapping) through `handlers`; any other key is an error.
+  /// Reads the keys of `node` (a mapping) through `handlers`; any other key, a key given twice
+  /// (YAML leaves its meaning open; yaml-cpp would keep both) or a key that is not UTF-8 text
+  /// is an error.
   /// `field` names the mapping in messages ("" for the root, "sensors[2]", …).
   void Map(const YAML::Node& node, const std::string& field,
            const std::map<std::string, Handler>& handlers) const;
@@ -34,6 +37,7 @@ class YamlReader {
                   const std::string& unit) const;
   int Integer(const YAML::Node& node, const std::string& field) const;
   bool Bool(const YAML::Node& node, const std::string& field) const;
+  /// A scalar that is valid UTF-8 (a name or a path that reaches the outputs).
   std::string String(const YAML::Node& node, const std::string& field) const;
   std::vector<std::string> StringList(const YAML::Node& node, const std::string& field) const;
   std::vector<double> NumberList(const YAML::Node& node, const std::string& field) const;
