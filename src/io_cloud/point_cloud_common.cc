@@ -276,10 +276,15 @@ class XyzSeparators {
   int64_t decided_on_ = 0;
 };
 
-std::string JoinNames(const std::vector<std::string>& names) {
-  std::string joined;
-  for (const std::string& name : names) joined += (joined.empty() ? "" : ", ") + name;
-  return joined;
+// A header line described without quoting it (it may be the first line of any file named as
+// a cloud): how many names it holds and which of x, y, z they are.
+std::string DescribeHeader(const std::vector<Column>& columns) {
+  std::string named;
+  for (const auto& [column, name] : {std::pair{Column::kX, "x"}, std::pair{Column::kY, "y"}, std::pair{Column::kZ, "z"}}) {
+    if (std::find(columns.begin(), columns.end(), column) != columns.end()) named += (named.empty() ? "" : ", ") + std::string(name);
+  }
+  return std::to_string(columns.size()) + " column names, " +
+         (named.empty() ? std::string("none of them x, y or z") : "of x, y and z only " + named);
 }
 
 }  // namespace
@@ -292,11 +297,10 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
     throw InputError(path, line, "character", "a NUL byte (binary data)",
                      "text: x y z [...] per line (a binary cloud needs its extension: .ply, .pcd, .las, .bin)");
   }
-  LineCursor cursor(text);
+  LineCursor cursor(text, path);
   XyzSeparators separators;
   std::string_view line;
   std::vector<Column> columns;
-  std::vector<std::string> column_names;  // as the header line writes them
   int64_t header_line = 0;
   bool first_content = true;
   // Find the layout from the first lines.
@@ -314,7 +318,6 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
         if (names.size() >= 3 && !ParseDouble(names.Str(0, "name"), &v)) {
           for (size_t i = 0; i < names.size(); ++i) {
             columns.push_back(ColumnFromName(names.Str(i, "name")));
-            column_names.push_back(names.Str(i, "name"));
           }
           header_line = cursor.line_number();
           first_content = false;
@@ -329,7 +332,6 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
         const std::string& name = tokens.Str(i, "name");
         if (i > 0 && (name.front() == '[' || name.front() == '(')) continue;  // "X [m]": a unit
         columns.push_back(ColumnFromName(name));
-        column_names.push_back(name);
       }
       header_line = cursor.line_number();
       first_content = false;
@@ -350,7 +352,7 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
     // name x, y and z is not a cloud's.
     const auto named = [&columns](Column c) { return std::find(columns.begin(), columns.end(), c) != columns.end(); };
     if (!columns.empty() && !(named(Column::kX) && named(Column::kY) && named(Column::kZ))) {
-      throw InputError(path, header_line, "columns", JoinNames(column_names) + " (and no point)",
+      throw InputError(path, header_line, "columns", DescribeHeader(columns) + " (and no point)",
                        "a header naming x, y and z, and lines of x y z ...");
     }
     return CloudBuilder(path, options, false, false, false, 0).Finish("xyz", stats);
@@ -414,7 +416,7 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
   }
   auto has = [&](Column c) { return index[static_cast<int>(c)] >= 0; };
   if (!has(Column::kX) || !has(Column::kY) || !has(Column::kZ)) {
-    throw InputError(path, header_line, "columns", JoinNames(column_names),
+    throw InputError(path, header_line, "columns", DescribeHeader(columns),
                      "columns named x, y and z (or e/easting, n/northing, h/height/elevation)");
   }
   const bool normals = has(Column::kNx) && has(Column::kNy) && has(Column::kNz);

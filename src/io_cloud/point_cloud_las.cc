@@ -26,6 +26,33 @@ T Get(const std::string& data, size_t offset) {
   return v;
 }
 
+// The variable length records (VLRs) lie between the header and the point data, each a
+// 54-byte header (its payload length, uint16, at byte 52) and its payload (LAS 1.4 R15,
+// Table 4): the count at byte 100 must name records that fit there, as a reader that walks
+// them (to find a projection, say) trusts it.
+void CheckVariableLengthRecords(const std::string& path, const std::string& data, uint16_t header_size,
+                                uint32_t offset_to_points) {
+  constexpr size_t kVlrHeaderBytes = 54;
+  const uint32_t count = Get<uint32_t>(data, 100);
+  const size_t limit = std::min<size_t>(offset_to_points, data.size());  // a truncated file ends sooner
+  size_t pos = header_size;
+  for (uint32_t i = 0; i < count; ++i) {
+    if (pos + kVlrHeaderBytes > limit) {
+      throw InputError::AtByte(path, 100, "number of variable length records", std::to_string(count),
+                               "records that fit between the header and the point data (byte " +
+                                   std::to_string(offset_to_points) + "): record " + std::to_string(i) +
+                                   " would start at byte " + std::to_string(pos));
+    }
+    const size_t end = pos + kVlrHeaderBytes + Get<uint16_t>(data, pos + 52);
+    if (end > limit) {
+      throw InputError::AtByte(path, pos + 52, "record length after header", std::to_string(end - pos - kVlrHeaderBytes),
+                               "a variable length record " + std::to_string(i) + " that ends by the point data (byte " +
+                                   std::to_string(offset_to_points) + ")");
+    }
+    pos = end;
+  }
+}
+
 }  // namespace
 
 PointCloud ReadLas(const std::string& path, const ReadOptions& options, ReadStats* stats) {
@@ -35,7 +62,7 @@ PointCloud ReadLas(const std::string& path, const ReadOptions& options, ReadStat
                              "at least 227 bytes (LAS header; truncated or not a LAS file)");
   }
   if (data.compare(0, 4, "LASF") != 0) {
-    throw InputError::AtByte(path, 0, "file signature", data.substr(0, 4), "'LASF'");
+    throw InputError::AtByte(path, 0, "file signature", "other bytes", "'LASF' (not a LAS file?)");
   }
   const int major = static_cast<uint8_t>(data[24]);
   const int minor = static_cast<uint8_t>(data[25]);
@@ -101,6 +128,7 @@ PointCloud ReadLas(const std::string& path, const ReadOptions& options, ReadStat
     throw InputError::AtByte(path, 96, "offset to point data", std::to_string(offset_to_points),
                              ">= header size " + std::to_string(header_size));
   }
+  CheckVariableLengthRecords(path, data, header_size, offset_to_points);
   // Compared by division: a damaged 64-bit count times the record length could wrap around.
   const uint64_t available = data.size() > offset_to_points ? data.size() - offset_to_points : 0;
   if (record_length > 0 && count > available / record_length) {

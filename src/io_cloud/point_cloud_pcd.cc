@@ -59,7 +59,8 @@ bool LzfDecompress(const uint8_t* in, size_t in_size, uint8_t* out, size_t out_s
 
 PointCloud ReadPcd(const std::string& path, const ReadOptions& options, ReadStats* stats) {
   const std::string data = ReadWholeFile(path);
-  LineCursor cursor(data);
+  LineCursor cursor(data, path);
+  bool have_keyword = false;  // a PCD keyword read: the file is a PCD, its words may be quoted
   std::string_view line;
   std::vector<PcdField> fields;
   uint64_t width = 0, height = 1, points = 0;
@@ -72,7 +73,10 @@ PointCloud ReadPcd(const std::string& path, const ReadOptions& options, ReadStat
     TokenLine t(path, cursor.line_number(), line);
     if (t.size() == 0) continue;
     const std::string key = t.Str(0, "keyword");
-    if (key == "VERSION") continue;
+    if (key == "VERSION") {
+      have_keyword = true;
+      continue;
+    }
     if (key == "FIELDS") {
       t.ExpectAtLeast(2, "FIELDS");
       fields.resize(t.size() - 1);
@@ -102,6 +106,7 @@ PointCloud ReadPcd(const std::string& path, const ReadOptions& options, ReadStat
       t.ExpectCount(2, "HEIGHT");
       height = t.UInt(1, "HEIGHT");
     } else if (key == "VIEWPOINT") {
+      have_keyword = true;
       continue;
     } else if (key == "POINTS") {
       t.ExpectCount(2, "POINTS");
@@ -119,9 +124,11 @@ PointCloud ReadPcd(const std::string& path, const ReadOptions& options, ReadStat
       data_line = cursor.line_number();
       break;
     } else {
-      t.Fail("keyword", key,
-             "one of VERSION FIELDS SIZE TYPE COUNT WIDTH HEIGHT VIEWPOINT POINTS DATA");
+      t.Fail("keyword", have_keyword ? key : "a first word that is not a PCD keyword",
+             "one of VERSION FIELDS SIZE TYPE COUNT WIDTH HEIGHT VIEWPOINT POINTS DATA" +
+                 std::string(have_keyword ? "" : " (not a PCD file?)"));
     }
+    have_keyword = true;
   }
   if (data_start == std::string::npos) {
     throw InputError::Message(path, "PCD header has no DATA line (not a PCD file, or truncated)");
@@ -209,17 +216,18 @@ PointCloud ReadPcd(const std::string& path, const ReadOptions& options, ReadStat
   };
 
   if (mode == "ascii") {
-    LineCursor body(std::string_view(data).substr(data_start));
+    LineCursor body(data, path);
     std::string_view l;
+    for (int64_t k = 0; k < data_line; ++k) body.Next(&l);
     uint64_t i = 0;
     while (i < points) {
       if (!body.Next(&l)) {
-        throw InputError(path, data_line + body.line_number() + 1, "point",
+        throw InputError(path, body.line_number() + 1, "point",
                          "end of file after " + std::to_string(i) + " of " +
                              std::to_string(points) + " points",
                          "one line per point (truncated file?)");
       }
-      TokenLine t(path, data_line + body.line_number(), l);
+      TokenLine t(path, body.line_number(), l);
       if (t.size() == 0) continue;
       t.ExpectCount(tokens_per_point, "point");
       auto value_of = [&](int f) -> double {

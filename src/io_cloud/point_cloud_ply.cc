@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <limits>
@@ -118,11 +119,15 @@ struct PlyHeader {
 // end_header).
 PlyHeader ParsePlyHeader(const std::string& path, std::string_view data) {
   PlyHeader header;
-  LineCursor cursor(data);
-  std::string_view line;
-  if (!cursor.Next(&line) || line != "ply") {
-    throw InputError(path, 1, "magic", std::string(line.substr(0, 16)), "'ply'");
+  // The first line is checked before it is read as a line: a file of another kind is named
+  // as such, its content not quoted back (it can be any file) and not split into lines.
+  const std::string_view start = data.substr(data.substr(0, 3) == "\xEF\xBB\xBF" ? 3 : 0, 5);
+  if (start.substr(0, 4) != "ply\n" && start != "ply\r\n") {
+    throw InputError(path, 1, "magic", "a first line other than 'ply'", "'ply' (not a PLY file?)");
   }
+  LineCursor cursor(data, path);
+  std::string_view line;
+  cursor.Next(&line);
   PlyFormat& format = header.format;
   bool have_format = false;
   std::vector<PlyElement>& elements = header.elements;
@@ -234,6 +239,24 @@ CloudBuilder MakeBuilder(const std::string& path, const ReadOptions& options, co
                       reserve, layout.time >= 0);
 }
 
+// One ASCII line of an element other than the vertices: one value per scalar property, and
+// a count followed by that many values per list property.
+void CheckAsciiItem(const TokenLine& t, const PlyElement& element) {
+  size_t token = 0;
+  for (const PlyProperty& prop : element.properties) {
+    if (prop.is_list) {
+      const uint64_t count = t.UInt(token, prop.name + " count");
+      if (count > t.size()) t.Fail(prop.name + " count", std::to_string(count), "at most the values on the line");
+      token += 1 + count;
+    } else {
+      token += 1;
+    }
+  }
+  if (token != t.size()) {
+    t.Fail(element.name, std::to_string(t.size()) + " values", std::to_string(token) + " values (one per property)");
+  }
+}
+
 }  // namespace
 
 PointCloud ReadPly(const std::string& path) { return ReadPly(path, {}); }
@@ -268,24 +291,27 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
         i = j;
       }
     };
-    LineCursor body(std::string_view(data).substr(header_end));
-    const int64_t line_offset = header.header_lines;
+    LineCursor body(data, path);
     std::string_view l;
-    for (size_t e = 0; e <= vertex_index; ++e) {
+    for (int64_t k = 0; k < header.header_lines; ++k) body.Next(&l);
+    for (size_t e = 0; e < elements.size(); ++e) {
       const PlyElement& element = elements[e];
       for (uint64_t i = 0; i < element.count; ++i) {
         if (!body.Next(&l)) {
-          throw InputError(path, line_offset + body.line_number() + 1, element.name,
+          throw InputError(path, body.line_number() + 1, element.name,
                            "end of file after " + std::to_string(i) + " of " +
                                std::to_string(element.count) + " items",
                            "one line per item (truncated file?)");
         }
-        if (e != vertex_index) continue;  // other elements occupy one line each
-        if (!has_list && plain_line(l)) {
-          emit([&] { return path + ":" + std::to_string(line_offset + body.line_number()); });
+        if (e != vertex_index) {
+          CheckAsciiItem(TokenLine(path, body.line_number(), l), element);
           continue;
         }
-        TokenLine t(path, line_offset + body.line_number(), l);
+        if (!has_list && plain_line(l)) {
+          emit([&] { return path + ":" + std::to_string(body.line_number()); });
+          continue;
+        }
+        TokenLine t(path, body.line_number(), l);
         size_t token = 0;
         for (size_t p = 0; p < element.properties.size(); ++p) {
           const PlyProperty& prop = element.properties[p];
@@ -306,6 +332,12 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
         emit([&] { return path + ":" + std::to_string(t.line_number()); });
       }
     }
+    while (body.Next(&l)) {
+      if (TokenLine(path, body.line_number(), l).size() == 0) continue;
+      throw InputError(path, body.line_number(), "end of file", "a line after the last element",
+                       "nothing after the " + std::to_string(elements.back().count) + " items of element '" +
+                           elements.back().name + "' (element counts in the header too small?)");
+    }
     return builder.Finish("ply-ascii", stats);
   }
 
@@ -318,7 +350,15 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
                                std::to_string(bytes) + " more bytes (truncated file?)");
     }
   };
-  for (size_t e = 0; e <= vertex_index; ++e) {
+  // `count` records of `stride` bytes, compared by division (a damaged count could wrap).
+  auto need_records = [&](uint64_t count, size_t stride, const std::string& what) {
+    if (stride > 0 && count > (data.size() - pos) / stride) {
+      throw InputError::AtByte(path, pos, what, "end of file",
+                               std::to_string(count) + " records of " + std::to_string(stride) +
+                                   " bytes (truncated file, or a wrong count in the header?)");
+    }
+  };
+  for (size_t e = 0; e < elements.size(); ++e) {
     const PlyElement& element = elements[e];
     // Fixed-size fast path check.
     bool fixed = true;
@@ -327,13 +367,11 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
       if (p.is_list) fixed = false;
       stride += internal::ScalarSize(p.type);
     }
+    if (fixed) need_records(element.count, stride, element.name + " element");
     if (e != vertex_index && fixed) {
-      const uint64_t bytes = stride * element.count;
-      need(bytes, element.name + " element");
-      pos += bytes;
+      pos += static_cast<size_t>(stride * element.count);
       continue;
     }
-    if (fixed) need(static_cast<size_t>(stride * element.count), element.name + " element");
     for (uint64_t i = 0; i < element.count; ++i) {
       const size_t item_start = pos;
       for (size_t p = 0; p < element.properties.size(); ++p) {
@@ -360,15 +398,91 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
       }
     }
   }
+  if (pos != data.size()) {
+    throw InputError::AtByte(path, pos, "end of file", std::to_string(data.size() - pos) + " more bytes",
+                             "nothing after the " + std::to_string(elements.back().count) + " items of element '" +
+                                 elements.back().name + "' (element counts in the header too small?)");
+  }
   return builder.Finish(file_le ? "ply-binary-le" : "ply-binary-be", stats);
 }
+
+namespace {
+
+// Fails unless the file holds `element.count` records of `stride` bytes from byte `pos` on,
+// compared by division (a damaged count could wrap around).
+void RequireRecords(const std::string& path, const PlyElement& element, size_t stride, uint64_t pos,
+                    uint64_t file_size) {
+  if (stride > 0 && element.count > (file_size - std::min(pos, file_size)) / stride) {
+    throw InputError::AtByte(path, pos, element.name + " element", "end of file",
+                             std::to_string(element.count) + " records of " + std::to_string(stride) +
+                                 " bytes (truncated file, or a wrong count in the header?)");
+  }
+}
+
+// Reads past the records of the elements after the vertices of a binary PLY streamed from
+// `in` (at byte `pos`): they must all be in the file, and nothing after them.
+void SkipElementsAfterVertices(const std::string& path, const PlyHeader& header, bool swap, uint64_t file_size,
+                               uint64_t pos, std::istream& in) {
+  for (size_t e = header.vertex_index + 1; e < header.elements.size(); ++e) {
+    const PlyElement& element = header.elements[e];
+    size_t stride = 0;
+    bool fixed = true;
+    for (const PlyProperty& p : element.properties) {
+      fixed = fixed && !p.is_list;
+      stride += internal::ScalarSize(p.type);
+    }
+    if (fixed) {
+      RequireRecords(path, element, stride, pos, file_size);
+      pos += stride * element.count;
+      in.seekg(static_cast<std::streamoff>(pos));
+      continue;
+    }
+    for (uint64_t i = 0; i < element.count; ++i) {
+      for (const PlyProperty& p : element.properties) {
+        const size_t count_size = internal::ScalarSize(p.is_list ? p.count_type : p.type);
+        if (count_size > file_size - pos) {
+          throw InputError::AtByte(path, pos, element.name + " element", "end of file",
+                                   std::to_string(element.count) + " items (truncated file, or a wrong count in the header?)");
+        }
+        if (!p.is_list) {
+          in.ignore(static_cast<std::streamsize>(count_size));
+          pos += count_size;
+          continue;
+        }
+        char buffer[8];
+        in.read(buffer, static_cast<std::streamsize>(count_size));
+        const double count = internal::ReadScalar(buffer, p.count_type, swap);
+        if (count < 0) {
+          throw InputError::AtByte(path, pos, p.name + " count", std::to_string(count), "a non-negative count");
+        }
+        pos += count_size;
+        const uint64_t bytes = static_cast<uint64_t>(count) * internal::ScalarSize(p.type);
+        if (bytes > file_size - pos) {
+          throw InputError::AtByte(path, pos, p.name, "end of file", std::to_string(bytes) + " more bytes (truncated file?)");
+        }
+        in.ignore(static_cast<std::streamsize>(bytes));
+        pos += bytes;
+      }
+    }
+  }
+  if (pos != file_size) {
+    throw InputError::AtByte(path, pos, "end of file", std::to_string(file_size - pos) + " more bytes",
+                             "nothing after the " + std::to_string(header.elements.back().count) + " items of element '" +
+                                 header.elements.back().name + "' (element counts in the header too small?)");
+  }
+}
+
+}  // namespace
 
 namespace internal {
 
 bool StreamBinaryPly(const std::string& path, size_t chunk_points, const ChunkConsumer& consume,
                      const ReadOptions& options, ReadStats* stats) {
+  RequireRegularFile(path);
+  std::error_code ec;
+  const uint64_t file_size = std::filesystem::file_size(path, ec);
   std::ifstream in(path, std::ios::binary);
-  if (!in) return false;  // the whole-file reader names the error
+  if (ec || !in) return false;  // the whole-file reader names the error
   // The header, line by line up to end_header (bounded: a header is a few hundred bytes).
   std::string header_text, line;
   while (header_text.size() < (1u << 20) && std::getline(in, line)) {
@@ -388,7 +502,9 @@ bool StreamBinaryPly(const std::string& path, size_t chunk_points, const ChunkCo
       if (p.is_list) return false;
       stride += ScalarSize(p.type);
     }
-    if (e < header.vertex_index) pos += stride * header.elements[e].count;
+    if (e == header.vertex_index) break;
+    RequireRecords(path, header.elements[e], stride, pos, file_size);
+    pos += stride * header.elements[e].count;
   }
   const PlyElement& vertex = header.elements[header.vertex_index];
   const VertexLayout layout = RequireXyz(path, vertex);
@@ -427,6 +543,7 @@ bool StreamBinaryPly(const std::string& path, size_t chunk_points, const ChunkCo
     pos += buffer.size();
     consume(chunk, static_cast<size_t>(first), static_cast<size_t>(vertex.count));
   }
+  SkipElementsAfterVertices(path, header, swap, file_size, pos, in);
   if (stats != nullptr) {
     stats->format = header.format == PlyFormat::kBinaryLe ? "ply-binary-le" : "ply-binary-be";
     stats->num_read = read;

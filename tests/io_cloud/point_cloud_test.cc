@@ -1,5 +1,10 @@
 #include "mmba/io/point_cloud.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -7,6 +12,7 @@
 #include <iterator>
 #include <limits>
 #include <string>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -112,7 +118,8 @@ TEST_F(PointCloudIoTest, PlyBigEndianWithOtherElementsAndListSkipped) {
     s.push_back(static_cast<char>(20));
     s.push_back(static_cast<char>(250));
   }
-  s.push_back(3);  // face: not read
+  s.push_back(3);  // face: checked to be whole, not read
+  for (int32_t index : {0, 1, 0}) PutBe<int32_t>(&s, index);
   const PointCloud c = ReadPly(Write("be.ply", s));
   ASSERT_EQ(c.size(), 2u);
   EXPECT_EQ(c.points[1], Eigen::Vector3d(2, 2, -3));
@@ -148,8 +155,15 @@ TEST_F(PointCloudIoTest, PlyIntensityNames) {
 }
 
 TEST_F(PointCloudIoTest, PlyBrokenFixtures) {
+  // The first line of a file of another kind is not quoted back (it may be any file).
   ExpectInputError([&] { ReadPly(Write("m.ply", "plx\nformat ascii 1.0\n")); },
-                   {"m.ply:1", "magic", "plx"});
+                   {"m.ply:1: field 'magic': found 'a first line other than 'ply'', expected 'ply' (not a PLY file?)"});
+  try {
+    ReadPly(Write("passwd.ply", "root:x:0:0:root:/root:/bin/bash\n"));
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).find("root"), std::string::npos) << e.what();
+  }
   ExpectInputError(
       [&] { ReadPly(Write("f.ply", "ply\nformat binary_middle_endian 1.0\nend_header\n")); },
       {"f.ply:2", "binary_middle_endian"});
@@ -190,6 +204,95 @@ TEST_F(PointCloudIoTest, PlyBrokenFixtures) {
   ExpectInputError([&] { ReadPly(Write("bt.ply", b)); },
                    {"bt.ply (byte " + std::to_string(header) + ")", "truncated"});
   ExpectInputError([&] { ReadPly((dir_ / "missing.ply").string()); }, {"missing.ply", "not found"});
+}
+
+// The elements after the vertices (a mesh's faces) are not read, but their records must all
+// be there, with nothing after them: a file cut short or with wrong counts is damaged, even
+// where its vertices are whole.
+TEST_F(PointCloudIoTest, PlyElementsAfterTheVerticesAreChecked) {
+  const std::string head =
+      "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 2\nproperty list uchar int vertex_indices\nend_header\n1 2 3\n4 5 6\n";
+  EXPECT_EQ(ReadPly(Write("ok.ply", head + "3 0 1 0\n3 1 0 1\n\n")).size(), 2u);
+  ExpectInputError([&] { ReadPly(Write("short.ply", head + "3 0 1 0\n")); },
+                   {"short.ply:13: field 'face': found 'end of file after 1 of 2 items'"});
+  ExpectInputError([&] { ReadPly(Write("count.ply", head + "3 0 1 0\n3 1 0\n")); },
+                   {"count.ply:13: field 'face': found '3 values', expected 4 values (one per property)"});
+  ExpectInputError([&] { ReadPly(Write("more.ply", head + "3 0 1 0\n3 1 0 1\n3 0 0 0\n")); },
+                   {"more.ply:14: field 'end of file': found 'a line after the last element', expected nothing after the 2 "
+                    "items of element 'face'"});
+  // Binary: read whole and streamed.
+  std::string b =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n";
+  for (int i = 0; i < 6; ++i) Put<float>(&b, 1.0f);
+  const size_t faces = b.size();
+  for (int f = 0; f < 2; ++f) {
+    b.push_back(3);
+    for (int32_t index : {0, 1, 0}) Put<int32_t>(&b, index);
+  }
+  const auto stream = [](const std::string& path) { StreamPointCloud(path, 1, [](const PointCloud&, size_t, size_t) {}); };
+  EXPECT_EQ(ReadPly(Write("ok_b.ply", b)).size(), 2u);
+  stream(Write("ok_b.ply", b));
+  const std::string cut = Write("cut_b.ply", b.substr(0, b.size() - 4));
+  const std::string extra = Write("extra_b.ply", b + "junk");
+  for (const bool streamed : {false, true}) {
+    SCOPED_TRACE(streamed ? "streamed" : "whole");
+    const auto read = [&](const std::string& path) { streamed ? stream(path) : (void)ReadPly(path); };
+    ExpectInputError([&] { read(cut); },
+                     {"cut_b.ply (byte " + std::to_string(faces + 14) + "): field 'vertex_indices': found 'end of file'"});
+    ExpectInputError([&] { read(extra); },
+                     {"extra_b.ply (byte " + std::to_string(b.size()) + "): field 'end of file': found '4 more bytes', "
+                      "expected nothing after the 2 items of element 'face'"});
+  }
+  // An element before the vertices whose size wraps around 64 bits (2^62 records of 4 bytes)
+  // is refused, not skipped by 0 bytes.
+  std::string wrap =
+      "ply\nformat binary_little_endian 1.0\nelement junk 4611686018427387904\nproperty float a\n"
+      "element vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+  const size_t junk = wrap.size();
+  for (int i = 0; i < 3; ++i) Put<float>(&wrap, 1.0f);
+  const std::string wrapping = Write("wrap.ply", wrap);
+  ExpectInputError([&] { ReadPly(wrapping); },
+                   {"wrap.ply (byte " + std::to_string(junk) + "): field 'junk element': found 'end of file'"});
+  ExpectInputError([&] { stream(wrapping); },
+                   {"wrap.ply (byte " + std::to_string(junk) + "): field 'junk element': found 'end of file'"});
+}
+
+// A FIFO named as a cloud is refused before it is opened, by the streamed reader too. A
+// writer thread serves a short text to every open, so that a reader that does open the FIFO
+// returns (and the test fails instead of hanging).
+TEST_F(PointCloudIoTest, AFifoIsNotOpened) {
+  const std::string fifo = (dir_ / "pipe.ply").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const auto error_of = [&](const auto& read) {
+    std::atomic<bool> done{false};
+    std::thread writer([&] {
+      while (true) {
+        const int fd = ::open(fifo.c_str(), O_WRONLY);  // waits for a reader
+        if (fd < 0 || done) {
+          if (fd >= 0) ::close(fd);
+          return;
+        }
+        (void)!::write(fd, "ply\n", 4);
+        ::close(fd);
+      }
+    });
+    std::string message = "no error";
+    try {
+      read();
+    } catch (const InputError& e) {
+      message = e.what();
+    }
+    done = true;
+    const int release = ::open(fifo.c_str(), O_RDONLY | O_NONBLOCK);  // frees the waiting writer
+    writer.join();
+    if (release >= 0) ::close(release);
+    return message;
+  };
+  const std::string expected = fifo + ": is a FIFO (named pipe), expected a regular file";
+  EXPECT_EQ(error_of([&] { ReadPointCloud(fifo); }), expected);
+  EXPECT_EQ(error_of([&] { StreamPointCloud(fifo, 10, [](const PointCloud&, size_t, size_t) {}); }), expected);
 }
 
 TEST_F(PointCloudIoTest, PcdAsciiBinaryAndCompressed) {
@@ -391,8 +494,11 @@ TEST_F(PointCloudIoTest, XyzHeadersOfOtherPrograms) {
   const PointCloud bom = ReadPointCloud(Write("bom.xyz", "\xEF\xBB\xBF" "1 2 3\n"));
   ASSERT_EQ(bom.size(), 1u);
   EXPECT_EQ(bom.points[0], Eigen::Vector3d(1, 2, 3));
+  // The header is described, not quoted (any file can be named as a cloud).
   ExpectInputError([&] { ReadPointCloud(Write("lat.csv", "# exported\nLat,Lon,Alt\n1,2,3\n")); },
-                   {"lat.csv:2", "Lat, Lon, Alt", "x, y and z"});
+                   {"lat.csv:2: field 'columns': found '3 column names, none of them x, y or z'", "x, y and z"});
+  ExpectInputError([&] { ReadPointCloud(Write("xy.csv", "x,y,alt\n")); },
+                   {"xy.csv:1: field 'columns': found '3 column names, of x, y and z only x, y (and no point)'"});
   // A PLY with a byte-order mark before "ply".
   WritePly(MakeCloud(), (dir_ / "plain.ply").string(), /*ascii=*/true);
   std::ifstream in(dir_ / "plain.ply", std::ios::binary);
@@ -515,6 +621,24 @@ TEST_F(PointCloudIoTest, LasBrokenFixtures) {
   const uint64_t wrapping = std::numeric_limits<uint64_t>::max() / 30 + 1;
   std::memcpy(&wrap[247], &wrapping, 8);
   ExpectInputError([&] { ReadLas(Write("wrap.las", wrap)); }, {"wrap.las", "more than 2^64", "truncated"});
+  // A count of variable length records (byte 100) that cannot fit before the point data.
+  std::string vlr = ok;
+  const uint32_t all_ones = 0xFFFFFFFFu;
+  std::memcpy(&vlr[100], &all_ones, 4);
+  ExpectInputError([&] { ReadLas(Write("vlr.las", vlr)); },
+                   {"vlr.las (byte 100): field 'number of variable length records': found '4294967295', expected records "
+                    "that fit between the header and the point data (byte 237): record 0 would start at byte 227"});
+}
+
+// A file of another kind is not quoted back.
+TEST_F(PointCloudIoTest, PcdAndLasOfAnotherKindAreNotQuoted) {
+  const std::string passwd = "root:x:0:0:root:/root:/bin/bash\n";
+  ExpectInputError([&] { ReadPcd(Write("p.pcd", passwd)); },
+                   {"p.pcd:1: field 'keyword': found 'a first word that is not a PCD keyword'", "(not a PCD file?)"});
+  ExpectInputError([&] { ReadLas(Write("p.las", passwd + std::string(300, 'x'))); },
+                   {"p.las (byte 0): field 'file signature': found 'other bytes', expected 'LASF' (not a LAS file?)"});
+  // Once the file is known to be a PCD, a wrong keyword is quoted.
+  ExpectInputError([&] { ReadPcd(Write("k.pcd", "VERSION 0.7\nFIELDZ x y z\n")); }, {"k.pcd:2", "'FIELDZ'"});
 }
 
 TEST_F(PointCloudIoTest, KittiBin) {
