@@ -40,10 +40,17 @@ class TokenStream {
     return v;
   }
 
-  int64_t Int(const std::string& field, int64_t min, int64_t max, const std::string& expected) {
+  /// `first_of_file`: a token that is not a number is not quoted back (the file is then not
+  /// a BAL problem at all, and may be any file).
+  int64_t Int(const std::string& field, int64_t min, int64_t max, const std::string& expected,
+              bool first_of_file = false) {
     const std::string_view token = Next(field, expected);
     int64_t v = 0;
-    if (!ParseInt(token, &v) || v < min || v > max) {
+    const bool number = ParseInt(token, &v);
+    if (!number && first_of_file) {
+      throw InputError(path_, token_line_, field, "a word that is not a number", expected + " (not a BAL file?)");
+    }
+    if (!number || v < min || v > max) {
       throw InputError(path_, token_line_, field, std::string(token), expected);
     }
     return v;
@@ -78,7 +85,7 @@ BalProblem ReadBal(const std::string& path) {
   BalProblem problem;
   constexpr int64_t kMaxCount = std::numeric_limits<int>::max();
   problem.num_cameras = static_cast<int>(
-      in.Int("num_cameras", 1, kMaxCount, "a positive integer"));
+      in.Int("num_cameras", 1, kMaxCount, "a positive integer", /*first_of_file=*/true));
   problem.num_points = static_cast<int>(
       in.Int("num_points", 1, kMaxCount, "a positive integer"));
   const int64_t num_observations =

@@ -8,6 +8,7 @@
 
 #include "mmba/core/atomic_file.h"
 #include "mmba/core/error.h"
+#include "mmba/core/utf8.h"
 #include "mmba/io/text_reader.h"
 
 namespace mmba::io {
@@ -15,6 +16,10 @@ namespace fs = std::filesystem;
 namespace {
 
 constexpr uint64_t kInvalidPoint3D = std::numeric_limits<uint64_t>::max();
+
+// images.txt writes all the keypoints of an image on one line (~40 bytes a keypoint) and
+// points3D.txt a whole track on one: this bound allows some 6 million per line.
+constexpr size_t kMaxPoints2DLineBytes = size_t{256} << 20;
 
 std::string Join(const std::string& dir, const std::string& name) {
   return (fs::path(dir) / name).string();
@@ -46,10 +51,10 @@ sensors::Camera ParseCameraFields(const std::string& file, int64_t line_no,
                      std::to_string(expected) + " values for " + model_name + " (" +
                          sensors::CameraModelParamsInfo(camera.model_id) + ")");
   }
-  if (width == 0 || height == 0) {
+  if (width == 0 || height == 0 || width > kMaxImageSidePx || height > kMaxImageSidePx) {
     throw InputError(file, line_no, "WIDTH/HEIGHT",
                      std::to_string(width) + "x" + std::to_string(height),
-                     "a positive image size");
+                     "an image size of 1 to " + std::to_string(kMaxImageSidePx) + " px a side");
   }
   camera.width = width;
   camera.height = height;
@@ -59,7 +64,7 @@ sensors::Camera ParseCameraFields(const std::string& file, int64_t line_no,
 
 void ReadCamerasText(const std::string& path, ColmapModel* model) {
   const std::string text = ReadWholeFile(path);
-  LineCursor cursor(text);
+  LineCursor cursor(text, path);
   std::string_view line;
   while (cursor.Next(&line)) {
     if (IsSkippable(line)) continue;
@@ -86,7 +91,7 @@ void ReadCamerasText(const std::string& path, ColmapModel* model) {
 
 void ReadImagesText(const std::string& path, ColmapModel* model) {
   const std::string text = ReadWholeFile(path);
-  LineCursor cursor(text);
+  LineCursor cursor(text, path, kMaxPoints2DLineBytes);
   std::string_view line;
   while (cursor.Next(&line)) {
     if (IsSkippable(line)) continue;
@@ -110,8 +115,8 @@ void ReadImagesText(const std::string& path, ColmapModel* model) {
         Eigen::Vector3d(tokens.Double(5, "TX"), tokens.Double(6, "TY"), tokens.Double(7, "TZ"));
     image.camera_id = CameraId(tokens.UInt(8, "CAMERA_ID"));
     // The name is the rest of the line (COLMAP names may not contain spaces, but keep them).
-    image.name = tokens.Str(9, "NAME");
-    for (size_t i = 10; i < tokens.size(); ++i) image.name += " " + tokens.Str(i, "NAME");
+    image.name = tokens.Name(9, "NAME");
+    for (size_t i = 10; i < tokens.size(); ++i) image.name += " " + tokens.Name(i, "NAME");
 
     // The next line holds the 2-D points, even when empty.
     std::string_view points_line;
@@ -148,7 +153,7 @@ void ReadImagesText(const std::string& path, ColmapModel* model) {
 
 void ReadPoints3DText(const std::string& path, ColmapModel* model) {
   const std::string text = ReadWholeFile(path);
-  LineCursor cursor(text);
+  LineCursor cursor(text, path, kMaxPoints2DLineBytes);
   std::string_view line;
   while (cursor.Next(&line)) {
     if (IsSkippable(line)) continue;
@@ -278,10 +283,10 @@ void ReadCamerasBinary(const std::string& path, ColmapModel* model) {
       throw InputError::AtByte(path, model_at, "model_id", std::to_string(model_int),
                                "a known model id (" + sensors::KnownCameraModelNames() + ")");
     }
-    if (width == 0 || height == 0) {
+    if (width == 0 || height == 0 || width > kMaxImageSidePx || height > kMaxImageSidePx) {
       throw InputError::AtByte(path, record_at, "width/height",
                                std::to_string(width) + "x" + std::to_string(height),
-                               "a positive image size");
+                               "an image size of 1 to " + std::to_string(kMaxImageSidePx) + " px a side");
     }
     camera.width = width;
     camera.height = height;
@@ -319,7 +324,12 @@ void ReadImagesBinary(const std::string& path, ColmapModel* model) {
       image.cam_from_world.translation[k] = in.ReadFinite("tvec[" + std::to_string(k) + "]");
     }
     image.camera_id = CameraId(in.Read<uint32_t>("camera_id"));
+    const uint64_t name_at = in.offset();
     image.name = in.ReadString("name");
+    if (const size_t bad = InvalidUtf8Offset(image.name); bad != std::string::npos) {
+      throw InputError::AtByte(path, name_at + bad, "name", "invalid UTF-8 at byte " + std::to_string(bad) + " of the name",
+                               "UTF-8 text");
+    }
     const uint64_t points_at = in.offset();
     const uint64_t num_points2D = in.Read<uint64_t>("num_points2D");
     in.CheckCount(num_points2D, 8 + 8 + 8, "num_points2D", points_at);

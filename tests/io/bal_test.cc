@@ -15,6 +15,7 @@ namespace mmba::io {
 namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 const std::string kDubrovnik = std::string(MMBA_SOURCE_DIR) + "/data/bal/dubrovnik-3-7-pre.txt";
 
@@ -72,6 +73,14 @@ TEST(Bal, BadInputNamesLineFieldAndValue) {
               HasSubstr(":12: field 'end of file': found '7'"));
   EXPECT_THAT(ErrorOf(Small("1 1 5000000")), HasSubstr("counts that fit the file"));
   EXPECT_THAT(ErrorOf(""), HasSubstr("field 'num_cameras': found 'end of file'"));
+}
+
+// A file that is not a BAL problem at all (any file can be named) is not quoted back.
+TEST(Bal, AFileOfAnotherKindIsNotQuoted) {
+  const std::string message = ErrorOf("root:x:0:0:root:/root:/bin/bash\n");
+  EXPECT_THAT(message, HasSubstr(":1: field 'num_cameras': found 'a word that is not a number', "
+                                 "expected a positive integer (not a BAL file?)"));
+  EXPECT_THAT(message, Not(HasSubstr("root")));
 }
 
 TEST(Bal, MissingFile) {

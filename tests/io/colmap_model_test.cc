@@ -149,6 +149,12 @@ TEST_F(ColmapModelTest, BadTextInputNamesFileLineAndValue) {
        "points3D.txt:3: field 'R': found '256', expected an integer 0..255"},
       {"points3D.txt", 4, "1 1.5 0.2 9.5 0 255 0 0.25 1 1 2 1 3 1",
        "points3D.txt:4: field 'POINT3D_ID': found '1', expected a unique id"},
+      // A size that no image has (2^40 px) would overflow pixel counts further on.
+      {"cameras.txt", 3, "1 PINHOLE 1099511627776 480 500 510 320 240",
+       "cameras.txt:3: field 'WIDTH/HEIGHT': found '1099511627776x480', expected an image size of 1 to 1000000 px"},
+      // A name reaches the JSON outputs: invalid UTF-8 is refused where it is read.
+      {"images.txt", 6, "2 0.99 0.01 0.1 0.02 -1 0 0.1 1 b\xff.jpg",
+       "images.txt:6: field 'NAME': found 'invalid UTF-8 at byte 1 of the value', expected UTF-8 text"},
   };
   for (const Case& c : cases) {
     const std::string message = ErrorOf(Broken(c.file, c.line, c.replacement));
@@ -207,6 +213,15 @@ TEST_F(ColmapModelTest, BadBinaryInputNamesTheByteOffset) {
   std::memcpy(bad_image.data() + 44, &nan, 8);
   Spit(dir / "images.bin", bad_image);
   EXPECT_THAT(ErrorOf(dir), HasSubstr("images.bin (byte 44): field 'tvec[0]'"));
+
+  // A width of 2^40 px (the first camera's width is at byte 8 + 4 + 4).
+  std::string wide = cameras;
+  const uint64_t width = uint64_t{1} << 40;
+  std::memcpy(wide.data() + 16, &width, 8);
+  Spit(dir / "cameras.bin", wide);
+  EXPECT_THAT(ErrorOf(dir), HasSubstr("cameras.bin (byte 8): field 'width/height': found '1099511627776x480', "
+                                      "expected an image size of 1 to 1000000 px"));
+  Spit(dir / "cameras.bin", cameras);
 
   // Extra bytes after the last record.
   Spit(dir / "images.bin", images + "xx");

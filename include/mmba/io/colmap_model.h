@@ -52,12 +52,17 @@ struct ColmapModel {
 
 enum class ColmapFormat { kText, kBinary };
 
+/// Largest image width or height (pixels) the camera readers accept: a gigapixel panorama is
+/// about 200,000 px wide, while a corrupt size (2^40) would overflow pixel counts downstream.
+constexpr uint64_t kMaxImageSidePx = 1000000;
+
 /// Which format a model folder holds (cameras.bin or cameras.txt). Throws InputError when
 /// the folder is missing or holds neither.
 ColmapFormat DetectColmapFormat(const std::string& dir);
 
 /// Reads and validates a model (format detected): ids unique and non-negative, camera
-/// models known with the right parameter count, finite numbers, every image names an
+/// models known with the right parameter count, image sizes in 1..kMaxImageSidePx, image
+/// names UTF-8 text, finite numbers, every image names an
 /// existing camera, every track an existing image and point2D index, and the points2D ↔
 /// track cross references agree. Throws InputError (file:line or byte offset).
 ColmapModel ReadColmapModel(const std::string& dir, ColmapFormat* format = nullptr);
