@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -11,6 +12,7 @@
 
 #include "mmba/core/atomic_file.h"
 #include "mmba/core/error.h"
+#include "mmba/io/colmap_model.h"
 #include "mmba/io/text_reader.h"
 #include "mmba/io/yaml_reader.h"
 
@@ -60,7 +62,7 @@ namespace {
 // "calib_time:" (a date, the only key whose value is text) is skipped.
 std::map<std::string, CalibRow> ReadCalibRows(const std::string& path) {
   const std::string text = ReadWholeFile(path);
-  LineCursor cursor(text);
+  LineCursor cursor(text, path);
   std::string_view line_text;
   std::map<std::string, CalibRow> rows;
   while (cursor.Next(&line_text)) {
@@ -68,12 +70,20 @@ std::map<std::string, CalibRow> ReadCalibRows(const std::string& path) {
     if (line.size() == 0) continue;
     std::string key = line.Str(0, "key");
     double number;
+    const char* kExpected = "'NAME:' (or NAME) followed by numbers (KITTI calibration format)";
     if (!key.empty() && key.back() == ':') {
       key.pop_back();
     } else if (key.find(':') != std::string::npos || ParseDouble(key, &number)) {
-      line.Fail("key", key, "'NAME:' (or NAME) followed by numbers (KITTI calibration format)");
+      // Before the first row the file is not known to be a calibration at all: its words are
+      // not quoted back.
+      line.Fail("key", rows.empty() ? "a first word that is not a key" : key, kExpected);
     }
     if (key == "calib_time") continue;
+    if (rows.empty()) {
+      for (size_t i = 1; i < line.size(); ++i) {
+        if (!ParseDouble(line.Str(i, "value"), &number)) line.Fail("first row", "values that are not numbers", kExpected);
+      }
+    }
     // A key given twice leaves the file's meaning open (which one did its writer mean?).
     if (const auto earlier = rows.find(key); earlier != rows.end()) {
       line.Fail(key, "a second '" + key + ":' line (the first on line " + std::to_string(earlier->second.line) + ")",
@@ -270,99 +280,6 @@ Rigid3d RigidFromRowMajor4x4(const double* v, const std::string& where,
   return Rigid3d::FromMatrix(m);
 }
 
-CameraYaml ReadCameraYaml(const std::string& path) {
-  const std::string text = ReadWholeFile(path);
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw InputError(path, e.mark.line + 1, "yaml", e.msg, "valid YAML");
-  }
-  if (!root.IsMap()) throw InputError(path, 1, "document", "not a mapping", "a YAML mapping");
-  auto line_of = [](const YAML::Node& n) { return static_cast<int64_t>(n.Mark().line) + 1; };
-  auto need = [&](const char* key) {
-    YAML::Node node = root[key];
-    if (!node) throw InputError(path, 0, key, "(missing)", "a value (see calib/README.md)");
-    return node;
-  };
-  auto as_double = [&](const YAML::Node& node, const std::string& field) {
-    double value = 0;
-    try {
-      value = node.as<double>();
-    } catch (const YAML::Exception&) {
-      throw InputError(path, line_of(node), field, node.IsScalar() ? node.Scalar() : "(not a number)",
-                       "a number");
-    }
-    if (!std::isfinite(value)) {
-      throw InputError(path, line_of(node), field, node.Scalar(), "a finite number");
-    }
-    return value;
-  };
-  auto as_size = [&](const char* key) {
-    YAML::Node node = need(key);
-    const double value = as_double(node, key);
-    if (!(value >= 1) || value != std::floor(value) || value > 1e6) {
-      throw InputError(path, line_of(node), key, node.Scalar(), "a positive integer (pixels)");
-    }
-    return static_cast<uint64_t>(value);
-  };
-  CameraYaml result;
-  YAML::Node model = need("model");
-  const std::string model_name = model.IsScalar() ? model.Scalar() : "";
-  result.camera.model_id = sensors::CameraModelFromName(model_name);
-  if (result.camera.model_id == sensors::CameraModelId::kInvalid) {
-    throw InputError(path, line_of(model), "model", model_name,
-                     "one of " + sensors::KnownCameraModelNames());
-  }
-  result.camera.width = as_size("width");
-  result.camera.height = as_size("height");
-  YAML::Node params = need("params");
-  const int expected = sensors::CameraModelNumParams(result.camera.model_id);
-  if (!params.IsSequence() || static_cast<int>(params.size()) != expected) {
-    throw InputError(path, line_of(params), "params",
-                     params.IsSequence() ? std::to_string(params.size()) + " values"
-                                         : "not a list",
-                     "a list of " + std::to_string(expected) + " values (" +
-                         sensors::CameraModelParamsInfo(result.camera.model_id) + ")");
-  }
-  for (size_t i = 0; i < params.size(); ++i) {
-    result.camera.params.push_back(as_double(params[i], "params[" + std::to_string(i) + "]"));
-  }
-  for (int i : sensors::CameraModelFocalIdxs(result.camera.model_id)) {
-    if (!(result.camera.params[i] > 0)) {
-      throw InputError(path, line_of(params[i]), "params[" + std::to_string(i) + "]",
-                       Num(result.camera.params[i]), "a positive focal length");
-    }
-  }
-  if (YAML::Node pose = root["cam_from_lidar"]) {
-    // 16 numbers row-major, or 4 rows of 4 numbers.
-    const bool rows = pose.IsSequence() && pose.size() == 4;
-    if (!pose.IsSequence() || (pose.size() != 16 && !rows)) {
-      throw InputError(path, line_of(pose), "cam_from_lidar",
-                       pose.IsSequence() ? std::to_string(pose.size()) + " values" : "not a list",
-                       "16 numbers (4x4 row-major) or 4 rows of 4 numbers");
-    }
-    double v[16];
-    for (int i = 0; i < 16; ++i) {
-      if (!rows) {
-        v[i] = as_double(pose[i], "cam_from_lidar[" + std::to_string(i) + "]");
-        continue;
-      }
-      const YAML::Node row = pose[i / 4];
-      if (!row.IsSequence() || row.size() != 4) {
-        throw InputError(path, line_of(row), "cam_from_lidar[" + std::to_string(i / 4) + "]",
-                         row.IsSequence() ? std::to_string(row.size()) + " values" : "not a list",
-                         "a row of 4 numbers");
-      }
-      v[i] = as_double(row[i % 4], "cam_from_lidar[" + std::to_string(i / 4) + "][" +
-                                       std::to_string(i % 4) + "]");
-    }
-    result.cam_from_lidar =
-        RigidFromRowMajor4x4(v, path + ":" + std::to_string(line_of(pose)), "cam_from_lidar");
-  }
-  return result;
-}
-
 Rigid3d ReadLidarMountYaml(const std::string& path) {
   const YamlReader r(path);
   const YAML::Node root = r.Load("mobile LiDAR calibration");
@@ -409,6 +326,48 @@ Rigid3d Matrix4Pose(const YamlReader& r, const YAML::Node& n, const std::string&
 
 }  // namespace
 
+CameraYaml ReadCameraYaml(const std::string& path) {
+  const YamlReader r(path);
+  const YAML::Node root = r.Load("camera calibration");
+  // The keys in any order: the parameter count depends on the model.
+  std::optional<YAML::Node> model, width, height, params, pose;
+  const auto keep = [](std::optional<YAML::Node>* slot) {
+    return [slot](const YAML::Node& n, const std::string&) { slot->emplace(n); };
+  };
+  r.Map(root, "", {{"model", keep(&model)}, {"width", keep(&width)}, {"height", keep(&height)},
+                   {"params", keep(&params)}, {"cam_from_lidar", keep(&pose)}});
+  r.Require(root, "", {"model", "width", "height", "params"});
+  CameraYaml result;
+  const std::string model_name = r.String(*model, "model");
+  result.camera.model_id = sensors::CameraModelFromName(model_name);
+  if (result.camera.model_id == sensors::CameraModelId::kInvalid) {
+    r.Fail(*model, "model", "one of " + sensors::KnownCameraModelNames(), model_name);
+  }
+  const auto size = [&](const YAML::Node& n, const std::string& field) {
+    const double value = r.Number(n, field);
+    if (!(value >= 1 && value <= static_cast<double>(kMaxImageSidePx)) || value != std::floor(value)) {
+      r.Fail(n, field, "a whole number of pixels in 1.." + std::to_string(kMaxImageSidePx), YamlReader::Text(n));
+    }
+    return static_cast<uint64_t>(value);
+  };
+  result.camera.width = size(*width, "width");
+  result.camera.height = size(*height, "height");
+  const int expected = sensors::CameraModelNumParams(result.camera.model_id);
+  if (!params->IsSequence() || static_cast<int>(params->size()) != expected) {
+    r.Fail(*params, "params",
+           "a list of " + std::to_string(expected) + " values (" + sensors::CameraModelParamsInfo(result.camera.model_id) + ")",
+           params->IsSequence() ? std::to_string(params->size()) + " values" : "a " + YamlReader::Kind(*params));
+  }
+  result.camera.params = r.NumberList(*params, "params");
+  for (int i : sensors::CameraModelFocalIdxs(result.camera.model_id)) {
+    if (!(result.camera.params[i] > 0)) {
+      r.Fail((*params)[i], "params[" + std::to_string(i) + "]", "a positive focal length", Num(result.camera.params[i]));
+    }
+  }
+  if (pose) result.cam_from_lidar = Matrix4Pose(r, *pose, "cam_from_lidar");
+  return result;
+}
+
 RigYaml ReadRigYaml(const std::string& path) {
   const YamlReader r(path);
   const YAML::Node root = r.Load("rig calibration");
@@ -434,12 +393,16 @@ RigYaml ReadRigYaml(const std::string& path) {
                       }},
                      {"width", [&](const YAML::Node& v, const std::string& g) {
                         const int size = r.Integer(v, g);
-                        if (size < 1) r.Fail(v, g, "a positive number of pixels", std::to_string(size));
+                        if (size < 1 || static_cast<uint64_t>(size) > kMaxImageSidePx) {
+                          r.Fail(v, g, "a number of pixels in 1.." + std::to_string(kMaxImageSidePx), std::to_string(size));
+                        }
                         camera.width = static_cast<uint64_t>(size);
                       }},
                      {"height", [&](const YAML::Node& v, const std::string& g) {
                         const int size = r.Integer(v, g);
-                        if (size < 1) r.Fail(v, g, "a positive number of pixels", std::to_string(size));
+                        if (size < 1 || static_cast<uint64_t>(size) > kMaxImageSidePx) {
+                          r.Fail(v, g, "a number of pixels in 1.." + std::to_string(kMaxImageSidePx), std::to_string(size));
+                        }
                         camera.height = static_cast<uint64_t>(size);
                       }},
                      {"params", [&](const YAML::Node& v, const std::string& g) { camera.params = r.NumberList(v, g); }},

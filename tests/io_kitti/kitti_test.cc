@@ -3,6 +3,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "mmba/core/error.h"
@@ -177,7 +179,7 @@ TEST(CameraYaml, PoseAsFourRows) {
     ReadCameraYaml(bad);
     FAIL() << "no error for a row of 3";
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("field 'cam_from_lidar[1]': found '3 values'"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("field 'cam_from_lidar[1]': found '3 numbers'"), std::string::npos)
         << e.what();
   }
   std::filesystem::remove(rows);
@@ -196,6 +198,58 @@ TEST(CameraYaml, BrokenFilesNameTheField) {
   expect("camera_bad_model.yaml", "camera_bad_model.yaml:1: field 'model': found 'PINHOLLE'");
   expect("camera_bad_params.yaml", "field 'params': found '3 values', expected a list of 4");
   expect("camera_bad_pose.yaml", "last row is (0 0 1 1)");
+}
+
+// The camera YAML refuses what the project file refuses: an unknown key (a typo would leave
+// a setting silently unread), a key given twice (which one was meant?), and a size that no
+// image has.
+TEST(CameraYaml, UnknownOrRepeatedKeysAndHugeSizesAreRefused) {
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("mmba_camera_keys_" + std::to_string(::getpid()) + ".yaml")).string();
+  const std::string params = "params: [707.0493, 707.0493, 604.0814, 180.5066]\n";
+  auto error_of = [&](const std::string& text) -> std::string {
+    std::ofstream(path) << text;
+    try {
+      ReadCameraYaml(path);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "ok";
+  };
+  EXPECT_EQ(error_of("model: PINHOLE\nwidth: 1242\nheight: 375\n" + params), "ok");
+  EXPECT_NE(error_of("model: PINHOLE\nwidth: 1242\nheight: 375\nwidht: 1300\n" + params)
+                .find(":4: field 'widht': found 'widht (unknown key)', expected one of cam_from_lidar, height, model, params, width"),
+            std::string::npos);
+  EXPECT_NE(error_of("model: PINHOLE\nwidth: 1242\nheight: 375\n" + params + "width: 1300\n")
+                .find(":5: field 'width': found 'the key a second time (first on line 2)', expected each key once"),
+            std::string::npos);
+  EXPECT_NE(error_of("model: PINHOLE\nwidth: 1099511627776\nheight: 375\n" + params)
+                .find(":2: field 'width': found '1099511627776', expected a whole number of pixels in 1..1000000"),
+            std::string::npos);
+  EXPECT_NE(error_of("model: PINHOLE\nwidth: 1242\n" + params).find("field 'height': found 'nothing', expected the key to be present"),
+            std::string::npos);
+  std::filesystem::remove(path);
+}
+
+// A file of another kind named as a KITTI calibration is not quoted back.
+TEST(KittiCalibration, AFileOfAnotherKindIsNotQuoted) {
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("mmba_calib_other_" + std::to_string(::getpid()) + ".txt")).string();
+  for (const std::string text : {"root:x:0:0:root:/root:/bin/bash\n", "secret words here\n"}) {
+    std::ofstream(path) << text;
+    try {
+      ReadKittiCalibration(path);
+      ADD_FAILURE() << "no error for " << text;
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(":1: field '"), std::string::npos) << what;
+      EXPECT_NE(what.find("(KITTI calibration format)"), std::string::npos) << what;
+      EXPECT_EQ(what.find("root"), std::string::npos) << what;
+      EXPECT_EQ(what.find("secret"), std::string::npos) << what;
+      EXPECT_EQ(what.find("words"), std::string::npos) << what;
+    }
+  }
+  std::filesystem::remove(path);
 }
 
 // The rig YAML of --rig: the simulator's/adjust's camera_rig schema, an optional start pose.

@@ -61,7 +61,9 @@ struct CameraYaml {
   sensors::Camera camera;
   std::optional<Rigid3d> cam_from_lidar;
 };
-/// Throws InputError naming the file, the field and the value on any problem.
+/// Throws InputError naming the file, the line, the field and the value on any problem: an
+/// unknown key or a key given twice, a missing key, a size outside 1..kMaxImageSidePx, a
+/// wrong parameter count, a pose that is not rigid.
 CameraYaml ReadCameraYaml(const std::string& path);
 /// Writes the same schema atomically.
 void WriteCameraYaml(const CameraYaml& camera_yaml, const std::string& path);
