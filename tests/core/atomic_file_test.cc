@@ -55,5 +55,49 @@ TEST_F(AtomicFileTest, AFailingWriterLeavesExistingFilesUntouched) {
   EXPECT_EQ(n, 1u);
 }
 
+
+// "<name>.tmp-<pid>" of a process that no longer runs (a run killed while writing) goes with
+// the next Commit of that file; one of a running process (pid 1) and other files stay.
+TEST_F(AtomicFileTest, AStaleTemporaryOfAProcessGoneIsRemoved) {
+  fs::create_directories(dir_);
+  { std::ofstream(dir_ / "cameras.txt.tmp-999999999") << "half"; }  // above any pid_max
+  { std::ofstream(dir_ / "cameras.txt.tmp-1") << "init's"; }
+  { std::ofstream(dir_ / "images.txt.tmp-999999999") << "another file's"; }
+  WriteFileAtomically(dir_ / "cameras.txt", [](std::ostream& o) { o << "new"; });
+  EXPECT_EQ(Slurp(dir_ / "cameras.txt"), "new");
+  EXPECT_FALSE(fs::exists(dir_ / "cameras.txt.tmp-999999999"));
+  EXPECT_TRUE(fs::exists(dir_ / "cameras.txt.tmp-1"));
+  EXPECT_TRUE(fs::exists(dir_ / "images.txt.tmp-999999999"));
+}
+
+// A result JSON and its error map: a run without a map removes the earlier run's map, so the
+// new JSON never stands beside it.
+TEST_F(AtomicFileTest, ARemovedPartnerDoesNotSurviveBesideTheNewIndex) {
+  fs::create_directories(dir_);
+  { std::ofstream(dir_ / "result.json") << "old"; }
+  { std::ofstream(dir_ / "error_map.ply") << "old map"; }
+  AtomicFileSet set;
+  set.Add(dir_ / "result.json", [](std::ostream& o) { o << "new"; });
+  set.Remove(dir_ / "error_map.ply");
+  set.Commit();
+  EXPECT_EQ(Slurp(dir_ / "result.json"), "new");
+  EXPECT_FALSE(fs::exists(dir_ / "error_map.ply"));
+}
+
+// The index (first file) goes last and its old version first: when a partner cannot be put in
+// place, the old index is gone too, so no index stands beside a partner of another run.
+TEST_F(AtomicFileTest, WhenAPartnerFailsTheOldIndexIsGoneNotMixed) {
+  fs::create_directories(dir_ / "error_map.ply" / "a folder in the way");
+  { std::ofstream(dir_ / "result.json") << "old"; }
+  AtomicFileSet set;
+  set.Add(dir_ / "result.json", [](std::ostream& o) { o << "new"; });
+  set.Add(dir_ / "error_map.ply", [](std::ostream& o) { o << "new map"; });
+  EXPECT_THROW(set.Commit(), std::runtime_error);
+  EXPECT_FALSE(fs::exists(dir_ / "result.json"));
+  size_t n = 0;
+  for (const auto& entry : fs::directory_iterator(dir_)) n += entry.is_regular_file();
+  EXPECT_EQ(n, 0u);  // no temporaries either
+}
+
 }  // namespace
 }  // namespace mmba
