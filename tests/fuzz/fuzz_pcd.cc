@@ -1,5 +1,5 @@
-// libFuzzer harness of the PCD reader (io::ReadPcd: ascii, binary, binary_compressed): the input is the file,
-// read with NaN/Inf points refused (even size) or skipped (odd size).
+// libFuzzer harness of the PCD reader (io::ReadPcd: ascii, binary, binary_compressed): the
+// input is the file, read with NaN/Inf points refused (even size) or skipped (odd size).
 #include <cstddef>
 #include <cstdint>
 #include <string>
