@@ -126,6 +126,9 @@ void LoadNetwork(JointState* s) {
 // ---- GNSS --------------------------------------------------------------------------------
 
 void LoadGnss(JointState* s) {
+  // Each control mark and each photo's antenna position once over all GNSS files: a second
+  // row would silently stand beside (or replace) the first.
+  std::map<std::pair<std::string, std::string>, std::string> first_row;  // (kind, id) -> file:line
   for (const Gnss& g : s->project->gnss) {
     const io::CsvTable table = io::CsvTable::Read(
         g.file, {"id", "kind", "latitude_deg", "longitude_deg", "height_m", "sigma_east_m", "sigma_north_m", "sigma_up_m"});
@@ -136,6 +139,11 @@ void LoadGnss(JointState* s) {
         continue;
       }
       if (kind != "control" && kind != "camera") table.Fail(row, "kind", kind, "control, camera or trajectory");
+      const auto [first, inserted] =
+          first_row.emplace(std::make_pair(kind, table.String(row, "id")), g.file + ":" + std::to_string(row.line));
+      if (!inserted) {
+        table.Fail(row, "id", table.String(row, "id"), "each " + kind + " id once (also at " + first->second + ")");
+      }
       geodesy::Geodetic geo{table.Double(row, "latitude_deg"), table.Double(row, "longitude_deg"),
                             table.Double(row, "height_m")};
       if (std::abs(geo.latitude_deg) > 90) table.Fail(row, "latitude_deg", table.String(row, "latitude_deg"), "[-90, 90] degrees");
@@ -1213,11 +1221,7 @@ bool ApplyVarianceComponents(JointState* s, const stats::NetworkStatistics& st) 
     if (const auto* sg = dynamic_cast<const survey::SurveyGroup*>(groups[g].get())) {
       for (const survey::BlockSpec& spec : sg->added_specs()) {
         survey::Cluster& cluster = s->joint->clusters[spec.cluster];
-        for (size_t o : spec.observations) {
-          cluster.observations[o].sigma *= f;
-          cluster.covariance.row(o) *= f;
-          cluster.covariance.col(o) *= f;
-        }
+        for (size_t o : spec.observations) cluster.ScaleObservationSigma(o, f);
       }
     }
   }

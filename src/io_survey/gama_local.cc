@@ -1,6 +1,8 @@
 #include "mmba/io/gama_local.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <sstream>
 
 #include <Eigen/Cholesky>
@@ -242,6 +244,13 @@ class GamaReader {
     if (!e.children.empty()) Fail(e, "point", "<" + e.children[0]->name + ">", "an empty <point/>");
     if (id.empty()) Fail(e, "point@id", "", "a point id");
     if (has_x != has_y) Fail(e, has_x ? "point@y" : "point@x", "", "both x and y, or neither");
+    if (!in_coordinates) {
+      if (const SurveyPoint* first = net_.Find(id)) {
+        Fail(e, "point@id", id,
+             "each point once (point " + id + " is defined at line " +
+                 std::to_string(first->line) + ")");
+      }
+    }
     SurveyPoint& p = net_.GetOrAdd(id, e.line);
     if (has_x) {
       const Eigen::Vector2d xy(Number(e, "x", sx), Number(e, "y", sy));
@@ -431,24 +440,18 @@ class GamaReader {
     return false;
   }
 
-  /// Builds the SI covariance: from <cov-mat> (input units, band form) or the σ's.
+  /// Sets the SI covariance from <cov-mat> (input units, upper band by rows), or keeps the
+  /// σ's when there is none. A band of 0 gives the σ's too; a wider band the full matrix.
   void FinishCluster(Cluster* cluster, const xml::Element* cov,
                      const std::vector<double>& unit) {
+    if (cov == nullptr) return;
     const int n = static_cast<int>(cluster->observations.size());
-    cluster->covariance = Eigen::MatrixXd::Zero(n, n);
-    if (cov == nullptr) {
-      for (int i = 0; i < n; ++i) {
-        const double s = cluster->observations[i].sigma;
-        cluster->covariance(i, i) = s * s;
-      }
-      return;
-    }
     int dim = 0, band = 0;
     for (const auto& [key, value] : cov->attributes) {
       int64_t v = 0;
       if (!ParseInt(Trim(value), &v)) Fail(*cov, "cov-mat@" + key, value, "an integer");
-      if (key == "dim") dim = static_cast<int>(v);
-      else if (key == "band") band = static_cast<int>(v);
+      if (key == "dim") dim = static_cast<int>(std::clamp<int64_t>(v, -1, INT32_MAX));
+      else if (key == "band") band = static_cast<int>(std::clamp<int64_t>(v, -1, INT32_MAX));
       else Fail(*cov, "cov-mat@" + key, value, "dim or band");
     }
     if (cov->Attribute("dim") == nullptr || cov->Attribute("band") == nullptr) {
@@ -461,10 +464,14 @@ class GamaReader {
     if (band < 0 || band >= dim) {
       Fail(*cov, "cov-mat@band", std::to_string(band), "0 <= band < dim");
     }
+    cluster->correlated = band > 0;
+    if (cluster->correlated) cluster->covariance = Eigen::MatrixXd::Zero(n, n);
+    std::vector<double> variance(n, 0.0);
     std::istringstream in(cov->text);
     std::string token;
-    int row = 0, col = 0, count = 0;
-    const int expected = dim * (band + 1) - band * (band + 1) / 2;
+    int row = 0, col = 0;
+    int64_t count = 0;
+    const int64_t expected = int64_t{dim} * (band + 1) - int64_t{band} * (band + 1) / 2;
     while (in >> token) {
       double v = 0.0;
       if (!ParseDouble(token, &v)) Fail(*cov, "cov-mat element", token, "a number");
@@ -472,7 +479,9 @@ class GamaReader {
         Fail(*cov, "cov-mat", "more than " + std::to_string(expected) + " elements",
              std::to_string(expected) + " elements (upper band by rows)");
       }
-      cluster->covariance(row, col) = cluster->covariance(col, row) = v * unit[row] * unit[col];
+      const double si = v * unit[row] * unit[col];
+      if (row == col) variance[row] = si;
+      if (cluster->correlated) cluster->covariance(row, col) = cluster->covariance(col, row) = si;
       ++count;
       ++col;
       if (col > row + band || col >= dim) {
@@ -484,14 +493,14 @@ class GamaReader {
       Fail(*cov, "cov-mat", std::to_string(count) + " elements",
            std::to_string(expected) + " elements (upper band by rows)");
     }
-    if (cluster->covariance.llt().info() != Eigen::Success) {
+    const bool positive_definite =
+        cluster->correlated ? cluster->covariance.llt().info() == Eigen::Success
+                            : std::all_of(variance.begin(), variance.end(), [](double v) { return v > 0; });
+    if (!positive_definite) {
       Fail(*cov, "cov-mat", "a matrix that is not positive definite",
            "a positive definite covariance matrix");
     }
-    cluster->correlated = band > 0;
-    for (int i = 0; i < n; ++i) {
-      cluster->observations[i].sigma = std::sqrt(cluster->covariance(i, i));
-    }
+    for (int i = 0; i < n; ++i) cluster->observations[i].sigma = std::sqrt(variance[i]);
   }
 
   void ReadHeightDifferences(const xml::Element& hd) {

@@ -61,6 +61,19 @@ survey::SurveyNetwork ParseSurveyCsv(const std::string& text, const std::string&
                   const std::string& expected) {
     throw InputError(file, r.line, field, found, expected);
   };
+  if (rows.empty()) {
+    throw InputError(file, 0, "records", "none (the file is empty or only comments)",
+                     "point records and observations");
+  }
+  // A point record must not repeat an id: the second would silently replace the first.
+  auto new_point = [&](const Row& r) -> survey::SurveyPoint& {
+    if (const survey::SurveyPoint* first = net.Find(r.f[1])) {
+      fail(r, r.f[0] + " id", r.f[1],
+           "each point once (point " + r.f[1] + " is defined at line " +
+               std::to_string(first->line) + ")");
+    }
+    return net.GetOrAdd(r.f[1], r.line);
+  };
   auto number = [&](const Row& r, size_t i, const std::string& field) {
     double v = 0.0;
     if (i >= r.f.size() || !ParseDouble(r.f[i], &v)) {
@@ -112,7 +125,7 @@ survey::SurveyNetwork ParseSurveyCsv(const std::string& text, const std::string&
       if (r.f[1].empty()) fail(r, "gpoint id", "nothing", "a point id");
       const geodesy::LocalTangentPlane plane(net.origin);
       const geodesy::Geodetic g{number(r, 2, "latitude"), number(r, 3, "longitude"), number(r, 4, "height")};
-      survey::SurveyPoint& p = net.GetOrAdd(r.f[1], r.line);
+      survey::SurveyPoint& p = new_point(r);
       p.coords = plane.EnuFromGeodetic(g);
       p.has_xy = p.given_xy = p.has_z = p.given_z = true;
       auto apply = [&](const std::string& code, bool fixed) {
@@ -131,7 +144,7 @@ survey::SurveyNetwork ParseSurveyCsv(const std::string& text, const std::string&
     } else if (kind == "point") {
       if (r.f.size() != 7) fail(r, "point", std::to_string(r.f.size()) + " fields", "7 fields: point,id,x,y,z,fix,adj");
       if (r.f[1].empty()) fail(r, "point id", "nothing", "a point id");
-      survey::SurveyPoint& p = net.GetOrAdd(r.f[1], r.line);
+      survey::SurveyPoint& p = new_point(r);
       if (r.f[2].empty() != r.f[3].empty()) fail(r, "point x/y", r.f[2] + "/" + r.f[3], "both x and y or neither");
       if (!r.f[2].empty()) {
         p.coords.head<2>() = net.axes.EnFromXy(Eigen::Vector2d(number(r, 2, "x"), number(r, 3, "y")));
@@ -235,12 +248,13 @@ survey::SurveyNetwork ParseSurveyCsv(const std::string& text, const std::string&
     c.observations.push_back(o);
     net.clusters.push_back(c);
   }
-  for (Cluster& c : net.clusters) {
-    const int n = static_cast<int>(c.observations.size());
-    c.covariance = Eigen::MatrixXd::Zero(n, n);
-    for (int i = 0; i < n; ++i) c.covariance(i, i) = c.observations[i].sigma * c.observations[i].sigma;
+  size_t num_observations = 0;
+  for (const Cluster& c : net.clusters) num_observations += c.observations.size();
+  if (num_observations == 0) {
+    throw InputError(file, 0, "records", "no observation",
+                     "at least one observation record (direction, distance, ...)");
   }
-  return net;
+  return net;  // uncorrelated clusters: the σ's are the covariance
 }
 
 survey::SurveyNetwork ReadSurveyCsv(const std::string& path) {

@@ -23,7 +23,10 @@ struct Element {
   const std::string* Attribute(const std::string& attribute) const;
 };
 
-/// Parses a whole document; throws InputError(file, line, ...) on malformed XML.
+/// Parses a whole document; throws InputError(file, line, ...) on malformed XML, on text
+/// that is not UTF-8 or holds a character XML does not allow (a control character, or a
+/// character reference to 0, a surrogate or above U+10FFFF), and on elements nested deeper
+/// than 256 levels.
 std::unique_ptr<Element> Parse(const std::string& text, const std::string& file);
 
 }  // namespace mmba::io::xml

@@ -154,6 +154,25 @@ std::string Describe(const Linearization& lin, const StatisticsOptions& options,
   return "parameter " + std::to_string(col);
 }
 
+/// D·(Dᵀ N D)⁻¹·D = N⁻¹ from the factorization of the scaled normal matrix, D = diag(scale),
+/// solved a block of columns at a time into the one n×n result: the memory is the n² of the
+/// result, not three times that (identity, solution and scaled copy).
+Eigen::MatrixXd ScaledInverse(const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>& ldlt,
+                              const Eigen::VectorXd& scale) {
+  constexpr int kColumnsPerSolve = 256;
+  const int n = static_cast<int>(scale.size());
+  Eigen::MatrixXd inverse(n, n);
+  for (int first = 0; first < n; first += kColumnsPerSolve) {
+    const int width = std::min(kColumnsPerSolve, n - first);
+    Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(n, width);
+    for (int k = 0; k < width; ++k) unit(first + k, k) = 1.0;
+    inverse.middleCols(first, width) = ldlt.solve(unit);
+  }
+  for (int j = 0; j < n; ++j) inverse.col(j) *= scale(j);
+  inverse.array().colwise() *= scale.array();
+  return inverse;
+}
+
 /// Result of the rank analysis.
 struct Inverse {
   int defect = 0;
@@ -261,11 +280,7 @@ Inverse Analyze(const Linearization& lin, const StatisticsOptions& options, bool
                                    Describe(lin, options, col) + "; fix or constrain points");
     }
   }
-  if (want_inverse) {
-    Eigen::MatrixXd identity = Eigen::MatrixXd::Identity(n, n);
-    Eigen::MatrixXd inv = ldlt.solve(identity);
-    out.cofactor = scale.asDiagonal() * inv * scale.asDiagonal();
-  }
+  if (want_inverse) out.cofactor = ScaledInverse(ldlt, scale);
   return out;
 }
 

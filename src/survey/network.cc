@@ -56,6 +56,19 @@ bool ObsKindIsAngle(ObsKind kind) {
          kind == ObsKind::kZenithAngle || kind == ObsKind::kAzimuth;
 }
 
+double Cluster::Covariance(size_t a, size_t b) const {
+  if (covariance.size() > 0) return covariance(a, b);
+  return a == b ? observations[a].sigma * observations[a].sigma : 0.0;
+}
+
+void Cluster::ScaleObservationSigma(size_t i, double factor) {
+  observations[i].sigma *= factor;
+  if (covariance.size() > 0) {
+    covariance.row(i) *= factor;
+    covariance.col(i) *= factor;
+  }
+}
+
 SurveyPoint* SurveyNetwork::Find(const std::string& id) {
   const auto it = point_index.find(id);
   return it == point_index.end() ? nullptr : &points[it->second];

@@ -103,7 +103,7 @@ ceres::CostFunction* CreateSurveyBlockCost(SurveyNetwork* network, const BlockSp
   const int n = static_cast<int>(active.size());
   Eigen::MatrixXd cov(n, n);
   for (int a = 0; a < n; ++a) {
-    for (int b = 0; b < n; ++b) cov(a, b) = cluster.covariance(active[a], active[b]);
+    for (int b = 0; b < n; ++b) cov(a, b) = cluster.Covariance(active[a], active[b]);
   }
   const Eigen::MatrixXd l = cov.llt().matrixL();
   *sqrt_covariance = l;

@@ -1,6 +1,7 @@
 #include "mmba/stats/statistics.h"
 
 #include <cmath>
+#include <random>
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
@@ -189,6 +190,74 @@ TEST(Statistics, SchurEliminationMatchesFullInverse) {
   // h1 and h3 share an observation: they cannot both be eliminated.
   options.eliminate = {&f.h[1], &f.h[3]};
   EXPECT_THROW(ComputeStatistics(f.problem, {f.ga.get(), f.gb.get()}, options), std::invalid_argument);
+}
+
+// The sparse path (unknowns beyond dense_limit; its inverse solved 256 columns at a time)
+// gives the redundancy numbers diag(I − A Q Aᵀ P), the studentized residuals and the cofactor
+// of a dense least-squares computation, and Σ r = dof. 600 heights, so that the inverse
+// spans three blocks of columns.
+TEST(Statistics, SparsePathMatchesDenseLeastSquares) {
+  const int num_heights = 600;
+  std::vector<double> h(num_heights, 100.0);
+  std::vector<Level> levels;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::uniform_int_distribution<int> pick(0, num_heights - 1);
+  for (int i = 1; i < num_heights; ++i) levels.push_back({i - 1, i, 0.1 + 0.002 * noise(rng), 0.002});
+  while (static_cast<int>(levels.size()) < 3 * num_heights) {
+    const int a = pick(rng), b = pick(rng);
+    if (a == b) continue;
+    levels.push_back({a, b, 0.1 * (b - a) + 0.003 * noise(rng), 0.003});
+  }
+  ceres::Problem problem;
+  Scene scene;
+  LevelGroup group("levels", levels, &h);
+  group.AddResiduals(scene, problem);
+  problem.SetParameterBlockConstant(&h[0]);
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  solver.function_tolerance = solver.parameter_tolerance = solver.gradient_tolerance = 1e-16;
+  ceres::Solver::Summary summary;
+  ceres::Solve(solver, &problem, &summary);
+
+  StatisticsOptions options;
+  options.dense_limit = 0;  // the sparse path
+  const NetworkStatistics st = ComputeStatistics(problem, {&group}, options);
+
+  const int m = static_cast<int>(levels.size()), n = num_heights - 1;
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(m, n);
+  Eigen::VectorXd sigma(m), l(m);
+  for (int i = 0; i < m; ++i) {
+    if (levels[i].to > 0) A(i, levels[i].to - 1) += 1;
+    if (levels[i].from > 0) A(i, levels[i].from - 1) -= 1;
+    l(i) = levels[i].dh + (levels[i].from == 0 ? 100.0 : 0.0) - (levels[i].to == 0 ? 100.0 : 0.0);
+    sigma(i) = levels[i].sigma;
+  }
+  const Eigen::MatrixXd Aw = sigma.cwiseInverse().asDiagonal() * A;  // whitened
+  const Eigen::MatrixXd Q = (Aw.transpose() * Aw).ldlt().solve(Eigen::MatrixXd::Identity(n, n));
+  const Eigen::VectorXd x = Q * Aw.transpose() * sigma.cwiseInverse().asDiagonal() * l;
+  const Eigen::VectorXd v = A * x - l;
+  const int dof = m - n;
+  const double s0 = std::sqrt((v.cwiseQuotient(sigma)).squaredNorm() / dof);
+  EXPECT_NEAR(st.sigma0_ratio, s0, 1e-9 * s0);
+  ASSERT_EQ(st.degrees_of_freedom, dof);
+  ASSERT_EQ(static_cast<int>(st.rows.size()), m);
+  for (int a = 0; a < n; a += 37) {
+    for (int b = 0; b < n; b += 53) {
+      EXPECT_NEAR(st.cofactor(st.column.at(&h[a + 1]), st.column.at(&h[b + 1])), Q(a, b),
+                  1e-10 * Q(a, a));
+    }
+  }
+  double sum_r = 0.0;
+  for (int i = 0; i < m; ++i) {
+    const double r = 1.0 - Aw.row(i).dot(Q * Aw.row(i).transpose());
+    EXPECT_NEAR(st.rows[i].redundancy, r, 1e-10) << "row " << i;
+    EXPECT_NEAR(st.rows[i].residual, v(i), 1e-9) << "row " << i;
+    const double t = v(i) / (s0 * sigma(i) * std::sqrt(r));
+    EXPECT_NEAR(st.rows[i].studentized, t, 1e-6 * std::max(1.0, std::abs(t))) << "row " << i;
+    sum_r += st.rows[i].redundancy;
+  }
+  EXPECT_NEAR(sum_r, dof, 1e-8);
 }
 
 TEST(Statistics, EllipseAndQuantiles) {

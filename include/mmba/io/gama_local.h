@@ -20,7 +20,8 @@ namespace mmba::io {
 /// angles to clockwise radians here; the network keeps the input axes for writing back.
 /// Throws InputError (file:line, element/attribute, value, expectation) on any error:
 /// unknown element or attribute, unparseable number, missing/zero/negative σ, unknown point,
-/// observation from a point to itself, covariance not positive definite.
+/// a point id defined twice (both lines named), observation from a point to itself,
+/// covariance not positive definite, text that is not UTF-8 or XML, nesting deeper than 256.
 survey::SurveyNetwork ReadGamaLocal(const std::string& path);
 /// Same from a string (`file` names it in messages).
 survey::SurveyNetwork ParseGamaLocal(const std::string& text, const std::string& file);

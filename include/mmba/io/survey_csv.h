@@ -18,7 +18,9 @@ namespace mmba::io {
 ///   <kind>,<from>,<to>,<value>,<sigma>[,<from_dh>,<to_dh>]
 /// with kind = direction (inside a set), distance, s-distance, z-angle, azimuth, dh,
 /// angle (<to> = "bs/fs"). Angles in gon (or d-m-s, σ then in seconds), σ of angles in
-/// cc, of lengths in mm. Same conventions and errors as ReadGamaLocal.
+/// cc, of lengths in mm. Same conventions and errors as ReadGamaLocal; also an InputError
+/// for a file without records or without observations, and for a point id given by two
+/// point/gpoint records (both lines named).
 survey::SurveyNetwork ReadSurveyCsv(const std::string& path);
 survey::SurveyNetwork ParseSurveyCsv(const std::string& text, const std::string& file);
 

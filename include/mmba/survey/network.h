@@ -99,14 +99,23 @@ struct Cluster {
   Type type = Type::kStandpoint;
   std::string station;  ///< kStandpoint only
   std::vector<Observation> observations;
-  /// Covariance of the observations in SI units (rad², m²), full symmetric; diagonal when
-  /// no <cov-mat> was given.
+  /// Covariance of the observations in SI units (rad², m²), full symmetric, when
+  /// `correlated`; empty otherwise, the variances being the observations' σ². Only a
+  /// correlated cluster costs n² memory (its whitening needs the whole matrix), so that a set
+  /// or levelling line of many uncorrelated observations stays O(n). Read it through
+  /// Covariance().
   Eigen::MatrixXd covariance;
   bool correlated = false;  ///< a <cov-mat> with off-diagonal band was given
   double orientation = 0.0;  ///< kStandpoint: orientation unknown [rad] (bearing − direction)
   bool has_orientation = false;  ///< the cluster has >= 2 active directions
   bool orientation_known = false;  ///< approximate value available
   int line = 0;
+
+  /// Element (a, b) of the covariance: the matrix when it is held, σ_a² on the diagonal and
+  /// 0 off it otherwise.
+  double Covariance(size_t a, size_t b) const;
+  /// Scales the σ of observation `i` by `factor` (row and column i of a held matrix).
+  void ScaleObservationSigma(size_t i, double factor);
 };
 
 /// A survey network: points, observation clusters and Gama's adjustment parameters.
