@@ -1,5 +1,7 @@
 // End-to-end: the mmba binary's `survey` command, its outputs and exit codes; the CSV form
 // against the same network in gama-local XML.
+#include <unistd.h>
+
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -80,6 +82,33 @@ TEST(SurveyCommand, WritesResultsAndExitCodes) {
             2);
   EXPECT_FALSE(fs::exists(bad / "adjusted.json"));
   fs::remove_all(out);
+}
+
+// Inputs that crashed (deep nesting: stack overflow, exit 139), failed late (an invalid
+// character reference: exit 1 when the JSON was written) or were "adjusted" (an empty CSV)
+// end with exit 2 and no result.
+TEST(SurveyCommand, BrokenInputsExitWith2) {
+  const fs::path dir = fs::temp_directory_path() / ("mmba_survey_broken_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::string deep = "<gama-local>\n";
+  for (int i = 0; i < 50000; ++i) deep += "<network>";
+  std::ofstream(dir / "deep.gkf") << deep;
+  std::ifstream in(Source("tests/data/gama/gama-local-subset.gkf"));
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string reference = text.str();
+  const size_t at = reference.find("<parameters");
+  ASSERT_NE(at, std::string::npos);
+  reference.insert(at, "<description>&#xFFFFFFFF;</description>\n");
+  std::ofstream(dir / "reference.gkf") << reference;
+  std::ofstream(dir / "empty.csv") << "# nothing but a comment\n";
+  for (const std::string name : {"deep.gkf", "reference.gkf", "empty.csv"}) {
+    const fs::path out = dir / ("out-" + name);
+    EXPECT_EQ(RunMmba("--input " + (dir / name).string() + " --output " + out.string()), 2) << name;
+    EXPECT_FALSE(fs::exists(out / "adjusted.json")) << name;
+  }
+  fs::remove_all(dir);
 }
 
 TEST(SurveyCsv, SameResultAsGamaLocalXml) {
