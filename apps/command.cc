@@ -32,30 +32,27 @@ void AddCommonOptions(CLI::App* sub, CommonOptions* common) {
 
 namespace {
 
-// Throws unless `path` (a file, or a folder when `folder`) can be created or replaced: an
-// existing path must be of the right kind, the nearest existing ancestor a folder in which an
-// entry can be created (probed by creating and removing one: permission bits say nothing
-// for root or for /proc).
-void CheckOutputPath(const FileArg& arg, bool folder) {
+// Throws unless the file `path` can be created or replaced: an existing path must be a regular
+// file, the nearest existing ancestor a folder in which an entry can be created (probed by
+// creating and removing one: permission bits say nothing for root or for /proc).
+void CheckOutputPath(const FileArg& arg) {
   namespace fs = std::filesystem;
   if (arg.path.empty()) return;
-  const std::string what = folder ? "a folder to write into (created if missing)" : "a file to write";
   const auto fail = [&](const std::string& why) {
-    throw InputError::Message(arg.option, "cannot write '" + arg.path + "': " + why + "; expected " + what);
+    throw InputError::Message(arg.option, "cannot write '" + arg.path + "': " + why + "; expected a file to write");
   };
   std::error_code ec;
   const fs::path path = fs::absolute(arg.path, ec).lexically_normal();
   if (ec) fail(ec.message());
   const fs::file_status status = fs::status(path, ec);
   if (fs::exists(status)) {
-    if (!folder && fs::is_directory(status)) fail("it is an existing folder");
+    if (fs::is_directory(status)) fail("it is an existing folder");
     // A device (/dev/null), pipe or socket: the output is written beside it and renamed over
     // it (never half-written), which would replace the device or pipe by a plain file.
-    if (!folder && !fs::is_regular_file(status)) fail("it is a device, pipe or socket, not a regular file");
-    if (folder && !fs::is_directory(status)) fail("it is an existing file, not a folder");
+    if (!fs::is_regular_file(status)) fail("it is a device, pipe or socket, not a regular file");
   }
-  // The nearest existing ancestor (the path itself for an existing folder).
-  fs::path existing = folder && fs::is_directory(status) ? path : path.parent_path();
+  // The nearest existing ancestor.
+  fs::path existing = path.parent_path();
   while (!existing.empty() && !fs::exists(existing, ec) && existing != existing.root_path()) {
     existing = existing.parent_path();
   }
@@ -64,9 +61,8 @@ void CheckOutputPath(const FileArg& arg, bool folder) {
   }
   // A probe entry: a file where the output's folder exists, else a folder (what
   // AtomicFileSet's create_directories will do there).
-  const bool parent_exists = existing == (folder && fs::is_directory(status) ? path : path.parent_path());
   const std::string probe = (existing / (".mmba-write-check-" + std::to_string(getpid()))).string();
-  if (parent_exists) {
+  if (existing == path.parent_path()) {
     const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL, 0600);
     if (fd < 0) fail("cannot create a file in '" + existing.string() + "' (" + std::strerror(errno) + ")");
     ::close(fd);
@@ -82,11 +78,13 @@ void CheckOutputPath(const FileArg& arg, bool folder) {
 }  // namespace
 
 void CheckOutputFiles(const std::vector<FileArg>& outputs) {
-  for (const FileArg& out : outputs) CheckOutputPath(out, /*folder=*/false);
+  for (const FileArg& out : outputs) CheckOutputPath(out);
 }
 
-void CheckOutputFolders(const std::vector<FileArg>& folders) {
-  for (const FileArg& out : folders) CheckOutputPath(out, /*folder=*/true);
+std::vector<NamedPath> AsNamedPaths(const std::vector<FileArg>& inputs) {
+  std::vector<NamedPath> named;
+  for (const FileArg& input : inputs) named.push_back({input.option, input.path});
+  return named;
 }
 
 void RefuseToOverwriteInputs(const std::vector<FileArg>& outputs, const std::vector<FileArg>& inputs) {

@@ -13,6 +13,7 @@
 #include <CLI/CLI.hpp>
 
 #include "mmba/core/error.h"
+#include "mmba/core/output_folder.h"
 
 namespace mmba::app {
 
@@ -63,9 +64,10 @@ void RefuseToOverwriteInputs(const std::vector<FileArg>& outputs, const std::vec
 /// calls it for its outputs.
 void CheckOutputFiles(const std::vector<FileArg>& outputs);
 
-/// The same for output folders (a command writing several files into one, e.g. register-mi
-/// --probe): an existing path must be a folder.
-void CheckOutputFolders(const std::vector<FileArg>& folders);
+/// The inputs as core/output_folder.h names them: an output folder (a command writing several
+/// files into one: adjust, ba, simulate, survey, register-eval, register-mi --probe) is an
+/// OutputFolder, checked against these before any work.
+std::vector<NamedPath> AsNamedPaths(const std::vector<FileArg>& inputs);
 
 }  // namespace mmba::app
 

@@ -21,16 +21,9 @@ struct AdjustArgs {
 int RunAdjust(const AdjustArgs& args, const CommonOptions& common) {
   if (args.threads < 1) throw InputError::Message("--threads", "found " + std::to_string(args.threads) + ", expected >= 1");
   const adjust::Project project = adjust::LoadProject(args.project);
-  const fs::path output = fs::absolute(args.output);
-  if (fs::exists(output) && !fs::is_directory(output)) {
-    throw InputError::Message("--output", output.string() + " exists and is not a folder");
-  }
-  if (fs::equivalent(fs::absolute(project.dir.empty() ? "." : project.dir), output.parent_path() / output.filename()) ||
-      (fs::exists(output) && fs::equivalent(output, fs::absolute(project.dir.empty() ? "." : project.dir)))) {
-    throw InputError::Message("--output", "the project's own folder; give a new folder so no input is replaced");
-  }
+  // RunAdjustment checks and locks the output folder (core/output_folder.h) before any work.
   adjust::AdjustOptions options;
-  options.output_dir = output.string();
+  options.output_dir = args.output;
   options.num_threads = args.threads;
   options.log_progress = !common.quiet;
   const adjust::AdjustOutcome outcome = adjust::RunAdjustment(project, options);
@@ -44,7 +37,7 @@ std::function<int()> SetupAdjustCommand(CLI::App& app, CommonOptions* common) {
   CLI::App* sub = app.add_subcommand(
       "adjust", "Joint adjustment of a project (photos, total station, GNSS, LiDAR) with report.html");
   sub->add_option("project", args->project, "Project file (YAML; schema in README)")->required();
-  sub->add_option("--output", args->output, "Output folder (replaced only when the adjustment succeeds)")->required();
+  sub->add_option("--output", args->output, "Output folder: new, empty or written by mmba (replaced whole, only when the adjustment succeeds)")->required();
   sub->add_option("--threads", args->threads, "Solver threads")->capture_default_str();
   AddCommonOptions(sub, common);
   return [args, common]() { return RunAdjust(*args, *common); };

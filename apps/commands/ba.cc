@@ -9,6 +9,7 @@
 #include "command.h"
 #include "mmba/core/atomic_file.h"
 #include "mmba/core/logging.h"
+#include "mmba/core/output_folder.h"
 #include "mmba/core/progress.h"
 #include "mmba/io/colmap_model.h"
 #include "mmba/problem/colmap_scene.h"
@@ -65,14 +66,6 @@ int RunBa(const BaArgs& args) {
   solve_options.num_threads = args.threads;
   solve_options.log_progress = GetVerbosity() != Verbosity::kQuiet;
   if (!solve_options.Check(&error)) throw InputError::Message("options", error);
-  std::error_code ec;
-  if (fs::exists(args.output, ec) && fs::exists(args.input, ec) &&
-      fs::equivalent(args.input, args.output, ec)) {
-    throw InputError::Message("--output", "'" + args.output +
-                                              "' is the input folder; mmba never overwrites "
-                                              "its inputs, give another folder");
-  }
-
   std::vector<FileArg> model_files;
   for (const char* name : {"cameras", "images", "points3D"}) {
     for (const char* ext : {".txt", ".bin"}) {
@@ -80,6 +73,7 @@ int RunBa(const BaArgs& args) {
     }
   }
   RefuseToOverwriteInputs({{"--json", args.json}}, model_files);
+  OutputFolder output(args.output, "--output", "mmba ba", {{"--input", args.input}});
 
   io::ColmapFormat format;
   io::ColmapModel model = io::ReadColmapModel(args.input, &format);
@@ -159,7 +153,8 @@ int RunBa(const BaArgs& args) {
   const bool written = result.converged;
   if (written) {
     UpdateColmapFromScene(scene, &model);
-    io::WriteColmapModel(model, args.output, format);
+    io::WriteColmapModel(model, output.staging().string(), format);
+    output.Commit();  // before --json, which may name a file inside the output folder
   }
   json["wall_seconds"] = wall.ElapsedSeconds();
   json["model_written"] = written;
@@ -194,7 +189,7 @@ std::function<int()> SetupBa(CLI::App& app, CommonOptions* common) {
             "adjusted model in the same format");
   sub->add_option("--input", args->input, "COLMAP model folder (cameras/images/points3D)")
       ->required();
-  sub->add_option("--output", args->output, "Folder for the adjusted model (created)")
+  sub->add_option("--output", args->output, "Folder for the adjusted model: new, empty or written by mmba (replaced whole)")
       ->required();
   sub->add_option("--loss", args->loss, "Robust loss: none|huber|cauchy|soft_l1")
       ->capture_default_str();

@@ -47,6 +47,29 @@ struct RegisterCloudArgs {
   std::vector<std::string> settings;  ///< --set NAME=VALUE (registration_settings.h)
 };
 
+// Writes the result JSON (--output) and, with --error-map, the error map of a registered
+// result, as one AtomicFileSet with the JSON as its index: the JSON goes last and an error map
+// of an earlier run is removed when this one has none (a failed registration), so a JSON is
+// never beside an error map of another run (a run killed in between leaves no JSON).
+void WriteResult(const RegisterCloudArgs& args, const nlohmann::ordered_json& json, const io::PointCloud& error_map,
+                 double error_map_max_m) {
+  AtomicFileSet files;
+  files.Add(args.output, [&](std::ostream& out) { out << json.dump(2) << "\n"; });
+  if (!args.error_map.empty() && !error_map.empty()) {
+    files.Add(
+        args.error_map,
+        [&](std::ostream& out) {
+          io::WritePlyHeader(out, error_map.size(), error_map);
+          io::AppendPlyRecords(out, error_map);
+        },
+        /*binary=*/true);
+  } else if (!args.error_map.empty()) {
+    files.Remove(args.error_map);
+  }
+  files.Commit();
+  if (!error_map.empty()) spdlog::info("error map {} (blue 0 → red {:.4g} m)", args.error_map, error_map_max_m);
+}
+
 // --scale-range: the source in a scale of its own, registered at trial scales
 // (RegisterCloudsOverScales); target_from_source is then a similarity [sR | t].
 int RunScaleSearch(const RegisterCloudArgs& args, const registration::CloudRegistrationOptions& options,
@@ -72,14 +95,12 @@ int RunScaleSearch(const RegisterCloudArgs& args, const registration::CloudRegis
   json["trials"] = trials;
   json["source"] = args.source;
   json["target"] = args.target;
-  AtomicFileSet files;
-  files.Add(args.output, [&](std::ostream& out) { out << json.dump(2) << "\n"; });
-  files.Commit();
-  if (!args.error_map.empty() && result.ok()) {
-    const double max_m = args.error_map_max_m > 0 ? args.error_map_max_m : 5.0 * result.tolerance_m;
-    io::WritePly(registration::MakeErrorMap(source, target, result.target_from_source, max_m), args.error_map);
-    spdlog::info("error map {} (blue 0 → red {:.4g} m)", args.error_map, max_m);
-  }
+  const double max_m = args.error_map_max_m > 0 ? args.error_map_max_m : 5.0 * result.tolerance_m;
+  WriteResult(args, json,
+              result.ok() && !args.error_map.empty()
+                  ? registration::MakeErrorMap(source, target, result.target_from_source, max_m)
+                  : io::PointCloud(),
+              max_m);
   std::ostringstream brief;
   brief << result.status << ": scale " << result.scale << ", " << 100 * result.fitness << " % within "
         << result.tolerance_m << " m (RMS " << result.inlier_rmse << " m), " << result.trials.size() << " trial scales, "
@@ -205,20 +226,12 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   nlohmann::ordered_json json = RegistrationJson(result);
   json["source"] = args.source;
   json["target"] = args.target;
-  AtomicFileSet files;
-  files.Add(args.output, [&](std::ostream& out) { out << json.dump(2) << "\n"; });
-  if (!args.error_map.empty() && result.ok()) {
-    const double max_m = args.error_map_max_m > 0 ? args.error_map_max_m
-                                                  : 5.0 * result.point_spacing_m;
-    const io::PointCloud map =
-        registration::MakeErrorMap(source, target, result.target_from_source, max_m);
-    // WritePly is atomic itself; write it after the JSON set so both appear together.
-    files.Commit();
-    io::WritePly(map, args.error_map);
-    spdlog::info("error map {} (blue 0 → red {:.4g} m)", args.error_map, max_m);
-  } else {
-    files.Commit();
-  }
+  const double max_m = args.error_map_max_m > 0 ? args.error_map_max_m : 5.0 * result.point_spacing_m;
+  WriteResult(args, json,
+              result.ok() && !args.error_map.empty()
+                  ? registration::MakeErrorMap(source, target, result.target_from_source, max_m)
+                  : io::PointCloud(),
+              max_m);
   // The summary once: on stdout when registered; in the log before the failure's message.
   if (!result.ok()) {
     if (not_finite.empty()) spdlog::info("{}", result.BriefReport());

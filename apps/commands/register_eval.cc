@@ -4,6 +4,7 @@
 
 #include "command.h"
 #include "mmba/core/logging.h"
+#include "mmba/core/output_folder.h"
 #include "mmba/registration/cloud/registration_settings.h"
 #include "mmba/registration/cloud/scene_evaluation.h"
 
@@ -60,8 +61,10 @@ int RunRegisterEval(const RegisterEvalArgs& args) {
     throw InputError::Message("--success-fraction", "expected a number > 0");
   }
   const std::string output = args.output.empty() ? args.scene + "/registration_eval" : args.output;
+  OutputFolder folder(output, "--output", "mmba register-eval", {{"--scene", args.scene}});
   const registration::SceneEvaluation eval = registration::EvaluateScene(args.scene, options);
-  registration::WriteSceneEvaluation(eval, output);
+  registration::WriteSceneEvaluation(eval, folder.staging().string());
+  folder.Commit();
   // The paper's success is the RMS alone (its methods report no failure); a pose the method
   // refused is counted apart, so that "within" never reads as "registered".
   size_t ok = 0, ok_within = 0, refused_within = 0;
@@ -87,7 +90,7 @@ std::function<int()> SetupRegisterEval(CLI::App& app, CommonOptions* common) {
       "cross-modal matrix, per method; writes results.csv and tables.md");
   sub->add_option("--scene", args->scene, "scene folder (e.g. written by mmba simulate)")
       ->required();
-  sub->add_option("--output", args->output, "output folder (default SCENE/registration_eval)");
+  sub->add_option("--output", args->output, "output folder (default SCENE/registration_eval): new, empty or written by mmba (replaced whole)");
   sub->add_option("--methods", args->methods,
                   "any of fpfh shot si sc3d mmba mmba-g (robust + --gravity-aligned) from-truth "
                   "(a reference: robust, started at the true pose and searched only near it — "

@@ -418,7 +418,8 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   RefuseToOverwriteInputs(
       {{"--output", args.output}, {"--lidar-image", args.lidar_image}, {"--overlay", args.overlay}},
       inputs);
-  CheckOutputFolders({{"--probe", args.probe}});
+  std::optional<OutputFolder> probe_folder;
+  if (!args.probe.empty()) probe_folder.emplace(args.probe, "--probe", "mmba register-mi --probe", AsNamedPaths(inputs));
   // ---- Read everything before any work.
   std::vector<mi::GrayImage> images;
   sensors::Camera camera;
@@ -801,7 +802,8 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     probe_options.pyramid_levels = std::max(1, args.probe_level + 1);
     if (!probe_options.Check(&error)) throw InputError::Message("--probe-level", error);
     mi::FrameSetEvaluator evaluator(frames, start, probe_options);
-    mi::WriteProbe(mi::Probe(evaluator, start, 2.0, 0.1, args.probe_level), args.probe);
+    mi::WriteProbe(mi::Probe(evaluator, start, 2.0, 0.1, args.probe_level), probe_folder->staging().string());
+    probe_folder->Commit();
     spdlog::info("probe written to {}", args.probe);
   }
   mi::RegistrationResult result;
@@ -930,6 +932,12 @@ int RunRegisterMi(const RegisterMiArgs& args) {
   AtomicFileSet files;
   files.Add(args.output, [&](std::ostream& stream) { stream << out.dump(2) << "\n"; });
   if (!args.lidar_image.empty()) {
+    // OUT.json is the index of this run's files (core/atomic_file.h): the earlier one goes
+    // before a partner written on its own, so it never stands beside this run's image.
+    std::error_code ec;
+    if (!fs::remove(args.output, ec) && ec) {
+      throw std::runtime_error("cannot remove the earlier '" + args.output + "': " + ec.message());
+    }
     mi::LidarImage rendered;
     mi::RenderLidarImage(clouds[0], frames[0].views[0], cam_from_local, options.render,
                          &rendered);

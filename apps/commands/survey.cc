@@ -10,6 +10,7 @@
 
 #include "command.h"
 #include "mmba/core/atomic_file.h"
+#include "mmba/core/output_folder.h"
 #include "mmba/io/gama_local.h"
 #include "mmba/io/survey_csv.h"
 #include "mmba/geodesy/geodesy.h"
@@ -50,11 +51,7 @@ std::string Fixed(double v, int digits) {
 }
 
 int RunSurvey(const SurveyArgs& args) {
-  const fs::path out_dir(args.output);
-  RefuseToOverwriteInputs({{"--output", (out_dir / "adjusted.json").string()},
-                           {"--output", (out_dir / "observations.csv").string()},
-                           {"--output", (out_dir / "report.md").string()}},
-                          {{"--input", args.input}});
+  OutputFolder output(args.output, "--output", "mmba survey", {{"--input", args.input}});
   if (args.confidence != 0.0 && !(args.confidence > 0 && args.confidence < 1)) {
     throw InputError::Message("--confidence", "found " + std::to_string(args.confidence) +
                                                   ", expected 0 < p < 1");
@@ -271,17 +268,15 @@ int RunSurvey(const SurveyArgs& args) {
     for (const std::string& r : adj.removed) md << "- " << r << "\n";
   }
 
-  fs::create_directories(args.output);
   AtomicFileSet files;
   const std::string json_text = json.dump(2);
-  files.Add(fs::path(args.output) / "adjusted.json",
-            [&](std::ostream& out) { out << json_text << "\n"; });
+  files.Add(output.staging() / "adjusted.json", [&](std::ostream& out) { out << json_text << "\n"; });
   const std::string csv_text = csv.str();
-  files.Add(fs::path(args.output) / "observations.csv",
-            [&](std::ostream& out) { out << csv_text; });
+  files.Add(output.staging() / "observations.csv", [&](std::ostream& out) { out << csv_text; });
   const std::string md_text = md.str();
-  files.Add(fs::path(args.output) / "report.md", [&](std::ostream& out) { out << md_text; });
+  files.Add(output.staging() / "report.md", [&](std::ostream& out) { out << md_text; });
   files.Commit();
+  output.Commit();
   std::cout << summary.str();
   return kExitOk;
 }
@@ -293,7 +288,7 @@ std::function<int()> SetupSurveyCommand(CLI::App& app, CommonOptions* common) {
   sub->add_option("--input", args->input, "Network: gama-local .xml/.gkf or survey .csv")
       ->required();
   sub->add_option("--output", args->output,
-                  "Folder for adjusted.json, observations.csv, report.md (created)")
+                  "Folder for adjusted.json, observations.csv, report.md: new, empty or written by mmba (replaced whole)")
       ->required();
   sub->add_option("--confidence", args->confidence,
                   "Confidence level of the tests (default: the file's conf-pr, else 0.95)");

@@ -1236,7 +1236,9 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
   JointState s;
   s.project = &project;
   s.plane = geodesy::LocalTangentPlane(project.origin);
-  const std::string work_dir = options.output_dir + ".work";
+  // Checked and locked before any work; the result is staged beside it and swapped in whole.
+  OutputFolder output(options.output_dir, "--output", "mmba adjust", internal::ProjectInputs(project));
+  const std::string work_dir = output.path().string() + ".work";
   try {
     spdlog::info("adjust: reading sensors of {}", project.path);
     LoadNetwork(&s);
@@ -1350,14 +1352,10 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
   s.seconds = timer.ElapsedSeconds();
   outcome.status = "converged";
   outcome.ok = true;
-  try {
-    WriteOutputs(s, options, &outcome);
-  } catch (...) {
-    // Nothing half-written: the staging folder goes, an earlier output stays as it was.
-    std::error_code ignored;
-    fs::remove_all(options.output_dir + ".writing", ignored);
-    throw;
-  }
+  // Nothing half-written: should writing throw, `output` removes the staging folder and an
+  // earlier output stays as it was.
+  WriteOutputs(s, options, output.staging(), &outcome);
+  output.Commit();
   std::error_code ignored;
   fs::remove_all(work_dir, ignored);
   return outcome;

@@ -14,6 +14,7 @@
 
 #include "mmba/adjust/adjust.h"
 #include "mmba/adjust/groups.h"
+#include "mmba/core/output_folder.h"
 #include "mmba/geodesy/geodesy.h"
 #include "mmba/io/colmap_model.h"
 #include "mmba/io/point_cloud.h"
@@ -220,9 +221,14 @@ void LoadMobile(JointState* s);
 /// trajectory and extrinsic. Returns the number associated.
 size_t AssociateMobile(JointState* s, double gate);
 
-/// Writes every output file into options.output_dir (atomically, all or nothing) and fills
-/// outcome.report / summary.
-void WriteOutputs(JointState& state, const AdjustOptions& options, AdjustOutcome* outcome);
+/// Writes every output file into `stage` (the OutputFolder's staging folder of
+/// options.output_dir, swapped in by the caller) and fills outcome.report / summary.
+void WriteOutputs(JointState& state, const AdjustOptions& options, const std::filesystem::path& stage,
+                  AdjustOutcome* outcome);
+
+/// Every file and folder the project reads (the project file and each path it names): the
+/// output folder must hold none of them.
+std::vector<NamedPath> ProjectInputs(const Project& project);
 
 /// The file of `folder` whose stem is `stem` ("" when there is none).
 std::string FindImage(const std::string& folder, const std::string& stem);

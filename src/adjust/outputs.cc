@@ -444,12 +444,53 @@ std::string FindImage(const std::string& folder, const std::string& stem) {
   return "";
 }
 
-void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* outcome) {
+std::vector<NamedPath> ProjectInputs(const Project& project) {
+  std::vector<NamedPath> inputs = {{"the project file", project.path}, {"the project folder", project.dir}};
+  const auto add = [&inputs](const std::string& id, const std::string& key, const std::string& path) {
+    if (!path.empty()) inputs.push_back({"'" + key + "' of sensor '" + id + "'", path});
+  };
+  for (const PhotoCollection& p : project.photos) {
+    for (const auto& [key, path] : {std::pair<const char*, const std::string&>{"images", p.images},
+                                    {"calibration", p.calibration}, {"colmap_model", p.colmap_model},
+                                    {"control_measurements", p.control_measurements}, {"mi_results", p.mi_results}}) {
+      add(p.id, key, path);
+    }
+  }
+  for (const TotalStation& t : project.total_stations) add(t.id, "file", t.file);
+  for (const Gnss& g : project.gnss) add(g.id, "file", g.file);
+  for (const LidarStatic& l : project.lidar_static) {
+    add(l.id, "reference_cloud", l.reference_cloud);
+    add(l.id, "targets", l.targets);
+    for (const LidarScanFile& scan : l.scans) add(l.id, "scans", scan.file);
+  }
+  for (const SphericalStereo& p : project.spherical) {
+    for (const auto& [key, path] : {std::pair<const char*, const std::string&>{"images", p.images},
+                                    {"calibration", p.calibration}, {"stations_file", p.stations_file},
+                                    {"observations", p.observations}}) {
+      add(p.id, key, path);
+    }
+  }
+  for (const CameraRig& r : project.rigs) {
+    for (const auto& [key, path] : {std::pair<const char*, const std::string&>{"images", r.images},
+                                    {"panoramas", r.panoramas}, {"mi_results", r.mi_results},
+                                    {"calibration", r.calibration}, {"trajectory", r.trajectory},
+                                    {"frames_file", r.frames_file}, {"observations", r.observations}}) {
+      add(r.id, key, path);
+    }
+  }
+  for (const LidarMobile& m : project.lidar_mobile) {
+    add(m.id, "cloud", m.cloud);
+    add(m.id, "trajectory", m.trajectory);
+    add(m.id, "calibration", m.calibration);
+  }
+  if (!project.truth.empty()) inputs.push_back({"'truth' of the project", project.truth});
+  return inputs;
+}
+
+void WriteOutputs(JointState& s, const AdjustOptions& options, const fs::path& stage, AdjustOutcome* outcome) {
   const Project& project = *s.project;
   const stats::NetworkStatistics& st = s.statistics;
   const fs::path out_dir = options.output_dir;
-  const fs::path stage = out_dir.string() + ".writing";
-  fs::remove_all(stage);
   fs::create_directories(stage / "calibration");
   json report;
   report["schema"] = "mmba-adjust-report-1";
@@ -1053,12 +1094,6 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, AdjustOutcome* ou
   report["log"] = log;
   WriteText(stage / "report.json", report.dump(1));
   WriteText(stage / "report.html", report::RenderAdjustReportHtml(report));
-  // Replace an earlier output only now that everything is written.
-  const fs::path old = out_dir.string() + ".old";
-  fs::remove_all(old);
-  if (fs::exists(out_dir)) fs::rename(out_dir, old);
-  fs::rename(stage, out_dir);
-  fs::remove_all(old);
   outcome->report = report;
   // Terminal summary.
   std::ostringstream sum;

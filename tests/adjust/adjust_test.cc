@@ -373,6 +373,7 @@ TEST_F(AdjustTest, FailureKeepsTheEarlierOutput) {
   const fs::path sim = Root() / "sim", dir = Root() / "nooverlap";
   fs::create_directories(dir / "out");
   std::ofstream(dir / "out" / "marker.txt") << "earlier good output\n";
+  std::ofstream(dir / "out" / ".mmba-output") << "mmba output folder, written by mmba adjust\n";
   // Photos without control measurements and without LiDAR: nothing ties them to the control.
   std::ofstream(dir / "project.yaml")
       << "mmba_project: 1\norigin: {latitude_deg: 45.5048, longitude_deg: -73.5772, height_m: 60}\nsensors:\n"

@@ -1,6 +1,9 @@
 // Runs the mmba binary as a user would: exit codes, the one error line, files written.
+#include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -8,6 +11,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -44,6 +48,13 @@ RunResult Mmba(const std::string& args, const std::string& env_prefix = "") {
   const int status = pclose(pipe);
   run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return run;
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
 }
 
 class CliTest : public ::testing::Test {
@@ -170,7 +181,8 @@ TEST_F(CliTest, OutputsNeverReplaceInputs) {
            {"bal " + Tmp("problem.txt") + " --json " + Tmp("problem.txt"), "--json"},
            {"ba --input " + Tmp("model") + " --output " + Tmp("adjusted") + " --json " + Tmp("model/images.txt"),
             "--json: '" + Tmp("model/images.txt") + "' is the input --input"},
-           {"survey --input " + Tmp("observations.csv") + " --output " + tmp_.string(), "is the input --input"}}) {
+           {"survey --input " + Tmp("observations.csv") + " --output " + tmp_.string(),
+            "--output: '" + tmp_.string() + "' holds the input --input"}}) {
     const RunResult run = Mmba(args);
     EXPECT_EQ(run.exit_code, 2) << args << "\n" << run.output;
     EXPECT_THAT(run.output, HasSubstr(named)) << args;
@@ -1179,6 +1191,7 @@ TEST_F(CliTest, AdjustBadProjectIsExitTwoNamingTheKey) {
 
 TEST_F(CliTest, AdjustWithoutOverlapIsExitThreeAndKeepsTheEarlierOutput) {
   fs::create_directories(Tmp("out"));
+  std::ofstream(Tmp("out/.mmba-output")) << "mmba output folder, written by mmba adjust\n";
   std::ofstream(Tmp("out/report.json")) << "{\"earlier\": true}\n";
   std::ofstream(Tmp("project.yaml"))
       << "mmba_project: 1\norigin: {latitude_deg: 45, longitude_deg: 9, height_m: 200}\nsensors:\n"
@@ -1190,6 +1203,132 @@ TEST_F(CliTest, AdjustWithoutOverlapIsExitThreeAndKeepsTheEarlierOutput) {
   EXPECT_THAT(run.output, HasSubstr("no overlap"));
   std::ifstream earlier(Tmp("out/report.json"));
   EXPECT_TRUE(nlohmann::json::parse(earlier)["earlier"].get<bool>());
+}
+
+// ---- Output folders (core/output_folder.h): replaced whole, and only when mmba wrote them.
+
+// A project whose adjustment fails (no overlap) but that loads: the output checks come first.
+void WriteNoOverlapProject(const fs::path& path) {
+  fs::create_directories(path.parent_path());
+  std::ofstream(path) << "mmba_project: 1\norigin: {latitude_deg: 45, longitude_deg: 9, height_m: 200}\nsensors:\n"
+                      << "  - {id: photos, type: photo_collection, images: " << kSource
+                      << "/data/colmap/balbianello/images, colmap_model: " << kModel << "}\n"
+                      << "  - {id: ts, type: total_station, file: " << kSource << "/data/gama/gama-local.gkf}\n";
+}
+
+// --output naming the folder that holds the project (and other user files): refused before
+// any work, exit 2, everything in it kept.
+TEST_F(CliTest, AdjustIntoTheFolderHoldingTheProjectIsRefusedAndDeletesNothing) {
+  WriteNoOverlapProject(tmp_ / "parent" / "project" / "project.yaml");
+  std::ofstream(Tmp("parent/notes.txt")) << "mine\n";
+  const RunResult run = Mmba("adjust " + Tmp("parent/project/project.yaml") + " --output " + Tmp("parent"));
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("mmba: error: --output: '" + Tmp("parent") +
+                                    "' holds the input the project file ('" + Tmp("parent/project/project.yaml") +
+                                    "'); mmba replaces its output folder whole"));
+  EXPECT_TRUE(fs::exists(Tmp("parent/project/project.yaml")));
+  EXPECT_TRUE(fs::exists(Tmp("parent/notes.txt")));
+  EXPECT_EQ(std::distance(fs::directory_iterator(tmp_), fs::directory_iterator()), 1);  // no staging, no lock
+}
+
+// Every command writing a folder refuses a non-empty folder it did not write, before any work.
+TEST_F(CliTest, AFolderOfUserDataIsRefusedByEveryCommandWritingAFolder) {
+  fs::create_directories(Tmp("data"));
+  std::ofstream(Tmp("data/notes.txt")) << "mine\n";
+  WriteNoOverlapProject(tmp_ / "project.yaml");
+  const std::string kitti = kSource + "/data/kitti/";
+  for (const std::string& args :
+       {"survey --input " + kSource + "/data/gama/gama-local.gkf --output " + Tmp("data"),
+        "ba --input " + kModel + " --output " + Tmp("data"),
+        "adjust " + Tmp("project.yaml") + " --output " + Tmp("data"),
+        "simulate --out " + Tmp("data"),
+        "register-eval --scene " + tmp_.string() + " --output " + Tmp("data"),
+        "register-mi --lidar " + kitti + "velodyne/000000.bin --image " + kitti + "image_2/000000.png --kitti-calib " +
+            kitti + "calib/000000.txt --output " + Tmp("mi.json") + " --probe " + Tmp("data")}) {
+    const RunResult run = Mmba(args + " -q");
+    EXPECT_EQ(run.exit_code, 2) << args << "\n" << run.output;
+    EXPECT_THAT(run.output, HasSubstr("'" + Tmp("data") + "' is a folder mmba did not write (it holds 1 entry and "
+                                      "no .mmba-output); mmba replaces its output folder whole and never deletes "
+                                      "what it did not write"))
+        << args;
+    EXPECT_EQ(std::distance(fs::directory_iterator(Tmp("data")), fs::directory_iterator()), 1) << args;
+    EXPECT_FALSE(fs::exists(Tmp("mi.json"))) << args;
+  }
+  EXPECT_EQ(std::distance(fs::directory_iterator(tmp_), fs::directory_iterator()), 2);  // data, project.yaml
+}
+
+// A folder mmba wrote is replaced whole on a re-run: a file added to it since is gone, the
+// marker stays; a stale staging folder of a killed run beside it is removed.
+TEST_F(CliTest, AFolderMmbaWroteIsReplacedWholeOnARerun) {
+  const std::string survey = "survey --input " + kSource + "/data/gama/gama-local.gkf -q --output " + Tmp("out");
+  ASSERT_EQ(Mmba(survey).exit_code, 0);
+  EXPECT_THAT(ReadAll(Tmp("out/.mmba-output")), HasSubstr("written by mmba survey"));
+  std::ofstream(Tmp("out/added.txt")) << "added since\n";
+  std::ofstream(Tmp("out/report.md.tmp-999999999")) << "a killed run's half file\n";
+  fs::create_directories(Tmp("out.mmba-staging-k1ll3d"));
+  std::ofstream(Tmp("out.mmba-staging-k1ll3d/.mmba-output")) << "mmba\n";
+  std::ofstream(Tmp("out.mmba-staging-k1ll3d/adjusted.json")) << "{}\n";
+  const RunResult run = Mmba(survey);
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  std::set<std::string> names;
+  for (const auto& entry : fs::directory_iterator(Tmp("out"))) names.insert(entry.path().filename().string());
+  EXPECT_EQ(names, (std::set<std::string>{".mmba-output", "adjusted.json", "observations.csv", "report.md"}));
+  EXPECT_EQ(std::distance(fs::directory_iterator(tmp_), fs::directory_iterator()), 1);  // out only
+}
+
+// An mmba output folder holding an input of the run (ba on a model inside it) is refused: the
+// swap would delete the input.
+TEST_F(CliTest, AnOutputFolderHoldingAnInputIsRefused) {
+  fs::create_directories(Tmp("run"));
+  std::ofstream(Tmp("run/.mmba-output")) << "mmba output folder, written by mmba adjust\n";
+  fs::create_directories(Tmp("run/colmap"));
+  fs::copy(kModel, Tmp("run/colmap/photos"), fs::copy_options::recursive);
+  const RunResult run = Mmba("ba --input " + Tmp("run/colmap/photos") + " --output " + Tmp("run") + " -q");
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("--output: '" + Tmp("run") + "' holds the input --input ('" +
+                                    Tmp("run/colmap/photos") + "')"));
+  EXPECT_TRUE(fs::exists(Tmp("run/colmap/photos/images.txt")));
+  const RunResult same = Mmba("ba --input " + Tmp("run/colmap/photos") + " --output " + Tmp("run/colmap/photos/"));
+  EXPECT_EQ(same.exit_code, 2) << same.output;
+  EXPECT_THAT(same.output, HasSubstr("is the input --input; mmba never overwrites its inputs"));
+}
+
+TEST_F(CliTest, BaOutputNamingAnExistingFileIsExitTwo) {
+  std::ofstream(Tmp("model.txt")) << "mine\n";
+  const RunResult run = Mmba("ba --input " + kModel + " --output " + Tmp("model.txt"));
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("mmba: error: --output: cannot write '" + Tmp("model.txt") +
+                                    "': it is an existing file, not a folder; expected a folder to write into"));
+  EXPECT_EQ(ReadAll(Tmp("model.txt")), "mine\n");
+}
+
+// A second run into an output another mmba is writing (the lock held here, as that run holds
+// it) exits 2 at once, writing nothing.
+TEST_F(CliTest, AnOutputInUseByAnotherRunIsExitTwo) {
+  const int fd = ::open(Tmp("out.mmba-lock").c_str(), O_RDWR | O_CREAT, 0644);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::flock(fd, LOCK_EX), 0);
+  const RunResult run = Mmba("survey --input " + kSource + "/data/gama/gama-local.gkf --output " + Tmp("out"));
+  ::close(fd);
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_THAT(run.output, HasSubstr("mmba: error: --output: '" + Tmp("out") + "' is in use by another mmba run"));
+  EXPECT_FALSE(fs::exists(Tmp("out")));
+}
+
+// register-cloud's JSON and error map are one result: a failed run removes the error map of an
+// earlier run (no new JSON beside an old map), and a killed run's temporary goes.
+TEST_F(CliTest, RegisterCloudNeverLeavesAnEarlierErrorMapBesideItsJson) {
+  std::ofstream(Tmp("empty.xyz")) << "# x y z\n";
+  std::ofstream(Tmp("out.json")) << "{\"earlier\": true}\n";
+  std::ofstream(Tmp("map.ply")) << "the earlier run's error map\n";
+  std::ofstream(Tmp("out.json.tmp-999999999")) << "a killed run's half file\n";
+  const RunResult run = Mmba("register-cloud --source " + Tmp("empty.xyz") + " --target " + kSource +
+                             "/data/pointclouds/pcl_test/bun4.pcd -q --output " + Tmp("out.json") + " --error-map " +
+                             Tmp("map.ply"));
+  EXPECT_EQ(run.exit_code, 3) << run.output;
+  EXPECT_EQ(nlohmann::json::parse(std::ifstream(Tmp("out.json")))["status"], "failed");
+  EXPECT_FALSE(fs::exists(Tmp("map.ply")));
+  EXPECT_FALSE(fs::exists(Tmp("out.json.tmp-999999999")));
 }
 
 }  // namespace

@@ -15,7 +15,7 @@
 namespace mmba::adjust {
 
 struct AdjustOptions {
-  std::string output_dir;    ///< created; written only when the adjustment succeeds
+  std::string output_dir;    ///< new, empty or written by mmba (core/output_folder.h, else InputError); replaced whole only on success
   int num_threads = 2;
   bool log_progress = true;  ///< one log line per stage / solver iteration
 };
