@@ -483,18 +483,28 @@ bool StreamBinaryPly(const std::string& path, size_t chunk_points, const ChunkCo
   const uint64_t file_size = std::filesystem::file_size(path, ec);
   std::ifstream in(path, std::ios::binary);
   if (ec || !in) return false;  // the whole-file reader names the error
-  // The header, line by line up to end_header (bounded: a header is a few hundred bytes).
+  // The header, line by line up to end_header (bounded: a header is a few hundred bytes). A
+  // header this bound cuts short is left to the whole-file reader.
+  constexpr size_t kMaxHeaderBytes = size_t{1} << 20;
   std::string header_text, line;
-  while (header_text.size() < (1u << 20) && std::getline(in, line)) {
+  bool at_end_header = false;
+  while (header_text.size() < kMaxHeaderBytes && std::getline(in, line)) {
     header_text += line;
     header_text += '\n';
-    if (line == "end_header" || line == "end_header\r") break;
+    at_end_header = line == "end_header" || line == "end_header\r";
+    if (at_end_header) break;
   }
-  if (!in) return false;
+  if (!in || (!at_end_header && header_text.size() >= kMaxHeaderBytes)) return false;
   const PlyHeader header = ParsePlyHeader(path, header_text);
   if (header.format == PlyFormat::kAscii) return false;
   const bool swap = (header.format == PlyFormat::kBinaryLe) != HostIsLittleEndian();
-  size_t pos = static_cast<size_t>(in.tellg());
+  // The data start where ParsePlyHeader says, as in the whole-file reader, not at tellg().
+  // That is -1 once getline has met the end of the file (a file ending on "end_header"
+  // without a newline), and past the data's start when the end_header line is not exactly
+  // "end_header" ("end_header " or "end_header x": the loop reads on). header_text holds the
+  // file's bytes up to there, plus a '\n' that its last line may lack in the file.
+  size_t pos = static_cast<size_t>(std::min<uint64_t>(header.header_end, file_size));
+  in.clear();
   // Elements before the vertices must have fixed-size records to be skipped.
   for (size_t e = 0; e <= header.vertex_index; ++e) {
     size_t stride = 0;

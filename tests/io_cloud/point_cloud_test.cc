@@ -13,6 +13,7 @@
 #include <limits>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -257,6 +258,39 @@ TEST_F(PointCloudIoTest, PlyElementsAfterTheVerticesAreChecked) {
                    {"wrap.ply (byte " + std::to_string(junk) + "): field 'junk element': found 'end of file'"});
   ExpectInputError([&] { stream(wrapping); },
                    {"wrap.ply (byte " + std::to_string(junk) + "): field 'junk element': found 'end of file'"});
+}
+
+// The streamed reader starts the data where the header parser ends the header, as the whole
+// reader does: also when the file ends on "end_header" without a newline (where the stream's
+// position is -1) and when the end_header line has a trailing blank (where it reads on).
+TEST_F(PointCloudIoTest, PlyStreamedDataStartWhereTheHeaderEnds) {
+  const std::string head =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 0\nproperty float x\nproperty float y\n"
+      "property float z\nend_header";
+  const auto stream = [](const std::string& path) {
+    std::vector<Eigen::Vector3d> points;
+    StreamPointCloud(path, 3, [&](const PointCloud& chunk, size_t, size_t) {
+      points.insert(points.end(), chunk.points.begin(), chunk.points.end());
+    });
+    return points;
+  };
+  const std::string empty = Write("empty.ply", head);
+  EXPECT_EQ(ReadPly(empty).size(), 0u);
+  EXPECT_TRUE(stream(empty).empty());
+
+  std::string two = head;
+  two.replace(two.find("vertex 0"), 8, "vertex 2");
+  const std::string cut = Write("cut.ply", two);
+  const std::string at = "cut.ply (byte " + std::to_string(two.size()) + "): field 'vertex element': found 'end of file'";
+  ExpectInputError([&] { ReadPly(cut); }, {at, "truncated"});
+  ExpectInputError([&] { stream(cut); }, {at, "truncated"});
+
+  two += " \n";  // "end_header \n", then two points
+  for (const float v : {1.0f, 2.0f, 3.0f, 4.0f, 5.0f, 6.0f}) Put<float>(&two, v);
+  const std::string blank = Write("blank.ply", two);
+  const std::vector<Eigen::Vector3d> expected = {{1, 2, 3}, {4, 5, 6}};
+  EXPECT_EQ(ReadPly(blank).points, expected);
+  EXPECT_EQ(stream(blank), expected);
 }
 
 // A FIFO named as a cloud is refused before it is opened, by the streamed reader too. A
