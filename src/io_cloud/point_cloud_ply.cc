@@ -56,6 +56,8 @@ bool ParsePlyType(const std::string& s, ScalarType* type) {
 
 constexpr const char* kTypeNames =
     "one of char uchar short ushort int uint float double (or int8 … float64)";
+constexpr const char* kCountTypeNames =
+    "an integer type: one of char uchar short ushort int uint (or int8 … uint32)";
 
 // Property roles within the vertex element.
 struct VertexLayout {
@@ -158,8 +160,10 @@ PlyHeader ParsePlyHeader(const std::string& path, std::string_view data) {
       if (t.size() >= 2 && t.Str(1, "type") == "list") {
         t.ExpectCount(5, "list property");
         p.is_list = true;
-        if (!ParsePlyType(t.Str(2, "count type"), &p.count_type)) {
-          t.Fail("count type", t.Str(2, "count type"), kTypeNames);
+        // A count is an integer: a float count (NaN, 1e30, 2.5) has no number of items.
+        if (!ParsePlyType(t.Str(2, "count type"), &p.count_type) || p.count_type == ScalarType::kFloat32 ||
+            p.count_type == ScalarType::kFloat64) {
+          t.Fail("count type", t.Str(2, "count type"), kCountTypeNames);
         }
         if (!ParsePlyType(t.Str(3, "item type"), &p.type)) {
           t.Fail("item type", t.Str(3, "item type"), kTypeNames);

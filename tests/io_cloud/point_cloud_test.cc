@@ -293,6 +293,26 @@ TEST_F(PointCloudIoTest, PlyStreamedDataStartWhereTheHeaderEnds) {
   EXPECT_EQ(stream(blank), expected);
 }
 
+// A list's count type is an integer type: a float count (here +inf, read as 00 00 80 7f) has
+// no number of items, and is refused in the header, read whole or streamed.
+TEST_F(PointCloudIoTest, PlyListCountTypeIsAnInteger) {
+  std::string b =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty list float uchar idx\n"
+      "property float x\nproperty float y\nproperty float z\nend_header\n";
+  Put<float>(&b, std::numeric_limits<float>::infinity());
+  for (int i = 0; i < 3; ++i) Put<float>(&b, 1.0f);
+  const std::string path = Write("count.ply", b);
+  const std::string message =
+      "count.ply:4: field 'count type': found 'float', expected an integer type: one of char uchar short ushort "
+      "int uint";
+  ExpectInputError([&] { ReadPly(path); }, {message});
+  ExpectInputError([&] { StreamPointCloud(path, 3, [](const PointCloud&, size_t, size_t) {}); }, {message});
+  b.replace(b.find("list float"), 10, "list double");
+  ExpectInputError([&] { ReadPly(Write("count.ply", b)); }, {"found 'double', expected an integer type"});
+  b.replace(b.find("list double"), 11, "list uint");
+  ExpectInputError([&] { ReadPly(Write("count.ply", b)); }, {"count.ply (byte", "idx", "end of file"});
+}
+
 // A FIFO named as a cloud is refused before it is opened, by the streamed reader too. A
 // writer thread serves a short text to every open, so that a reader that does open the FIFO
 // returns (and the test fails instead of hanging).
