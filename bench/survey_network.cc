@@ -1,7 +1,7 @@
 // Survey benchmark (issue 4): a simulated 3-D total-station network of 1,000 points and
 // ~10,000 observations (directions, slope distances, zenith angles from 334 set-ups to
-// their 10 nearest points) is adjusted with full covariance of all points; prints wall
-// time per stage and peak memory.
+// their 10 nearest points) is adjusted with the covariance of every point and the statistics
+// of every observation; prints wall time per stage and peak memory.
 //   build-*/bench/survey_network [num_points] [neighbours]
 #include <sys/resource.h>
 
@@ -97,13 +97,15 @@ int main(int argc, char** argv) {
   std::cout << "status " << adj.status << ", iterations " << adj.iterations << "\n"
             << "stages: prepare (approximations, robust pre-adjustment, datum check) "
             << adj.prepare_seconds << " s, Ceres solve " << adj.solve_seconds
-            << " s, statistics (full covariance, redundancy, tests) " << adj.statistics_seconds
+            << " s, statistics (cofactor, redundancy, tests) " << adj.statistics_seconds
             << " s\n"
             << "unknowns " << adj.statistics.num_unknowns << ", dof "
             << adj.statistics.degrees_of_freedom << ", sigma0 ratio "
             << adj.statistics.sigma0_ratio << "\n"
-            << "full covariance " << adj.statistics.cofactor.rows() << "x"
-            << adj.statistics.cofactor.cols() << ", max point sigma (3-D) " << max_sigma * 1000
+            << "cofactor " << adj.statistics.cofactor.rows() << "x"
+            << adj.statistics.cofactor.cols() << ", stored entries "
+            << adj.statistics.cofactor.StoredEntries() << ", max point sigma (3-D) "
+            << max_sigma * 1000
             << " mm, max error vs truth " << max_error * 1000 << " mm (" << unobserved
             << " points without observations)\n"
             << "total wall time " << seconds << " s, peak memory " << usage.ru_maxrss / 1024.0

@@ -1335,7 +1335,7 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
       s.statistics = Statistics(&s);
     }
     s.given_weights = s.statistics;  // σ0 and its test with the σ of the project
-    s.given_weights.cofactor.resize(0, 0);
+    s.given_weights.cofactor.Clear();
     s.given_weights.rows.clear();
     if (project.settings.variance_components) {
       for (int k = 0; k < 4 && ApplyVarianceComponents(&s, s.statistics); ++k) {

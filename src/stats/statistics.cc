@@ -154,29 +154,10 @@ std::string Describe(const Linearization& lin, const StatisticsOptions& options,
   return "parameter " + std::to_string(col);
 }
 
-/// D·(Dᵀ N D)⁻¹·D = N⁻¹ from the factorization of the scaled normal matrix, D = diag(scale),
-/// solved a block of columns at a time into the one n×n result: the memory is the n² of the
-/// result, not three times that (identity, solution and scaled copy).
-Eigen::MatrixXd ScaledInverse(const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>& ldlt,
-                              const Eigen::VectorXd& scale) {
-  constexpr int kColumnsPerSolve = 256;
-  const int n = static_cast<int>(scale.size());
-  Eigen::MatrixXd inverse(n, n);
-  for (int first = 0; first < n; first += kColumnsPerSolve) {
-    const int width = std::min(kColumnsPerSolve, n - first);
-    Eigen::MatrixXd unit = Eigen::MatrixXd::Zero(n, width);
-    for (int k = 0; k < width; ++k) unit(first + k, k) = 1.0;
-    inverse.middleCols(first, width) = ldlt.solve(unit);
-  }
-  for (int j = 0; j < n; ++j) inverse.col(j) *= scale(j);
-  inverse.array().colwise() *= scale.array();
-  return inverse;
-}
-
 /// Result of the rank analysis.
 struct Inverse {
   int defect = 0;
-  Eigen::MatrixXd cofactor;  // n×n
+  Cofactor cofactor;           // n×n
   Eigen::MatrixXd null_space;  // n×defect (original units)
   Eigen::MatrixXd projector;   // P (n×n) when defect > 0
 };
@@ -184,10 +165,7 @@ struct Inverse {
 Inverse Analyze(const Linearization& lin, const StatisticsOptions& options, bool want_inverse) {
   Inverse out;
   const int n = lin.n;
-  if (n == 0) {
-    out.cofactor.resize(0, 0);
-    return out;
-  }
+  if (n == 0) return out;
   const Eigen::SparseMatrix<double> jt = lin.jacobian.transpose();
   Eigen::SparseMatrix<double> normal = jt * lin.jacobian;
   Eigen::VectorXd diag = normal.diagonal();
@@ -254,15 +232,16 @@ Inverse Analyze(const Linearization& lin, const StatisticsOptions& options, bool
       const Eigen::MatrixXd& v = eig.eigenvectors();
       Eigen::MatrixXd pinv = v * inv_lambda.asDiagonal() * v.transpose();
       pinv = scale.asDiagonal() * pinv * scale.asDiagonal();
-      out.cofactor = out.defect > 0 ? Eigen::MatrixXd(out.projector * pinv *
-                                                      out.projector.transpose())
-                                    : pinv;
+      out.cofactor = Cofactor(out.defect > 0 ? Eigen::MatrixXd(out.projector * pinv *
+                                                               out.projector.transpose())
+                                             : pinv);
     }
     return out;
   }
   // Large problems: sparse LDLᵀ of the scaled normal matrix (no datum defect allowed).
   Eigen::SparseMatrix<double> ns = scale.asDiagonal() * normal * scale.asDiagonal();
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(ns);
+  auto factor = std::make_shared<Cofactor::Factor>(ns);
+  const Cofactor::Factor& ldlt = *factor;
   if (ldlt.info() != Eigen::Success) {
     throw DegenerateNetworkError("singular network: the normal matrix cannot be factorized");
   }
@@ -280,7 +259,7 @@ Inverse Analyze(const Linearization& lin, const StatisticsOptions& options, bool
                                    Describe(lin, options, col) + "; fix or constrain points");
     }
   }
-  if (want_inverse) out.cofactor = ScaledInverse(ldlt, scale);
+  if (want_inverse) out.cofactor = Cofactor::Selected(std::move(factor), scale);
   return out;
 }
 
@@ -499,7 +478,7 @@ NetworkStatistics ComputeStatistics(ceres::Problem& problem,
   std::map<const double*, int> kept_column = lin.column;
   if (!options.eliminate.empty()) {
     SchurInverse schur = AnalyzeSchur(lin, options);
-    inv.cofactor = std::move(schur.cofactor);
+    inv.cofactor = Cofactor(std::move(schur.cofactor));
     schur_h = std::move(schur.h);
     kept_blocks.clear();
     kept_column.clear();
@@ -530,17 +509,18 @@ NetworkStatistics ComputeStatistics(ceres::Problem& problem,
           "ceres::Covariance failed: the Jacobian is rank deficient (a datum defect or a "
           "parameter no observation determines)");
     }
-    inv.cofactor = Eigen::MatrixXd::Zero(lin.n, lin.n);
+    Eigen::MatrixXd cofactor = Eigen::MatrixXd::Zero(lin.n, lin.n);
     for (size_t a = 0; a < lin.blocks.size(); ++a) {
       for (size_t b = a; b < lin.blocks.size(); ++b) {
         const int na = lin.sizes[a], nb = lin.sizes[b];
         Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> block(na, nb);
         covariance.GetCovarianceBlockInTangentSpace(lin.blocks[a], lin.blocks[b], block.data());
         const int ra = lin.column.at(lin.blocks[a]), rb = lin.column.at(lin.blocks[b]);
-        inv.cofactor.block(ra, rb, na, nb) = block;
-        inv.cofactor.block(rb, ra, nb, na) = block.transpose();
+        cofactor.block(ra, rb, na, nb) = block;
+        cofactor.block(rb, ra, nb, na) = block.transpose();
       }
     }
+    inv.cofactor = Cofactor(std::move(cofactor));
   }
 
   NetworkStatistics st;

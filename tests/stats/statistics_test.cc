@@ -192,10 +192,10 @@ TEST(Statistics, SchurEliminationMatchesFullInverse) {
   EXPECT_THROW(ComputeStatistics(f.problem, {f.ga.get(), f.gb.get()}, options), std::invalid_argument);
 }
 
-// The sparse path (unknowns beyond dense_limit; its inverse solved 256 columns at a time)
-// gives the redundancy numbers diag(I − A Q Aᵀ P), the studentized residuals and the cofactor
-// of a dense least-squares computation, and Σ r = dof. 600 heights, so that the inverse
-// spans three blocks of columns.
+// The sparse path (unknowns beyond dense_limit; the cofactor is the selected inverse on the
+// factor's pattern, entries outside it solved when asked) gives the redundancy numbers
+// diag(I − A Q Aᵀ P), the studentized residuals and the cofactor of a dense least-squares
+// computation, and Σ r = dof.
 TEST(Statistics, SparsePathMatchesDenseLeastSquares) {
   const int num_heights = 600;
   std::vector<double> h(num_heights, 100.0);

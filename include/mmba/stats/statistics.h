@@ -11,6 +11,7 @@
 #include <ceres/ceres.h>
 
 #include "mmba/problem/factor_group.h"
+#include "mmba/stats/cofactor.h"
 
 namespace mmba::stats {
 
@@ -108,7 +109,7 @@ struct NetworkStatistics {
 
   std::vector<double*> blocks;          ///< free parameter blocks, in column order
   std::map<const double*, int> column;  ///< first column of each block
-  Eigen::MatrixXd cofactor;             ///< n×n
+  Cofactor cofactor;                    ///< n×n (whole, or its selected inverse)
 
   /// Covariance (scaled by scale_used²) of scalars (a, i) and (b, j); 0 when a block is
   /// not free (fixed).
