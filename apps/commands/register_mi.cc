@@ -353,7 +353,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     // not found is named with the list's line (with --rig, IMAGE is a pattern: checked later).
     const std::string text = io::ReadWholeFile(args.list);
     const fs::path base = fs::path(args.list).parent_path();
-    io::LineCursor cursor(text);
+    io::LineCursor cursor(text, args.list);
     std::string_view line_text;
     const size_t before = pairs.size();
     while (cursor.Next(&line_text)) {

@@ -20,6 +20,7 @@
 #include "mmba/registration/mi/mi_registration.h"
 #include "mmba/registration/mi/result_json.h"
 #include "mmba/registration/mi/result_json.h"
+#include "mmba/io/text_reader.h"
 
 namespace mmba::adjust::internal {
 
@@ -29,6 +30,7 @@ using json = nlohmann::json;
 
 bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* why) {
   json j;
+  io::RequireRegularFile(file);
   try {
     std::ifstream in(file);
     j = json::parse(in);

@@ -15,6 +15,8 @@
 #include "mmba/io/point_cloud.h"
 #include "mmba/problem/colmap_scene.h"
 #include "mmba/report/adjust_report.h"
+#include "mmba/core/error.h"
+#include "mmba/io/text_reader.h"
 
 namespace mmba::adjust::internal {
 namespace {
@@ -243,8 +245,14 @@ json WriteSphereDense(const JointState& s, const fs::path& stage, json* files) {
 
 /// Truth evaluation of a simulated project (never used by the adjustment itself).
 json EvaluateTruth(const JointState& s) {
+  io::RequireRegularFile(s.project->truth);
   std::ifstream in(s.project->truth);
-  const json truth = json::parse(in);
+  json truth;
+  try {
+    truth = json::parse(in);
+  } catch (const json::exception& e) {
+    throw InputError(s.project->truth, 0, "JSON", e.what(), "the simulator's truth.json");
+  }
   json out;
   if (s.photos && truth.contains("photos")) {
     double sum = 0.0, worst = 0.0, worst_rotation = 0.0;

@@ -47,7 +47,7 @@ survey::SurveyNetwork ParseSurveyCsv(const std::string& text, const std::string&
     std::vector<std::string> f;
   };
   std::vector<Row> rows;
-  LineCursor cursor(text);
+  LineCursor cursor(text, file);
   std::string_view line;
   while (cursor.Next(&line)) {
     const size_t hash = line.find('#');
