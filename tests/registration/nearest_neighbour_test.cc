@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "mmba/geometry/point_index.h"
 #include "registration/cloud/pcl_backend.h"
 
 namespace mmba::registration::internal {

@@ -27,9 +27,11 @@
 
 #include "mmba/io/point_cloud.h"
 
-namespace mmba::registration::internal {
-
+namespace mmba {
 class PointIndex;
+}  // namespace mmba
+
+namespace mmba::registration::internal {
 
 /// A cloud's brightness (intensity, else the BT.601 luma of its colours) as mid-ranks in
 /// (0, 1); empty when the cloud has neither, a non-finite value, or one constant value.
@@ -76,7 +78,7 @@ class IntensityAgreement {
   std::vector<float> fine_src_rank_;  ///< source brightness rank at each fine point
   std::vector<Eigen::Vector3d> fine_src_;
   std::vector<float> tgt_rank_;       ///< per point of the target sample
-  std::unique_ptr<PointIndex> tgt_index_;
+  std::unique_ptr<mmba::PointIndex> tgt_index_;
   double block_ = 1.0;
 };
 

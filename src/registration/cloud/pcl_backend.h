@@ -1,13 +1,15 @@
 #pragma once
 
-// The PCL part of the cloud registration behind a PCL-free interface: kd-trees, normals,
-// the Kanade–Tomasi response and the four descriptors. Only pcl_backend.cc includes PCL.
+// The PCL part of the cloud registration behind a PCL-free interface: the descriptor index,
+// normals, the Kanade–Tomasi response and the four descriptors. Only pcl_backend.cc includes
+// PCL.
 
 #include <memory>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "mmba/geometry/point_index.h"
 #include "mmba/registration/cloud/feature_registration.h"
 
 namespace mmba::registration::internal {
@@ -16,34 +18,8 @@ namespace mmba::registration::internal {
 /// e.g. of the points an index is built over).
 std::vector<size_t> StrideSample(size_t n, size_t max_count);
 
-/// Exact kd-tree over 3-D points (nanoflann; float coordinates relative to io::LocalOrigin,
-/// so that clouds in map-grid coordinates keep ~0.1 mm).
-class PointIndex {
- public:
-  explicit PointIndex(const std::vector<Eigen::Vector3d>& points);
-  ~PointIndex();
-  PointIndex(const PointIndex&) = delete;
-  PointIndex& operator=(const PointIndex&) = delete;
-  /// Nearest point; false if the tree is empty.
-  bool Nearest(const Eigen::Vector3d& query, int* index, double* squared_distance) const;
-  /// Nearest point within `max_squared_distance` (inclusive); false if there is none. Same
-  /// answer as Nearest() followed by the distance test, but the search is pruned at the
-  /// bound: far queries (a wrong hypothesis puts the source off the target) cost little.
-  bool NearestWithin(const Eigen::Vector3d& query, double max_squared_distance, int* index,
-                     double* squared_distance) const;
-  void KNearest(const Eigen::Vector3d& query, int k, std::vector<int>* indices,
-                std::vector<float>* squared_distances) const;
-  /// Points within `radius` (strictly), in the tree's order.
-  void Radius(const Eigen::Vector3d& query, double radius, std::vector<int>* indices) const;
-  /// Points within `radius` (strictly) with their squared distances; nearest first when
-  /// `sorted`, else in the tree's order.
-  void RadiusWithDistances(const Eigen::Vector3d& query, double radius, std::vector<int>* indices,
-                           std::vector<float>* squared_distances, bool sorted = true) const;
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-};
+/// The kd-tree over 3-D points (include/mmba/geometry/point_index.h).
+using mmba::PointIndex;
 
 /// Exact nearest neighbours in descriptor space (brute force; deterministic).
 class FeatureIndex {
