@@ -274,7 +274,16 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
   const size_t vertex_index = header.vertex_index;
   const PlyElement& vertex = elements[vertex_index];
   const VertexLayout layout = RequireXyz(path, vertex);
-  CloudBuilder builder = MakeBuilder(path, options, layout, vertex.count);
+  // The header's vertex count reserves memory only as far as the data can hold the records,
+  // not up to CloudBuilder's cap (2^26 points, 4 GB with all fields, for a 500-byte file that
+  // declares 2^35 vertices): a vertex takes at least 2 bytes per ASCII value ("0 "), and at
+  // least the scalar's (or a list's count's) size per binary value.
+  size_t min_vertex_bytes = 0;
+  for (const PlyProperty& p : vertex.properties) {
+    min_vertex_bytes += format == PlyFormat::kAscii ? 2 : internal::ScalarSize(p.is_list ? p.count_type : p.type);
+  }
+  const uint64_t vertices_that_fit = (data.size() - header_end) / std::max<size_t>(1, min_vertex_bytes);
+  CloudBuilder builder = MakeBuilder(path, options, layout, std::min<uint64_t>(vertex.count, vertices_that_fit));
   std::vector<double> values(vertex.properties.size());
   auto emit = [&](auto describe) { EmitVertex(layout, vertex, values, &builder, describe); };
 

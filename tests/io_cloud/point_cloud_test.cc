@@ -1,16 +1,19 @@
 #include "mmba/io/point_cloud.h"
 
 #include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <new>
 #include <string>
 #include <thread>
 #include <vector>
@@ -311,6 +314,44 @@ TEST_F(PointCloudIoTest, PlyListCountTypeIsAnInteger) {
   ExpectInputError([&] { ReadPly(Write("count.ply", b)); }, {"found 'double', expected an integer type"});
   b.replace(b.find("list double"), 11, "list uint");
   ExpectInputError([&] { ReadPly(Write("count.ply", b)); }, {"count.ply (byte", "idx", "end of file"});
+}
+
+// Reads `path` with the address space limited to 1 GB, then exits: 2 on an InputError, 4 on
+// std::bad_alloc, 0 on success, 3 when the limit cannot be set.
+[[noreturn]] void ReadPlyWithin1GB(const std::string& path) {
+  const rlimit limit{rlim_t{1} << 30, rlim_t{1} << 30};
+  if (setrlimit(RLIMIT_AS, &limit) != 0) std::_Exit(3);
+  try {
+    ReadPly(path);
+  } catch (const InputError&) {
+    std::_Exit(2);
+  } catch (const std::bad_alloc&) {
+    std::_Exit(4);
+  }
+  std::_Exit(0);
+}
+
+// A header's vertex count reserves no more memory than the data can hold: a 300-byte file
+// declaring 34294967295 vertices with all fields ends in the InputError of the truncated data,
+// within 1 GB of address space (CloudBuilder's own cap, 2^26 points, would reserve 4 GB).
+// Checked in a child process under RLIMIT_AS, which AddressSanitizer's shadow memory rules out.
+TEST_F(PointCloudIoTest, PlyVertexCountReservesOnlyWhatTheDataHold) {
+  const std::string path = Write(
+      "huge.ply",
+      "ply\nformat ascii 1.0\nelement vertex 34294967295\nproperty double x\nproperty double y\n"
+      "property double z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty float intensity\n"
+      "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty double time\nend_header\n"
+      "1 2 3 0 0 1 0.5 10 20 30 100\n4 5 6 0 1 0 0.25 0 255 0 101\n");
+  ExpectInputError([&] { ReadPly(path); }, {"huge.ply:18: field 'vertex': found 'end of file after 2 of 34294967295"});
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "RLIMIT_AS and AddressSanitizer do not mix";
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+  GTEST_SKIP() << "RLIMIT_AS and AddressSanitizer do not mix";
+#endif
+#endif
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(ReadPlyWithin1GB(path), ::testing::ExitedWithCode(2), "");
 }
 
 // A FIFO named as a cloud is refused before it is opened, by the streamed reader too. A
