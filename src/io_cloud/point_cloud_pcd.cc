@@ -186,7 +186,15 @@ PointCloud ReadPcd(const std::string& path, const ReadOptions& options, ReadStat
     tokens_per_point += fields[i].count;
   }
   const bool normals = inormal[0] >= 0 && inormal[1] >= 0 && inormal[2] >= 0;
-  CloudBuilder builder(path, options, normals, iintensity >= 0, irgb >= 0, points);
+  // The header's point count reserves memory only as far as the data can hold the points, not
+  // up to CloudBuilder's cap (2^26 points, 2.4 GB with normals and intensity, for a 250-byte
+  // file): a point takes at least 2 bytes per ASCII value ("0 ") and point_size bytes in binary.
+  // A compressed point's size is unknown until its data are decompressed.
+  const uint64_t data_bytes = data.size() - data_start;
+  uint64_t reserve = points;
+  if (mode == "ascii") reserve = std::min<uint64_t>(points, data_bytes / std::max<size_t>(1, 2 * tokens_per_point));
+  if (mode == "binary") reserve = std::min<uint64_t>(points, data_bytes / std::max<size_t>(1, point_size));
+  CloudBuilder builder(path, options, normals, iintensity >= 0, irgb >= 0, static_cast<size_t>(reserve));
   const bool organised = height > 1;
 
   auto emit = [&](auto value_of, auto rgb_bits_of, auto describe) {

@@ -316,13 +316,25 @@ TEST_F(PointCloudIoTest, PlyListCountTypeIsAnInteger) {
   ExpectInputError([&] { ReadPly(Write("count.ply", b)); }, {"count.ply (byte", "idx", "end of file"});
 }
 
-// Reads `path` with the address space limited to 1 GB, then exits: 2 on an InputError, 4 on
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kAddressSanitizer = true;
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
+#else
+constexpr bool kAddressSanitizer = false;
+#endif
+
+// Reads the cloud `path` with the address space limited to 1 GB, then exits: 2 on an InputError, 4 on
 // std::bad_alloc, 0 on success, 3 when the limit cannot be set.
-[[noreturn]] void ReadPlyWithin1GB(const std::string& path) {
+[[noreturn]] void ReadWithin1GB(const std::string& path) {
   const rlimit limit{rlim_t{1} << 30, rlim_t{1} << 30};
   if (setrlimit(RLIMIT_AS, &limit) != 0) std::_Exit(3);
   try {
-    ReadPly(path);
+    ReadPointCloud(path);
   } catch (const InputError&) {
     std::_Exit(2);
   } catch (const std::bad_alloc&) {
@@ -343,15 +355,22 @@ TEST_F(PointCloudIoTest, PlyVertexCountReservesOnlyWhatTheDataHold) {
       "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty double time\nend_header\n"
       "1 2 3 0 0 1 0.5 10 20 30 100\n4 5 6 0 1 0 0.25 0 255 0 101\n");
   ExpectInputError([&] { ReadPly(path); }, {"huge.ply:18: field 'vertex': found 'end of file after 2 of 34294967295"});
-#if defined(__SANITIZE_ADDRESS__)
-  GTEST_SKIP() << "RLIMIT_AS and AddressSanitizer do not mix";
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-  GTEST_SKIP() << "RLIMIT_AS and AddressSanitizer do not mix";
-#endif
-#endif
+  if (kAddressSanitizer) GTEST_SKIP() << "RLIMIT_AS and AddressSanitizer do not mix";
   GTEST_FLAG_SET(death_test_style, "threadsafe");
-  EXPECT_EXIT(ReadPlyWithin1GB(path), ::testing::ExitedWithCode(2), "");
+  EXPECT_EXIT(ReadWithin1GB(path), ::testing::ExitedWithCode(2), "");
+}
+
+// As PlyVertexCountReservesOnlyWhatTheDataHold, for an ASCII PCD declaring 60000000 points.
+TEST_F(PointCloudIoTest, PcdPointCountReservesOnlyWhatTheDataHold) {
+  const std::string path = Write(
+      "huge.pcd",
+      "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z normal_x normal_y normal_z intensity\nSIZE 4 4 4 4 4 4 4\n"
+      "TYPE F F F F F F F\nCOUNT 1 1 1 1 1 1 1\nWIDTH 60000000\nHEIGHT 1\nPOINTS 60000000\nDATA ascii\n"
+      "1 2 3 0 0 1 0.5\n");
+  ExpectInputError([&] { ReadPcd(path); }, {"huge.pcd:12: field 'point': found 'end of file after 1 of 60000000"});
+  if (kAddressSanitizer) GTEST_SKIP() << "RLIMIT_AS and AddressSanitizer do not mix";
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(ReadWithin1GB(path), ::testing::ExitedWithCode(2), "");
 }
 
 // A FIFO named as a cloud is refused before it is opened, by the streamed reader too. A
