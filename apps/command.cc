@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "mmba/core/logging.h"
+#include "mmba/core/version.h"
 
 namespace mmba::app {
 namespace {
@@ -126,9 +127,10 @@ bool RegisterCommand(int order, CommandSetup setup) {
 int RunMain(int argc, char** argv) {
   CLI::App app{
       "mmba: multi-modal photogrammetric bundle adjustment for survey-grade work.\n"
-      "Exit codes: 0 ok, 2 bad input, 3 adjustment/registration failed or did not converge."};
+      "Exit codes: 0 ok, 2 bad input, 3 adjustment/registration failed or did not converge,\n"
+      "1 internal error (a bug: please report it with the input)."};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "mmba 0.1.0");
+  app.set_version_flag("--version", VersionLine());
   CommonOptions common;
   auto& registry = Registry();
   std::stable_sort(registry.begin(), registry.end(),

@@ -14,6 +14,7 @@
 #include "mmba/io/colmap_model.h"
 #include "mmba/problem/colmap_scene.h"
 #include "mmba/problem/solve.h"
+#include "mmba/core/version.h"
 
 namespace mmba::app {
 namespace {
@@ -158,6 +159,7 @@ int RunBa(const BaArgs& args) {
   }
   json["wall_seconds"] = wall.ElapsedSeconds();
   json["model_written"] = written;
+  RecordBuild(&json);
   if (!args.json.empty()) {
     WriteFileAtomically(args.json, [&](std::ostream& out) { out << json.dump(2) << "\n"; });
   }

@@ -9,6 +9,7 @@
 #include "mmba/core/progress.h"
 #include "mmba/io/bal.h"
 #include "mmba/problem/bal_solver.h"
+#include "mmba/core/version.h"
 
 namespace mmba::app {
 namespace {
@@ -60,6 +61,7 @@ int RunBal(const BalArgs& args) {
       {"jacobian", args.autodiff ? "autodiff" : "analytic"},
       {"settings", "LEVENBERG_MARQUARDT, SPARSE_SCHUR (SuiteSparse), JACOBI, no loss"},
   };
+  RecordBuild(&json);
   if (!args.json.empty()) {
     WriteFileAtomically(args.json, [&](std::ostream& out) { out << json.dump(2) << "\n"; });
   }

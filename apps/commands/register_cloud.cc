@@ -18,6 +18,7 @@
 #include "mmba/registration/cloud/registration_settings.h"
 #include "mmba/registration/cloud/scale_trial_json.h"
 #include "mmba/registration/cloud/scene_evaluation.h"
+#include "mmba/core/version.h"
 #include "registration_json.h"
 
 namespace mmba::app {
@@ -53,8 +54,10 @@ struct RegisterCloudArgs {
 // never beside an error map of another run (a run killed in between leaves no JSON).
 void WriteResult(const RegisterCloudArgs& args, const nlohmann::ordered_json& json, const io::PointCloud& error_map,
                  double error_map_max_m) {
+  nlohmann::ordered_json recorded = json;
+  RecordBuild(&recorded);
   AtomicFileSet files;
-  files.Add(args.output, [&](std::ostream& out) { out << json.dump(2) << "\n"; });
+  files.Add(args.output, [&](std::ostream& out) { out << recorded.dump(2) << "\n"; });
   if (!args.error_map.empty() && !error_map.empty()) {
     files.Add(
         args.error_map,

@@ -15,6 +15,7 @@
 #include "mmba/io/survey_csv.h"
 #include "mmba/geodesy/geodesy.h"
 #include "mmba/survey/adjust.h"
+#include "mmba/core/version.h"
 
 namespace mmba::app {
 namespace {
@@ -268,6 +269,7 @@ int RunSurvey(const SurveyArgs& args) {
     for (const std::string& r : adj.removed) md << "- " << r << "\n";
   }
 
+  RecordBuild(&json);
   AtomicFileSet files;
   const std::string json_text = json.dump(2);
   files.Add(output.staging() / "adjusted.json", [&](std::ostream& out) { out << json_text << "\n"; });

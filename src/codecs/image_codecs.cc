@@ -1,10 +1,14 @@
 #include "codecs/image_codecs.h"
 
+#include <spdlog/spdlog.h>
+
 #include <dlfcn.h>
 
 #include <cstdlib>
+#include <filesystem>
 #include <mutex>
 #include <stdexcept>
+#include <system_error>
 
 namespace mmba::codecs {
 namespace {
@@ -17,15 +21,29 @@ struct Module {
   EncodeFn encode = nullptr;
 };
 
-// The module, opened once (MMBA_IMAGE_CODECS_MODULE in the environment overrides the path
-// it was built at). Throws std::runtime_error naming the path when it cannot be loaded.
+// Where the module is: MMBA_IMAGE_CODECS_MODULE in the environment; else, when mmba runs
+// from an install tree, <prefix>/lib/mmba/ beside its bin/; else the build tree's path.
+std::string ModulePath() {
+  const char* env = std::getenv("MMBA_IMAGE_CODECS_MODULE");
+  if (env != nullptr && *env != '\0') return env;
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec) {
+    const fs::path installed = (exe.parent_path() / MMBA_IMAGE_CODECS_MODULE_FROM_BIN).lexically_normal();
+    if (fs::is_regular_file(installed, ec)) return installed.string();
+  }
+  return MMBA_IMAGE_CODECS_MODULE;
+}
+
+// The module, opened once. Throws std::runtime_error naming the path when it cannot be loaded.
 const Module& Load() {
   static Module module;
   static std::string error;
   static std::once_flag once;
   std::call_once(once, [] {
-    const char* env = std::getenv("MMBA_IMAGE_CODECS_MODULE");
-    const std::string path = env != nullptr && *env != '\0' ? env : MMBA_IMAGE_CODECS_MODULE;
+    const std::string path = ModulePath();
+    spdlog::debug("image codecs: loading {}", path);
     void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
     if (handle == nullptr) {
       const char* why = dlerror();

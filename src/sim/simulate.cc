@@ -17,6 +17,7 @@
 #include "mmba/io/point_cloud.h"
 #include "mmba/sim/survey.h"
 #include "mmba/sim/texture.h"
+#include "mmba/core/version.h"
 #include "sim/random_internal.h"
 
 namespace mmba::sim {
@@ -1231,6 +1232,8 @@ SimulateResult Simulate(const SimulateOptions& options, const std::string& out_d
                            {"duration_s", trajectory.duration_s()}};
   c.truth["registration"] = c.registration_truth;
   WriteTrueCameraYamls(c);
+  RecordBuild(&c.truth);
+  RecordBuild(&c.registration_truth);
   WriteText(c.out / "truth" / "truth.json", c.truth.dump(1) + "\n");
   WriteText(c.out / "ground_truth.json", c.registration_truth.dump(1) + "\n");
   WriteText(c.out / "project.yaml", ProjectYaml(c));
