@@ -1,0 +1,214 @@
+// RegisterCloudsOverScales: the rigid registration at trial scales, refined as a similarity.
+
+#include "mmba/registration/cloud/feature_registration.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <exception>
+#include <mutex>
+#include <optional>
+#include <sstream>
+#include <thread>
+
+#include "mmba/core/error.h"
+#include "mmba/core/progress.h"
+#include "registration/cloud/cloud_levels.h"
+
+namespace mmba::registration {
+
+using internal::CheckCloud;
+
+namespace {
+// Runs job(0) … job(n − 1), two at a time on a machine with two cores or more (each is mostly
+// single-threaded); the first exception is rethrown once both workers have stopped.
+void RunTwoAtATime(size_t n, const std::function<void(size_t)>& job) {
+  std::atomic<size_t> next{0};
+  std::mutex error_mutex;
+  std::exception_ptr error;
+  const auto work = [&]() {
+    try {
+      for (size_t k = next++; k < n; k = next++) job(k);
+    } catch (...) {
+      const std::lock_guard<std::mutex> lock(error_mutex);
+      if (!error) error = std::current_exception();
+      next = n;
+    }
+  };
+  const size_t workers = std::min<size_t>({2, std::max(1u, std::thread::hardware_concurrency()), n});
+  std::vector<std::thread> pool;
+  for (size_t w = 1; w < workers; ++w) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  if (error) std::rethrow_exception(error);
+}
+}  // namespace
+
+double ScaleSearchTolerance(const io::PointCloud& target) {
+  return std::max(3.0 * EstimatePointSpacing(target), 0.005 * RobustExtent(target.points));
+}
+
+ScaleSearchResult RegisterCloudsOverScales(
+    const io::PointCloud& source, const io::PointCloud& target,
+    const CloudRegistrationOptions& options, double min_scale, double max_scale, double step,
+    double tolerance_m, const std::function<void(size_t, size_t, const ScaleTrial&)>& progress) {
+  ScaleSearchResult result;
+  Timer timer;
+  if (!(min_scale > 0) || !(max_scale >= min_scale) || !(step > 1.0) || !std::isfinite(max_scale)) {
+    throw InputError::Message("scale search", "expected 0 < min scale <= max scale and a step > 1");
+  }
+  const double tau = tolerance_m > 0 ? tolerance_m : ScaleSearchTolerance(target);
+  result.tolerance_m = tau;
+  auto fail = [&](const std::string& reason) {
+    result.status = "failed";
+    result.reason = reason;
+    result.seconds = timer.ElapsedSeconds();
+    return result;
+  };
+  for (const auto& [cloud, which] : {std::pair{&source, "source"}, std::pair{&target, "target"}}) {
+    const std::string problem = CheckCloud(*cloud, which);
+    if (!problem.empty()) return fail(problem);
+  }
+  std::vector<double> scales;
+  for (double x = min_scale; x <= max_scale * (1 + 1e-9); x *= step) scales.push_back(x);
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& x : source.points) centroid += x;
+  centroid /= static_cast<double>(source.size());
+  const double extent = RobustExtent(source.points);
+  struct Candidate {
+    double trial_scale;
+    SimilarityFit fit;
+  };
+  struct Outcome {
+    CloudRegistrationResult rigid;
+    std::optional<SimilarityFit> fit;
+  };
+  // One trial: the source at `scale` (about its centroid) registered rigidly; an "ok" one is
+  // refined as a similarity (a rigid pose at a scale 5 % off leaves the source's ends 5 % of
+  // its half extent off).
+  const auto run_trial = [&](double scale, Outcome* o, ScaleTrial* trial) {
+    io::PointCloud scaled;
+    scaled.points.reserve(source.size());
+    for (const Eigen::Vector3d& x : source.points) scaled.points.push_back(scale * (x - centroid));
+    CloudRegistrationOptions trial_options = options;
+    for (Eigen::Vector3d& c : trial_options.source_viewpoints) c = scale * (c - centroid);
+    if (trial_options.normal_orientation == NormalOrientation::kAuto) {
+      trial_options.normal_orientation = NormalOrientation::kViewpoint;  // no retries
+    }
+    o->rigid = RegisterClouds(scaled, target, trial_options);
+    trial->scale = scale;
+    trial->status = o->rigid.ok() ? "ok" : "failed: " + o->rigid.reason;
+    trial->fitness = o->rigid.fitness;
+  };
+  // The similarity target ← source of a trial's rigid pose, refined with the scale free.
+  const auto refine = [&](double scale, const CloudRegistrationResult& rigid) {
+    Eigen::Matrix4d start = Eigen::Matrix4d::Identity();
+    start.topLeftCorner<3, 3>() = scale * rigid.target_from_source.topLeftCorner<3, 3>();
+    start.topRightCorner<3, 1>() =
+        rigid.target_from_source.topRightCorner<3, 1>() - start.topLeftCorner<3, 3>() * centroid;
+    const double reach = std::max(10.0 * tau, 0.05 * scale * extent);
+    return RefineSimilarity(source, target, start, reach, tau);
+  };
+  std::vector<Outcome> outcomes(scales.size());
+  std::vector<ScaleTrial> trials(scales.size());
+  std::mutex progress_mutex;
+  size_t finished = 0;
+  // The trials are independent: two at a time, then taken in the order of their scales, so the
+  // result does not depend on which finished first.
+  const auto trial_job = [&](size_t k) {
+    Outcome& o = outcomes[k];
+    ScaleTrial& trial = trials[k];
+    run_trial(scales[k], &o, &trial);
+    if (o.rigid.ok()) {
+      o.fit = refine(scales[k], o.rigid);
+      trial.refined = true;
+      trial.refined_scale = o.fit->scale;
+      trial.refined_fitness = o.fit->fitness;
+    }
+    const std::lock_guard<std::mutex> lock(progress_mutex);
+    ++finished;
+    if (progress) progress(finished, trials.size(), trial);
+  };
+  RunTwoAtATime(scales.size(), trial_job);
+  // Second pass, when no trial scale registered: the checks of a rigid registration refuse a
+  // pose whose scale is a few per cent off (its ends lie beyond the fine tolerance, so it is
+  // "not resolved" or "not determined" though it fits). Every failed trial whose pose fits is
+  // refined as a similarity; the two refined scales that fit best (distinct, within the range
+  // widened by a step) are each registered again from scratch, with every check. An "ok" there
+  // is a trial like the others.
+  if (std::none_of(outcomes.begin(), outcomes.end(), [](const Outcome& o) { return o.rigid.ok(); })) {
+    std::vector<std::optional<SimilarityFit>> fits(scales.size());
+    RunTwoAtATime(scales.size(), [&](size_t k) {
+      if (outcomes[k].rigid.best_pose_fits) fits[k] = refine(scales[k], outcomes[k].rigid);
+    });
+    std::vector<SimilarityFit> refined;
+    for (const std::optional<SimilarityFit>& fit : fits) {
+      if (fit && fit->scale >= min_scale / step && fit->scale <= max_scale * step) refined.push_back(*fit);
+    }
+    std::stable_sort(refined.begin(), refined.end(),
+                     [](const SimilarityFit& a, const SimilarityFit& b) { return a.fitness > b.fitness; });
+    std::vector<double> tried = scales;
+    for (const SimilarityFit& fit : refined) {
+      if (tried.size() == scales.size() + 2) break;
+      if (std::none_of(tried.begin(), tried.end(), [&](double t) { return std::abs(fit.scale / t - 1.0) < 1e-3; })) {
+        tried.push_back(fit.scale);
+      }
+    }
+    const size_t first_new = scales.size();
+    scales.assign(tried.begin(), tried.end());
+    outcomes.resize(scales.size());
+    trials.resize(scales.size());
+    for (size_t k = first_new; k < scales.size(); ++k) trials[k].from_refinement = true;
+    RunTwoAtATime(scales.size() - first_new, [&](size_t i) { trial_job(first_new + i); });
+  }
+  std::vector<Candidate> candidates;
+  std::string closest;  // the reason of the failed trial that fitted best
+  double closest_fitness = -1.0;
+  for (size_t k = 0; k < scales.size(); ++k) {
+    const Outcome& o = outcomes[k];
+    if (o.fit) {
+      candidates.push_back({scales[k], *o.fit});
+    } else if (o.rigid.fitness > closest_fitness) {
+      closest_fitness = o.rigid.fitness;
+      std::ostringstream m;
+      m << "; the best-fitting trial, scale " << scales[k] << ", " << o.rigid.reason;
+      closest = m.str();
+    }
+  }
+  result.trials = trials;
+  if (candidates.empty()) {
+    std::ostringstream m;
+    m << "registered at none of " << scales.size() << " trial scales " << min_scale << " … " << max_scale << closest;
+    return fail(m.str());
+  }
+  std::stable_sort(candidates.begin(), candidates.end(),
+            [](const Candidate& a, const Candidate& b) { return a.fit.fitness > b.fit.fitness; });
+  const Candidate& best = candidates.front();
+  // Another trial that ends elsewhere (a pseudo-symmetric site, a repeated bay) and fits almost
+  // as well: ambiguous.
+  for (size_t k = 1; k < candidates.size(); ++k) {
+    const double apart = TransformRmsOnCloud(source, best.fit.target_from_source, candidates[k].fit.target_from_source);
+    if (apart > 5.0 * tau && candidates[k].fit.fitness > 0.9 * best.fit.fitness) {
+      std::ostringstream m;
+      m << "ambiguous: the trial scales " << best.trial_scale << " and " << candidates[k].trial_scale
+        << " place the source " << apart << " m RMS apart with fitness " << best.fit.fitness << " and "
+        << candidates[k].fit.fitness;
+      return fail(m.str());
+    }
+  }
+  result.target_from_source = best.fit.target_from_source;
+  result.scale = best.fit.scale;
+  result.fitness = best.fit.fitness;
+  result.inlier_rmse = best.fit.inlier_rmse;
+  if (best.fit.fitness < 0.3) {
+    std::ostringstream m;
+    m << "the best placement puts only " << 100 * best.fit.fitness << " % of the source within " << tau
+      << " m of the target (30 % needed)";
+    return fail(m.str());
+  }
+  result.status = "ok";
+  result.seconds = timer.ElapsedSeconds();
+  return result;
+}
+
+}  // namespace mmba::registration
