@@ -17,9 +17,35 @@
 
 namespace mmba::registration::mi {
 
-using namespace internal;  // NOLINT(build/namespaces)
+using internal::BoundVector;
+using internal::CheckConfidence;
+using internal::CurvatureAlong;
+using internal::Fixed;
+using internal::ImageDisplacements2;
+using internal::ImagePoint;
+using internal::ImagePredictedVariances;
+using internal::MainSearch;
+using internal::MeanOf;
+using internal::Median;
+using internal::MedianSqrtOf;
+using internal::MiHessian;
+using internal::OnBound;
+using internal::ParallelFor;
+using internal::PixelDisplacements2;
+using internal::PixelJacobians;
+using internal::Polish;
+using internal::PolishResult;
+using internal::PredictedPixelVariances;
+using internal::RestartOffsets;
+using internal::RestartOptions;
+using internal::RestartStep;
+using internal::SampleImagePoints;
+using internal::Search;
+using internal::SearchResult;
+using internal::StageClock;
 
 namespace {
+
 
 // The status and reason of a registration from its failed checks (none: "ok").
 RegistrationResult Finish(RegistrationResult& result, const std::vector<std::string>& failures,
@@ -48,38 +74,26 @@ RegistrationResult Finish(RegistrationResult& result, const std::vector<std::str
   return result;
 }
 
-}  // namespace
-
-RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
-                                  const Rigid3d& cam_from_lidar_start,
-                                  const RegistrationOptions& options) {
-  Timer timer;
-  RegistrationResult result;
-  result.cam_from_lidar = cam_from_lidar_start;
-  result.metric_kind = options.metric.kind;
-  auto fail = [&](const std::string& reason) {
-    result.status = "failed";
-    result.reason = reason;
-    result.runtime_seconds = timer.ElapsedSeconds();
-    return result;
-  };
+// Why the inputs cannot be registered (invalid options, no frames, a frame without points,
+// intensity or image contrast); empty when they can.
+std::string InputProblem(const std::vector<Frame>& frames, const RegistrationOptions& options) {
   std::string error;
-  if (!options.Check(&error)) return fail("invalid options: " + error);
-  if (frames.empty()) return fail("no frames");
+  if (!options.Check(&error)) return ("invalid options: " + error);
+  if (frames.empty()) return ("no frames");
   for (const Frame& frame : frames) {
     if (frame.points == nullptr || frame.points->size() == 0) {
-      return fail("frame '" + frame.name + "': empty cloud");
+      return ("frame '" + frame.name + "': empty cloud");
     }
     if (options.render.representation == Representation::kIntensity &&
         !frame.points->has_intensity()) {
-      return fail("frame '" + frame.name +
+      return ("frame '" + frame.name +
                   "': intensity representation asked for but the cloud has no intensity");
     }
     for (const View& view : frame.views) {
       const ImageContrast contrast = MeasureContrast(view.image);
       if (contrast.fraction_dark + contrast.fraction_saturated > options.max_dark_or_saturated ||
           contrast.stdev < options.min_photo_stdev) {
-        return fail("frame '" + frame.name + "' view '" + view.name +
+        return ("frame '" + frame.name + "' view '" + view.name +
                     "': image without usable contrast (" +
                     Fixed(100 * contrast.fraction_dark, 1) + " % black, " +
                     Fixed(100 * contrast.fraction_saturated, 1) + " % saturated, stdev " +
@@ -87,44 +101,136 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
       }
     }
   }
-  StageClock clock(&result);
-  FrameSetEvaluator evaluator(frames, cam_from_lidar_start, options);
-  clock.Mark("prepare", 0);
+  return "";
+}
+
+// One registration of a frame set (RegisterFrames): the search, then the acceptance checks in
+// order, each a step below. Status "ok" needs every check to pass; by default the checks stop
+// at the first failure (options.measure_all_checks): Decided() says the status is "failed"
+// and the rest is not measured (the status, pose and an ok result's values are the same).
+class FramesRegistration {
+ public:
+  FramesRegistration(const std::vector<Frame>& frames, const Rigid3d& cam_from_lidar_start,
+                     const RegistrationOptions& options, const Timer& timer,
+                     RegistrationResult* result)
+      : frames(frames),
+        cam_from_lidar_start(cam_from_lidar_start),
+        options(options),
+        timer(timer),
+        result(*result),
+        checks(result->checks),
+        clock(result),
+        evaluator(frames, cam_from_lidar_start, options),
+        bound(BoundVector(options)),
+        levels(evaluator.levels()),
+        fail_fast(!options.measure_all_checks) {
+    clock.Mark("prepare", 0);
+  }
+  RegistrationResult Run();
+
+ private:
+  RegistrationResult Fail(const std::string& reason);
+  bool Decided(const char* stage);
+  RegistrationResult Finished() { return Finish(result, failures, timer, evaluator); }
+  void SearchAndPolish();
+  void SearchEndChecks();
+  void LaplaceCovariance();
+  void PredictedSigma();
+  void WholeImageSigma();
+  void ShuffledBaseline();
+  void Restarts();
+  void Halves();
+  void CalibrateCovariance();
+  void AxisScans();
+
+  const std::vector<Frame>& frames;
+  const Rigid3d& cam_from_lidar_start;
+  const RegistrationOptions& options;
+  const Timer& timer;
+  RegistrationResult& result;
+  AcceptanceChecks& checks;
+  StageClock clock;
+  FrameSetEvaluator evaluator;
+  const Vector6d bound;
+  const int levels;
+  const bool fail_fast;
+  std::vector<std::string> failures;
+  PolishResult polish;
+  Vector6d x = Vector6d::Zero();  ///< the optimum's correction
+  // The Laplace covariance.
+  int covariance_level = 0;
+  double min_eigen = 0, max_eigen = 0;  ///< of the information
+  // The predicted pixel σ over a sample of the visible points.
+  std::vector<FrameSetEvaluator::VisiblePoint> sample;
+  double predicted_ms = 0;  ///< mean over the sample of trace(J Σ_L Jᵀ), px²
+  /// The sample's pixel Jacobians at the optimum (also the covariance's pixel floor).
+  std::vector<Eigen::Matrix<double, 2, 6>> sample_jacobians;
+  bool sigma_failed = false;
+  std::string sigma_failure;
+  // The same over the whole image when the views are cuts of it.
+  std::vector<ImagePoint> image_sample;
+  double image_predicted_ms = 0;  ///< mean over the image sample of trace(J Σ_L Jᵀ), px²
+  double image_factor_halves = std::numeric_limits<double>::quiet_NaN();
+  double image_factor_restarts = std::numeric_limits<double>::quiet_NaN();
+};
+
+RegistrationResult FramesRegistration::Fail(const std::string& reason) {
+  result.status = "failed";
+  result.reason = reason;
+  result.runtime_seconds = timer.ElapsedSeconds();
+  return result;
+}
+
+bool FramesRegistration::Decided(const char* stage) {
+  if (!fail_fast || failures.empty()) return false;
+  if (checks.stopped_after.empty()) {
+    checks.stopped_after = stage;
+    spdlog::debug("MI acceptance: failed at {}, the later checks not measured", stage);
+  }
+  return true;
+}
+
+RegistrationResult FramesRegistration::Run() {
   const double covered = evaluator.CoveredFraction(cam_from_lidar_start);
   if (covered < options.min_covered_fraction) {
-    return fail("image does not overlap the cloud: " + Fixed(100 * covered, 2) +
+    return Fail("image does not overlap the cloud: " + Fixed(100 * covered, 2) +
                 " % of the view pixels see LiDAR points at the start pose (minimum " +
                 Fixed(100 * options.min_covered_fraction, 2) + " %)");
   }
   result.metric_before = evaluator.Evaluate(cam_from_lidar_start, 0);
   clock.Mark("start checks", 2);
+  SearchAndPolish();
+  SearchEndChecks();
+  if (Decided("the search's end")) return Finished();
+  LaplaceCovariance();
+  PredictedSigma();
+  if (Decided("the covariance")) return Finished();
+  WholeImageSigma();
+  ShuffledBaseline();
+  if (Decided("the shuffled baseline")) return Finished();
+  Restarts();
+  if (Decided("the restarts")) return Finished();
+  Halves();
+  if (Decided("the independent halves")) return Finished();
+  CalibrateCovariance();
+  if (Decided("the calibrated covariance")) return Finished();
+  AxisScans();
+  return Finished();
+}
 
-  // ---- Optimisation: Nelder–Mead coarse to fine (paper defaults at the coarsest level),
-  // then gradient ascent on the smooth histogram.
-  const Vector6d bound = BoundVector(options);
-  const int levels = evaluator.levels();
+// Optimisation: Nelder–Mead coarse to fine (paper defaults at the coarsest level), then
+// gradient ascent on the smooth histogram, then the polish by the restarts.
+void FramesRegistration::SearchAndPolish() {
   const SearchResult main_search = MainSearch(evaluator, cam_from_lidar_start, options, &clock);
   result.iterations += main_search.iterations;
-  const PolishResult polish =
-      Polish(evaluator, cam_from_lidar_start, main_search.x, options, &clock, &result.iterations);
-  Vector6d x = polish.x;
+  polish = Polish(evaluator, cam_from_lidar_start, main_search.x, options, &clock, &result.iterations);
+  x = polish.x;
   result.correction = x;
   result.cam_from_lidar = ApplyCorrection(cam_from_lidar_start, x);
   result.metric_after = evaluator.Evaluate(result.cam_from_lidar, 0);
-  AcceptanceChecks& checks = result.checks;
-  // ---- Acceptance. Status "ok" needs every check to pass; by default the checks stop at
-  // the first failure (options.measure_all_checks): `decided` says the status is "failed"
-  // and the rest is not measured (the status, pose and an ok result's values are the same).
-  std::vector<std::string> failures;
-  const bool fail_fast = !options.measure_all_checks;
-  auto decided = [&](const char* stage) {
-    if (!fail_fast || failures.empty()) return false;
-    if (checks.stopped_after.empty()) {
-      checks.stopped_after = stage;
-      spdlog::debug("MI acceptance: failed at {}, the later checks not measured", stage);
-    }
-    return true;
-  };
+}
+
+void FramesRegistration::SearchEndChecks() {
   // The optimum must not be below the start in the full-resolution metric: a search that left
   // the start's maximum at a coarse level and ended on a lower one at full resolution has not
   // found the maximum it reports (measured: a simulated photo registered from its true pose
@@ -152,13 +258,14 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     failures.push_back(std::string("optimum on the search bound of ") + ParameterName(i) + " (" +
                        Fixed(x[i]) + ")");
   }
-  if (decided("the search's end")) return Finish(result, failures, timer, evaluator);
+}
 
+void FramesRegistration::LaplaceCovariance() {
   // ---- Uncertainty: Laplace approximation. N·MI (nats) is the log-likelihood ratio of the
   // joint against independent intensities (Roche et al. 2000), so the covariance of the
   // correction is (N_eff · (−∇²MI))⁻¹ with N_eff the distinct LiDAR points seen at the level
   // of the fit.
-  const int covariance_level = std::min(options.covariance_level, levels - 1);
+  covariance_level = std::min(options.covariance_level, levels - 1);
   // Correlated pixels are not independent samples: N_eff from Bartlett's inflation factor,
   // never more than the distinct points seen.
   const double visible_points =
@@ -184,8 +291,8 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
                 &covariance_samples, options.threads, &hessian_evaluations);
   const Eigen::Matrix<double, 6, 6> information = -n_eff * hessian;
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eigen(information);
-  const double min_eigen = eigen.eigenvalues().minCoeff();
-  const double max_eigen = eigen.eigenvalues().maxCoeff();
+  min_eigen = eigen.eigenvalues().minCoeff();
+  max_eigen = eigen.eigenvalues().maxCoeff();
   if (max_eigen > 0) {
     // Directions the curvature does not determine (no positive curvature, or less
     // information than the search box itself holds) get the variance of a uniform
@@ -226,15 +333,14 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     spdlog::debug("{}", diag.str());
   }
   clock.Mark("covariance", hessian_evaluations + 1);
+}
 
+void FramesRegistration::PredictedSigma() {
   // (1) Predicted pixel σ: is the maximum well conditioned at the accuracy asked for? (The
   // check itself is made after the split below, on the calibrated covariance.)
-  const std::vector<FrameSetEvaluator::VisiblePoint> sample =
+  sample =
       evaluator.SampleVisiblePoints(result.cam_from_lidar, 2000);
   result.covariance_laplace = result.covariance;
-  double predicted_ms = 0;  // mean over the sample of trace(J Σ_L Jᵀ), px²
-  // The sample's pixel Jacobians at the optimum (also the covariance's pixel floor, below).
-  std::vector<Eigen::Matrix<double, 2, 6>> sample_jacobians;
   if (!result.covariance_valid) {
     failures.push_back("no maximum: the metric's curvature is not negative in any direction "
                        "(information eigenvalues " + Fixed(min_eigen, 1) + " .. " +
@@ -248,160 +354,162 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
   }
   // The σ check (conditioning: does the curvature determine the pose to the accuracy
   // asked?) on the Laplace covariance; made here when the checks stop at the first failure,
-  // after the halves when every check is measured (the order of the reasons as before).
-  const bool sigma_failed = result.covariance_valid && !(checks.sigma_px <= options.max_sigma_px);
-  const std::string sigma_failure =
+  // after the halves when every check is measured (CalibrateCovariance).
+  sigma_failed = result.covariance_valid && !(checks.sigma_px <= options.max_sigma_px);
+  sigma_failure =
       "pose not determined to the accuracy asked: predicted pixel sigma " +
       Fixed(checks.sigma_px, 2) + " px > " + Fixed(options.max_sigma_px, 2) + " px (" +
       std::to_string(checks.weak_directions) + " of 6 directions without curvature)";
   if (fail_fast && sigma_failed) failures.push_back(sigma_failure);
-  if (decided("the covariance")) return Finish(result, failures, timer, evaluator);
+}
+
+void FramesRegistration::WholeImageSigma() {
   // The same over the whole image when the views are cuts of it.
-  const std::vector<ImagePoint> image_sample =
+  image_sample =
       SampleImagePoints(frames, result.cam_from_lidar, options.render, 2000);
-  double image_predicted_ms = 0;  // mean over the image sample of trace(J Σ_L Jᵀ), px²
-  double image_factor_halves = std::numeric_limits<double>::quiet_NaN();
-  double image_factor_restarts = std::numeric_limits<double>::quiet_NaN();
   if (!image_sample.empty() && result.covariance_valid) {
     const std::vector<double> variances =
         ImagePredictedVariances(image_sample, cam_from_lidar_start, x, result.covariance);
     image_predicted_ms = MeanOf(variances);
     checks.image_sigma_px = MedianSqrtOf(variances);
   }
-  // (2) Significance of the MI against the shuffled-pairing baseline (same samples, photo
-  // values permuted: what MI a pose without any relation to the photo would show).
-  {
-    std::vector<double> shuffled;
-    evaluator.EvaluateShuffled(result.cam_from_lidar, 0, options.shuffles, &checks.mi_bits,
-                               &shuffled);
-    double mean = 0, var = 0;
-    for (double v : shuffled) mean += v;
-    mean /= shuffled.size();
-    for (double v : shuffled) var += (v - mean) * (v - mean);
-    checks.mi_shuffled_bits = mean;
-    checks.mi_shuffled_sd_bits = std::sqrt(var / (shuffled.size() - 1));
-    const double gain = checks.mi_bits - mean;
-    checks.mi_significance = gain / std::max(checks.mi_shuffled_sd_bits, 1e-9);
-    if (!(gain >= options.min_mi_gain_bits) ||
-        !(checks.mi_significance >= options.min_mi_significance)) {
-      failures.push_back("MI not significant: " + Fixed(checks.mi_bits, 4) + " bits vs " +
-                         Fixed(mean, 4) + " +- " + Fixed(checks.mi_shuffled_sd_bits, 4) +
-                         " bits with shuffled pairings");
-    }
-    clock.Mark("shuffled baseline", 1);
+}
+
+// (2) Significance of the MI against the shuffled-pairing baseline (same samples, photo
+// values permuted: what MI a pose without any relation to the photo would show).
+void FramesRegistration::ShuffledBaseline() {
+  std::vector<double> shuffled;
+  evaluator.EvaluateShuffled(result.cam_from_lidar, 0, options.shuffles, &checks.mi_bits,
+                             &shuffled);
+  double mean = 0, var = 0;
+  for (double v : shuffled) mean += v;
+  mean /= shuffled.size();
+  for (double v : shuffled) var += (v - mean) * (v - mean);
+  checks.mi_shuffled_bits = mean;
+  checks.mi_shuffled_sd_bits = std::sqrt(var / (shuffled.size() - 1));
+  const double gain = checks.mi_bits - mean;
+  checks.mi_significance = gain / std::max(checks.mi_shuffled_sd_bits, 1e-9);
+  if (!(gain >= options.min_mi_gain_bits) ||
+      !(checks.mi_significance >= options.min_mi_significance)) {
+    failures.push_back("MI not significant: " + Fixed(checks.mi_bits, 4) + " bits vs " +
+                       Fixed(mean, 4) + " +- " + Fixed(checks.mi_shuffled_sd_bits, 4) +
+                       " bits with shuffled pairings");
   }
-  if (decided("the shuffled baseline")) return Finish(result, failures, timer, evaluator);
-  // (3) Restarts: the fine levels re-optimised from points around the optimum must come back
-  // to it (a clear maximum draws them back; a plateau or a ridge leaves them elsewhere).
-  {
-    const Vector6d offset = RestartStep(options);
-    const int restart_level = std::min(options.restart_level, levels - 1);
-    // The restarts stop where the main run stopped: at its finest tolerance.
-    const double tolerance =
-        options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1);
-    int evaluations = 0;
-    checks.restart_spread_px = 0;
-    checks.restart_best_gain = -std::numeric_limits<double>::infinity();
-    const std::vector<Vector6d> starts = RestartOffsets(options);
-    double restart_displacement2 = 0;
-    size_t restart_displacement_count = 0;
-    std::vector<SearchResult> restarts(options.restarts);
-    std::vector<double> restart_values(options.restarts);
-    const RegistrationOptions restart_options = RestartOptions(options);
-    std::vector<double> restart_distances(options.restarts, 0.0);
-    // Stopping at the first failure: a restart is not started once one before it (in index
-    // order) is known to have ended too far; only the restarts up to the first that did are
-    // reported, so the result does not depend on which thread finished first.
-    std::atomic<int> first_far{options.restarts};
-    std::vector<char> restart_run(options.restarts, 0);
-    // The polish's last round ran these very restarts from this optimum (the same starts,
-    // level, tolerance and options): their ends are taken, not searched again.
-    const bool polished = polish.ends.size() == static_cast<size_t>(options.restarts);
-    auto run_restart = [&](int k) {
-      if (fail_fast && first_far.load() < k) return;
-      if (polished) {
-        restarts[k] = polish.ends[k];
-        restart_values[k] = polish.values[k];
-      } else {
-        const Vector6d x0 = (x + starts[k]).cwiseMax(-bound).cwiseMin(bound);
-        restarts[k] = Search(evaluator, cam_from_lidar_start, x0, restart_level, restart_level,
-                             2.0 * offset, tolerance, false, restart_options, nullptr,
-                             "restart " + std::to_string(k) + " ", &x);
-        restart_values[k] =
-            evaluator.Evaluate(ApplyCorrection(cam_from_lidar_start, restarts[k].x), 0).value;
-      }
-      restart_distances[k] = evaluator.MedianPixelDistance(
-          sample, result.cam_from_lidar, ApplyCorrection(cam_from_lidar_start, restarts[k].x));
-      restart_run[k] = 1;
-      if (!(restart_distances[k] <= options.restart_tolerance_px)) {
-        int seen = first_far.load();
-        while (k < seen && !first_far.compare_exchange_weak(seen, k)) {
-        }
-      }
-    };
+  clock.Mark("shuffled baseline", 1);
+}
+
+// (3) Restarts: the fine levels re-optimised from points around the optimum must come back
+// to it (a clear maximum draws them back; a plateau or a ridge leaves them elsewhere).
+void FramesRegistration::Restarts() {
+  const Vector6d offset = RestartStep(options);
+  const int restart_level = std::min(options.restart_level, levels - 1);
+  // The restarts stop where the main run stopped: at its finest tolerance.
+  const double tolerance =
+      options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1);
+  int evaluations = 0;
+  checks.restart_spread_px = 0;
+  checks.restart_best_gain = -std::numeric_limits<double>::infinity();
+  const std::vector<Vector6d> starts = RestartOffsets(options);
+  double restart_displacement2 = 0;
+  size_t restart_displacement_count = 0;
+  std::vector<SearchResult> restarts(options.restarts);
+  std::vector<double> restart_values(options.restarts);
+  const RegistrationOptions restart_options = RestartOptions(options);
+  std::vector<double> restart_distances(options.restarts, 0.0);
+  // Stopping at the first failure: a restart is not started once one before it (in index
+  // order) is known to have ended too far; only the restarts up to the first that did are
+  // reported, so the result does not depend on which thread finished first.
+  std::atomic<int> first_far{options.restarts};
+  std::vector<char> restart_run(options.restarts, 0);
+  // The polish's last round ran these very restarts from this optimum (the same starts,
+  // level, tolerance and options): their ends are taken, not searched again.
+  const bool polished = polish.ends.size() == static_cast<size_t>(options.restarts);
+  auto run_restart = [&](int k) {
+    if (fail_fast && first_far.load() < k) return;
     if (polished) {
-      for (int k = 0; k < options.restarts; ++k) run_restart(k);
+      restarts[k] = polish.ends[k];
+      restart_values[k] = polish.values[k];
     } else {
-      ParallelFor(options.restarts, options.threads, run_restart);
+      const Vector6d x0 = (x + starts[k]).cwiseMax(-bound).cwiseMin(bound);
+      restarts[k] = Search(evaluator, cam_from_lidar_start, x0, restart_level, restart_level,
+                           2.0 * offset, tolerance, false, restart_options, nullptr,
+                           "restart " + std::to_string(k) + " ", &x);
+      restart_values[k] =
+          evaluator.Evaluate(ApplyCorrection(cam_from_lidar_start, restarts[k].x), 0).value;
     }
-    // The restarts reported: all, or (stopping at the first failure) those up to the first
-    // that ended too far — each of which ran.
-    int reported = options.restarts;
-    if (fail_fast && first_far.load() < options.restarts) reported = first_far.load() + 1;
-    for (int k = 0; k < reported; ++k) {
-      // (Only the reported restarts' evaluations are counted: a later one that happened to
-      // run on the other thread would make the count depend on the timing.)
-      if (!polished) evaluations += restarts[k].evaluations + 1;  // else the polish's
-      CHECK(restart_run[k]) << "restart " << k << " reported but not run";
-      const Rigid3d pose = ApplyCorrection(cam_from_lidar_start, restarts[k].x);
-      const double distance = restart_distances[k];
-      const double gain = restart_values[k] - result.metric_after.value;
-      checks.restart_spread_px = std::max(checks.restart_spread_px, distance);
-      for (double d2 : PixelDisplacements2(evaluator, sample, result.cam_from_lidar, pose)) {
-        restart_displacement2 += d2;
-        ++restart_displacement_count;
-      }
-      checks.restart_best_gain = std::max(checks.restart_best_gain, gain);
-      ++checks.restarts_run;
-      spdlog::debug("MI restart {}: {:.2f} px from the optimum, metric {:+.6f}", k, distance,
-                    gain);
-    }
-    if (!image_sample.empty() && options.restarts > 0) {
-      double sum2 = 0;
-      size_t count = 0;
-      checks.image_restart_spread_px = 0;
-      for (int k = 0; k < reported; ++k) {
-        const std::vector<double> d2 = ImageDisplacements2(
-            image_sample, result.cam_from_lidar,
-            ApplyCorrection(cam_from_lidar_start, restarts[k].x));
-        checks.image_restart_spread_px =
-            std::max(checks.image_restart_spread_px, MedianSqrtOf(d2));
-        sum2 += std::accumulate(d2.begin(), d2.end(), 0.0);
-        count += d2.size();
-      }
-      if (count > 0 && image_predicted_ms > 0) {
-        image_factor_restarts = sum2 / count / image_predicted_ms;
+    restart_distances[k] = evaluator.MedianPixelDistance(
+        sample, result.cam_from_lidar, ApplyCorrection(cam_from_lidar_start, restarts[k].x));
+    restart_run[k] = 1;
+    if (!(restart_distances[k] <= options.restart_tolerance_px)) {
+      int seen = first_far.load();
+      while (k < seen && !first_far.compare_exchange_weak(seen, k)) {
       }
     }
-    if (restart_displacement_count > 0) {
-      checks.restart_rms_px = std::sqrt(restart_displacement2 / restart_displacement_count);
-      if (predicted_ms > 0) {
-        checks.variance_factor_restarts =
-            checks.restart_rms_px * checks.restart_rms_px / predicted_ms;
-      }
-    }
-    if (checks.restarts_run > 0 && !(checks.restart_spread_px <= options.restart_tolerance_px)) {
-      failures.push_back("restarts disagree: re-optimised from +-(" +
-                         Fixed(options.restart_offset_m, 2) + " m, " +
-                         Fixed(options.restart_offset_deg, 2) + " deg) around the optimum, one "
-                         "ended " + Fixed(checks.restart_spread_px, 2) + " px away (tolerance " +
-                         Fixed(options.restart_tolerance_px, 2) + " px)");
-    }
-    clock.Mark("restarts", evaluations);
+  };
+  if (polished) {
+    for (int k = 0; k < options.restarts; ++k) run_restart(k);
+  } else {
+    ParallelFor(options.restarts, options.threads, run_restart);
   }
-  if (decided("the restarts")) return Finish(result, failures, timer, evaluator);
-  // (4) Independent halves: does each part of the data put its own points where the joint
-  // optimum puts them? And how far apart are they, against the Laplace covariance?
+  // The restarts reported: all, or (stopping at the first failure) those up to the first
+  // that ended too far — each of which ran.
+  int reported = options.restarts;
+  if (fail_fast && first_far.load() < options.restarts) reported = first_far.load() + 1;
+  for (int k = 0; k < reported; ++k) {
+    // (Only the reported restarts' evaluations are counted: a later one that happened to
+    // run on the other thread would make the count depend on the timing.)
+    if (!polished) evaluations += restarts[k].evaluations + 1;  // else the polish's
+    CHECK(restart_run[k]) << "restart " << k << " reported but not run";
+    const Rigid3d pose = ApplyCorrection(cam_from_lidar_start, restarts[k].x);
+    const double distance = restart_distances[k];
+    const double gain = restart_values[k] - result.metric_after.value;
+    checks.restart_spread_px = std::max(checks.restart_spread_px, distance);
+    for (double d2 : PixelDisplacements2(evaluator, sample, result.cam_from_lidar, pose)) {
+      restart_displacement2 += d2;
+      ++restart_displacement_count;
+    }
+    checks.restart_best_gain = std::max(checks.restart_best_gain, gain);
+    ++checks.restarts_run;
+    spdlog::debug("MI restart {}: {:.2f} px from the optimum, metric {:+.6f}", k, distance,
+                  gain);
+  }
+  if (!image_sample.empty() && options.restarts > 0) {
+    double sum2 = 0;
+    size_t count = 0;
+    checks.image_restart_spread_px = 0;
+    for (int k = 0; k < reported; ++k) {
+      const std::vector<double> d2 = ImageDisplacements2(
+          image_sample, result.cam_from_lidar,
+          ApplyCorrection(cam_from_lidar_start, restarts[k].x));
+      checks.image_restart_spread_px =
+          std::max(checks.image_restart_spread_px, MedianSqrtOf(d2));
+      sum2 += std::accumulate(d2.begin(), d2.end(), 0.0);
+      count += d2.size();
+    }
+    if (count > 0 && image_predicted_ms > 0) {
+      image_factor_restarts = sum2 / count / image_predicted_ms;
+    }
+  }
+  if (restart_displacement_count > 0) {
+    checks.restart_rms_px = std::sqrt(restart_displacement2 / restart_displacement_count);
+    if (predicted_ms > 0) {
+      checks.variance_factor_restarts =
+          checks.restart_rms_px * checks.restart_rms_px / predicted_ms;
+    }
+  }
+  if (checks.restarts_run > 0 && !(checks.restart_spread_px <= options.restart_tolerance_px)) {
+    failures.push_back("restarts disagree: re-optimised from +-(" +
+                       Fixed(options.restart_offset_m, 2) + " m, " +
+                       Fixed(options.restart_offset_deg, 2) + " deg) around the optimum, one "
+                       "ended " + Fixed(checks.restart_spread_px, 2) + " px away (tolerance " +
+                       Fixed(options.restart_tolerance_px, 2) + " px)");
+  }
+  clock.Mark("restarts", evaluations);
+}
+
+// (4) Independent halves: does each part of the data put its own points where the joint
+// optimum puts them? And how far apart are they, against the Laplace covariance?
+void FramesRegistration::Halves() {
   std::string split_kind;
   const std::array<std::vector<Frame>, 2> halves = SplitIntoHalves(frames, &split_kind);
   if (options.split_check && !halves[0].empty() && !halves[1].empty()) {
@@ -490,8 +598,10 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
     clock.Mark("independent halves",
                half_evaluations[0] + (halves_reported == 2 ? half_evaluations[1] : 0));
   }
-  if (decided("the independent halves")) return Finish(result, failures, timer, evaluator);
-  // The σ check (measuring every check: here, as before); then the calibrated covariance
+}
+
+void FramesRegistration::CalibrateCovariance() {
+  // The σ check (measuring every check: here, after the halves); then the calibrated covariance
   // that is reported.
   if (result.covariance_valid) {
     if (!fail_fast && sigma_failed) failures.push_back(sigma_failure);
@@ -550,20 +660,39 @@ RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
         result.covariance, sample_jacobians,
         checks.covariance_factor * predicted_ms, &checks.covariance_floor_directions);
   }
-  if (decided("the calibrated covariance")) return Finish(result, failures, timer, evaluator);
-  // (5) Per-axis scans: flat or multi-peaked surfaces.
-  {
-    int evaluations = 0;
-    const Vector6d weak = options.scan_weak_direction
-                              ? WeaklyObservedDirection(sample_jacobians, bound)
-                              : Vector6d::Zero();
-    checks.scans_passed = CheckConfidence(evaluator, cam_from_lidar_start, x, weak, options,
-                                          std::min(1, levels - 1), &checks.scans_reason,
-                                          &evaluations);
-    if (!checks.scans_passed) failures.push_back(checks.scans_reason);
-    clock.Mark("axis scans", evaluations);
+}
+
+// (5) Per-axis scans: flat or multi-peaked surfaces.
+void FramesRegistration::AxisScans() {
+  int evaluations = 0;
+  const Vector6d weak = options.scan_weak_direction
+                            ? WeaklyObservedDirection(sample_jacobians, bound)
+                            : Vector6d::Zero();
+  checks.scans_passed = CheckConfidence(evaluator, cam_from_lidar_start, x, weak, options,
+                                        std::min(1, levels - 1), &checks.scans_reason,
+                                        &evaluations);
+  if (!checks.scans_passed) failures.push_back(checks.scans_reason);
+  clock.Mark("axis scans", evaluations);
+}
+
+}  // namespace
+
+RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
+                                  const Rigid3d& cam_from_lidar_start,
+                                  const RegistrationOptions& options) {
+  Timer timer;
+  RegistrationResult result;
+  result.cam_from_lidar = cam_from_lidar_start;
+  result.metric_kind = options.metric.kind;
+  const std::string problem = InputProblem(frames, options);
+  if (!problem.empty()) {
+    result.status = "failed";
+    result.reason = problem;
+    result.runtime_seconds = timer.ElapsedSeconds();
+    return result;
   }
-  return Finish(result, failures, timer, evaluator);
+  FramesRegistration registration(frames, cam_from_lidar_start, options, timer, &result);
+  return registration.Run();
 }
 
 }  // namespace mmba::registration::mi

@@ -59,9 +59,9 @@ struct RegistrationOptions {
   /// maximum lies in the basin of the full-resolution one; where a downsampled image has its
   /// own maximum elsewhere (measured on KITTI: level 2 led the yaw +1° start to a pose 10.5 px
   /// off whose full-resolution NMI was below the calibration's), the finer level decides.
-  /// Default 3 (every level of the default pyramid, adaptively, below) since 2 Dec (session
-  /// 16): with point samples, on 160 simulated panorama registrations, 60 ok (59 right)
-  /// against 47 (46) with one path (bench/RESULTS.md "Pyramid paths as the default").
+  /// Default 3 (every level of the default pyramid, adaptively, below): with point samples,
+  /// on 160 simulated panorama registrations, 60 ok (59 right) against 47 (46) with one path
+  /// (bench/RESULTS.md "Pyramid paths as the default").
   int pyramid_paths = 3;
   /// With pyramid_paths ≥ 3: the coarser entries are searched down to the level above the
   /// finest Nelder–Mead level; if they end there within restart_tolerance_px of each other
@@ -94,10 +94,9 @@ struct RegistrationOptions {
   /// points-only representation's region) the pixels without LiDAR are the complement of
   /// the samples: the reference's background and samples make one photo histogram, and what
   /// the moved samples' photo values no longer take the background takes (JointHistogram::
-  /// AddBackgroundComplement; rendered at every pose until session 44, on the belief that
-  /// frozen samples cannot change the coverage — they move it with the points). false =
-  /// every evaluation rendered (the default until 2 Dec). Measured (bench/RESULTS.md, "Point
-  /// samples as the default (session of 2 Dec)"): on the 80 simulated panorama registrations
+  /// AddBackgroundComplement: frozen samples move the coverage with the points). false =
+  /// every evaluation rendered. Measured (bench/RESULTS.md, "Point samples as the
+  /// default"): on the 80 simulated panorama registrations
   /// 23 ok of which 22 < 1 px and one 1.02 px off (rendered: 6 ok, all < 1 px), at about
   /// half the CPU.
   bool point_samples = true;
@@ -114,16 +113,16 @@ struct RegistrationOptions {
   /// of its sample_block_px × sample_block_px block shared among the block's samples, and
   /// only points in front at their own pixel (the footprint decides visibility only);
   /// 0 = at the pixel it won nearest its projection, weighted by its won pixels (the
-  /// rendered histogram's weights; the default until 2 Dec, session 18). Measured on 200
-  /// simulated panorama registrations: the ok results' median error 0.36 → 0.12 px (spheres),
-  /// 72 → 69 ok (bench/RESULTS.md, "The footprint decides visibility only (session 18)").
+  /// rendered histogram's weights). Measured on 200 simulated panorama registrations, 8
+  /// against 0: the ok results' median error 0.12 against 0.36 px (spheres), 69 against 72
+  /// ok (bench/RESULTS.md, "The footprint decides visibility only").
   int sample_block_px = 8;
   /// With point samples, the covariance fit's samples (at its level, the visibility of the
   /// optimum): one weighted sample per visible point (true; ~2.6 times fewer samples at full
   /// resolution) or one per covered pixel (false; the rendered histogram's samples).
   bool covariance_per_point_samples = true;
   /// Point samples also in the restarts and the independent halves (false: those
-  /// re-optimisations render every evaluation, as before the point samples).
+  /// re-optimisations render every evaluation).
   bool point_samples_in_checks = true;
   /// Failure checks.
   double min_covered_fraction = 0.02;  ///< of view pixels covered by LiDAR at the start
@@ -225,7 +224,7 @@ struct RegistrationOptions {
   /// value in AcceptanceChecks (−1, NaN, 0 restarts; no covariance when it was skipped) and
   /// AcceptanceChecks::stopped_after names the check that decided. Status,
   /// pose and the values of an "ok" result are the same either way; true measures every
-  /// check of a failed registration too (diagnostics; slower), as before.
+  /// check of a failed registration too (diagnostics; slower).
   bool measure_all_checks = false;
   bool Check(std::string* error) const;
 };
@@ -319,7 +318,7 @@ struct AcceptanceChecks {
   /// pose it is and where `mmba adjust` uses it (bench/RESULTS.md, "Point samples as the
   /// default"). The larger factor keeps the covariance honest over both sets of points. The
   /// acceptance checks use each set's own factor (sigma_px_calibrated,
-  /// image_sigma_px_calibrated), as before.
+  /// image_sigma_px_calibrated).
   double covariance_factor = 1;
   /// Directions (0..6) in which RegistrationOptions::covariance_pixel_floor raised the
   /// reported covariance above covariance_factor · covariance_laplace.

@@ -60,7 +60,7 @@ struct ViewSamples {
 ///  - block_px = 0: the pixel it won nearest its own projection, weighted by the number of
 ///    pixels it won (the rendered image's weights). Measured: the spread footprints at
 ///    occlusion edges bias the optimum (bench/RESULTS.md, "The footprint decides visibility
-///    only (session 18)").
+///    only").
 struct PerPointPlacement {
   int block_px = 8;
   double depth_tolerance_m = 0.1;
