@@ -297,6 +297,14 @@ PointCloud ReadPcd(const std::string& path, const ReadOptions& options, ReadStat
       throw InputError::AtByte(path, data.size(), "compressed data", "end of file",
                                std::to_string(compressed) + " bytes (truncated file?)");
     }
+    // An LZF back-reference of 2–3 bytes writes at most 264 bytes and a literal run writes
+    // fewer bytes than it takes, so LZF data expand at most 132-fold: a larger declared size
+    // is a lie to refuse before allocating it.
+    if (static_cast<double>(total) > 132.0 * compressed + 264.0) {
+      throw InputError::AtByte(path, data_start + 4, "uncompressed size", std::to_string(uncompressed),
+                               "at most 132 × the " + std::to_string(compressed) +
+                                   " bytes of LZF data (the most LZF expands)");
+    }
     decompressed.resize(total);
     if (total > 0 &&
         !LzfDecompress(reinterpret_cast<const uint8_t*>(data.data() + data_start + 8),

@@ -373,6 +373,20 @@ TEST_F(PointCloudIoTest, PcdPointCountReservesOnlyWhatTheDataHold) {
   EXPECT_EXIT(ReadWithin1GB(path), ::testing::ExitedWithCode(2), "");
 }
 
+// A binary_compressed PCD declaring far more points than its LZF data can expand to is
+// refused before the decompression buffer is allocated.
+TEST_F(PointCloudIoTest, PcdCompressedSizeBeyondWhatLzfExpandsTo) {
+  std::string text =
+      "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+      "WIDTH 300000000\nHEIGHT 1\nPOINTS 300000000\nDATA binary_compressed\n";
+  const uint32_t sizes[2] = {4, 3600000000u};  // 4 bytes of LZF, 300 M points × 12 bytes
+  text.append(reinterpret_cast<const char*>(sizes), sizeof(sizes));
+  text.append("\x00\x00\x00\x00", 4);
+  const std::string path = Write("lying.pcd", text);
+  ExpectInputError([&] { ReadPcd(path); },
+                   {"field 'uncompressed size': found '3600000000', expected at most 132 × the 4 bytes of LZF data"});
+}
+
 // A FIFO named as a cloud is refused before it is opened, by the streamed reader too. A
 // writer thread serves a short text to every open, so that a reader that does open the FIFO
 // returns (and the test fails instead of hanging).
