@@ -13,6 +13,7 @@
 #include <map>
 #include <vector>
 
+#include "arguments.h"
 #include "mmba/core/logging.h"
 #include "mmba/core/version.h"
 
@@ -141,6 +142,10 @@ int RunMain(int argc, char** argv) {
     std::function<int()> run = setup(app, &common);
     const auto subs = app.get_subcommands({});
     if (subs.size() > before) commands.emplace_back(subs.back(), std::move(run));
+  }
+  if (const std::string unknown = UnknownArgument(app, argc, argv); !unknown.empty()) {
+    std::cerr << "mmba: error: " << unknown << std::endl;
+    return kExitInputError;
   }
   try {
     app.parse(argc, argv);

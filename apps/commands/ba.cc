@@ -189,7 +189,7 @@ std::function<int()> SetupBa(CLI::App& app, CommonOptions* common) {
   CLI::App* sub = app.add_subcommand(
       "ba", "Bundle-adjust a COLMAP sparse model (text or binary, detected); writes the "
             "adjusted model in the same format");
-  sub->add_option("--input", args->input, "COLMAP model folder (cameras/images/points3D)")
+  sub->add_option("input,--input", args->input, "COLMAP model folder (cameras/images/points3D), as --input or the first argument")
       ->required();
   sub->add_option("--output", args->output, "Folder for the adjusted model: new, empty or written by mmba (replaced whole)")
       ->required();

@@ -81,7 +81,7 @@ std::function<int()> SetupBal(CLI::App& app, CommonOptions* common) {
   auto args = std::make_shared<BalArgs>();
   CLI::App* sub = app.add_subcommand(
       "bal", "Solve a Bundle Adjustment in the Large problem (Ceres bundle_adjuster settings)");
-  sub->add_option("file", args->file, "BAL problem file")->required();
+  sub->add_option("file,--input", args->file, "BAL problem file, as --input or the first argument")->required();
   sub->add_option("--threads", args->threads, "Threads")->capture_default_str();
   sub->add_option("--max-iterations", args->max_iterations, "Levenberg-Marquardt iterations")
       ->capture_default_str();

@@ -51,7 +51,7 @@ int RunSimulate(const SimulateArgs& args) {
   options.threads = args.threads;
   if (args.photos >= 0) options.photos.count = args.photos;
   const bool scene_is_a_file = args.scene != "gate" && args.scene != "cathedral";
-  OutputFolder output(args.out, "--out", "mmba simulate",
+  OutputFolder output(args.out, "--output", "mmba simulate",
                       {{"--scene", scene_is_a_file ? args.scene : std::string()}, {"the scene's mesh", options.mesh_path}});
   sim::SimulateResult result = sim::Simulate(options, output.staging().string());
   output.Commit();
@@ -69,7 +69,7 @@ std::function<int()> SetupSimulate(CLI::App& app, CommonOptions* common) {
       "static and mobile LiDAR, a total-station network and GNSS, reconstruction-like clouds");
   sub->add_option("--scene", args->scene, "gate | cathedral | FILE.yaml (scene file) | FILE.obj/.ply (mesh)")
       ->capture_default_str();
-  sub->add_option("--out", args->out, "Output folder: new, empty or written by mmba (replaced whole)")->required();
+  sub->add_option("--output,--out", args->out, "Output folder: new, empty or written by mmba (replaced whole)")->required();
   sub->add_option("--seed", args->seed, "Random seed (same seed, same bytes); default 1 or the scene file's");
   sub->add_option("--preset", args->preset, "small (default, < 1 min on 2 cores) | full (paper-sized) | drive (100 m, 200 rig frames, >= 50 M mobile LiDAR points)");
   sub->add_option("--threads", args->threads, "Worker threads")->capture_default_str();

@@ -287,7 +287,7 @@ std::function<int()> SetupSurveyCommand(CLI::App& app, CommonOptions* common) {
   auto args = std::make_shared<SurveyArgs>();
   CLI::App* sub = app.add_subcommand(
       "survey", "Adjust a survey network (gama-local XML or survey CSV) with statistics");
-  sub->add_option("--input", args->input, "Network: gama-local .xml/.gkf or survey .csv")
+  sub->add_option("input,--input", args->input, "Network: gama-local .xml/.gkf or survey .csv, as --input or the first argument")
       ->required();
   sub->add_option("--output", args->output,
                   "Folder for adjusted.json, observations.csv, report.md: new, empty or written by mmba (replaced whole)")

@@ -1,0 +1,90 @@
+// One command-line convention: a mistyped command or option is named first with the closest
+// valid name (exit 2); inputs as --input or a first argument; outputs as --output.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+struct RunResult {
+  int exit_code = -1;
+  std::string output;
+};
+
+RunResult Mmba(const std::string& args) {
+  RunResult run;
+  FILE* pipe = popen((std::string(MMBA_EXECUTABLE) + " " + args + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return run;
+  char buffer[4096];
+  size_t n;
+  while ((n = fread(buffer, 1, sizeof(buffer), pipe)) > 0) run.output.append(buffer, n);
+  const int status = pclose(pipe);
+  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return run;
+}
+
+const std::string kNetwork = std::string(MMBA_SOURCE_DIR) + "/data/gama/gama-local.gkf";
+
+std::string Tmp(const std::string& name) {
+  return (fs::path(testing::TempDir()) / ("mmba_convention_" + std::to_string(getpid()) + "_" + name)).string();
+}
+
+TEST(CliConvention, AMistypedCommandIsNamedWithTheClosest) {
+  const RunResult run = Mmba("adjsut project.yaml");
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_EQ(run.output,
+            "mmba: error: unknown command 'adjsut'; did you mean 'adjust'? (mmba --help lists the commands)\n");
+  const RunResult far = Mmba("frobnicate");
+  EXPECT_EQ(far.exit_code, 2);
+  EXPECT_EQ(far.output, "mmba: error: unknown command 'frobnicate' (mmba --help lists the commands)\n");
+}
+
+TEST(CliConvention, AMistypedOptionIsNamedBeforeMissingOnes) {
+  const RunResult run = Mmba("survey --inptu " + kNetwork + " --output " + Tmp("a"));
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_EQ(run.output,
+            "mmba: error: unknown option '--inptu' of mmba survey; did you mean '--input'? "
+            "(mmba survey --help lists the options)\n");
+  const RunResult value = Mmba("survey --input " + kNetwork + " --confidense=0.9 --output " + Tmp("b"));
+  EXPECT_EQ(value.exit_code, 2);
+  EXPECT_THAT(value.output, HasSubstr("unknown option '--confidense' of mmba survey; did you mean '--confidence'?"));
+  EXPECT_FALSE(fs::exists(Tmp("a")));
+  EXPECT_FALSE(fs::exists(Tmp("b")));
+}
+
+// Negative numbers are values, not options.
+TEST(CliConvention, NegativeNumbersAreValues) {
+  const RunResult run = Mmba("register-cloud --source a.ply --target b.ply --output " + Tmp("r.json") + " --up 0 0 -1");
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_THAT(run.output, ::testing::Not(HasSubstr("unknown option")));
+}
+
+TEST(CliConvention, TheInputAsOptionOrFirstArgument) {
+  const RunResult positional = Mmba("survey " + kNetwork + " --output " + Tmp("p") + " -q");
+  EXPECT_EQ(positional.exit_code, 0) << positional.output;
+  const RunResult option = Mmba("survey --input " + kNetwork + " --output " + Tmp("o") + " -q");
+  EXPECT_EQ(option.exit_code, 0) << option.output;
+  EXPECT_TRUE(fs::exists(Tmp("p") + "/adjusted.json"));
+  EXPECT_TRUE(fs::exists(Tmp("o") + "/adjusted.json"));
+  fs::remove_all(Tmp("p"));
+  fs::remove_all(Tmp("o"));
+}
+
+TEST(CliConvention, SimulateTakesOutputAndOut) {
+  for (const std::string flag : {"--output", "--out"}) {
+    const RunResult run = Mmba("simulate --scene nowhere.yaml " + flag + " " + Tmp("sim"));
+    EXPECT_EQ(run.exit_code, 2) << flag;
+    EXPECT_THAT(run.output, ::testing::Not(HasSubstr("unknown option"))) << flag;
+  }
+}
+
+}  // namespace
