@@ -186,8 +186,8 @@ TEST(FeatureRegistration, SourceMovedPastItsOriginIsRetriedWithTurnedNormals) {
 // PCL's bunny parts (bun01–03: parts of bun0 in its frame, the truth the identity), each moved
 // by a turn of 35–110° and a shift: a part registered to the whole or to a part that shares
 // most of it is "ok" and right; two parts that share 1–11 % of their points are refused —
-// never a wrong pose reported as ok. (The moves are fixed draws; the CLI gave the same verdicts
-// for other draws, session 43.)
+// never a wrong pose reported as ok. (The moves are fixed draws; the CLI gives the same verdicts
+// for other draws.)
 TEST(FeatureRegistration, PclBunnyPartsRegisteredOrRefused) {
   const auto part = [](const std::string& name) { return io::ReadPointCloud(kPclDir + name + ".pcd"); };
   struct Case {
@@ -843,7 +843,7 @@ TEST(FeatureRegistration, SymmetricTurnAboutTheCentroidWithoutAVote) {
 // the twin a finalist, and the result be refused. (The full simulated gate's plane-proxy part
 // onto its stereo cloud, levelled, was reported ok at its twin, 5.95 m off, before this
 // placement; without it this case is reported ok.) The turn −2.3 rad: at +2.3 rad, since
-// each cloud is registered about its own centre (session 40), three correspondences vote for
+// each cloud is registered about its own centre, three correspondences vote for
 // one displacement, so the vote places the turns and this path is not the one tested.
 // The left half of the symmetric gate, turned by `angle` about up and placed; levelled, with
 // so few keypoints (4–5) that the hypotheses are few.
@@ -888,8 +888,8 @@ TEST(FeatureRegistration, ATurnThatBecomesTheBestIsTurnedAgain) {
   EXPECT_FALSE(r.ok()) << r.BriefReport();
 }
 
-// The part at the turns where it was "ok" before session 41 (+1.0 rad at the twin; the others
-// right by luck, the twin never found): sac-ia's pose was neither, its 180° turn about the
+// The part at the turns where a search without symmetric turns reports "ok" (+1.0 rad at the
+// twin; the others right by luck, the twin never found): sac-ia's pose was neither, its 180° turn about the
 // centroid 0.6 m off the truth, that one's turn the twin — and the turns stopped after two
 // rounds, and the truth found in a third was taken for the same pose as the 0.6 m one (10 τ
 // apart) and dropped. With the better-scoring pose kept and up to four rounds, the twin and

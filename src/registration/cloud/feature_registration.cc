@@ -80,10 +80,9 @@ io::PointCloud Shifted(const io::PointCloud& cloud, const Eigen::Vector3d& offse
 // floats of the kd-trees and PCL then resolve a cloud at its own size (map-grid coordinates,
 // 10^5–10^7 m, left them 0.01–0.5 m), and no step but the normals' orientation (below)
 // depends on where the frame's origin lies.
-// Before session 40 a cloud within 500 m of its origin was registered as given, and an object
-// far from that origin against its size (the bunny 30 m above it) failed: the ICP turned it
-// about the origin, so each step moved it by the turn's second-order term at that distance
-// (10° at 30 m: 0.46 m). The ICP now also turns the source about its own centroid.
+// An ICP turning the source about a far origin moves it at each step by the turn's
+// second-order term at that distance (10° at 30 m: 0.46 m), so the ICP turns the source about
+// its own centroid.
 // With a search window both clouds share the target's c, so that the given (identity) pose
 // stays the identity.
 // The normals of a cloud within 500 m of its origin (io::LocalOrigin is zero) are oriented

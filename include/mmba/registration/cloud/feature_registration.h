@@ -98,7 +98,7 @@ struct CloudRegistrationOptions {
   /// otherwise take voxels of their own at the coarse level, which the point budget answers
   /// with a coarser voxel, and inflate the measured spacing and with it R_n and R_s. They are
   /// removed only when they are at least isolated_min_fraction of the cloud: clean clouds
-  /// have 0–0.65 % such points (bench/RESULTS.md, session 39) and are registered as given.
+  /// have 0–0.65 % such points (bench/RESULTS.md, register-cloud) and are registered as given.
   bool remove_blunders = true;
   double isolated_cell_spacing = 3.0;  ///< see remove_blunders (> 0)
   int isolated_min_neighbours = 4;     ///< see remove_blunders (>= 1)
@@ -184,14 +184,14 @@ struct CloudRegistrationOptions {
   /// survived as a distinct finalist; else the two levels contradict each other and the
   /// result is refused ("scales disagree"). On the full-preset simulated gate the fine level
   /// preferred the 180° twin (coarse score 0.50) over a pose near the truth (0.91): a wrong
-  /// "ok" 5.6 m off (bench/RESULTS.md, session 21). 0 = off (0..1).
+  /// "ok" 5.6 m off (bench/RESULTS.md, register-cloud). 0 = off (0..1).
   double min_coarse_agreement = 0.8;
   /// ... and "ok" needs the best to beat each of them by at least this many standard errors of
   /// the mean per-point score difference (cluster-robust over blocks of R_s; a paired t
   /// statistic, src/registration/cloud/score_significance.h), the same bar as
-  /// resolution_t for small displacements (>= 0). (Before: only a runner-up above 0.8 × the
-  /// best was tested, against 4; a stereo part shifted by one bay of the cathedral onto the
-  /// proxy scored 0.72 × with t 2.2 and was caught only by min_fitness.)
+  /// resolution_t for small displacements (>= 0). Every distinct rival is tested, not only
+  /// those near the best's score: a stereo part shifted by one bay of the simulated cathedral
+  /// onto the proxy scores 0.72 × the best with t 2.2.
   double min_significance = 3.0;
   /// Repeated structures: the best pose moved by this many of the strongest displacement
   /// modes of the descriptor matches (beyond R_s) is refined and added to the ambiguity test
