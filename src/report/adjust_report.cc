@@ -376,6 +376,10 @@ void RenderHeader(const json& report, const std::string& project, const std::str
     html << "<tr><th>Generated (UTC)</th><td>" << Esc(*t) << "</td></tr>\n";
   }
   html << "<tr><th>Status</th><td>" << StatusBadge(status) << "</td></tr>\n";
+  if (const json* m = OptObject(report, "mmba", "")) {
+    html << "<tr><th>Written by</th><td>mmba " << Esc(ReqString(*m, "version", "mmba")) << " (commit "
+         << Esc(ReqString(*m, "commit", "mmba")) << ")</td></tr>\n";
+  }
   if (auto r = OptString(report, "reason", "")) {
     html << "<tr><th>Reason</th><td>" << Esc(*r) << "</td></tr>\n";
   }

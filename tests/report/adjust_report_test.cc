@@ -111,6 +111,14 @@ TEST(AdjustReport, EscapesEveryString) {
   EXPECT_NE(html.find("&lt;i&gt;p&lt;/i&gt;"), std::string::npos);
 }
 
+TEST(AdjustReport, NamesTheVersionThatWroteIt) {
+  json report = MinimalReport();
+  EXPECT_EQ(RenderAdjustReportHtml(report).find("Written by"), std::string::npos);
+  report["mmba"] = {{"version", "0.1.0"}, {"commit", "abc1234"}};
+  EXPECT_NE(RenderAdjustReportHtml(report).find("<tr><th>Written by</th><td>mmba 0.1.0 (commit abc1234)</td></tr>"),
+            std::string::npos);
+}
+
 TEST(AdjustReport, MissingRequiredFieldNamesTheField) {
   for (const char* field : {"schema", "project", "status", "sigma0", "groups"}) {
     json report = MinimalReport();
