@@ -1,4 +1,4 @@
-// Scene files of `mmba simulate --scene FILE.yaml` (schema in README "mmba simulate").
+// Scene files of `mmba simulate --scene FILE.yaml` (schema in docs/commands/simulate.md).
 #include <filesystem>
 
 #include "mmba/core/error.h"

@@ -702,7 +702,7 @@ void SimulateRig(Context* c, const Trajectory& trajectory) {
 // clouds/<name>.viewpoints.txt: the sensor positions of a cloud in its own frame, as its
 // provider knows them (a scanner's stations in its registered model, a reconstruction's camera
 // centres or stereo stations) — what register-eval's visibility (free-space) test reads
-// (README, register-cloud "Visibility"). Not written for a model without a sensor.
+// (docs/commands/register-cloud.md). Not written for a model without a sensor.
 void WriteViewpoints(Context* c, const std::string& name, const Rigid3d& cloud_from_world,
                      const std::vector<Vector3d>& sensors_in_world) {
   if (sensors_in_world.empty()) return;
@@ -1075,7 +1075,7 @@ void SimulateClouds(Context* c, const std::vector<SphereStation>& stations,
 std::string ProjectYaml(const Context& c) {
   const SimulateOptions& o = c.options;
   std::ostringstream y;
-  y << "# mmba project file (schema: README, \"project.yaml\"). Paths are relative to this file.\n"
+  y << "# mmba project file (schema: docs/project-yaml.md). Paths are relative to this file.\n"
        "mmba_project: 1\n"
        "name: " << c.scene.name << "\n"
        "simulated: {seed: " << o.seed << ", preset: " << o.preset << ", truth: truth/truth.json}\n"

@@ -6,7 +6,7 @@
 
 namespace mmba::io {
 
-/// Reads the plain CSV form of a survey network (README "mmba survey"). One record a line,
+/// Reads the plain CSV form of a survey network (docs/formats.md). One record a line,
 /// comma separated, '#' starts a comment:
 ///   param,<name>,<value>        sigma-apr | conf-pr | sigma-act | axes-xy | angles |
 ///                               refraction (coefficient k of zenith angles)

@@ -1,7 +1,7 @@
 #pragma once
 
 // `mmba simulate`: a whole survey of one scene with exact ground truth, written as a folder a
-// user would recognise (README "mmba simulate" lists the layout and the schemas):
+// user would recognise (docs/commands/simulate.md lists the layout and the schemas):
 //   images/{photos,spherical,rig,rig_panoramas}/*.png   clouds/*.ply   survey/network.xml
 //   gnss.csv   trajectory_ins.csv   calib/*.yaml   colmap/photos/   project.yaml
 //   ground_truth.json (registration)   truth/ (everything exact, truth.json + files)
@@ -125,7 +125,7 @@ struct SimulateResult {
   std::string BriefReport() const;
 };
 
-/// Reads a scene file (YAML, schema in README) into `options` (fields present override).
+/// Reads a scene file (YAML, schema in docs/commands/simulate.md) into `options` (fields present override).
 /// Throws InputError naming the file, the key and the value.
 void ReadSceneFile(const std::string& path, SimulateOptions* options);
 
