@@ -23,6 +23,7 @@
 #include "mmba/registration/mi/job.h"
 #include "mmba/registration/mi/mi_registration.h"
 #include "mmba/registration/mi/result_json.h"
+#include "mmba/core/version.h"
 
 namespace mmba::app {
 namespace {
@@ -47,7 +48,7 @@ struct RegisterMiArgs {
   // auto: perspective cuts of a panorama (EQUIRECTANGULAR camera), the image itself otherwise.
   std::string view = "auto";
   // The cuts that see the most LiDAR: on the simulated panoramas better than the paper's -90,90
-  // (bench/RESULTS.md, session 43: 70 against 56 ok of 80, no wrong ok against 2).
+  // (bench/RESULTS.md, register-mi on simulated panoramas: 70 against 56 ok of 80).
   std::string headings = "auto";
   int bins = 64;
   int pyramid_levels = 3;
@@ -397,6 +398,7 @@ int RunRegisterMi(const RegisterMiArgs& args) {
     // pose: the issue's check against the calibration, also for a start not made by --perturb.
     out["pixel_offset_vs_calibration"] = offsets_against(job.calibration);
   }
+  RecordBuild(&out);
   AtomicFileSet files;
   files.Add(args.output, [&](std::ostream& stream) { stream << out.dump(2) << "\n"; });
   if (!args.lidar_image.empty()) {
@@ -548,15 +550,14 @@ std::function<int()> SetupRegisterMi(CLI::App& app, CommonOptions* common) {
   sub->add_option("--point-samples", args->point_samples,
                   "Evaluate the metric from the visible LiDAR points' projections (visibility "
                   "frozen per reference pose; about half the CPU, more results ok) instead of "
-                  "rendering each pose; false = every pose rendered (the default until 2 Dec; "
+                  "rendering each pose; false = every pose rendered (slower; "
                   "bench/RESULTS.md, \"Point samples as the default\")")
       ->capture_default_str();
   sub->add_option("--sample-block-px", args->sample_block_px,
                   "Point samples: each visible point sampled at its own projection, weighted "
                   "by its share of the covered pixels of its N x N block (the footprint decides "
-                  "visibility only); 0 = at the pixel it won, weighted by its won pixels (the "
-                  "default until session 18; bench/RESULTS.md, \"The footprint decides "
-                  "visibility only\")")
+                  "visibility only); 0 = at the pixel it won, weighted by its won pixels "
+                  "(bench/RESULTS.md, \"The footprint decides visibility only\")")
       ->check(CLI::Range(0, 256))
       ->capture_default_str();
   sub->add_option("--split-level", args->split_level,
