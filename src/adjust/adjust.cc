@@ -50,6 +50,7 @@ using internal::PhotoBlock;
 using internal::SphereBlock;
 using internal::RigBlock;
 using internal::AdjustFailure;
+using internal::StatusOfSolve;
 using internal::InterpolateTrajectory;
 
 /// A stage's result: logged now and listed in the report.
@@ -101,7 +102,7 @@ void LoadNetwork(JointState* s) {
   options.confidence = project.settings.confidence;
   s->surveyed_adjustment = survey::AdjustNetwork(&*s->surveyed, options);
   if (!s->surveyed_adjustment.converged) {
-    throw AdjustFailure("failed", "total station network " + ts.file + " alone does not adjust: " +
+    throw AdjustFailure(AdjustStatus::kFailed, "total station network " + ts.file + " alone does not adjust: " +
                                       s->surveyed_adjustment.reason);
   }
   Note(s, "total station network alone: " + std::to_string(s->surveyed_adjustment.statistics.num_equations) +
@@ -193,7 +194,7 @@ void LoadGnss(JointState* s) {
 
 std::string RunColmap(const PhotoCollection& p, const std::string& work, const sensors::Camera* calibration) {
   if (std::system("command -v colmap > /dev/null 2>&1") != 0) {
-    throw AdjustFailure("failed", "photo collection '" + p.id + "' has no colmap_model and the colmap command is not installed");
+    throw AdjustFailure(AdjustStatus::kFailed, "photo collection '" + p.id + "' has no colmap_model and the colmap command is not installed");
   }
   fs::create_directories(fs::path(work) / "sparse");
   const auto quote = [](const std::string& s) { return "'" + s + "'"; };
@@ -214,12 +215,12 @@ std::string RunColmap(const PhotoCollection& p, const std::string& work, const s
   for (const std::string& command : commands) {
     spdlog::info("adjust: {}", command);
     if (std::system(command.c_str()) != 0) {
-      throw AdjustFailure("failed", "COLMAP failed on photo collection '" + p.id + "' (log: " + work + "/colmap.log)");
+      throw AdjustFailure(AdjustStatus::kFailed, "COLMAP failed on photo collection '" + p.id + "' (log: " + work + "/colmap.log)");
     }
   }
   const fs::path model = fs::path(work) / "sparse" / "0";
   if (!fs::exists(model / "images.bin")) {
-    throw AdjustFailure("failed", "COLMAP reconstructed no model from photo collection '" + p.id + "'");
+    throw AdjustFailure(AdjustStatus::kFailed, "COLMAP reconstructed no model from photo collection '" + p.id + "'");
   }
   return model.string();
 }
@@ -600,12 +601,12 @@ void PlacePhotoBlock(JointState* s) {
                                         " surveyed targets measured in 2+ photos (3 needed), fewer than 3 photos with GNSS "
                                         "positions, no tie points intersected by a camera rig or spherical stations";
   if (project.lidar_static.empty()) {
-    throw AdjustFailure("failed", "photo collection '" + id + "' has no overlap with the control: " + placed_by_nothing +
+    throw AdjustFailure(AdjustStatus::kFailed, "photo collection '" + id + "' has no overlap with the control: " + placed_by_nothing +
                                       ", and no lidar_static sensor");
   }
   std::string reason;
   if (!internal::PlacePhotoBlockByLidar(s, &reason)) {
-    throw AdjustFailure("failed", "photo collection '" + id + "' cannot be placed: " + placed_by_nothing +
+    throw AdjustFailure(AdjustStatus::kFailed, "photo collection '" + id + "' cannot be placed: " + placed_by_nothing +
                                       ", and its tie points' registration to the LiDAR failed: " + reason);
   }
   s->warnings.push_back("photo collection '" + id + "': " + std::to_string(block.control_targets_intersected) +
@@ -633,7 +634,7 @@ void LoadLidar(JointState* s) {
                    " points read, " + std::to_string(s->surface->size()) + " near the photo block kept");
   if (s->surface->size() < 100) {
     const std::string hint = CoordinateHint(s->surface->read_min(), s->surface->read_max(), lo, hi);
-    throw AdjustFailure("failed", "lidar_static '" + l.id + "': the reference cloud " + l.reference_cloud +
+    throw AdjustFailure(AdjustStatus::kFailed, "lidar_static '" + l.id + "': the reference cloud " + l.reference_cloud +
                                       " does not overlap the photo block (" + std::to_string(s->surface->size()) +
                                       " points within 1 m of its tie points)" + (hint.empty() ? "" : ": " + hint));
   }
@@ -696,24 +697,6 @@ const char* kTrajectoryPrior = "mobile: GNSS/INS trajectory prior";
 const char* kSmoothness = "mobile: trajectory smoothness";
 const char* kRigOnTrajectory = "rig: frames on the corrected trajectory";
 const char* kExtrinsicPrior = "mobile: camera-LiDAR extrinsic prior";
-/// Modelling constraints, not measurements: never re-weighted by variance components.
-bool IsConstraintGroup(const std::string& name) {
-  return name == kCheck || name == kSmoothness || name == kRigOnTrajectory;
-}
-
-/// Priors on parameters (a registration, a GNSS/INS trajectory, a nominal calibration): their σ
-/// is the user's statement about the prior, and their few, correlated residuals shrink as the
-/// prior is tightened — Förstner's estimate runs away towards zero (seen: the cathedral scans'
-/// registration priors 0.14×, the rig's cam_from_rig priors 0.16× after four passes, while the
-/// registrations were 3× off their new σ). The MI pose priors too: their covariance is
-/// register-mi's, already calibrated by its halves' and restarts' scatter, and photos that see
-/// the same part of the LiDAR model share its errors (seen: the gate's photo priors tightened
-/// 0.30× while their poses were a median 10 mm off the truth; the photo centres' RMSE went
-/// 5.1 → 9.0 mm, 4.8 mm when not re-weighted). Not re-weighted; still tested and snooped.
-bool IsPriorGroup(const std::string& name) {
-  return name == kRigPrior || name == kRigCalibration || name == kTrajectoryPrior || name == kScanPrior ||
-         name == kExtrinsicPrior || name == kMi || name == kRigMi || name == kRigMiMobile || name == kMiExtrinsic;
-}
 
 void BuildProblem(JointState* s) {
   s->builder = std::make_unique<ProblemBuilder>(&s->scene);
@@ -750,10 +733,10 @@ void BuildProblem(JointState* s) {
     }
     if (!s->photos->mi.empty()) {
       s->builder->AddGroup(std::make_unique<MiPriorGroup>(Without(s->photos->mi, excluded(kMi)),
-                                                          factor(kMi) * factor(kMi), p.loss, kMi));
+                                                          factor(kMi) * factor(kMi), p.loss, kMi)).set_role(FactorRole::kPrior);
     }
     if (!s->photos->check.empty()) {
-      s->builder->AddGroup(std::make_unique<ReprojectionGroup>(s->photos->check, LossOptions(), kCheck));
+      s->builder->AddGroup(std::make_unique<ReprojectionGroup>(s->photos->check, LossOptions(), kCheck)).set_role(FactorRole::kConstraint);
     }
     if (!s->photos->gnss.empty()) {
       s->builder->AddGroup(std::make_unique<GnssCameraGroup>(scaled(kGnssCamera, Without(s->photos->gnss, excluded(kGnssCamera))),
@@ -785,25 +768,25 @@ void BuildProblem(JointState* s) {
       const LidarMobile& mc = *s->mobile->config;
       s->builder->AddGroup(std::make_unique<RigTrajectoryGroup>(
           s->mobile->frames, &rig.rig_from_world, &s->mobile->nodes, rig.body_from_rig, mc.frame_sigma_m,
-          mc.frame_sigma_deg * M_PI / 180.0, LossOptions(), kRigOnTrajectory));
+          mc.frame_sigma_deg * M_PI / 180.0, LossOptions(), kRigOnTrajectory)).set_role(FactorRole::kConstraint);
     } else {
       std::vector<Rigid3d*> frames;
       for (Rigid3d& pose : rig.rig_from_world) frames.push_back(&pose);
       s->builder->AddGroup(std::make_unique<PosePriorGroup>(frames, rig.rig_prior, factor(kRigPrior) * c.trajectory_sigma_m,
                                                             factor(kRigPrior) * c.trajectory_sigma_deg * M_PI / 180.0, c.loss,
-                                                            kRigPrior, rig.frame_times, c.trajectory_correlation_s));
+                                                            kRigPrior, rig.frame_times, c.trajectory_correlation_s)).set_role(FactorRole::kPrior);
     }
     if (!rig.mi.empty()) {
       std::vector<MiResult> mi = rig.mi;
       for (size_t i = 0; i < mi.size(); ++i) mi[i].pose = &rig.rig_from_world[rig.mi_frame[i]];
-      s->builder->AddGroup(std::make_unique<MiPriorGroup>(Without(mi, excluded(kRigMi)), factor(kRigMi) * factor(kRigMi), c.loss, kRigMi));
+      s->builder->AddGroup(std::make_unique<MiPriorGroup>(Without(mi, excluded(kRigMi)), factor(kRigMi) * factor(kRigMi), c.loss, kRigMi)).set_role(FactorRole::kPrior);
     }
     if (c.cam_from_rig == "weighted") {
       std::vector<Rigid3d*> cameras;
       for (Rigid3d& pose : rig.cam_from_rig) cameras.push_back(&pose);
       s->builder->AddGroup(std::make_unique<PosePriorGroup>(
           cameras, rig.cam_from_rig_initial, factor(kRigCalibration) * c.cam_from_rig_sigma_m,
-          factor(kRigCalibration) * c.cam_from_rig_sigma_deg * M_PI / 180.0, LossOptions(), kRigCalibration));
+          factor(kRigCalibration) * c.cam_from_rig_sigma_deg * M_PI / 180.0, LossOptions(), kRigCalibration)).set_role(FactorRole::kPrior);
     }
   }
   if (s->joint) {
@@ -839,17 +822,17 @@ void BuildProblem(JointState* s) {
     }
     if (!poses.empty()) s->builder->AddGroup(std::make_unique<PosePriorGroup>(poses, priors, factor(kScanPrior) * l.scan_sigma_m,
                                                           factor(kScanPrior) * l.scan_sigma_deg * M_PI / 180.0, l.loss,
-                                                          kScanPrior));
+                                                          kScanPrior)).set_role(FactorRole::kPrior);
   }
   if (s->mobile) {
     internal::MobileBlock& m = *s->mobile;
     const LidarMobile& mc = *m.config;
     s->builder->AddGroup(std::make_unique<TrajectoryPriorGroup>(&m.nodes, factor(kTrajectoryPrior) * mc.trajectory_sigma_m,
                                                                 factor(kTrajectoryPrior) * mc.trajectory_sigma_deg * M_PI / 180.0,
-                                                                mc.trajectory_correlation_s, mc.loss, kTrajectoryPrior));
+                                                                mc.trajectory_correlation_s, mc.loss, kTrajectoryPrior)).set_role(FactorRole::kPrior);
     if (m.nodes.size() > 2 && (mc.smoothness_sigma_m > 0 || mc.smoothness_sigma_deg > 0)) {
       s->builder->AddGroup(std::make_unique<TrajectorySmoothnessGroup>(&m.nodes, mc.smoothness_sigma_m,
-                                                                       mc.smoothness_sigma_deg * M_PI / 180.0, kSmoothness));
+                                                                       mc.smoothness_sigma_deg * M_PI / 180.0, kSmoothness)).set_role(FactorRole::kConstraint);
     }
     if (!m.points.empty()) {
       s->builder->AddGroup(std::make_unique<MobileLidarGroup>(scaled(kMobile, Without(m.points, excluded(kMobile))), &m.nodes,
@@ -860,19 +843,19 @@ void BuildProblem(JointState* s) {
       s->builder->AddGroup(std::make_unique<MobileMiPriorGroup>(
           Without(s->rig->mi_mobile, excluded(kRigMiMobile)), &s->rig->rig_from_world, &m.nodes, &m.vehicle_from_lidar,
           m.body_from_vehicle, m.body_from_lidar_nominal, factor(kRigMiMobile) * factor(kRigMiMobile), s->rig->config->loss,
-          kRigMiMobile));
+          kRigMiMobile)).set_role(FactorRole::kPrior);
     }
     if (m.with_rig && !m.mi_extrinsic.empty()) {
       std::vector<MiResult> mi = m.mi_extrinsic;
       for (MiResult& r : mi) r.pose = &m.vehicle_from_lidar;
       s->builder->AddGroup(std::make_unique<MiPriorGroup>(Without(mi, excluded(kMiExtrinsic)),
-                                                          factor(kMiExtrinsic) * factor(kMiExtrinsic), mc.loss, kMiExtrinsic));
+                                                          factor(kMiExtrinsic) * factor(kMiExtrinsic), mc.loss, kMiExtrinsic)).set_role(FactorRole::kPrior);
     }
     if (m.with_rig && mc.extrinsic == "weighted") {
       s->builder->AddGroup(std::make_unique<PosePriorGroup>(
           std::vector<Rigid3d*>{&m.vehicle_from_lidar}, std::vector<Rigid3d>{m.vehicle_from_lidar_initial},
           factor(kExtrinsicPrior) * mc.extrinsic_sigma_m, factor(kExtrinsicPrior) * mc.extrinsic_sigma_deg * M_PI / 180.0,
-          LossOptions(), kExtrinsicPrior));
+          LossOptions(), kExtrinsicPrior)).set_role(FactorRole::kPrior);
     }
   }
   GaugeOptions gauge;
@@ -1009,10 +992,10 @@ void SolveOnce(JointState* s, const AdjustOptions& options, SolvePhase phase) {
   }
   s->solve = Solve(*s->builder, solve);
   s->total_iterations += s->solve.iterations;
-  const bool usable = phase == SolvePhase::kAssociation && s->solve.status == "no_convergence" &&
+  const bool usable = phase == SolvePhase::kAssociation && StatusOfSolve(s->solve) == AdjustStatus::kNoConvergence &&
                       std::isfinite(s->solve.final_cost) && s->solve.final_cost <= s->solve.initial_cost;
   if (!s->solve.converged && !usable) {
-    throw AdjustFailure(s->solve.status, "the joint adjustment did not converge: " + s->solve.reason);
+    throw AdjustFailure(StatusOfSolve(s->solve), "the joint adjustment did not converge: " + s->solve.reason);
   }
   std::ostringstream groups;
   for (const GroupEvaluation& e : s->solve.after) {
@@ -1077,7 +1060,7 @@ stats::NetworkStatistics Statistics(JointState* s) {
   try {
     return stats::ComputeStatistics(s->builder->problem(), groups, options);
   } catch (const stats::DegenerateNetworkError& e) {
-    throw AdjustFailure("failed", std::string("degenerate configuration: ") + e.what());
+    throw AdjustFailure(AdjustStatus::kFailed, std::string("degenerate configuration: ") + e.what());
   }
 }
 
@@ -1160,7 +1143,7 @@ size_t Snoop(JointState* s, const stats::NetworkStatistics& st) {
   const auto& groups = s->builder->groups();
   for (const auto& [key, value] : worst) {
     const FactorGroup& group = *groups[key.first];
-    if (IsConstraintGroup(group.name())) continue;  // check points are evaluated, constraints not snooped
+    if (group.role() == FactorRole::kConstraint) continue;  // check points are evaluated, constraints not snooped
     const size_t index = group.block_observation_index()[key.second];
     s->blunders.push_back({group.name(), DescribeObservation(*s, group, key.second), value.second, value.first});
     if (const auto* sg = dynamic_cast<const survey::SurveyGroup*>(&group)) {
@@ -1186,11 +1169,20 @@ size_t Snoop(JointState* s, const stats::NetworkStatistics& st) {
 
 namespace internal {
 
-std::string VarianceComponentExemption(const JointState& s, const std::string& group_name, double redundancy) {
+std::string VarianceComponentExemption(const JointState& s, const FactorGroup& group, double redundancy) {
   if (!s.project->settings.variance_components) return "variance_components: false";
-  if (group_name == kCheck) return "check points";
-  if (IsConstraintGroup(group_name)) return "constraint";
-  if (IsPriorGroup(group_name)) return "prior";
+  if (group.name() == kCheck) return "check points";
+  if (group.role() == FactorRole::kConstraint) return "constraint";
+  // Priors on parameters (a registration, a GNSS/INS trajectory, a nominal calibration): their
+  // σ is the user's statement about the prior, and their few, correlated residuals shrink as
+  // the prior is tightened, so Förstner's estimate runs away towards zero (the cathedral scans'
+  // registration priors 0.14×, the rig's cam_from_rig priors 0.16× after four passes, while
+  // the registrations were 3× off their new σ). The MI pose priors too: their covariance is
+  // register-mi's, already calibrated by its halves' and restarts' scatter, and photos that see
+  // the same part of the LiDAR model share its errors (the gate's photo priors tightened 0.30×
+  // while their poses were a median 10 mm off the truth; the photo centres' RMSE 9.0 mm
+  // re-weighted, 4.8 mm not). Not re-weighted; still tested and snooped.
+  if (group.role() == FactorRole::kPrior) return "prior";
   if (redundancy < 5) return "redundancy below 5";
   return "";
 }
@@ -1209,7 +1201,7 @@ bool ApplyVarianceComponents(JointState* s, const stats::NetworkStatistics& st) 
   const auto& groups = s->builder->groups();
   for (size_t g = 0; g < groups.size(); ++g) {
     const stats::GroupStatistic& gs = st.groups.at(g);
-    if (!internal::VarianceComponentExemption(*s, groups[g]->name(), gs.redundancy).empty() ||
+    if (!internal::VarianceComponentExemption(*s, *groups[g], gs.redundancy).empty() ||
         !(gs.variance_component > 0)) {
       continue;
     }
@@ -1273,7 +1265,7 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
         Note(&s, "outer iteration " + std::to_string(k + 2) + ": " + std::to_string(n) +
                      " tie points on the LiDAR surface (gate " + std::to_string(gate) + " m)");
         if (n < 10) {
-          throw AdjustFailure("failed", "only " + std::to_string(n) + " tie points lie within " + std::to_string(gate) +
+          throw AdjustFailure(AdjustStatus::kFailed, "only " + std::to_string(n) + " tie points lie within " + std::to_string(gate) +
                                             " m of the LiDAR surface: no overlap, or the photo block is far from the LiDAR frame");
         }
         size_t associated = n;
@@ -1311,7 +1303,7 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
                        unit + ": scaled to metres, " + std::to_string(on) + " of the points would lie on the surface)";
               }
             }
-            throw AdjustFailure("failed", "lidar_mobile '" + s.mobile->config->id + "': only " + std::to_string(nm) +
+            throw AdjustFailure(AdjustStatus::kFailed, "lidar_mobile '" + s.mobile->config->id + "': only " + std::to_string(nm) +
                                               " of its points lie within " + std::to_string(mobile_gate) +
                                               " m of the static LiDAR surface: no overlap, or its trajectory/calibration is far off" +
                                               hint);
@@ -1345,12 +1337,12 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
       }
     }
   } catch (const AdjustFailure& e) {
-    outcome.status = e.status();
+    outcome.status = AdjustStatusName(e.status());
     outcome.reason = e.what();
     return outcome;
   }
   s.seconds = timer.ElapsedSeconds();
-  outcome.status = "converged";
+  outcome.status = AdjustStatusName(AdjustStatus::kConverged);
   outcome.ok = true;
   // Nothing half-written: should writing throw, `output` removes the staging folder and an
   // earlier output stays as it was.

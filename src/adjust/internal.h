@@ -29,6 +29,13 @@
 
 namespace mmba::adjust::internal {
 
+/// Outcome of an optional step of the initialisation or the outputs (a photo block's or a
+/// spherical station's registration to the LiDAR, a station's dense cloud). report.json gives
+/// it as text with its reason (StepStatusText).
+enum class StepStatus { kNotAttempted, kOk, kAsGiven, kFailed };
+/// "ok", "as given", "failed: <reason>", "not attempted: <reason>".
+std::string StepStatusText(StepStatus status, const std::string& reason = "");
+
 /// Check points live in the Scene as ordinary 3-D points with ids from here up.
 constexpr uint64_t kCheckPointIdBase = 4000000000ULL;
 /// Points per chunk when the mobile cloud is streamed (≈ 40 MB of PLY records).
@@ -48,6 +55,7 @@ struct PhotoBlock {
   size_t control_targets_intersected = 0;      ///< control targets seen in 2+ photos (< 3: no similarity)
   std::vector<GnssCamera> gnss;                ///< GNSS antenna positions of photos (the GNSS CSV's camera rows)
   nlohmann::json registration;                 ///< register_to_lidar: the tie points' registration (report.json)
+  StepStatus registration_status = StepStatus::kNotAttempted;  ///< the status of `registration`
 };
 
 /// The spherical stereo pair: lower poses are Scene images, the upper sphere follows from
@@ -69,6 +77,7 @@ struct SphereBlock {
   /// Per station: the dense cloud's registration to the LiDAR (report.json
   /// `spherical_registration`), empty when not attempted.
   std::map<std::string, nlohmann::json> registration;
+  std::map<std::string, StepStatus> registration_status;  ///< per station: the status of its `registration`
 };
 
 /// The camera rig: its own pose storage (frames, cameras); intrinsics are Scene cameras.
@@ -200,14 +209,18 @@ size_t AssociateScans(JointState* s, double gate);
 /// cannot be placed.
 void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vector3d& roi_max);
 
+/// The status of one solve: converged; no convergence when Ceres stopped at its iteration or
+/// time limit with a finite cost; failed otherwise (problem/solve.h `status` in typed form).
+AdjustStatus StatusOfSolve(const SolveResult& solve);
+
 /// Thrown when the adjustment cannot produce a result (exit 3): `status` and the reason.
 class AdjustFailure : public std::runtime_error {
  public:
-  AdjustFailure(std::string status, const std::string& reason) : std::runtime_error(reason), status_(std::move(status)) {}
-  const std::string& status() const { return status_; }
+  AdjustFailure(AdjustStatus status, const std::string& reason) : std::runtime_error(reason), status_(status) {}
+  AdjustStatus status() const { return status_; }
 
  private:
-  std::string status_;
+  AdjustStatus status_;
 };
 
 /// GNSS/INS trajectories (world_from_body rows): mmba/io/trajectory.h.
@@ -285,10 +298,10 @@ void RegisterImagesByMi(JointState* s, MiStage stage);
 
 /// Why a factor group's σ is not re-weighted by the variance components (the one rule
 /// ApplyVarianceComponents and the report use): "variance_components: false" (the project's
-/// setting), "check points", "constraint" (a modelling constraint), "prior" (a prior on
-/// parameters, whose σ is the user's or the registration's statement: adjust.cc,
-/// IsPriorGroup) or "redundancy below 5"; empty for a group that is re-weighted.
-std::string VarianceComponentExemption(const JointState& s, const std::string& group_name, double redundancy);
+/// setting), "check points", "constraint" (FactorRole::kConstraint), "prior"
+/// (FactorRole::kPrior: a prior on parameters, whose σ is the user's or the registration's
+/// statement) or "redundancy below 5"; empty for a group that is re-weighted.
+std::string VarianceComponentExemption(const JointState& s, const FactorGroup& group, double redundancy);
 
 /// Writes lidar_coloured.ply (the static LiDAR around the photo block coloured from the
 /// adjusted photos, with a z-buffer visibility test) into `stage`; returns the report entry

@@ -146,8 +146,8 @@ json Ellipse(const Eigen::Matrix3d& enu) {
 }
 
 /// How the variance components treated a group (report.json `groups[].reweighting`).
-std::string Reweighting(const JointState& s, const std::string& group_name, double redundancy) {
-  const std::string exemption = VarianceComponentExemption(s, group_name, redundancy);
+std::string Reweighting(const JointState& s, const FactorGroup& group, double redundancy) {
+  const std::string exemption = VarianceComponentExemption(s, group, redundancy);
   return exemption.empty() ? "variance components" : exemption + ": not re-weighted";
 }
 
@@ -180,7 +180,7 @@ void WriteText(const fs::path& path, const std::string& text) {
 /// its calibration, baseline and pose), georeferenced, written as <id>_<station>_dense.ply
 /// with intensity from the lower panorama; compared with the LiDAR surface where there is
 /// one. Returns the report's entry (with the median range σ).
-json WriteSphereDense(const JointState& s, const fs::path& stage, json* files) {
+json WriteSphereDense(const JointState& s, const fs::path& stage, json* files, std::vector<StepStatus>* statuses) {
   json stations = json::array();
   const SphereBlock& sb = *s.spheres;
   for (const auto& [station, id] : sb.lower_image) {
@@ -188,6 +188,7 @@ json WriteSphereDense(const JointState& s, const fs::path& stage, json* files) {
     const std::string upper_path = FindImage(sb.config->images, station + "_upper");
     if (lower_path.empty() || upper_path.empty()) {
       stations.push_back({{"station", station}, {"status", "no panoramas " + station + "_lower/_upper in " + sb.config->images}});
+      statuses->push_back(StepStatus::kNotAttempted);
       continue;
     }
     spdlog::info("adjust: dense cloud of spherical station {}", station);
@@ -197,7 +198,8 @@ json WriteSphereDense(const JointState& s, const fs::path& stage, json* files) {
                                    sb.baseline);
     } catch (const std::exception& e) {
       // A by-product: a panorama that cannot be matched costs its cloud, not the adjustment.
-      stations.push_back({{"station", station}, {"status", std::string("failed: ") + e.what()}});
+      stations.push_back({{"station", station}, {"status", StepStatusText(StepStatus::kFailed, e.what())}});
+      statuses->push_back(StepStatus::kFailed);
       spdlog::warn("adjust: no dense cloud for spherical station {}: {}", station, e.what());
       continue;
     }
@@ -211,7 +213,7 @@ json WriteSphereDense(const JointState& s, const fs::path& stage, json* files) {
       std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
       return v[v.size() / 2];
     };
-    json entry = {{"station", station}, {"status", "ok"}, {"points", cloud.size()}, {"match_width_px", dense.match_width},
+    json entry = {{"station", station}, {"status", StepStatusText(StepStatus::kOk)}, {"points", cloud.size()}, {"match_width_px", dense.match_width},
                   {"matched_pixels", dense.matched_pixels}, {"median_range_m", median(ranges)},
                   {"median_range_sigma_m", median(dense.range_sigma_m)}};
     if (s.surface && !cloud.empty()) {
@@ -239,6 +241,7 @@ json WriteSphereDense(const JointState& s, const fs::path& stage, json* files) {
                       {"description", "dense cloud of spherical station " + station +
                                           " (vertical-baseline stereo), georeferenced; intensity from the lower panorama"}});
     stations.push_back(entry);
+    statuses->push_back(StepStatus::kOk);
   }
   return stations;
 }
@@ -553,7 +556,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, const fs::path& s
                       {"loss", group.loss().ToString()}, {"outliers", e.num_outliers},
                       {"variance_component", Num(gs.variance_component)}, {"redundancy", Num(gs.redundancy)},
                       {"sigma_factor", s.sigma_factor.count(group.name()) ? s.sigma_factor.at(group.name()) : 1.0},
-                      {"reweighting", Reweighting(s, group.name(), gs.redundancy)},
+                      {"reweighting", Reweighting(s, group, gs.redundancy)},
                       {"variance_component_given_weights",
                        g < given.groups.size() ? Num(given.groups[g].variance_component) : 0.0},
                       {"whitened", Histogram(group)}});
@@ -1033,7 +1036,10 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, const fs::path& s
     if (!s.planes.empty()) files.push_back({{"name", "error_map_lidar.ply"}, {"description", "tie points, intensity = signed distance to the LiDAR surface (m)"}});
     if (!s.scans.empty()) files.push_back({{"name", "scans.csv"}, {"description", "adjusted static scans: world_from_scan with sigma and the correction of the registration"}});
   }
-  if (s.spheres && s.spheres->config->dense_cloud) report["spherical_dense"] = WriteSphereDense(s, stage, &files);
+  std::vector<StepStatus> dense_status;  // per entry of report["spherical_dense"]
+  if (s.spheres && s.spheres->config->dense_cloud) {
+    report["spherical_dense"] = WriteSphereDense(s, stage, &files, &dense_status);
+  }
   if (s.surface) {
     const json coloured = WriteColouredLidar(s, stage, &files);
     if (!coloured.empty()) report["lidar_coloured"] = coloured;
@@ -1069,7 +1075,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, const fs::path& s
     json registration = json::array();
     for (const auto& [station, entry] : s.spheres->registration) {
       json e = entry;
-      if (e["status"] == "ok") {
+      if (s.spheres->registration_status.at(station) == StepStatus::kOk) {
         // Where the adjustment ended against where the registration put the station.
         const ImageId id = s.spheres->lower_image.at(station);
         const Rigid3d& adjusted = s.scene.Image(id).cam_from_world;
@@ -1134,7 +1140,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, const fs::path& s
     for (const json& d : report["spherical_registration"]) {
       sum << "  station " << d["station"].get<std::string>() << " initialised by its dense cloud on the LiDAR: "
           << d["status"].get<std::string>();
-      if (d["status"] == "ok") {
+      if (s.spheres->registration_status.at(d["station"].get<std::string>()) == StepStatus::kOk) {
         sum << " (setup moved " << std::setprecision(3) << d["shift_from_setup_m"].get<double>() << " m, "
             << d["rotation_from_setup_deg"].get<double>() << " deg)";
       }
@@ -1142,8 +1148,9 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, const fs::path& s
     }
   }
   if (report.contains("spherical_dense")) {
-    for (const json& d : report["spherical_dense"]) {
-      if (d["status"] != "ok") {
+    for (size_t k = 0; k < dense_status.size(); ++k) {
+      const json& d = report["spherical_dense"][k];
+      if (dense_status[k] != StepStatus::kOk) {
         sum << "  dense cloud of station " << d["station"].get<std::string>() << ": " << d["status"].get<std::string>()
             << "\n";
         continue;

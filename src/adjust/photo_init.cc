@@ -237,6 +237,12 @@ void TiePointCloud(const JointState& s, io::PointCloud* points, std::vector<Eige
   for (const auto& [image_id, image] : block.model.images) centres->push_back(CameraCentre(s.scene.Image(image_id).cam_from_world));
 }
 
+/// The block's registration to the LiDAR ended with `status`; report.json's "status" says so.
+void SetRegistrationStatus(PhotoBlock* block, StepStatus status, const std::string& reason = "") {
+  block->registration_status = status;
+  block->registration["status"] = StepStatusText(status, reason);
+}
+
 }  // namespace
 
 bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
@@ -250,7 +256,7 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
   entry = {{"method", "scale search"}, {"tie_points", source.size()}};
   if (source.size() < 100) {
     *reason = std::to_string(source.size()) + " tie points, 100 needed to register the block to the LiDAR";
-    entry["status"] = "failed: " + *reason;
+    SetRegistrationStatus(&block, StepStatus::kFailed, *reason);
     return false;
   }
   io::StreamPointCloud(lidar.reference_cloud, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t, size_t) {
@@ -265,7 +271,7 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
                        static_cast<double>(distances.size());
   entry["fitness_as_given"] = given;
   if (given >= 0.5) {
-    entry["status"] = "as given";
+    SetRegistrationStatus(&block, StepStatus::kAsGiven);
     block.georeference += "; " + std::to_string(static_cast<int>(100 * given)) + " % of its tie points lie on the LiDAR";
     Note(s, "photo block '" + p.id + "': in place on the LiDAR as given (" + block.georeference + ")");
     return true;
@@ -274,7 +280,7 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
   const double ratio = registration::RobustExtent(target.points) / std::max(1e-12, registration::RobustExtent(source.points));
   if (!(ratio > 0) || !std::isfinite(ratio)) {
     *reason = "the extent of its tie points or of the LiDAR is zero: no scale can be searched";
-    entry["status"] = "failed: " + *reason;
+    SetRegistrationStatus(&block, StepStatus::kFailed, *reason);
     return false;
   }
   const double lo = p.lidar_scale_min > 0 ? p.lidar_scale_min : ratio / 8.0;
@@ -299,11 +305,11 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
   entry["seconds"] = r.seconds;
   if (!r.ok()) {
     *reason = r.reason + " (set lidar_scale_range if the scale lies outside, or add control, GNSS positions of the photos or a sensor that sees its tie points)";
-    entry["status"] = "failed: " + *reason;
+    SetRegistrationStatus(&block, StepStatus::kFailed, *reason);
     return false;
   }
   const Sim3d world_from_block = SimFromMatrix(r.target_from_source);
-  entry["status"] = "ok";
+  SetRegistrationStatus(&block, StepStatus::kOk);
   entry["scale"] = world_from_block.scale;
   entry["fitness"] = r.fitness;
   entry["inlier_rmse_m"] = r.inlier_rmse;
@@ -320,7 +326,7 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason) {
 void RegisterPhotoBlockToLidar(JointState* s) {
   if (!s->photos || !s->photos->config->register_to_lidar || s->project->lidar_static.empty()) return;
   PhotoBlock& block = *s->photos;
-  if (block.registration.is_object() && block.registration.value("status", "") == "ok") return;  // placed on the LiDAR already (scale search)
+  if (block.registration_status == StepStatus::kOk) return;  // placed on the LiDAR already (scale search)
   const PhotoCollection& p = *block.config;
   const LidarStatic& lidar = s->project->lidar_static.front();
   io::PointCloud source;
@@ -329,7 +335,8 @@ void RegisterPhotoBlockToLidar(JointState* s) {
   nlohmann::json& entry = block.registration;
   entry = {{"tie_points", source.size()}};
   if (source.size() < 100) {
-    entry["status"] = "failed: " + std::to_string(source.size()) + " tie points (100 needed); the block is kept as placed";
+    SetRegistrationStatus(&block, StepStatus::kFailed,
+                          std::to_string(source.size()) + " tie points (100 needed); the block is kept as placed");
     Note(s, "photo block '" + p.id + "': not registered to the LiDAR (" + std::to_string(source.size()) + " tie points)");
     return;
   }
@@ -351,7 +358,8 @@ void RegisterPhotoBlockToLidar(JointState* s) {
   ThinEvenly(&target.points, 2000000);
   entry["lidar_points"] = target.size();
   if (target.size() < 100) {
-    entry["status"] = "failed: " + std::to_string(target.size()) + " LiDAR points around the block; the block is kept as placed";
+    SetRegistrationStatus(&block, StepStatus::kFailed,
+                          std::to_string(target.size()) + " LiDAR points around the block; the block is kept as placed");
     Note(s, "photo block '" + p.id + "': not registered to the LiDAR (no LiDAR around it)");
     return;
   }
@@ -368,7 +376,7 @@ void RegisterPhotoBlockToLidar(JointState* s) {
   entry["resolution_m"] = std::isfinite(r.resolution_m) ? nlohmann::json(r.resolution_m) : nlohmann::json(nullptr);
   entry["seconds"] = r.total_seconds();
   if (!r.ok()) {
-    entry["status"] = "failed: " + r.reason + " (the block is kept as placed)";
+    SetRegistrationStatus(&block, StepStatus::kFailed, r.reason + " (the block is kept as placed)");
     Note(s, "photo block '" + p.id + "': tie points not registered to the LiDAR (" + r.reason + "); kept as placed");
     return;
   }
@@ -378,7 +386,7 @@ void RegisterPhotoBlockToLidar(JointState* s) {
   centroid /= static_cast<double>(source.size());
   const double shift = (correction * centroid - centroid).norm();
   const double turn = correction.rotation.angularDistance(Eigen::Quaterniond::Identity()) * 180.0 / M_PI;
-  entry["status"] = "ok";
+  SetRegistrationStatus(&block, StepStatus::kOk);
   entry["shift_m"] = shift;
   entry["rotation_deg"] = turn;
   std::ostringstream g;

@@ -142,7 +142,7 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
   const bool any_given = std::any_of(l.scans.begin(), l.scans.end(), [](const LidarScanFile& f) { return f.has_pose; });
   const auto unplaced = [&](const std::string& reason) {
     const std::string message = "lidar_static '" + l.id + "': " + reason;
-    if (any_given) throw AdjustFailure("failed", message);
+    if (any_given) throw AdjustFailure(AdjustStatus::kFailed, message);
     s->warnings.push_back(message + "; the scans are not adjusted (the registered reference cloud is used)");
     s->scan_targets.clear();
   };

@@ -38,6 +38,15 @@ std::vector<io::PointCloud> CropAround(const std::string& path, const std::vecto
   return out;
 }
 
+/// A station's registration to the LiDAR ended with `status`: kept with `entry`, whose
+/// "status" says so, for report.json.
+void SetStationStatus(SphereBlock* sb, const std::string& station, json* entry, StepStatus status,
+                      const std::string& reason = "") {
+  (*entry)["status"] = StepStatusText(status, reason);
+  sb->registration[station] = *entry;
+  sb->registration_status[station] = status;
+}
+
 }  // namespace
 
 void RegisterSphereStations(JointState* s) {
@@ -64,8 +73,8 @@ void RegisterSphereStations(JointState* s) {
     const std::string lower = FindImage(sb.config->images, station + "_lower");
     const std::string upper = FindImage(sb.config->images, station + "_upper");
     if (lower.empty() || upper.empty()) {
-      entry["status"] = "not attempted: no panoramas " + station + "_lower/_upper in " + sb.config->images;
-      sb.registration[station] = entry;
+      SetStationStatus(&sb, station, &entry, StepStatus::kNotAttempted,
+                       "no panoramas " + station + "_lower/_upper in " + sb.config->images);
       continue;
     }
     spdlog::info("adjust: initialisation: dense cloud of spherical station {} registered to the LiDAR", station);
@@ -74,8 +83,7 @@ void RegisterSphereStations(JointState* s) {
       dense = DenseSphericalStereo(lower, upper, s->scene.Camera(sb.lower_camera), s->scene.Camera(sb.upper_camera),
                                    sb.baseline_prior, dense_options);
     } catch (const std::exception& e) {
-      entry["status"] = std::string("not attempted: ") + e.what();
-      sb.registration[station] = entry;
+      SetStationStatus(&sb, station, &entry, StepStatus::kNotAttempted, e.what());
       continue;
     }
     // The cloud in the world at the setup: the registration's correction is then a world-frame
@@ -86,9 +94,9 @@ void RegisterSphereStations(JointState* s) {
     entry["dense_points"] = source.size();
     entry["lidar_points"] = targets[k].size();
     if (source.size() < 100 || targets[k].size() < 100) {
-      entry["status"] = "failed: too few points (" + std::to_string(source.size()) + " stereo, " +
-                        std::to_string(targets[k].size()) + " LiDAR within " + std::to_string(radius) + " m)";
-      sb.registration[station] = entry;
+      SetStationStatus(&sb, station, &entry, StepStatus::kFailed,
+                       "too few points (" + std::to_string(source.size()) + " stereo, " +
+                           std::to_string(targets[k].size()) + " LiDAR within " + std::to_string(radius) + " m)");
       continue;
     }
     registration::CloudRegistrationOptions options;
@@ -104,8 +112,7 @@ void RegisterSphereStations(JointState* s) {
     entry["resolution_m"] = std::isfinite(r.resolution_m) ? json(r.resolution_m) : json(nullptr);
     entry["seconds"] = r.total_seconds();
     if (!r.ok()) {
-      entry["status"] = "failed: " + r.reason + " (the setup is kept)";
-      sb.registration[station] = entry;
+      SetStationStatus(&sb, station, &entry, StepStatus::kFailed, r.reason + " (the setup is kept)");
       Note(s, "spherical station " + station + ": dense cloud not registered to the LiDAR (" + r.reason + "); setup kept");
       continue;
     }
@@ -113,10 +120,9 @@ void RegisterSphereStations(JointState* s) {
     const Rigid3d world_from_lower = correction * world_from_setup;
     const double shift = (world_from_lower.translation - world_from_setup.translation).norm();
     const double turn = world_from_lower.rotation.angularDistance(world_from_setup.rotation) * 180.0 / M_PI;
-    entry["status"] = "ok";
     entry["shift_from_setup_m"] = shift;
     entry["rotation_from_setup_deg"] = turn;
-    sb.registration[station] = entry;
+    SetStationStatus(&sb, station, &entry, StepStatus::kOk);
     s->scene.Image(id).cam_from_world = world_from_lower.Inverse();
     sb.initial_poses[id] = s->scene.Image(id).cam_from_world;
     ++moved;

@@ -20,9 +20,14 @@ struct AdjustOptions {
   bool log_progress = true;  ///< one log line per stage / solver iteration
 };
 
+/// How an adjustment ended.
+enum class AdjustStatus { kConverged, kNoConvergence, kFailed };
+/// "converged", "no_convergence", "failed": the text of report.json and of the CLI.
+std::string AdjustStatusName(AdjustStatus status);
+
 struct AdjustOutcome {
   bool ok = false;        ///< converged, statistics computed, outputs written
-  std::string status;     ///< "converged", "no_convergence", "failed"
+  std::string status;     ///< AdjustStatusName() of how it ended
   std::string reason;     ///< why not ok (a sentence for the user)
   nlohmann::json report;  ///< report.json as written (also on failure, not written then)
   std::string summary;    ///< a few lines for the terminal

@@ -53,6 +53,14 @@ struct GroupEvaluation {
   std::vector<ObservationResidual> observations;
 };
 
+/// What a group's observations are to the statistics of the adjustment.
+enum class FactorRole {
+  kMeasurement,  ///< observations: tested, snooped for blunders, re-weighted by variance components
+  kPrior,        ///< a statement about parameters (a registration, a GNSS/INS trajectory, a nominal
+                 ///< calibration, an MI pose): tested and snooped, its σ never re-weighted
+  kConstraint,   ///< a modelling assumption or check observations: neither snooped nor re-weighted
+};
+
 /// A factor group: the unit every sensor implements. It adds its residual blocks, each with
 /// its a-priori σ (residuals whitened) and the group's robust loss, to the one
 /// `ceres::Problem`, and evaluates them afterwards.
@@ -70,6 +78,9 @@ class FactorGroup {
   const std::string& name() const { return name_; }
   const std::string& unit() const { return unit_; }
   const LossOptions& loss() const { return loss_; }
+  /// kMeasurement unless set; the caller that adds the group states what it is.
+  FactorRole role() const { return role_; }
+  void set_role(FactorRole role) { role_ = role; }
 
   /// Adds every residual block to `problem`, parameter blocks taken from `scene`.
   virtual void AddResiduals(Scene& scene, ceres::Problem& problem) = 0;
@@ -105,6 +116,7 @@ class FactorGroup {
   std::string name_;
   std::string unit_;
   LossOptions loss_;
+  FactorRole role_ = FactorRole::kMeasurement;
   ceres::LossFunction* shared_loss_ = nullptr;  // owned by the problem
   ceres::Problem* problem_ = nullptr;
   std::vector<ceres::ResidualBlockId> blocks_;
