@@ -32,6 +32,7 @@
 #include "mmba/io/kitti.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/registration/mi/image.h"
+#include "mmba/registration/mi/job.h"
 #include "mmba/registration/mi/mi_registration.h"
 
 using namespace mmba;
@@ -147,7 +148,7 @@ int main(int argc, char** argv) {
   // MI_SURFACE_CLASSES; 0 = the plain metric, the figures before 4 Dec, session 31): seen
   // from the calibration's camera centre.
   int sectors = points.classes > 1 ? 0 : kDefaultOrientationSectors;
-  float voxel = 0.5f;
+  float voxel = static_cast<float>(kDefaultSurfaceVoxelM);
   if (const char* v = std::getenv("MI_ORIENTATION")) std::sscanf(v, "%d,%f", &sectors, &voxel);
   if (sectors > 0 && points.has_intensity() &&
       options.render.representation == Representation::kIntensity) {

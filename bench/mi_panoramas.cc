@@ -63,6 +63,7 @@
 #include "mmba/core/progress.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/io/trajectory.h"
+#include "mmba/registration/mi/job.h"
 #include "mmba/registration/mi/mi_registration.h"
 
 using namespace mmba;
@@ -452,7 +453,7 @@ int main(int argc, char** argv) {
   const char* surface_env = std::getenv("MI_SURFACE_CLASSES");
   int orientation_sectors =
       surface_env != nullptr && std::atof(surface_env) > 0 ? 0 : kDefaultOrientationSectors;
-  float orientation_voxel = 0.5f;
+  float orientation_voxel = static_cast<float>(kDefaultSurfaceVoxelM);
   std::vector<Eigen::Vector3f> plane_normals;
   if (const char* v = std::getenv("MI_ORIENTATION")) {
     std::sscanf(v, "%d,%f", &orientation_sectors, &orientation_voxel);
@@ -567,13 +568,13 @@ int main(int argc, char** argv) {
       Frame frame;
       frame.name = tv.name;
       ViewOptions vo = view_options;
-      if (!tv.camera.IsSpherical()) {
-        vo.kind = ViewKind::kImage;
-      } else if (auto_headings && vo.kind == ViewKind::kPerspective) {
-        vo.perspective_yaw_deg =
-            SelectPerspectiveHeadings(points, tv.camera, start, vo, scoring_render, 2);
+      if (!tv.camera.IsSpherical()) vo.kind = ViewKind::kImage;
+      if (auto_headings && vo.kind == ViewKind::kPerspective) {
+        frame.views = AutoPerspectiveViews(image, tv.camera, points, start, vo, scoring_render,
+                                           tv.image_path, nullptr);
+      } else {
+        frame.views = MakeViews(image, tv.camera, vo, tv.image_path);
       }
-      frame.views = MakeViews(image, tv.camera, vo, tv.image_path);
       frame.points = &points;
       return frame;
     };

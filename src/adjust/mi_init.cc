@@ -16,11 +16,11 @@
 #include "mmba/core/error.h"
 #include "mmba/core/progress.h"
 #include "mmba/io/kitti.h"
+#include "mmba/io/text_reader.h"
+#include "mmba/registration/mi/job.h"
 #include "mmba/registration/mi/mi_prior.h"
 #include "mmba/registration/mi/mi_registration.h"
 #include "mmba/registration/mi/result_json.h"
-#include "mmba/registration/mi/result_json.h"
-#include "mmba/io/text_reader.h"
 
 namespace mmba::adjust::internal {
 
@@ -90,9 +90,10 @@ struct MiTask {
 };
 
 /// The views of one task against `points` from `start`: a photo is its own view; a stitched
-/// panorama two 940×452 perspective cuts where the LiDAR is (as register-mi --view perspective
-/// --headings auto); a rig frame's own images each a view through its camera and cam_from_rig,
-/// those into which fewer than kMinViewPoints of the points project at the start left out.
+/// panorama the perspective cuts where the LiDAR is (mi::AutoPerspectiveViews, as register-mi
+/// --view perspective --headings auto); a rig frame's own images each a view through its camera
+/// and cam_from_rig, those that do not see the points at the start (mi::RigCameraSeesCloud)
+/// left out.
 std::vector<mi::View> TaskViews(const MiTask& t, const std::vector<mi::GrayImage>& images, const mi::LidarPoints& points,
                                 const Rigid3d& start, const RigBlock* rig, const Scene& scene,
                                 const mi::RegistrationOptions& options) {
@@ -100,17 +101,14 @@ std::vector<mi::View> TaskViews(const MiTask& t, const std::vector<mi::GrayImage
   if (t.kind == "panorama") {
     mi::ViewOptions views;
     views.kind = mi::ViewKind::kPerspective;
-    views.perspective_yaw_deg = mi::SelectPerspectiveHeadings(points, t.camera, start, views, options.render, 2);
-    return mi::MakeViews(images[0], t.camera, views, t.path);
+    return mi::AutoPerspectiveViews(images[0], t.camera, points, start, views, options.render, t.path, nullptr);
   }
-  constexpr size_t kMinViewPoints = 1000;
   std::vector<mi::View> out;
   for (size_t v = 0; v < t.view_cameras.size(); ++v) {
     const size_t k = t.view_cameras[v];
     const sensors::Camera& camera = scene.Camera(rig->cameras[k]);
     mi::View view = mi::MakeRigCameraView(images[v], camera, rig->cam_from_rig[k], t.view_paths[v]);
-    if (mi::CountPointsInView(points, view, start, options.render, kMinViewPoints) < kMinViewPoints) continue;
-    out.push_back(std::move(view));
+    if (mi::RigCameraSeesCloud(view, points, start, options.render)) out.push_back(std::move(view));
   }
   return out;
 }
@@ -383,7 +381,8 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
   }
   if (tasks.empty()) return;
   mi::RegistrationOptions options;  // register-mi's defaults
-  constexpr float kSurfaceVoxel = 0.5f;  // register-mi --surface-voxel-m
+  // register-mi --surface-voxel-m of the orientation classes and the incidence fit.
+  constexpr float kSurfaceVoxel = static_cast<float>(mi::kDefaultSurfaceVoxelM);
   // register-mi --orientation-classes of the photos (`mi_orientation_classes`, default
   // register-mi's) and of the rig.
   const int photo_sectors = s->photos ? s->photos->config->mi_orientation_classes : 0;
@@ -424,7 +423,8 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
     frame.views = TaskViews(t, images[i], points, t.start, s->rig ? &*s->rig : nullptr, s->scene, task_options);
     if (frame.views.empty()) {
       entry["status"] = "failed";
-      entry["reason"] = "none of the frame's cameras sees 1000 LiDAR points at the start";
+      entry["reason"] = "none of the frame's cameras sees " + std::to_string(mi::kMinRigViewPoints) +
+                        " LiDAR points at the start";
       entry.erase("file");
       s->mi_registration.push_back(entry);
       s->mi_registered.push_back(t.start);
@@ -580,7 +580,8 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
       frame.views = TaskViews(t, images[i], points.back(), start, &*s->rig, s->scene, options);
       if (frame.views.empty()) {
         json entry = {{"image", t.name}, {"kind", t.kind}, {"lidar", "mobile"}, {"status", "failed"},
-                      {"reason", "none of the frame's cameras sees 1000 of its mobile LiDAR points at the start"}};
+                      {"reason", "none of the frame's cameras sees " + std::to_string(mi::kMinRigViewPoints) +
+                                     " of its mobile LiDAR points at the start"}};
         s->mi_registration.push_back(entry);
         s->mi_registered.push_back(t.start);
         s->warnings.push_back("MI rig calibration: frame " + t.name + " not used: " + entry["reason"].get<std::string>());

@@ -609,17 +609,16 @@ void JobBuilder::MakeFrames() {
     if (rig_mode) {
       // The cameras that see the cloud at the start (a Ladybug's upward camera sees no
       // LiDAR); if none does, all of them, and the registration reports the missing overlap.
-      constexpr size_t kMinViewPoints = 1000;
       std::vector<View> all;
       for (size_t k = 0; k < rig_yaml.cameras.size(); ++k) {
         View view = MakeRigCameraView(rig_images[i][k], rig_yaml.cameras[k], rig_yaml.cam_from_rig[k],
-                                              rig_paths[i][k]);
+                                      rig_paths[i][k]);
         view.name = rig_yaml.names[k];
-        if (CountPointsInView(clouds[i], view, start, options.render, kMinViewPoints) >= kMinViewPoints) {
+        if (RigCameraSeesCloud(view, clouds[i], start, options.render)) {
           frame.views.push_back(view);
         } else {
           spdlog::info("{}: camera {} sees fewer than {} LiDAR points at the start, left out", pairs[i].first,
-                       rig_yaml.names[k], kMinViewPoints);
+                       rig_yaml.names[k], kMinRigViewPoints);
         }
         all.push_back(std::move(view));
       }
@@ -627,18 +626,18 @@ void JobBuilder::MakeFrames() {
       frames.push_back(std::move(frame));
       continue;
     }
-    ViewOptions frame_view_options = view_options;
-    if (request.headings_auto && view_options.kind == ViewKind::kPerspective &&
-        camera.IsSpherical()) {
-      frame_view_options.perspective_yaw_deg =
-          SelectPerspectiveHeadings(clouds[i], camera, start, view_options, options.render, 2);
+    if (request.headings_auto && view_options.kind == ViewKind::kPerspective && camera.IsSpherical()) {
+      std::vector<double> headings;
+      frame.views = AutoPerspectiveViews(images[i], camera, clouds[i], start, view_options, options.render,
+                                         pairs[i].first, &headings);
       std::string list;
-      for (double yaw : frame_view_options.perspective_yaw_deg) {
+      for (double yaw : headings) {
         list += (list.empty() ? "" : ", ") + std::to_string(static_cast<int>(std::lround(yaw)));
       }
       spdlog::info("{}: perspective cuts at headings {} deg", pairs[i].first, list);
+    } else {
+      frame.views = MakeViews(images[i], camera, view_options, pairs[i].first);
     }
-    frame.views = MakeViews(images[i], camera, frame_view_options, pairs[i].first);
     frames.push_back(std::move(frame));
   }
 }
