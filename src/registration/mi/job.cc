@@ -15,8 +15,12 @@
 #include "mmba/io/text_reader.h"
 #include "mmba/io/trajectory.h"
 #include "mmba/registration/mi/result_json.h"
+#include "registration/mi/job_builder.h"
 
 namespace mmba::registration::mi {
+
+using internal::JobBuilder;
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -59,70 +63,9 @@ Rigid3d ReadPoseJson(const std::string& path, const std::string& key) {
   return io::RigidFromRowMajor4x4(v, path, key);
 }
 
-// Keeps the points of `cloud` (and their attributes) within `range_m` of any of `centres`
-// and finite; returns the number dropped.
-size_t KeepNearAny(const std::vector<Eigen::Vector3d>& centres, double range_m, io::PointCloud* cloud) {
-  const double range_sq = range_m * range_m;
-  std::vector<char> far(cloud->size(), 1);
-  size_t dropped = 0;
-  for (size_t i = 0; i < cloud->size(); ++i) {
-    const Eigen::Vector3d& p = cloud->points[i];
-    if (p.allFinite()) {
-      for (const Eigen::Vector3d& c : centres) far[i] = far[i] && (p - c).squaredNorm() > range_sq;
-    }
-    dropped += far[i] ? 1 : 0;
-  }
-  if (dropped > 0) *cloud = io::WithoutMarked(*cloud, far);
-  return dropped;
-}
+}  // namespace
 
-// PrepareJob's steps, in order: the policy and checks of the request, the frames' files, the
-// images and camera (or rig), the views' kind, the start pose, the clouds, the frames.
-class JobBuilder {
- public:
-  explicit JobBuilder(const JobRequest& request)
-      : request(request), view_options(request.view), view_name(request.view_name) {
-    job.options = request.options;
-  }
-  void ApplyPolicy(bool log);
-  std::vector<std::pair<std::string, std::string>> ListPairs() const;
-  void ReadImagesAndCamera();
-  void ResolveViews();
-  void StartPose();
-  void PrepareClouds();
-  void PrepareCloud(const std::string& lidar_path);
-  void MakeFrames();
-
-  const JobRequest& request;
-  Job job;
-  RegistrationOptions& options = job.options;
-  ViewOptions view_options;
-  std::string view_name;
-  bool correct_incidence = false;
-  bool rig_mode = false;
-  bool panorama = false;
-  std::vector<std::pair<std::string, std::string>> pairs;
-  std::vector<GrayImage> images;
-  sensors::Camera& camera = job.camera;
-  Rigid3d cam_from_lidar_calibration;
-  bool have_calibration_pose = false;
-  // With a rig: each frame's IMAGE is a pattern with {camera}, one image per rig camera
-  // (rig_images[frame][camera]); the pose is rig_from_lidar.
-  io::RigYaml& rig_yaml = job.rig;
-  std::vector<std::vector<GrayImage>> rig_images;
-  std::vector<std::vector<std::string>> rig_paths;
-  Rigid3d start, reference;
-  Eigen::Vector3d& origin = job.origin;
-  std::vector<std::pair<double, Rigid3d>> trajectory;
-  Rigid3d body_from_lidar;
-  std::vector<Eigen::Vector3d> camera_centres;
-  double keep_within_m = 0;
-  std::vector<LidarPoints>& clouds = job.clouds;
-  nlohmann::json& incidence_json = job.incidence_json;
-  nlohmann::json& clouds_json = job.clouds_json;
-  std::vector<Frame>& frames = job.frames;
-  Rigid3d ToLocal(const Rigid3d& pose) const { return job.ToLocal(pose); }
-};
+namespace internal {
 
 void JobBuilder::ApplyPolicy(bool log) {
   // A points image is constant over the overlap (MI = 0 there): points are compared over the
@@ -394,209 +337,6 @@ void JobBuilder::StartPose() {
   }
 }
 
-void JobBuilder::PrepareClouds() {
-  // Clouds in map-grid coordinates (a georeferenced mobile-mapping cloud in UTM with the
-  // camera's pose in the grid): the renderer holds points as floats, which resolve 0.5 m at
-  // 5,000 km. Every cloud is moved by −o (o = io::LocalOrigin of the first cloud: its
-  // centroid rounded to whole km, 0 for a cloud in its sensor's frame, which is then used as
-  // given), the poses by cam_from_local = cam_from_lidar · [I | o], and the result back. The
-  // correction (a shift of the camera centre and a turn about it, in the cloud's axes) and its
-  // covariance do not change under a shift of the cloud's frame.
-  if (!request.trajectory.empty()) {
-    trajectory = io::ReadTrajectory(request.trajectory);
-    body_from_lidar = io::ReadLidarMountYaml(request.lidar_mount);
-  }
-  // The camera centres in the clouds' frame (each rig camera's; the start's and, with
-  // --perturb, the unperturbed reference's). A point farther than --max-range-m from all of
-  // them (plus the search bound, or the probe's 2 m) is never rendered: it is dropped before
-  // anything else uses the cloud, so that one absurd point (a 1e12 m glitch) does not move the
-  // map-grid origin or enter the incidence fit and the surface classes.
-  for (const Rigid3d& pose : {start, reference}) {
-    if (rig_mode) {
-      for (const Rigid3d& cam_from_rig : rig_yaml.cam_from_rig) {
-        camera_centres.push_back((cam_from_rig * pose).Inverse().translation);
-      }
-    } else {
-      camera_centres.push_back(pose.Inverse().translation);
-    }
-  }
-  keep_within_m = options.render.max_range_m + std::max(options.bound_translation_m, 2.0);
-
-  for (const auto& [image_path, lidar_path] : pairs) PrepareCloud(lidar_path);
-}
-
-void JobBuilder::PrepareCloud(const std::string& lidar_path) {
-  // Points with a non-finite coordinate or intensity (a scanner's "no return") could never
-  // be rendered: dropped and counted, as the far ones below.
-  io::ReadOptions read_options;
-  read_options.skip_invalid_points = true;
-  io::ReadStats read_stats;
-  io::PointCloud cloud = io::ReadPointCloud(lidar_path, read_options, &read_stats);
-  const size_t not_finite = read_stats.num_skipped;
-  if (not_finite > 0) {
-    spdlog::info("{}: {} of {} points with a non-finite coordinate or intensity, dropped", lidar_path, not_finite,
-                 not_finite + cloud.size());
-  }
-  if (cloud.empty()) throw InputError::Message(lidar_path, "cloud has no (finite) points");
-  const size_t points_read = cloud.size() + not_finite;
-  const size_t dropped = KeepNearAny(camera_centres, keep_within_m, &cloud);
-  if (dropped > 0) {
-    spdlog::info("{}: {} of {} points farther than {:.1f} m from the camera (--max-range-m + the search bound), "
-                 "dropped",
-                 lidar_path, dropped, points_read, keep_within_m);
-  }
-  clouds_json.push_back({{"lidar", lidar_path},
-                         {"points_read", points_read},
-                         {"points_not_finite", not_finite},
-                         {"points_beyond_range", dropped}});
-  if (cloud.empty()) {
-    throw InputError::Message(lidar_path, "no point within " + std::to_string(keep_within_m) +
-                                              " m of the camera (--max-range-m + the search bound): is the "
-                                              "start pose (--initial, the calibration) one of this cloud?");
-  }
-  if (clouds.empty()) {
-    origin = io::LocalOrigin(cloud.points);
-    if (!origin.isZero()) {
-      spdlog::info("{}: map-grid coordinates, registered relative to ({:.0f}, {:.0f}, {:.0f})",
-                   lidar_path, origin.x(), origin.y(), origin.z());
-    }
-  }
-  if (!origin.isZero()) {
-    for (Eigen::Vector3d& p : cloud.points) p -= origin;
-  }
-  if (options.render.representation == Representation::kIntensity &&
-      !cloud.has_intensity()) {
-    throw InputError::Message(lidar_path, std::string("cloud has no intensity, which --representation intensity") +
-                                              (request.representation_given ? "" : " (the default)") +
-                                              " needs; use --representation depth or points (points are "
-                                              "compared over the whole image)");
-  }
-  if (options.render.representation == Representation::kIntensity) {
-    // A LAS file always has the field; a cloud without a measured intensity holds one value
-    // (often 0) in it, and an image of one grey level has no information to register by.
-    const auto [lowest, highest] = std::minmax_element(cloud.intensity.begin(), cloud.intensity.end());
-    if (*lowest == *highest) {
-      throw InputError::Message(lidar_path, "every point's intensity is " + fmt::format("{:g}", *lowest) +
-                                                ": no intensity to register by, which --representation intensity" +
-                                                (request.representation_given ? "" : " (the default)") +
-                                                " needs; use --representation depth or points");
-    }
-  }
-  // The scanner's centre for each point, in the local frame: given (the options, else the
-  // cloud's sidecar CLOUD.scanner.yaml, io::ReadScannerSidecar), from the trajectory at the
-  // point's time, or the origin of a KITTI scan (its sensor frame).
-  std::optional<Eigen::Vector3d> scanner_origin;
-  if (!request.scanner_origin.empty()) {
-    scanner_origin = Eigen::Vector3d(request.scanner_origin[0], request.scanner_origin[1], request.scanner_origin[2]);
-  }
-  const std::vector<std::pair<double, Rigid3d>>* scanner_trajectory = &trajectory;
-  const Rigid3d* scanner_mount = &body_from_lidar;
-  std::string trajectory_named = "the --trajectory " + request.trajectory;
-  std::string scanner_from = !request.scanner_origin.empty() ? "--scanner-origin"
-                             : !request.trajectory.empty()   ? "--trajectory " + request.trajectory
-                                                          : "";
-  std::vector<std::pair<double, Rigid3d>> sidecar_trajectory;
-  Rigid3d sidecar_mount;
-  // (Read only where it is used: a depth or points image is not corrected.)
-  if ((correct_incidence || request.incidence_correction == "on") && scanner_from.empty()) {
-    if (const std::optional<io::ScannerSidecar> sidecar = io::ReadScannerSidecar(lidar_path)) {
-      scanner_from = sidecar->path;
-      scanner_origin = sidecar->origin;
-      if (!sidecar->trajectory.empty()) {
-        sidecar_trajectory = io::ReadTrajectory(sidecar->trajectory);
-        sidecar_mount = io::ReadLidarMountYaml(sidecar->lidar_mount);
-        scanner_trajectory = &sidecar_trajectory;
-        scanner_mount = &sidecar_mount;
-        trajectory_named = "the trajectory " + sidecar->trajectory + " (named in " + sidecar->path + ")";
-      }
-      spdlog::info("{}: the scanner's position from {}", lidar_path, sidecar->path);
-    }
-  }
-  IncidenceCorrection correction;
-  if (scanner_origin) {
-    const Eigen::Vector3d at = *scanner_origin - origin;
-    correction.scanner = [at](size_t) -> Eigen::Vector3d { return at; };
-  } else if (!scanner_trajectory->empty()) {
-    if (!cloud.has_time()) {
-      throw InputError::Message(lidar_path, "has no per-point time, which " + trajectory_named +
-                                                " needs to place the scanner of each point");
-    }
-    // A cloud whose times the trajectory does not span (another time base, another drive)
-    // would be corrected with the scanner at the trajectory's ends.
-    const auto [first, last] = std::minmax_element(cloud.time.begin(), cloud.time.end());
-    if (*first < scanner_trajectory->front().first || *last > scanner_trajectory->back().first) {
-      throw InputError::Message(lidar_path, "point times " + std::to_string(*first) + " .. " + std::to_string(*last) +
-                                                " s are not within " + trajectory_named + "'s " +
-                                                std::to_string(scanner_trajectory->front().first) + " .. " +
-                                                std::to_string(scanner_trajectory->back().first) + " s");
-    }
-    correction.scanner = [&](size_t i) -> Eigen::Vector3d {
-      // (An explicit return type: `.translation - origin` would return an Eigen expression
-      // referring to the destroyed temporary.)
-      return (io::InterpolateTrajectory(*scanner_trajectory, cloud.time[i]) * *scanner_mount).translation - origin;
-    };
-  } else if (fs::path(lidar_path).extension() == ".bin") {
-    correction.scanner = [&o = origin](size_t) -> Eigen::Vector3d { return -o; };
-    scanner_from = "the KITTI scan's origin";
-  }
-  if (request.incidence_correction == "on" && !correction.scanner) {
-    throw InputError::Message("--incidence-correction", "on needs the scanner's position of " + lidar_path +
-                                                            ": --scanner-origin, --trajectory with "
-                                                            "--lidar-mount, a sidecar " +
-                                                            io::ScannerSidecarPath(lidar_path) +
-                                                            ", or a KITTI .bin scan");
-  }
-  std::vector<Eigen::Vector3f> normals;  // the local planes, when computed for the correction
-  if (correct_incidence && correction.scanner && cloud.has_intensity()) {
-    correction.voxel_m = static_cast<float>(request.surface_voxel_m);
-    IncidenceFit fit;
-    clouds.push_back(PrepareLidarPoints(cloud, correction, &fit, &normals));
-    spdlog::info("{}: intensity corrected for the angle of incidence: I / cos^{:.2f} (fitted to {} points, "
-                 "correlation {:.2f})",
-                 lidar_path, fit.exponent, fit.points, fit.correlation);
-    incidence_json.push_back({{"lidar", lidar_path},
-                              {"scanner_from", scanner_from},
-                              {"exponent", fit.exponent},
-                              {"correlation", fit.correlation},
-                              {"points", fit.points}});
-  } else {
-    clouds.push_back(PrepareLidarPoints(cloud));
-    incidence_json.push_back(nullptr);
-  }
-  if (request.surface_classes && options.render.representation == Representation::kIntensity) {
-    // The metric conditioned on the surface: ground (a plane within 45° of the cloud's z
-    // axis) against the rest (bench/RESULTS.md "Surface classes").
-    const std::vector<uint8_t> classes =
-        SurfaceClasses(clouds.back().points_in_lidar, Eigen::Vector3f::UnitZ(),
-                           static_cast<float>(request.surface_voxel_m));
-    EncodeSurfaceClasses(classes, &clouds.back());
-    const size_t horizontal = static_cast<size_t>(std::count(classes.begin(), classes.end(), 0));
-    spdlog::info("{}: surface classes: {} points on horizontal planes, {} others", lidar_path,
-                 horizontal, classes.size() - horizontal);
-  }
-  if (job.orientation_sectors > 0) {
-    // The metric conditioned on which way each surface faces, seen from the start's camera
-    // (rig) centre (bench/RESULTS.md "Orientation classes").
-    const Rigid3d cam_from_local = ToLocal(start);
-    const Eigen::Vector3f viewpoint =
-        cam_from_local.Inverse().translation.cast<float>();
-    std::vector<size_t> per_class;
-    if (normals.empty()) {
-      EncodeOrientationClasses(viewpoint, job.orientation_sectors,
-                                   static_cast<float>(request.surface_voxel_m), &clouds.back(), &per_class);
-    } else {
-      EncodeOrientationClasses(viewpoint, job.orientation_sectors, normals, &clouds.back(), &per_class);
-    }
-    std::string counts;
-    for (size_t c = 2; c + 1 < per_class.size(); ++c) counts += (c > 2 ? "/" : "") + std::to_string(per_class[c]);
-    spdlog::info("{}: orientation classes: {} facing up, {} facing down, {} steep by azimuth, {} "
-                 "without a plane",
-                 lidar_path, per_class[0], per_class[1], counts, per_class.back());
-  }
-  spdlog::info("read {}: {} points{}", lidar_path, cloud.size(),
-               cloud.has_intensity() ? " with intensity" : "");
-}
-
 void JobBuilder::MakeFrames() {
   for (size_t i = 0; i < pairs.size(); ++i) {
     Frame frame;
@@ -642,7 +382,7 @@ void JobBuilder::MakeFrames() {
   }
 }
 
-}  // namespace
+}  // namespace internal
 
 std::vector<FramePaths> ListFrames(const JobRequest& request) {
   JobBuilder builder(request);
