@@ -36,7 +36,7 @@ std::function<int()> SetupAdjustCommand(CLI::App& app, CommonOptions* common) {
   auto args = std::make_shared<AdjustArgs>();
   CLI::App* sub = app.add_subcommand(
       "adjust", "Joint adjustment of a project (photos, total station, GNSS, LiDAR) with report.html");
-  sub->add_option("project,--input", args->project, "Project file (YAML; schema in README), as --input or the first argument")->required();
+  sub->add_option("project,--input", args->project, "Project file (YAML; schema in docs/project-yaml.md), as --input or the first argument")->required();
   sub->add_option("--output", args->output, "Output folder: new, empty or written by mmba (replaced whole, only when the adjustment succeeds)")->required();
   sub->add_option("--threads", args->threads, "Solver threads")->capture_default_str();
   AddCommonOptions(sub, common);
