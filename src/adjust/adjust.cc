@@ -25,6 +25,10 @@
 namespace mmba::adjust {
 namespace internal {
 
+std::string ProjectKey(const Project& project, int line, const std::string& key) {
+  return project.path + ":" + std::to_string(line) + ": " + key;
+}
+
 Eigen::Vector3d WorldFromSurvey(const survey::SurveyNetwork&, const survey::SurveyPoint& p) { return p.coords; }
 
 Eigen::Matrix3d SurveyPointCovariance(const stats::NetworkStatistics& st, const survey::SurveyNetwork&,
@@ -50,6 +54,8 @@ using internal::PhotoBlock;
 using internal::SphereBlock;
 using internal::RigBlock;
 using internal::AdjustFailure;
+using internal::LoadSpheres;
+using internal::ProjectKey;
 using internal::StatusOfSolve;
 using internal::InterpolateTrajectory;
 
@@ -60,9 +66,6 @@ void Note(JointState* s, const std::string& text) {
 }
 
 
-std::string ProjectKey(const Project& project, int line, const std::string& key) {
-  return project.path + ":" + std::to_string(line) + ": " + key;
-}
 
 // ---- total station -----------------------------------------------------------------------
 
@@ -391,115 +394,6 @@ void LoadPhotos(JointState* s, const std::string& work_dir) {
                    std::to_string(block.model.points3D.size()) + " tie points, " + std::to_string(block.ties.size()) +
                    " observations; georeference: " + block.georeference);
   s->photos = std::move(block);
-}
-
-// ---- spherical stereo pairs --------------------------------------------------------------
-
-void LoadSpheres(JointState* s) {
-  const Project& project = *s->project;
-  if (project.spherical.empty()) return;
-  if (project.spherical.size() > 1) {
-    throw InputError::Message(ProjectKey(project, project.spherical[1].line, "sensors"),
-                              "found a second spherical_stereo sensor with observations, expected one");
-  }
-  const SphericalStereo& config = project.spherical.front();
-  if (!s->photos || s->photos->config->id != config.tie_block) {
-    throw InputError::Message(ProjectKey(project, config.line, "tie_block"),
-                              "found " + config.tie_block + ", expected the photo_collection whose tie points are observed");
-  }
-  SphereBlock block;
-  block.config = &config;
-  block.stations = config.stations;
-  // Calibration (calib/README.md).
-  const io::YamlReader r(config.calibration);
-  const YAML::Node root = r.Load("spherical stereo calibration");
-  std::string model;
-  sensors::Camera cameras[2];
-  double baseline_m = 0.0;
-  r.Map(root, "", {{"model", [&](const YAML::Node& n, const std::string& f) {
-                      model = r.String(n, f);
-                      if (model != "EQUIRECTANGULAR") r.Fail(n, f, "EQUIRECTANGULAR", model);
-                    }},
-                   {"width", [&](const YAML::Node& n, const std::string& f) { cameras[0].width = cameras[1].width = r.Integer(n, f); }},
-                   {"height", [&](const YAML::Node& n, const std::string& f) { cameras[0].height = cameras[1].height = r.Integer(n, f); }},
-                   {"lower_params", [&](const YAML::Node& n, const std::string& f) {
-                      cameras[0].params = r.NumberList(n, f);
-                      if (cameras[0].params.size() != 3) r.Fail(n, f, "3 numbers (f, cx, cy)", std::to_string(cameras[0].params.size()) + " numbers");
-                    }},
-                   {"upper_params", [&](const YAML::Node& n, const std::string& f) {
-                      cameras[1].params = r.NumberList(n, f);
-                      if (cameras[1].params.size() != 3) r.Fail(n, f, "3 numbers (f, cx, cy)", std::to_string(cameras[1].params.size()) + " numbers");
-                    }},
-                   {"baseline_m", [&](const YAML::Node& n, const std::string& f) { baseline_m = r.Positive(n, f, 10.0, "m"); }}});
-  r.Require(root, "", {"model", "width", "height", "lower_params", "upper_params", "baseline_m"});
-  if (cameras[0].width < 2 || cameras[0].height < 1) r.Fail(root["width"], "width", "a panorama size in pixels", std::to_string(cameras[0].width));
-  for (int k = 0; k < 2; ++k) {
-    cameras[k].camera_id = k == 0 ? block.lower_camera : block.upper_camera;
-    cameras[k].model_id = sensors::CameraModelId::kEquirectangular;
-    s->scene.AddCamera(cameras[k]);
-  }
-  block.initial_lower_params = cameras[0].params;
-  block.initial_upper_params = cameras[1].params;
-  // The baseline vector in the lower sphere's frame (x right, y down, z forward): up = −y.
-  block.baseline = block.baseline_prior = Eigen::Vector3d(0, -baseline_m, 0);
-  // Station setups.
-  const io::CsvTable setups = io::CsvTable::Read(config.stations_file, {"station", "east_m", "north_m", "up_m", "heading_deg"});
-  uint64_t next_image = 3000000;
-  for (const io::CsvTable::Row& row : setups.rows()) {
-    const std::string& name = setups.String(row, "station");
-    if (std::find(block.stations.begin(), block.stations.end(), name) == block.stations.end()) continue;
-    const Eigen::Vector3d centre(setups.Double(row, "east_m"), setups.Double(row, "north_m"), setups.Double(row, "up_m"));
-    const double h = setups.Double(row, "heading_deg") * M_PI / 180.0;
-    Eigen::Matrix3d world_from_cam;
-    world_from_cam.col(0) = Eigen::Vector3d(std::cos(h), -std::sin(h), 0);
-    world_from_cam.col(1) = Eigen::Vector3d(0, 0, -1);
-    world_from_cam.col(2) = Eigen::Vector3d(std::sin(h), std::cos(h), 0);
-    const ImageId image_id(next_image++);
-    s->scene.AddImage(image_id, block.lower_camera, Rigid3d(Eigen::Quaterniond(world_from_cam), centre).Inverse());
-    block.lower_image[name] = image_id;
-    block.initial_poses[image_id] = block.setup_poses[image_id] = s->scene.Image(image_id).cam_from_world;
-  }
-  for (const std::string& name : block.stations) {
-    if (!block.lower_image.count(name)) {
-      throw InputError::Message(ProjectKey(project, config.line, "stations"),
-                                "station " + name + " has no row in " + config.stations_file);
-    }
-  }
-  // Observations.
-  const io::CsvTable table = io::CsvTable::Read(config.observations, {"image", "point_id", "x_px", "y_px"});
-  for (const io::CsvTable::Row& row : table.rows()) {
-    const std::string stem = fs::path(table.String(row, "image")).stem().string();
-    const size_t underscore = stem.rfind('_');
-    const std::string station = underscore == std::string::npos ? "" : stem.substr(0, underscore);
-    const std::string which = underscore == std::string::npos ? "" : stem.substr(underscore + 1);
-    if (!block.lower_image.count(station) || (which != "lower" && which != "upper")) {
-      table.Fail(row, "image", table.String(row, "image"), "<station>_lower.<ext> or <station>_upper.<ext> of a listed station");
-    }
-    const double id = table.Double(row, "point_id");
-    const Point3DId point3D_id(static_cast<uint64_t>(id));
-    if (id < 0 || id != std::floor(id) || !s->scene.HasPoint(point3D_id)) {
-      table.Fail(row, "point_id", table.String(row, "point_id"), "a point3D id of photo collection '" + config.tie_block + "'");
-    }
-    const Eigen::Vector2d xy(table.Double(row, "x_px"), table.Double(row, "y_px"));
-    if (xy.x() < -0.5 || xy.y() < -0.5 || xy.x() > cameras[0].width + 0.5 || xy.y() > cameras[0].height + 0.5) {
-      table.Fail(row, "x_px", table.String(row, "x_px") + ", " + table.String(row, "y_px"), "a pixel inside the panorama");
-    }
-    const double sigma = table.Double(row, "sigma_px", config.sigma_px);
-    if (!(sigma > 0 && sigma <= 50)) table.Fail(row, "sigma_px", table.String(row, "sigma_px"), "a σ in (0, 50] px");
-    const std::string source = config.observations + ":" + std::to_string(row.line);
-    if (which == "lower") {
-      block.lower.push_back({block.lower_image.at(station), point3D_id, xy, sigma});
-      block.lower_source.push_back(source);
-    } else {
-      block.upper.push_back({block.lower_image.at(station), block.upper_camera, point3D_id, xy, sigma});
-      block.upper_source.push_back(source);
-    }
-  }
-  Note(s, "spherical stereo '" + config.id + "': " + std::to_string(block.stations.size()) + " stations, " +
-              std::to_string(block.lower.size()) + " lower + " + std::to_string(block.upper.size()) +
-              " upper observations of photo tie points, baseline " + std::to_string(baseline_m) + " m (prior σ " +
-              std::to_string(config.baseline_sigma_m) + " m)");
-  s->spheres = std::move(block);
 }
 
 // ---- camera rig --------------------------------------------------------------------------

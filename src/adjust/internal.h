@@ -213,6 +213,9 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
 /// time limit with a finite cost; failed otherwise (problem/solve.h `status` in typed form).
 AdjustStatus StatusOfSolve(const SolveResult& solve);
 
+/// "PROJECT.yaml:LINE: key", the place an InputError about the project file names.
+std::string ProjectKey(const Project& project, int line, const std::string& key);
+
 /// Thrown when the adjustment cannot produce a result (exit 3): `status` and the reason.
 class AdjustFailure : public std::runtime_error {
  public:
@@ -250,6 +253,15 @@ std::string FindImage(const std::string& folder, const std::string& stem);
 /// vertical-baseline stereo cloud registered to the static LiDAR (issue 5's pipeline) moves its
 /// setup pose when the registration is "ok"; the outcome per station is kept for the report.
 void RegisterSphereStations(JointState* s);
+/// Loads the spherical stereo pair (blocks/spherical_stereo.cc): its calibration as two Scene
+/// cameras, the station setups as Scene images, the observations of the photo block's tie
+/// points. Throws InputError for a second pair, a wrong tie block or a bad row.
+void LoadSpheres(JointState* s);
+/// The dense cloud of every spherical station (vertical-baseline stereo on the adjusted pair),
+/// georeferenced and written to `stage` as <id>_<station>_dense.ply (listed in `files`).
+/// Returns report.json's `spherical_dense` entries; `statuses` gets one status per entry.
+nlohmann::json WriteSphereDense(const JointState& s, const std::filesystem::path& stage, nlohmann::json* files,
+                                std::vector<StepStatus>* statuses);
 
 /// The similarity to_from_from of the pairs `use` (Umeyama 1991, with scale; ≥ 3 pairs not on
 /// one line).

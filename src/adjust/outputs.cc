@@ -10,7 +10,6 @@
 #include <spdlog/spdlog.h>
 
 #include "internal.h"
-#include "sphere_dense.h"
 #include "mmba/core/atomic_file.h"
 #include "mmba/io/point_cloud.h"
 #include "mmba/problem/colmap_scene.h"
@@ -175,76 +174,6 @@ void WriteText(const fs::path& path, const std::string& text) {
   if (!out) throw std::runtime_error("cannot write " + path.string());
 }
 
-
-/// The dense cloud of every spherical station (vertical-baseline stereo on the adjusted pair:
-/// its calibration, baseline and pose), georeferenced, written as <id>_<station>_dense.ply
-/// with intensity from the lower panorama; compared with the LiDAR surface where there is
-/// one. Returns the report's entry (with the median range σ).
-json WriteSphereDense(const JointState& s, const fs::path& stage, json* files, std::vector<StepStatus>* statuses) {
-  json stations = json::array();
-  const SphereBlock& sb = *s.spheres;
-  for (const auto& [station, id] : sb.lower_image) {
-    const std::string lower_path = FindImage(sb.config->images, station + "_lower");
-    const std::string upper_path = FindImage(sb.config->images, station + "_upper");
-    if (lower_path.empty() || upper_path.empty()) {
-      stations.push_back({{"station", station}, {"status", "no panoramas " + station + "_lower/_upper in " + sb.config->images}});
-      statuses->push_back(StepStatus::kNotAttempted);
-      continue;
-    }
-    spdlog::info("adjust: dense cloud of spherical station {}", station);
-    DenseStereoCloud dense;
-    try {
-      dense = DenseSphericalStereo(lower_path, upper_path, s.scene.Camera(sb.lower_camera), s.scene.Camera(sb.upper_camera),
-                                   sb.baseline);
-    } catch (const std::exception& e) {
-      // A by-product: a panorama that cannot be matched costs its cloud, not the adjustment.
-      stations.push_back({{"station", station}, {"status", StepStatusText(StepStatus::kFailed, e.what())}});
-      statuses->push_back(StepStatus::kFailed);
-      spdlog::warn("adjust: no dense cloud for spherical station {}: {}", station, e.what());
-      continue;
-    }
-    const Rigid3d world_from_lower = s.scene.Image(id).cam_from_world.Inverse();
-    io::PointCloud cloud = dense.cloud;
-    for (Eigen::Vector3d& p : cloud.points) p = world_from_lower * p;
-    std::vector<double> ranges;
-    for (const Eigen::Vector3d& p : dense.cloud.points) ranges.push_back(p.norm());
-    const auto median = [](std::vector<double> v) {
-      if (v.empty()) return 0.0;
-      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-      return v[v.size() / 2];
-    };
-    json entry = {{"station", station}, {"status", StepStatusText(StepStatus::kOk)}, {"points", cloud.size()}, {"match_width_px", dense.match_width},
-                  {"matched_pixels", dense.matched_pixels}, {"median_range_m", median(ranges)},
-                  {"median_range_sigma_m", median(dense.range_sigma_m)}};
-    if (s.surface && !cloud.empty()) {
-      // Distance along the LiDAR surface's normal for an even sample; |d|/σ_range should be
-      // about 0.67 at the median when the σ and the adjusted pose are right.
-      std::vector<double> distance, normalised;
-      const size_t step = std::max<size_t>(1, cloud.size() / 20000);
-      for (size_t i = 0; i < cloud.size(); i += step) {
-        Eigen::Vector3d n, c;
-        const double gate = std::max(0.1, 3 * dense.range_sigma_m[i]);
-        if (!s.surface->FitPlane(cloud.points[i], gate, 12, &n, &c, nullptr)) continue;
-        const double d = std::abs(n.dot(cloud.points[i] - c));
-        distance.push_back(d);
-        normalised.push_back(d / std::max(dense.range_sigma_m[i], 1e-6));
-      }
-      entry["lidar_compared"] = distance.size();  // points over the cropped LiDAR surface
-      if (!distance.empty()) {
-        entry["median_abs_distance_to_lidar_m"] = median(distance);
-        entry["median_abs_distance_over_sigma"] = median(normalised);
-      }
-    }
-    const std::string name = sb.config->id + "_" + station + "_dense.ply";
-    io::WritePly(cloud, (stage / name).string());
-    files->push_back({{"name", name},
-                      {"description", "dense cloud of spherical station " + station +
-                                          " (vertical-baseline stereo), georeferenced; intensity from the lower panorama"}});
-    stations.push_back(entry);
-    statuses->push_back(StepStatus::kOk);
-  }
-  return stations;
-}
 
 /// Truth evaluation of a simulated project (never used by the adjustment itself).
 json EvaluateTruth(const JointState& s) {

@@ -1,0 +1,212 @@
+// Spherical stereo pairs (DESIGN.md "Factor groups": spherical pair): loading the pair's
+// calibration, station setups and observations of photo tie points, and writing each
+// station's dense cloud after the adjustment. The pair's initialisation on the LiDAR is
+// sphere_init.cc; its groups are added by BuildProblem (adjust.cc).
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <spdlog/spdlog.h>
+
+#include "../internal.h"
+#include "../sphere_dense.h"
+#include "mmba/core/error.h"
+#include "mmba/io/csv_table.h"
+#include "mmba/io/point_cloud.h"
+#include "mmba/io/yaml_reader.h"
+
+namespace mmba::adjust::internal {
+namespace {
+
+namespace fs = std::filesystem;
+using json = nlohmann::json;
+
+/// A stage's result: logged now and listed in the report.
+void Note(JointState* s, const std::string& text) {
+  spdlog::info("adjust: {}", text);
+  s->log.push_back(text);
+}
+
+}  // namespace
+
+void LoadSpheres(JointState* s) {
+  const Project& project = *s->project;
+  if (project.spherical.empty()) return;
+  if (project.spherical.size() > 1) {
+    throw InputError::Message(ProjectKey(project, project.spherical[1].line, "sensors"),
+                              "found a second spherical_stereo sensor with observations, expected one");
+  }
+  const SphericalStereo& config = project.spherical.front();
+  if (!s->photos || s->photos->config->id != config.tie_block) {
+    throw InputError::Message(ProjectKey(project, config.line, "tie_block"),
+                              "found " + config.tie_block + ", expected the photo_collection whose tie points are observed");
+  }
+  SphereBlock block;
+  block.config = &config;
+  block.stations = config.stations;
+  // Calibration (calib/README.md).
+  const io::YamlReader r(config.calibration);
+  const YAML::Node root = r.Load("spherical stereo calibration");
+  std::string model;
+  sensors::Camera cameras[2];
+  double baseline_m = 0.0;
+  r.Map(root, "", {{"model", [&](const YAML::Node& n, const std::string& f) {
+                      model = r.String(n, f);
+                      if (model != "EQUIRECTANGULAR") r.Fail(n, f, "EQUIRECTANGULAR", model);
+                    }},
+                   {"width", [&](const YAML::Node& n, const std::string& f) { cameras[0].width = cameras[1].width = r.Integer(n, f); }},
+                   {"height", [&](const YAML::Node& n, const std::string& f) { cameras[0].height = cameras[1].height = r.Integer(n, f); }},
+                   {"lower_params", [&](const YAML::Node& n, const std::string& f) {
+                      cameras[0].params = r.NumberList(n, f);
+                      if (cameras[0].params.size() != 3) r.Fail(n, f, "3 numbers (f, cx, cy)", std::to_string(cameras[0].params.size()) + " numbers");
+                    }},
+                   {"upper_params", [&](const YAML::Node& n, const std::string& f) {
+                      cameras[1].params = r.NumberList(n, f);
+                      if (cameras[1].params.size() != 3) r.Fail(n, f, "3 numbers (f, cx, cy)", std::to_string(cameras[1].params.size()) + " numbers");
+                    }},
+                   {"baseline_m", [&](const YAML::Node& n, const std::string& f) { baseline_m = r.Positive(n, f, 10.0, "m"); }}});
+  r.Require(root, "", {"model", "width", "height", "lower_params", "upper_params", "baseline_m"});
+  if (cameras[0].width < 2 || cameras[0].height < 1) r.Fail(root["width"], "width", "a panorama size in pixels", std::to_string(cameras[0].width));
+  for (int k = 0; k < 2; ++k) {
+    cameras[k].camera_id = k == 0 ? block.lower_camera : block.upper_camera;
+    cameras[k].model_id = sensors::CameraModelId::kEquirectangular;
+    s->scene.AddCamera(cameras[k]);
+  }
+  block.initial_lower_params = cameras[0].params;
+  block.initial_upper_params = cameras[1].params;
+  // The baseline vector in the lower sphere's frame (x right, y down, z forward): up = −y.
+  block.baseline = block.baseline_prior = Eigen::Vector3d(0, -baseline_m, 0);
+  // Station setups.
+  const io::CsvTable setups = io::CsvTable::Read(config.stations_file, {"station", "east_m", "north_m", "up_m", "heading_deg"});
+  uint64_t next_image = 3000000;
+  for (const io::CsvTable::Row& row : setups.rows()) {
+    const std::string& name = setups.String(row, "station");
+    if (std::find(block.stations.begin(), block.stations.end(), name) == block.stations.end()) continue;
+    const Eigen::Vector3d centre(setups.Double(row, "east_m"), setups.Double(row, "north_m"), setups.Double(row, "up_m"));
+    const double h = setups.Double(row, "heading_deg") * M_PI / 180.0;
+    Eigen::Matrix3d world_from_cam;
+    world_from_cam.col(0) = Eigen::Vector3d(std::cos(h), -std::sin(h), 0);
+    world_from_cam.col(1) = Eigen::Vector3d(0, 0, -1);
+    world_from_cam.col(2) = Eigen::Vector3d(std::sin(h), std::cos(h), 0);
+    const ImageId image_id(next_image++);
+    s->scene.AddImage(image_id, block.lower_camera, Rigid3d(Eigen::Quaterniond(world_from_cam), centre).Inverse());
+    block.lower_image[name] = image_id;
+    block.initial_poses[image_id] = block.setup_poses[image_id] = s->scene.Image(image_id).cam_from_world;
+  }
+  for (const std::string& name : block.stations) {
+    if (!block.lower_image.count(name)) {
+      throw InputError::Message(ProjectKey(project, config.line, "stations"),
+                                "station " + name + " has no row in " + config.stations_file);
+    }
+  }
+  // Observations.
+  const io::CsvTable table = io::CsvTable::Read(config.observations, {"image", "point_id", "x_px", "y_px"});
+  for (const io::CsvTable::Row& row : table.rows()) {
+    const std::string stem = fs::path(table.String(row, "image")).stem().string();
+    const size_t underscore = stem.rfind('_');
+    const std::string station = underscore == std::string::npos ? "" : stem.substr(0, underscore);
+    const std::string which = underscore == std::string::npos ? "" : stem.substr(underscore + 1);
+    if (!block.lower_image.count(station) || (which != "lower" && which != "upper")) {
+      table.Fail(row, "image", table.String(row, "image"), "<station>_lower.<ext> or <station>_upper.<ext> of a listed station");
+    }
+    const double id = table.Double(row, "point_id");
+    const Point3DId point3D_id(static_cast<uint64_t>(id));
+    if (id < 0 || id != std::floor(id) || !s->scene.HasPoint(point3D_id)) {
+      table.Fail(row, "point_id", table.String(row, "point_id"), "a point3D id of photo collection '" + config.tie_block + "'");
+    }
+    const Eigen::Vector2d xy(table.Double(row, "x_px"), table.Double(row, "y_px"));
+    if (xy.x() < -0.5 || xy.y() < -0.5 || xy.x() > cameras[0].width + 0.5 || xy.y() > cameras[0].height + 0.5) {
+      table.Fail(row, "x_px", table.String(row, "x_px") + ", " + table.String(row, "y_px"), "a pixel inside the panorama");
+    }
+    const double sigma = table.Double(row, "sigma_px", config.sigma_px);
+    if (!(sigma > 0 && sigma <= 50)) table.Fail(row, "sigma_px", table.String(row, "sigma_px"), "a σ in (0, 50] px");
+    const std::string source = config.observations + ":" + std::to_string(row.line);
+    if (which == "lower") {
+      block.lower.push_back({block.lower_image.at(station), point3D_id, xy, sigma});
+      block.lower_source.push_back(source);
+    } else {
+      block.upper.push_back({block.lower_image.at(station), block.upper_camera, point3D_id, xy, sigma});
+      block.upper_source.push_back(source);
+    }
+  }
+  Note(s, "spherical stereo '" + config.id + "': " + std::to_string(block.stations.size()) + " stations, " +
+              std::to_string(block.lower.size()) + " lower + " + std::to_string(block.upper.size()) +
+              " upper observations of photo tie points, baseline " + std::to_string(baseline_m) + " m (prior σ " +
+              std::to_string(config.baseline_sigma_m) + " m)");
+  s->spheres = std::move(block);
+}
+
+/// The dense cloud of every spherical station (vertical-baseline stereo on the adjusted pair:
+/// its calibration, baseline and pose), georeferenced, written as <id>_<station>_dense.ply
+/// with intensity from the lower panorama; compared with the LiDAR surface where there is
+/// one. Returns the report's entry (with the median range σ).
+json WriteSphereDense(const JointState& s, const fs::path& stage, json* files, std::vector<StepStatus>* statuses) {
+  json stations = json::array();
+  const SphereBlock& sb = *s.spheres;
+  for (const auto& [station, id] : sb.lower_image) {
+    const std::string lower_path = FindImage(sb.config->images, station + "_lower");
+    const std::string upper_path = FindImage(sb.config->images, station + "_upper");
+    if (lower_path.empty() || upper_path.empty()) {
+      stations.push_back({{"station", station}, {"status", "no panoramas " + station + "_lower/_upper in " + sb.config->images}});
+      statuses->push_back(StepStatus::kNotAttempted);
+      continue;
+    }
+    spdlog::info("adjust: dense cloud of spherical station {}", station);
+    DenseStereoCloud dense;
+    try {
+      dense = DenseSphericalStereo(lower_path, upper_path, s.scene.Camera(sb.lower_camera), s.scene.Camera(sb.upper_camera),
+                                   sb.baseline);
+    } catch (const std::exception& e) {
+      // A by-product: a panorama that cannot be matched costs its cloud, not the adjustment.
+      stations.push_back({{"station", station}, {"status", StepStatusText(StepStatus::kFailed, e.what())}});
+      statuses->push_back(StepStatus::kFailed);
+      spdlog::warn("adjust: no dense cloud for spherical station {}: {}", station, e.what());
+      continue;
+    }
+    const Rigid3d world_from_lower = s.scene.Image(id).cam_from_world.Inverse();
+    io::PointCloud cloud = dense.cloud;
+    for (Eigen::Vector3d& p : cloud.points) p = world_from_lower * p;
+    std::vector<double> ranges;
+    for (const Eigen::Vector3d& p : dense.cloud.points) ranges.push_back(p.norm());
+    const auto median = [](std::vector<double> v) {
+      if (v.empty()) return 0.0;
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      return v[v.size() / 2];
+    };
+    json entry = {{"station", station}, {"status", StepStatusText(StepStatus::kOk)}, {"points", cloud.size()}, {"match_width_px", dense.match_width},
+                  {"matched_pixels", dense.matched_pixels}, {"median_range_m", median(ranges)},
+                  {"median_range_sigma_m", median(dense.range_sigma_m)}};
+    if (s.surface && !cloud.empty()) {
+      // Distance along the LiDAR surface's normal for an even sample; |d|/σ_range should be
+      // about 0.67 at the median when the σ and the adjusted pose are right.
+      std::vector<double> distance, normalised;
+      const size_t step = std::max<size_t>(1, cloud.size() / 20000);
+      for (size_t i = 0; i < cloud.size(); i += step) {
+        Eigen::Vector3d n, c;
+        const double gate = std::max(0.1, 3 * dense.range_sigma_m[i]);
+        if (!s.surface->FitPlane(cloud.points[i], gate, 12, &n, &c, nullptr)) continue;
+        const double d = std::abs(n.dot(cloud.points[i] - c));
+        distance.push_back(d);
+        normalised.push_back(d / std::max(dense.range_sigma_m[i], 1e-6));
+      }
+      entry["lidar_compared"] = distance.size();  // points over the cropped LiDAR surface
+      if (!distance.empty()) {
+        entry["median_abs_distance_to_lidar_m"] = median(distance);
+        entry["median_abs_distance_over_sigma"] = median(normalised);
+      }
+    }
+    const std::string name = sb.config->id + "_" + station + "_dense.ply";
+    io::WritePly(cloud, (stage / name).string());
+    files->push_back({{"name", name},
+                      {"description", "dense cloud of spherical station " + station +
+                                          " (vertical-baseline stereo), georeferenced; intensity from the lower panorama"}});
+    stations.push_back(entry);
+    statuses->push_back(StepStatus::kOk);
+  }
+  return stations;
+}
+
+}  // namespace mmba::adjust::internal
