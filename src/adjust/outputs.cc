@@ -16,6 +16,7 @@
 #include "mmba/report/adjust_report.h"
 #include "mmba/core/error.h"
 #include "mmba/io/text_reader.h"
+#include "mmba/core/version.h"
 
 namespace mmba::adjust::internal {
 namespace {
@@ -434,6 +435,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, const fs::path& s
   fs::create_directories(stage / "calibration");
   json report;
   report["schema"] = "mmba-adjust-report-1";
+  RecordBuild(&report);
   report["project"] = project.name;
   {
     std::time_t now = std::time(nullptr);
