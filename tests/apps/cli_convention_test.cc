@@ -1,36 +1,23 @@
 // One command-line convention: a mistyped command or option is named first with the closest
 // valid name (exit 2); inputs as --input or a first argument; outputs as --output.
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <cstdio>
 #include <filesystem>
 #include <string>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "shell.h"
+
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-struct RunResult {
-  int exit_code = -1;
-  std::string output;
-};
+using mmba::test::RunResult;
 
-RunResult Mmba(const std::string& args) {
-  RunResult run;
-  FILE* pipe = popen((std::string(MMBA_EXECUTABLE) + " " + args + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return run;
-  char buffer[4096];
-  size_t n;
-  while ((n = fread(buffer, 1, sizeof(buffer), pipe)) > 0) run.output.append(buffer, n);
-  const int status = pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return run;
-}
+RunResult Mmba(const std::string& args) { return mmba::test::RunShell(std::string(MMBA_EXECUTABLE) + " " + args); }
 
 const std::string kNetwork = std::string(MMBA_SOURCE_DIR) + "/data/gama/gama-local.gkf";
 

@@ -27,27 +27,18 @@
 #include "mmba/registration/mi/image.h"
 #include "mmba/registration/mi/mi_registration.h"
 #include "../registration/mi/synthetic_scene.h"
+#include "shell.h"
 
 namespace mmba {
 namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-struct RunResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
+using mmba::test::RunResult;
 
 // `env_prefix`: e.g. "env -u X Y=1 " in front of the binary.
 RunResult Mmba(const std::string& args, const std::string& env_prefix = "") {
-  RunResult run;
-  const std::string command = env_prefix + std::string(MMBA_EXECUTABLE) + " " + args + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  char buffer[4096];
-  while (fgets(buffer, sizeof(buffer), pipe)) run.output += buffer;
-  const int status = pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return run;
+  return mmba::test::RunShell(env_prefix + std::string(MMBA_EXECUTABLE) + " " + args);
 }
 
 std::string ReadAll(const std::string& path) {

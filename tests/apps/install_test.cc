@@ -1,10 +1,8 @@
 // The installed mmba (`cmake --install`) runs on its own: it loads the image-codec module
 // from the install tree (bin/../lib/mmba), not from the build tree, and it states its version
 // and commit on --version and in its JSON outputs.
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -14,35 +12,22 @@
 #include <nlohmann/json.hpp>
 
 #include "mmba/core/version.h"
+#include "shell.h"
 
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-struct RunResult {
-  int exit_code = -1;
-  std::string output;  // stdout and stderr
-};
-
-RunResult Shell(const std::string& command) {
-  RunResult run;
-  FILE* pipe = popen((command + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return run;
-  char buffer[4096];
-  size_t n;
-  while ((n = fread(buffer, 1, sizeof(buffer), pipe)) > 0) run.output.append(buffer, n);
-  const int status = pclose(pipe);
-  run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return run;
-}
+using mmba::test::RunResult;
+using mmba::test::RunShell;
 
 class InstallTest : public ::testing::Test {
  protected:
   void SetUp() override {
     prefix_ = fs::path(testing::TempDir()) / ("mmba_install_" + std::to_string(getpid()));
     fs::remove_all(prefix_);
-    const RunResult install = Shell(std::string(MMBA_CMAKE_COMMAND) + " --install " + MMBA_BINARY_DIR +
+    const RunResult install = RunShell(std::string(MMBA_CMAKE_COMMAND) + " --install " + MMBA_BINARY_DIR +
                                   " --prefix " + prefix_.string());
     ASSERT_EQ(install.exit_code, 0) << install.output;
     mmba_ = (prefix_ / "bin" / "mmba").string();
@@ -55,7 +40,7 @@ class InstallTest : public ::testing::Test {
 };
 
 TEST_F(InstallTest, VersionNamesTheReleaseAndTheCommit) {
-  const RunResult run = Shell(mmba_ + " --version");
+  const RunResult run = RunShell(mmba_ + " --version");
   EXPECT_EQ(run.exit_code, 0);
   EXPECT_EQ(run.output, mmba::VersionLine() + "\n");
   EXPECT_THAT(run.output, ::testing::StartsWith(std::string("mmba ") + mmba::Version() + " (commit "));
@@ -67,7 +52,7 @@ TEST_F(InstallTest, ReadsImagesWithTheInstalledCodecModule) {
   const std::string kitti = std::string(MMBA_SOURCE_DIR) + "/data/kitti";
   if (!fs::exists(kitti + "/image_2/000000.png")) GTEST_SKIP() << "no KITTI sample";
   const std::string out = (prefix_ / "mi.json").string();
-  const RunResult run = Shell("env -u MMBA_IMAGE_CODECS_MODULE " + mmba_ + " register-mi --lidar " + kitti +
+  const RunResult run = RunShell("env -u MMBA_IMAGE_CODECS_MODULE " + mmba_ + " register-mi --lidar " + kitti +
                             "/velodyne/000000.bin --image " + kitti + "/image_2/000000.png --kitti-calib " +
                             kitti + "/calib/000000.txt --output " + out + " --verbose");
   EXPECT_TRUE(run.exit_code == 0 || run.exit_code == 3) << run.output;  // registered or not: the image was read
@@ -79,7 +64,7 @@ TEST_F(InstallTest, ReadsImagesWithTheInstalledCodecModule) {
 TEST_F(InstallTest, JsonOutputsRecordVersionAndCommit) {
   const std::string out = (prefix_ / "net").string();
   const RunResult run =
-      Shell(mmba_ + " survey --input " + std::string(MMBA_SOURCE_DIR) + "/data/gama/gama-local.gkf --output " + out + " -q");
+      RunShell(mmba_ + " survey --input " + std::string(MMBA_SOURCE_DIR) + "/data/gama/gama-local.gkf --output " + out + " -q");
   ASSERT_EQ(run.exit_code, 0) << run.output;
   std::ifstream in(out + "/adjusted.json");
   const nlohmann::json j = nlohmann::json::parse(in);
