@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Bench (issue 7, scale): `mmba adjust` on the simulated drive — 200 rig frames and panoramas,
+"""Bench (scale): `mmba adjust` on the simulated drive — 200 rig frames and panoramas,
 >= 50 M mobile LiDAR points — with time and peak memory; and the same project of a smaller
 drive with the large cloud swapped in, to show that memory does not grow with the cloud.
 

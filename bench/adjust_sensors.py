@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Bench (issue 7): `mmba adjust` on a simulated scene with every sensor, then with one
+"""Bench: `mmba adjust` on a simulated scene with every sensor, then with one
 sensor group removed at a time — does each sensor add the information it should?
 
   bench/adjust_sensors.py MMBA_BINARY SCENE PRESET WORK_DIR     e.g. build/apps/mmba cathedral small /tmp/adj

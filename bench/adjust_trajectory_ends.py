@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Bench (issue 7): the mobile LiDAR trajectory correction per node against the simulator's truth.
+"""Bench: the mobile LiDAR trajectory correction per node against the simulator's truth.
 
   bench/adjust_trajectory_ends.py SIM_DIR ADJUST_OUTPUT [all]
 

@@ -1,4 +1,4 @@
-// Cost of one MI evaluation (issue 6 speed): the synthetic street of mi_speed (940×452
+// Cost of one MI evaluation: the synthetic street of mi_speed (940×452
 // pinhole view, N million points with intensity), evaluated at the true pose and at small
 // offsets, per pyramid level, by rendering the z-buffer (FrameSetEvaluator::Evaluate) and
 // from point samples with the visibility frozen at the true pose (point_samples.h).
@@ -42,7 +42,7 @@ int main(int argc, char** argv) {
   frame.views = MakeViews(photo, camera, ViewOptions(), "street");
   frame.points = &points;
   RegistrationOptions options;
-  options.point_samples = true;  // the default since 2 Dec; explicit here
+  options.point_samples = true;  // the default; explicit here
   if (argc > 3) options.threads = std::atoi(argv[3]);
   const bool per_point = argc > 4 ? std::atoi(argv[4]) != 0 : true;
   const bool with_rendered = argc > 5 ? std::atoi(argv[5]) != 0 : true;

@@ -1,6 +1,6 @@
-// MI registration on the real KITTI frame (issue 6): start from the factory calibration
-// perturbed by 0.1 m and 1° in known directions, register, and report the pixel offsets of
-// the LiDAR points projected with the result against the calibration's own, before/after.
+// MI registration on the real KITTI frame: start from the factory calibration perturbed by
+// 0.1 m and 1° in known directions, register, and report the pixel offsets of the LiDAR points
+// projected with the start and with the result against the calibration's own.
 //   mi_kitti [DATA_DIR=data/kitti] [METRIC=nmi] [REGION=overlap] [BINS=64] [BOUND_M=0.5]
 //            [BOUND_DEG=3] [STARTS=0,1,...,7]
 // STARTS: indices 0..7 (the default) = each axis alone, then (+0.1, -0.1, +0.1; +1, -1, +1)
@@ -65,7 +65,7 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_SAMPLES_IN_CHECKS")) {
     options.point_samples_in_checks = std::atoi(v) != 0;
   }
-  // MI_COV_PER_POINT=0: the covariance fit on per-pixel samples (the default until 2 Dec).
+  // MI_COV_PER_POINT=0: the covariance fit on per-pixel samples.
   if (const char* v = std::getenv("MI_COV_PER_POINT")) {
     options.covariance_per_point_samples = std::atoi(v) != 0;
   }
@@ -83,7 +83,7 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_SURFACE_CLASSES"); v != nullptr && std::atof(v) > 0) {
     options.metric.lidar_classes = 2;
   }
-  // MI_ALL_CHECKS=1: every acceptance check measured also after one failed (as before 1 Dec, night).
+  // MI_ALL_CHECKS=1: every acceptance check measured also after one failed.
   if (const char* v = std::getenv("MI_ALL_CHECKS")) options.measure_all_checks = std::atoi(v) != 0;
   if (const char* v = std::getenv("MI_POLISH")) options.polish_rounds = std::atoi(v);
   if (const char* v = std::getenv("MI_POINT_RADIUS_M")) {
@@ -125,7 +125,7 @@ int main(int argc, char** argv) {
       io::ReadKittiCalibration(dir + "/calib/000000.txt"), 2, image.width, image.height);
   // register-mi's default for a KITTI scan: the intensity corrected for the angle of incidence
   // with the scanner at the velodyne's origin and the exponent fitted to the scan
-  // (IncidenceCorrection); MI_INCIDENCE=0: as measured (the figures before session 33).
+  // (IncidenceCorrection); MI_INCIDENCE=0: the intensity as measured.
   const char* incidence_env = std::getenv("MI_INCIDENCE");
   LidarPoints points;
   if (incidence_env == nullptr || std::atoi(incidence_env) != 0) {
@@ -145,7 +145,7 @@ int main(int argc, char** argv) {
                          &points);
   }
   // register-mi --orientation-classes N (MI_ORIENTATION=N; by default register-mi's, none with
-  // MI_SURFACE_CLASSES; 0 = the plain metric, the figures before 4 Dec, session 31): seen
+  // MI_SURFACE_CLASSES; 0 = the plain metric): seen
   // from the calibration's camera centre.
   int sectors = points.classes > 1 ? 0 : kDefaultOrientationSectors;
   float voxel = static_cast<float>(kDefaultSurfaceVoxelM);

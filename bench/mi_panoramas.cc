@@ -1,4 +1,4 @@
-// MI registration on simulated panoramas and rig images (issue 6, "what it must show"): a
+// MI registration on simulated panoramas, rig images and photos: a
 // folder written by `mmba simulate` gives the spherical panoramas (`spherical_stereo`
 // stations, lower and upper), the rig's stitched panoramas (`rig_panoramas`) and the rig's
 // fisheye images (`rig`), their true poses and camera models (truth/truth.json), and the
@@ -19,8 +19,8 @@
 // collection's pinhole images; use CLOUD=static, the photos face the front). VIEW (panoramas
 // only; fisheye images and photos are registered whole): perspective | equirect | cube.
 // Writes OUT_DIR/runs.csv (one row per registration), OUT_DIR/hist_views.csv and
-// hist_views.svg (per-view median offset before/after), OUT_DIR/hist_points.csv and
-// hist_points.svg (offsets of all points, pooled), and prints a summary.
+// hist_views.svg (per-view median offset at the start and at the result), OUT_DIR/
+// hist_points.csv and hist_points.svg (offsets of all points, pooled), and prints a summary.
 // MI_INCIDENCE=0 leaves the mobile cloud's intensity uncorrected for the angle of incidence
 // (default: corrected, IncidenceCorrection, with the true trajectory); MI_INCIDENCE=static
 // corrects the static model too, by scan (an experiment; by default it is not corrected).
@@ -34,8 +34,8 @@
 // start, MI_THREADS the registration's threads (default 2), MI_RESTARTS / MI_RESTART_OFFSET
 // ("m,deg") the restarts, MI_POINT_RADIUS ("m,px") the registration's z-buffer footprint
 // (the cuts' headings and the scoring keep the default), MI_SAMPLE_BLOCK the per-point
-// samples' block (RegistrationOptions::sample_block_px; 0 = the won-pixel samples of
-// before session 18), MI_WHOLE_IMAGE_CHECKS=0 switches the
+// samples' block (RegistrationOptions::sample_block_px; 0 = each visible point sampled at its
+// nearest won pixel), MI_WHOLE_IMAGE_CHECKS=0 switches the
 // whole-panorama check off, MI_WEAK_SCAN=0 the scan along the weakly observed direction
 // (RegistrationOptions::scan_weak_direction); each
 // registration prints its whole-image checks and a `digest` line (RegistrationResult::Digest,
@@ -377,7 +377,7 @@ int main(int argc, char** argv) {
   // cloud does not carry: never corrected here.
   const char* incidence_env = std::getenv("MI_INCIDENCE");
   const bool incidence = cloud_kind == "mobile" && (incidence_env == nullptr || std::atoi(incidence_env) != 0);
-  // MI_INCIDENCE=static (an experiment, session 33): the static model corrected too, each
+  // MI_INCIDENCE=static (an experiment): the static model corrected too, each
   // point's scanner the delivered registration's centre of the scan it came from (the
   // simulator writes clouds/lidar.ply as the scans in order, truth.json gives their sizes).
   const bool static_incidence = cloud_kind == "static" && incidence_env != nullptr &&
@@ -449,7 +449,7 @@ int main(int argc, char** argv) {
   // MI_ORIENTATION="sectors[,voxel]": register-mi --orientation-classes sectors
   // [--surface-voxel-m voxel]: the classes seen from each start's camera centre. By default
   // register-mi's (kDefaultOrientationSectors, 0.5 m; none with MI_SURFACE_CLASSES);
-  // MI_ORIENTATION=0: the plain metric (the figures before 4 Dec, session 31).
+  // MI_ORIENTATION=0: the plain metric.
   const char* surface_env = std::getenv("MI_SURFACE_CLASSES");
   int orientation_sectors =
       surface_env != nullptr && std::atof(surface_env) > 0 ? 0 : kDefaultOrientationSectors;
@@ -466,9 +466,7 @@ int main(int argc, char** argv) {
               views.size(), setup.ElapsedSeconds());
 
   // Both sizes are always drawn (in this order), MAGNITUDES only selects which are run: a
-  // start does not depend on which sizes are run. (Before 1 Dec 2026, "small"/"large" drew
-  // only their own size, so their starts differed from those of "both" for every view but
-  // the first.)
+  // start does not depend on which sizes are run.
   const std::vector<std::pair<double, double>> sizes = {{0.1, 1.0}, {0.3, 2.0}};
   auto size_selected = [&](double max_m) {
     return magnitudes == "both" || (magnitudes == "small") == (max_m == 0.1);
@@ -485,7 +483,7 @@ int main(int argc, char** argv) {
   if (const char* v = std::getenv("MI_SAMPLES_IN_CHECKS")) {
     options.point_samples_in_checks = std::atoi(v) != 0;
   }
-  // MI_COV_PER_POINT=0: the covariance fit on per-pixel samples (the default until 2 Dec).
+  // MI_COV_PER_POINT=0: the covariance fit on per-pixel samples.
   if (const char* v = std::getenv("MI_COV_PER_POINT")) {
     options.covariance_per_point_samples = std::atoi(v) != 0;
   }
@@ -520,7 +518,7 @@ int main(int argc, char** argv) {
   if (orientation_sectors > 0) options.metric.lidar_classes = orientation_sectors + 3;
   // MI_BINS: the joint histogram's bins per axis (register-mi --bins).
   if (const char* v = std::getenv("MI_BINS")) options.metric.bins = std::atoi(v);
-  // MI_ALL_CHECKS=1: every acceptance check measured also after one failed (as before 1 Dec, night).
+  // MI_ALL_CHECKS=1: every acceptance check measured also after one failed.
   if (const char* v = std::getenv("MI_ALL_CHECKS")) options.measure_all_checks = std::atoi(v) != 0;
   if (const char* v = std::getenv("MI_RESTART_OFFSET")) {  // "m,deg"
     std::sscanf(v, "%lf,%lf", &options.restart_offset_m, &options.restart_offset_deg);

@@ -10,11 +10,10 @@ whole-panorama median offset against
     "actual / calibrated"),
   * the whole-panorama sigma of the reported covariance (the image's Laplace sigma times
     sqrt(covariance_factor), covariance_factor = max(views' factor, whole-image factor) as
-    RegisterFrames computes it; logs of builds before 2 Dec reported the views' factor only:
-    the same formula gives what the new covariance would have been),
-and the Mahalanobis² of the 6 parameters' error under the reported covariance (as printed:
-builds before 2 Dec used the views' factor; chi²(6): median 5.35, mean 6), the median CPU per
-registration.
+    RegisterFrames computes it; for a log whose covariance used the views' factor only, the
+    same formula gives the covariance with both factors),
+and the Mahalanobis² of the 6 parameters' error under the reported covariance (as printed;
+chi²(6): median 5.35, mean 6), the median CPU per registration.
 """
 import re
 import statistics

@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""The issue-6 must-show through the command line a user types, on an `mmba simulate` output.
+"""MI registration of simulated panoramas through the command line a user types, on an
+`mmba simulate` output.
 
 For each simulated panorama (the spherical stations' lower and upper images, the rig's stitched
 panoramas) it runs

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Summary of bench/mi_panoramas runs (issue 6): fractions of views < 1 px, wrong "ok" results,
+"""Summary of bench/mi_panoramas runs: fractions of views < 1 px, wrong "ok" results,
 predicted against actual pixel error, and the histograms of the per-view median pixel offset
 before and after registration (CSV + SVG, like Wang et al. 2012's histograms).
 

@@ -16,8 +16,8 @@ Usage:
 --calib nominal: SIM/calib/ladybug.yaml (design intrinsics, factory cam_from_rig: what a user
 has); true: the simulator's true intrinsics and cam_from_rig from truth/truth.json.
 The mobile cloud's intensity is corrected for the angle of incidence when register-mi knows the
-scanner: a simulation from session 43 on has the sidecar truth/mobile_lidar_true.scanner.yaml
-(corrected by default); an older one only with --extra "--trajectory … --lidar-mount …".
+scanner: the simulator writes the sidecar truth/mobile_lidar_true.scanner.yaml (corrected by
+default); a folder without it needs --extra "--trajectory … --lidar-mount …".
 --extra "--incidence-correction off" gives the intensity as measured.
 Writes OUTDIR/runs.csv and OUTDIR/<frame>_<size>_<draw>.json and prints a summary.
 """

@@ -1,7 +1,7 @@
-// MI registration speed and accuracy (issue 6): a synthetic street cloud of N points with
+// MI registration speed and accuracy: a synthetic street cloud of N points with
 // intensity, a ray-cast photo (940×452 pinhole view, the paper's view size) from a known pose,
 // registration from a start perturbed by 0.1 m and 1°. Prints wall time, evaluations, peak
-// memory and pixel offsets before/after for each representation.
+// memory and pixel offsets at the start and at the result for each representation.
 //   mi_speed [MILLION_POINTS=1] [REPRESENTATION=all|intensity|points|depth] [STARTS=1]
 // STARTS = 1: the start below; 6: also five more (0.1 m / 1° and 0.3 m / 2°, mixed signs).
 // MMBA_DEBUG=1 in the environment logs each stage (time, evaluations). MI_ORIENTATION=N: the
@@ -114,7 +114,7 @@ int main(int argc, char** argv) {
     if (const char* v = std::getenv("MI_SAMPLES_IN_CHECKS")) {
       options.point_samples_in_checks = std::atoi(v) != 0;
     }
-    // MI_COV_PER_POINT=0: the covariance fit on per-pixel samples (the default until 2 Dec).
+    // MI_COV_PER_POINT=0: the covariance fit on per-pixel samples.
     if (const char* v = std::getenv("MI_COV_PER_POINT")) {
       options.covariance_per_point_samples = std::atoi(v) != 0;
     }
@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
     if (const char* v = std::getenv("MI_PATHS_ADAPTIVE")) {
       options.pyramid_paths_adaptive = std::atoi(v) != 0;
     }
-    // MI_ALL_CHECKS=1: every acceptance check measured also after one failed (as before 1 Dec, night).
+    // MI_ALL_CHECKS=1: every acceptance check measured also after one failed.
     if (const char* v = std::getenv("MI_ALL_CHECKS")) options.measure_all_checks = std::atoi(v) != 0;
     // Points-only images carry information only against the empty background.
     if (r == Representation::kPoints) options.metric.region = Region::kWholeImage;

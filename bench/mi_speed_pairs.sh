@@ -1,13 +1,13 @@
 #!/usr/bin/env bash
-# MI registration speed, before/after a change (issue 6): each bench run by two builds at the
-# same time, one thread each, so that both see the same load on a shared machine; compare the
-# process CPU (user + sys) and peak RSS of /usr/bin/time -v, and the result digests (equal =
-# the change did not alter any result). Used for bench/RESULTS.md "Speed, session of 1 Dec
-# (evening)".
+# MI registration speed of two builds of a change (a reference build and the changed one): each
+# bench run by both builds at the same time, one thread each, so that both see the same load on
+# a shared machine; compares the process CPU (user + sys) and peak RSS of /usr/bin/time -v, and
+# the result digests (equal = the change did not alter any result). bench/RESULTS.md, "Speed
+# of two builds".
 #   [AFTER_ENV="VAR=value ..."] bench/mi_speed_pairs.sh BEFORE_BENCH_DIR AFTER_BENCH_DIR OUT_DIR [KITTI_DIR=data/kitti]
-# AFTER_ENV: extra environment for the new build only (e.g. MI_ALL_CHECKS=1: the new build
-# measuring every check as the old one did, so that the digests must be equal).
-# e.g. BEFORE = a Release build of the old commit (git archive OLD | tar -x -C SRC; cmake SRC
+# AFTER_ENV: extra environment for the changed build only (e.g. MI_ALL_CHECKS=1: the changed
+# build measuring every check after a failed one too, so that the digests must be equal).
+# e.g. BEFORE = a Release build of the reference commit (git archive OLD | tar -x -C SRC; cmake SRC
 # -DCMAKE_BUILD_TYPE=Release; make mi_speed mi_kitti), AFTER = build-mi/bench.
 set -euo pipefail
 B=$1; N=$2; O=$3; KITTI=${4:-data/kitti}

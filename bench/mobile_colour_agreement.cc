@@ -1,4 +1,4 @@
-// How well `mmba adjust` coloured a simulated mobile cloud (issue 7): the colours of
+// How well `mmba adjust` coloured a simulated mobile cloud: the colours of
 // <out>/<id>_corrected.ply against the simulated scene itself. For an even sample of the points,
 // the surface at the point's TRUE position (truth/mobile_lidar_true.ply, same order) is found
 // by a ray from the true rig frame nearest in time; its grey as the renderer made it — the

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Clouds that do not overlap must be refused: `mmba register-cloud` on two pieces of one real
-cloud with a gap between them (bench/RESULTS.md, issue 5, "Normals retried").
+cloud with a gap between them (bench/RESULTS.md, "Normals retried").
 
 Each of office1, the table scene and the milk carton (PCL's test clouds) is cut along x and
 along y into the lowest 40 % and the highest 40 % of its 2–98 % extent (a gap of 20 %); the

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The normals retry of `mmba register-cloud` on PCL's table scene (bench/RESULTS.md, issue 5,
+"""The normals retry of `mmba register-cloud` on PCL's table scene (bench/RESULTS.md,
 "Normals retried").
 
 Cuts table_scene_mug_stereo_textured.pcd along y into two pieces sharing 40 % of the extent

@@ -6,7 +6,7 @@ known alignment), moves the source by a random rigid transform (any rotation, a 
 order of the cloud's extent), runs `mmba register-cloud` with its default settings and
 compares the result with the truth: RMS of ||T·p − T_true·p|| over the source. A case is
 "right" when that RMS is below `--right-spacings` × the source's point spacing, else
-"wrong". A "wrong ok" is the failure the issue forbids; "failed" is an honest refusal.
+"wrong". A "wrong ok" is the failure that must not happen; "failed" is an honest refusal.
 
 Usage (Debian's python3 with numpy and open3d, for reading PCD/PLY and writing PLY):
   /usr/bin/python3 bench/register_real_sweep.py MMBA OUTDIR [--draws N] [--seed S]

@@ -1,8 +1,7 @@
 #!/usr/bin/python3
 """Writes clouds/<m>.viewpoints.txt (sensor positions in each cloud's own frame) for a scene
-folder written by `mmba simulate` before 2 Dec 2026 (since then the simulator writes them
-itself, with the LiDAR model's registered rather than true station positions), for the
-free-space test of `mmba register-eval`.
+folder that lacks them (`mmba simulate` writes them itself, with the LiDAR model's registered
+rather than true station positions), for the free-space test of `mmba register-eval`.
 
 A data provider has these natively: a scanner's stations in its registered model, the camera
 centres of a multi-view reconstruction in its frame, the stereo stations of a spherical-stereo

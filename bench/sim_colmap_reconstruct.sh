@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Bench (issue 3): COLMAP's own SIFT feature extraction, exhaustive matching and incremental
+# Bench: COLMAP's own SIFT feature extraction, exhaustive matching and incremental
 # mapping on the photo collection of a simulated scene, then a similarity alignment of the
 # reconstructed camera centres to the true ones (colmap model_aligner) to measure how well
 # real detection works on the renders.

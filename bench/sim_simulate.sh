@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Bench (issue 3): wall time and peak memory of `mmba simulate` for a scene and preset.
+# Bench: wall time and peak memory of `mmba simulate` for a scene and preset.
 #   bench/sim_simulate.sh MMBA_BINARY SCENE PRESET OUT_DIR     e.g. build/apps/mmba gate small /tmp/simgate
 set -euo pipefail
 mmba=${1:?mmba binary}

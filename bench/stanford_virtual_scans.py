@@ -1,11 +1,11 @@
 #!/usr/bin/python3
 """Virtual range scans of the Stanford bunny for every view of `bun.conf`.
 
-Only bun000 and bun045 of the ten Stanford bunny scans are in ../shared/data; the issue checks
-"the Stanford range scans registered pairwise to their bun.conf alignment" on all of them. This
+Only bun000 and bun045 of the ten Stanford bunny scans are in ../shared/data; the Stanford range
+scans registered pairwise to their bun.conf alignment are wanted on all of them. This
 module renders the other views from the zipper reconstruction (`bun_zipper_res2.ply`, in
 bun000's frame), so that the default `mmba register-cloud` can be tried on the pairs with less
-overlap (90° apart, the top, chin and ear views) before they are checked for real.
+overlap (90° apart, the top, chin and ear views) without the real scans.
 
 A scan: parallel rays (the Cyberware 3030's linear sweep) along the view direction
 R(q)ᵀ·(0, 0, −1) of the scan's bun.conf pose (p_common = R(q)ᵀ p + t; bun000 looks along −z),

@@ -1,4 +1,4 @@
-// Survey benchmark (issue 4): a simulated 3-D total-station network of 1,000 points and
+// Survey benchmark: a simulated 3-D total-station network of 1,000 points and
 // ~10,000 observations (directions, slope distances, zenith angles from 334 set-ups to
 // their 10 nearest points) is adjusted with the covariance of every point and the statistics
 // of every observation; prints wall time per stage and peak memory.
