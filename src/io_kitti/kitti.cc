@@ -13,6 +13,7 @@
 #include "mmba/core/atomic_file.h"
 #include "mmba/core/error.h"
 #include "mmba/io/colmap_model.h"
+#include "mmba/io/pose_json.h"
 #include "mmba/io/text_reader.h"
 #include "mmba/io/yaml_reader.h"
 
@@ -38,19 +39,6 @@ Eigen::Matrix<double, 3, 4> Matrix3x4(const CalibRow& row) {
     for (int c = 0; c < 4; ++c) m(r, c) = row.values[4 * r + c];
   }
   return m;
-}
-
-void CheckRotation(const Eigen::Matrix3d& rotation, const std::string& file, int64_t line,
-                   const std::string& field, double tolerance) {
-  const double orthonormality =
-      (rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-  const double det = rotation.determinant();
-  if (!(orthonormality <= tolerance) || !(std::abs(det - 1.0) <= tolerance)) {
-    throw InputError(file, line, field,
-                     "rotation with |R·Rᵀ − I| = " + Num(orthonormality) +
-                         ", det = " + Num(det),
-                     "an orthonormal rotation (det +1) within " + Num(tolerance));
-  }
 }
 
 }  // namespace
@@ -256,28 +244,6 @@ KittiCameraPose KittiCamera(const KittiCalibration& calibration, int index, uint
   const Eigen::Matrix4d cam_from_lidar = shift * rect * velo;
   result.cam_from_lidar = Rigid3d::FromMatrix(cam_from_lidar.topRows<3>());
   return result;
-}
-
-Rigid3d RigidFromRowMajor4x4(const double* v, const std::string& where,
-                             const std::string& field, double tolerance) {
-  for (int i = 0; i < 16; ++i) {
-    if (!std::isfinite(v[i])) {
-      throw InputError::Message(where, "field '" + field + "': element " + std::to_string(i) +
-                                           " is not finite, expected a number");
-    }
-  }
-  if (std::abs(v[12]) > tolerance || std::abs(v[13]) > tolerance ||
-      std::abs(v[14]) > tolerance || std::abs(v[15] - 1.0) > tolerance) {
-    throw InputError::Message(where, "field '" + field + "': last row is (" + Num(v[12]) +
-                                         " " + Num(v[13]) + " " + Num(v[14]) + " " +
-                                         Num(v[15]) + "), expected (0 0 0 1)");
-  }
-  Eigen::Matrix<double, 3, 4> m;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 4; ++c) m(r, c) = v[4 * r + c];
-  }
-  CheckRotation(m.leftCols<3>(), where, 0, field, tolerance);
-  return Rigid3d::FromMatrix(m);
 }
 
 Rigid3d ReadLidarMountYaml(const std::string& path) {

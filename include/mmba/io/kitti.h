@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include "mmba/geometry/rigid3d.h"
+#include "mmba/io/pose_json.h"  // RigidFromRowMajor4x4, CheckRotation
 #include "mmba/io/yaml_reader.h"
 #include "mmba/sensors/camera.h"
 
@@ -99,10 +100,5 @@ Rigid3d ReadLidarMountYaml(const std::string& path);
 /// InputError naming `field` unless 4 + 3 numbers and a unit quaternion (within 1e-3).
 Rigid3d ReadYamlPose(const YamlReader& reader, const YAML::Node& node, const std::string& field);
 
-/// A 4×4 row-major matrix from 16 numbers as a rigid transform; throws InputError (naming
-/// `where` and `field`) unless the last row is (0 0 0 1) and the rotation is orthonormal
-/// within `tolerance`.
-Rigid3d RigidFromRowMajor4x4(const double* values16, const std::string& where,
-                             const std::string& field, double tolerance = 1e-4);
 
 }  // namespace mmba::io

@@ -12,6 +12,7 @@
 #include "mmba/core/logging.h"
 #include "mmba/io/kitti.h"
 #include "mmba/io/point_cloud.h"
+#include "mmba/io/pose_json.h"
 #include "mmba/io/text_reader.h"
 #include "mmba/io/trajectory.h"
 #include "mmba/registration/mi/result_json.h"
@@ -21,49 +22,7 @@ namespace mmba::registration::mi {
 
 using internal::JobBuilder;
 
-namespace {
-
 namespace fs = std::filesystem;
-
-Rigid3d ReadPoseJson(const std::string& path, const std::string& key) {
-  const std::string text = io::ReadWholeFile(path);
-  nlohmann::json json;
-  // The last key read names the field of a number out of range (1e400), which nlohmann
-  // reports without a position.
-  std::string last_key = "json";
-  const nlohmann::json::parser_callback_t track_key = [&last_key](int, nlohmann::json::parse_event_t event,
-                                                                 nlohmann::json& parsed) {
-    if (event == nlohmann::json::parse_event_t::key && parsed.is_string()) last_key = parsed.get<std::string>();
-    return true;
-  };
-  try {
-    json = nlohmann::json::parse(text, track_key);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError::AtByte(path, e.byte, "json", e.what(), "valid JSON");
-  } catch (const nlohmann::json::exception& e) {
-    // e.g. "[json.exception.out_of_range.406] number overflow parsing '1e400'"
-    std::string found = e.what();
-    const size_t quote = found.find('\'');
-    if (quote != std::string::npos) found = found.substr(quote + 1, found.rfind('\'') - quote - 1);
-    int64_t line = 0;
-    if (const size_t at = text.find(found); quote != std::string::npos && at != std::string::npos) {
-      line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n');
-    }
-    throw InputError(path, line, last_key, found, "a finite number (a double)");
-  }
-  if (!json.is_object() || !json.contains(key)) {
-    throw InputError(path, 0, key, "(missing)",
-                     "an object with \"" + key + "\": 16 numbers (4x4 row-major) or 4 rows of 4");
-  }
-  double v[16];
-  std::string problem;
-  if (!Matrix4FromJson(json[key], v, &problem)) {
-    throw InputError(path, 0, key, problem, "16 numbers (4x4 row-major) or 4 rows of 4 numbers");
-  }
-  return io::RigidFromRowMajor4x4(v, path, key);
-}
-
-}  // namespace
 
 namespace internal {
 
@@ -323,7 +282,7 @@ void JobBuilder::StartPose() {
   const std::string pose_key = rig_mode ? "rig_from_lidar" : "cam_from_lidar";
   start = cam_from_lidar_calibration;
   if (!request.initial.empty()) {
-    start = ReadPoseJson(request.initial, pose_key);
+    start = io::ReadPoseJson(request.initial, pose_key);
   } else if (!have_calibration_pose) {
     throw InputError::Message(rig_mode ? request.rig : request.camera,
                               "no " + pose_key + " in the " + (rig_mode ? "rig" : "camera") +

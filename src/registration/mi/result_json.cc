@@ -7,47 +7,6 @@ namespace mmba::registration::mi {
 
 using json = nlohmann::json;
 
-json PoseToJson(const Rigid3d& pose) {
-  const Eigen::Matrix4d m = pose.ToMatrix4();
-  json rows = json::array();  // 4 rows of 4, as register-cloud's target_from_source
-  for (int r = 0; r < 4; ++r) rows.push_back({m(r, 0), m(r, 1), m(r, 2), m(r, 3)});
-  return rows;
-}
-
-bool Matrix4FromJson(const json& value, double row_major[16], std::string* problem) {
-  auto number = [&](const json& v, const std::string& where, double* out) {
-    if (!v.is_number()) {
-      *problem = where + " is " + v.dump().substr(0, 40) + ", not a number";
-      return false;
-    }
-    *out = v.get<double>();
-    return true;
-  };
-  if (value.is_array() && value.size() == 16) {
-    for (int i = 0; i < 16; ++i) {
-      if (!number(value[i], "value " + std::to_string(i), &row_major[i])) return false;
-    }
-    return true;
-  }
-  if (value.is_array() && value.size() == 4) {
-    for (int r = 0; r < 4; ++r) {
-      if (!value[r].is_array() || value[r].size() != 4) {
-        *problem = "row " + std::to_string(r) + " is " + value[r].dump().substr(0, 40) +
-                   ", not 4 numbers";
-        return false;
-      }
-      for (int c = 0; c < 4; ++c) {
-        const std::string where = "[" + std::to_string(r) + "][" + std::to_string(c) + "]";
-        if (!number(value[r][c], where, &row_major[4 * r + c])) return false;
-      }
-    }
-    return true;
-  }
-  *problem = value.is_array() ? "a list of " + std::to_string(value.size()) + " values"
-                              : value.dump().substr(0, 40);
-  return false;
-}
-
 json CorrectionToJson(const Vector6d& c) {
   return {{"tx", c[0]}, {"ty", c[1]}, {"tz", c[2]}, {"roll", c[3]}, {"pitch", c[4]}, {"yaw", c[5]}};
 }
