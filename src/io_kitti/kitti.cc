@@ -234,7 +234,7 @@ KittiCameraPose KittiCamera(const KittiCalibration& calibration, int index, uint
   result.camera.width = width;
   result.camera.height = height;
   result.camera.params = {k(0, 0), k(1, 1), k(0, 2), k(1, 2)};
-  // cam_from_lidar = [I | K⁻¹·P[:,3]] · R0_rect · Tr_velo_to_cam (issue 6, item 7).
+  // cam_from_lidar = [I | K⁻¹·P[:,3]] · R0_rect · Tr_velo_to_cam.
   Eigen::Matrix4d rect = Eigen::Matrix4d::Identity();
   rect.topLeftCorner<3, 3>() = calibration.r0_rect;
   Eigen::Matrix4d velo = Eigen::Matrix4d::Identity();

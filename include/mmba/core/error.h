@@ -37,8 +37,7 @@ class InputError : public std::runtime_error {
 
 /// A readable cloud holding a point with a NaN/Inf coordinate (or normal, intensity, time):
 /// an InputError (exit 2) wherever it is not caught, but the file itself is readable, so
-/// register-cloud reports it as a failed registration with the reason (issue 5: NaN/Inf
-/// points → status "failed").
+/// register-cloud reports it as a failed registration (status "failed") with the reason.
 class NonFiniteInput : public InputError {
  public:
   explicit NonFiniteInput(const InputError& error) : InputError(error) {}

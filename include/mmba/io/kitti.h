@@ -45,7 +45,7 @@ struct KittiCameraPose {
 
 /// Camera `index` (2 = left colour) of a calibration: PINHOLE from the left 3×3 K of P_i and
 ///   cam_from_lidar = [I | K⁻¹·P_i[:,3]] · R0_rect · Tr_velo_to_cam,
-/// so that K · (cam_from_lidar · X) equals P_i · R0_rect · Tr_velo_to_cam · X (issue 6).
+/// so that K · (cam_from_lidar · X) equals P_i · R0_rect · Tr_velo_to_cam · X.
 /// Width and height are those of the image (KITTI does not store them in the calibration).
 /// Throws InputError when K is singular or not upper triangular with zero skew, or when the
 /// calibration does not hold P_index.
