@@ -1,0 +1,201 @@
+#include "mmba/io/camera_yaml.h"
+
+#include <cmath>
+#include <set>
+#include <sstream>
+
+#include <yaml-cpp/yaml.h>
+
+#include "mmba/core/atomic_file.h"
+#include "mmba/core/error.h"
+#include "mmba/io/colmap_model.h"
+#include "mmba/io/pose_json.h"
+
+namespace mmba::io {
+namespace {
+
+std::string Num(double v) {
+  std::ostringstream out;
+  out.precision(17);
+  out << v;
+  return out.str();
+}
+
+}  // namespace
+
+Rigid3d ReadLidarMountYaml(const std::string& path) {
+  const YamlReader r(path);
+  const YAML::Node root = r.Load("mobile LiDAR calibration");
+  std::optional<Rigid3d> mounting;
+  const auto ignore = [](const YAML::Node&, const std::string&) {};
+  r.Map(root, "", {{"body_from_lidar", [&](const YAML::Node& n, const std::string& f) { mounting = ReadYamlPose(r, n, f); }},
+                   {"beams", ignore}, {"elevation_deg", ignore}, {"rotation_hz", ignore}});
+  if (!mounting) r.Fail(root, "body_from_lidar", "the key to be present", "nothing");
+  return *mounting;
+}
+
+Rigid3d ReadYamlPose(const YamlReader& r, const YAML::Node& n, const std::string& f) {
+  std::vector<double> q, t;
+  r.Map(n, f, {{"qvec_wxyz", [&](const YAML::Node& v, const std::string& g) { q = r.NumberList(v, g); }},
+               {"tvec", [&](const YAML::Node& v, const std::string& g) { t = r.NumberList(v, g); }}});
+  if (q.size() != 4 || t.size() != 3) {
+    r.Fail(n, f, "{qvec_wxyz: [4 numbers], tvec: [3 numbers]}",
+           std::to_string(q.size()) + " and " + std::to_string(t.size()) + " numbers");
+  }
+  const Eigen::Quaterniond rotation(q[0], q[1], q[2], q[3]);
+  if (std::abs(rotation.norm() - 1.0) > 1e-3) {
+    r.Fail(n, f + ".qvec_wxyz", "a unit quaternion", "norm " + Num(rotation.norm()));
+  }
+  return Rigid3d(rotation.normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
+}
+
+namespace {
+
+/// 16 numbers row-major, or 4 rows of 4 numbers.
+Rigid3d Matrix4Pose(const YamlReader& r, const YAML::Node& n, const std::string& f) {
+  std::vector<double> v;
+  if (n.IsSequence() && n.size() == 4) {
+    for (size_t i = 0; i < 4; ++i) {
+      const std::vector<double> row = r.NumberList(n[i], f + "[" + std::to_string(i) + "]");
+      if (row.size() != 4) r.Fail(n[i], f + "[" + std::to_string(i) + "]", "a row of 4 numbers", std::to_string(row.size()) + " numbers");
+      v.insert(v.end(), row.begin(), row.end());
+    }
+  } else {
+    v = r.NumberList(n, f);
+    if (v.size() != 16) r.Fail(n, f, "16 numbers (4x4 row-major) or 4 rows of 4 numbers", std::to_string(v.size()) + " numbers");
+  }
+  return RigidFromRowMajor4x4(v.data(), r.path() + ":" + std::to_string(n.Mark().line + 1), f);
+}
+
+}  // namespace
+
+CameraYaml ReadCameraYaml(const std::string& path) {
+  const YamlReader r(path);
+  const YAML::Node root = r.Load("camera calibration");
+  // The keys in any order: the parameter count depends on the model.
+  std::optional<YAML::Node> model, width, height, params, pose;
+  const auto keep = [](std::optional<YAML::Node>* slot) {
+    return [slot](const YAML::Node& n, const std::string&) { slot->emplace(n); };
+  };
+  r.Map(root, "", {{"model", keep(&model)}, {"width", keep(&width)}, {"height", keep(&height)},
+                   {"params", keep(&params)}, {"cam_from_lidar", keep(&pose)}});
+  r.Require(root, "", {"model", "width", "height", "params"});
+  CameraYaml result;
+  const std::string model_name = r.String(*model, "model");
+  result.camera.model_id = sensors::CameraModelFromName(model_name);
+  if (result.camera.model_id == sensors::CameraModelId::kInvalid) {
+    r.Fail(*model, "model", "one of " + sensors::KnownCameraModelNames(), model_name);
+  }
+  const auto size = [&](const YAML::Node& n, const std::string& field) {
+    const double value = r.Number(n, field);
+    if (!(value >= 1 && value <= static_cast<double>(kMaxImageSidePx)) || value != std::floor(value)) {
+      r.Fail(n, field, "a whole number of pixels in 1.." + std::to_string(kMaxImageSidePx), YamlReader::Text(n));
+    }
+    return static_cast<uint64_t>(value);
+  };
+  result.camera.width = size(*width, "width");
+  result.camera.height = size(*height, "height");
+  const int expected = sensors::CameraModelNumParams(result.camera.model_id);
+  if (!params->IsSequence() || static_cast<int>(params->size()) != expected) {
+    r.Fail(*params, "params",
+           "a list of " + std::to_string(expected) + " values (" + sensors::CameraModelParamsInfo(result.camera.model_id) + ")",
+           params->IsSequence() ? std::to_string(params->size()) + " values" : "a " + YamlReader::Kind(*params));
+  }
+  result.camera.params = r.NumberList(*params, "params");
+  for (int i : sensors::CameraModelFocalIdxs(result.camera.model_id)) {
+    if (!(result.camera.params[i] > 0)) {
+      r.Fail((*params)[i], "params[" + std::to_string(i) + "]", "a positive focal length", Num(result.camera.params[i]));
+    }
+  }
+  if (pose) result.cam_from_lidar = Matrix4Pose(r, *pose, "cam_from_lidar");
+  return result;
+}
+
+RigYaml ReadRigYaml(const std::string& path) {
+  const YamlReader r(path);
+  const YAML::Node root = r.Load("rig calibration");
+  RigYaml rig;
+  r.Map(root, "",
+        {{"body_from_rig", [&](const YAML::Node& v, const std::string& g) { rig.body_from_rig = ReadYamlPose(r, v, g); }},
+         {"rig_from_lidar", [&](const YAML::Node& v, const std::string& g) { rig.rig_from_lidar = Matrix4Pose(r, v, g); }},
+         {"cameras", [&](const YAML::Node& n, const std::string& f) {
+            if (!n.IsSequence() || n.size() == 0) r.Fail(n, f, "a list of cameras", YamlReader::Kind(n));
+            for (size_t i = 0; i < n.size(); ++i) {
+              const std::string fi = f + "[" + std::to_string(i) + "]";
+              sensors::Camera camera;
+              std::string name, model;
+              Rigid3d cam_from_rig;
+              r.Map(n[i], fi,
+                    {{"name", [&](const YAML::Node& v, const std::string& g) { name = r.String(v, g); }},
+                     {"model", [&](const YAML::Node& v, const std::string& g) {
+                        model = r.String(v, g);
+                        camera.model_id = sensors::CameraModelFromName(model);
+                        if (camera.model_id == sensors::CameraModelId::kInvalid) {
+                          r.Fail(v, g, "one of " + sensors::KnownCameraModelNames(), model);
+                        }
+                      }},
+                     {"width", [&](const YAML::Node& v, const std::string& g) {
+                        const int size = r.Integer(v, g);
+                        if (size < 1 || static_cast<uint64_t>(size) > kMaxImageSidePx) {
+                          r.Fail(v, g, "a number of pixels in 1.." + std::to_string(kMaxImageSidePx), std::to_string(size));
+                        }
+                        camera.width = static_cast<uint64_t>(size);
+                      }},
+                     {"height", [&](const YAML::Node& v, const std::string& g) {
+                        const int size = r.Integer(v, g);
+                        if (size < 1 || static_cast<uint64_t>(size) > kMaxImageSidePx) {
+                          r.Fail(v, g, "a number of pixels in 1.." + std::to_string(kMaxImageSidePx), std::to_string(size));
+                        }
+                        camera.height = static_cast<uint64_t>(size);
+                      }},
+                     {"params", [&](const YAML::Node& v, const std::string& g) { camera.params = r.NumberList(v, g); }},
+                     {"cam_from_rig", [&](const YAML::Node& v, const std::string& g) { cam_from_rig = ReadYamlPose(r, v, g); }},
+                     {"sigma", [](const YAML::Node&, const std::string&) {}},
+                     {"cam_from_rig_tvec_sigma", [](const YAML::Node&, const std::string&) {}}});
+              r.Require(n[i], fi, {"name", "model", "width", "height", "params", "cam_from_rig"});
+              const int expected = sensors::CameraModelNumParams(camera.model_id);
+              if (static_cast<int>(camera.params.size()) != expected) {
+                r.Fail(n[i]["params"], fi + ".params", std::to_string(expected) + " numbers for " + model,
+                       std::to_string(camera.params.size()) + " numbers");
+              }
+              for (int k : sensors::CameraModelFocalIdxs(camera.model_id)) {
+                if (!(camera.params[k] > 0)) r.Fail(n[i]["params"], fi + ".params", "a positive focal length", Num(camera.params[k]));
+              }
+              if (std::find(rig.names.begin(), rig.names.end(), name) != rig.names.end()) {
+                r.Fail(n[i]["name"], fi + ".name", "a name no other camera has", name);
+              }
+              camera.camera_id = CameraId(static_cast<uint32_t>(i + 1));
+              rig.names.push_back(name);
+              rig.cameras.push_back(camera);
+              rig.cam_from_rig.push_back(cam_from_rig);
+            }
+          }},
+         {"beams", [](const YAML::Node&, const std::string&) {}}});
+  r.Require(root, "", {"cameras"});
+  return rig;
+}
+
+void WriteCameraYaml(const CameraYaml& camera_yaml, const std::string& path) {
+  WriteFileAtomically(path, [&](std::ostream& out) {
+    out.precision(17);
+    out << "# mmba camera (schema: calib/README.md)\n";
+    out << "model: " << camera_yaml.camera.ModelName() << "\n";
+    out << "width: " << camera_yaml.camera.width << "\n";
+    out << "height: " << camera_yaml.camera.height << "\n";
+    out << "params: [";
+    for (size_t i = 0; i < camera_yaml.camera.params.size(); ++i) {
+      out << (i ? ", " : "") << camera_yaml.camera.params[i];
+    }
+    out << "]\n";
+    if (camera_yaml.cam_from_lidar) {
+      const Eigen::Matrix4d m = camera_yaml.cam_from_lidar->ToMatrix4();
+      out << "cam_from_lidar: [";
+      for (int r = 0; r < 4; ++r) {
+        for (int c = 0; c < 4; ++c) out << ((r || c) ? ", " : "") << m(r, c);
+      }
+      out << "]\n";
+    }
+  });
+}
+
+}  // namespace mmba::io
