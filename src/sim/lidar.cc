@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "mmba/core/parallel_for.h"
 #include "mmba/sim/texture.h"
 #include "sim/random_internal.h"
 
@@ -178,7 +179,7 @@ LidarScan RunPulses(const RayCaster& caster, const SimScene& scene, size_t num_r
     double time_s = 0;
   };
   std::vector<Slot> slots(num_rays);
-  internal::ParallelFor(num_rays, threads, [&](size_t begin, size_t end) {
+  ParallelChunks(num_rays, threads, [&](size_t begin, size_t end) {
     for (size_t i = begin; i < end; ++i) {
       Eigen::Vector3d origin, direction;
       Rigid3d sensor_from_world;

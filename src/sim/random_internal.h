@@ -1,15 +1,12 @@
 #pragma once
 
-// Counter-based random numbers and a deterministic parallel loop for the simulator: every
-// ray draws from its own stream seeded by (seed, stream, index), so the output is the same
-// bytes whatever the number of threads.
+// Counter-based random numbers for the simulator: every ray draws from its own stream seeded by
+// (seed, stream, index), so with mmba::ParallelChunks the output is the same bytes whatever the
+// number of threads.
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <functional>
-#include <thread>
-#include <vector>
 
 namespace mmba::sim::internal {
 
@@ -46,22 +43,5 @@ class Rng {
  private:
   uint64_t state_;
 };
-
-/// Runs fn(begin, end) over [0, n) in `threads` contiguous chunks (threads <= 1: inline).
-inline void ParallelFor(size_t n, int threads, const std::function<void(size_t, size_t)>& fn) {
-  const size_t t = static_cast<size_t>(std::max(1, threads));
-  if (t == 1 || n < 2 * t) {
-    fn(0, n);
-    return;
-  }
-  std::vector<std::thread> workers;
-  const size_t chunk = (n + t - 1) / t;
-  for (size_t i = 0; i < t; ++i) {
-    const size_t begin = i * chunk, end = std::min(n, begin + chunk);
-    if (begin >= end) break;
-    workers.emplace_back(fn, begin, end);
-  }
-  for (auto& w : workers) w.join();
-}
 
 }  // namespace mmba::sim::internal

@@ -5,6 +5,7 @@
 #include <limits>
 #include <sstream>
 
+#include "mmba/core/parallel_for.h"
 #include "mmba/sim/texture.h"
 #include "sim/random_internal.h"
 
@@ -72,7 +73,7 @@ RayTable MakeRayTable(const sensors::Camera& camera, int samples_per_axis, int t
   const int width = static_cast<int>(camera.width), height = static_cast<int>(camera.height);
   table.rays.assign(static_cast<size_t>(width) * height * n * n,
                     Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
-  internal::ParallelFor(static_cast<size_t>(height), threads, [&](size_t begin, size_t end) {
+  ParallelChunks(static_cast<size_t>(height), threads, [&](size_t begin, size_t end) {
     for (size_t y = begin; y < end; ++y) {
       for (int x = 0; x < width; ++x) {
         for (int sy = 0; sy < n; ++sy) {
@@ -109,7 +110,7 @@ GrayImage RenderImage(const RayCaster& caster, const SimScene& scene,
   const Eigen::Vector3d origin = world_from_cam.translation;
   const Eigen::Vector3d sun = options.sun_direction.normalized();
   const int n2 = options.samples_per_axis * options.samples_per_axis;
-  internal::ParallelFor(static_cast<size_t>(image.height), threads, [&](size_t begin, size_t end) {
+  ParallelChunks(static_cast<size_t>(image.height), threads, [&](size_t begin, size_t end) {
     for (size_t y = begin; y < end; ++y) {
       for (int x = 0; x < image.width; ++x) {
         double sum = 0;
@@ -140,7 +141,7 @@ GrayImage StitchPanorama(const std::vector<GrayImage>& images,
   pano.width = static_cast<int>(pano_camera.width);
   pano.height = static_cast<int>(pano_camera.height);
   pano.pixels.assign(static_cast<size_t>(pano.width) * pano.height, 0);
-  internal::ParallelFor(static_cast<size_t>(pano.height), threads, [&](size_t begin, size_t end) {
+  ParallelChunks(static_cast<size_t>(pano.height), threads, [&](size_t begin, size_t end) {
     for (size_t y = begin; y < end; ++y) {
       for (int x = 0; x < pano.width; ++x) {
         const Eigen::Vector3d bearing =

@@ -365,9 +365,9 @@ TEST(Simulate, ImpossibleParametersAreInputErrors) {
   fs::remove_all(dir);
 }
 
-// The drive preset is the scale case of issue 7: 200 rig frames, a 100 m drive the LiDAR turns
-// through from end to end at a density that gives >= 50 M points on the cathedral; a drive
-// leaving the scene's ground (or the gate's studio) is refused, naming the key.
+// The drive preset is the joint adjustment's scale case: 200 rig frames, a 100 m drive the
+// LiDAR turns through from end to end at a density that gives >= 50 M points on the cathedral; a
+// drive leaving the scene's ground (or the gate's studio) is refused, naming the key.
 TEST(Simulate, DrivePresetCoversTheDriveAndStaysOnTheScene) {
   SimulateOptions o;
   o.scene = "cathedral";
