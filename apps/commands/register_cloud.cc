@@ -1,4 +1,4 @@
-// mmba register-cloud: feature-based rigid registration of two point clouds (issue 5).
+// mmba register-cloud: feature-based rigid registration of two point clouds.
 #include <cmath>
 #include <cstdlib>
 #include <ctime>
@@ -310,12 +310,8 @@ std::function<int()> SetupRegisterCloud(CLI::App& app, CommonOptions* common) {
   sub->add_option("--set", args->settings,
                   "NAME=VALUE ...: any other setting of the pipeline (F_t, keypoints, SAC-IA, ICP, the "
                   "checks); the names are listed below");
-  std::string footer = "Settings for --set NAME=VALUE (default; accepted values):\n";
-  for (const registration::RegistrationSetting& setting : registration::RegistrationSettings()) {
-    footer += "  " + setting.name + " = " + setting.default_value + " (" + setting.range + "): " +
-              setting.description + "\n";
-  }
-  sub->footer(footer);
+  sub->footer(registration::CloudRegistrationSettingsTable().Footer(
+      "Settings for --set NAME=VALUE (default; accepted values):"));
   sub->add_option("--min-fitness", args->min_fitness,
                   "fraction of the source that must lie on the target for \"ok\", in (0, 1]")
       ->capture_default_str();

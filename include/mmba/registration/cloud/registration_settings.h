@@ -3,27 +3,24 @@
 #include <string>
 #include <vector>
 
+#include "mmba/core/settings_table.h"
 #include "mmba/registration/cloud/feature_registration.h"
 
 namespace mmba::registration {
 
-/// One tunable number or switch of CloudRegistrationOptions by name, for `register-cloud --set
-/// NAME=VALUE` (issue 5: every parameter settable): its name, the range it accepts and what it
-/// does.
-struct RegistrationSetting {
-  std::string name;
-  std::string kind;         ///< "number", "integer" or "true|false"
-  std::string range;        ///< the accepted values, e.g. "> 0", "0..1/3"
-  std::string description;  ///< one line
-  std::string default_value;
-};
+/// The tunable numbers and switches of CloudRegistrationOptions by name, for `register-cloud
+/// --set NAME=VALUE`: each one's name, the range it accepts, what it does and its default.
+const SettingsTable<CloudRegistrationOptions>& CloudRegistrationSettingsTable();
+
+/// One setting as help lists it.
+using RegistrationSetting = SettingInfo;
 
 /// Every setting, in the order of CloudRegistrationOptions.
 std::vector<RegistrationSetting> RegistrationSettings();
 
 /// Sets `name` to `value` (a number, an integer or true/false — also 1/0 — as the setting is). Returns
-/// false with `problem` ("unknown setting", "found 'x', expected a number > 0", …) when the
-/// name is unknown or the value is not of its kind or outside its range; `options` is then
+/// false with `problem` ("unknown setting 'x' (closest: …)", "NAME: found 'x', expected a number > 0",
+/// …) when the name is unknown or the value is not of its kind or outside its range; `options` is then
 /// unchanged.
 bool SetRegistrationSetting(const std::string& name, const std::string& value,
                             CloudRegistrationOptions* options, std::string* problem);
