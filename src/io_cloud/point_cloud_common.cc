@@ -259,53 +259,62 @@ std::string DescribeHeader(const std::vector<Column>& columns) {
          (named.empty() ? std::string("none of them x, y or z") : "of x, y and z only " + named);
 }
 
-}  // namespace
-
-PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStats* stats) {
-  const std::string text = ReadWholeFile(path);
-  // A text cloud holds no NUL byte: such a file is binary (or damaged), not an empty cloud.
+// Refuses a text cloud holding a NUL byte: such a file is binary (or damaged), not an empty cloud.
+void CheckNoNul(const std::string& path, const std::string& text) {
   if (const size_t nul = text.find('\0'); nul != std::string::npos) {
     const int64_t line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(nul), '\n');
     throw InputError(path, line, "character", "a NUL byte (binary data)",
                      "text: x y z [...] per line (a binary cloud needs its extension: .ply, .pcd, .las, .bin)");
   }
-  LineCursor cursor(text, path);
-  XyzSeparators separators;
-  std::string_view line;
+}
+
+// What the lines before the first point say: the columns a header names (empty: none), the
+// header's line, and the first point's line (number, normalised text; number 0: no point).
+struct XyzPreamble {
   std::vector<Column> columns;
   int64_t header_line = 0;
+  std::pair<int64_t, std::string> first_point{0, std::string()};
+};
+
+// A CloudCompare-style "//X,Y,Z,R,G,B" comment naming the columns: true when `line` is one
+// (≥ 3 names, the first not a number), with its columns added to `preamble`.
+bool ReadCommentHeader(const std::string& path, std::string_view line, int64_t line_number,
+                       XyzSeparators* separators, XyzPreamble* preamble) {
+  std::string_view t = line;
+  while (!t.empty() && std::isspace(static_cast<unsigned char>(t[0]))) t.remove_prefix(1);
+  if (t.substr(0, 2) != "//" || t.size() <= 2) return false;
+  TokenLine names(path, line_number, separators->Normalise(t.substr(2), line_number));
+  double v;
+  if (names.size() < 3 || ParseDouble(names.Str(0, "name"), &v)) return false;
+  for (size_t i = 0; i < names.size(); ++i) preamble->columns.push_back(ColumnFromName(names.Str(i, "name")));
+  preamble->header_line = line_number;
+  return true;
+}
+
+// Reads up to the first point: comments, a header naming the columns ("//X,Y,Z" or a first
+// line of names, units such as "[m]" skipped) or a PTS point count.
+XyzPreamble ReadPreamble(const std::string& path, LineCursor* cursor, XyzSeparators* separators) {
+  XyzPreamble preamble;
+  std::string_view line;
   bool first_content = true;
-  // Find the layout from the first lines.
-  std::vector<std::pair<int64_t, std::string>> pending;  // first data line, if any
-  while (cursor.Next(&line)) {
+  while (cursor->Next(&line)) {
     const bool comment = IsComment(line);
-    const std::string s = comment ? std::string() : separators.Normalise(line, cursor.line_number());
+    const std::string s = comment ? std::string() : separators->Normalise(line, cursor->line_number());
     if (comment) {
-      // A CloudCompare-style "//X,Y,Z,R,G,B" header names the columns.
-      std::string_view t = line;
-      while (!t.empty() && std::isspace(static_cast<unsigned char>(t[0]))) t.remove_prefix(1);
-      if (first_content && t.substr(0, 2) == "//" && t.size() > 2) {
-        TokenLine names(path, cursor.line_number(), separators.Normalise(t.substr(2), cursor.line_number()));
-        double v;
-        if (names.size() >= 3 && !ParseDouble(names.Str(0, "name"), &v)) {
-          for (size_t i = 0; i < names.size(); ++i) {
-            columns.push_back(ColumnFromName(names.Str(i, "name")));
-          }
-          header_line = cursor.line_number();
-          first_content = false;
-        }
+      if (first_content && ReadCommentHeader(path, line, cursor->line_number(), separators, &preamble)) {
+        first_content = false;
       }
       continue;
     }
-    TokenLine tokens(path, cursor.line_number(), s);
+    TokenLine tokens(path, cursor->line_number(), s);
     double v;
     if (first_content && !ParseDouble(tokens.Str(0, "x"), &v)) {
       for (size_t i = 0; i < tokens.size(); ++i) {
         const std::string& name = tokens.Str(i, "name");
         if (i > 0 && (name.front() == '[' || name.front() == '(')) continue;  // "X [m]": a unit
-        columns.push_back(ColumnFromName(name));
+        preamble.columns.push_back(ColumnFromName(name));
       }
-      header_line = cursor.line_number();
+      preamble.header_line = cursor->line_number();
       first_content = false;
       continue;
     }
@@ -314,137 +323,180 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
       first_content = false;
       continue;
     }
-    first_content = false;
-    pending.emplace_back(cursor.line_number(), s);
+    preamble.first_point = {cursor->line_number(), s};
     break;
   }
-  if (pending.empty()) {
-    // A file without a point is an empty cloud, as a PLY with "element vertex 0" is: the
-    // command that reads it says what it cannot do without points. A header that does not
-    // name x, y and z is not a cloud's.
-    const auto named = [&columns](Column c) { return std::find(columns.begin(), columns.end(), c) != columns.end(); };
-    if (!columns.empty() && !(named(Column::kX) && named(Column::kY) && named(Column::kZ))) {
-      throw InputError(path, header_line, "columns", DescribeHeader(columns) + " (and no point)",
-                       "a header naming x, y and z, and lines of x y z ...");
-    }
-    return CloudBuilder(path, options, false, false, false, 0).Finish("xyz", stats);
-  }
-  TokenLine first(path, pending[0].first, pending[0].second);
-  bool guessed_normals = false, colors_0_1 = false;
-  if (columns.empty()) {
-    switch (first.size()) {
-      case 3: columns = {Column::kX, Column::kY, Column::kZ}; break;
-      case 4: columns = {Column::kX, Column::kY, Column::kZ, Column::kIntensity}; break;
-      case 6: {
-        // Columns 4–6: integer colours 0..255, else a unit normal, else colours 0..1 (as
-        // CloudCompare can write them); anything else is not guessed.
-        bool rgb = true, unit_rgb = true;
-        double length2 = 0.0;
-        for (size_t i = 3; i < 6; ++i) {
-          int64_t c;
-          if (!ParseInt(first.Str(i, "value"), &c) || c < 0 || c > 255) rgb = false;
-          const double v = first.Double(i, "value");
-          length2 += v * v;
-          if (!(v >= 0.0 && v <= 1.0)) unit_rgb = false;
-        }
-        const bool normal = std::abs(std::sqrt(length2) - 1.0) <= kGuessedNormalTolerance;
-        columns = {Column::kX, Column::kY, Column::kZ};
-        if (rgb) {
-          columns.insert(columns.end(), {Column::kR, Column::kG, Column::kB});
-        } else if (normal) {
-          columns.insert(columns.end(), {Column::kNx, Column::kNy, Column::kNz});
-          guessed_normals = true;
-        } else if (unit_rgb) {
-          columns.insert(columns.end(), {Column::kR, Column::kG, Column::kB});
-          colors_0_1 = true;
-        } else {
-          first.Fail("columns 4-6", first.Str(3, "value") + " " + first.Str(4, "value") + " " +
-                                        first.Str(5, "value"),
-                     "colours 0..255 or 0..1, or a unit normal (or a first line naming the "
-                     "columns)");
-        }
-        break;
-      }
-      case 7:
-        columns = {Column::kX, Column::kY, Column::kZ, Column::kIntensity,
-                   Column::kR, Column::kG, Column::kB};
-        break;
-      case 9:
-        columns = {Column::kX, Column::kY, Column::kZ, Column::kR, Column::kG,
-                   Column::kB, Column::kNx, Column::kNy, Column::kNz};
-        break;
-      default:
-        first.Fail("column count", std::to_string(first.size()),
-                   "3 (x y z), 4 (+intensity), 6 (+rgb or +normal), 7 (+intensity rgb), "
-                   "9 (+rgb normal), or a first line naming the columns");
-    }
-  }
-  int index[10];
-  std::fill(index, index + 10, -1);
-  for (size_t i = 0; i < columns.size(); ++i) {
-    if (columns[i] != Column::kIgnore && index[static_cast<int>(columns[i])] < 0) {
-      index[static_cast<int>(columns[i])] = static_cast<int>(i);
-    }
-  }
-  auto has = [&](Column c) { return index[static_cast<int>(c)] >= 0; };
-  if (!has(Column::kX) || !has(Column::kY) || !has(Column::kZ)) {
-    throw InputError(path, header_line, "columns", DescribeHeader(columns),
-                     "columns named x, y and z (or e/easting, n/northing, h/height/elevation)");
-  }
-  const bool normals = has(Column::kNx) && has(Column::kNy) && has(Column::kNz);
-  const bool colors = has(Column::kR) && has(Column::kG) && has(Column::kB);
-  const bool intensity = has(Column::kIntensity);
-  CloudBuilder builder(path, options, normals, intensity, colors, text.size() / 24);
+  return preamble;
+}
 
-  auto parse = [&](const TokenLine& t) {
-    t.ExpectCount(columns.size(), "point");
+// Six unnamed columns: x y z and, in columns 4–6, integer colours 0..255, else a unit normal,
+// else colours 0..1 (as CloudCompare can write them); anything else is not guessed.
+std::vector<Column> GuessSixColumns(const TokenLine& first, bool* guessed_normals, bool* colors_0_1) {
+  bool rgb = true, unit_rgb = true;
+  double length2 = 0.0;
+  for (size_t i = 3; i < 6; ++i) {
+    int64_t c;
+    if (!ParseInt(first.Str(i, "value"), &c) || c < 0 || c > 255) rgb = false;
+    const double v = first.Double(i, "value");
+    length2 += v * v;
+    if (!(v >= 0.0 && v <= 1.0)) unit_rgb = false;
+  }
+  const bool normal = std::abs(std::sqrt(length2) - 1.0) <= kGuessedNormalTolerance;
+  std::vector<Column> columns = {Column::kX, Column::kY, Column::kZ};
+  if (rgb) {
+    columns.insert(columns.end(), {Column::kR, Column::kG, Column::kB});
+  } else if (normal) {
+    columns.insert(columns.end(), {Column::kNx, Column::kNy, Column::kNz});
+    *guessed_normals = true;
+  } else if (unit_rgb) {
+    columns.insert(columns.end(), {Column::kR, Column::kG, Column::kB});
+    *colors_0_1 = true;
+  } else {
+    first.Fail("columns 4-6", first.Str(3, "value") + " " + first.Str(4, "value") + " " +
+                                  first.Str(5, "value"),
+               "colours 0..255 or 0..1, or a unit normal (or a first line naming the "
+               "columns)");
+  }
+  return columns;
+}
+
+// The columns of a cloud without a header, from the first point's value count.
+std::vector<Column> GuessColumns(const TokenLine& first, bool* guessed_normals, bool* colors_0_1) {
+  switch (first.size()) {
+    case 3: return {Column::kX, Column::kY, Column::kZ};
+    case 4: return {Column::kX, Column::kY, Column::kZ, Column::kIntensity};
+    case 6: return GuessSixColumns(first, guessed_normals, colors_0_1);
+    case 7:
+      return {Column::kX, Column::kY, Column::kZ, Column::kIntensity, Column::kR, Column::kG, Column::kB};
+    case 9:
+      return {Column::kX, Column::kY, Column::kZ, Column::kR, Column::kG,
+              Column::kB, Column::kNx, Column::kNy, Column::kNz};
+    default:
+      first.Fail("column count", std::to_string(first.size()),
+                 "3 (x y z), 4 (+intensity), 6 (+rgb or +normal), 7 (+intensity rgb), "
+                 "9 (+rgb normal), or a first line naming the columns");
+  }
+}
+
+// Reads the points of a text cloud, one line each, into a CloudBuilder.
+class XyzLineParser {
+ public:
+  // `columns` name every value of a line; guessed_normals: six unnamed columns read as a
+  // normal from the first line (line first_line), which every line must then hold;
+  // colors_0_1: colours in 0..1.
+  XyzLineParser(const std::vector<Column>& columns, bool guessed_normals, bool colors_0_1, int64_t first_line)
+      : columns_(columns), guessed_normals_(guessed_normals), colors_0_1_(colors_0_1), first_line_(first_line) {
+    std::fill(index_, index_ + 10, -1);
+    for (size_t i = 0; i < columns.size(); ++i) {
+      if (columns[i] != Column::kIgnore && index_[static_cast<int>(columns[i])] < 0) {
+        index_[static_cast<int>(columns[i])] = static_cast<int>(i);
+      }
+    }
+    normals_ = Has(Column::kNx) && Has(Column::kNy) && Has(Column::kNz);
+    colors_ = Has(Column::kR) && Has(Column::kG) && Has(Column::kB);
+    intensity_ = Has(Column::kIntensity);
+  }
+
+  bool Has(Column c) const { return index_[static_cast<int>(c)] >= 0; }
+  bool normals() const { return normals_; }
+  bool colors() const { return colors_; }
+  bool intensity() const { return intensity_; }
+
+  void Parse(const std::string& path, const TokenLine& t, CloudBuilder* builder) const {
+    t.ExpectCount(columns_.size(), "point");
     double xyz[3], n[3] = {0, 0, 0};
     uint8_t rgb[3] = {0, 0, 0};
     float inten = 0.0f;
     const char* names[3] = {"x", "y", "z"};
     const char* nnames[3] = {"nx", "ny", "nz"};
-    const char* cnames[3] = {"red", "green", "blue"};
-    // Non-finite values: ParseDouble refuses "nan"/"inf", so check the text ourselves to give
-    // the finiteness error (or skip) instead of a parse error.
-    auto value = [&](int i, const char* field) {
-      double v;
-      if (NonFiniteText(t.Str(i, field), &v)) return v;
-      return t.Double(i, field);
-    };
-    for (int k = 0; k < 3; ++k) xyz[k] = value(index[static_cast<int>(Column::kX) + k], names[k]);
-    if (normals) {
-      for (int k = 0; k < 3; ++k) n[k] = value(index[static_cast<int>(Column::kNx) + k], nnames[k]);
-      // Six unnamed columns taken for a normal from the first line: every line must hold one.
-      const double length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-      if (guessed_normals && !(std::abs(length - 1.0) <= kGuessedNormalTolerance)) {
-        t.Fail("nx ny nz", "a vector of length " + std::to_string(length),
-               "a unit normal, as on line " + std::to_string(first.line_number()) +
-                   " (six unnamed columns are x y z nx ny nz when the first line's last three "
-                   "are a unit vector; name the columns in a first line otherwise)");
-      }
+    for (int k = 0; k < 3; ++k) xyz[k] = Value(t, index_[static_cast<int>(Column::kX) + k], names[k]);
+    if (normals_) {
+      for (int k = 0; k < 3; ++k) n[k] = Value(t, index_[static_cast<int>(Column::kNx) + k], nnames[k]);
+      CheckGuessedNormal(t, n);
     }
-    if (intensity) inten = static_cast<float>(value(index[static_cast<int>(Column::kIntensity)], "intensity"));
-    if (colors) {
-      for (int k = 0; k < 3; ++k) {
-        if (colors_0_1) {
-          const double c = t.Double(index[static_cast<int>(Column::kR) + k], cnames[k]);
-          if (!(c >= 0.0 && c <= 1.0)) {
-            t.Fail(cnames[k], t.Str(index[static_cast<int>(Column::kR) + k], cnames[k]),
-                   "a colour in 0..1, as on line " + std::to_string(first.line_number()));
-          }
-          rgb[k] = static_cast<uint8_t>(std::lround(255.0 * c));
-          continue;
-        }
-        const uint64_t c = t.UInt(index[static_cast<int>(Column::kR) + k], cnames[k]);
-        if (c > 255) t.Fail(cnames[k], std::to_string(c), "an integer in 0..255");
-        rgb[k] = static_cast<uint8_t>(c);
-      }
-    }
-    builder.Add(xyz, normals ? n : nullptr, inten, rgb, [&] {
+    if (intensity_) inten = static_cast<float>(Value(t, index_[static_cast<int>(Column::kIntensity)], "intensity"));
+    if (colors_) ParseColours(t, rgb);
+    builder->Add(xyz, normals_ ? n : nullptr, inten, rgb, [&] {
       return path + ":" + std::to_string(t.line_number());
     });
-  };
-  parse(first);
+  }
+
+ private:
+  // Non-finite values: ParseDouble refuses "nan"/"inf", so check the text ourselves to give
+  // the finiteness error (or skip) instead of a parse error.
+  static double Value(const TokenLine& t, int i, const char* field) {
+    double v;
+    if (NonFiniteText(t.Str(i, field), &v)) return v;
+    return t.Double(i, field);
+  }
+
+  // Six unnamed columns taken for a normal from the first line: every line must hold one.
+  void CheckGuessedNormal(const TokenLine& t, const double n[3]) const {
+    const double length = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    if (guessed_normals_ && !(std::abs(length - 1.0) <= kGuessedNormalTolerance)) {
+      t.Fail("nx ny nz", "a vector of length " + std::to_string(length),
+             "a unit normal, as on line " + std::to_string(first_line_) +
+                 " (six unnamed columns are x y z nx ny nz when the first line's last three "
+                 "are a unit vector; name the columns in a first line otherwise)");
+    }
+  }
+
+  void ParseColours(const TokenLine& t, uint8_t rgb[3]) const {
+    const char* cnames[3] = {"red", "green", "blue"};
+    for (int k = 0; k < 3; ++k) {
+      if (colors_0_1_) {
+        const double c = t.Double(index_[static_cast<int>(Column::kR) + k], cnames[k]);
+        if (!(c >= 0.0 && c <= 1.0)) {
+          t.Fail(cnames[k], t.Str(index_[static_cast<int>(Column::kR) + k], cnames[k]),
+                 "a colour in 0..1, as on line " + std::to_string(first_line_));
+        }
+        rgb[k] = static_cast<uint8_t>(std::lround(255.0 * c));
+        continue;
+      }
+      const uint64_t c = t.UInt(index_[static_cast<int>(Column::kR) + k], cnames[k]);
+      if (c > 255) t.Fail(cnames[k], std::to_string(c), "an integer in 0..255");
+      rgb[k] = static_cast<uint8_t>(c);
+    }
+  }
+
+  const std::vector<Column>& columns_;
+  bool guessed_normals_, colors_0_1_;
+  int64_t first_line_;
+  int index_[10];
+  bool normals_ = false, colors_ = false, intensity_ = false;
+};
+
+}  // namespace
+
+PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStats* stats) {
+  const std::string text = ReadWholeFile(path);
+  CheckNoNul(path, text);
+  LineCursor cursor(text, path);
+  XyzSeparators separators;
+  XyzPreamble preamble = ReadPreamble(path, &cursor, &separators);
+  std::vector<Column>& columns = preamble.columns;
+  if (preamble.first_point.first == 0) {
+    // A file without a point is an empty cloud, as a PLY with "element vertex 0" is: the
+    // command that reads it says what it cannot do without points. A header that does not
+    // name x, y and z is not a cloud's.
+    const auto named = [&columns](Column c) { return std::find(columns.begin(), columns.end(), c) != columns.end(); };
+    if (!columns.empty() && !(named(Column::kX) && named(Column::kY) && named(Column::kZ))) {
+      throw InputError(path, preamble.header_line, "columns", DescribeHeader(columns) + " (and no point)",
+                       "a header naming x, y and z, and lines of x y z ...");
+    }
+    return CloudBuilder(path, options, false, false, false, 0).Finish("xyz", stats);
+  }
+  TokenLine first(path, preamble.first_point.first, preamble.first_point.second);
+  bool guessed_normals = false, colors_0_1 = false;
+  if (columns.empty()) columns = GuessColumns(first, &guessed_normals, &colors_0_1);
+  const XyzLineParser parser(columns, guessed_normals, colors_0_1, first.line_number());
+  if (!parser.Has(Column::kX) || !parser.Has(Column::kY) || !parser.Has(Column::kZ)) {
+    throw InputError(path, preamble.header_line, "columns", DescribeHeader(columns),
+                     "columns named x, y and z (or e/easting, n/northing, h/height/elevation)");
+  }
+  CloudBuilder builder(path, options, parser.normals(), parser.intensity(), parser.colors(), text.size() / 24);
+  parser.Parse(path, first, &builder);
+  std::string_view line;
   while (cursor.Next(&line)) {
     if (IsComment(line)) continue;
     const TokenLine t(path, cursor.line_number(), separators.Normalise(line, cursor.line_number()));
@@ -452,7 +504,7 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
       t.Fail("point", std::string(line.substr(0, 80)),
              std::to_string(columns.size()) + " values" + separators.DecimalCommaNote());
     }
-    parse(t);
+    parser.Parse(path, t, &builder);
   }
   return builder.Finish("xyz", stats);
 }
