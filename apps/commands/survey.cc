@@ -1,5 +1,6 @@
 // mmba survey: adjustment of a total-station / levelling / GNSS-vector network (GNU Gama
 // gama-local XML or the survey CSV), with survey statistics.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
@@ -51,30 +52,13 @@ std::string Fixed(double v, int digits) {
   return s.str();
 }
 
-int RunSurvey(const SurveyArgs& args) {
-  OutputFolder output(args.output, "--output", "mmba survey", {{"--input", args.input}});
-  if (args.confidence != 0.0 && !(args.confidence > 0 && args.confidence < 1)) {
-    throw InputError::Message("--confidence", "found " + std::to_string(args.confidence) +
-                                                  ", expected 0 < p < 1");
-  }
-  const std::string ext = fs::path(args.input).extension().string();
-  survey::SurveyNetwork net = (ext == ".csv") ? io::ReadSurveyCsv(args.input)
-                                              : io::ReadGamaLocal(args.input);
-  survey::SurveyAdjustOptions options;
-  options.confidence = args.confidence;
-  options.max_iterations = args.max_iterations;
-  const survey::SurveyAdjustment adj = survey::AdjustNetwork(&net, options);
-  if (!adj.converged) {
-    throw CommandFailed("survey adjustment " + adj.status + ": " + adj.reason);
-  }
+// The network's header entries of adjusted.json: input, frame, σ0, dimensions, χ² test.
+nlohmann::json NetworkJson(const std::string& input, const survey::SurveyNetwork& net,
+                           const survey::SurveyAdjustment& adj, const AngleUnit& unit) {
   const stats::NetworkStatistics& st = adj.statistics;
-  const AngleUnit unit{net.output_gons};
   const double m0_apr = net.sigma0_apriori;
-  const double m0_apost = m0_apr * st.sigma0_ratio;
-  const bool apriori = net.sigma_act_apriori;
-
   nlohmann::json json;
-  json["input"] = args.input;
+  json["input"] = input;
   json["description"] = net.description;
   json["axes_xy"] = net.axes.code;
   json["angles"] = net.angles_left_handed ? "left-handed" : "right-handed";
@@ -88,9 +72,9 @@ int RunSurvey(const SurveyArgs& args) {
     json["frame"] = "input plane (gama-local)";
   }
   json["sigma0_apriori"] = m0_apr;
-  json["sigma0_aposteriori"] = m0_apost;
+  json["sigma0_aposteriori"] = m0_apr * st.sigma0_ratio;
   json["sigma0_ratio"] = st.sigma0_ratio;
-  json["sigma0_used"] = apriori ? "apriori" : "aposteriori";
+  json["sigma0_used"] = net.sigma_act_apriori ? "apriori" : "aposteriori";
   json["degrees_of_freedom"] = st.degrees_of_freedom;
   json["equations"] = st.num_equations;
   json["unknowns"] = st.num_unknowns;
@@ -103,54 +87,72 @@ int RunSurvey(const SurveyArgs& args) {
   json["critical_value"] = st.critical_value;
   json["iterations"] = adj.iterations;
   json["removed_observations"] = adj.removed;
+  return json;
+}
+
+// WGS84 geodetic and UTM coordinates of an adjusted point of a georeferenced network.
+void AddGeoreferencedCoordinates(const survey::SurveyNetwork& net, const survey::SurveyPoint& p,
+                                 nlohmann::json* jp) {
+  const geodesy::LocalTangentPlane plane(net.origin);
+  const Eigen::Vector3d enu(p.coords.x(), p.coords.y(), p.has_z ? p.coords.z() : 0.0);
+  const geodesy::Geodetic g = plane.GeodeticFromEnu(enu);
+  (*jp)["latitude_deg"] = g.latitude_deg;
+  (*jp)["longitude_deg"] = g.longitude_deg;
+  if (p.has_z) (*jp)["ellipsoidal_height_m"] = g.height_m;
+  const geodesy::Utm utm = geodesy::UtmFromGeodetic(g);
+  (*jp)["utm"] = {{"zone", utm.zone}, {"north", utm.northp}, {"easting", utm.easting_m},
+                  {"northing", utm.northing_m}};
+}
+
+// One adjusted point: coordinates in the input axes, status, σ, standard and confidence
+// ellipses (major axis angle from +x towards +y, Gama's convention, input unit), geodetic
+// coordinates when georeferenced, and the standard ellipsoid's axes.
+nlohmann::json PointJson(const survey::SurveyNetwork& net, const survey::SurveyAdjustment& adj,
+                         const survey::SurveyPoint& p, const AngleUnit& unit) {
+  nlohmann::json jp;
+  jp["id"] = p.id;
+  const Eigen::Vector2d xy = net.axes.XyFromEn(p.coords.head<2>());
+  const Eigen::Matrix3d cov = survey::PointCovariance(adj, net, p);
+  if (p.xy != CoordStatus::kUnused && p.has_xy) {
+    jp["x"] = xy.x();
+    jp["y"] = xy.y();
+    jp["status_x"] = jp["status_y"] = survey::CoordStatusName(p.xy);
+    if (p.xy_free()) {
+      jp["sigma_x"] = std::sqrt(cov(0, 0));
+      jp["sigma_y"] = std::sqrt(cov(1, 1));
+      const stats::ErrorEllipse e = stats::StandardEllipse(cov.topLeftCorner<2, 2>());
+      jp["ellipse_a"] = e.a;
+      jp["ellipse_b"] = e.b;
+      jp["ellipse_azimuth"] = unit.FromRad(e.angle_rad);
+      const double k = std::sqrt(stats::ChiSquareQuantile(adj.statistics.confidence, 2));
+      jp["confidence_ellipse_a"] = k * e.a;
+      jp["confidence_ellipse_b"] = k * e.b;
+    }
+  }
+  if (p.z != CoordStatus::kUnused && p.has_z) {
+    jp["z"] = p.coords.z();
+    jp["status_z"] = survey::CoordStatusName(p.z);
+    if (p.z_free()) jp["sigma_z"] = std::sqrt(cov(2, 2));
+  }
+  if (net.geodetic && p.has_xy) AddGeoreferencedCoordinates(net, p, &jp);
+  if (p.xy_free() && p.z_free()) {
+    Eigen::Vector3d axes_m;
+    Eigen::Matrix3d dirs;
+    stats::StandardEllipsoid(cov, &axes_m, &dirs);
+    jp["ellipsoid_axes"] = {axes_m(0), axes_m(1), axes_m(2)};
+  }
+  return jp;
+}
+
+// adjusted.json: the network's entries, the used points, the stations' orientations and the
+// variance components per group.
+nlohmann::json AdjustedJson(const std::string& input, const survey::SurveyNetwork& net,
+                            const survey::SurveyAdjustment& adj, const AngleUnit& unit) {
+  nlohmann::json json = NetworkJson(input, net, adj, unit);
   nlohmann::json points = nlohmann::json::array();
   for (const survey::SurveyPoint& p : net.points) {
     if (p.xy == CoordStatus::kUnused && p.z == CoordStatus::kUnused) continue;
-    nlohmann::json jp;
-    jp["id"] = p.id;
-    const Eigen::Vector2d xy = net.axes.XyFromEn(p.coords.head<2>());
-    const Eigen::Matrix3d cov = survey::PointCovariance(adj, net, p);
-    if (p.xy != CoordStatus::kUnused && p.has_xy) {
-      jp["x"] = xy.x();
-      jp["y"] = xy.y();
-      jp["status_x"] = jp["status_y"] = survey::CoordStatusName(p.xy);
-      if (p.xy_free()) {
-        jp["sigma_x"] = std::sqrt(cov(0, 0));
-        jp["sigma_y"] = std::sqrt(cov(1, 1));
-        const stats::ErrorEllipse e = stats::StandardEllipse(cov.topLeftCorner<2, 2>());
-        jp["ellipse_a"] = e.a;
-        jp["ellipse_b"] = e.b;
-        // Angle of the major axis from +x towards +y (Gama's convention), input unit.
-        jp["ellipse_azimuth"] = unit.FromRad(e.angle_rad);
-        const double k = std::sqrt(stats::ChiSquareQuantile(st.confidence, 2));
-        jp["confidence_ellipse_a"] = k * e.a;
-        jp["confidence_ellipse_b"] = k * e.b;
-      }
-    }
-    if (p.z != CoordStatus::kUnused && p.has_z) {
-      jp["z"] = p.coords.z();
-      jp["status_z"] = survey::CoordStatusName(p.z);
-      if (p.z_free()) jp["sigma_z"] = std::sqrt(cov(2, 2));
-    }
-    if (net.geodetic && p.has_xy) {
-      // Georeferenced outputs: WGS84 geodetic and UTM of the adjusted point.
-      const geodesy::LocalTangentPlane plane(net.origin);
-      const Eigen::Vector3d enu(p.coords.x(), p.coords.y(), p.has_z ? p.coords.z() : 0.0);
-      const geodesy::Geodetic g = plane.GeodeticFromEnu(enu);
-      jp["latitude_deg"] = g.latitude_deg;
-      jp["longitude_deg"] = g.longitude_deg;
-      if (p.has_z) jp["ellipsoidal_height_m"] = g.height_m;
-      const geodesy::Utm utm = geodesy::UtmFromGeodetic(g);
-      jp["utm"] = {{"zone", utm.zone}, {"north", utm.northp}, {"easting", utm.easting_m},
-                   {"northing", utm.northing_m}};
-    }
-    if (p.xy_free() && p.z_free()) {
-      Eigen::Vector3d axes_m;
-      Eigen::Matrix3d dirs;
-      stats::StandardEllipsoid(cov, &axes_m, &dirs);
-      jp["ellipsoid_axes"] = {axes_m(0), axes_m(1), axes_m(2)};
-    }
-    points.push_back(jp);
+    points.push_back(PointJson(net, adj, p, unit));
   }
   json["points"] = points;
   nlohmann::json orientations = nlohmann::json::array();
@@ -162,15 +164,28 @@ int RunSurvey(const SurveyArgs& args) {
   }
   json["orientations"] = orientations;
   nlohmann::json groups = nlohmann::json::array();
-  for (const stats::GroupStatistic& g : st.groups) {
+  for (const stats::GroupStatistic& g : adj.statistics.groups) {
     groups.push_back({{"name", g.name}, {"observations", g.rows},
                       {"redundancy", g.redundancy},
                       {"variance_component", g.variance_component},
                       {"sigma0_ratio", std::sqrt(g.variance_component)}});
   }
   json["variance_components"] = groups;
+  return json;
+}
 
-  // Observations in input order, with their statistics.
+// A row of the report's table of largest studentized residuals, with its |t|.
+struct Line {
+  double abs_t;
+  std::string text;
+};
+
+// observations.csv: the observations in input order with their statistics (angles in the
+// input unit, residuals and σ in cc/arc seconds or mm; residual = adjusted − observed, Gama's
+// v). `largest` gets each one's report row, sorted by decreasing |studentized residual|.
+std::string ObservationsCsv(const survey::SurveyNetwork& net, const survey::SurveyAdjustment& adj,
+                            const AngleUnit& unit, std::vector<Line>* largest) {
+  const stats::NetworkStatistics& st = adj.statistics;
   std::vector<int> order(adj.rows.size());
   for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
   std::sort(order.begin(), order.end(), [&](int a, int b) {
@@ -180,11 +195,6 @@ int RunSurvey(const SurveyArgs& args) {
   std::ostringstream csv;
   csv << "index,line,kind,from,to,observed,adjusted,residual,residual_unit,sigma,redundancy,"
          "studentized,flag\n";
-  struct Line {
-    double abs_t;
-    std::string text;
-  };
-  std::vector<Line> largest;
   for (size_t k = 0; k < order.size(); ++k) {
     const int r = order[k];
     const stats::RowStatistic& row = st.rows[r];
@@ -192,7 +202,6 @@ int RunSurvey(const SurveyArgs& args) {
         net.clusters[adj.rows[r].cluster].observations[adj.rows[r].observation];
     const bool angle = survey::ObsKindIsAngle(o.kind);
     const double sign = angle && !net.angles_left_handed ? -1.0 : 1.0;
-    // residual = prediction − observation (Gama's v = adjusted − observed)
     double observed = o.value, adjusted = o.value + row.residual;
     double residual = row.residual, sigma = row.sigma;
     std::string runit = "mm";
@@ -216,23 +225,32 @@ int RunSurvey(const SurveyArgs& args) {
         << to << "," << Fixed(observed, 7) << "," << Fixed(adjusted, 7) << ","
         << Fixed(residual, 3) << "," << runit << "," << Fixed(sigma, 3) << ","
         << Fixed(row.redundancy, 4) << "," << Fixed(row.studentized, 3) << "," << flag << "\n";
-    largest.push_back({std::abs(row.studentized),
-                       "| " + std::to_string(k + 1) + " | " + std::to_string(o.line) + " | " +
-                           survey::ObsKindName(o.kind) + " | " + o.from + " | " + to + " | " +
-                           Fixed(residual, 2) + " " + runit + " | " + Fixed(row.redundancy, 3) +
-                           " | " + Fixed(row.studentized, 2) + " | " + flag + " |"});
+    largest->push_back({std::abs(row.studentized),
+                        "| " + std::to_string(k + 1) + " | " + std::to_string(o.line) + " | " +
+                            survey::ObsKindName(o.kind) + " | " + o.from + " | " + to + " | " +
+                            Fixed(residual, 2) + " " + runit + " | " + Fixed(row.redundancy, 3) +
+                            " | " + Fixed(row.studentized, 2) + " | " + flag + " |"});
   }
-  std::sort(largest.begin(), largest.end(),
+  std::sort(largest->begin(), largest->end(),
             [](const Line& a, const Line& b) { return a.abs_t > b.abs_t; });
+  return csv.str();
+}
 
+// The summary printed on stdout and heading the report: dimensions, datum, σ0, χ² test, the
+// largest studentized residual and the removed observations.
+std::string Summary(const std::string& input, const survey::SurveyNetwork& net,
+                    const survey::SurveyAdjustment& adj) {
+  const stats::NetworkStatistics& st = adj.statistics;
+  const double m0_apr = net.sigma0_apriori;
+  const double m0_apost = m0_apr * st.sigma0_ratio;
   std::ostringstream summary;
-  summary << "survey " << args.input << ": " << st.num_equations << " observations, "
+  summary << "survey " << input << ": " << st.num_equations << " observations, "
           << st.num_unknowns << " unknowns, defect " << st.defect << ", dof "
           << st.degrees_of_freedom << "\n"
           << "  datum: " << adj.datum << "\n"
           << "  sigma0 a-priori " << m0_apr << ", a-posteriori " << Fixed(m0_apost, 4)
           << " (ratio " << Fixed(st.sigma0_ratio, 3) << "), used: "
-          << (apriori ? "apriori" : "aposteriori") << "\n"
+          << (net.sigma_act_apriori ? "apriori" : "aposteriori") << "\n"
           << "  chi2 test at " << st.confidence << ": ratio in [" << Fixed(st.chi2_lower, 3)
           << ", " << Fixed(st.chi2_upper, 3) << "] -> "
           << (st.degrees_of_freedom > 0 ? (st.chi2_passed ? "passed" : "failed")
@@ -248,13 +266,20 @@ int RunSurvey(const SurveyArgs& args) {
             << (row.critical ? "  <- likely blunder" : "") << "\n";
   }
   if (!adj.removed.empty()) summary << "  removed observations: " << adj.removed.size() << "\n";
+  return summary.str();
+}
 
+// report.md: the summary, the variance components, the `report_rows` largest studentized
+// residuals and the removed observations.
+std::string ReportMarkdown(const SurveyArgs& args, const survey::SurveyNetwork& net,
+                           const survey::SurveyAdjustment& adj, const std::string& summary,
+                           const std::vector<Line>& largest) {
   std::ostringstream md;
   md << "# Survey adjustment\n\n" << "Input: `" << args.input << "`";
   if (!net.description.empty()) md << " — " << net.description;
-  md << "\n\n```\n" << summary.str() << "```\n\n## Variance components (per group)\n\n"
+  md << "\n\n```\n" << summary << "```\n\n## Variance components (per group)\n\n"
      << "| group | observations | redundancy | σ0 ratio |\n|---|---|---|---|\n";
-  for (const stats::GroupStatistic& g : st.groups) {
+  for (const stats::GroupStatistic& g : adj.statistics.groups) {
     md << "| " << g.name << " | " << g.rows << " | " << Fixed(g.redundancy, 2) << " | "
        << Fixed(std::sqrt(g.variance_component), 3) << " |\n";
   }
@@ -268,18 +293,41 @@ int RunSurvey(const SurveyArgs& args) {
     md << "\n## Removed observations\n\n";
     for (const std::string& r : adj.removed) md << "- " << r << "\n";
   }
+  return md.str();
+}
+
+int RunSurvey(const SurveyArgs& args) {
+  OutputFolder output(args.output, "--output", "mmba survey", {{"--input", args.input}});
+  if (args.confidence != 0.0 && !(args.confidence > 0 && args.confidence < 1)) {
+    throw InputError::Message("--confidence", "found " + std::to_string(args.confidence) +
+                                                  ", expected 0 < p < 1");
+  }
+  const std::string ext = fs::path(args.input).extension().string();
+  survey::SurveyNetwork net = (ext == ".csv") ? io::ReadSurveyCsv(args.input)
+                                              : io::ReadGamaLocal(args.input);
+  survey::SurveyAdjustOptions options;
+  options.confidence = args.confidence;
+  options.max_iterations = args.max_iterations;
+  const survey::SurveyAdjustment adj = survey::AdjustNetwork(&net, options);
+  if (!adj.converged) {
+    throw CommandFailed("survey adjustment " + adj.status + ": " + adj.reason);
+  }
+  const AngleUnit unit{net.output_gons};
+  nlohmann::json json = AdjustedJson(args.input, net, adj, unit);
+  std::vector<Line> largest;
+  const std::string csv_text = ObservationsCsv(net, adj, unit, &largest);
+  const std::string summary = Summary(args.input, net, adj);
+  const std::string md_text = ReportMarkdown(args, net, adj, summary, largest);
 
   RecordBuild(&json);
   AtomicFileSet files;
   const std::string json_text = json.dump(2);
   files.Add(output.staging() / "adjusted.json", [&](std::ostream& out) { out << json_text << "\n"; });
-  const std::string csv_text = csv.str();
   files.Add(output.staging() / "observations.csv", [&](std::ostream& out) { out << csv_text; });
-  const std::string md_text = md.str();
   files.Add(output.staging() / "report.md", [&](std::ostream& out) { out << md_text; });
   files.Commit();
   output.Commit();
-  std::cout << summary.str();
+  std::cout << summary;
   return kExitOk;
 }
 
