@@ -1,5 +1,6 @@
-// Shared state of the joint adjustment between adjust.cc (model, solve, statistics) and
-// outputs.cc (files and report). Private to mmba_adjust.
+// Shared state of the joint adjustment: JointState, filled by the sensor units (blocks/*.cc,
+// blocks/blocks.h) and the initialisation steps, solved by adjust.cc, written by outputs.cc.
+// Private to mmba_adjust.
 #pragma once
 
 #include <filesystem>
@@ -137,12 +138,19 @@ struct Blunder {
   double studentized = 0.0;
 };
 
-/// A static scan adjusted on its own: its surface in its own frame, its registration.
-/// How a static scan's world_from_scan was first placed.
+/// How a static scan's world_from_scan was first placed: the project's world_from_scan as an
+/// initial value only, the registration given (a prior), by its targets, or by feature
+/// registration.
+enum class ScanPlacement { kApproximate, kGiven, kTargets, kFeatureRegistration };
+/// "approximate", "given", "targets", "feature registration" (report.json `initialisation`).
+const char* ScanPlacementName(ScanPlacement method);
+
 struct ScanInitialisation {
-  std::string method;  ///< "given", "targets" or "feature registration"
+  ScanPlacement method = ScanPlacement::kGiven;
   std::string detail;  ///< counts, RMS, fitness … for the report
 };
+
+/// A static scan adjusted on its own: its surface in its own frame, its registration.
 
 struct ScanBlock {
   std::string name;
@@ -182,6 +190,7 @@ struct JointState {
   std::map<std::string, std::set<size_t>> excluded;
   std::vector<Blunder> blunders;
   std::unique_ptr<ProblemBuilder> builder;
+  const FactorGroup* check_group = nullptr;  ///< the photos' check points in `builder` (evaluated, never weighted)
   SolveResult solve;
   int outer_iterations = 0;
   double seconds = 0.0;
@@ -212,6 +221,9 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
 /// The status of one solve: converged; no convergence when Ceres stopped at its iteration or
 /// time limit with a finite cost; failed otherwise (problem/solve.h `status` in typed form).
 AdjustStatus StatusOfSolve(const SolveResult& solve);
+
+/// A stage's result: logged now and listed in the report (JointState::log).
+void Note(JointState* s, const std::string& text);
 
 /// "PROJECT.yaml:LINE: key", the place an InputError about the project file names.
 std::string ProjectKey(const Project& project, int line, const std::string& key);
@@ -250,7 +262,7 @@ std::vector<NamedPath> ProjectInputs(const Project& project);
 std::string FindImage(const std::string& folder, const std::string& stem);
 
 /// Initialisation of the spherical stations from their dense clouds: each station's
-/// vertical-baseline stereo cloud registered to the static LiDAR (issue 5's pipeline) moves its
+/// vertical-baseline stereo cloud registered to the static LiDAR (register-cloud's pipeline) moves its
 /// setup pose when the registration is "ok"; the outcome per station is kept for the report.
 void RegisterSphereStations(JointState* s);
 /// Loads the spherical stereo pair (blocks/spherical_stereo.cc): its calibration as two Scene

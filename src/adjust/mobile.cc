@@ -102,7 +102,7 @@ void LoadMobile(JointState* s) {
                                   : "no range limit") +
                    "); trajectory corrected at " + std::to_string(m.nodes.size()) +
                    " nodes over " + std::to_string(hi - lo) + " s" +
-                   (m.with_rig ? "; rig '" + config.rig + "' on the same vehicle, camera-LiDAR extrinsic " + config.extrinsic
+                   (m.with_rig ? "; rig '" + config.rig + "' on the same vehicle, camera-LiDAR extrinsic " + PoseTreatmentName(config.extrinsic)
                                : "; no rig on the vehicle: body_from_lidar held at the calibration"));
   spdlog::info("adjust: {}", s->log.back());
   if (!config.rig.empty() && !m.with_rig) {

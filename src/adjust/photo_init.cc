@@ -29,11 +29,6 @@ namespace {
 
 using Ray = std::pair<Eigen::Vector3d, Eigen::Vector3d>;  // centre, unit direction (world)
 
-void Note(JointState* s, const std::string& text) {
-  spdlog::info("adjust: {}", text);
-  s->log.push_back(text);
-}
-
 // Least-squares intersection of rays; false when they are nearly parallel (largest angle
 // between any two below `min_angle_rad`) or the point lies behind one of them.
 bool Intersect(const std::vector<Ray>& rays, double min_angle_rad, Eigen::Vector3d* point) {
@@ -51,7 +46,6 @@ bool Intersect(const std::vector<Ray>& rays, double min_angle_rad, Eigen::Vector
   }
   return point->allFinite();
 }
-
 
 // RANSAC over triples (Fischler & Bolles 1981), each triple's similarity by Umeyama (1991); the
 // largest set of pairs within their tolerance, then the similarity refitted on it.

@@ -76,6 +76,15 @@ class ProjectReader {
     }
     return value;
   }
+  /// `fixed`, `weighted` or `free`: how a calibrated pose enters the adjustment.
+  PoseTreatment Treatment(Node n, Field f) const {
+    const std::string value = r_.String(n, f);
+    for (PoseTreatment t : {PoseTreatment::kFixed, PoseTreatment::kWeighted, PoseTreatment::kFree}) {
+      if (value == PoseTreatmentName(t)) return t;
+    }
+    r_.Fail(n, f, "fixed, weighted or free", value);
+    return PoseTreatment::kFree;
+  }
   /// A correlation time in seconds: 0 (independent epochs) or positive, at most a day.
   double CorrelationTime(Node n, Field f) const {
     const double value = r_.Number(n, f);
@@ -248,19 +257,14 @@ class ProjectReader {
                     {"smoothness_sigma_deg", [&](Node v, Field g) { m.smoothness_sigma_deg = ZeroOrPositive(v, g, 10.0, "degrees"); }},
                     {"frame_sigma_m", metres(&m.frame_sigma_m, 1.0)},
                     {"frame_sigma_deg", degrees(&m.frame_sigma_deg, 10.0)},
-                    {"extrinsic", [&](Node v, Field g) {
-                       m.extrinsic = r_.String(v, g);
-                       if (m.extrinsic != "fixed" && m.extrinsic != "weighted" && m.extrinsic != "free") {
-                         r_.Fail(v, g, "fixed, weighted or free", m.extrinsic);
-                       }
-                     }},
+                    {"extrinsic", [&](Node v, Field g) { m.extrinsic = Treatment(v, g); }},
                     {"extrinsic_sigma_m", metres(&m.extrinsic_sigma_m, 1.0)},
                     {"extrinsic_sigma_deg", degrees(&m.extrinsic_sigma_deg, 30.0)},
                     {"loss", [&](Node v, Field g) { m.loss = Loss(v, g); }}});
       r_.Require(n, f, {"cloud", "trajectory", "calibration"});
       project_->lidar_mobile.push_back(m);
     } else if (type == "spherical_stereo" || type == "camera_rig") {
-      // Validated (keys, files, σ), not adjusted by this version (README "Limits").
+      // Validated (keys, files, σ), not adjusted without observations (docs/project-yaml.md).
       if (type == "spherical_stereo") {
         SphericalStereo p;
         p.id = id;
@@ -315,12 +319,7 @@ class ProjectReader {
                       {"trajectory_sigma_m", [&](Node v, Field g) { p.trajectory_sigma_m = SigmaM(v, g, 10.0); }},
                       {"trajectory_sigma_deg", [&](Node v, Field g) { p.trajectory_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
                       {"trajectory_correlation_s", [&](Node v, Field g) { p.trajectory_correlation_s = CorrelationTime(v, g); }},
-                      {"cam_from_rig", [&](Node v, Field g) {
-                         p.cam_from_rig = r_.String(v, g);
-                         if (p.cam_from_rig != "fixed" && p.cam_from_rig != "weighted" && p.cam_from_rig != "free") {
-                           r_.Fail(v, g, "fixed, weighted or free", p.cam_from_rig);
-                         }
-                       }},
+                      {"cam_from_rig", [&](Node v, Field g) { p.cam_from_rig = Treatment(v, g); }},
                       {"cam_from_rig_sigma_m", [&](Node v, Field g) { p.cam_from_rig_sigma_m = SigmaM(v, g, 1.0); }},
                       {"cam_from_rig_sigma_deg", [&](Node v, Field g) { p.cam_from_rig_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
                       {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
@@ -347,6 +346,15 @@ class ProjectReader {
 };
 
 }  // namespace
+
+const char* PoseTreatmentName(PoseTreatment treatment) {
+  switch (treatment) {
+    case PoseTreatment::kFixed: return "fixed";
+    case PoseTreatment::kWeighted: return "weighted";
+    case PoseTreatment::kFree: return "free";
+  }
+  return "free";
+}
 
 Project LoadProject(const std::string& path) {
   Project project;

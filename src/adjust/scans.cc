@@ -74,6 +74,16 @@ bool PlaceByTargets(const JointState& s, const std::vector<ScanTarget>& targets,
 
 }  // namespace
 
+const char* ScanPlacementName(ScanPlacement method) {
+  switch (method) {
+    case ScanPlacement::kApproximate: return "approximate";
+    case ScanPlacement::kGiven: return "given";
+    case ScanPlacement::kTargets: return "targets";
+    case ScanPlacement::kFeatureRegistration: return "feature registration";
+  }
+  return "given";
+}
+
 void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vector3d& roi_max) {
   const LidarStatic& l = s->project->lidar_static.front();
   if (!l.AdjustsScans()) return;
@@ -119,12 +129,12 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
   for (size_t k = 0; k < l.scans.size(); ++k) {
     if (l.scans[k].has_pose && l.scans[k].approximate) {
       world_from_scan[k] = l.scans[k].world_from_scan;
-      init[k] = {"approximate", "world_from_scan of the project file as an initial value only (no prior)"};
+      init[k] = {ScanPlacement::kApproximate, "world_from_scan of the project file as an initial value only (no prior)"};
       continue;
     }
     if (l.scans[k].has_pose) {
       world_from_scan[k] = l.scans[k].world_from_scan;
-      init[k] = {"given", "the registration of the project file (prior σ " + std::to_string(l.scan_sigma_m) + " m, " +
+      init[k] = {ScanPlacement::kGiven, "the registration of the project file (prior σ " + std::to_string(l.scan_sigma_m) + " m, " +
                               std::to_string(l.scan_sigma_deg) + "°)"};
       continue;
     }
@@ -132,7 +142,7 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
     std::string detail;
     if (s->joint && PlaceByTargets(*s, s->scan_targets, k, &pose, &detail)) {
       world_from_scan[k] = pose;
-      init[k] = {"targets", detail};
+      init[k] = {ScanPlacement::kTargets, detail};
       Log(s, "static scan " + names[k] + " placed by its targets: " + detail);
     }
   }
@@ -181,7 +191,7 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
     d << r.descriptor << " descriptors, to " << placed << ": fitness " << r.fitness << ", inlier RMSE "
       << r.inlier_rmse << " m, resolved to " << r.resolution_m << " m, confidence " << r.confidence << ", "
       << r.total_seconds() << " s";
-    init[k] = {"feature registration", d.str()};
+    init[k] = {ScanPlacement::kFeatureRegistration, d.str()};
     Log(s, "static scan " + names[k] + ": " + d.str());
   }
   for (size_t k = 0; k < l.scans.size(); ++k) {

@@ -17,11 +17,6 @@ namespace {
 
 using json = nlohmann::json;
 
-void Note(JointState* s, const std::string& text) {
-  spdlog::info("adjust: {}", text);
-  s->log.push_back(text);
-}
-
 /// The reference cloud's points within `radius` of any of `centres` (streamed: only those are
 /// held), per centre, each thinned to at most `cap` points.
 std::vector<io::PointCloud> CropAround(const std::string& path, const std::vector<Eigen::Vector3d>& centres, double radius,

@@ -1,5 +1,5 @@
-// The project file of the joint adjustment `mmba adjust` (YAML, schema in README
-// "project.yaml" and calib/README.md). LoadProject validates the whole file — keys, types,
+// The project file of the joint adjustment `mmba adjust` (YAML, schema in docs/project-yaml.md
+// and calib/README.md). LoadProject validates the whole file — keys, types,
 // ranges, units, that every referenced file exists — before any work, with errors naming the
 // file, line and key (InputError, exit 2).
 #pragma once
@@ -15,6 +15,13 @@
 #include "mmba/problem/factor_group.h"
 
 namespace mmba::adjust {
+
+/// How a calibrated pose (a rig's cam_from_rig, the camera–LiDAR extrinsic) enters the
+/// adjustment: held at its calibration, estimated with the calibration as a weighted prior, or
+/// estimated freely.
+enum class PoseTreatment { kFixed, kWeighted, kFree };
+/// "fixed", "weighted" or "free": the project file's words.
+const char* PoseTreatmentName(PoseTreatment treatment);
 
 /// Intrinsics refined in the adjustment (each photo collection's own camera).
 struct RefineIntrinsics {
@@ -149,7 +156,7 @@ struct SphericalStereo {
   /// Initialisation: each station's dense cloud registered to the static LiDAR (feature
   /// registration, heading-only: the mast is levelled) replaces its setup when "ok". Off by
   /// default: on the simulated scenes the stereo clouds (mostly paving, σ 7–27 cm) are refused
-  /// or, once, accepted 0.32 m / 1.9° off (README, Limits).
+  /// or, once, accepted 0.32 m / 1.9° off (docs/project-yaml.md, `spherical_stereo`).
   bool register_to_lidar = false;
   /// ... within this distance and angle of the setup (the setup's uncertainty; 0 = anywhere).
   double setup_window_m = 2.0;
@@ -208,7 +215,7 @@ struct CameraRig {
   double trajectory_sigma_deg = 1.0;
   /// Correlation time of the GNSS/INS error (first-order Gauss–Markov); 0 = independent frames.
   double trajectory_correlation_s = 30.0;
-  std::string cam_from_rig = "weighted";  ///< fixed | weighted | free
+  PoseTreatment cam_from_rig = PoseTreatment::kWeighted;
   double cam_from_rig_sigma_m = 0.005;
   double cam_from_rig_sigma_deg = 0.2;
   LossOptions loss{LossType::kHuber, 3.0};
@@ -252,7 +259,7 @@ struct LidarMobile {
   double smoothness_sigma_deg = 0.0;
   double frame_sigma_m = 0.002;        ///< rig frame ↔ trajectory (time synchronisation)
   double frame_sigma_deg = 0.01;
-  std::string extrinsic = "free";      ///< fixed | weighted | free (with `rig`)
+  PoseTreatment extrinsic = PoseTreatment::kFree;  ///< with `rig`
   double extrinsic_sigma_m = 0.05;
   double extrinsic_sigma_deg = 1.0;
   LossOptions loss{LossType::kHuber, 3.0};

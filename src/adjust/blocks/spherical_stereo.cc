@@ -1,17 +1,20 @@
 // Spherical stereo pairs (DESIGN.md "Factor groups": spherical pair): loading the pair's
-// calibration, station setups and observations of photo tie points, and writing each
-// station's dense cloud after the adjustment. The pair's initialisation on the LiDAR is
-// sphere_init.cc; its groups are added by BuildProblem (adjust.cc).
+// calibration, station setups and observations of photo tie points, its factor groups and
+// line-scan calibration parameters, and its outputs (poses of both spheres, the calibration,
+// each station's dense cloud). The pair's initialisation on the LiDAR is sphere_init.cc.
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <iomanip>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include <Eigen/Geometry>
 #include <spdlog/spdlog.h>
 
-#include "../internal.h"
+#include "../output_support.h"
+#include "blocks.h"
 #include "../sphere_dense.h"
 #include "mmba/core/error.h"
 #include "mmba/io/csv_table.h"
@@ -19,18 +22,9 @@
 #include "mmba/io/yaml_reader.h"
 
 namespace mmba::adjust::internal {
-namespace {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
-
-/// A stage's result: logged now and listed in the report.
-void Note(JointState* s, const std::string& text) {
-  spdlog::info("adjust: {}", text);
-  s->log.push_back(text);
-}
-
-}  // namespace
 
 void LoadSpheres(JointState* s) {
   const Project& project = *s->project;
@@ -207,6 +201,119 @@ json WriteSphereDense(const JointState& s, const fs::path& stage, json* files, s
     statuses->push_back(StepStatus::kOk);
   }
   return stations;
+}
+
+void AddSphereGroups(JointState* s, const GroupWeights& w) {
+  SphereBlock& sb = *s->spheres;
+  const LossOptions& loss = sb.config->loss;
+  s->builder->AddGroup(std::make_unique<ReprojectionGroup>(w.Scaled(kSphereLower, sb.lower), loss, kSphereLower));
+  s->builder->AddGroup(std::make_unique<UpperSphereGroup>(w.Scaled(kSphereUpper, sb.upper), &sb.baseline, loss, kSphereUpper));
+  s->builder->AddGroup(std::make_unique<VectorPriorGroup>(&sb.baseline, sb.baseline_prior,
+                                                          w.Factor(kBaseline) * sb.config->baseline_sigma_m, kBaseline));
+}
+
+void SetSphereParameters(JointState* s, ceres::Problem& problem) {
+  // The line-scan calibration: the vertical principal offsets cy of both spheres and the
+  // horizontal offset cx of the upper one relative to the lower (a common cx shift of a full
+  // panorama is a rotation about the sphere's axis — the station's heading — so the lower
+  // cx is held as the datum); f (= W/2π for a full panorama) only when asked.
+  const SphericalStereo& config = *s->spheres->config;
+  for (CameraId id : {s->spheres->lower_camera, s->spheres->upper_camera}) {
+    double* params = s->scene.Camera(id).params.data();
+    if (!problem.HasParameterBlock(params)) continue;
+    std::vector<int> constant;
+    if (!config.refine_focal) constant.push_back(0);
+    if (!config.refine_principal_point || id == s->spheres->lower_camera) constant.push_back(1);
+    if (!config.refine_principal_point) constant.push_back(2);
+    if (constant.size() == 3) {
+      problem.SetParameterBlockConstant(params);
+    } else {
+      problem.SetParameterBlockVariable(params);
+      problem.SetManifold(params, constant.empty() ? nullptr : new ceres::SubsetManifold(3, constant));
+    }
+  }
+}
+
+std::string DescribeSphereObservation(const JointState& s, const std::string& name, size_t index) {
+  if (!s.spheres) return "";
+  if (name == kSphereLower) {
+    return "point " + std::to_string(s.spheres->lower[index].point3D_id.value) + " (" + s.spheres->lower_source[index] + ")";
+  }
+  if (name == kSphereUpper) {
+    return "point " + std::to_string(s.spheres->upper[index].point3D_id.value) + " (" + s.spheres->upper_source[index] + ")";
+  }
+  return "";
+}
+
+namespace {
+
+/// calibration/<id>_spherical.yaml, the line-scan calibration: principal offsets per sphere,
+/// the baseline vector and its tilt; and the pair's calibration table.
+void WriteSphereCalibration(const JointState& s, OutputSink* out) {
+  const SphereBlock& sb = *s.spheres;
+  const stats::NetworkStatistics& st = s.statistics;
+  std::ostringstream yaml;
+  json parameters = json::array();
+  yaml << "# mmba adjust: calibration of the spherical stereo pair '" << sb.config->id
+       << "', sigma from the adjustment\nmodel: EQUIRECTANGULAR\nwidth: " << s.scene.Camera(sb.lower_camera).width
+       << "\nheight: " << s.scene.Camera(sb.lower_camera).height << "\n";
+  const char* names[3] = {"f", "cx", "cy"};
+  for (int k = 0; k < 2; ++k) {
+    const sensors::Camera& camera = s.scene.Camera(k == 0 ? sb.lower_camera : sb.upper_camera);
+    const std::vector<double>& initial = k == 0 ? sb.initial_lower_params : sb.initial_upper_params;
+    yaml << (k == 0 ? "lower" : "upper") << "_params: [" << std::setprecision(10) << camera.params[0] << ", "
+         << camera.params[1] << ", " << camera.params[2] << "]\n" << (k == 0 ? "lower" : "upper") << "_sigma: [";
+    const std::vector<double> camera_sigma = ParameterSigmas(st, s.builder->problem(), camera.params.data());
+    for (int i = 0; i < 3; ++i) {
+      const double sigma = camera_sigma[i];
+      yaml << (i ? ", " : "") << std::setprecision(4) << sigma;
+      parameters.push_back({{"name", std::string(k == 0 ? "lower " : "upper ") + names[i]}, {"initial", initial[i]},
+                            {"adjusted", camera.params[i]}, {"sigma", sigma}});
+    }
+    yaml << "]\n";
+  }
+  Eigen::Vector3d baseline_sigma;
+  for (int i = 0; i < 3; ++i) {
+    baseline_sigma(i) = std::sqrt(std::max(0.0, st.Covariance(sb.baseline.data(), i, sb.baseline.data(), i)));
+  }
+  const double tilt = std::acos(std::min(1.0, -sb.baseline.y() / sb.baseline.norm())) * kDeg;
+  yaml << "baseline_m: " << std::setprecision(8) << sb.baseline.norm() << "\nbaseline_in_lower: [" << sb.baseline.x()
+       << ", " << sb.baseline.y() << ", " << sb.baseline.z() << "]  # x right, y down, z forward\nbaseline_sigma: ["
+       << std::setprecision(3) << baseline_sigma.x() << ", " << baseline_sigma.y() << ", " << baseline_sigma.z()
+       << "]\naxis_tilt_deg: " << std::setprecision(5) << tilt << "  # baseline from the sphere's vertical (-y)\n";
+  WriteText(out->stage / "calibration" / (sb.config->id + "_spherical.yaml"), yaml.str());
+  parameters.push_back({{"name", "baseline length [m]"}, {"initial", sb.baseline_prior.norm()},
+                        {"adjusted", sb.baseline.norm()}, {"sigma", baseline_sigma.y()}});
+  parameters.push_back({{"name", "axis tilt [deg]"}, {"initial", 0.0}, {"adjusted", tilt},
+                        {"sigma", std::hypot(baseline_sigma.x(), baseline_sigma.z()) / sb.baseline.norm() * kDeg}});
+  out->calibrations.push_back({{"name", sb.config->id + " spherical stereo pair (line-scan calibration)"},
+                               {"parameters", parameters}});
+}
+
+}  // namespace
+
+void WriteSphereOutputs(const JointState& s, OutputSink* out) {
+  const SphereBlock& sb = *s.spheres;
+  for (const auto& [station, id] : sb.lower_image) {
+    const ImagePose& pose = s.scene.Image(id);
+    const Rigid3d& initial = sb.initial_poses.at(id);
+    for (int k = 0; k < 2; ++k) {
+      // The upper sphere: same orientation, centre at the baseline (lower frame).
+      const Rigid3d shift(Eigen::Quaterniond::Identity(), k == 0 ? Eigen::Vector3d::Zero() : Eigen::Vector3d(-sb.baseline));
+      const Rigid3d cam_from_world = shift * pose.cam_from_world;
+      const Eigen::Vector3d c = CameraCentre(cam_from_world);
+      const Eigen::Vector3d d = c - CameraCentre(shift * initial);
+      const double d_rotation = pose.cam_from_world.rotation.angularDistance(initial.rotation) * kDeg;
+      const Eigen::Vector3d sigma = CentreCovariance(s.statistics, pose.cam_from_world).diagonal().cwiseMax(0.0).cwiseSqrt();
+      const std::string name = station + (k == 0 ? "_lower" : "_upper");
+      AppendPoseRow(*out->poses, name, sb.config->id, c, cam_from_world.rotation, s.plane, sigma, d.norm(), d_rotation);
+      if (k == 0) {
+        out->corrections.push_back({{"image", name}, {"sensor", sb.config->id}, {"d", Vec(d)}, {"d_position_m", d.norm()},
+                                    {"d_rotation_deg", d_rotation}});
+      }
+    }
+  }
+  WriteSphereCalibration(s, out);
 }
 
 }  // namespace mmba::adjust::internal
