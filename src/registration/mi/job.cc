@@ -388,4 +388,19 @@ bool RigCameraSeesCloud(const View& view, const LidarPoints& points, const Rigid
   return CountPointsInView(points, view, rig_from_lidar, render, kMinRigViewPoints) >= kMinRigViewPoints;
 }
 
+RegistrationResult RegisterJob(const Job& job, Rigid3d* cam_from_local) {
+  RegistrationResult result;
+  if (job.frames.size() == 1) {
+    result = RegisterFrames(job.frames, job.start, job.options);
+  } else {
+    RigOptions rig;
+    rig.registration = job.options;
+    result = RegisterRig(job.frames, job.start, rig);
+  }
+  *cam_from_local = result.cam_from_lidar;
+  result.cam_from_lidar = job.ToGiven(result.cam_from_lidar);
+  for (RegistrationResult& r : result.frame_results) r.cam_from_lidar = job.ToGiven(r.cam_from_lidar);
+  return result;
+}
+
 }  // namespace mmba::registration::mi

@@ -1,4 +1,5 @@
 #include "mmba/registration/mi/mi_registration.h"
+#include "mmba/registration/mi/registration_settings.h"
 
 #include <array>
 #include <cmath>
@@ -170,11 +171,11 @@ TEST(Options, OnePyramidLevelIsValidAndBadValuesAreNamed) {
   EXPECT_TRUE(options.Check(&error)) << error;
   options.restart_level = 6;
   EXPECT_FALSE(options.Check(&error));
-  EXPECT_NE(error.find("restart_level 6"), std::string::npos) << error;
+  EXPECT_NE(error.find("restart_level: found 6, expected an integer [0, 5]"), std::string::npos) << error;
   options = RegistrationOptions();
   options.threads = 0;
   EXPECT_FALSE(options.Check(&error));
-  EXPECT_NE(error.find("threads 0"), std::string::npos) << error;
+  EXPECT_NE(error.find("threads: found 0, expected an integer [1, 256]"), std::string::npos) << error;
   options = RegistrationOptions();
   options.coarse_starts = -1;
   EXPECT_FALSE(options.Check(&error));
@@ -182,11 +183,11 @@ TEST(Options, OnePyramidLevelIsValidAndBadValuesAreNamed) {
   options = RegistrationOptions();
   options.coarse_start_spread = 1.5;
   EXPECT_FALSE(options.Check(&error));
-  EXPECT_NE(error.find("coarse_start_spread"), std::string::npos) << error;
+  EXPECT_NE(error.find("coarse_spread: found 1.5, expected a number (0, 1]"), std::string::npos) << error;
   options = RegistrationOptions();
   options.pyramid_paths = 0;
   EXPECT_FALSE(options.Check(&error));
-  EXPECT_NE(error.find("pyramid_paths 0"), std::string::npos) << error;
+  EXPECT_NE(error.find("pyramid_paths: found 0, expected an integer [1, 6]"), std::string::npos) << error;
   options = RegistrationOptions();
   options.max_sigma_px = -1;
   EXPECT_FALSE(options.Check(&error));
@@ -194,7 +195,36 @@ TEST(Options, OnePyramidLevelIsValidAndBadValuesAreNamed) {
   options = RegistrationOptions();
   options.polish_rounds = 4;
   EXPECT_FALSE(options.Check(&error));
-  EXPECT_NE(error.find("polish_rounds 4"), std::string::npos) << error;
+  EXPECT_NE(error.find("polish_rounds: found 4, expected an integer [0, 3]"), std::string::npos) << error;
+}
+
+// The --set table of register-mi: every default is within its range and reads back as itself,
+// a derived setting (the simplex) sets all six edges, nested ones reach their struct, and a
+// near miss is answered with the closest name.
+TEST(Options, SettingsTableCoversTheDefaultsAndReachesNestedFields) {
+  const SettingsTable<RegistrationOptions>& table = RegistrationSettingsTable();
+  std::string problem;
+  EXPECT_TRUE(table.Check(RegistrationOptions(), &problem)) << problem;
+  const std::vector<SettingInfo> all = table.List();
+  ASSERT_GE(all.size(), 50u);
+  for (const SettingInfo& setting : all) {
+    RegistrationOptions options;
+    EXPECT_TRUE(table.Set(setting.name, setting.default_value, &options, &problem)) << setting.name << ": " << problem;
+  }
+  RegistrationOptions options;
+  ASSERT_TRUE(table.Apply({"simplex=0.5", "bins=48", "smoothing=parzen", "region=whole", "halves=false"}, &options,
+                          &problem))
+      << problem;
+  EXPECT_EQ(options.nelder_mead.initial_step, Vector6d::Constant(0.5));
+  EXPECT_EQ(options.metric.bins, 48);
+  EXPECT_EQ(options.metric.smoothing, Smoothing::kParzen);
+  EXPECT_EQ(options.metric.region, Region::kWholeImage);
+  EXPECT_FALSE(options.split_check);
+  EXPECT_TRUE(options.Check(&problem)) << problem;
+  EXPECT_FALSE(table.Apply({"restart=2"}, &options, &problem));
+  EXPECT_EQ(problem, "unknown setting 'restart' (closest: 'restarts'; mmba register-mi --help lists them)");
+  EXPECT_FALSE(table.Apply({"bound_deg=46"}, &options, &problem));
+  EXPECT_EQ(problem, "bound_deg: found '46', expected a number (0, 45]");
 }
 
 class StreetTest : public ::testing::Test {

@@ -113,6 +113,11 @@ std::vector<FramePaths> ListFrames(const JobRequest& request);
 /// (`paths` from ListFrames). Throws InputError on bad input.
 Job PrepareJob(const JobRequest& request, std::vector<FramePaths> paths);
 
+/// Registers a prepared job: one frame (its views) by RegisterFrames, several frames (a shared
+/// calibration or a rig) by RegisterRig. The result's poses are in the clouds' own frame;
+/// `cam_from_local` receives the result's pose about the job's origin (for rendering `clouds`).
+RegistrationResult RegisterJob(const Job& job, Rigid3d* cam_from_local);
+
 /// The views of a panorama's image: perspective cuts at the kAutoHeadings headings that see
 /// the most of `points` at `start` (`headings` receives them, degrees), as register-mi
 /// --view perspective --headings auto.

@@ -10,6 +10,7 @@
 
 #include "mmba/geometry/rigid3d.h"
 #include "mmba/io/pose_json.h"
+#include "mmba/registration/mi/job.h"
 #include "mmba/registration/mi/mi_registration.h"
 
 namespace mmba::registration::mi {
@@ -27,5 +28,15 @@ nlohmann::json MetricToJson(const MetricValue& metric);
 /// iterations, evaluations, runtime_seconds.
 nlohmann::json ResultToJson(const RegistrationResult& result, const RegistrationOptions& options,
                             const Rigid3d& start);
+
+/// OUT.json of `mmba register-mi` for a prepared job: ResultToJson of `result` (its poses in
+/// the clouds' own frame, as RegisterJob gives them), the settings as the request set them and
+/// the job resolved them, the clouds and their incidence fits; with a rig the pose named
+/// rig_from_lidar and each camera's cam_from_lidar; with several frames each frame's status and
+/// screening; with a perturbation (or a start from `request.initial` where the calibration
+/// holds a pose) the pixel offsets of the first frame's views against the unperturbed (the
+/// calibration's) pose, at the start and at `cam_from_local` (the result about the job's origin).
+nlohmann::json JobResultToJson(const JobRequest& request, const Job& job, const RegistrationResult& result,
+                               const Rigid3d& cam_from_local);
 
 }  // namespace mmba::registration::mi
