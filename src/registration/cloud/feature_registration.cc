@@ -106,7 +106,7 @@ Eigen::Vector3d GridViewpoint(const io::PointCloud& cloud, const Eigen::Vector3d
 // NormalOrientation::kAuto: RegisterCloudsNearOrigin with the normals towards each cloud's
 // origin (or sensors). When that fails after the normals stage with no pose that fits, and
 // the two clouds do not both have sensor positions, it is tried again with kConsistentTurned
-// (a scan moved into another frame, its origin behind its surfaces: bench/RESULTS.md, issue 5,
+// (a scan moved into another frame, its origin behind its surfaces: bench/RESULTS.md,
 // "Normals retried") and, when a cloud's normals are estimated without sensors, with
 // kConsistent (part of a cloud turned against the rest). A retry's result is taken only when
 // it is "ok"; the runtime counts every try.

@@ -3,15 +3,14 @@
 #include "mmba/registration/cloud/feature_registration.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <exception>
 #include <mutex>
 #include <optional>
 #include <sstream>
 #include <thread>
 
 #include "mmba/core/error.h"
+#include "mmba/core/parallel_for.h"
 #include "mmba/core/progress.h"
 #include "registration/cloud/cloud_levels.h"
 
@@ -20,28 +19,14 @@ namespace mmba::registration {
 using internal::CheckCloud;
 
 namespace {
+
 // Runs job(0) … job(n − 1), two at a time on a machine with two cores or more (each is mostly
-// single-threaded); the first exception is rethrown once both workers have stopped.
+// single-threaded); the first exception is rethrown on the caller's thread.
 void RunTwoAtATime(size_t n, const std::function<void(size_t)>& job) {
-  std::atomic<size_t> next{0};
-  std::mutex error_mutex;
-  std::exception_ptr error;
-  const auto work = [&]() {
-    try {
-      for (size_t k = next++; k < n; k = next++) job(k);
-    } catch (...) {
-      const std::lock_guard<std::mutex> lock(error_mutex);
-      if (!error) error = std::current_exception();
-      next = n;
-    }
-  };
-  const size_t workers = std::min<size_t>({2, std::max(1u, std::thread::hardware_concurrency()), n});
-  std::vector<std::thread> pool;
-  for (size_t w = 1; w < workers; ++w) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
-  if (error) std::rethrow_exception(error);
+  const int threads = static_cast<int>(std::min<unsigned>(2, std::max(1u, std::thread::hardware_concurrency())));
+  ParallelFor(static_cast<int>(n), threads, [&](int k) { job(static_cast<size_t>(k)); });
 }
+
 }  // namespace
 
 double ScaleSearchTolerance(const io::PointCloud& target) {

@@ -65,46 +65,55 @@ void ReportFinalists(RegistrationContext& ctx) {
   }
 }
 
-bool Verdict(RegistrationContext& ctx) {
-  double& axis_resolution = ctx.axis_resolution;
-  Hypothesis& best = ctx.best;
-  Eigen::Vector3d& centre = ctx.centre;
-  std::vector<Finalist>& finalists = ctx.finalists;
-  Hypothesis& fine_check = ctx.fine_check;
-  double& fine_tau = ctx.fine_tau;
-  const CloudRegistrationOptions& options = ctx.options;
-  std::vector<IntensityBlocks>& photo = ctx.photo;
-  CloudRegistrationResult& result = ctx.result;
-  std::vector<std::pair<size_t, double>>& rivals = ctx.rivals;
-  double& support_radius = ctx.support_radius;
-  bool& visibility = ctx.visibility;
-  std::string& weak_motion = ctx.weak_motion;
-  double runner_up = 0.0;
+namespace {
+
+// The distinct finalist the best pose beats by the fewest standard errors, with its t
+// statistics (geometric, intensity).
+struct Rival {
   const RegistrationHypothesis* runner = nullptr;
-  // Ambiguity: the best pose must beat every distinct finalist that scores above
-  // max_ambiguity × its score by at least min_significance standard errors of the paired block
-  // score difference — the test PoseResolution applies to small displacements, applied here to
-  // the distinct poses found: a pseudo-symmetric turn, or a shift by one period of a repeated
-  // structure (the runner-up need not score close to the best: a noisy source shifted by one
-  // bay may score 70 % of the truth and still not be told from it). `significance` is the
-  // smallest of these t statistics (+inf when no distinct finalist is left).
+  double geometric_t = 0.0, intensity_t = 0.0;
+};
+
+// Ambiguity: the best pose must beat every distinct finalist that scores above
+// max_ambiguity × its score by at least min_significance standard errors of the paired block
+// score difference — the test PoseResolution applies to small displacements, applied here to
+// the distinct poses found: a pseudo-symmetric turn, or a shift by one period of a repeated
+// structure (the runner-up need not score close to the best: a noisy source shifted by one
+// bay may score 70 % of the truth and still not be told from it). Sets the result's
+// `significance` (the smallest of these t statistics, +inf when no distinct finalist is left),
+// its intensity significance and its confidence (1 − runner-up score / best score).
+Rival FindRival(RegistrationContext& ctx) {
+  const std::vector<IntensityBlocks>& photo = ctx.photo;
+  CloudRegistrationResult& result = ctx.result;
+  Rival rival;
+  double runner_up = 0.0;
   result.significance = std::numeric_limits<double>::infinity();
-  if (finalists.size() > 1) runner_up = finalists[1].h.score;
-  double runner_geometric_t = 0.0, runner_intensity_t = 0.0;
-  for (const auto& [k, tg] : rivals) {
+  if (ctx.finalists.size() > 1) runner_up = ctx.finalists[1].h.score;
+  for (const auto& [k, tg] : ctx.rivals) {
     const double ti =
         photo.empty() ? 0.0 : internal::IntensityAgreement::Significance(photo[0], photo[k]);
     const double t = photo.empty() ? tg : internal::CombinedSignificance(tg, ti);
     if (t < result.significance) {
       result.significance = t;
-      runner = &result.hypotheses[k];
-      runner_geometric_t = tg;
-      runner_intensity_t = ti;
+      rival.runner = &result.hypotheses[k];
+      rival.geometric_t = tg;
+      rival.intensity_t = ti;
     }
   }
-  if (!photo.empty() && runner != nullptr) result.intensity_significance = runner_intensity_t;
-  const double best_score = best.score;
+  if (!photo.empty() && rival.runner != nullptr) result.intensity_significance = rival.intensity_t;
+  const double best_score = ctx.best.score;
   result.confidence = best_score > 0 ? std::clamp(1.0 - runner_up / best_score, 0.0, 1.0) : 0.0;
+  return rival;
+}
+
+// The best pose fits: enough overlap, not contradicted by the sensors' free space, normals
+// agreeing. False (the result failed with the reason) otherwise.
+bool CheckFit(RegistrationContext& ctx) {
+  const Hypothesis& best = ctx.best;
+  const Hypothesis& fine_check = ctx.fine_check;
+  const double fine_tau = ctx.fine_tau;
+  const CloudRegistrationOptions& options = ctx.options;
+  const bool visibility = ctx.visibility;
   std::ostringstream why;
   why << std::setprecision(3);
   // With the target's sensors known, a small overlap is not by itself evidence against the
@@ -138,29 +147,49 @@ bool Verdict(RegistrationContext& ctx) {
         << 100 * options.min_normal_agreement << "%)";
     return ctx.Fail(why.str());
   }
-  // The best pose fits; what follows asks whether it is the only one and whether it is fixed.
-  result.best_pose_fits = true;
+  return true;
+}
+
+// The best pose is the only one: no distinct finalist within min_significance standard errors.
+bool CheckAmbiguity(RegistrationContext& ctx, const Rival& rival) {
+  const Hypothesis& best = ctx.best;
+  const CloudRegistrationOptions& options = ctx.options;
+  const CloudRegistrationResult& result = ctx.result;
+  const RegistrationHypothesis* runner = rival.runner;
+  const double best_score = best.score;
+  std::ostringstream why;
+  why << std::setprecision(3);
   if (!options.paper_only && runner != nullptr && result.significance < options.min_significance) {
     const Eigen::Matrix3d r = runner->target_from_source.topLeftCorner<3, 3>().transpose() *
                               best.transform.topLeftCorner<3, 3>();
     const double shift =
-        (Apply(runner->target_from_source, centre) - Apply(best.transform, centre)).norm();
+        (Apply(runner->target_from_source, ctx.centre) - Apply(best.transform, ctx.centre)).norm();
     why << "ambiguous: a different pose fits almost as well (scores " << best_score << " and "
         << runner->score << "; " << RotationAngleDeg(r) << "° and " << shift
-        << " m apart at the source centre); the best is better by only " << result.significance
+        << " m apart at the source ctx.centre); the best is better by only " << result.significance
         << " standard errors (need " << options.min_significance << ")";
-    if (!photo.empty()) {
-      why << " with the intensity test (geometry " << runner_geometric_t << ", intensity "
-          << runner_intensity_t << ")";
+    if (!ctx.photo.empty()) {
+      why << " with the intensity test (geometry " << rival.geometric_t << ", intensity "
+          << rival.intensity_t << ")";
     }
     why << ": a (pseudo-)symmetric or repeated structure — give "
         << (options.gravity_aligned ? "" : "--gravity-aligned, ")
         << "more overlap or an approximate pose (--search-window)";
     return ctx.Fail(why.str());
   }
-  // Scale agreement: a chosen pose that the coarse level ranked well below another distinct
-  // finalist is contradicted by the coarse evidence (fine ICP can leave a good coarse start on
-  // a dense, noisy cloud; the fine score then sees a symmetric twin fit better).
+  return true;
+}
+
+// Scale agreement: a chosen pose that the coarse level ranked well below another distinct
+// finalist is contradicted by the coarse evidence (fine ICP can leave a good coarse start on
+// a dense, noisy cloud; the fine score then sees a symmetric twin fit better).
+bool CheckScaleAgreement(RegistrationContext& ctx) {
+  const Hypothesis& best = ctx.best;
+  const std::vector<Finalist>& finalists = ctx.finalists;
+  const CloudRegistrationOptions& options = ctx.options;
+  const double best_score = best.score;
+  std::ostringstream why;
+  why << std::setprecision(3);
   if (!options.paper_only && options.min_coarse_agreement > 0 &&
       std::isfinite(finalists[0].coarse_score)) {
     size_t leader = 0;
@@ -177,7 +206,7 @@ bool Verdict(RegistrationContext& ctx) {
       const Finalist& l = finalists[leader];
       const Eigen::Matrix3d r =
           l.h.transform.topLeftCorner<3, 3>().transpose() * best.transform.topLeftCorner<3, 3>();
-      const double shift = (Apply(l.h.transform, centre) - Apply(best.transform, centre)).norm();
+      const double shift = (Apply(l.h.transform, ctx.centre) - Apply(best.transform, ctx.centre)).norm();
       why << "scales disagree: the coarse level prefers a pose " << RotationAngleDeg(r) << "° and "
           << shift << " m away (coarse scores " << l.coarse_score << " against "
           << finalists[0].coarse_score << " for this one), the fine level this one (fine scores "
@@ -187,6 +216,20 @@ bool Verdict(RegistrationContext& ctx) {
       return ctx.Fail(why.str());
     }
   }
+  return true;
+}
+
+// The pose is fixed: resolved to within max_resolution_spacing × the fine spacing along every
+// motion, its least-constrained motion told apart within its bound, and (when checked) the
+// fit's uncertainty small enough.
+bool CheckResolution(RegistrationContext& ctx) {
+  const CloudRegistrationOptions& options = ctx.options;
+  const CloudRegistrationResult& result = ctx.result;
+  const double axis_resolution = ctx.axis_resolution;
+  const double support_radius = ctx.support_radius;
+  const std::string& weak_motion = ctx.weak_motion;
+  std::ostringstream why;
+  why << std::setprecision(3);
   if (!options.paper_only &&
       !(axis_resolution <= options.max_resolution_spacing * result.fine_spacing_m)) {
     why << "pose not resolved: the fine verification cannot tell it from displacements of "
@@ -225,6 +268,21 @@ bool Verdict(RegistrationContext& ctx) {
         << result.fine_spacing_m << " m): a planar or featureless overlap";
     return ctx.Fail(why.str());
   }
+  return true;
+}
+
+}  // namespace
+
+bool Verdict(RegistrationContext& ctx) {
+  const CloudRegistrationOptions& options = ctx.options;
+  CloudRegistrationResult& result = ctx.result;
+  const Rival rival = FindRival(ctx);
+  if (!CheckFit(ctx)) return false;
+  // The best pose fits; what follows asks whether it is the only one and whether it is fixed.
+  result.best_pose_fits = true;
+  if (!CheckAmbiguity(ctx, rival)) return false;
+  if (!CheckScaleAgreement(ctx)) return false;
+  if (!CheckResolution(ctx)) return false;
   if (options.paper_only) {
     // The paper's pipeline has no verification: its result is not claimed as "ok".
     result.status = "unverified";

@@ -3,10 +3,12 @@
 
 #include "registration/cloud/pcl_backend.h"
 
+#include <atomic>
 #include <cmath>
-#include <thread>
 
 #include <Eigen/Eigenvalues>
+
+#include "mmba/core/parallel_for.h"
 
 namespace mmba::registration::internal {
 
@@ -59,12 +61,13 @@ size_t SurfaceNormals(const std::vector<Eigen::Vector3d>& points, const PointInd
       ++*widened;
     }
   };
-  const size_t half = points.size() / 2;
-  size_t first = 0, second = 0;
-  std::thread worker(estimate, size_t{0}, half, &first);
-  estimate(half, points.size(), &second);
-  worker.join();
-  return first + second;
+  std::atomic<size_t> widened{0};
+  ParallelChunks(points.size(), 2, [&](size_t begin, size_t end) {
+    size_t chunk_widened = 0;
+    estimate(begin, end, &chunk_widened);
+    widened += chunk_widened;
+  });
+  return widened;
 }
 
 }  // namespace mmba::registration::internal
