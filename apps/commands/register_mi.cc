@@ -43,7 +43,7 @@ struct RegisterMiArgs {
   // auto: perspective cuts of a panorama (EQUIRECTANGULAR camera), the image itself otherwise.
   std::string view = "auto";
   // The cuts that see the most LiDAR: on the simulated panoramas better than the paper's -90,90
-  // (bench/RESULTS.md, register-mi on simulated panoramas: 70 against 56 ok of 80).
+  // (bench/RESULTS.md, "Simulated panoramas through the command line": 70 against 56 ok of 80).
   std::string headings = "auto";
   bool surface_classes = false;
   int orientation_classes = -1;  ///< -1: kDefaultOrientationSectors with intensity, else 0

@@ -255,7 +255,7 @@ void JobBuilder::ResolveViews() {
   if (request.view_auto) {
     // Perspective cuts (the paper's views, with --headings auto) registered more simulated
     // panoramas than the whole panorama: 70 against 56 ok of 80, neither with a wrong ok
-    // (bench/RESULTS.md, "the must-show through the command line").
+    // (bench/RESULTS.md, "Simulated panoramas through the command line").
     view_options.kind = panorama ? ViewKind::kPerspective : ViewKind::kImage;
     view_name = panorama ? "perspective" : "image";
     if (panorama) spdlog::info("--view auto: perspective cuts of the panorama");

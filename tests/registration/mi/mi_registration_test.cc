@@ -869,7 +869,7 @@ TEST_F(StreetTest, RigCamerasOffTheRigCentreGiveTheRigPose) {
 // optimum; jointly they give a compromise. With two frames the disagreement screening cannot
 // reject either (the median absolute deviation of two values always admits both), so the
 // independent halves must be the frames themselves. Halves that each held one camera of both
-// frames (before session 32) both end at the compromise and agree: 0.18 px apart here, where
+// frames would both end at the compromise and agree: 0.18 px apart here, where
 // the frame halves are 2.3 px apart (this compromise is also refused by its restarts, 1.6 px;
 // the halves are the check that compares the frames).
 TEST_F(StreetTest, RigCalibrationHalvesAreFramesSoDisagreeingFramesFail) {
@@ -1086,7 +1086,8 @@ class KittiTest : public ::testing::Test {
   Frame frame_;
 };
 
-// The start that used to come out "ok" 5.7 px off the calibration (bench/RESULTS.md): a pose
+// A start that an acceptance without the calibrated-sigma check reports "ok" 5.7 px off the
+// calibration (bench/RESULTS.md): a pose
 // reported "ok" must be within 1 px of the calibration; otherwise the status must be failed.
 TEST_F(KittiTest, AWrongPoseIsNeverReportedOk) {
   Vector6d perturbation;

@@ -179,7 +179,7 @@ inline ViewTransform MakeTransform(const View& view, const Rigid3d& cam_from_lid
 
 struct RenderOptions;
 
-/// How the views of a frame are cut from its image (item 1 of issue 6).
+/// How the views of a frame are cut from its image.
 enum class ViewKind {
   kImage,        ///< the image itself with its camera (pinhole, fisheye, or whole equirect)
   kPerspective,  ///< perspective cuts of an equirectangular panorama (paper: 940×452)

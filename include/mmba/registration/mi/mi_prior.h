@@ -1,6 +1,6 @@
 #pragma once
 
-// A weighted 6-DoF pose prior from an MI registration (issue 6 → joint adjustment, issue 7):
+// A weighted 6-DoF pose prior from an MI registration for the joint adjustment:
 // the camera pose found by RegisterFrames (`cam_from_lidar_mi`) with the 6×6 covariance of
 // its correction, as a Ceres residual on the pose blocks of the camera.
 //

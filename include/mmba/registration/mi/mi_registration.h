@@ -160,7 +160,7 @@ struct RegistrationOptions {
   /// estimate is above the paper's accuracy (< 1 px) is not "ok". Measured (bench/RESULTS.md,
   /// "MI inside the adjustment"): a photo registered "ok" 0.21 m / 0.25° from its adjusted
   /// pose had 1.35 px here (0.20 px Laplace); the 7 right "ok" of the simulated panoramas had
-  /// 0.38–1.11 px, so the two above 1 px (ending 0.88 px from the truth) are now refused too.
+  /// 0.38–1.11 px; the two above 1 px ended 0.88 px from the truth and are refused.
   double max_calibrated_sigma_px = 1.0;
   /// Restarts: Nelder–Mead at `restart_level` (simplex 2·offset, the main run's finest
   /// tolerance) from this many points around the optimum (offset ±restart_offset in each
@@ -516,8 +516,8 @@ std::vector<ProbeSample> Probe(const FrameSetEvaluator& evaluator, const Rigid3d
 void WriteProbe(const std::vector<ProbeSample>& samples, const std::string& dir);
 
 /// Pixel offsets between the projections of the LiDAR points seen by `view` under a
-/// reference pose and under an estimate (issue 6: "pixel offset of LiDAR points projected
-/// with the result against the calibration's own"). Points within [min, max] range.
+/// reference pose and under an estimate: how far the result moves the LiDAR points' projections
+/// from where the calibration's own pose puts them. Points within [min, max] range.
 struct PixelOffsetStats {
   size_t points = 0;
   double median_px = 0;
