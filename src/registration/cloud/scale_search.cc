@@ -33,6 +33,134 @@ double ScaleSearchTolerance(const io::PointCloud& target) {
   return std::max(3.0 * EstimatePointSpacing(target), 0.005 * RobustExtent(target.points));
 }
 
+namespace {
+
+// A trial's rigid registration and, when it is "ok" (or refined in the second pass), its
+// similarity refinement.
+struct Outcome {
+  CloudRegistrationResult rigid;
+  std::optional<SimilarityFit> fit;
+};
+
+// The trials of one scale search: the source scaled about its centroid and registered
+// rigidly, each "ok" one refined as a similarity.
+class ScaleTrials {
+ public:
+  ScaleTrials(const io::PointCloud& source, const io::PointCloud& target, const CloudRegistrationOptions& options,
+              double tau, const std::function<void(size_t, size_t, const ScaleTrial&)>& progress)
+      : source_(source), target_(target), options_(options), tau_(tau), progress_(progress) {
+    centroid_ = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector3d& x : source.points) centroid_ += x;
+    centroid_ /= static_cast<double>(source.size());
+    extent_ = RobustExtent(source.points);
+  }
+
+  // Runs trials k ∈ [first, scales.size()), two at a time; their results are taken in the
+  // order of their scales, so they do not depend on which finished first.
+  void Run(const std::vector<double>& scales, size_t first) {
+    scales_ = scales;
+    outcomes_.resize(scales.size());
+    trials_.resize(scales.size());
+    RunTwoAtATime(scales.size() - first, [&](size_t i) { TrialJob(first + i); });
+  }
+
+  // The similarity target ← source of a trial's rigid pose, refined with the scale free.
+  SimilarityFit Refine(double scale, const CloudRegistrationResult& rigid) const {
+    Eigen::Matrix4d start = Eigen::Matrix4d::Identity();
+    start.topLeftCorner<3, 3>() = scale * rigid.target_from_source.topLeftCorner<3, 3>();
+    start.topRightCorner<3, 1>() =
+        rigid.target_from_source.topRightCorner<3, 1>() - start.topLeftCorner<3, 3>() * centroid_;
+    const double reach = std::max(10.0 * tau_, 0.05 * scale * extent_);
+    return RefineSimilarity(source_, target_, start, reach, tau_);
+  }
+
+  const std::vector<double>& scales() const { return scales_; }
+  const std::vector<Outcome>& outcomes() const { return outcomes_; }
+  std::vector<ScaleTrial>& trials() { return trials_; }
+
+ private:
+  // One trial: the source at `scale` (about its centroid) registered rigidly; an "ok" one is
+  // refined as a similarity (a rigid pose at a scale 5 % off leaves the source's ends 5 % of
+  // its half extent off).
+  void RunTrial(double scale, Outcome* o, ScaleTrial* trial) const {
+    io::PointCloud scaled;
+    scaled.points.reserve(source_.size());
+    for (const Eigen::Vector3d& x : source_.points) scaled.points.push_back(scale * (x - centroid_));
+    CloudRegistrationOptions trial_options = options_;
+    for (Eigen::Vector3d& c : trial_options.source_viewpoints) c = scale * (c - centroid_);
+    if (trial_options.normal_orientation == NormalOrientation::kAuto) {
+      trial_options.normal_orientation = NormalOrientation::kViewpoint;  // no retries
+    }
+    o->rigid = RegisterClouds(scaled, target_, trial_options);
+    trial->scale = scale;
+    trial->status = o->rigid.ok() ? "ok" : "failed: " + o->rigid.reason;
+    trial->fitness = o->rigid.fitness;
+  }
+
+  void TrialJob(size_t k) {
+    Outcome& o = outcomes_[k];
+    ScaleTrial& trial = trials_[k];
+    RunTrial(scales_[k], &o, &trial);
+    if (o.rigid.ok()) {
+      o.fit = Refine(scales_[k], o.rigid);
+      trial.refined = true;
+      trial.refined_scale = o.fit->scale;
+      trial.refined_fitness = o.fit->fitness;
+    }
+    const std::lock_guard<std::mutex> lock(progress_mutex_);
+    ++finished_;
+    if (progress_) progress_(finished_, trials_.size(), trial);
+  }
+
+  const io::PointCloud& source_;
+  const io::PointCloud& target_;
+  const CloudRegistrationOptions& options_;
+  double tau_;
+  const std::function<void(size_t, size_t, const ScaleTrial&)>& progress_;
+  Eigen::Vector3d centroid_;
+  double extent_ = 0.0;
+  std::vector<double> scales_;
+  std::vector<Outcome> outcomes_;
+  std::vector<ScaleTrial> trials_;
+  std::mutex progress_mutex_;
+  size_t finished_ = 0;
+};
+
+// Second pass, when no trial scale registered: the checks of a rigid registration refuse a
+// pose whose scale is a few per cent off (its ends lie beyond the fine tolerance, so it is
+// "not resolved" or "not determined" though it fits). Every failed trial whose pose fits is
+// refined as a similarity; the two refined scales that fit best (distinct, within the range
+// widened by a step) are each registered again from scratch, with every check. An "ok" there
+// is a trial like the others.
+void RetryAtRefinedScales(ScaleTrials* trials, double min_scale, double max_scale, double step) {
+  const std::vector<double> scales = trials->scales();
+  const std::vector<Outcome>& outcomes = trials->outcomes();
+  std::vector<std::optional<SimilarityFit>> fits(scales.size());
+  RunTwoAtATime(scales.size(), [&](size_t k) {
+    if (outcomes[k].rigid.best_pose_fits) fits[k] = trials->Refine(scales[k], outcomes[k].rigid);
+  });
+  std::vector<SimilarityFit> refined;
+  for (const std::optional<SimilarityFit>& fit : fits) {
+    if (fit && fit->scale >= min_scale / step && fit->scale <= max_scale * step) refined.push_back(*fit);
+  }
+  std::stable_sort(refined.begin(), refined.end(),
+                   [](const SimilarityFit& a, const SimilarityFit& b) { return a.fitness > b.fitness; });
+  std::vector<double> tried = scales;
+  for (const SimilarityFit& fit : refined) {
+    if (tried.size() == scales.size() + 2) break;
+    if (std::none_of(tried.begin(), tried.end(), [&](double t) { return std::abs(fit.scale / t - 1.0) < 1e-3; })) {
+      tried.push_back(fit.scale);
+    }
+  }
+  const size_t first_new = scales.size();
+  std::vector<ScaleTrial>& all = trials->trials();
+  all.resize(tried.size());
+  for (size_t k = first_new; k < tried.size(); ++k) all[k].from_refinement = true;
+  trials->Run(tried, first_new);
+}
+
+}  // namespace
+
 ScaleSearchResult RegisterCloudsOverScales(
     const io::PointCloud& source, const io::PointCloud& target,
     const CloudRegistrationOptions& options, double min_scale, double max_scale, double step,
@@ -54,103 +182,24 @@ ScaleSearchResult RegisterCloudsOverScales(
     const std::string problem = CheckCloud(*cloud, which);
     if (!problem.empty()) return fail(problem);
   }
-  std::vector<double> scales;
-  for (double x = min_scale; x <= max_scale * (1 + 1e-9); x *= step) scales.push_back(x);
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& x : source.points) centroid += x;
-  centroid /= static_cast<double>(source.size());
-  const double extent = RobustExtent(source.points);
+  std::vector<double> first_scales;
+  for (double x = min_scale; x <= max_scale * (1 + 1e-9); x *= step) first_scales.push_back(x);
+  ScaleTrials trials(source, target, options, tau, progress);
+  trials.Run(first_scales, 0);
+  if (std::none_of(trials.outcomes().begin(), trials.outcomes().end(),
+                   [](const Outcome& o) { return o.rigid.ok(); })) {
+    RetryAtRefinedScales(&trials, min_scale, max_scale, step);
+  }
+  const std::vector<double>& scales = trials.scales();
   struct Candidate {
     double trial_scale;
     SimilarityFit fit;
   };
-  struct Outcome {
-    CloudRegistrationResult rigid;
-    std::optional<SimilarityFit> fit;
-  };
-  // One trial: the source at `scale` (about its centroid) registered rigidly; an "ok" one is
-  // refined as a similarity (a rigid pose at a scale 5 % off leaves the source's ends 5 % of
-  // its half extent off).
-  const auto run_trial = [&](double scale, Outcome* o, ScaleTrial* trial) {
-    io::PointCloud scaled;
-    scaled.points.reserve(source.size());
-    for (const Eigen::Vector3d& x : source.points) scaled.points.push_back(scale * (x - centroid));
-    CloudRegistrationOptions trial_options = options;
-    for (Eigen::Vector3d& c : trial_options.source_viewpoints) c = scale * (c - centroid);
-    if (trial_options.normal_orientation == NormalOrientation::kAuto) {
-      trial_options.normal_orientation = NormalOrientation::kViewpoint;  // no retries
-    }
-    o->rigid = RegisterClouds(scaled, target, trial_options);
-    trial->scale = scale;
-    trial->status = o->rigid.ok() ? "ok" : "failed: " + o->rigid.reason;
-    trial->fitness = o->rigid.fitness;
-  };
-  // The similarity target ← source of a trial's rigid pose, refined with the scale free.
-  const auto refine = [&](double scale, const CloudRegistrationResult& rigid) {
-    Eigen::Matrix4d start = Eigen::Matrix4d::Identity();
-    start.topLeftCorner<3, 3>() = scale * rigid.target_from_source.topLeftCorner<3, 3>();
-    start.topRightCorner<3, 1>() =
-        rigid.target_from_source.topRightCorner<3, 1>() - start.topLeftCorner<3, 3>() * centroid;
-    const double reach = std::max(10.0 * tau, 0.05 * scale * extent);
-    return RefineSimilarity(source, target, start, reach, tau);
-  };
-  std::vector<Outcome> outcomes(scales.size());
-  std::vector<ScaleTrial> trials(scales.size());
-  std::mutex progress_mutex;
-  size_t finished = 0;
-  // The trials are independent: two at a time, then taken in the order of their scales, so the
-  // result does not depend on which finished first.
-  const auto trial_job = [&](size_t k) {
-    Outcome& o = outcomes[k];
-    ScaleTrial& trial = trials[k];
-    run_trial(scales[k], &o, &trial);
-    if (o.rigid.ok()) {
-      o.fit = refine(scales[k], o.rigid);
-      trial.refined = true;
-      trial.refined_scale = o.fit->scale;
-      trial.refined_fitness = o.fit->fitness;
-    }
-    const std::lock_guard<std::mutex> lock(progress_mutex);
-    ++finished;
-    if (progress) progress(finished, trials.size(), trial);
-  };
-  RunTwoAtATime(scales.size(), trial_job);
-  // Second pass, when no trial scale registered: the checks of a rigid registration refuse a
-  // pose whose scale is a few per cent off (its ends lie beyond the fine tolerance, so it is
-  // "not resolved" or "not determined" though it fits). Every failed trial whose pose fits is
-  // refined as a similarity; the two refined scales that fit best (distinct, within the range
-  // widened by a step) are each registered again from scratch, with every check. An "ok" there
-  // is a trial like the others.
-  if (std::none_of(outcomes.begin(), outcomes.end(), [](const Outcome& o) { return o.rigid.ok(); })) {
-    std::vector<std::optional<SimilarityFit>> fits(scales.size());
-    RunTwoAtATime(scales.size(), [&](size_t k) {
-      if (outcomes[k].rigid.best_pose_fits) fits[k] = refine(scales[k], outcomes[k].rigid);
-    });
-    std::vector<SimilarityFit> refined;
-    for (const std::optional<SimilarityFit>& fit : fits) {
-      if (fit && fit->scale >= min_scale / step && fit->scale <= max_scale * step) refined.push_back(*fit);
-    }
-    std::stable_sort(refined.begin(), refined.end(),
-                     [](const SimilarityFit& a, const SimilarityFit& b) { return a.fitness > b.fitness; });
-    std::vector<double> tried = scales;
-    for (const SimilarityFit& fit : refined) {
-      if (tried.size() == scales.size() + 2) break;
-      if (std::none_of(tried.begin(), tried.end(), [&](double t) { return std::abs(fit.scale / t - 1.0) < 1e-3; })) {
-        tried.push_back(fit.scale);
-      }
-    }
-    const size_t first_new = scales.size();
-    scales.assign(tried.begin(), tried.end());
-    outcomes.resize(scales.size());
-    trials.resize(scales.size());
-    for (size_t k = first_new; k < scales.size(); ++k) trials[k].from_refinement = true;
-    RunTwoAtATime(scales.size() - first_new, [&](size_t i) { trial_job(first_new + i); });
-  }
   std::vector<Candidate> candidates;
   std::string closest;  // the reason of the failed trial that fitted best
   double closest_fitness = -1.0;
   for (size_t k = 0; k < scales.size(); ++k) {
-    const Outcome& o = outcomes[k];
+    const Outcome& o = trials.outcomes()[k];
     if (o.fit) {
       candidates.push_back({scales[k], *o.fit});
     } else if (o.rigid.fitness > closest_fitness) {
@@ -160,7 +209,7 @@ ScaleSearchResult RegisterCloudsOverScales(
       closest = m.str();
     }
   }
-  result.trials = trials;
+  result.trials = trials.trials();
   if (candidates.empty()) {
     std::ostringstream m;
     m << "registered at none of " << scales.size() << " trial scales " << min_scale << " … " << max_scale << closest;
