@@ -261,99 +261,89 @@ void CheckAsciiItem(const TokenLine& t, const PlyElement& element) {
   }
 }
 
-}  // namespace
+// The vertices of an ASCII PLY into the builder (the other elements' lines checked), and
+// nothing but blank lines after the last element.
+void ReadPlyAsciiBody(const std::string& path, const std::string& data, const PlyHeader& header,
+                      const VertexLayout& layout, std::vector<double>& values, CloudBuilder* builder) {
+  const std::vector<PlyElement>& elements = header.elements;
+  const size_t vertex_index = header.vertex_index;
+  const PlyElement& vertex = elements[vertex_index];
+  auto emit = [&](auto describe) { EmitVertex(layout, vertex, values, builder, describe); };
+  // A plain vertex line (no list property; one finite number per property) is parsed in
+  // place; any other line goes through TokenLine, for NaN/Inf values or a located error.
+  bool has_list = false;
+  for (const PlyProperty& prop : vertex.properties) has_list = has_list || prop.is_list;
+  auto plain_line = [&](std::string_view line) {
+    size_t i = 0, p = 0;
+    while (true) {
+      while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+      if (i == line.size()) return p == values.size();
+      size_t j = i;
+      while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
+      if (p == values.size() || !ParseDouble(line.substr(i, j - i), &values[p])) return false;
+      ++p;
+      i = j;
+    }
+  };
+  LineCursor body(data, path);
+  std::string_view l;
+  for (int64_t k = 0; k < header.header_lines; ++k) body.Next(&l);
+  for (size_t e = 0; e < elements.size(); ++e) {
+    const PlyElement& element = elements[e];
+    for (uint64_t i = 0; i < element.count; ++i) {
+      if (!body.Next(&l)) {
+        throw InputError(path, body.line_number() + 1, element.name,
+                         "end of file after " + std::to_string(i) + " of " +
+                             std::to_string(element.count) + " items",
+                         "one line per item (truncated file?)");
+      }
+      if (e != vertex_index) {
+        CheckAsciiItem(TokenLine(path, body.line_number(), l), element);
+        continue;
+      }
+      if (!has_list && plain_line(l)) {
+        emit([&] { return path + ":" + std::to_string(body.line_number()); });
+        continue;
+      }
+      TokenLine t(path, body.line_number(), l);
+      size_t token = 0;
+      for (size_t p = 0; p < element.properties.size(); ++p) {
+        const PlyProperty& prop = element.properties[p];
+        if (prop.is_list) {
+          const uint64_t count = t.UInt(token++, prop.name + " count");
+          token += count;
+          continue;
+        }
+        if (!internal::NonFiniteText(t.Str(token, prop.name), &values[p])) {
+          values[p] = t.Double(token, prop.name);
+        }
+        ++token;
+      }
+      if (token != t.size()) {
+        t.Fail("vertex", std::to_string(t.size()) + " values",
+               std::to_string(token) + " values (one per property)");
+      }
+      emit([&] { return path + ":" + std::to_string(t.line_number()); });
+    }
+  }
+  while (body.Next(&l)) {
+    if (TokenLine(path, body.line_number(), l).size() == 0) continue;
+    throw InputError(path, body.line_number(), "end of file", "a line after the last element",
+                     "nothing after the " + std::to_string(elements.back().count) + " items of element '" +
+                         elements.back().name + "' (element counts in the header too small?)");
+  }
+}
 
-PointCloud ReadPly(const std::string& path) { return ReadPly(path, {}); }
-
-PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStats* stats) {
-  const std::string data = ReadWholeFile(path);
-  const PlyHeader header = ParsePlyHeader(path, data);
+// The vertices of a binary PLY (little or big endian) into the builder, the other elements
+// skipped, and no byte after the last element.
+void ReadPlyBinaryBody(const std::string& path, const std::string& data, const PlyHeader& header,
+                       const VertexLayout& layout, std::vector<double>& values, CloudBuilder* builder) {
   const PlyFormat format = header.format;
   const std::vector<PlyElement>& elements = header.elements;
   const size_t header_end = header.header_end;
   const size_t vertex_index = header.vertex_index;
   const PlyElement& vertex = elements[vertex_index];
-  const VertexLayout layout = RequireXyz(path, vertex);
-  // The header's vertex count reserves memory only as far as the data can hold the records,
-  // not up to CloudBuilder's cap (2^26 points, 4 GB with all fields, for a 500-byte file that
-  // declares 2^35 vertices): a vertex takes at least 2 bytes per ASCII value ("0 "), and at
-  // least the scalar's (or a list's count's) size per binary value.
-  size_t min_vertex_bytes = 0;
-  for (const PlyProperty& p : vertex.properties) {
-    min_vertex_bytes += format == PlyFormat::kAscii ? 2 : internal::ScalarSize(p.is_list ? p.count_type : p.type);
-  }
-  const uint64_t vertices_that_fit = (data.size() - header_end) / std::max<size_t>(1, min_vertex_bytes);
-  CloudBuilder builder = MakeBuilder(path, options, layout, std::min<uint64_t>(vertex.count, vertices_that_fit));
-  std::vector<double> values(vertex.properties.size());
-  auto emit = [&](auto describe) { EmitVertex(layout, vertex, values, &builder, describe); };
-
-  if (format == PlyFormat::kAscii) {
-    // A plain vertex line (no list property; one finite number per property) is parsed in
-    // place; any other line goes through TokenLine, for NaN/Inf values or a located error.
-    bool has_list = false;
-    for (const PlyProperty& prop : vertex.properties) has_list = has_list || prop.is_list;
-    auto plain_line = [&](std::string_view line) {
-      size_t i = 0, p = 0;
-      while (true) {
-        while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-        if (i == line.size()) return p == values.size();
-        size_t j = i;
-        while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
-        if (p == values.size() || !ParseDouble(line.substr(i, j - i), &values[p])) return false;
-        ++p;
-        i = j;
-      }
-    };
-    LineCursor body(data, path);
-    std::string_view l;
-    for (int64_t k = 0; k < header.header_lines; ++k) body.Next(&l);
-    for (size_t e = 0; e < elements.size(); ++e) {
-      const PlyElement& element = elements[e];
-      for (uint64_t i = 0; i < element.count; ++i) {
-        if (!body.Next(&l)) {
-          throw InputError(path, body.line_number() + 1, element.name,
-                           "end of file after " + std::to_string(i) + " of " +
-                               std::to_string(element.count) + " items",
-                           "one line per item (truncated file?)");
-        }
-        if (e != vertex_index) {
-          CheckAsciiItem(TokenLine(path, body.line_number(), l), element);
-          continue;
-        }
-        if (!has_list && plain_line(l)) {
-          emit([&] { return path + ":" + std::to_string(body.line_number()); });
-          continue;
-        }
-        TokenLine t(path, body.line_number(), l);
-        size_t token = 0;
-        for (size_t p = 0; p < element.properties.size(); ++p) {
-          const PlyProperty& prop = element.properties[p];
-          if (prop.is_list) {
-            const uint64_t count = t.UInt(token++, prop.name + " count");
-            token += count;
-            continue;
-          }
-          if (!internal::NonFiniteText(t.Str(token, prop.name), &values[p])) {
-            values[p] = t.Double(token, prop.name);
-          }
-          ++token;
-        }
-        if (token != t.size()) {
-          t.Fail("vertex", std::to_string(t.size()) + " values",
-                 std::to_string(token) + " values (one per property)");
-        }
-        emit([&] { return path + ":" + std::to_string(t.line_number()); });
-      }
-    }
-    while (body.Next(&l)) {
-      if (TokenLine(path, body.line_number(), l).size() == 0) continue;
-      throw InputError(path, body.line_number(), "end of file", "a line after the last element",
-                       "nothing after the " + std::to_string(elements.back().count) + " items of element '" +
-                           elements.back().name + "' (element counts in the header too small?)");
-    }
-    return builder.Finish("ply-ascii", stats);
-  }
-
+  auto emit = [&](auto describe) { EmitVertex(layout, vertex, values, builder, describe); };
   const bool file_le = format == PlyFormat::kBinaryLe;
   const bool swap = file_le != internal::HostIsLittleEndian();
   size_t pos = header_end;
@@ -416,7 +406,36 @@ PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStat
                              "nothing after the " + std::to_string(elements.back().count) + " items of element '" +
                                  elements.back().name + "' (element counts in the header too small?)");
   }
-  return builder.Finish(file_le ? "ply-binary-le" : "ply-binary-be", stats);
+}
+
+}  // namespace
+
+PointCloud ReadPly(const std::string& path) { return ReadPly(path, {}); }
+
+PointCloud ReadPly(const std::string& path, const ReadOptions& options, ReadStats* stats) {
+  const std::string data = ReadWholeFile(path);
+  const PlyHeader header = ParsePlyHeader(path, data);
+  const PlyFormat format = header.format;
+  const size_t header_end = header.header_end;
+  const PlyElement& vertex = header.elements[header.vertex_index];
+  const VertexLayout layout = RequireXyz(path, vertex);
+  // The header's vertex count reserves memory only as far as the data can hold the records,
+  // not up to CloudBuilder's cap (2^26 points, 4 GB with all fields, for a 500-byte file that
+  // declares 2^35 vertices): a vertex takes at least 2 bytes per ASCII value ("0 "), and at
+  // least the scalar's (or a list's count's) size per binary value.
+  size_t min_vertex_bytes = 0;
+  for (const PlyProperty& p : vertex.properties) {
+    min_vertex_bytes += format == PlyFormat::kAscii ? 2 : internal::ScalarSize(p.is_list ? p.count_type : p.type);
+  }
+  const uint64_t vertices_that_fit = (data.size() - header_end) / std::max<size_t>(1, min_vertex_bytes);
+  CloudBuilder builder = MakeBuilder(path, options, layout, std::min<uint64_t>(vertex.count, vertices_that_fit));
+  std::vector<double> values(vertex.properties.size());
+  if (format == PlyFormat::kAscii) {
+    ReadPlyAsciiBody(path, data, header, layout, values, &builder);
+    return builder.Finish("ply-ascii", stats);
+  }
+  ReadPlyBinaryBody(path, data, header, layout, values, &builder);
+  return builder.Finish(format == PlyFormat::kBinaryLe ? "ply-binary-le" : "ply-binary-be", stats);
 }
 
 namespace {
