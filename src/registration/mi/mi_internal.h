@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 
+#include "mmba/core/parallel_for.h"
 #include "mmba/registration/mi/mi_registration.h"
 
 namespace mmba::registration::mi::internal {
@@ -26,15 +27,13 @@ std::string Fixed(double v, int digits = 3);
 // ---- Threads.
 /// One render buffer per thread, reused between evaluations.
 LidarImage& ThreadBuffer();
-/// On the threads of a running ParallelFor: true when a worker of the loop has run out of
-/// items (its core is free), so that an evaluation made there may split itself over two
-/// threads; always true outside a loop. The split does not change the result (fixed partial
+/// core/parallel_for.h: an evaluation made inside a ParallelFor splits itself over two
+/// threads only when CoreFreeForSplit(); the split does not change the result (fixed partial
 /// sums).
-bool CoreFreeForSplit();
+using mmba::CoreFreeForSplit;
+using mmba::ParallelFor;
 /// Fewer points are rendered on one thread (a thread costs tens of µs).
 constexpr size_t kMinPointsToSplit = 20000;
-/// body(0) .. body(count − 1) on up to `threads` threads (the caller's included).
-void ParallelFor(int count, int threads, const std::function<void(int)>& body);
 
 // ---- Pixel geometry.
 /// Pixel difference a − b in `view`; across the ±180° seam of a panorama the shorter way.
