@@ -1,4 +1,4 @@
-// The initialisation step "MI → camera corrections" of issue 7: photos and the rig's stitched
+// The initialisation step "MI → camera corrections": photos and the rig's stitched
 // panoramas registered to the static LiDAR by mutual information (Wang, Ferrie & Macfarlane,
 // CVPRW 2012; `mmba register-mi`'s library call with its default settings, not a copy), and
 // register-mi result files read as weighted pose priors (registration/mi/mi_prior.h).
@@ -28,6 +28,16 @@ namespace fs = std::filesystem;
 namespace mi = registration::mi;
 using json = nlohmann::json;
 
+namespace {
+
+/// The status of a register-mi result file: "ok", or any other text (failed, unverified …).
+enum class MiFileStatus { kOk, kNotOk };
+MiFileStatus ParseMiFileStatus(const json& j) {
+  return j.value("status", "") == "ok" ? MiFileStatus::kOk : MiFileStatus::kNotOk;
+}
+
+}  // namespace
+
 bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* why) {
   json j;
   io::RequireRegularFile(file);
@@ -38,7 +48,7 @@ bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* wh
     throw InputError(file, 0, "JSON", e.what(), "a register-mi result");
   }
   if (!j.is_object()) throw InputError(file, 0, "JSON", j.type_name(), "a register-mi result (an object)");
-  if (j.value("status", "") != "ok" || !j.value("covariance_valid", false)) {
+  if (ParseMiFileStatus(j) != MiFileStatus::kOk || !j.value("covariance_valid", false)) {
     *why = "status " + j.value("status", std::string("?")) + (j.value("covariance_valid", false) ? "" : ", no valid covariance");
     return false;
   }
@@ -72,10 +82,23 @@ bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* wh
 
 namespace {
 
+/// What one MI task registers: a photo, a rig frame's stitched panorama, or a rig frame's own
+/// images (mi_views: cameras).
+enum class TaskKind { kPhoto, kPanorama, kRigCameras };
+/// "photo", "panorama", "rig cameras" (report.json `mi_registration[].kind`).
+const char* TaskKindName(TaskKind kind) {
+  switch (kind) {
+    case TaskKind::kPhoto: return "photo";
+    case TaskKind::kPanorama: return "panorama";
+    case TaskKind::kRigCameras: return "rig cameras";
+  }
+  return "photo";
+}
+
 /// One image to register: its grey image, camera, start pose and where an "ok" goes.
 struct MiTask {
   std::string name;   ///< image name (photos) or frame name (rig)
-  std::string kind;   ///< "photo" or "panorama"
+  TaskKind kind = TaskKind::kPhoto;
   std::string path;
   sensors::Camera camera;
   Rigid3d start;
@@ -83,8 +106,8 @@ struct MiTask {
   size_t frame = 0;     ///< rig
   bool mobile = false;  ///< registered against the mobile LiDAR's delivered cloud (mi_lidar: mobile)
   double time_s = 0.0;  ///< rig: the frame's time
-  /// kind "rig cameras" (mi_views: cameras): the frame's images and their cameras' indices in
-  /// the rig (`path` is the first).
+  /// TaskKind::kRigCameras: the frame's images and their cameras' indices in the rig (`path`
+  /// is the first).
   std::vector<std::string> view_paths;
   std::vector<size_t> view_cameras;
 };
@@ -97,8 +120,8 @@ struct MiTask {
 std::vector<mi::View> TaskViews(const MiTask& t, const std::vector<mi::GrayImage>& images, const mi::LidarPoints& points,
                                 const Rigid3d& start, const RigBlock* rig, const Scene& scene,
                                 const mi::RegistrationOptions& options) {
-  if (t.kind == "photo") return mi::MakeViews(images[0], t.camera, mi::ViewOptions(), t.path);
-  if (t.kind == "panorama") {
+  if (t.kind == TaskKind::kPhoto) return mi::MakeViews(images[0], t.camera, mi::ViewOptions(), t.path);
+  if (t.kind == TaskKind::kPanorama) {
     mi::ViewOptions views;
     views.kind = mi::ViewKind::kPerspective;
     return mi::AutoPerspectiveViews(images[0], t.camera, points, start, views, options.render, t.path, nullptr);
@@ -233,99 +256,108 @@ io::PointCloud MobileCloudNear(const std::string& path, const std::vector<std::p
   return out;
 }
 
-}  // namespace
+/// register-mi --surface-voxel-m of the orientation classes and the incidence fit.
+constexpr float kSurfaceVoxel = static_cast<float>(mi::kDefaultSurfaceVoxelM);
+/// m: what a street-level image sees of a building's LiDAR.
+constexpr double kRadius = 60.0;
+/// LiDAR points held for the registrations at most.
+constexpr size_t kMaxPoints = 8000000;
+/// Rig frames in the joint MI rig calibration at most (the joint metric costs every frame's
+/// render).
+constexpr size_t kJointFrames = 8;
 
-void RegisterImagesByMi(JointState* s, MiStage stage) {
-  const Project& project = *s->project;
-  // The rig's result files first (the photos' are read with the photo block).
-  if (stage == MiStage::kRigFrames && s->rig && !s->rig->config->mi_results.empty()) {
-    RigBlock& rig = *s->rig;
-    for (size_t k = 0; k < rig.frame_names.size(); ++k) {
-      const fs::path file = fs::path(rig.config->mi_results) / (rig.frame_names[k] + ".json");
-      if (!fs::exists(file)) continue;
-      MiResult result;
-      std::string why;
-      if (!ReadMiResultFile(file.string(), &result, &why)) {
-        s->warnings.push_back("MI result " + file.string() + " not used: " + why);
+/// The rig's register-mi result files (one per frame, <frame>.json in mi_results) as frame
+/// priors, or with mi_lidar: mobile as frame poses on the mobile LiDAR.
+void ReadRigMiResults(JointState* s) {
+  RigBlock& rig = *s->rig;
+  const bool against_mobile = rig.config->mi_lidar == MiLidar::kMobile;
+  for (size_t k = 0; k < rig.frame_names.size(); ++k) {
+    const fs::path file = fs::path(rig.config->mi_results) / (rig.frame_names[k] + ".json");
+    if (!fs::exists(file)) continue;
+    MiResult result;
+    std::string why;
+    if (!ReadMiResultFile(file.string(), &result, &why)) {
+      s->warnings.push_back("MI result " + file.string() + " not used: " + why);
+      continue;
+    }
+    if (against_mobile) {
+      if (!s->mobile || !s->mobile->with_rig) {
+        s->warnings.push_back("MI result " + file.string() + " not used: mi_lidar mobile, but no mobile LiDAR on the rig's vehicle");
         continue;
       }
-      if (rig.config->mi_lidar == "mobile") {
-        if (!s->mobile || !s->mobile->with_rig) {
-          s->warnings.push_back("MI result " + file.string() + " not used: mi_lidar mobile, but no mobile LiDAR on the rig's vehicle");
-          continue;
-        }
-        const FrameOnTrajectory& on = s->mobile->frames.at(k);
-        rig.mi_mobile.push_back({k, on.weight, on.ins, result.cam_from_world, result.covariance, result.source});
+      const FrameOnTrajectory& on = s->mobile->frames.at(k);
+      rig.mi_mobile.push_back({k, on.weight, on.ins, result.cam_from_world, result.covariance, result.source});
+      continue;
+    }
+    rig.mi.push_back(result);
+    rig.mi_frame.push_back(k);
+  }
+  s->log.push_back("rig MI results: " + std::to_string(rig.mi.size() + rig.mi_mobile.size()) + " frame priors from " +
+                   rig.config->mi_results + (against_mobile ? " (against the mobile LiDAR)" : ""));
+}
+
+/// One task per photo of mi_register (mi_only when given), from its current pose.
+void AddPhotoTasks(const JointState& s, std::vector<MiTask>* tasks) {
+  const PhotoCollection& p = *s.photos->config;
+  for (const auto& [id, image] : s.photos->model.images) {
+    if (!Wanted(p.mi_only, image.name)) continue;
+    MiTask t;
+    t.name = image.name;
+    t.kind = TaskKind::kPhoto;
+    t.path = (fs::path(p.images) / image.name).string();
+    t.camera = s.scene.Camera(image.camera_id);
+    t.start = s.scene.Image(id).cam_from_world;
+    t.image_id = id;
+    tasks->push_back(t);
+  }
+}
+
+/// One task per rig frame of mi_register: its stitched panorama, or with mi_views: cameras its
+/// own images. A frame without images is skipped with a warning.
+void AddRigTasks(JointState* s, std::vector<MiTask>* tasks) {
+  const RigBlock& rig = *s->rig;
+  const bool cameras = rig.config->mi_views == MiViews::kCameras;
+  for (size_t k = 0; k < rig.frame_names.size(); ++k) {
+    if (!Wanted(rig.config->mi_only, rig.frame_names[k])) continue;
+    MiTask t;
+    if (cameras) {
+      for (size_t c = 0; c < rig.camera_names.size(); ++c) {
+        const std::string path = FindImage(rig.config->images, rig.frame_names[k] + "_" + rig.camera_names[c]);
+        if (path.empty()) continue;
+        t.view_paths.push_back(path);
+        t.view_cameras.push_back(c);
+      }
+      if (t.view_paths.empty()) {
+        s->warnings.push_back("rig frame " + rig.frame_names[k] + ": no image " + rig.frame_names[k] + "_<camera>.* in " +
+                              rig.config->images + ", not registered by MI");
         continue;
       }
-      rig.mi.push_back(result);
-      rig.mi_frame.push_back(k);
-    }
-    s->log.push_back("rig MI results: " + std::to_string(rig.mi.size() + rig.mi_mobile.size()) + " frame priors from " +
-                     rig.config->mi_results + (rig.config->mi_lidar == "mobile" ? " (against the mobile LiDAR)" : ""));
-  }
-  // The registrations asked for.
-  std::vector<MiTask> tasks;
-  if (s->photos && s->photos->config->mi_register) {
-    const PhotoCollection& p = *s->photos->config;
-    for (const auto& [id, image] : s->photos->model.images) {
-      if (!Wanted(p.mi_only, image.name)) continue;
-      MiTask t;
-      t.name = image.name;
-      t.kind = "photo";
-      t.path = (fs::path(p.images) / image.name).string();
-      t.camera = s->scene.Camera(image.camera_id);
-      t.start = s->scene.Image(id).cam_from_world;
-      t.image_id = id;
-      tasks.push_back(t);
-    }
-  }
-  // The panoramas are read, checked and registered at the first stage. The rig's own cameras
-  // (mi_views: cameras) are read and checked there and registered with the photos, after the
-  // first solve: their intrinsics and cam_from_rig adjusted (a fisheye's design focal 1 % off
-  // moves its edge by ~4 px).
-  const bool rig_cameras = s->rig && s->rig->config->mi_views == "cameras";
-  if (s->rig && s->rig->config->mi_register && (stage == MiStage::kRigFrames || rig_cameras)) {
-    const RigBlock& rig = *s->rig;
-    const bool cameras = rig_cameras;
-    for (size_t k = 0; k < rig.frame_names.size(); ++k) {
-      if (!Wanted(rig.config->mi_only, rig.frame_names[k])) continue;
-      MiTask t;
-      if (cameras) {
-        for (size_t c = 0; c < rig.camera_names.size(); ++c) {
-          const std::string path = FindImage(rig.config->images, rig.frame_names[k] + "_" + rig.camera_names[c]);
-          if (path.empty()) continue;
-          t.view_paths.push_back(path);
-          t.view_cameras.push_back(c);
-        }
-        if (t.view_paths.empty()) {
-          s->warnings.push_back("rig frame " + rig.frame_names[k] + ": no image " + rig.frame_names[k] + "_<camera>.* in " +
-                                rig.config->images + ", not registered by MI");
-          continue;
-        }
-        t.kind = "rig cameras";
-        t.path = t.view_paths.front();
-      } else {
-        t.path = FindImage(rig.config->panoramas, rig.frame_names[k]);
-        if (t.path.empty()) {
-          s->warnings.push_back("rig frame " + rig.frame_names[k] + ": no panorama " + rig.frame_names[k] + ".* in " +
-                                rig.config->panoramas + ", not registered by MI");
-          continue;
-        }
-        t.kind = "panorama";
-      }
-      t.name = rig.frame_names[k];
-      t.start = rig.rig_from_world[k];
-      t.frame = k;
-      t.mobile = rig.config->mi_lidar == "mobile";
-      t.time_s = rig.frame_times[k];
-      if (t.mobile && (!s->mobile || !s->mobile->with_rig)) {
-        s->warnings.push_back("rig frame " + t.name + ": mi_lidar mobile, but no mobile LiDAR on the rig's vehicle: not registered by MI");
+      t.kind = TaskKind::kRigCameras;
+      t.path = t.view_paths.front();
+    } else {
+      t.path = FindImage(rig.config->panoramas, rig.frame_names[k]);
+      if (t.path.empty()) {
+        s->warnings.push_back("rig frame " + rig.frame_names[k] + ": no panorama " + rig.frame_names[k] + ".* in " +
+                              rig.config->panoramas + ", not registered by MI");
         continue;
       }
-      tasks.push_back(t);
+      t.kind = TaskKind::kPanorama;
     }
+    t.name = rig.frame_names[k];
+    t.start = rig.rig_from_world[k];
+    t.frame = k;
+    t.mobile = rig.config->mi_lidar == MiLidar::kMobile;
+    t.time_s = rig.frame_times[k];
+    if (t.mobile && (!s->mobile || !s->mobile->with_rig)) {
+      s->warnings.push_back("rig frame " + t.name + ": mi_lidar mobile, but no mobile LiDAR on the rig's vehicle: not registered by MI");
+      continue;
+    }
+    tasks->push_back(t);
   }
+}
+
+/// A warning for each mi_only name of this stage's sensor that names no task.
+void WarnUnmatchedOnly(JointState* s, MiStage stage, const std::vector<MiTask>& tasks) {
   for (const std::string& name : {std::string("photos"), std::string("rig")}) {
     if ((name == "photos") != (stage == MiStage::kPhotos)) continue;
     const std::vector<std::string>& only = name == "photos" ? (s->photos ? s->photos->config->mi_only : std::vector<std::string>())
@@ -337,313 +369,365 @@ void RegisterImagesByMi(JointState* s, MiStage stage) {
       if (!found) s->warnings.push_back("mi_register of the " + name + ": '" + wanted + "' is not one of its images/frames");
     }
   }
-  // Read every image of this stage's tasks (at the first stage the photos too: a bad one is an
-  // input error before any work). Then keep this stage's.
-  std::vector<std::vector<mi::GrayImage>> images;
-  for (MiTask& t : tasks) {
-    if (t.kind == "rig cameras") {
-      images.emplace_back();
-      for (size_t v = 0; v < t.view_paths.size(); ++v) {
-        images.back().push_back(mi::ReadGrayImage(t.view_paths[v]));
-        const mi::GrayImage& g = images.back().back();
-        const sensors::Camera& camera = s->scene.Camera(s->rig->cameras[t.view_cameras[v]]);
-        if (g.width != static_cast<int>(camera.width) || g.height != static_cast<int>(camera.height)) {
-          throw InputError::Message(t.view_paths[v], "image is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
-                                                         " but its camera " + s->rig->camera_names[t.view_cameras[v]] + " is " +
-                                                         std::to_string(camera.width) + "x" + std::to_string(camera.height));
-        }
+}
+
+/// Reads a task's images and checks their size against its cameras (a panorama: a full
+/// equirectangular one, which sets the task's camera).
+std::vector<mi::GrayImage> ReadTaskImages(const JointState& s, MiTask* t) {
+  std::vector<mi::GrayImage> images;
+  if (t->kind == TaskKind::kRigCameras) {
+    for (size_t v = 0; v < t->view_paths.size(); ++v) {
+      images.push_back(mi::ReadGrayImage(t->view_paths[v]));
+      const mi::GrayImage& g = images.back();
+      const sensors::Camera& camera = s.scene.Camera(s.rig->cameras[t->view_cameras[v]]);
+      if (g.width != static_cast<int>(camera.width) || g.height != static_cast<int>(camera.height)) {
+        throw InputError::Message(t->view_paths[v], "image is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
+                                                        " but its camera " + s.rig->camera_names[t->view_cameras[v]] + " is " +
+                                                        std::to_string(camera.width) + "x" + std::to_string(camera.height));
       }
+    }
+    return images;
+  }
+  images.push_back(mi::ReadGrayImage(t->path));
+  const mi::GrayImage& g = images.front();
+  if (t->kind == TaskKind::kPanorama) {
+    // A stitched panorama: EQUIRECTANGULAR in the rig frame, f = width / 2π (full sphere).
+    if (g.width != 2 * g.height) {
+      throw InputError::Message(t->path, "panorama is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
+                                             ", expected a full equirectangular panorama (width = 2 x height)");
+    }
+    t->camera.model_id = sensors::CameraModelId::kEquirectangular;
+    t->camera.width = g.width;
+    t->camera.height = g.height;
+    t->camera.params = {g.width / (2.0 * M_PI), g.width / 2.0, g.height / 2.0};
+  } else if (g.width != static_cast<int>(t->camera.width) || g.height != static_cast<int>(t->camera.height)) {
+    throw InputError::Message(t->path, "image is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
+                                           " but its camera is " + std::to_string(t->camera.width) + "x" +
+                                           std::to_string(t->camera.height));
+  }
+  return images;
+}
+
+/// This stage's registrations: their tasks and images, register-mi's options, the counts.
+struct MiRun {
+  std::vector<MiTask> tasks;
+  std::vector<std::vector<mi::GrayImage>> images;  ///< per task
+  mi::RegistrationOptions options;                 ///< register-mi's defaults
+  int photo_sectors = 0;  ///< register-mi --orientation-classes of the photos (mi_orientation_classes)
+  int rig_sectors = 0;    ///< … of the rig
+  size_t ok = 0;          ///< registrations that gave a prior
+  size_t done = 0;        ///< registrations run
+};
+
+/// A registration not attempted: its report entry (status failed, `reason`) and a warning.
+void NotAttempted(JointState* s, json entry, const Rigid3d& start, const std::string& reason, const std::string& warning) {
+  entry["status"] = "failed";
+  entry["reason"] = reason;
+  entry.erase("file");
+  s->mi_registration.push_back(entry);
+  s->mi_registered.push_back(start);
+  s->warnings.push_back(warning + reason);
+}
+
+/// Task `i` against the static LiDAR points `near` (already cut to the task): its report entry,
+/// its register-mi result file, and for a usable result ("ok" with a valid covariance) a pose
+/// prior on the photo or the rig frame (a panorama's frame also starts at the MI pose: closer
+/// than the GNSS/INS one when MI is "ok").
+void RegisterOne(JointState* s, MiRun* run, size_t i, const io::PointCloud& near, const std::string& cloud_path) {
+  const MiTask& t = run->tasks[i];
+  mi::LidarPoints points = mi::PrepareLidarPoints(near);
+  mi::RegistrationOptions task_options = run->options;
+  const int sectors = t.kind == TaskKind::kPhoto ? run->photo_sectors : run->rig_sectors;
+  if (sectors > 0 && points.has_intensity()) {
+    // The metric conditioned on the surfaces' orientation, seen from the camera's start
+    // centre (register-mi --orientation-classes).
+    task_options.metric.lidar_classes =
+        mi::EncodeOrientationClasses(CameraCentre(t.start).cast<float>(), sectors, kSurfaceVoxel, &points);
+  }
+  ++run->done;
+  json entry = {{"image", t.name}, {"kind", TaskKindName(t.kind)}, {"file", "mi/" + fs::path(t.name).stem().string() + ".json"},
+                {"lidar", "static"}};
+  if (t.kind == TaskKind::kPhoto) entry["image_id"] = t.image_id.value;
+  else entry["frame"] = t.frame;
+  const std::string not_attempted = "MI registration of " + t.name + " not attempted: ";
+  if (points.size() < 1000) {
+    NotAttempted(s, entry, t.start, "only " + std::to_string(points.size()) + " LiDAR points within " + std::to_string(kRadius) + " m",
+                 not_attempted);
+    return;
+  }
+  mi::Frame frame;
+  frame.name = t.name;
+  frame.points = &points;
+  frame.views = TaskViews(t, run->images[i], points, t.start, s->rig ? &*s->rig : nullptr, s->scene, task_options);
+  if (frame.views.empty()) {
+    NotAttempted(s, entry, t.start, "none of the frame's cameras sees " + std::to_string(mi::kMinRigViewPoints) +
+                                        " LiDAR points at the start", not_attempted);
+    return;
+  }
+  Timer one;
+  const mi::RegistrationResult result = mi::RegisterFrames({frame}, t.start, task_options);
+  json file = mi::ResultToJson(result, task_options, t.start);
+  file["image"] = t.path;
+  file["registered_by"] = "mmba adjust (mi_register), register-mi's default settings with --orientation-classes " +
+                          std::to_string(sectors) + ", LiDAR = " + cloud_path;
+  s->mi_files.emplace_back(fs::path(t.name).stem().string(), file);
+  entry["status"] = result.status;
+  entry["reason"] = result.reason;
+  entry["correction"] = mi::CorrectionToJson(result.correction);
+  entry["sigma_px"] = SigmaOrNull(result.checks.sigma_px_calibrated);
+  entry["runtime_seconds"] = result.runtime_seconds;
+  const bool usable = result.ok() && result.covariance_valid;
+  entry["prior"] = usable;
+  s->mi_registration.push_back(entry);
+  s->mi_registered.push_back(result.cam_from_lidar);
+  spdlog::info("adjust: MI {}/{} {}: {} ({:.1f} s){}", run->done, run->tasks.size(), t.name, result.status, one.ElapsedSeconds(),
+               result.ok() ? "" : ": " + result.reason);
+  if (!usable) return;
+  ++run->ok;
+  MiResult prior;
+  prior.cam_from_world = result.cam_from_lidar;
+  prior.covariance = result.covariance;
+  prior.source = "mi/" + fs::path(t.name).stem().string() + ".json (registered by the adjustment)";
+  if (t.kind == TaskKind::kPhoto) {
+    prior.image_id = t.image_id;
+    s->photos->mi.push_back(prior);
+  } else {
+    if (t.kind == TaskKind::kPanorama) s->rig->rig_from_world[t.frame] = result.cam_from_lidar;
+    s->rig->mi.push_back(prior);
+    s->rig->mi_frame.push_back(t.frame);
+  }
+}
+
+/// The tasks `fixed` against the static LiDAR's reference cloud (world frame), near the cameras.
+void RegisterToStaticLidar(JointState* s, MiRun* run, const std::vector<size_t>& fixed) {
+  const std::string& cloud_path = s->project->lidar_static.front().reference_cloud;
+  std::vector<Eigen::Vector3d> centres;
+  for (size_t i : fixed) centres.push_back(CameraCentre(run->tasks[i].start));
+  const io::PointCloud cloud = CloudNear(cloud_path, centres, kRadius, kMaxPoints);
+  if (!cloud.has_intensity()) {
+    throw InputError::Message(cloud_path, "has no intensity, which the MI registration of mi_register compares with "
+                                          "the images (register-mi --representation intensity)");
+  }
+  spdlog::info("adjust: MI registration of {} image(s) to {} ({} points within {:.0f} m)", fixed.size(), cloud_path,
+               cloud.size(), kRadius);
+  for (size_t i : fixed) RegisterOne(s, run, i, Crop(cloud, CameraCentre(run->tasks[i].start), kRadius), cloud_path);
+}
+
+/// A frame of the rig calibration dropped: its report entry and a warning.
+void FrameNotUsed(JointState* s, const MiTask& t, const std::string& reason) {
+  json entry = {{"image", t.name}, {"kind", TaskKindName(t.kind)}, {"lidar", "mobile"}, {"status", "failed"}, {"reason", reason}};
+  s->mi_registration.push_back(entry);
+  s->mi_registered.push_back(t.start);
+  s->warnings.push_back("MI rig calibration: frame " + t.name + " not used: " + reason);
+}
+
+/// The mobile points of task `t`'s frame (near it in time and space) in the LiDAR's own frame
+/// at the frame's time, with the scanner's centre when each was measured (in the same frame).
+/// The delivered cloud was georeferenced with the nominal mounting, so the raw measurement is
+/// p = (T_ins(t_p)·B_nominal)⁻¹·X; the vehicle's motion from t_p to t moves it to
+/// (T_ins(t)·B)⁻¹·T_ins(t_p)·B·p under the current estimate B of the mounting (after the first
+/// solve: the adjusted extrinsic). With B = B_nominal this is (T_ins(t)·B_nominal)⁻¹·X; a
+/// mounting error δ in B shears the frame's points by δ × (the motion from t_p to t): 2 cm for
+/// 0.2° over the 6 m a vehicle at 3 m/s drives in 2 s.
+io::PointCloud FramePointsInLidar(const JointState& s, const MiTask& t, const io::PointCloud& cloud, double window,
+                                  std::vector<Eigen::Vector3f>* scanner) {
+  const MobileBlock& m = *s.mobile;
+  io::PointCloud local = Crop(cloud, CameraCentre(t.start), kRadius, t.time_s, window);
+  const Rigid3d body_from_lidar = m.body_from_vehicle * m.vehicle_from_lidar;
+  const Rigid3d lidar_from_world_t = (m.frames.at(t.frame).ins * body_from_lidar).Inverse();
+  const Rigid3d mounting = body_from_lidar * m.body_from_lidar_nominal.Inverse();
+  scanner->resize(local.size());
+  for (size_t k = 0; k < local.size(); ++k) {
+    const Rigid3d ins = InterpolateTrajectory(m.trajectory, local.time[k]);
+    local.points[k] = lidar_from_world_t * (ins * (mounting * (ins.Inverse() * local.points[k])));
+    (*scanner)[k] = (lidar_from_world_t * (ins * body_from_lidar).translation).cast<float>();
+  }
+  return local;
+}
+
+/// The frame's LiDAR points for MI: the intensity corrected for the angle of incidence, I /
+/// cos^k with k fitted to the frame's points (register-mi --incidence-correction;
+/// bench/RESULTS.md "Incidence"), unless the rig's `mi_incidence_correction` is false; the
+/// rig's orientation classes seen from the rig's start centre. `incidence` gets the fit.
+mi::LidarPoints PrepareFramePoints(const JointState& s, const MiRun& run, const MiTask& t, const io::PointCloud& local,
+                                   const std::vector<Eigen::Vector3f>& scanner, json* incidence) {
+  const Eigen::Vector3f centre = CameraCentre(s.mobile->vehicle_from_lidar).cast<float>();
+  if (!s.rig->config->mi_incidence_correction) {
+    mi::LidarPoints points = mi::PrepareLidarPoints(local);
+    incidence->push_back({{"frame", t.name}, {"exponent", nullptr}});  // not corrected
+    if (run.rig_sectors > 0) mi::EncodeOrientationClasses(centre, run.rig_sectors, kSurfaceVoxel, &points);
+    return points;
+  }
+  mi::IncidenceCorrection correction;
+  correction.scanner = [&scanner](size_t k) -> Eigen::Vector3d { return scanner[k].cast<double>(); };
+  correction.voxel_m = kSurfaceVoxel;
+  mi::IncidenceFit fit;
+  std::vector<Eigen::Vector3f> normals;
+  mi::LidarPoints points = mi::PrepareLidarPoints(local, correction, &fit, &normals);
+  spdlog::info("adjust: MI rig calibration: frame {}: intensity corrected for the angle of incidence, I / cos^{:.2f}",
+               t.name, fit.exponent);
+  incidence->push_back({{"frame", t.name}, {"exponent", fit.exponent}, {"correlation", fit.correlation},
+                        {"points", fit.points}});
+  if (run.rig_sectors > 0) mi::EncodeOrientationClasses(centre, run.rig_sectors, normals, &points);
+  return points;
+}
+
+/// The joint rig calibration's report: each frame's own screening registration (not a prior:
+/// the joint one is), the result file, the joint entry; a usable result becomes the MI prior on
+/// the extrinsic.
+void ReportRigCalibration(JointState* s, MiRun* run, const mi::RegistrationResult& result, const std::vector<size_t>& frame_task,
+                          size_t num_frames, json file) {
+  for (size_t i = 0; i < result.frame_results.size(); ++i) {
+    const MiTask& t = run->tasks[frame_task[i]];
+    const mi::RegistrationResult& r = result.frame_results[i];
+    std::string rejected;
+    for (const auto& [name, why] : result.rejected_frames) {
+      if (name == t.name) rejected = why;
+    }
+    json entry = {{"image", t.name}, {"kind", TaskKindName(t.kind)}, {"lidar", "mobile"},
+                  {"status", rejected.empty() ? "used" : "rejected"}, {"reason", rejected},
+                  {"correction", mi::CorrectionToJson(r.correction)}, {"sigma_px", SigmaOrNull(r.checks.sigma_px_calibrated)},
+                  {"runtime_seconds", r.runtime_seconds}, {"prior", false}};
+    s->mi_registration.push_back(entry);
+    s->mi_registered.push_back(t.start);
+  }
+  s->mi_files.emplace_back("rig_calibration", file);
+  const bool usable = result.ok() && result.covariance_valid;
+  json entry = {{"image", "rig_from_lidar (" + std::to_string(result.used_frames.size()) + " of " +
+                          std::to_string(num_frames) + " frames)"},
+                {"kind", "rig calibration"}, {"lidar", "mobile"}, {"file", "mi/rig_calibration.json"},
+                {"status", result.status}, {"reason", result.reason}, {"correction", mi::CorrectionToJson(result.correction)},
+                {"sigma_px", SigmaOrNull(result.checks.sigma_px_calibrated)}, {"runtime_seconds", result.runtime_seconds},
+                {"prior", usable}, {"extrinsic", true}};
+  s->mi_registration.push_back(entry);
+  s->mi_registered.push_back(result.cam_from_lidar);
+  spdlog::info("adjust: MI rig calibration: {} ({:.1f} s){}", result.status, result.runtime_seconds,
+               result.ok() ? "" : ": " + result.reason);
+  run->done += num_frames;
+  if (!usable) return;
+  run->ok += result.used_frames.size();
+  MiResult prior;
+  prior.cam_from_world = result.cam_from_lidar;
+  prior.covariance = result.covariance;
+  prior.source = "mi/rig_calibration.json (registered by the adjustment)";
+  s->mobile->mi_extrinsic.push_back(prior);
+}
+
+/// The tasks `moving` against the mobile LiDAR's delivered cloud: the rig calibration of the
+/// MI paper. Each frame's points near it are expressed in the LiDAR's own frame at the frame's
+/// time (FramePointsInLidar), where the panorama's pose is the camera–LiDAR extrinsic
+/// rig_from_lidar, the same for every frame: register-mi's multi-frame calibration (RegisterRig:
+/// each frame alone, the failed and disagreeing rejected, the rest jointly) gives it with its
+/// covariance, a prior on the extrinsic. At most kJointFrames frames, evenly spread over those
+/// asked for.
+void CalibrateRigOnMobileLidar(JointState* s, MiRun* run, std::vector<size_t> moving) {
+  const MobileBlock& m = *s->mobile;
+  const std::string& cloud_path = m.config->cloud;
+  const double window = s->rig->config->mi_time_window_s;
+  const std::vector<MiTask>& tasks = run->tasks;
+  // Sorted by time (MobileCloudNear looks frames up by time).
+  std::sort(moving.begin(), moving.end(), [&](size_t a, size_t b) { return tasks[a].time_s < tasks[b].time_s; });
+  if (moving.size() > kJointFrames) {
+    std::vector<size_t> spread;
+    for (size_t k = 0; k < kJointFrames; ++k) spread.push_back(moving[k * (moving.size() - 1) / (kJointFrames - 1)]);
+    s->warnings.push_back("MI rig calibration: " + std::to_string(kJointFrames) + " of the " + std::to_string(moving.size()) +
+                          " panoramas asked for used, evenly over time");
+    moving = spread;
+  }
+  std::vector<mi::LidarPoints> points;  // one per frame, kept for the joint registration
+  json incidence = json::array();         // each frame's incidence correction (exponent fitted)
+  points.reserve(moving.size());
+  std::vector<mi::Frame> frames;
+  std::vector<size_t> frame_task;
+  const Rigid3d start = m.vehicle_from_lidar;  // rig_from_lidar (the rig frame is the vehicle's)
+  // One streamed pass for all of them (≤ kJointFrames frames, ≤ 2·kMaxPoints points held).
+  std::vector<std::pair<double, Eigen::Vector3d>> near;
+  for (size_t i : moving) near.emplace_back(tasks[i].time_s, CameraCentre(tasks[i].start));
+  const io::PointCloud cloud = MobileCloudNear(cloud_path, near, kRadius, window, kMaxPoints);
+  if (!cloud.has_intensity() && !cloud.points.empty()) {
+    throw InputError::Message(cloud_path, "has no intensity, which the MI registration of mi_register compares with "
+                                          "the panoramas (register-mi --representation intensity)");
+  }
+  for (size_t i : moving) {
+    const MiTask& t = tasks[i];
+    std::vector<Eigen::Vector3f> scanner;
+    const io::PointCloud local = FramePointsInLidar(*s, t, cloud, window, &scanner);
+    spdlog::info("adjust: MI rig calibration: frame {} sees {} mobile points within {:.0f} m and {:.1f} s", t.name,
+                 local.size(), kRadius, window);
+    if (local.size() < 1000) {
+      FrameNotUsed(s, t, "only " + std::to_string(local.size()) + " mobile LiDAR points within " + std::to_string(kRadius) +
+                             " m captured within " + std::to_string(window) + " s");
       continue;
     }
-    images.push_back({mi::ReadGrayImage(t.path)});
-    const mi::GrayImage& g = images.back().front();
-    if (t.kind == "panorama") {
-      // A stitched panorama: EQUIRECTANGULAR in the rig frame, f = width / 2π (full sphere).
-      if (g.width != 2 * g.height) {
-        throw InputError::Message(t.path, "panorama is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
-                                              ", expected a full equirectangular panorama (width = 2 x height)");
-      }
-      t.camera.model_id = sensors::CameraModelId::kEquirectangular;
-      t.camera.width = g.width;
-      t.camera.height = g.height;
-      t.camera.params = {g.width / (2.0 * M_PI), g.width / 2.0, g.height / 2.0};
-    } else if (g.width != static_cast<int>(t.camera.width) || g.height != static_cast<int>(t.camera.height)) {
-      throw InputError::Message(t.path, "image is " + std::to_string(g.width) + "x" + std::to_string(g.height) +
-                                            " but its camera is " + std::to_string(t.camera.width) + "x" +
-                                            std::to_string(t.camera.height));
-    }
-  }
-  for (size_t i = tasks.size(); i-- > 0;) {
-    if ((tasks[i].kind == "photo" || tasks[i].kind == "rig cameras") != (stage == MiStage::kPhotos)) {
-      tasks.erase(tasks.begin() + i);
-      images.erase(images.begin() + i);
-    }
-  }
-  if (tasks.empty()) return;
-  mi::RegistrationOptions options;  // register-mi's defaults
-  // register-mi --surface-voxel-m of the orientation classes and the incidence fit.
-  constexpr float kSurfaceVoxel = static_cast<float>(mi::kDefaultSurfaceVoxelM);
-  // register-mi --orientation-classes of the photos (`mi_orientation_classes`, default
-  // register-mi's) and of the rig.
-  const int photo_sectors = s->photos ? s->photos->config->mi_orientation_classes : 0;
-  const int rig_sectors = s->rig ? s->rig->config->mi_orientation_classes : 0;
-  constexpr double kRadius = 60.0;  // m: what a street-level image sees of a building's LiDAR
-  constexpr size_t kMaxPoints = 8000000;
-  Timer timer;
-  size_t ok = 0, done = 0;
-  // One task against the LiDAR points `cloud` (already cut to the task where it must be).
-  const auto register_one = [&](size_t i, const io::PointCloud& near, const std::string& cloud_path) {
-    const MiTask& t = tasks[i];
-    mi::LidarPoints points = mi::PrepareLidarPoints(near);
-    mi::RegistrationOptions task_options = options;
-    const int sectors = t.kind == "photo" ? photo_sectors : rig_sectors;
-    if (sectors > 0 && points.has_intensity()) {
-      // The metric conditioned on the surfaces' orientation, seen from the camera's start
-      // centre (register-mi --orientation-classes).
-      task_options.metric.lidar_classes =
-          mi::EncodeOrientationClasses(CameraCentre(t.start).cast<float>(), sectors, kSurfaceVoxel, &points);
-    }
-    ++done;
-    json entry = {{"image", t.name}, {"kind", t.kind}, {"file", "mi/" + fs::path(t.name).stem().string() + ".json"},
-                  {"lidar", "static"}};
-    if (t.kind == "photo") entry["image_id"] = t.image_id.value;
-    else entry["frame"] = t.frame;
-    if (points.size() < 1000) {
-      entry["status"] = "failed";
-      entry["reason"] = "only " + std::to_string(points.size()) + " LiDAR points within " + std::to_string(kRadius) + " m";
-      entry.erase("file");
-      s->mi_registration.push_back(entry);
-      s->mi_registered.push_back(t.start);
-      s->warnings.push_back("MI registration of " + t.name + " not attempted: " + entry["reason"].get<std::string>());
-      return;
-    }
+    points.push_back(PrepareFramePoints(*s, *run, t, local, scanner, &incidence));
     mi::Frame frame;
     frame.name = t.name;
-    frame.points = &points;
-    frame.views = TaskViews(t, images[i], points, t.start, s->rig ? &*s->rig : nullptr, s->scene, task_options);
+    frame.points = &points.back();
+    frame.views = TaskViews(t, run->images[i], points.back(), start, &*s->rig, s->scene, run->options);
     if (frame.views.empty()) {
-      entry["status"] = "failed";
-      entry["reason"] = "none of the frame's cameras sees " + std::to_string(mi::kMinRigViewPoints) +
-                        " LiDAR points at the start";
-      entry.erase("file");
-      s->mi_registration.push_back(entry);
-      s->mi_registered.push_back(t.start);
-      s->warnings.push_back("MI registration of " + t.name + " not attempted: " + entry["reason"].get<std::string>());
-      return;
+      FrameNotUsed(s, t, "none of the frame's cameras sees " + std::to_string(mi::kMinRigViewPoints) +
+                             " of its mobile LiDAR points at the start");
+      points.pop_back();
+      continue;
     }
-    Timer one;
-    const mi::RegistrationResult result = mi::RegisterFrames({frame}, t.start, task_options);
-    json file = mi::ResultToJson(result, task_options, t.start);
-    file["image"] = t.path;
-    file["registered_by"] = "mmba adjust (mi_register), register-mi's default settings with --orientation-classes " +
-                            std::to_string(sectors) + ", LiDAR = " + cloud_path;
-    s->mi_files.emplace_back(fs::path(t.name).stem().string(), file);
-    entry["status"] = result.status;
-    entry["reason"] = result.reason;
-    entry["correction"] = mi::CorrectionToJson(result.correction);
-    entry["sigma_px"] = SigmaOrNull(result.checks.sigma_px_calibrated);
-    entry["runtime_seconds"] = result.runtime_seconds;
-    const bool usable = result.ok() && result.covariance_valid;
-    entry["prior"] = usable;
-    s->mi_registration.push_back(entry);
-    s->mi_registered.push_back(result.cam_from_lidar);
-    spdlog::info("adjust: MI {}/{} {}: {} ({:.1f} s){}", done, tasks.size(), t.name, result.status, one.ElapsedSeconds(),
-                 result.ok() ? "" : ": " + result.reason);
-    if (!usable) return;
-    ++ok;
-    MiResult prior;
-    prior.cam_from_world = result.cam_from_lidar;
-    prior.covariance = result.covariance;
-    prior.source = "mi/" + fs::path(t.name).stem().string() + ".json (registered by the adjustment)";
-    if (t.kind == "photo") {
-      prior.image_id = t.image_id;
-      s->photos->mi.push_back(prior);
-    } else {
-      // A panorama's frame starts at the MI pose: closer than the GNSS/INS one when MI is "ok"
-      // (the rig's cameras are registered after the first solve, from the solved pose).
-      if (t.kind == "panorama") s->rig->rig_from_world[t.frame] = result.cam_from_lidar;
-      s->rig->mi.push_back(prior);
-      s->rig->mi_frame.push_back(t.frame);
+    frames.push_back(std::move(frame));
+    frame_task.push_back(i);
+  }
+  if (frames.empty()) return;
+  mi::RigOptions rig_options;
+  rig_options.registration = run->options;
+  if (run->rig_sectors > 0) rig_options.registration.metric.lidar_classes = run->rig_sectors + 3;
+  spdlog::info("adjust: MI rig calibration: {} frame(s) jointly against the mobile LiDAR {}", frames.size(), cloud_path);
+  const mi::RegistrationResult result = mi::RegisterRig(frames, start, rig_options);
+  json file = mi::ResultToJson(result, rig_options.registration, start);
+  file["incidence_correction"] = incidence;  // per frame, as register-mi's OUT.json
+  file["registered_by"] = "mmba adjust (mi_register, mi_lidar: mobile): register-mi's multi-frame rig calibration, "
+                          "cam_from_lidar = rig_from_lidar, LiDAR = " + cloud_path + " (points within " +
+                          std::to_string(window) + " s of each frame, in the LiDAR frame at that time)";
+  ReportRigCalibration(s, run, result, frame_task, frames.size(), file);
+}
+
+/// This stage's tasks with their images. Every image of both stages is read and checked at
+/// the first (a bad one is an input error before any work); the panoramas are registered at
+/// the first stage, the photos and the rig's own cameras (mi_views: cameras) after the first
+/// solve, with their intrinsics and cam_from_rig adjusted (a fisheye's design focal 1 % off
+/// moves its edge by ~4 px).
+MiRun PrepareRun(JointState* s, MiStage stage) {
+  MiRun run;
+  if (s->photos && s->photos->config->mi_register) AddPhotoTasks(*s, &run.tasks);
+  const bool rig_cameras = s->rig && s->rig->config->mi_views == MiViews::kCameras;
+  if (s->rig && s->rig->config->mi_register && (stage == MiStage::kRigFrames || rig_cameras)) AddRigTasks(s, &run.tasks);
+  WarnUnmatchedOnly(s, stage, run.tasks);
+  for (MiTask& t : run.tasks) run.images.push_back(ReadTaskImages(*s, &t));
+  for (size_t i = run.tasks.size(); i-- > 0;) {
+    const TaskKind kind = run.tasks[i].kind;
+    if ((kind == TaskKind::kPhoto || kind == TaskKind::kRigCameras) != (stage == MiStage::kPhotos)) {
+      run.tasks.erase(run.tasks.begin() + i);
+      run.images.erase(run.images.begin() + i);
     }
-  };
-  // Against the static LiDAR's reference cloud (world frame), near the cameras.
+  }
+  run.photo_sectors = s->photos ? s->photos->config->mi_orientation_classes : 0;
+  run.rig_sectors = s->rig ? s->rig->config->mi_orientation_classes : 0;
+  return run;
+}
+
+}  // namespace
+
+void RegisterImagesByMi(JointState* s, MiStage stage) {
+  // The rig's result files first (the photos' are read with the photo block).
+  if (stage == MiStage::kRigFrames && s->rig && !s->rig->config->mi_results.empty()) ReadRigMiResults(s);
+  MiRun run = PrepareRun(s, stage);
+  if (run.tasks.empty()) return;
+  Timer timer;
   std::vector<size_t> fixed, moving;
-  for (size_t i = 0; i < tasks.size(); ++i) (tasks[i].mobile ? moving : fixed).push_back(i);
-  if (!fixed.empty()) {
-    const std::string& cloud_path = project.lidar_static.front().reference_cloud;
-    std::vector<Eigen::Vector3d> centres;
-    for (size_t i : fixed) centres.push_back(CameraCentre(tasks[i].start));
-    const io::PointCloud cloud = CloudNear(cloud_path, centres, kRadius, kMaxPoints);
-    if (!cloud.has_intensity()) {
-      throw InputError::Message(cloud_path, "has no intensity, which the MI registration of mi_register compares with "
-                                            "the images (register-mi --representation intensity)");
-    }
-    spdlog::info("adjust: MI registration of {} image(s) to {} ({} points within {:.0f} m)", fixed.size(), cloud_path,
-                 cloud.size(), kRadius);
-    for (size_t i : fixed) register_one(i, Crop(cloud, CameraCentre(tasks[i].start), kRadius), cloud_path);
-  }
-  // Against the mobile LiDAR's delivered cloud: the rig calibration of the MI paper. Each
-  // frame's points near it (in time and space) are expressed in the LiDAR's own frame at the
-  // frame's time, (T_ins(t)·B_lidar,nominal)⁻¹ · delivered, where the panorama's pose is the
-  // camera–LiDAR extrinsic rig_from_lidar, the same for every frame: register-mi's multi-frame
-  // calibration (RegisterRig: each frame alone, the failed and disagreeing rejected, the rest
-  // jointly) gives it with its covariance, a prior on the extrinsic. At most kJointFrames
-  // frames, evenly spread over those asked for (the joint metric costs every frame's render).
-  if (!moving.empty()) {
-    const MobileBlock& m = *s->mobile;
-    const std::string& cloud_path = m.config->cloud;
-    const double window = s->rig->config->mi_time_window_s;
-    constexpr size_t kJointFrames = 8;
-    // Sorted by time (MobileCloudNear looks frames up by time).
-    std::sort(moving.begin(), moving.end(), [&](size_t a, size_t b) { return tasks[a].time_s < tasks[b].time_s; });
-    if (moving.size() > kJointFrames) {
-      std::vector<size_t> spread;
-      for (size_t k = 0; k < kJointFrames; ++k) spread.push_back(moving[k * (moving.size() - 1) / (kJointFrames - 1)]);
-      s->warnings.push_back("MI rig calibration: " + std::to_string(kJointFrames) + " of the " + std::to_string(moving.size()) +
-                            " panoramas asked for used, evenly over time");
-      moving = spread;
-    }
-    std::vector<mi::LidarPoints> points;  // one per frame, kept for the joint registration
-    json incidence = json::array();         // each frame's incidence correction (exponent fitted)
-    points.reserve(moving.size());
-    std::vector<mi::Frame> frames;
-    std::vector<size_t> frame_task;
-    const Rigid3d start = m.vehicle_from_lidar;  // rig_from_lidar (the rig frame is the vehicle's)
-    // One streamed pass for all of them (≤ kJointFrames frames, ≤ 2·kMaxPoints points held).
-    std::vector<std::pair<double, Eigen::Vector3d>> near;
-    for (size_t i : moving) near.emplace_back(tasks[i].time_s, CameraCentre(tasks[i].start));
-    const io::PointCloud cloud = MobileCloudNear(cloud_path, near, kRadius, window, kMaxPoints);
-    if (!cloud.has_intensity() && !cloud.points.empty()) {
-      throw InputError::Message(cloud_path, "has no intensity, which the MI registration of mi_register compares with "
-                                            "the panoramas (register-mi --representation intensity)");
-    }
-    for (size_t i : moving) {
-      const MiTask& t = tasks[i];
-      io::PointCloud local = Crop(cloud, CameraCentre(t.start), kRadius, t.time_s, window);
-      // Each point in the LiDAR's frame at the frame's time t. The delivered cloud was
-      // georeferenced with the nominal mounting, so the raw measurement is
-      // p = (T_ins(t_p)·B_nominal)⁻¹·X; the vehicle's motion from t_p to t moves it to
-      // (T_ins(t)·B)⁻¹·T_ins(t_p)·B·p under the current estimate B of the mounting (after the
-      // first solve: the adjusted extrinsic). With B = B_nominal this is (T_ins(t)·B_nominal)⁻¹·X;
-      // a mounting error δ in B shears the frame's points by δ × (the motion from t_p to t):
-      // 2 cm for 0.2° over the 6 m a vehicle at 3 m/s drives in 2 s.
-      const Rigid3d body_from_lidar = m.body_from_vehicle * start;
-      const Rigid3d lidar_from_world_t = (m.frames.at(t.frame).ins * body_from_lidar).Inverse();
-      const Rigid3d mounting = body_from_lidar * m.body_from_lidar_nominal.Inverse();
-      // The scanner's centre when each point was measured, in the same frame (the same map
-      // applied to the LiDAR origin at t_p): for the intensity's incidence correction.
-      std::vector<Eigen::Vector3f> scanner(local.size());
-      for (size_t k = 0; k < local.size(); ++k) {
-        const Rigid3d ins = InterpolateTrajectory(m.trajectory, local.time[k]);
-        local.points[k] = lidar_from_world_t * (ins * (mounting * (ins.Inverse() * local.points[k])));
-        scanner[k] = (lidar_from_world_t * (ins * body_from_lidar).translation).cast<float>();
-      }
-      spdlog::info("adjust: MI rig calibration: frame {} sees {} mobile points within {:.0f} m and {:.1f} s", t.name,
-                   local.size(), kRadius, window);
-      if (local.size() < 1000) {
-        json entry = {{"image", t.name}, {"kind", t.kind}, {"lidar", "mobile"}, {"status", "failed"},
-                      {"reason", "only " + std::to_string(local.size()) + " mobile LiDAR points within " +
-                                     std::to_string(kRadius) + " m captured within " + std::to_string(window) + " s"}};
-        s->mi_registration.push_back(entry);
-        s->mi_registered.push_back(t.start);
-        s->warnings.push_back("MI rig calibration: frame " + t.name + " not used: " + entry["reason"].get<std::string>());
-        continue;
-      }
-      // The intensity corrected for the angle of incidence, I / cos^k with k fitted to the
-      // frame's points (register-mi --incidence-correction; bench/RESULTS.md "Incidence"),
-      // unless the rig's `mi_incidence_correction` is false.
-      if (s->rig->config->mi_incidence_correction) {
-        mi::IncidenceCorrection correction;
-        correction.scanner = [&scanner](size_t k) -> Eigen::Vector3d { return scanner[k].cast<double>(); };
-        correction.voxel_m = kSurfaceVoxel;
-        mi::IncidenceFit fit;
-        std::vector<Eigen::Vector3f> normals;
-        points.push_back(mi::PrepareLidarPoints(local, correction, &fit, &normals));
-        spdlog::info("adjust: MI rig calibration: frame {}: intensity corrected for the angle of incidence, I / cos^{:.2f}",
-                     t.name, fit.exponent);
-        incidence.push_back({{"frame", t.name}, {"exponent", fit.exponent}, {"correlation", fit.correlation},
-                             {"points", fit.points}});
-        if (rig_sectors > 0) {
-          // The rig's orientation classes, seen from the rig's start centre.
-          mi::EncodeOrientationClasses(CameraCentre(start).cast<float>(), rig_sectors, normals, &points.back());
-        }
-      } else {
-        points.push_back(mi::PrepareLidarPoints(local));
-        incidence.push_back({{"frame", t.name}, {"exponent", nullptr}});  // not corrected
-        if (rig_sectors > 0) {
-          mi::EncodeOrientationClasses(CameraCentre(start).cast<float>(), rig_sectors, kSurfaceVoxel, &points.back());
-        }
-      }
-      mi::Frame frame;
-      frame.name = t.name;
-      frame.points = &points.back();
-      frame.views = TaskViews(t, images[i], points.back(), start, &*s->rig, s->scene, options);
-      if (frame.views.empty()) {
-        json entry = {{"image", t.name}, {"kind", t.kind}, {"lidar", "mobile"}, {"status", "failed"},
-                      {"reason", "none of the frame's cameras sees " + std::to_string(mi::kMinRigViewPoints) +
-                                     " of its mobile LiDAR points at the start"}};
-        s->mi_registration.push_back(entry);
-        s->mi_registered.push_back(t.start);
-        s->warnings.push_back("MI rig calibration: frame " + t.name + " not used: " + entry["reason"].get<std::string>());
-        points.pop_back();
-        continue;
-      }
-      frames.push_back(std::move(frame));
-      frame_task.push_back(i);
-    }
-    if (!frames.empty()) {
-      mi::RigOptions rig_options;
-      rig_options.registration = options;
-      if (rig_sectors > 0) rig_options.registration.metric.lidar_classes = rig_sectors + 3;
-      spdlog::info("adjust: MI rig calibration: {} frame(s) jointly against the mobile LiDAR {}", frames.size(), cloud_path);
-      const mi::RegistrationResult result = mi::RegisterRig(frames, start, rig_options);
-      // Each frame's own screening registration, reported (not a prior: the joint one is).
-      for (size_t i = 0; i < result.frame_results.size(); ++i) {
-        const MiTask& t = tasks[frame_task[i]];
-        const mi::RegistrationResult& r = result.frame_results[i];
-        std::string rejected;
-        for (const auto& [name, why] : result.rejected_frames) {
-          if (name == t.name) rejected = why;
-        }
-        json entry = {{"image", t.name}, {"kind", t.kind}, {"lidar", "mobile"},
-                      {"status", rejected.empty() ? "used" : "rejected"}, {"reason", rejected},
-                      {"correction", mi::CorrectionToJson(r.correction)}, {"sigma_px", SigmaOrNull(r.checks.sigma_px_calibrated)},
-                      {"runtime_seconds", r.runtime_seconds}, {"prior", false}};
-        s->mi_registration.push_back(entry);
-        s->mi_registered.push_back(t.start);
-      }
-      json file = mi::ResultToJson(result, rig_options.registration, start);
-      file["incidence_correction"] = incidence;  // per frame, as register-mi's OUT.json
-      file["registered_by"] = "mmba adjust (mi_register, mi_lidar: mobile): register-mi's multi-frame rig calibration, "
-                              "cam_from_lidar = rig_from_lidar, LiDAR = " + cloud_path + " (points within " +
-                              std::to_string(window) + " s of each frame, in the LiDAR frame at that time)";
-      s->mi_files.emplace_back("rig_calibration", file);
-      const bool usable = result.ok() && result.covariance_valid;
-      json entry = {{"image", "rig_from_lidar (" + std::to_string(result.used_frames.size()) + " of " +
-                              std::to_string(frames.size()) + " frames)"},
-                    {"kind", "rig calibration"}, {"lidar", "mobile"}, {"file", "mi/rig_calibration.json"},
-                    {"status", result.status}, {"reason", result.reason}, {"correction", mi::CorrectionToJson(result.correction)},
-                    {"sigma_px", SigmaOrNull(result.checks.sigma_px_calibrated)}, {"runtime_seconds", result.runtime_seconds},
-                    {"prior", usable}, {"extrinsic", true}};
-      s->mi_registration.push_back(entry);
-      s->mi_registered.push_back(result.cam_from_lidar);
-      spdlog::info("adjust: MI rig calibration: {} ({:.1f} s){}", result.status, result.runtime_seconds,
-                   result.ok() ? "" : ": " + result.reason);
-      done += frames.size();
-      if (usable) {
-        ok += result.used_frames.size();
-        MiResult prior;
-        prior.cam_from_world = result.cam_from_lidar;
-        prior.covariance = result.covariance;
-        prior.source = "mi/rig_calibration.json (registered by the adjustment)";
-        s->mobile->mi_extrinsic.push_back(prior);
-      }
-    }
-  }
-  s->log.push_back("MI registration: " + std::to_string(ok) + " of " + std::to_string(tasks.size()) +
+  for (size_t i = 0; i < run.tasks.size(); ++i) (run.tasks[i].mobile ? moving : fixed).push_back(i);
+  if (!fixed.empty()) RegisterToStaticLidar(s, &run, fixed);
+  if (!moving.empty()) CalibrateRigOnMobileLidar(s, &run, moving);
+  const size_t n = run.tasks.size();
+  s->log.push_back("MI registration: " + std::to_string(run.ok) + " of " + std::to_string(n) +
                    " images ok, used as pose priors (" + std::to_string(static_cast<int>(timer.ElapsedSeconds())) + " s)");
-  if (ok < tasks.size()) {
-    s->warnings.push_back("MI registration: " + std::to_string(tasks.size() - ok) + " of " + std::to_string(tasks.size()) +
+  if (run.ok < n) {
+    s->warnings.push_back("MI registration: " + std::to_string(n - run.ok) + " of " + std::to_string(n) +
                           " images not registered (status failed; see report.json mi_registration): no prior from them");
   }
 }

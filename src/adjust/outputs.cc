@@ -343,12 +343,14 @@ std::string Summary(const JointState& s, const json& report, const std::vector<S
       << "  with the project's sigma: sigma0 " << given.sigma0_ratio << " -> "
       << (given.chi2_passed ? "passed" : "FAILED") << (s.sigma_factor.empty() ? "" : "; groups re-weighted by variance components")
       << "\n";
-  for (const json& g : report["groups"]) {
+  const auto& groups = s.builder->groups();
+  for (size_t k = 0; k < groups.size(); ++k) {
+    const json& g = report["groups"][k];
     sum << "  " << std::left << std::setw(44) << g["name"].get<std::string>() << std::right << std::setw(7)
         << g["observations"].get<size_t>() << " obs  RMS " << std::setprecision(4) << g["rms"].get<double>() << " "
         << g["unit"].get<std::string>() << "  variance component " << std::setprecision(3)
         << g["variance_component_given_weights"].get<double>();
-    if (g["reweighting"] == "variance components") {
+    if (VarianceComponentExemption(s, *groups[k], st.groups.at(k).redundancy).empty()) {
       sum << " (sigma x " << g["sigma_factor"].get<double>() << ")\n";
     } else {
       sum << " (" << g["reweighting"].get<std::string>() << ")\n";

@@ -120,223 +120,282 @@ class ProjectReader {
     if (!ids->insert(id).second) r_.Fail(n["id"], f + ".id", "a unique sensor id", id + " (used twice)");
     const std::string type = r_.String(n["type"], f + ".type");
     const int line = n.Mark().line + 1;
-    const auto keep = [](Node, Field) {};
-    const auto path = [&](std::string* out, bool folder) {
-      return [this, out, folder](Node v, Field g) { *out = ExistingPath(v, g, folder); };
-    };
     if (type == "photo_collection") {
-      PhotoCollection p;
-      p.id = id;
-      p.line = line;
-      r_.Map(n, f, {{"id", keep}, {"type", keep},
-                    {"images", path(&p.images, true)},
-                    {"calibration", path(&p.calibration, false)},
-                    {"colmap_model", path(&p.colmap_model, true)},
-                    {"control_measurements", path(&p.control_measurements, false)},
-                    {"mi_results", path(&p.mi_results, true)},
-                    {"mi_register", [&](Node v, Field g) { MiRegister(v, g, &p.mi_register, &p.mi_only); }},
-                    {"mi_orientation_classes", [&](Node v, Field g) { p.mi_orientation_classes = MiOrientationClasses(v, g); }},
-                    {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
-                    {"control_sigma_px", [&](Node v, Field g) { p.control_sigma_px = SigmaPx(v, g); }},
-                    {"gnss_lever_arm_m", [&](Node v, Field g) {
-                       const std::vector<double> lever = r_.NumberList(v, g);
-                       if (lever.size() != 3) r_.Fail(v, g, "[x, y, z] in metres (the antenna in the camera frame)", io::YamlReader::Text(v));
-                       for (double c : lever) {
-                         if (!(std::abs(c) <= 10)) r_.Fail(v, g, "a lever arm within 10 m (in metres)", io::YamlReader::Text(v));
-                       }
-                       p.gnss_lever_arm_m = Eigen::Vector3d(lever[0], lever[1], lever[2]);
-                     }},
-                    {"register_to_lidar", [&](Node v, Field g) { p.register_to_lidar = r_.Bool(v, g); }},
-                    {"registration_window_m", [&](Node v, Field g) { p.registration_window_m = r_.Positive(v, g, 100.0, "m (metres)"); }},
-                    {"registration_window_deg", [&](Node v, Field g) { p.registration_window_deg = r_.Positive(v, g, 180.0, "degrees"); }},
-                    {"lidar_scale_range", [&](Node v, Field g) {
-                       const std::vector<double> range = r_.NumberList(v, g);
-                       if (range.size() != 2 || !(range[0] > 0) || !(range[1] > range[0]) || !(range[1] <= 1e6)) {
-                         r_.Fail(v, g, "[min, max] with 0 < min < max <= 1e6 (world metres per block unit)", io::YamlReader::Text(v));
-                       }
-                       p.lidar_scale_min = range[0];
-                       p.lidar_scale_max = range[1];
-                     }},
-                    {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
-                    {"refine", [&](Node v, Field g) { p.refine = Refine(v, g, true); }}});
-      r_.Require(n, f, {"images"});
-      project_->photos.push_back(p);
+      PhotoSensor(n, f, id, line);
     } else if (type == "total_station") {
-      TotalStation t;
-      t.id = id;
-      t.line = line;
-      r_.Map(n, f, {{"id", keep}, {"type", keep}, {"file", path(&t.file, false)},
-                    {"loss", [&](Node v, Field g) { t.loss = Loss(v, g); }}});
-      r_.Require(n, f, {"file"});
-      if (!project_->total_stations.empty()) r_.Fail(n, f, "one total_station sensor (merge the networks into one file)", "a second one");
-      project_->total_stations.push_back(t);
+      TotalStationSensor(n, f, id, line);
     } else if (type == "gnss") {
-      Gnss g;
-      g.id = id;
-      g.line = line;
-      r_.Map(n, f, {{"id", keep}, {"type", keep}, {"file", path(&g.file, false)},
-                    {"loss", [&](Node v, Field h) { g.loss = Loss(v, h); }}});
-      r_.Require(n, f, {"file"});
-      project_->gnss.push_back(g);
+      GnssSensor(n, f, id, line);
     } else if (type == "lidar_static") {
-      LidarStatic l;
-      l.id = id;
-      l.line = line;
-      r_.Map(n, f, {{"id", keep}, {"type", keep},
-                    {"reference_cloud", path(&l.reference_cloud, false)},
-                    {"scans", [&](Node v, Field g) {
-                       if (!v.IsSequence()) r_.Fail(v, g, "a list of {file}", io::YamlReader::Kind(v));
-                       for (size_t i = 0; i < v.size(); ++i) {
-                         const std::string gi = g + "[" + std::to_string(i) + "]";
-                         LidarScanFile scan;
-                         scan.line = v[i].Mark().line + 1;
-                         r_.Map(v[i], gi, {{"file", path(&scan.file, false)},
-                                           {"world_from_scan", [&](Node w, Field h) {
-                                              scan.world_from_scan = io::ReadYamlPose(r_, w, h);
-                                              scan.has_pose = true;
-                                            }},
-                                           {"approximate", [&](Node w, Field h) { scan.approximate = r_.Bool(w, h); }}});
-                         r_.Require(v[i], gi, {"file"});
-                         l.scans.push_back(scan);
-                       }
-                     }},
-                    {"range_sigma_m", [&](Node v, Field g) { l.range_sigma_m = SigmaM(v, g, 0.5); }},
-                    {"surface_sigma_m", [&](Node v, Field g) { l.surface_sigma_m = SigmaM(v, g, 0.5); }},
-                    {"max_distance_m", [&](Node v, Field g) { l.max_distance_m = SigmaM(v, g, 10.0); }},
-                    {"targets", path(&l.targets, false)},
-                    {"scans_levelled", [&](Node v, Field g) { l.scans_levelled = r_.Bool(v, g); }},
-                    {"scan_sigma_m", [&](Node v, Field g) { l.scan_sigma_m = SigmaM(v, g, 10.0); }},
-                    {"scan_sigma_deg", [&](Node v, Field g) { l.scan_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
-                    {"scan_points", [&](Node v, Field g) {
-                       l.scan_points = r_.Integer(v, g);
-                       if (l.scan_points < 100 || l.scan_points > 1000000) r_.Fail(v, g, "an integer in [100, 1000000]", io::YamlReader::Text(v));
-                     }},
-                    {"loss", [&](Node v, Field g) { l.loss = Loss(v, g); }}});
-      r_.Require(n, f, {"reference_cloud"});
-      for (size_t i = 0; i < l.scans.size(); ++i) {
-        if (l.scans[i].approximate && !l.scans[i].has_pose) {
-          r_.Fail(n["scans"][i], f + ".scans[" + std::to_string(i) + "].approximate", "world_from_scan with it", "approximate without world_from_scan");
-        }
-      }
-      project_->lidar_static.push_back(l);
+      LidarStaticSensor(n, f, id, line);
     } else if (type == "lidar_mobile") {
-      LidarMobile m;
-      m.id = id;
-      m.line = line;
-      const auto degrees = [&](double* out, double hi) {
-        return [this, out, hi](Node v, Field g) { *out = r_.Positive(v, g, hi, "degrees"); };
-      };
-      const auto metres = [&](double* out, double hi) {
-        return [this, out, hi](Node v, Field g) { *out = SigmaM(v, g, hi); };
-      };
-      r_.Map(n, f, {{"id", keep}, {"type", keep}, {"cloud", path(&m.cloud, false)},
-                    {"trajectory", path(&m.trajectory, false)}, {"calibration", path(&m.calibration, false)},
-                    {"rig", [&](Node v, Field g) { m.rig = r_.String(v, g); }},
-                    {"range_sigma_m", metres(&m.range_sigma_m, 0.5)},
-                    {"surface_sigma_m", metres(&m.surface_sigma_m, 0.5)},
-                    {"max_distance_m", metres(&m.max_distance_m, 10.0)},
-                    {"points", [&](Node v, Field g) {
-                       m.points = r_.Integer(v, g);
-                       if (m.points < 100 || m.points > 5000000) r_.Fail(v, g, "an integer in [100, 5000000]", r_.Text(v));
-                     }},
-                    {"node_spacing_s", [&](Node v, Field g) { m.node_spacing_s = r_.Positive(v, g, 600.0, "seconds"); }},
-                    {"max_range_m", [&](Node v, Field g) {
-                       double number = 0;
-                       if (v.IsScalar() && v.Scalar() == "auto") {
-                         m.max_range_m = -1.0;
-                       } else if (!v.IsScalar() || !YAML::convert<double>::decode(v, number)) {
-                         r_.Fail(v, g, "metres, 0 (no limit) or auto", r_.Text(v));
-                       } else {
-                         m.max_range_m = ZeroOrPositive(v, g, 10000.0, "m (metres), or auto");
-                       }
-                     }},
-                    {"trajectory_sigma_m", metres(&m.trajectory_sigma_m, 10.0)},
-                    {"trajectory_sigma_deg", degrees(&m.trajectory_sigma_deg, 30.0)},
-                    {"trajectory_correlation_s", [&](Node v, Field g) { m.trajectory_correlation_s = CorrelationTime(v, g); }},
-                    {"smoothness_sigma_m", [&](Node v, Field g) { m.smoothness_sigma_m = ZeroOrPositive(v, g, 1.0, "m (metres)"); }},
-                    {"smoothness_sigma_deg", [&](Node v, Field g) { m.smoothness_sigma_deg = ZeroOrPositive(v, g, 10.0, "degrees"); }},
-                    {"frame_sigma_m", metres(&m.frame_sigma_m, 1.0)},
-                    {"frame_sigma_deg", degrees(&m.frame_sigma_deg, 10.0)},
-                    {"extrinsic", [&](Node v, Field g) { m.extrinsic = Treatment(v, g); }},
-                    {"extrinsic_sigma_m", metres(&m.extrinsic_sigma_m, 1.0)},
-                    {"extrinsic_sigma_deg", degrees(&m.extrinsic_sigma_deg, 30.0)},
-                    {"loss", [&](Node v, Field g) { m.loss = Loss(v, g); }}});
-      r_.Require(n, f, {"cloud", "trajectory", "calibration"});
-      project_->lidar_mobile.push_back(m);
+      LidarMobileSensor(n, f, id, line);
     } else if (type == "spherical_stereo" || type == "camera_rig") {
       // Validated (keys, files, σ), not adjusted without observations (docs/project-yaml.md).
-      if (type == "spherical_stereo") {
-        SphericalStereo p;
-        p.id = id;
-        p.line = line;
-        r_.Map(n, f, {{"id", keep}, {"type", keep}, {"images", path(&p.images, true)},
-                      {"calibration", path(&p.calibration, false)},
-                      {"stations", [&](Node v, Field g) { p.stations = r_.StringList(v, g); }},
-                      {"stations_file", path(&p.stations_file, false)},
-                      {"observations", path(&p.observations, false)},
-                      {"tie_block", [&](Node v, Field g) { p.tie_block = r_.String(v, g); }},
-                      {"baseline_sigma_m", [&](Node v, Field g) { p.baseline_sigma_m = SigmaM(v, g, 0.5); }},
-                      {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
-                      {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
-                      {"dense_cloud", [&](Node v, Field g) { p.dense_cloud = r_.Bool(v, g); }},
-                      {"register_to_lidar", [&](Node v, Field g) { p.register_to_lidar = r_.Bool(v, g); }},
-                      {"setup_window_m", [&](Node v, Field g) { p.setup_window_m = ZeroOrPositive(v, g, 100.0, "m (metres)"); }},
-                      {"setup_window_deg", [&](Node v, Field g) { p.setup_window_deg = r_.Positive(v, g, 180.0, "degrees"); }},
-                      {"refine", [&](Node v, Field g) {
-                         const RefineIntrinsics refine = Refine(v, g, false);
-                         p.refine_focal = refine.focal;
-                         p.refine_principal_point = refine.principal_point;
-                       }}});
-        r_.Require(n, f, {"images", "calibration"});
-        if (!p.observations.empty() || !p.stations_file.empty()) {
-          r_.Require(n, f, {"observations", "stations_file", "tie_block"});
-          project_->spherical.push_back(p);
-          return;
-        }
-      } else if (type == "camera_rig") {
-        CameraRig p;
-        p.id = id;
-        p.line = line;
-        r_.Map(n, f, {{"id", keep}, {"type", keep}, {"images", path(&p.images, true)},
-                      {"panoramas", path(&p.panoramas, true)}, {"calibration", path(&p.calibration, false)},
-                      {"mi_results", path(&p.mi_results, true)},
-                      {"mi_register", [&](Node v, Field g) { MiRegister(v, g, &p.mi_register, &p.mi_only); }},
-                    {"mi_orientation_classes", [&](Node v, Field g) { p.mi_orientation_classes = MiOrientationClasses(v, g); }},
-                      {"mi_lidar", [&](Node v, Field g) {
-                         p.mi_lidar = r_.String(v, g);
-                         if (p.mi_lidar != "static" && p.mi_lidar != "mobile") r_.Fail(v, g, "static or mobile", p.mi_lidar);
-                       }},
-                      {"mi_incidence_correction", [&](Node v, Field g) { p.mi_incidence_correction = r_.Bool(v, g); }},
-                      {"mi_time_window_s", [&](Node v, Field g) { p.mi_time_window_s = r_.Positive(v, g, 60.0, "seconds"); }},
-                      {"mi_views", [&](Node v, Field g) {
-                         p.mi_views = r_.String(v, g);
-                         if (p.mi_views != "panoramas" && p.mi_views != "cameras") r_.Fail(v, g, "panoramas or cameras", p.mi_views);
-                       }},
-                      {"trajectory", path(&p.trajectory, false)}, {"frames_file", path(&p.frames_file, false)},
-                      {"observations", path(&p.observations, false)},
-                      {"tie_block", [&](Node v, Field g) { p.tie_block = r_.String(v, g); }},
-                      {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
-                      {"trajectory_sigma_m", [&](Node v, Field g) { p.trajectory_sigma_m = SigmaM(v, g, 10.0); }},
-                      {"trajectory_sigma_deg", [&](Node v, Field g) { p.trajectory_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
-                      {"trajectory_correlation_s", [&](Node v, Field g) { p.trajectory_correlation_s = CorrelationTime(v, g); }},
-                      {"cam_from_rig", [&](Node v, Field g) { p.cam_from_rig = Treatment(v, g); }},
-                      {"cam_from_rig_sigma_m", [&](Node v, Field g) { p.cam_from_rig_sigma_m = SigmaM(v, g, 1.0); }},
-                      {"cam_from_rig_sigma_deg", [&](Node v, Field g) { p.cam_from_rig_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
-                      {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
-                      {"refine", [&](Node v, Field g) { p.refine = Refine(v, g, true); }}});
-        r_.Require(n, f, {"images", "calibration"});
-        if ((p.mi_register && p.mi_views == "panoramas") || !p.mi_results.empty()) r_.Require(n, f, {"panoramas"});
-        if (!p.observations.empty() || !p.frames_file.empty()) {
-          r_.Require(n, f, {"observations", "frames_file", "trajectory", "tie_block"});
-          project_->rigs.push_back(p);
-          return;
-        }
-      }
-      project_->other_sensors.push_back({id, type, line});
+      const bool adjusted = type == "spherical_stereo" ? SphericalSensor(n, f, id, line) : RigSensor(n, f, id, line);
+      if (!adjusted) project_->other_sensors.push_back({id, type, line});
     } else {
       r_.Fail(n["type"], f + ".type",
               "photo_collection, total_station, gnss, lidar_static, spherical_stereo, camera_rig or lidar_mobile", type);
     }
+  }
+
+  /// A photo_collection.
+  void PhotoSensor(Node n, Field f, const std::string& id, int line) {
+    const auto keep = [](Node, Field) {};
+    const auto path = [&](std::string* out, bool folder) {
+      return [this, out, folder](Node v, Field g) { *out = ExistingPath(v, g, folder); };
+    };
+    PhotoCollection p;
+    p.id = id;
+    p.line = line;
+    r_.Map(n, f, {{"id", keep}, {"type", keep},
+                  {"images", path(&p.images, true)},
+                  {"calibration", path(&p.calibration, false)},
+                  {"colmap_model", path(&p.colmap_model, true)},
+                  {"control_measurements", path(&p.control_measurements, false)},
+                  {"mi_results", path(&p.mi_results, true)},
+                  {"mi_register", [&](Node v, Field g) { MiRegister(v, g, &p.mi_register, &p.mi_only); }},
+                  {"mi_orientation_classes", [&](Node v, Field g) { p.mi_orientation_classes = MiOrientationClasses(v, g); }},
+                  {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
+                  {"control_sigma_px", [&](Node v, Field g) { p.control_sigma_px = SigmaPx(v, g); }},
+                  {"gnss_lever_arm_m", [&](Node v, Field g) {
+                     const std::vector<double> lever = r_.NumberList(v, g);
+                     if (lever.size() != 3) r_.Fail(v, g, "[x, y, z] in metres (the antenna in the camera frame)", io::YamlReader::Text(v));
+                     for (double c : lever) {
+                       if (!(std::abs(c) <= 10)) r_.Fail(v, g, "a lever arm within 10 m (in metres)", io::YamlReader::Text(v));
+                     }
+                     p.gnss_lever_arm_m = Eigen::Vector3d(lever[0], lever[1], lever[2]);
+                   }},
+                  {"register_to_lidar", [&](Node v, Field g) { p.register_to_lidar = r_.Bool(v, g); }},
+                  {"registration_window_m", [&](Node v, Field g) { p.registration_window_m = r_.Positive(v, g, 100.0, "m (metres)"); }},
+                  {"registration_window_deg", [&](Node v, Field g) { p.registration_window_deg = r_.Positive(v, g, 180.0, "degrees"); }},
+                  {"lidar_scale_range", [&](Node v, Field g) {
+                     const std::vector<double> range = r_.NumberList(v, g);
+                     if (range.size() != 2 || !(range[0] > 0) || !(range[1] > range[0]) || !(range[1] <= 1e6)) {
+                       r_.Fail(v, g, "[min, max] with 0 < min < max <= 1e6 (world metres per block unit)", io::YamlReader::Text(v));
+                     }
+                     p.lidar_scale_min = range[0];
+                     p.lidar_scale_max = range[1];
+                   }},
+                  {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
+                  {"refine", [&](Node v, Field g) { p.refine = Refine(v, g, true); }}});
+    r_.Require(n, f, {"images"});
+    project_->photos.push_back(p);
+  }
+
+  /// A total_station (one per project).
+  void TotalStationSensor(Node n, Field f, const std::string& id, int line) {
+    const auto keep = [](Node, Field) {};
+    const auto path = [&](std::string* out, bool folder) {
+      return [this, out, folder](Node v, Field g) { *out = ExistingPath(v, g, folder); };
+    };
+    TotalStation t;
+    t.id = id;
+    t.line = line;
+    r_.Map(n, f, {{"id", keep}, {"type", keep}, {"file", path(&t.file, false)},
+                  {"loss", [&](Node v, Field g) { t.loss = Loss(v, g); }}});
+    r_.Require(n, f, {"file"});
+    if (!project_->total_stations.empty()) r_.Fail(n, f, "one total_station sensor (merge the networks into one file)", "a second one");
+    project_->total_stations.push_back(t);
+  }
+
+  /// A gnss sensor.
+  void GnssSensor(Node n, Field f, const std::string& id, int line) {
+    const auto keep = [](Node, Field) {};
+    const auto path = [&](std::string* out, bool folder) {
+      return [this, out, folder](Node v, Field g) { *out = ExistingPath(v, g, folder); };
+    };
+    Gnss g;
+    g.id = id;
+    g.line = line;
+    r_.Map(n, f, {{"id", keep}, {"type", keep}, {"file", path(&g.file, false)},
+                  {"loss", [&](Node v, Field h) { g.loss = Loss(v, h); }}});
+    r_.Require(n, f, {"file"});
+    project_->gnss.push_back(g);
+  }
+
+  /// A lidar_static.
+  void LidarStaticSensor(Node n, Field f, const std::string& id, int line) {
+    const auto keep = [](Node, Field) {};
+    const auto path = [&](std::string* out, bool folder) {
+      return [this, out, folder](Node v, Field g) { *out = ExistingPath(v, g, folder); };
+    };
+    LidarStatic l;
+    l.id = id;
+    l.line = line;
+    r_.Map(n, f, {{"id", keep}, {"type", keep},
+                  {"reference_cloud", path(&l.reference_cloud, false)},
+                  {"scans", [&](Node v, Field g) {
+                     if (!v.IsSequence()) r_.Fail(v, g, "a list of {file}", io::YamlReader::Kind(v));
+                     for (size_t i = 0; i < v.size(); ++i) {
+                       const std::string gi = g + "[" + std::to_string(i) + "]";
+                       LidarScanFile scan;
+                       scan.line = v[i].Mark().line + 1;
+                       r_.Map(v[i], gi, {{"file", path(&scan.file, false)},
+                                         {"world_from_scan", [&](Node w, Field h) {
+                                            scan.world_from_scan = io::ReadYamlPose(r_, w, h);
+                                            scan.has_pose = true;
+                                          }},
+                                         {"approximate", [&](Node w, Field h) { scan.approximate = r_.Bool(w, h); }}});
+                       r_.Require(v[i], gi, {"file"});
+                       l.scans.push_back(scan);
+                     }
+                   }},
+                  {"range_sigma_m", [&](Node v, Field g) { l.range_sigma_m = SigmaM(v, g, 0.5); }},
+                  {"surface_sigma_m", [&](Node v, Field g) { l.surface_sigma_m = SigmaM(v, g, 0.5); }},
+                  {"max_distance_m", [&](Node v, Field g) { l.max_distance_m = SigmaM(v, g, 10.0); }},
+                  {"targets", path(&l.targets, false)},
+                  {"scans_levelled", [&](Node v, Field g) { l.scans_levelled = r_.Bool(v, g); }},
+                  {"scan_sigma_m", [&](Node v, Field g) { l.scan_sigma_m = SigmaM(v, g, 10.0); }},
+                  {"scan_sigma_deg", [&](Node v, Field g) { l.scan_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
+                  {"scan_points", [&](Node v, Field g) {
+                     l.scan_points = r_.Integer(v, g);
+                     if (l.scan_points < 100 || l.scan_points > 1000000) r_.Fail(v, g, "an integer in [100, 1000000]", io::YamlReader::Text(v));
+                   }},
+                  {"loss", [&](Node v, Field g) { l.loss = Loss(v, g); }}});
+    r_.Require(n, f, {"reference_cloud"});
+    for (size_t i = 0; i < l.scans.size(); ++i) {
+      if (l.scans[i].approximate && !l.scans[i].has_pose) {
+        r_.Fail(n["scans"][i], f + ".scans[" + std::to_string(i) + "].approximate", "world_from_scan with it", "approximate without world_from_scan");
+      }
+    }
+    project_->lidar_static.push_back(l);
+  }
+
+  /// A lidar_mobile.
+  void LidarMobileSensor(Node n, Field f, const std::string& id, int line) {
+    const auto keep = [](Node, Field) {};
+    const auto path = [&](std::string* out, bool folder) {
+      return [this, out, folder](Node v, Field g) { *out = ExistingPath(v, g, folder); };
+    };
+    LidarMobile m;
+    m.id = id;
+    m.line = line;
+    const auto degrees = [&](double* out, double hi) {
+      return [this, out, hi](Node v, Field g) { *out = r_.Positive(v, g, hi, "degrees"); };
+    };
+    const auto metres = [&](double* out, double hi) {
+      return [this, out, hi](Node v, Field g) { *out = SigmaM(v, g, hi); };
+    };
+    r_.Map(n, f, {{"id", keep}, {"type", keep}, {"cloud", path(&m.cloud, false)},
+                  {"trajectory", path(&m.trajectory, false)}, {"calibration", path(&m.calibration, false)},
+                  {"rig", [&](Node v, Field g) { m.rig = r_.String(v, g); }},
+                  {"range_sigma_m", metres(&m.range_sigma_m, 0.5)},
+                  {"surface_sigma_m", metres(&m.surface_sigma_m, 0.5)},
+                  {"max_distance_m", metres(&m.max_distance_m, 10.0)},
+                  {"points", [&](Node v, Field g) {
+                     m.points = r_.Integer(v, g);
+                     if (m.points < 100 || m.points > 5000000) r_.Fail(v, g, "an integer in [100, 5000000]", r_.Text(v));
+                   }},
+                  {"node_spacing_s", [&](Node v, Field g) { m.node_spacing_s = r_.Positive(v, g, 600.0, "seconds"); }},
+                  {"max_range_m", [&](Node v, Field g) {
+                     double number = 0;
+                     if (v.IsScalar() && v.Scalar() == "auto") {
+                       m.max_range_m = -1.0;
+                     } else if (!v.IsScalar() || !YAML::convert<double>::decode(v, number)) {
+                       r_.Fail(v, g, "metres, 0 (no limit) or auto", r_.Text(v));
+                     } else {
+                       m.max_range_m = ZeroOrPositive(v, g, 10000.0, "m (metres), or auto");
+                     }
+                   }},
+                  {"trajectory_sigma_m", metres(&m.trajectory_sigma_m, 10.0)},
+                  {"trajectory_sigma_deg", degrees(&m.trajectory_sigma_deg, 30.0)},
+                  {"trajectory_correlation_s", [&](Node v, Field g) { m.trajectory_correlation_s = CorrelationTime(v, g); }},
+                  {"smoothness_sigma_m", [&](Node v, Field g) { m.smoothness_sigma_m = ZeroOrPositive(v, g, 1.0, "m (metres)"); }},
+                  {"smoothness_sigma_deg", [&](Node v, Field g) { m.smoothness_sigma_deg = ZeroOrPositive(v, g, 10.0, "degrees"); }},
+                  {"frame_sigma_m", metres(&m.frame_sigma_m, 1.0)},
+                  {"frame_sigma_deg", degrees(&m.frame_sigma_deg, 10.0)},
+                  {"extrinsic", [&](Node v, Field g) { m.extrinsic = Treatment(v, g); }},
+                  {"extrinsic_sigma_m", metres(&m.extrinsic_sigma_m, 1.0)},
+                  {"extrinsic_sigma_deg", degrees(&m.extrinsic_sigma_deg, 30.0)},
+                  {"loss", [&](Node v, Field g) { m.loss = Loss(v, g); }}});
+    r_.Require(n, f, {"cloud", "trajectory", "calibration"});
+    project_->lidar_mobile.push_back(m);
+  }
+
+  /// A spherical_stereo; true when it has observations (adjusted), false when only validated.
+  bool SphericalSensor(Node n, Field f, const std::string& id, int line) {
+    const auto keep = [](Node, Field) {};
+    const auto path = [&](std::string* out, bool folder) {
+      return [this, out, folder](Node v, Field g) { *out = ExistingPath(v, g, folder); };
+    };
+    SphericalStereo p;
+    p.id = id;
+    p.line = line;
+    r_.Map(n, f, {{"id", keep}, {"type", keep}, {"images", path(&p.images, true)},
+                  {"calibration", path(&p.calibration, false)},
+                  {"stations", [&](Node v, Field g) { p.stations = r_.StringList(v, g); }},
+                  {"stations_file", path(&p.stations_file, false)},
+                  {"observations", path(&p.observations, false)},
+                  {"tie_block", [&](Node v, Field g) { p.tie_block = r_.String(v, g); }},
+                  {"baseline_sigma_m", [&](Node v, Field g) { p.baseline_sigma_m = SigmaM(v, g, 0.5); }},
+                  {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
+                  {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
+                  {"dense_cloud", [&](Node v, Field g) { p.dense_cloud = r_.Bool(v, g); }},
+                  {"register_to_lidar", [&](Node v, Field g) { p.register_to_lidar = r_.Bool(v, g); }},
+                  {"setup_window_m", [&](Node v, Field g) { p.setup_window_m = ZeroOrPositive(v, g, 100.0, "m (metres)"); }},
+                  {"setup_window_deg", [&](Node v, Field g) { p.setup_window_deg = r_.Positive(v, g, 180.0, "degrees"); }},
+                  {"refine", [&](Node v, Field g) {
+                     const RefineIntrinsics refine = Refine(v, g, false);
+                     p.refine_focal = refine.focal;
+                     p.refine_principal_point = refine.principal_point;
+                   }}});
+    r_.Require(n, f, {"images", "calibration"});
+    if (!p.observations.empty() || !p.stations_file.empty()) {
+      r_.Require(n, f, {"observations", "stations_file", "tie_block"});
+      project_->spherical.push_back(p);
+      return true;
+    }
+    return false;
+  }
+
+  /// A camera_rig; true when it has observations (adjusted), false when only validated.
+  bool RigSensor(Node n, Field f, const std::string& id, int line) {
+    const auto keep = [](Node, Field) {};
+    const auto path = [&](std::string* out, bool folder) {
+      return [this, out, folder](Node v, Field g) { *out = ExistingPath(v, g, folder); };
+    };
+    CameraRig p;
+    p.id = id;
+    p.line = line;
+    r_.Map(n, f, {{"id", keep}, {"type", keep}, {"images", path(&p.images, true)},
+                  {"panoramas", path(&p.panoramas, true)}, {"calibration", path(&p.calibration, false)},
+                  {"mi_results", path(&p.mi_results, true)},
+                  {"mi_register", [&](Node v, Field g) { MiRegister(v, g, &p.mi_register, &p.mi_only); }},
+                {"mi_orientation_classes", [&](Node v, Field g) { p.mi_orientation_classes = MiOrientationClasses(v, g); }},
+                  {"mi_lidar", [&](Node v, Field g) {
+                     const std::string value = r_.String(v, g);
+                     if (value != "static" && value != "mobile") r_.Fail(v, g, "static or mobile", value);
+                     p.mi_lidar = value == "mobile" ? MiLidar::kMobile : MiLidar::kStatic;
+                   }},
+                  {"mi_incidence_correction", [&](Node v, Field g) { p.mi_incidence_correction = r_.Bool(v, g); }},
+                  {"mi_time_window_s", [&](Node v, Field g) { p.mi_time_window_s = r_.Positive(v, g, 60.0, "seconds"); }},
+                  {"mi_views", [&](Node v, Field g) {
+                     const std::string value = r_.String(v, g);
+                     if (value != "panoramas" && value != "cameras") r_.Fail(v, g, "panoramas or cameras", value);
+                     p.mi_views = value == "cameras" ? MiViews::kCameras : MiViews::kPanoramas;
+                   }},
+                  {"trajectory", path(&p.trajectory, false)}, {"frames_file", path(&p.frames_file, false)},
+                  {"observations", path(&p.observations, false)},
+                  {"tie_block", [&](Node v, Field g) { p.tie_block = r_.String(v, g); }},
+                  {"sigma_px", [&](Node v, Field g) { p.sigma_px = SigmaPx(v, g); }},
+                  {"trajectory_sigma_m", [&](Node v, Field g) { p.trajectory_sigma_m = SigmaM(v, g, 10.0); }},
+                  {"trajectory_sigma_deg", [&](Node v, Field g) { p.trajectory_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
+                  {"trajectory_correlation_s", [&](Node v, Field g) { p.trajectory_correlation_s = CorrelationTime(v, g); }},
+                  {"cam_from_rig", [&](Node v, Field g) { p.cam_from_rig = Treatment(v, g); }},
+                  {"cam_from_rig_sigma_m", [&](Node v, Field g) { p.cam_from_rig_sigma_m = SigmaM(v, g, 1.0); }},
+                  {"cam_from_rig_sigma_deg", [&](Node v, Field g) { p.cam_from_rig_sigma_deg = r_.Positive(v, g, 30.0, "degrees"); }},
+                  {"loss", [&](Node v, Field g) { p.loss = Loss(v, g); }},
+                  {"refine", [&](Node v, Field g) { p.refine = Refine(v, g, true); }}});
+    r_.Require(n, f, {"images", "calibration"});
+    if ((p.mi_register && p.mi_views == MiViews::kPanoramas) || !p.mi_results.empty()) r_.Require(n, f, {"panoramas"});
+    if (!p.observations.empty() || !p.frames_file.empty()) {
+      r_.Require(n, f, {"observations", "frames_file", "trajectory", "tie_block"});
+      project_->rigs.push_back(p);
+      return true;
+    }
+    return false;
   }
 
  private:
@@ -464,7 +523,7 @@ Project LoadProject(const std::string& path) {
     }
   }
   for (const CameraRig& rig : project.rigs) {
-    if (rig.mi_lidar == "mobile") {
+    if (rig.mi_lidar == MiLidar::kMobile) {
       const bool carried = std::any_of(project.lidar_mobile.begin(), project.lidar_mobile.end(),
                                        [&](const LidarMobile& m) { return m.rig == rig.id; });
       if (!carried) {

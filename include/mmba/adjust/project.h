@@ -23,6 +23,11 @@ enum class PoseTreatment { kFixed, kWeighted, kFree };
 /// "fixed", "weighted" or "free": the project file's words.
 const char* PoseTreatmentName(PoseTreatment treatment);
 
+/// A camera rig's `mi_lidar`: which LiDAR its images are registered to by MI.
+enum class MiLidar { kStatic, kMobile };
+/// A camera rig's `mi_views`: its stitched panoramas or its own cameras' images.
+enum class MiViews { kPanoramas, kCameras };
+
 /// Intrinsics refined in the adjustment (each photo collection's own camera).
 struct RefineIntrinsics {
   bool focal = true;
@@ -189,7 +194,7 @@ struct CameraRig {
   /// the GNSS/INS and its nominal mounting; the MI paper's case): the pose relative to the
   /// mobile LiDAR near the frame's time, a factor on the frame, the trajectory correction and
   /// the camera–LiDAR extrinsic. Needs a lidar_mobile with `rig` = this rig.
-  std::string mi_lidar = "static";
+  MiLidar mi_lidar = MiLidar::kStatic;
   /// `mi_incidence_correction` (with mi_lidar: mobile): each frame's mobile points' intensity
   /// corrected for the angle of incidence before the MI (register-mi --incidence-correction;
   /// the exponent is fitted per frame, ≈ 0 for a scanner that normalises its reflectance);
@@ -200,7 +205,7 @@ struct CameraRig {
   /// (`images`/<frame>_<camera>.*), each with its calibration and cam_from_rig, as the views
   /// of one pose: no stitching parallax. Cameras that see fewer than 1,000 LiDAR points at the
   /// start are left out.
-  std::string mi_views = "panoramas";
+  MiViews mi_views = MiViews::kPanoramas;
   /// With mi_lidar mobile: only mobile points captured within this many seconds of the frame
   /// are registered against (the GNSS/INS error drifts; within the window it is one rigid
   /// offset, the assumption of the factor).
