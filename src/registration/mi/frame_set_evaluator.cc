@@ -5,11 +5,11 @@
 #include <limits>
 #include <numeric>
 #include <random>
-#include <thread>
 
 #include <glog/logging.h>
 
 #include "mmba/core/logging.h"
+#include "mmba/core/parallel_for.h"
 #include "mmba/core/progress.h"
 #include "registration/mi/evaluator_cull.h"
 #include "registration/mi/mi_internal.h"
@@ -27,6 +27,110 @@ using internal::Median;
 using internal::RenderOrder;
 using internal::PinholeCull;
 using internal::CullPinholeBlocks;
+
+namespace {
+
+// Which candidates of `all` (all points, or `candidates`' indices into them) project into
+// some view of `views` at `start`, each view expanded by what the rotation bound can move a
+// pixel plus a margin for the translation bound. Returns the kept point indices in order.
+std::vector<size_t> CullToViews(const std::vector<View>& views, const LidarPoints& all,
+                                const std::vector<uint32_t>* candidates, const Rigid3d& start,
+                                const RegistrationOptions& options) {
+  const double rot_margin = std::tan(options.bound_rotation_deg * kDegToRad);
+  const size_t tested = candidates != nullptr ? candidates->size() : all.size();
+  std::vector<char> keep(tested, 0);
+  // Candidates [begin, end) against every view (keep[k]: candidate k is kept).
+  auto cull = [&](size_t begin, size_t end) {
+    for (const View& view : views) {
+      const auto [rotation, translation] = MakeTransform(view, start);
+      const double focal = view.camera.MeanFocalLength();
+      const bool spherical = view.camera.IsSpherical();
+      const double max_range = options.render.max_range_m + options.bound_translation_m;
+      const double near_range = 2.0 * options.bound_translation_m + options.render.min_range_m;
+      if (view.camera.model_id == sensors::CameraModelId::kPinhole) {
+        const PinholeCull test{rotation, translation, view.camera, focal, rot_margin,
+                               options.bound_translation_m, max_range, near_range};
+        CullPinholeBlocks(test, all, candidates, begin, end, keep.data());
+        continue;
+      }
+      for (size_t k = begin; k < end; ++k) {
+        if (keep[k]) continue;
+        const size_t i = candidates != nullptr ? (*candidates)[k] : k;
+        const Eigen::Vector3f p = rotation * all.points_in_lidar[i] + translation;
+        const double range = p.norm();
+        if (range > max_range) continue;
+        if (spherical || range < near_range) {
+          keep[k] = 1;
+          continue;
+        }
+        if (p.z() <= 0.f) continue;
+        const std::optional<Eigen::Vector2d> xy = view.camera.ImgFromCam(p.cast<double>());
+        if (!xy) continue;
+        const double margin = focal * (rot_margin + options.bound_translation_m / range) + 8.0;
+        if ((*xy)[0] >= -margin && (*xy)[1] >= -margin &&
+            (*xy)[0] <= view.camera.width + margin && (*xy)[1] <= view.camera.height + margin) {
+          keep[k] = 1;
+        }
+      }
+    }
+  };
+  // Two threads over the two halves of the points (each point's test is independent).
+  if (options.threads >= 2 && CoreFreeForSplit() && tested >= 2 * kMinPointsToSplit) {
+    OnThreads(2, [&](int t, int) { t == 0 ? cull(0, tested / 2) : cull(tested / 2, tested); });
+  } else {
+    cull(0, tested);
+  }
+  // The kept indices in order, without a branch per point (each written, then counted
+  // when kept; one slot more for the last write).
+  const size_t kept_count = tested - std::count(keep.begin(), keep.end(), 0);
+  std::vector<size_t> kept(kept_count + 1);
+  for (size_t k = 0, j = 0; k < tested; ++k) {
+    kept[j] = candidates != nullptr ? (*candidates)[k] : k;
+    j += keep[k] != 0;
+  }
+  kept.resize(kept_count);
+  return kept;
+}
+
+// The points of one pyramid level: an even subsample of `kept` (coarser levels keep more
+// points per, larger, pixel: a dense coarse image keeps the basin of convergence wide;
+// measured: 0.75 at every level lost a 0.3 m / 2° start), in render order.
+LidarPoints LevelSubset(const std::vector<size_t>& kept, const LidarPoints& all, const std::vector<View>& views,
+                        int level, const Rigid3d& start, const RegistrationOptions& options) {
+  double pixels = 0;
+  for (const View& view : views) pixels += static_cast<double>(view.camera.width) * view.camera.height;
+  const double cap = options.max_points_per_pixel * std::pow(2.0, level) * pixels;
+  const double stride = std::max(1.0, kept.size() / cap);
+  std::vector<size_t> chosen;
+  for (double k = 0; k < kept.size(); k += stride) chosen.push_back(kept[static_cast<size_t>(k)]);
+  // Their points and intensities in the subsample's order (read through the cloud once).
+  std::vector<Eigen::Vector3f> chosen_points(chosen.size());
+  std::vector<float> chosen_intensity(all.has_intensity() ? chosen.size() : 0);
+  for (size_t k = 0; k < chosen.size(); ++k) chosen_points[k] = all.points_in_lidar[chosen[k]];
+  for (size_t k = 0; k < chosen_intensity.size(); ++k) chosen_intensity[k] = all.intensity01[chosen[k]];
+  // Render order: the points sorted by the pixel they fall on at the start pose (view, row,
+  // column), so that a render writes the z-buffer almost sequentially instead of scattering
+  // over the whole image in the cloud's order (measured: the z-buffer's cache misses were the
+  // largest single cost of an evaluation). Each point keeps its position in the even
+  // subsample as its rank (LidarPoints::tie_rank): equally near points compete in that
+  // order, and what depends on a point order (SampleVisiblePoints) is the same as unsorted —
+  // the same images and results, bit for bit.
+  const std::vector<uint32_t> order = RenderOrder(chosen_points, views, start, options.render);
+  LidarPoints subset;
+  subset.points_in_lidar.resize(chosen.size());
+  subset.intensity01.resize(chosen_intensity.size());
+  subset.tie_rank = order;
+  subset.index_of_rank.resize(order.size());
+  for (size_t j = 0; j < order.size(); ++j) {
+    const uint32_t k = order[j];
+    subset.points_in_lidar[j] = chosen_points[k];
+    if (!chosen_intensity.empty()) subset.intensity01[j] = chosen_intensity[k];
+    subset.index_of_rank[k] = static_cast<uint32_t>(j);
+  }
+  return subset;
+}
+
+}  // namespace
 
 FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
                                      const Rigid3d& cam_from_lidar_start,
@@ -59,9 +163,6 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
           parent->options_.render.min_range_m == options.render.min_range_m)
         << "a part's evaluator needs its parent's start pose, bounds and ranges";
   }
-  // Cull: keep the points that project into some view (expanded by what the rotation
-  // bound can move a pixel, plus a margin for the translation) at the start pose.
-  const double rot_margin = std::tan(options.bound_rotation_deg * kDegToRad);
   for (size_t f = 0; f < frames_.size(); ++f) {
     const LidarPoints& all = *frames_[f].points;
     // The points to test: all, or those the parent kept for the frame these views were
@@ -70,113 +171,20 @@ FrameSetEvaluator::FrameSetEvaluator(const std::vector<Frame>& frames,
     if (parent != nullptr) {
       int match = -1, matches = 0;
       for (size_t g = 0; g < parent->frames_.size(); ++g) {
-        if (parent->frames_[g].points == frames_[f].points &&
-            parent->frames_[g].name == frames_[f].name) {
+        if (parent->frames_[g].points == frames_[f].points && parent->frames_[g].name == frames_[f].name) {
           match = static_cast<int>(g);
           ++matches;
         }
       }
       if (matches == 1 && !parent->kept_[match].empty()) candidates = &parent->kept_[match];
     }
-    const size_t tested = candidates != nullptr ? candidates->size() : all.size();
-    std::vector<char> keep(tested, 0);
-    // Candidates [begin, end) against every view (keep[k]: candidate k is kept).
-    auto cull = [&](size_t begin, size_t end) {
-      for (const View& view : frames_[f].views) {
-        const auto [rotation, translation] = MakeTransform(view, cam_from_lidar_start);
-        const double focal = view.camera.MeanFocalLength();
-        const bool spherical = view.camera.IsSpherical();
-        const double max_range = options.render.max_range_m + options.bound_translation_m;
-        const double near_range = 2.0 * options.bound_translation_m + options.render.min_range_m;
-        if (view.camera.model_id == sensors::CameraModelId::kPinhole) {
-          const PinholeCull test{rotation, translation, view.camera, focal, rot_margin,
-                                 options.bound_translation_m, max_range, near_range};
-          CullPinholeBlocks(test, all, candidates, begin, end, keep.data());
-          continue;
-        }
-        for (size_t k = begin; k < end; ++k) {
-          if (keep[k]) continue;
-          const size_t i = candidates != nullptr ? (*candidates)[k] : k;
-          const Eigen::Vector3f p = rotation * all.points_in_lidar[i] + translation;
-          const double range = p.norm();
-          if (range > max_range) continue;
-          if (spherical || range < near_range) {
-            keep[k] = 1;
-            continue;
-          }
-          if (p.z() <= 0.f) continue;
-          const std::optional<Eigen::Vector2d> xy = view.camera.ImgFromCam(p.cast<double>());
-          if (!xy) continue;
-          const double margin = focal * (rot_margin + options.bound_translation_m / range) + 8.0;
-          if ((*xy)[0] >= -margin && (*xy)[1] >= -margin &&
-              (*xy)[0] <= view.camera.width + margin && (*xy)[1] <= view.camera.height + margin) {
-            keep[k] = 1;
-          }
-        }
-      }
-    };
-    // Two threads over the two halves of the points (each point's test is independent).
-    if (options.threads >= 2 && CoreFreeForSplit() && tested >= 2 * kMinPointsToSplit) {
-      std::thread other(cull, tested / 2, tested);
-      cull(0, tested / 2);
-      other.join();
-    } else {
-      cull(0, tested);
-    }
-    // The kept indices in order, without a branch per point (each written, then counted
-    // when kept; one slot more for the last write).
-    const size_t kept_count = tested - std::count(keep.begin(), keep.end(), 0);
-    std::vector<size_t> kept(kept_count + 1);
-    for (size_t k = 0, j = 0; k < tested; ++k) {
-      kept[j] = candidates != nullptr ? (*candidates)[k] : k;
-      j += keep[k] != 0;
-    }
-    kept.resize(kept_count);
+    const std::vector<size_t> kept = CullToViews(frames_[f].views, all, candidates, cam_from_lidar_start, options);
     // What the parts' evaluators (the halves) test instead of the whole cloud.
-    if (parent == nullptr && all.size() < (size_t{1} << 32)) {
-      kept_[f].assign(kept.begin(), kept.end());
-    }
+    if (parent == nullptr && all.size() < (size_t{1} << 32)) kept_[f].assign(kept.begin(), kept.end());
     // The levels' subsets on the threads (each independent of the others).
     std::vector<LidarPoints> subsets(levels);
     ParallelFor(levels, CoreFreeForSplit() ? options.threads : 1, [&](int level) {
-      double pixels = 0;
-      for (const View& view : pyramid_[level][f]) {
-        pixels += static_cast<double>(view.camera.width) * view.camera.height;
-      }
-      // Coarser levels keep more points per (larger) pixel: a dense coarse image keeps the
-      // basin of convergence wide (measured: 0.75 at every level lost a 0.3 m / 2° start).
-      const double cap = options.max_points_per_pixel * std::pow(2.0, level) * pixels;
-      const double stride = std::max(1.0, kept.size() / cap);
-      std::vector<size_t> chosen;
-      for (double k = 0; k < kept.size(); k += stride) chosen.push_back(kept[static_cast<size_t>(k)]);
-      // Their points and intensities in the subsample's order (read through the cloud once).
-      std::vector<Eigen::Vector3f> chosen_points(chosen.size());
-      std::vector<float> chosen_intensity(all.has_intensity() ? chosen.size() : 0);
-      for (size_t k = 0; k < chosen.size(); ++k) chosen_points[k] = all.points_in_lidar[chosen[k]];
-      for (size_t k = 0; k < chosen_intensity.size(); ++k) {
-        chosen_intensity[k] = all.intensity01[chosen[k]];
-      }
-      // Render order: the points sorted by the pixel they fall on at the start pose (view,
-      // row, column), so that a render writes the z-buffer almost sequentially instead of
-      // scattering over the whole image in the cloud's order (measured: the z-buffer's cache
-      // misses were the largest single cost of an evaluation). Each point keeps its position
-      // in the even subsample as its rank (LidarPoints::tie_rank): equally near points
-      // compete in that order, and what depends on a point order (SampleVisiblePoints) is
-      // as it was — the same images and results as unsorted, bit for bit.
-      const std::vector<uint32_t> order = RenderOrder(chosen_points, pyramid_[level][f],
-                                                      cam_from_lidar_start, options.render);
-      LidarPoints subset;
-      subset.points_in_lidar.resize(chosen.size());
-      subset.intensity01.resize(chosen_intensity.size());
-      subset.tie_rank = order;
-      subset.index_of_rank.resize(order.size());
-      for (size_t j = 0; j < order.size(); ++j) {
-        const uint32_t k = order[j];
-        subset.points_in_lidar[j] = chosen_points[k];
-        if (!chosen_intensity.empty()) subset.intensity01[j] = chosen_intensity[k];
-        subset.index_of_rank[k] = static_cast<uint32_t>(j);
-      }
-      subsets[level] = std::move(subset);
+      subsets[level] = LevelSubset(kept, all, pyramid_[level][f], level, cam_from_lidar_start, options);
     });
     for (int level = 0; level < levels; ++level) points_[level].push_back(std::move(subsets[level]));
   }
@@ -312,9 +320,7 @@ MetricValue FrameSetEvaluator::Evaluate(const Rigid3d& cam_from_lidar, int level
   // Splitting pays above several thousand samples (a thread costs ~20 µs here, an
   // evaluation of 15 000 samples ~0.4 ms: the coarsest level of a 940×452 view).
   if (options_.threads >= 2 && CoreFreeForSplit() && set->samples >= 8000) {
-    std::thread other(fill, 1);
-    fill(0);
-    other.join();
+    OnThreads(2, [&](int t, int) { fill(t); });
   } else {
     fill(0);
     fill(1);

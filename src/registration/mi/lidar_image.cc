@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <thread>
 #include <type_traits>
 #include <unordered_map>
 
@@ -12,6 +11,7 @@
 #include <glog/logging.h>
 
 #include "mmba/core/error.h"
+#include "mmba/core/parallel_for.h"
 #include "registration/mi/pinhole_block.h"
 
 namespace mmba::registration::mi {
@@ -208,12 +208,13 @@ void RenderLidarZBuffer(const LidarPoints& points, const View& view,
     out->zbuffer_second.assign(pixels + kZBufferPadding, kEmptyKey);
     const size_t half = points.size() / 2;
     // `projected` is written per point: the two ranges are disjoint.
-    std::thread other([&] {
-      Splat(points, view, cam_from_lidar, options, half, points.size(),
-            out->zbuffer_second.data(), out);
+    OnThreads(2, [&](int t, int) {
+      if (t == 0) {
+        Splat(points, view, cam_from_lidar, options, 0, half, out->zbuffer.data(), out);
+      } else {
+        Splat(points, view, cam_from_lidar, options, half, points.size(), out->zbuffer_second.data(), out);
+      }
     });
-    Splat(points, view, cam_from_lidar, options, 0, half, out->zbuffer.data(), out);
-    other.join();
     // The minimum is order-independent: the same key per pixel as one thread's render.
     for (size_t k = 0; k < pixels; ++k) {
       out->zbuffer[k] = std::min(out->zbuffer[k], out->zbuffer_second[k]);
