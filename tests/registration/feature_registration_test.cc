@@ -953,8 +953,7 @@ TEST(FeatureRegistration, RepeatedBaysGetPeriodShiftFinalists) {
   // displacement modes of the descriptor matches must enter the verification as "period
   // shift" finalists, and an "ok" must put the gate exactly onto one of the bays. (Every bay
   // fits, so "ambiguous" would be the right verdict; it is not reached here: the strongest
-  // modes are the posts' mirror matches at 3, 9 and 16 m, not the 6 m period — see
-  // bench/RESULTS.md.)
+  // modes are the posts' mirror matches at 3, 9 and 16 m, not the 6 m period.)
   const Eigen::Matrix4d source_from_world = BlockPose();
   const io::PointCloud source = Transformed(Gate(0.07, true, 1), source_from_world);
   io::PointCloud arcade;

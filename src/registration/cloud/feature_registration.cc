@@ -26,7 +26,7 @@ using internal::StrideSample;
 namespace {
 
 // Below this many points in a cloud, a failure's reason says the cloud has too few points
-// (PCL's bunny thinned to 10-20 points fails, to 30 registers: bench/RESULTS.md).
+// (PCL's bunny thinned to 10-20 points fails, to 30 registers: (bench/RESULTS.md "The verification's thresholds")).
 constexpr size_t kFewPointsForDescriptors = 30;
 
 // RegisterClouds on clouds whose coordinates are small (see RegisterClouds below):

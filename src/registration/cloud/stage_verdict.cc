@@ -242,7 +242,7 @@ bool CheckResolution(RegistrationContext& ctx) {
   // R_s: the data leave it free (or the pose is off the score's maximum along it). Only
   // beyond the bound: it is fixed by too little (a few edges or steps) to call the pose
   // known — on the simulated cathedral a proxy part slid along the facade was "ok"
-  // 0.46–0.58 m off, resolved to 1.28–2.56 m (bench/RESULTS.md, register-cloud).
+  // 0.46–0.58 m off, resolved to 1.28–2.56 m (bench/RESULTS.md "The verification's thresholds").
   const double weak_bound = options.max_weak_motion_resolution_spacing * result.fine_spacing_m;
   if (!options.paper_only && !(result.weak_motion_resolution_m <= weak_bound)) {
     why << "pose not determined: the fit's least-constrained motion (" << weak_motion

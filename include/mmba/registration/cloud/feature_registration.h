@@ -98,7 +98,7 @@ struct CloudRegistrationOptions {
   /// otherwise take voxels of their own at the coarse level, which the point budget answers
   /// with a coarser voxel, and inflate the measured spacing and with it R_n and R_s. They are
   /// removed only when they are at least isolated_min_fraction of the cloud: clean clouds
-  /// have 0–0.65 % such points (bench/RESULTS.md, register-cloud) and are registered as given.
+  /// have 0–0.65 % such points (bench/RESULTS.md "The verification's thresholds") and are registered as given.
   bool remove_blunders = true;
   double isolated_cell_spacing = 3.0;  ///< see remove_blunders (> 0)
   int isolated_min_neighbours = 4;     ///< see remove_blunders (>= 1)
@@ -184,7 +184,7 @@ struct CloudRegistrationOptions {
   /// survived as a distinct finalist; else the two levels contradict each other and the
   /// result is refused ("scales disagree"). On the full-preset simulated gate the fine level
   /// preferred the 180° twin (coarse score 0.50) over a pose near the truth (0.91): a wrong
-  /// "ok" 5.6 m off (bench/RESULTS.md, register-cloud). 0 = off (0..1).
+  /// "ok" 5.6 m off (bench/RESULTS.md "The verification's thresholds"). 0 = off (0..1).
   double min_coarse_agreement = 0.8;
   /// ... and "ok" needs the best to beat each of them by at least this many standard errors of
   /// the mean per-point score difference (cluster-robust over blocks of R_s; a paired t
@@ -441,7 +441,7 @@ struct ScaleSearchResult {
 
 /// Registration of a cloud in a scale of its own (a photogrammetric block without control, an
 /// SfM cloud) onto a metric target. Kim & Hilton's pipeline is rigid, and a rigid registration
-/// of such a cloud holds to about ±3–5 % of scale (bench/RESULTS.md), so the centred source is
+/// of such a cloud holds to about ±3–5 % of scale (bench/RESULTS.md "The verification's thresholds"), so the centred source is
 /// registered by RegisterClouds (`options`; source_viewpoints scaled with it) at trial scales
 /// min_scale · step^k up to max_scale; each "ok" trial is refined by RefineSimilarity and
 /// scored by the fraction of the source within `tolerance_m` (0: ScaleSearchTolerance). The
