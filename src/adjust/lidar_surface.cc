@@ -1,20 +1,19 @@
-// The only translation unit of mmba_adjust that includes PCL (its k-d tree).
+// The LiDAR surface: the reference cloud around a region of interest and local planes fitted to
+// its nearest points (mmba's kd-tree, geometry/point_index.h).
 #include <algorithm>
 #include <string>
 
 #include <Eigen/Eigenvalues>
-#include <pcl/kdtree/kdtree_flann.h>
-#include <pcl/point_cloud.h>
-#include <pcl/point_types.h>
 
 #include "mmba/adjust/groups.h"
+#include "mmba/geometry/point_index.h"
 #include "mmba/io/point_cloud.h"
 
 namespace mmba::adjust {
 
 struct LidarSurface::Impl {
-  pcl::PointCloud<pcl::PointXYZ>::Ptr cloud{new pcl::PointCloud<pcl::PointXYZ>};
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  std::vector<Eigen::Vector3f> points;               // relative to `offset`, float precision
+  std::unique_ptr<PointIndex> tree;                  // over `points` (their float values)
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // float precision: points relative to it
 };
 
@@ -33,41 +32,47 @@ LidarSurface::LidarSurface(const std::string& path, const Eigen::Vector3d& roi_m
       read_min_ = read_min_.cwiseMin(r);
       read_max_ = read_max_.cwiseMax(r);
       if ((r.array() < lo.array()).any() || (r.array() > hi.array()).any()) continue;
-      const Eigen::Vector3f q = (p - impl_->offset).cast<float>();
-      impl_->cloud->push_back(pcl::PointXYZ(q.x(), q.y(), q.z()));
+      impl_->points.push_back((p - impl_->offset).cast<float>());
     }
   });
-  if (!impl_->cloud->empty()) impl_->tree.setInputCloud(impl_->cloud);
+  if (impl_->points.empty()) return;
+  // The index holds the same float coordinates (its local origin is zero for points about the
+  // offset), so its float distances are those of the points.
+  std::vector<Eigen::Vector3d> exact(impl_->points.size());
+  for (size_t i = 0; i < exact.size(); ++i) exact[i] = impl_->points[i].cast<double>();
+  impl_->tree = std::make_unique<PointIndex>(exact);
 }
 
 LidarSurface::~LidarSurface() = default;
 
-size_t LidarSurface::size() const { return impl_->cloud->size(); }
+size_t LidarSurface::size() const { return impl_->points.size(); }
 
 std::vector<Eigen::Vector3d> LidarSurface::Sample(size_t n) const {
   std::vector<Eigen::Vector3d> sample;
-  const size_t size = impl_->cloud->size();
+  const size_t size = impl_->points.size();
   if (size == 0 || n == 0) return sample;
   const double step = std::max(1.0, static_cast<double>(size) / n);
   for (double x = 0.5 * step; x < size; x += step) {
-    sample.push_back(impl_->cloud->points[static_cast<size_t>(x)].getVector3fMap().cast<double>() + impl_->offset);
+    sample.push_back(impl_->points[static_cast<size_t>(x)].cast<double>() + impl_->offset);
   }
   return sample;
 }
 
 bool LidarSurface::FitPlane(const Eigen::Vector3d& query, double max_distance, int k,
                             Eigen::Vector3d* normal, Eigen::Vector3d* centroid, double* roughness) const {
-  if (impl_->cloud->size() < static_cast<size_t>(k)) return false;
-  const Eigen::Vector3f q = (query - impl_->offset).cast<float>();
-  std::vector<int> index(k);
-  std::vector<float> distance2(k);
-  if (impl_->tree.nearestKSearch(pcl::PointXYZ(q.x(), q.y(), q.z()), k, index, distance2) < k) return false;
+  if (impl_->points.size() < static_cast<size_t>(k)) return false;
+  // The query as the float the points are (relative to the offset).
+  const Eigen::Vector3d q = (query - impl_->offset).cast<float>().cast<double>();
+  std::vector<int> index;
+  std::vector<float> distance2;
+  impl_->tree->KNearest(q, k, &index, &distance2);
+  if (index.size() < static_cast<size_t>(k)) return false;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (int i : index) mean += impl_->cloud->points[i].getVector3fMap().cast<double>();
+  for (int i : index) mean += impl_->points[i].cast<double>();
   mean /= k;
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
   for (int i : index) {
-    const Eigen::Vector3d d = impl_->cloud->points[i].getVector3fMap().cast<double>() - mean;
+    const Eigen::Vector3d d = impl_->points[i].cast<double>() - mean;
     covariance += d * d.transpose();
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(covariance / k);
