@@ -113,12 +113,9 @@ int RunScaleSearch(const RegisterCloudArgs& args, const registration::CloudRegis
   return kExitOk;
 }
 
-int RunRegisterCloud(const RegisterCloudArgs& args) {
-  RefuseToOverwriteInputs({{"--output", args.output}, {"--error-map", args.error_map}},
-                          {{"--source", args.source},
-                           {"--target", args.target},
-                           {"--source-viewpoints", args.source_viewpoints},
-                           {"--target-viewpoints", args.target_viewpoints}});
+// The registration's options from the flags, then --set (the last word); the checks a
+// user's flags can fail are named by the flags (options.Check names the fields).
+registration::CloudRegistrationOptions OptionsOf(const RegisterCloudArgs& args) {
   registration::CloudRegistrationOptions options;
   if (!registration::ParseDescriptor(args.descriptor, &options.descriptor)) {
     throw InputError::Message("--descriptor", "found '" + args.descriptor +
@@ -194,6 +191,16 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
     throw InputError::Message("--scale-step", "expected a factor in (1, 2]");
   }
 
+  return options;
+}
+
+int RunRegisterCloud(const RegisterCloudArgs& args) {
+  RefuseToOverwriteInputs({{"--output", args.output}, {"--error-map", args.error_map}},
+                          {{"--source", args.source},
+                           {"--target", args.target},
+                           {"--source-viewpoints", args.source_viewpoints},
+                           {"--target-viewpoints", args.target_viewpoints}});
+  const registration::CloudRegistrationOptions options = OptionsOf(args);
   Timer read_timer;
   const std::clock_t read_cpu = std::clock();
   io::ReadOptions read_options;

@@ -40,10 +40,10 @@ json ResultToJson(const RegistrationResult& result, const RegistrationOptions& o
   out["reason"] = result.reason;
   // A failed registration gives no pose: null, as register-cloud's target_from_source. Where
   // its search ended is kept apart, for diagnosis only (null when no search ran).
-  out["cam_from_lidar"] = result.ok() ? PoseToJson(result.cam_from_lidar) : json(nullptr);
+  out["cam_from_lidar"] = result.ok() ? io::PoseToJson(result.cam_from_lidar) : json(nullptr);
   out["failed_attempt_cam_from_lidar"] =
-      !result.ok() && result.evaluations > 0 ? PoseToJson(result.cam_from_lidar) : json(nullptr);
-  out["cam_from_lidar_start"] = PoseToJson(start);
+      !result.ok() && result.evaluations > 0 ? io::PoseToJson(result.cam_from_lidar) : json(nullptr);
+  out["cam_from_lidar_start"] = io::PoseToJson(start);
   // Likewise the correction and its covariance: a failed file holds no pose, in any form.
   out["correction"] = result.ok() ? CorrectionToJson(result.correction) : json(nullptr);
   out["failed_attempt_correction"] =
