@@ -241,7 +241,7 @@ std::vector<Eigen::Vector3f> JobBuilder::CorrectIncidence(const io::PointCloud& 
 void JobBuilder::EncodeClasses(const std::string& lidar_path, const std::vector<Eigen::Vector3f>& normals) {
   if (request.surface_classes && options.render.representation == Representation::kIntensity) {
     // The metric conditioned on the surface: ground (a plane within 45° of the cloud's z
-    // axis) against the rest (bench/RESULTS.md "Surface classes").
+    // axis) against the rest (bench/RESULTS.md "Surface classes (opt-in)").
     const std::vector<uint8_t> classes =
         SurfaceClasses(clouds.back().points_in_lidar, Eigen::Vector3f::UnitZ(),
                            static_cast<float>(request.surface_voxel_m));

@@ -176,7 +176,7 @@ SearchResult PyramidPathsSearch(const FrameSetEvaluator& evaluator, const Rigid3
 // The start's own coarse optimum (the paper's search), then the best distinct other coarse
 // optima (distinct: apart by more than the coarse tolerance in some parameter), at most
 // options.coarse_candidates. The start's is always kept: the coarse level may rank a wrong
-// basin above the true one (measured: gate S1_upper, bench/RESULTS.md), the finest level
+// basin above the true one (bench/RESULTS.md "Pyramid paths as the default"), the finest level
 // ranks them.
 std::vector<Vector6d> DistinctCandidates(const std::vector<SearchResult>& coarse, const RegistrationOptions& options) {
   std::vector<int> order(coarse.size());
@@ -276,8 +276,8 @@ namespace internal {
 // ground on a secondary maximum): Nelder–Mead at the coarsest level from the start and from
 // `coarse_starts` points spread over the box; the `coarse_candidates` best distinct coarse
 // optima are each carried down to the finest Nelder–Mead level, and the one with the highest
-// metric there wins (the coarse level may rank the basins wrongly: measured on the simulated
-// panoramas, bench/RESULTS.md); then the gradient refinement of the winner.
+// metric there wins (the coarse level may rank the basins wrongly: bench/RESULTS.md "Pyramid paths as the
+// default"); then the gradient refinement of the winner.
 SearchResult MainSearch(const FrameSetEvaluator& evaluator, const Rigid3d& start,
                         const RegistrationOptions& options, StageClock* clock) {
   Levels l;

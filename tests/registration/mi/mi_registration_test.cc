@@ -1053,7 +1053,7 @@ TEST_F(StreetTest, RigCalibrationCombinesFramesTooWeakAlone) {
   }
   EXPECT_EQ(result.used_frames.size(), 3u);
   EXPECT_EQ(result.status, "ok") << result.reason;
-  // The joint registration's checks are the result's (until 2 Dec they were left unmeasured).
+  // The joint registration's checks are the result's.
   EXPECT_GT(result.checks.sigma_px, 0.0);
   EXPECT_LT(result.checks.sigma_px, options.registration.max_sigma_px);
   EXPECT_EQ(result.checks.restarts_run, options.registration.restarts);
@@ -1087,7 +1087,7 @@ class KittiTest : public ::testing::Test {
 };
 
 // A start that an acceptance without the calibrated-sigma check reports "ok" 5.7 px off the
-// calibration (bench/RESULTS.md): a pose
+// calibration (bench/RESULTS.md "Acceptance and covariance honesty"): a pose
 // reported "ok" must be within 1 px of the calibration; otherwise the status must be failed.
 TEST_F(KittiTest, AWrongPoseIsNeverReportedOk) {
   Vector6d perturbation;

@@ -43,7 +43,7 @@ class PointSamplesTest : public ::testing::Test {
 
 RegistrationOptions SampledOptions() {
   RegistrationOptions options;
-  options.point_samples = true;  // the default since 2 Dec; explicit here
+  options.point_samples = true;  // the default; explicit here
   return options;
 }
 
@@ -230,7 +230,7 @@ TEST_F(PointSamplesTest, ProbeDisplacementMeasuresTheImageMotion) {
   EXPECT_LT(moved, 1.5 * camera_.params[0] * angle);
 }
 
-// On by default (since 2 Dec); point_samples = false renders even when handed a set. Away
+// On by default; point_samples = false renders even when handed a set. Away
 // from the set's reference pose the sampled metric (visibility frozen) is not the rendered one,
 // so the comparison below tells which path was taken.
 TEST_F(PointSamplesTest, OnByDefaultAndSwitchable) {

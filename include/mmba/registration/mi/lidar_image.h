@@ -94,8 +94,8 @@ inline constexpr int kMaxLidarClasses = 16;
 std::vector<Eigen::Vector3f> LocalPlaneNormals(const std::vector<Eigen::Vector3f>& points,
                                                float voxel_m);
 
-/// Surface classes of a cloud, for MI conditioned on the surface (bench/RESULTS.md "A rig
-/// through its own cameras"): 0 = a horizontal surface (the local plane's normal within 45° of
+/// Surface classes of a cloud, for MI conditioned on the surface (bench/RESULTS.md "Surface
+/// classes (opt-in)"): 0 = a horizontal surface (the local plane's normal within 45° of
 /// `up`, LocalPlaneNormals), 1 = anything else (walls, and neighbourhoods with no clear plane).
 /// Where two kinds of surface relate to the photo differently (ground dark in the LiDAR at
 /// grazing incidence but bright in the photo, walls the other way round), the MI of the

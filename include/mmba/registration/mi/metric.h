@@ -46,12 +46,14 @@ struct MetricOptions {
   int bins = 64;  ///< per axis (paper: 256)
   Smoothing smoothing = Smoothing::kBSpline;
   double parzen_sigma_bins = 1.0;
-  Region region = Region::kOverlap;  ///< measured better on KITTI (bench/RESULTS.md)
+  /// The overlap: measured better than the whole image (bench/RESULTS.md "64 histogram bins and
+  /// the overlap region").
+  Region region = Region::kOverlap;
   /// K > 1: the LiDAR values carry a surface class c in 0..K−1 as c + fraction (fraction
   /// in [0, 1): EncodeSurfaceClasses) and the metric is conditioned on it: Σ_c p(c)·metric_c,
   /// each metric_c from a joint histogram of class c's samples alone with the full `bins`,
   /// so that I(intensity; photo | class) is measured, not the MI of the classes' mixture
-  /// (bench/RESULTS.md "Surface classes", "Orientation classes"). 1 = the plain metric
+  /// (bench/RESULTS.md "Surface classes (opt-in)", "Orientation classes"). 1 = the plain metric
   /// (values in [0, 1]). At most kMaxLidarClasses.
   int lidar_classes = 1;
   bool Check(std::string* error) const;

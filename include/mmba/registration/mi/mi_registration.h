@@ -143,7 +143,7 @@ struct RegistrationOptions {
   /// Laplace covariance: the number of independent samples is the covered pixels over
   /// Bartlett's inflation factor for correlated pixels, lags within ±this many pixels
   /// (0 = the distinct LiDAR points seen, as if every point were independent: measured
-  /// 3–13× over-confident, bench/RESULTS.md).
+  /// 3–13× over-confident, bench/RESULTS.md "Acceptance and covariance honesty").
   int effective_sample_max_lag = 8;
   /// Pyramid level of the quadratic fit that gives the covariance (0 = full resolution; at
   /// level 1, a quarter of the cost, the fit was too noisy on the synthetic street: a
