@@ -314,7 +314,7 @@ TEST_F(CliTest, RegisterCloudEmptySourceIsAFailureWithoutATransform) {
     EXPECT_TRUE(j["failed_attempt_target_from_source"].is_null());
     fs::remove(Tmp("out.json"));
   }
-  // A NaN point (the issue: NaN/Inf points → status "failed" with a reason): exit 3, the JSON
+  // A NaN point (NaN/Inf points → status "failed" with a reason): exit 3, the JSON
   // written, the reason naming the file, line and field; --skip-invalid drops the point.
   std::ofstream(Tmp("nan.xyz")) << "0 0 0\n1 nan 0\n";
   const std::string bun4 = " --target " + kSource + "/data/pointclouds/pcl_test/bun4.pcd -q --output " + Tmp("out.json");
@@ -392,7 +392,7 @@ TEST_F(CliTest, RegisterCloudReportsTheIntensityTest) {
 // registers relative to the cloud's centroid rounded to whole km. The KITTI frame moved by a
 // whole number of km must give the registration of the frame as delivered: the same status,
 // correction and pixel offsets, and the same pose moved back into the grid.
-// The issue's command line on a simulated panorama: the simulator's camera YAML holds the true
+// register-mi's documented command line on a simulated panorama: the simulator's camera YAML holds the true
 // pose (--perturb starts from it moved), the mobile cloud's sidecar gives the scanner of each
 // point (the incidence correction, without options), and a panorama is registered on
 // perspective cuts (the default --view auto), the two that see the most LiDAR (--headings auto).

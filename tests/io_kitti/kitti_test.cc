@@ -16,7 +16,7 @@ std::string Fixture(const std::string& name) {
   return std::string(MMBA_SOURCE_DIR) + "/tests/io_kitti/data/" + name;
 }
 
-// The convention: K · (cam_from_lidar · X) == P2 · R0_rect · Tr_velo_to_cam · X.
+// The convention of KittiCamera: K · (cam_from_lidar · X) == P2 · R0_rect · Tr_velo_to_cam · X.
 void ExpectPixelConvention(const KittiCalibration& calibration, const KittiCameraPose& pose) {
   Eigen::Matrix4d rect = Eigen::Matrix4d::Identity(), velo = Eigen::Matrix4d::Identity();
   rect.topLeftCorner<3, 3>() = calibration.r0_rect;
