@@ -1,5 +1,5 @@
-// LiDAR clouds coloured from the adjusted images (issue 7's "georeferenced point clouds
-// (coloured from images where seen)"): the static LiDAR around the photo block
+// LiDAR clouds coloured from the adjusted images (georeferenced point clouds, coloured from
+// the images where seen): the static LiDAR around the photo block
 // (lidar_coloured.ply, from the photos and the rig frames near it) and the whole mobile cloud
 // (<id>_corrected.ply, streamed, from the rig frames nearest in time and the photos). The only
 // other OpenCV translation unit of mmba_adjust besides sphere_dense.cc (it reads colour images).
@@ -20,12 +20,12 @@
 #include <list>
 #include <map>
 #include <mutex>
-#include <thread>
 
 #include <spdlog/spdlog.h>
 
 #include "codecs/image_codecs.h"
 #include "internal.h"
+#include "mmba/core/parallel_for.h"
 
 namespace mmba::adjust::internal {
 
@@ -287,15 +287,6 @@ double CpuSeconds() {
   timespec t{};
   clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
   return t.tv_sec + 1e-9 * t.tv_nsec;
-}
-
-/// Runs fn(t, threads) for t = 0 .. threads-1: on threads-1 new threads and this one.
-template <typename F>
-void OnThreads(int threads, const F& fn) {
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back([&fn, t, threads] { fn(t, threads); });
-  fn(0, threads);
-  for (std::thread& th : pool) th.join();
 }
 
 /// Threads worth starting for `n` points (a thread per 20,000 at least).

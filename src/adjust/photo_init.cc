@@ -1,5 +1,5 @@
-// Initialisation of a photo block that has no control (issue 7, step 3: "GNSS/INS → approximate
-// poses; COLMAP → photo block"): a COLMAP reconstruction comes in a frame and scale of its own.
+// Initialisation of a photo block that has no control (GNSS/INS → approximate poses; COLMAP →
+// photo block): a COLMAP reconstruction comes in a frame and scale of its own.
 // When fewer than 3 surveyed targets are measured in it, the block's tie points that the
 // georeferenced sensors also observe — the rig frames at their GNSS/INS poses, the spherical
 // stations at their setups — are intersected in the world from those sensors' rays alone, and

@@ -158,7 +158,7 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
   };
   for (size_t k = 0; k < l.scans.size(); ++k) {
     if (world_from_scan[k]) continue;
-    // Feature registration (issue 5's pipeline) to the scans placed so far, in the world frame,
+    // Feature registration (register-cloud's pipeline) to the scans placed so far, in the world frame,
     // with the scanners' positions for the visibility test.
     registration::CloudRegistrationOptions options;
     options.gravity_aligned = l.scans_levelled;

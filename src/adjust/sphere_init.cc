@@ -1,6 +1,6 @@
-// Initialisation of the spherical stations from their dense clouds (issue 7, step 3: "vertical-
-// baseline spherical stereo → dense cloud per pair; feature registration of each block's cloud
-// to the LiDAR → block transform"), with the pipeline of `mmba register-cloud` (issue 5).
+// Initialisation of the spherical stations from their dense clouds (vertical-baseline spherical
+// stereo → a dense cloud per pair; feature registration of each pair's cloud to the LiDAR → the
+// station's pose), with the pipeline of `mmba register-cloud`.
 #include <algorithm>
 #include <cmath>
 #include <sstream>

@@ -97,7 +97,7 @@ TEST_F(AdjustTest, RecoversTheSimulatedSurvey) {
   ASSERT_TRUE(outcome.ok) << outcome.reason;
   const json& r = outcome.report;
   const json& truth = r["truth_evaluation"];
-  // The photo block within 2 cm of the truth (issue 7), camera recovered from a nominal
+  // The photo block within 2 cm of the truth, camera recovered from a nominal
   // calibration 1 % off and without distortion.
   EXPECT_LT(truth["photo_positions"]["max_m"].get<double>(), 0.02);
   EXPECT_LT(truth["photo_positions"]["max_rotation_deg"].get<double>(), 0.3);
@@ -105,7 +105,7 @@ TEST_F(AdjustTest, RecoversTheSimulatedSurvey) {
   EXPECT_NEAR(adjusted[0], real[0], 1.0);
   EXPECT_NEAR(adjusted[4], real[4], 0.005);  // k1
   // Check points (targets withheld, intersected from the photos) within 2× the RMSE their
-  // propagated σ predict (only 2–3 check points here: the issue's 1.5× is measured on the
+  // propagated σ predict (only 2–3 check points here: the 1.5× target is measured on the
   // full scenes in bench/RESULTS.md); σ0 near 1 with the simulator's σ (the LiDAR σ are
   // deliberately pessimistic: their variance component is well below 1).
   ASSERT_TRUE(r.contains("check_summary"));
@@ -538,8 +538,8 @@ TEST_F(AdjustTest, RegistersARigFrameThroughItsOwnCameras) {
   }
 }
 
-// A rig delivered as stitched panoramas only (issue 7: "stitched panoramas as equirectangular
-// cameras when that is what the user has"): one EQUIRECTANGULAR camera in the rig frame
+// A rig delivered as stitched panoramas only (stitched panoramas as equirectangular cameras
+// when that is what the user has): one EQUIRECTANGULAR camera in the rig frame
 // (cam_from_rig identity, held; intrinsics held), tie points measured in the panoramas. The
 // frames must come out as accurate as with the fisheye cameras.
 TEST_F(AdjustTest, AdjustsARigOfStitchedPanoramas) {
@@ -631,7 +631,7 @@ TEST_F(AdjustTest, UnknownTargetInAScanIsAnInputError) {
 
 // A scan delivered without a registration: placed by its surveyed targets (a rigid fit), then
 // adjusted like the others, without a registration prior. Without the targets, feature
-// registration (issue 5's pipeline) to the one registered scan finds the gate's studio
+// registration (register-cloud's pipeline) to the one registered scan finds the gate's studio
 // ambiguous (its walls repeat at 90°): a reported failure, not a guess.
 TEST_F(AdjustTest, PlacesAnUnregisteredScan) {
   const fs::path sim = Root() / "sim", out = Root() / "scanreg_out";
@@ -762,8 +762,8 @@ TEST_F(AdjustTest, PlacesABlockByTheLidarAloneAtTrialScales) {
   const json& registration = outcome.report["photo_block"]["registration_to_lidar"];
   EXPECT_EQ(registration["status"], "ok") << registration.dump();
   // 2.4 × 1.05^k: five trials, and two more ("from_refinement") when the second pass ran
-  // because none of the five was ok (since session 40 the trials at 2.65 and 2.78 are refused
-  // as "pose not determined"; the second pass registers at the refined scale).
+  // because none of the five was ok (the trials at 2.65 and 2.78 are refused as "pose not
+  // determined"; the second pass registers at the refined scale).
   EXPECT_GE(registration["trials"].size(), 5u) << registration.dump();
   EXPECT_LE(registration["trials"].size(), 7u) << registration.dump();
   EXPECT_NEAR(registration["scale"].get<double>(), 1 / 0.37, 0.02) << registration.dump();

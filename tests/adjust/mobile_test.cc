@@ -73,8 +73,8 @@ TEST_F(MobileAdjustTest, CorrectsTheTrajectoryAndRecoversTheCameraLidarExtrinsic
   ASSERT_TRUE(outcome.ok) << outcome.reason;
   const json& r = outcome.report;
   const json& mobile = r["truth_evaluation"]["mobile_lidar"];
-  // The camera–LiDAR extrinsic (from 0.39° / 2.7 cm off): the lever arm within the issue's
-  // 1 cm; the rotation comes to ~0.1° here, NOT the 0.05° (6 low-resolution fisheye
+  // The camera–LiDAR extrinsic (from 0.39° / 2.7 cm off): the lever arm within the 1 cm
+  // target; the rotation comes to ~0.1° here, NOT the 0.05° target (6 low-resolution fisheye
   // frames: each camera's rotation trades with its principal point; README "Limits"), so
   // this checks a 3× improvement, and that LiDAR points land in the images at least 3× closer.
   const json& extrinsic = mobile["cam_from_lidar"];

@@ -130,7 +130,7 @@ struct LidarStatic {
   std::string targets;
   LossOptions loss{LossType::kHuber, 3.0};
   /// The scans stand upright (levelled scanner: z up in every scan frame): feature
-  /// registration searches the heading only (Kim & Hilton's failure cases, issue 5).
+  /// registration searches the heading only (Kim & Hilton's failure cases).
   bool scans_levelled = false;
   bool AdjustsScans() const {
     return !scans.empty() &&
@@ -161,7 +161,7 @@ struct SphericalStereo {
   /// Initialisation: each station's dense cloud registered to the static LiDAR (feature
   /// registration, heading-only: the mast is levelled) replaces its setup when "ok". Off by
   /// default: on the simulated scenes the stereo clouds (mostly paving, σ 7–27 cm) are refused
-  /// or, once, accepted 0.32 m / 1.9° off (docs/project-yaml.md, `spherical_stereo`).
+  /// or, once, accepted 0.32 m / 1.9° off (docs/project-yaml.md `spherical_stereo`, README "Limits").
   bool register_to_lidar = false;
   /// ... within this distance and angle of the setup (the setup's uncertainty; 0 = anywhere).
   double setup_window_m = 2.0;
