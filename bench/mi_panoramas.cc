@@ -61,7 +61,7 @@
 #include "mmba/core/huge_pages.h"
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/io/trajectory.h"
 #include "mmba/registration/mi/job.h"
 #include "mmba/registration/mi/mi_registration.h"

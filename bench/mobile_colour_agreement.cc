@@ -22,7 +22,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mmba/geometry/rigid3d.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/sim/ray_caster.h"
 #include "mmba/sim/render.h"
 #include "mmba/sim/scenes.h"

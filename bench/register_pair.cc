@@ -26,7 +26,7 @@
 #include "mmba/core/huge_pages.h"
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/registration/cloud/feature_registration.h"
 #include "mmba/registration/cloud/registration_settings.h"
 #include "mmba/registration/cloud/scene_evaluation.h"

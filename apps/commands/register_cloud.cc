@@ -13,7 +13,7 @@
 #include "mmba/core/atomic_file.h"
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/registration/cloud/feature_registration.h"
 #include "mmba/registration/cloud/registration_settings.h"
 #include "mmba/registration/cloud/scale_trial_json.h"

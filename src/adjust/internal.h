@@ -18,7 +18,7 @@
 #include "mmba/core/output_folder.h"
 #include "mmba/geodesy/geodesy.h"
 #include "mmba/io/colmap_model.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/io/trajectory.h"
 #include "mmba/io/yaml_reader.h"
 #include "mmba/problem/problem_builder.h"

@@ -7,7 +7,7 @@
 
 #include "mmba/adjust/groups.h"
 #include "mmba/geometry/point_index.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 
 namespace mmba::adjust {
 

@@ -15,8 +15,9 @@
 #include "internal.h"
 #include "mmba/core/error.h"
 #include "mmba/core/progress.h"
-#include "mmba/io/kitti.h"
+#include "mmba/io/pose_json.h"
 #include "mmba/io/text_reader.h"
+#include "mmba/io_kitti/kitti.h"
 #include "mmba/registration/mi/job.h"
 #include "mmba/registration/mi/mi_prior.h"
 #include "mmba/registration/mi/mi_registration.h"
@@ -54,7 +55,7 @@ bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* wh
   }
   double m[16];
   std::string problem = "missing";
-  if (!j.contains("cam_from_lidar") || !mi::Matrix4FromJson(j["cam_from_lidar"], m, &problem)) {
+  if (!j.contains("cam_from_lidar") || !io::Matrix4FromJson(j["cam_from_lidar"], m, &problem)) {
     throw InputError(file, 0, "cam_from_lidar", problem, "16 numbers (4x4 row-major) or 4 rows of 4 numbers");
   }
   if (!j.contains("covariance") || !j["covariance"].is_array() || j["covariance"].size() != 6) {

@@ -11,7 +11,7 @@
 #include "internal.h"
 #include "mmba/core/error.h"
 #include "mmba/io/csv_table.h"
-#include "mmba/io/kitti.h"
+#include "mmba/io/camera_yaml.h"
 
 namespace mmba::adjust::internal {
 

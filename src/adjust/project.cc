@@ -6,7 +6,7 @@
 #include <set>
 
 #include "mmba/core/error.h"
-#include "mmba/io/kitti.h"
+#include "mmba/io/camera_yaml.h"
 #include "mmba/io/yaml_reader.h"
 #include "mmba/registration/mi/lidar_image.h"
 #include "internal.h"

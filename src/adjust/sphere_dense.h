@@ -7,7 +7,7 @@
 
 #include <Eigen/Core>
 
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/sensors/camera.h"
 
 namespace mmba::adjust::internal {

@@ -10,7 +10,7 @@
 #include <string_view>
 
 #include "mmba/core/error.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 
 namespace mmba::io::internal {
 

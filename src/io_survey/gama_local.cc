@@ -1,4 +1,4 @@
-#include "mmba/io/gama_local.h"
+#include "mmba/io_survey/gama_local.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,10 +1,10 @@
-#include "mmba/io/survey_csv.h"
+#include "mmba/io_survey/survey_csv.h"
 
 #include <cmath>
 #include <sstream>
 
 #include "mmba/core/error.h"
-#include "mmba/io/gama_local.h"
+#include "mmba/io_survey/gama_local.h"
 #include "mmba/io/text_reader.h"
 
 namespace mmba::io {

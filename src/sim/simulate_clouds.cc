@@ -8,7 +8,7 @@
 #include <map>
 #include <tuple>
 
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/sim/texture.h"
 #include "sim/simulate_internal.h"
 

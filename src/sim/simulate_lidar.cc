@@ -8,7 +8,7 @@
 #include <iomanip>
 #include <sstream>
 
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "sim/simulate_internal.h"
 
 namespace mmba::sim::internal {

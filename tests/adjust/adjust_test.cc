@@ -22,7 +22,7 @@
 #include "mmba/geodesy/geodesy.h"
 #include "mmba/geometry/sim3d.h"
 #include "mmba/io/colmap_model.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/sensors/camera.h"
 #include "mmba/sim/simulate.h"
 #include "test_support.h"

@@ -10,7 +10,7 @@
 #include <ceres/ceres.h>
 #include <gtest/gtest.h>
 
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/problem/scene.h"
 
 namespace mmba::adjust {

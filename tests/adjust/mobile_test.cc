@@ -18,7 +18,7 @@
 #include "mmba/adjust/adjust.h"
 #include "mmba/core/error.h"
 #include "mmba/core/logging.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/sim/ray_caster.h"
 #include "mmba/sim/scenes.h"
 #include "mmba/sim/simulate.h"

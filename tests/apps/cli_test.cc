@@ -22,8 +22,9 @@
 #include <nlohmann/json.hpp>
 
 #include "mmba/io/colmap_model.h"
-#include "mmba/io/kitti.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io/camera_yaml.h"
+#include "mmba/io_kitti/kitti.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/registration/mi/image.h"
 #include "mmba/registration/mi/mi_registration.h"
 #include "../registration/mi/synthetic_scene.h"

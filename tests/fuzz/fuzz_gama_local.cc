@@ -4,7 +4,7 @@
 #include <string>
 
 #include "fuzz_input.h"
-#include "mmba/io/gama_local.h"
+#include "mmba/io_survey/gama_local.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string path = mmba::fuzz::WriteInput("network.gkf", data, size);

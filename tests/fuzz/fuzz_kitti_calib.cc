@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "fuzz_input.h"
-#include "mmba/io/kitti.h"
+#include "mmba/io_kitti/kitti.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::vector<std::string_view> parts = mmba::fuzz::SplitInput(data, size, 2);

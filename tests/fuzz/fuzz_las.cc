@@ -5,7 +5,7 @@
 #include <string>
 
 #include "fuzz_input.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string path = mmba::fuzz::WriteInput("cloud.las", data, size);

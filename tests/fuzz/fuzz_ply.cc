@@ -13,7 +13,7 @@
 #include <Eigen/Core>
 
 #include "fuzz_input.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 
 namespace {
 

@@ -4,7 +4,7 @@
 #include <string>
 
 #include "fuzz_input.h"
-#include "mmba/io/survey_csv.h"
+#include "mmba/io_survey/survey_csv.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string path = mmba::fuzz::WriteInput("network.csv", data, size);

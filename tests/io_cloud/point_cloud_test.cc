@@ -1,4 +1,4 @@
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 
 #include <fcntl.h>
 #include <sys/resource.h>

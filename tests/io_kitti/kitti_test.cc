@@ -1,4 +1,4 @@
-#include "mmba/io/kitti.h"
+#include "mmba/io_kitti/kitti.h"
 
 #include <filesystem>
 #include <fstream>

@@ -12,8 +12,8 @@
 
 #include "mmba/core/error.h"
 #include "mmba/io/colmap_model.h"
-#include "mmba/io/kitti.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io/camera_yaml.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/io/trajectory.h"
 #include "mmba/sim/survey.h"
 

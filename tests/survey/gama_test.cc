@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "io_survey/xml_lite.h"
-#include "mmba/io/gama_local.h"
+#include "mmba/io_survey/gama_local.h"
 #include "mmba/io/text_reader.h"
 #include "mmba/survey/adjust.h"
 #include "mmba/survey/survey_group.h"

@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "mmba/geodesy/geodesy.h"
-#include "mmba/io/survey_csv.h"
+#include "mmba/io_survey/survey_csv.h"
 #include "mmba/survey/adjust.h"
 
 namespace mmba::survey {

@@ -11,8 +11,8 @@
 #include <nlohmann/json.hpp>
 
 #include "mmba/core/error.h"
-#include "mmba/io/gama_local.h"
-#include "mmba/io/survey_csv.h"
+#include "mmba/io_survey/gama_local.h"
+#include "mmba/io_survey/survey_csv.h"
 #include "mmba/survey/adjust.h"
 
 namespace mmba::survey {

@@ -1,6 +1,6 @@
 // The survey CSV reader refuses input that would otherwise be "adjusted" with exit 0: no
 // records, no observations, a point id given twice.
-#include "mmba/io/survey_csv.h"
+#include "mmba/io_survey/survey_csv.h"
 
 #include <string>
 

@@ -12,7 +12,7 @@
 #include "../output_support.h"
 #include "blocks.h"
 #include "mmba/core/atomic_file.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 
 namespace mmba::adjust::internal {
 

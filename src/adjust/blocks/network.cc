@@ -10,8 +10,8 @@
 #include "blocks.h"
 #include "mmba/core/error.h"
 #include "mmba/io/csv_table.h"
-#include "mmba/io/gama_local.h"
-#include "mmba/io/survey_csv.h"
+#include "mmba/io_survey/gama_local.h"
+#include "mmba/io_survey/survey_csv.h"
 #include "mmba/survey/survey_group.h"
 
 namespace mmba::adjust::internal {

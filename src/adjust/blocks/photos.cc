@@ -19,7 +19,7 @@
 #include "blocks.h"
 #include "mmba/core/error.h"
 #include "mmba/io/csv_table.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/io/camera_yaml.h"
 #include "mmba/io/yaml_reader.h"
 #include "mmba/problem/colmap_scene.h"

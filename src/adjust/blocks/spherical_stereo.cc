@@ -18,7 +18,7 @@
 #include "../sphere_dense.h"
 #include "mmba/core/error.h"
 #include "mmba/io/csv_table.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/io/yaml_reader.h"
 
 namespace mmba::adjust::internal {

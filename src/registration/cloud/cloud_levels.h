@@ -10,7 +10,7 @@
 #include <Eigen/Core>
 
 #include "mmba/geometry/point_index.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 
 namespace mmba::registration::internal {
 

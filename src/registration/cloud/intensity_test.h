@@ -25,7 +25,7 @@
 
 #include <Eigen/Core>
 
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 
 namespace mmba {
 class PointIndex;

@@ -20,7 +20,7 @@
 
 #include "mmba/core/progress.h"
 #include "mmba/geometry/point_index.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/registration/cloud/feature_registration.h"
 #include "registration/cloud/cloud_levels.h"
 #include "registration/cloud/descriptor_matching.h"

@@ -12,7 +12,7 @@
 #include <Eigen/Geometry>
 
 #include "mmba/geometry/point_index.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "registration/cloud/cloud_levels.h"
 #include "registration/cloud/free_space.h"
 #include "registration/cloud/hypotheses.h"

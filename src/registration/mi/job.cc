@@ -10,8 +10,9 @@
 
 #include "mmba/core/error.h"
 #include "mmba/core/logging.h"
-#include "mmba/io/kitti.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io/camera_yaml.h"
+#include "mmba/io_kitti/kitti.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/io/pose_json.h"
 #include "mmba/io/text_reader.h"
 #include "mmba/io/trajectory.h"

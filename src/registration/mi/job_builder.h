@@ -12,8 +12,8 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
-#include "mmba/io/kitti.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io/camera_yaml.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/registration/mi/job.h"
 #include "mmba/registration/mi/lidar_image.h"
 

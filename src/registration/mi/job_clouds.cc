@@ -11,7 +11,7 @@
 
 #include "mmba/core/error.h"
 #include "mmba/core/logging.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/io/trajectory.h"
 #include "registration/mi/job_builder.h"
 

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "mmba/io/pose_json.h"
+
 namespace mmba::registration::mi {
 
 using json = nlohmann::json;

@@ -10,8 +10,8 @@
 #include <gtest/gtest.h>
 #include <spdlog/spdlog.h>
 
-#include "mmba/io/kitti.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_kitti/kitti.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "synthetic_scene.h"
 
 namespace mmba::registration::mi {

@@ -20,7 +20,7 @@
 
 #include <Eigen/Core>
 
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 
 namespace mmba::registration {
 

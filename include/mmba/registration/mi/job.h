@@ -17,7 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mmba/geometry/rigid3d.h"
-#include "mmba/io/kitti.h"
+#include "mmba/io/camera_yaml.h"
 #include "mmba/registration/mi/mi_registration.h"
 
 namespace mmba::registration::mi {

@@ -16,7 +16,7 @@
 #include <Eigen/Core>
 
 #include "mmba/geometry/rigid3d.h"
-#include "mmba/io/point_cloud.h"
+#include "mmba/io_cloud/point_cloud.h"
 #include "mmba/registration/mi/image.h"
 #include "mmba/sensors/camera.h"
 

@@ -9,14 +9,11 @@
 #include <nlohmann/json.hpp>
 
 #include "mmba/geometry/rigid3d.h"
-#include "mmba/io/pose_json.h"
 #include "mmba/registration/mi/job.h"
 #include "mmba/registration/mi/mi_registration.h"
 
 namespace mmba::registration::mi {
 
-using io::Matrix4FromJson;
-using io::PoseToJson;
 /// {tx, ty, tz [m], roll, pitch, yaw [deg]}.
 nlohmann::json CorrectionToJson(const Vector6d& correction);
 /// {mi_bits, nmi, nid, joint_entropy_bits, samples, lidar_samples}.

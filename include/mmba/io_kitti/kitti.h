@@ -11,7 +11,6 @@
 #include <Eigen/Core>
 
 #include "mmba/geometry/rigid3d.h"
-#include "mmba/io/camera_yaml.h"
 #include "mmba/io/pose_json.h"  // RigidFromRowMajor4x4, CheckRotation
 #include "mmba/sensors/camera.h"
 
