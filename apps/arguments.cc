@@ -5,6 +5,8 @@
 #include <limits>
 #include <vector>
 
+#include "mmba/core/settings_table.h"  // EditDistance
+
 namespace mmba::app {
 namespace {
 
@@ -43,21 +45,6 @@ std::vector<std::string> OptionNames(const CLI::App& sub) {
 }
 
 }  // namespace
-
-size_t EditDistance(const std::string& a, const std::string& b) {
-  std::vector<size_t> row(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (size_t i = 1; i <= a.size(); ++i) {
-    size_t diagonal = row[0];
-    row[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = up;
-    }
-  }
-  return row[b.size()];
-}
 
 std::string UnknownArgument(const CLI::App& app, int argc, char** argv) {
   if (argc < 2) return "";

@@ -10,9 +10,6 @@
 
 namespace mmba::app {
 
-/// Levenshtein distance (insertions, deletions, substitutions; each costs 1).
-size_t EditDistance(const std::string& a, const std::string& b);
-
 /// Empty when argv names a known subcommand of `app` (or only --help/--version) and every
 /// option word of it ("--name", "--name=value", "-x") is one of that subcommand's options;
 /// else one line for the user: "unknown command 'adjsut'; did you mean 'adjust'? (...)".

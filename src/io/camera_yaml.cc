@@ -8,20 +8,11 @@
 
 #include "mmba/core/atomic_file.h"
 #include "mmba/core/error.h"
+#include "mmba/core/number_text.h"
 #include "mmba/io/colmap_model.h"
 #include "mmba/io/pose_json.h"
 
 namespace mmba::io {
-namespace {
-
-std::string Num(double v) {
-  std::ostringstream out;
-  out.precision(17);
-  out << v;
-  return out.str();
-}
-
-}  // namespace
 
 Rigid3d ReadLidarMountYaml(const std::string& path) {
   const YamlReader r(path);
@@ -44,7 +35,7 @@ Rigid3d ReadYamlPose(const YamlReader& r, const YAML::Node& n, const std::string
   }
   const Eigen::Quaterniond rotation(q[0], q[1], q[2], q[3]);
   if (std::abs(rotation.norm() - 1.0) > 1e-3) {
-    r.Fail(n, f + ".qvec_wxyz", "a unit quaternion", "norm " + Num(rotation.norm()));
+    r.Fail(n, f + ".qvec_wxyz", "a unit quaternion", "norm " + ExactNumber(rotation.norm()));
   }
   return Rigid3d(rotation.normalized(), Eigen::Vector3d(t[0], t[1], t[2]));
 }
@@ -104,7 +95,7 @@ CameraYaml ReadCameraYaml(const std::string& path) {
   result.camera.params = r.NumberList(*params, "params");
   for (int i : sensors::CameraModelFocalIdxs(result.camera.model_id)) {
     if (!(result.camera.params[i] > 0)) {
-      r.Fail((*params)[i], "params[" + std::to_string(i) + "]", "a positive focal length", Num(result.camera.params[i]));
+      r.Fail((*params)[i], "params[" + std::to_string(i) + "]", "a positive focal length", ExactNumber(result.camera.params[i]));
     }
   }
   if (pose) result.cam_from_lidar = Matrix4Pose(r, *pose, "cam_from_lidar");
@@ -159,7 +150,7 @@ RigYaml ReadRigYaml(const std::string& path) {
                        std::to_string(camera.params.size()) + " numbers");
               }
               for (int k : sensors::CameraModelFocalIdxs(camera.model_id)) {
-                if (!(camera.params[k] > 0)) r.Fail(n[i]["params"], fi + ".params", "a positive focal length", Num(camera.params[k]));
+                if (!(camera.params[k] > 0)) r.Fail(n[i]["params"], fi + ".params", "a positive focal length", ExactNumber(camera.params[k]));
               }
               if (std::find(rig.names.begin(), rig.names.end(), name) != rig.names.end()) {
                 r.Fail(n[i]["name"], fi + ".name", "a name no other camera has", name);

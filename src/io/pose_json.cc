@@ -7,6 +7,7 @@
 #include <Eigen/LU>
 
 #include "mmba/core/error.h"
+#include "mmba/core/number_text.h"
 #include "mmba/io/text_reader.h"
 
 namespace mmba::io {
@@ -14,13 +15,6 @@ namespace mmba::io {
 using json = nlohmann::json;
 
 namespace {
-
-std::string Num(double v) {
-  std::ostringstream out;
-  out.precision(17);
-  out << v;
-  return out.str();
-}
 
 // The JSON object of a file; InputError with the line (and the key read last, which names the
 // field of a number out of range such as 1e400: nlohmann reports those without a position).
@@ -62,7 +56,7 @@ Rigid3d QvecTvecFromJson(const json& value, const std::string& file, const std::
   }
   const Eigen::Quaterniond rotation(q[0].get<double>(), q[1].get<double>(), q[2].get<double>(), q[3].get<double>());
   if (!(std::abs(rotation.norm() - 1.0) <= 1e-3)) {
-    throw InputError(file, 0, field + ".qvec_wxyz", "a quaternion of norm " + Num(rotation.norm()),
+    throw InputError(file, 0, field + ".qvec_wxyz", "a quaternion of norm " + ExactNumber(rotation.norm()),
                      "a unit quaternion (norm 1 within 1e-3)");
   }
   return Rigid3d(rotation.normalized(), Eigen::Vector3d(t[0].get<double>(), t[1].get<double>(), t[2].get<double>()));
@@ -138,8 +132,8 @@ void CheckRotation(const Eigen::Matrix3d& rotation, const std::string& file, int
   const double orthonormality = (rotation * rotation.transpose() - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   const double det = rotation.determinant();
   if (!(orthonormality <= tolerance) || !(std::abs(det - 1.0) <= tolerance)) {
-    throw InputError(file, line, field, "rotation with |R·Rᵀ − I| = " + Num(orthonormality) + ", det = " + Num(det),
-                     "an orthonormal rotation (det +1) within " + Num(tolerance));
+    throw InputError(file, line, field, "rotation with |R·Rᵀ − I| = " + ExactNumber(orthonormality) + ", det = " + ExactNumber(det),
+                     "an orthonormal rotation (det +1) within " + ExactNumber(tolerance));
   }
 }
 
@@ -152,8 +146,8 @@ Rigid3d RigidFromRowMajor4x4(const double* v, const std::string& where, const st
   }
   if (std::abs(v[12]) > tolerance || std::abs(v[13]) > tolerance || std::abs(v[14]) > tolerance ||
       std::abs(v[15] - 1.0) > tolerance) {
-    throw InputError::Message(where, "field '" + field + "': last row is (" + Num(v[12]) + " " + Num(v[13]) + " " +
-                                         Num(v[14]) + " " + Num(v[15]) + "), expected (0 0 0 1)");
+    throw InputError::Message(where, "field '" + field + "': last row is (" + ExactNumber(v[12]) + " " + ExactNumber(v[13]) + " " +
+                                         ExactNumber(v[14]) + " " + ExactNumber(v[15]) + "), expected (0 0 0 1)");
   }
   Eigen::Matrix<double, 3, 4> m;
   for (int r = 0; r < 3; ++r) {

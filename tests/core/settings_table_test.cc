@@ -151,5 +151,14 @@ TEST(SettingsTable, ClosestNameIsOnlyGivenWhenNear) {
   EXPECT_EQ(ClosestSettingName("colour", {"restarts", "bins"}), "");
 }
 
+TEST(EditDistance, CountsInsertionsDeletionsAndSubstitutions) {
+  EXPECT_EQ(EditDistance("", ""), 0u);
+  EXPECT_EQ(EditDistance("bins", ""), 4u);
+  EXPECT_EQ(EditDistance("bins", "bins"), 0u);
+  EXPECT_EQ(EditDistance("bins", "bin"), 1u);      // a deletion
+  EXPECT_EQ(EditDistance("restart", "restarts"), 1u);  // an insertion
+  EXPECT_EQ(EditDistance("kitten", "sitting"), 3u);    // two substitutions and an insertion
+}
+
 }  // namespace
 }  // namespace mmba

@@ -87,6 +87,9 @@ struct SettingSpec {
   std::string Format(const SettingValue& value) const;
 };
 
+/// Levenshtein distance of two strings (insertions, deletions, substitutions; each costs 1).
+size_t EditDistance(const std::string& a, const std::string& b);
+
 /// The name among `names` closest to `name` by edit distance, or "" when none is near.
 std::string ClosestSettingName(const std::string& name, const std::vector<std::string>& names);
 
