@@ -271,36 +271,50 @@ struct SchurInverse {
   std::vector<double> h;
 };
 
-SchurInverse AnalyzeSchur(const Linearization& lin, const StatisticsOptions& options) {
-  SchurInverse out;
+using RowIt = Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator;
+
+/// Which eliminated block each row of `lin` touches. The kept blocks are the first `kept`
+/// columns; an eliminated block is named by its first column.
+struct EliminatedRows {
+  int kept = 0;                                 // columns of the kept blocks
+  std::vector<int> row_point;                   // eliminated block of each row; -1 = none
+  std::map<int, std::vector<int>> rows_of_point;  // first column -> rows
+  std::map<int, int> point_size;                // first column -> size
+};
+
+/// Assigns each row to the one eliminated block it touches; throws std::invalid_argument if
+/// a row touches two.
+EliminatedRows AssignRowsToEliminated(const Linearization& lin,
+                                      const StatisticsOptions& options) {
+  EliminatedRows e;
   int kept_blocks = 0;
   for (size_t b = 0; b < lin.blocks.size(); ++b) {
     if (options.eliminate.count(lin.blocks[b]) == 0) {
-      out.kept += lin.sizes[b];
+      e.kept += lin.sizes[b];
       ++kept_blocks;
     }
   }
-  const int nc = out.kept;
-  using RowIt = Eigen::SparseMatrix<double, Eigen::RowMajor>::InnerIterator;
-  // Which eliminated block (first column, size) each row touches; -1 = none.
-  std::vector<int> row_point(lin.m, -1);
-  std::map<int, std::vector<int>> rows_of_point;  // first column -> rows
-  std::map<int, int> point_size;
+  const int nc = e.kept;
+  e.row_point.assign(lin.m, -1);
   for (size_t b = kept_blocks; b < lin.blocks.size(); ++b) {
-    point_size[lin.column.at(lin.blocks[b])] = lin.sizes[b];
+    e.point_size[lin.column.at(lin.blocks[b])] = lin.sizes[b];
   }
   for (int r = 0; r < lin.m; ++r) {
     for (RowIt it(lin.jacobian, r); it; ++it) {
       if (it.col() < nc || it.value() == 0.0) continue;
-      const int first = std::prev(point_size.upper_bound(it.col()))->first;
-      if (row_point[r] >= 0 && row_point[r] != first) {
+      const int first = std::prev(e.point_size.upper_bound(it.col()))->first;
+      if (e.row_point[r] >= 0 && e.row_point[r] != first) {
         throw std::invalid_argument("eliminate: a residual block touches two eliminated blocks");
       }
-      row_point[r] = first;
+      e.row_point[r] = first;
     }
-    if (row_point[r] >= 0) rows_of_point[row_point[r]].push_back(r);
+    if (e.row_point[r] >= 0) e.rows_of_point[e.row_point[r]].push_back(r);
   }
-  // U = AᵀA over the kept columns, then S = U − Σ_p W_p V_p⁻¹ W_pᵀ.
+  return e;
+}
+
+/// U = AᵀA over the first `nc` (kept) columns.
+Eigen::MatrixXd KeptNormalMatrix(const Linearization& lin, int nc) {
   Eigen::MatrixXd s = Eigen::MatrixXd::Zero(nc, nc);
   for (int r = 0; r < lin.m; ++r) {
     for (RowIt a(lin.jacobian, r); a; ++a) {
@@ -310,54 +324,64 @@ SchurInverse AnalyzeSchur(const Linearization& lin, const StatisticsOptions& opt
       }
     }
   }
-  struct PointBlock {
-    std::vector<int> cols;     // kept columns its rows touch
-    Eigen::MatrixXd v_inv;     // q×q
-    Eigen::MatrixXd g;         // q×k: V⁻¹ W_pᵀ on `cols`
-  };
-  std::map<int, PointBlock> points;
-  for (const auto& [first, rows] : rows_of_point) {
-    const int q = point_size.at(first);
-    PointBlock pb;
-    std::map<int, int> local;
-    for (int r : rows) {
-      for (RowIt it(lin.jacobian, r); it; ++it) {
-        if (it.col() < nc && !local.count(it.col())) {
-          local[it.col()] = 0;
-        }
+  return s;
+}
+
+/// One eliminated point p of size q, seen by k kept columns.
+struct PointBlock {
+  std::vector<int> cols;     // kept columns its rows touch
+  Eigen::MatrixXd v_inv;     // q×q
+  Eigen::MatrixXd g;         // q×k: V⁻¹ W_pᵀ on `cols`
+};
+
+/// Eliminates point `first` (size q, observed by `rows`): forms V_p and W_p, inverts V_p
+/// and subtracts W_p V_p⁻¹ W_pᵀ from the reduced matrix `s`.
+PointBlock EliminatePoint(const Linearization& lin, const StatisticsOptions& options, int nc,
+                          int first, int q, const std::vector<int>& rows, Eigen::MatrixXd* s) {
+  PointBlock pb;
+  std::map<int, int> local;
+  for (int r : rows) {
+    for (RowIt it(lin.jacobian, r); it; ++it) {
+      if (it.col() < nc && !local.count(it.col())) {
+        local[it.col()] = 0;
       }
     }
-    for (auto& [col, index] : local) {
-      index = static_cast<int>(pb.cols.size());
-      pb.cols.push_back(col);
-    }
-    const int k = static_cast<int>(pb.cols.size());
-    Eigen::MatrixXd v = Eigen::MatrixXd::Zero(q, q);
-    Eigen::MatrixXd w = Eigen::MatrixXd::Zero(k, q);
-    for (int r : rows) {
-      Eigen::VectorXd a = Eigen::VectorXd::Zero(k), b = Eigen::VectorXd::Zero(q);
-      for (RowIt it(lin.jacobian, r); it; ++it) {
-        if (it.col() < nc) a(local.at(it.col())) = it.value();
-        else b(it.col() - first) = it.value();
-      }
-      v += b * b.transpose();
-      w += a * b.transpose();
-    }
-    Eigen::FullPivLU<Eigen::MatrixXd> lu(v);
-    if (lu.rank() < q) {
-      throw DegenerateNetworkError("singular network: an eliminated point (" +
-                                   Describe(lin, options, first) +
-                                   ") is not determined by its observations");
-    }
-    pb.v_inv = lu.inverse();
-    pb.g = pb.v_inv * w.transpose();
-    const Eigen::MatrixXd update = w * pb.g;
-    for (int i = 0; i < k; ++i) {
-      for (int j = 0; j < k; ++j) s(pb.cols[i], pb.cols[j]) -= update(i, j);
-    }
-    points[first] = std::move(pb);
   }
-  // S⁻¹ with Jacobi scaling; a non-positive pivot names the parameter.
+  for (auto& [col, index] : local) {
+    index = static_cast<int>(pb.cols.size());
+    pb.cols.push_back(col);
+  }
+  const int k = static_cast<int>(pb.cols.size());
+  Eigen::MatrixXd v = Eigen::MatrixXd::Zero(q, q);
+  Eigen::MatrixXd w = Eigen::MatrixXd::Zero(k, q);
+  for (int r : rows) {
+    Eigen::VectorXd a = Eigen::VectorXd::Zero(k), b = Eigen::VectorXd::Zero(q);
+    for (RowIt it(lin.jacobian, r); it; ++it) {
+      if (it.col() < nc) a(local.at(it.col())) = it.value();
+      else b(it.col() - first) = it.value();
+    }
+    v += b * b.transpose();
+    w += a * b.transpose();
+  }
+  Eigen::FullPivLU<Eigen::MatrixXd> lu(v);
+  if (lu.rank() < q) {
+    throw DegenerateNetworkError("singular network: an eliminated point (" +
+                                 Describe(lin, options, first) +
+                                 ") is not determined by its observations");
+  }
+  pb.v_inv = lu.inverse();
+  pb.g = pb.v_inv * w.transpose();
+  const Eigen::MatrixXd update = w * pb.g;
+  for (int i = 0; i < k; ++i) {
+    for (int j = 0; j < k; ++j) (*s)(pb.cols[i], pb.cols[j]) -= update(i, j);
+  }
+  return pb;
+}
+
+/// S⁻¹ with Jacobi scaling; a non-positive pivot names the parameter.
+Eigen::MatrixXd InvertReduced(const Eigen::MatrixXd& s, const Linearization& lin,
+                              const StatisticsOptions& options) {
+  const int nc = static_cast<int>(s.rows());
   Eigen::VectorXd diag = s.diagonal();
   for (int j = 0; j < nc; ++j) {
     if (!(diag(j) > 1e-30)) {
@@ -376,43 +400,64 @@ SchurInverse AnalyzeSchur(const Linearization& lin, const StatisticsOptions& opt
           Describe(lin, options, j));
     }
   }
-  out.cofactor = scale.asDiagonal() * ldlt.solve(Eigen::MatrixXd::Identity(nc, nc)) *
-                 scale.asDiagonal();
+  return scale.asDiagonal() * ldlt.solve(Eigen::MatrixXd::Identity(nc, nc)) *
+         scale.asDiagonal();
+}
+
+/// h_ii of the rows of point `first`, given the cofactor of the kept columns.
+void PointRowsLeverage(const Linearization& lin, int nc, int first, const PointBlock& pb,
+                       const std::vector<int>& rows, const Eigen::MatrixXd& cofactor,
+                       std::vector<double>* h) {
+  const int k = static_cast<int>(pb.cols.size());
+  Eigen::MatrixXd m(k, k);
+  for (int i = 0; i < k; ++i) {
+    for (int j = 0; j < k; ++j) m(i, j) = cofactor(pb.cols[i], pb.cols[j]);
+  }
+  std::map<int, int> local;
+  for (int i = 0; i < k; ++i) local[pb.cols[i]] = i;
+  // h = zᵀMz + bᵀV⁻¹b with z = a − gᵀb, expanded so that each row costs the square of its
+  // own few columns, not of all k columns of its point (k is every frame that sees the
+  // point): h = aᵀMa − 2aᵀ(Mgᵀ)b + bᵀ(gMgᵀ + V⁻¹)b, Mgᵀ (k×q) and gMgᵀ (q×q) once per point.
+  const Eigen::MatrixXd m_gt = m * pb.g.transpose();
+  const Eigen::MatrixXd inner = pb.g * m_gt + pb.v_inv;
+  const int q = static_cast<int>(pb.v_inv.rows());
+  std::vector<std::pair<int, double>> a;
+  for (int r : rows) {
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(q);
+    a.clear();
+    for (RowIt it(lin.jacobian, r); it; ++it) {
+      if (it.col() < nc) a.emplace_back(local.at(it.col()), it.value());
+      else b(it.col() - first) = it.value();
+    }
+    double ama = 0.0;
+    Eigen::VectorXd a_mgt = Eigen::VectorXd::Zero(q);
+    for (const auto& [i, vi] : a) {
+      for (const auto& [j, vj] : a) ama += vi * vj * m(i, j);
+      a_mgt += vi * m_gt.row(i).transpose();
+    }
+    (*h)[r] = ama - 2.0 * a_mgt.dot(b) + b.dot(inner * b);
+  }
+}
+
+SchurInverse AnalyzeSchur(const Linearization& lin, const StatisticsOptions& options) {
+  SchurInverse out;
+  const EliminatedRows e = AssignRowsToEliminated(lin, options);
+  out.kept = e.kept;
+  const int nc = out.kept;
+  // S = U − Σ_p W_p V_p⁻¹ W_pᵀ.
+  Eigen::MatrixXd s = KeptNormalMatrix(lin, nc);
+  std::map<int, PointBlock> points;
+  for (const auto& [first, rows] : e.rows_of_point) {
+    points[first] = EliminatePoint(lin, options, nc, first, e.point_size.at(first), rows, &s);
+  }
+  out.cofactor = InvertReduced(s, lin, options);
   // h_ii per row.
   out.h.assign(lin.m, 0.0);
   for (const auto& [first, pb] : points) {
-    const int k = static_cast<int>(pb.cols.size());
-    Eigen::MatrixXd m(k, k);
-    for (int i = 0; i < k; ++i) {
-      for (int j = 0; j < k; ++j) m(i, j) = out.cofactor(pb.cols[i], pb.cols[j]);
-    }
-    std::map<int, int> local;
-    for (int i = 0; i < k; ++i) local[pb.cols[i]] = i;
-    // h = zᵀMz + bᵀV⁻¹b with z = a − gᵀb, expanded so that each row costs the square of its
-    // own few columns, not of all k columns of its point (k is every frame that sees the
-    // point): h = aᵀMa − 2aᵀ(Mgᵀ)b + bᵀ(gMgᵀ + V⁻¹)b, Mgᵀ (k×q) and gMgᵀ (q×q) once per point.
-    const Eigen::MatrixXd m_gt = m * pb.g.transpose();
-    const Eigen::MatrixXd inner = pb.g * m_gt + pb.v_inv;
-    const int q = static_cast<int>(pb.v_inv.rows());
-    std::vector<std::pair<int, double>> a;
-    for (int r : rows_of_point.at(first)) {
-      Eigen::VectorXd b = Eigen::VectorXd::Zero(q);
-      a.clear();
-      for (RowIt it(lin.jacobian, r); it; ++it) {
-        if (it.col() < nc) a.emplace_back(local.at(it.col()), it.value());
-        else b(it.col() - first) = it.value();
-      }
-      double ama = 0.0;
-      Eigen::VectorXd a_mgt = Eigen::VectorXd::Zero(q);
-      for (const auto& [i, vi] : a) {
-        for (const auto& [j, vj] : a) ama += vi * vj * m(i, j);
-        a_mgt += vi * m_gt.row(i).transpose();
-      }
-      out.h[r] = ama - 2.0 * a_mgt.dot(b) + b.dot(inner * b);
-    }
+    PointRowsLeverage(lin, nc, first, pb, e.rows_of_point.at(first), out.cofactor, &out.h);
   }
   for (int r = 0; r < lin.m; ++r) {
-    if (row_point[r] >= 0) continue;
+    if (e.row_point[r] >= 0) continue;
     double h = 0.0;
     for (RowIt a(lin.jacobian, r); a; ++a) {
       for (RowIt c(lin.jacobian, r); c; ++c) h += a.value() * c.value() * out.cofactor(a.col(), c.col());
