@@ -143,97 +143,100 @@ void FramesRegistration::RestartImageSpread(const RestartEnds& ends) {
   }
 }
 
+// (4) Independent halves' re-optimisation, one half per thread; a half's evaluations split
+// over two threads once the other half is done (CoreFreeForSplit). Stopping at the first
+// failure: the second half is not started once the first is known to disagree, and is not
+// reported when the first disagrees (as the restarts).
+std::array<HalfEnd, 2> FramesRegistration::RunHalves(const std::array<std::vector<Frame>, 2>& halves,
+                                                     int* reported) {
+  const Vector6d offset = RestartStep(options);
+  const double tolerance = options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1);
+  RegistrationOptions half_options = options;
+  half_options.point_samples = options.point_samples && options.point_samples_in_checks;
+  half_options.pyramid_levels = std::min(options.pyramid_levels, options.split_level + 1);
+  const int split_level = std::min(options.split_level, levels - 1);
+  std::array<HalfEnd, 2> ends;
+  std::atomic<bool> first_far{false};
+  ParallelFor(2, options.threads, [&](int h) {
+    if (fail_fast && h == 1 && first_far.load()) return;
+    HalfEnd& end = ends[h];
+    const FrameSetEvaluator half(halves[h], cam_from_lidar_start, half_options, &evaluator);
+    const SearchResult r = Search(half, cam_from_lidar_start, x, split_level, split_level,
+                                  2.0 * offset, tolerance, false, half_options, nullptr,
+                                  "half " + std::to_string(h) + " ");
+    end.x = r.x;
+    end.evaluations = r.evaluations;
+    const std::vector<FrameSetEvaluator::VisiblePoint> own =
+        half.SampleVisiblePoints(result.cam_from_lidar, 2000);
+    end.own_points = own.size();
+    const Rigid3d pose = ApplyCorrection(cam_from_lidar_start, r.x);
+    end.distance = half.MedianPixelDistance(own, result.cam_from_lidar, pose);
+    for (double d2 : PixelDisplacements2(half, own, result.cam_from_lidar, pose)) {
+      end.displacement2 += d2;
+    }
+    if (result.covariance_valid) {
+      const std::vector<Eigen::Matrix<double, 2, 6>> own_jacobians =
+          PixelJacobians(half, cam_from_lidar_start, x, own);
+      for (double v : PredictedPixelVariances(own_jacobians, result.covariance_laplace)) {
+        end.predicted2 += v;
+      }
+    }
+    if (h == 0 && !(end.distance <= options.split_tolerance_px)) first_far = true;
+  });
+  *reported = fail_fast && first_far.load() ? 1 : 2;
+  if (*reported == 1) {  // the second half, if it ran, is not reported
+    ends[1].distance = 0;
+    ends[1].displacement2 = 0;
+    ends[1].predicted2 = 0;
+  }
+  return ends;
+}
+
+// The halves' spread over the whole image when the views are cuts of it.
+void FramesRegistration::HalvesImageSpread(const std::array<HalfEnd, 2>& ends, int reported) {
+  if (image_sample.empty()) return;
+  double mean2 = 0;
+  checks.image_split_spread_px = 0;
+  for (int h = 0; h < reported; ++h) {
+    const std::vector<double> d2 = ImageDisplacements2(image_sample, result.cam_from_lidar,
+                                                       ApplyCorrection(cam_from_lidar_start, ends[h].x));
+    checks.image_split_spread_px = std::max(checks.image_split_spread_px, MedianSqrtOf(d2));
+    mean2 += 0.5 * MeanOf(d2);
+  }
+  if (image_predicted_ms > 0) image_factor_halves = mean2 / image_predicted_ms;
+}
+
 // (4) Independent halves: does each part of the data put its own points where the joint
 // optimum puts them? And how far apart are they, against the Laplace covariance?
 void FramesRegistration::Halves() {
   std::string split_kind;
   const std::array<std::vector<Frame>, 2> halves = SplitIntoHalves(frames, &split_kind);
-  if (options.split_check && !halves[0].empty() && !halves[1].empty()) {
-    const Vector6d offset = RestartStep(options);
-    const double tolerance =
-        options.nelder_mead.parameter_tolerance * std::pow(0.5, levels - 1);
-    RegistrationOptions half_options = options;
-    half_options.point_samples = options.point_samples && options.point_samples_in_checks;
-    half_options.pyramid_levels = std::min(options.pyramid_levels, options.split_level + 1);
-    const int split_level = std::min(options.split_level, levels - 1);
-    std::array<double, 2> distance{}, displacement2{}, predicted2{};
-    std::array<int, 2> half_evaluations{};
-    std::array<size_t, 2> own_points{};
-    std::array<Vector6d, 2> half_x;
-    // One half per thread; a half's evaluations split over two threads once the other half
-    // is done (CoreFreeForSplit).
-    // Stopping at the first failure: the second half is not started once the first is
-    // known to disagree, and is not reported when the first disagrees (as the restarts).
-    std::atomic<bool> first_far{false};
-    std::array<char, 2> half_run{0, 0};
-    ParallelFor(2, options.threads, [&](int h) {
-      if (fail_fast && h == 1 && first_far.load()) return;
-      const FrameSetEvaluator half(halves[h], cam_from_lidar_start, half_options, &evaluator);
-      const SearchResult r = Search(half, cam_from_lidar_start, x, split_level, split_level,
-                                    2.0 * offset, tolerance, false, half_options, nullptr,
-                                    "half " + std::to_string(h) + " ");
-      half_x[h] = r.x;
-      half_evaluations[h] = r.evaluations;
-      const std::vector<FrameSetEvaluator::VisiblePoint> own =
-          half.SampleVisiblePoints(result.cam_from_lidar, 2000);
-      own_points[h] = own.size();
-      const Rigid3d pose = ApplyCorrection(cam_from_lidar_start, r.x);
-      distance[h] = half.MedianPixelDistance(own, result.cam_from_lidar, pose);
-      for (double d2 : PixelDisplacements2(half, own, result.cam_from_lidar, pose)) {
-        displacement2[h] += d2;
-      }
-      if (result.covariance_valid) {
-        const std::vector<Eigen::Matrix<double, 2, 6>> own_jacobians =
-            PixelJacobians(half, cam_from_lidar_start, x, own);
-        for (double v : PredictedPixelVariances(own_jacobians, result.covariance_laplace)) {
-          predicted2[h] += v;
-        }
-      }
-      half_run[h] = 1;
-      if (h == 0 && !(distance[0] <= options.split_tolerance_px)) first_far = true;
-    });
-    const int halves_reported = fail_fast && first_far.load() ? 1 : 2;
-    if (halves_reported == 1) {  // the second half, if it ran, is not reported
-      distance[1] = 0;
-      displacement2[1] = 0;
-      predicted2[1] = 0;
-    }
-    if (!image_sample.empty()) {
-      double mean2 = 0;
-      checks.image_split_spread_px = 0;
-      for (int h = 0; h < halves_reported; ++h) {
-        const std::vector<double> d2 =
-            ImageDisplacements2(image_sample, result.cam_from_lidar,
-                                ApplyCorrection(cam_from_lidar_start, half_x[h]));
-        checks.image_split_spread_px = std::max(checks.image_split_spread_px, MedianSqrtOf(d2));
-        mean2 += 0.5 * MeanOf(d2);
-      }
-      if (image_predicted_ms > 0) image_factor_halves = mean2 / image_predicted_ms;
-    }
-    checks.split_parts = halves_reported;
-    checks.split_kind = split_kind;
-    checks.split_spread_px = std::max(distance[0], distance[1]);
-    if (result.covariance_valid && predicted2[0] + predicted2[1] > 0) {
-      checks.variance_factor_halves =
-          (displacement2[0] + displacement2[1]) / (predicted2[0] + predicted2[1]);
-    }
-    for (int h = 0; h < halves_reported; ++h) {
-      spdlog::debug("MI half {} ({}): {:.2f} px from the optimum, correction [{:.3f} {:.3f} "
-                    "{:.3f} {:.3f} {:.3f} {:.3f}], pixel rms {:.3f} px vs predicted {:.3f} px",
-                    h, split_kind, distance[h], half_x[h][0], half_x[h][1], half_x[h][2],
-                    half_x[h][3], half_x[h][4], half_x[h][5],
-                    std::sqrt(displacement2[h] / std::max<size_t>(1, own_points[h])),
-                    std::sqrt(predicted2[h] / std::max<size_t>(1, own_points[h])));
-    }
-    if (!(checks.split_spread_px <= options.split_tolerance_px)) {
-      failures.push_back("independent halves disagree (" + split_kind + "): one re-optimised "
-                         "alone puts its own points " + Fixed(checks.split_spread_px, 2) +
-                         " px from the joint optimum (tolerance " +
-                         Fixed(options.split_tolerance_px, 2) + " px)");
-    }
-    clock.Mark("independent halves",
-               half_evaluations[0] + (halves_reported == 2 ? half_evaluations[1] : 0));
+  if (!options.split_check || halves[0].empty() || halves[1].empty()) return;
+  int reported = 0;
+  const std::array<HalfEnd, 2> ends = RunHalves(halves, &reported);
+  HalvesImageSpread(ends, reported);
+  checks.split_parts = reported;
+  checks.split_kind = split_kind;
+  checks.split_spread_px = std::max(ends[0].distance, ends[1].distance);
+  const double predicted2 = ends[0].predicted2 + ends[1].predicted2;
+  if (result.covariance_valid && predicted2 > 0) {
+    checks.variance_factor_halves = (ends[0].displacement2 + ends[1].displacement2) / predicted2;
   }
+  for (int h = 0; h < reported; ++h) {
+    const HalfEnd& e = ends[h];
+    spdlog::debug("MI half {} ({}): {:.2f} px from the optimum, correction [{:.3f} {:.3f} "
+                  "{:.3f} {:.3f} {:.3f} {:.3f}], pixel rms {:.3f} px vs predicted {:.3f} px",
+                  h, split_kind, e.distance, e.x[0], e.x[1], e.x[2], e.x[3], e.x[4], e.x[5],
+                  std::sqrt(e.displacement2 / std::max<size_t>(1, e.own_points)),
+                  std::sqrt(e.predicted2 / std::max<size_t>(1, e.own_points)));
+  }
+  if (!(checks.split_spread_px <= options.split_tolerance_px)) {
+    failures.push_back("independent halves disagree (" + split_kind + "): one re-optimised "
+                       "alone puts its own points " + Fixed(checks.split_spread_px, 2) +
+                       " px from the joint optimum (tolerance " +
+                       Fixed(options.split_tolerance_px, 2) + " px)");
+  }
+  clock.Mark("independent halves", ends[0].evaluations + (reported == 2 ? ends[1].evaluations : 0));
 }
 
 void FramesRegistration::CalibrateCovariance() {

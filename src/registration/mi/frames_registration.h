@@ -5,6 +5,7 @@
 // baseline), acceptance_checks.cc the checks that re-optimise or calibrate (restarts,
 // independent halves, calibrated covariance, per-axis scans).
 
+#include <array>
 #include <limits>
 #include <string>
 #include <vector>
@@ -27,6 +28,16 @@ struct RestartEnds {
   std::vector<double> distances;
   int reported = 0;
   bool polished = false;  ///< taken from the polish's last round, not searched again
+};
+
+/// One independent half's re-optimisation (FramesRegistration::RunHalves): its correction,
+/// evaluations, the points it sees and, over them, the median pixel distance from the joint
+/// optimum, the sum of squared displacements and of predicted variances (px²).
+struct HalfEnd {
+  Vector6d x = Vector6d::Zero();
+  int evaluations = 0;
+  size_t own_points = 0;
+  double distance = 0, displacement2 = 0, predicted2 = 0;
 };
 
 // One registration of a frame set (RegisterFrames): the search, then the acceptance checks in
@@ -67,6 +78,10 @@ class FramesRegistration {
   RestartEnds RunRestarts();
   void RestartImageSpread(const RestartEnds& ends);
   void Halves();
+  /// Re-optimises each half (two; the second not reported when fail_fast and the first
+  /// disagrees): the halves' ends, `reported` receives how many count.
+  std::array<HalfEnd, 2> RunHalves(const std::array<std::vector<Frame>, 2>& halves, int* reported);
+  void HalvesImageSpread(const std::array<HalfEnd, 2>& ends, int reported);
   void CalibrateCovariance();
   void AxisScans();
 

@@ -38,13 +38,8 @@ void JobBuilder::ApplyPolicy(bool log) {
   if (request.surface_classes && options.render.representation == Representation::kIntensity) {
     options.metric.lidar_classes = 2;
   }
-  // The default: conditioned on the orientation where the intensity is compared and no other
-  // classes were asked for.
-  job.orientation_sectors =
-      request.orientation_classes >= 0 ? request.orientation_classes
-      : options.render.representation == Representation::kIntensity && !request.surface_classes
-          ? kDefaultOrientationSectors
-          : 0;
+  job.orientation_sectors = OrientationSectors(request.orientation_classes,
+                                                options.render.representation, request.surface_classes);
   if (job.orientation_sectors > 0) {
     if (request.surface_classes) {
       throw InputError::Message("--orientation-classes", "cannot be combined with --surface-classes "
@@ -55,8 +50,7 @@ void JobBuilder::ApplyPolicy(bool log) {
                                 "conditions the intensity on the surface's orientation; it needs "
                                 "--representation intensity");
     }
-    // Facing up, facing down, the sectors, no plane.
-    options.metric.lidar_classes = job.orientation_sectors + 3;
+    options.metric.lidar_classes = OrientationClassCount(job.orientation_sectors);
   }
   if (options.metric.region == Region::kOverlap &&
       options.render.representation == Representation::kPoints) {
@@ -70,7 +64,16 @@ void JobBuilder::ApplyPolicy(bool log) {
     throw InputError::Message("--perturb", "found " + std::to_string(request.perturb.size()) +
                                                " values, expected 6: tx,ty,tz,roll,pitch,yaw");
   }
-  // Incidence correction (IncidenceCorrection): where the scanner's position is known.
+  CheckScannerOptions();
+  correct_incidence =
+      request.incidence_correction != "off" && options.render.representation == Representation::kIntensity;
+  rig_mode = !request.rig.empty();
+  CheckCameraOptions();
+}
+
+// The incidence correction's options (IncidenceCorrection: where the scanner's position is
+// known): --incidence-correction, --scanner-origin, --trajectory with --lidar-mount.
+void JobBuilder::CheckScannerOptions() const {
   if (request.incidence_correction != "auto" && request.incidence_correction != "on" &&
       request.incidence_correction != "off") {
     throw InputError::Message("--incidence-correction",
@@ -88,9 +91,10 @@ void JobBuilder::ApplyPolicy(bool log) {
   if (!request.scanner_origin.empty() && !request.trajectory.empty()) {
     throw InputError::Message("--scanner-origin", "give either --scanner-origin or --trajectory, not both");
   }
-  correct_incidence = request.incidence_correction != "off" &&
-                                 options.render.representation == Representation::kIntensity;
-  rig_mode = !request.rig.empty();
+}
+
+// The camera's options: --rig, or one of --camera/--kitti-calib; --view; --kitti-camera.
+void JobBuilder::CheckCameraOptions() const {
   if (rig_mode) {
     if (!request.camera.empty() || !request.kitti_calib.empty()) {
       throw InputError::Message("--rig", "give either --rig or one of --camera/--kitti-calib, not both");
@@ -343,6 +347,17 @@ void JobBuilder::MakeFrames() {
 }
 
 }  // namespace internal
+
+int OrientationSectors(int asked, Representation representation, bool surface_classes) {
+  // The default: conditioned on the orientation where the intensity is compared and no other
+  // classes were asked for.
+  if (asked >= 0) return asked;
+  return representation == Representation::kIntensity && !surface_classes ? kDefaultOrientationSectors : 0;
+}
+
+int OrientationClassCount(int sectors) {
+  return sectors + 3;  // facing up, facing down, the sectors, no plane
+}
 
 std::vector<FramePaths> ListFrames(const JobRequest& request) {
   JobBuilder builder(request);

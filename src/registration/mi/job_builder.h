@@ -44,6 +44,8 @@ class JobBuilder {
     job.options = request.options;
   }
   void ApplyPolicy(bool log);
+  void CheckScannerOptions() const;
+  void CheckCameraOptions() const;
   std::vector<std::pair<std::string, std::string>> ListPairs() const;
   void ReadImagesAndCamera();
   void ResolveViews();

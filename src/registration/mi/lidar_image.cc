@@ -12,6 +12,7 @@
 
 #include "mmba/core/error.h"
 #include "mmba/core/parallel_for.h"
+#include "registration/mi/camera_dispatch.h"
 #include "registration/mi/pinhole_block.h"
 
 namespace mmba::registration::mi {
@@ -175,16 +176,9 @@ __attribute__((target_clones("avx2", "default"))) void Splat(
     const LidarPoints& points, const View& view, const Rigid3d& cam_from_lidar,
     const RenderOptions& options, size_t begin, size_t end, uint64_t* zbuffer,
     LidarImage* out) {
-  switch (view.camera.model_id) {
-#define MMBA_RENDER_CASE(Model)                                                            \
-  case Model::kModelId:                                                                    \
-    SplatWithModel<Model>(points, view, cam_from_lidar, options, begin, end, zbuffer, out); \
-    break;
-    MMBA_FOR_EACH_CAMERA_MODEL(MMBA_RENDER_CASE)
-#undef MMBA_RENDER_CASE
-    default:
-      LOG(FATAL) << "unknown camera model";
-  }
+  internal::WithCameraModel(view.camera.model_id, [&](auto model) __attribute__((always_inline)) {
+    SplatWithModel<decltype(model)>(points, view, cam_from_lidar, options, begin, end, zbuffer, out);
+  });
 }
 
 }  // namespace

@@ -9,11 +9,14 @@ namespace mmba::registration::mi {
 
 namespace internal {
 
+Vector6d PerParameter(double shift_m, double angle_deg) {
+  Vector6d v;
+  v << shift_m, shift_m, shift_m, angle_deg, angle_deg, angle_deg;
+  return v;
+}
+
 Vector6d BoundVector(const RegistrationOptions& options) {
-  Vector6d bound;
-  bound << options.bound_translation_m, options.bound_translation_m, options.bound_translation_m,
-      options.bound_rotation_deg, options.bound_rotation_deg, options.bound_rotation_deg;
-  return bound;
+  return PerParameter(options.bound_translation_m, options.bound_rotation_deg);
 }
 
 std::string Fixed(double v, int digits) {

@@ -19,6 +19,8 @@ namespace mmba::registration::mi::internal {
 
 constexpr double kDegToRad = M_PI / 180.0;
 
+/// (shift_m ×3, angle_deg ×3): one value for the shifts tx, ty, tz and one for the angles.
+Vector6d PerParameter(double shift_m, double angle_deg);
 /// The search box: (bound_translation_m ×3, bound_rotation_deg ×3).
 Vector6d BoundVector(const RegistrationOptions& options);
 /// `v` in fixed notation with `digits` decimals.

@@ -11,6 +11,7 @@
 
 #include "mmba/registration/mi/image.h"
 #include "registration/mi/bilinear_avx2.h"
+#include "registration/mi/camera_dispatch.h"
 #include "registration/mi/pinhole_block.h"
 
 namespace mmba::registration::mi {
@@ -276,16 +277,9 @@ __attribute__((target_clones("avx2", "default"))) void Accumulate(
     const ViewSamples& samples, const View& view, const ViewTransform& t,
     const RenderOptions& options, size_t point_begin, size_t point_end,
     JointHistogram* histogram) {
-  switch (view.camera.model_id) {
-#define MMBA_ACCUMULATE_CASE(Model)                                                           \
-  case Model::kModelId:                                                                       \
-    AccumulateWithModel<Model>(samples, view, t, options, point_begin, point_end, histogram); \
-    break;
-    MMBA_FOR_EACH_CAMERA_MODEL(MMBA_ACCUMULATE_CASE)
-#undef MMBA_ACCUMULATE_CASE
-    default:
-      LOG(FATAL) << "unknown camera model";
-  }
+  internal::WithCameraModel(view.camera.model_id, [&](auto model) __attribute__((always_inline)) {
+    AccumulateWithModel<decltype(model)>(samples, view, t, options, point_begin, point_end, histogram);
+  });
 }
 
 }  // namespace

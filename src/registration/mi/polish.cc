@@ -12,10 +12,7 @@ namespace internal {
 // The restarts' offset per parameter: restart_offset_m on the shifts, restart_offset_deg on
 // the angles.
 Vector6d RestartStep(const RegistrationOptions& options) {
-  Vector6d offset;
-  offset << options.restart_offset_m, options.restart_offset_m, options.restart_offset_m,
-      options.restart_offset_deg, options.restart_offset_deg, options.restart_offset_deg;
-  return offset;
+  return PerParameter(options.restart_offset_m, options.restart_offset_deg);
 }
 
 // The restarts' start points around an optimum (offset ±restart_offset per parameter,

@@ -126,6 +126,14 @@ std::vector<View> AutoPerspectiveViews(const GrayImage& image, const sensors::Ca
                                        const ViewOptions& views, const RenderOptions& render,
                                        const std::string& name, std::vector<double>* headings);
 
+/// The orientation classes' sectors of a job (register-mi --orientation-classes): `asked`
+/// when ≥ 0, else kDefaultOrientationSectors where the intensity is compared and no surface
+/// classes were asked for, else 0 (no orientation classes).
+int OrientationSectors(int asked, Representation representation, bool surface_classes);
+/// The metric's LiDAR classes (MetricOptions::lidar_classes) of `sectors` > 0 orientation
+/// sectors: facing up, facing down, the sectors, no plane.
+int OrientationClassCount(int sectors);
+
 /// A rig camera's view of a frame if at least kMinRigViewPoints of `points` project into it
 /// at `rig_from_lidar`.
 bool RigCameraSeesCloud(const View& view, const LidarPoints& points, const Rigid3d& rig_from_lidar,

@@ -194,6 +194,10 @@ class JointHistogram {
   /// point falls in the photo.
   template <typename Pixels>
   void AddBSplineChunks(const Pixels& pixels, int width, int height, const GrayImage& photo);
+  /// The histogram without its padding (folded onto the edge bins): rows = the empty-LiDAR
+  /// row first in whole-image mode (with the background complement), then each class's
+  /// `bins` LiDAR rows; columns = the `bins` photo bins. Evaluate()'s first step.
+  std::vector<double> FoldedJoint() const;
   MetricOptions options_;
   int bins_;
   int classes_ = 1;  ///< options_.lidar_classes
