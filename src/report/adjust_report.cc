@@ -491,6 +491,100 @@ void RenderWarnings(const json& report, std::ostringstream& html) {
   html << "</ul>\n</section>\n";
 }
 
+/// A group's whitened residuals and how to plot them: components against N(0,1), or norms
+/// of `dof` components against χ_dof.
+struct GroupPlot {
+  std::string name, unit;
+  std::vector<double> whitened;
+  bool norms = false;
+  int dof = 1;
+};
+
+/// Whether the whitened values are norms: "whitened_kind", else all values >= 0.
+bool WhitenedAreNorms(const json& g, const std::string& path,
+                      const std::vector<double>& whitened) {
+  const auto kind = OptString(g, "whitened_kind", path);
+  if (kind && *kind != "components" && *kind != "norms") {
+    Fail(Join(path, "whitened_kind"), "\"" + *kind + "\"", "\"components\" or \"norms\"");
+  }
+  if (kind) return *kind == "norms";
+  return !whitened.empty() &&
+         std::none_of(whitened.begin(), whitened.end(), [](double v) { return v < 0.0; });
+}
+
+/// Components per norm: "whitened_dof", else residuals per observation when whole, else 1.
+int WhitenedDof(const json& g, const std::string& path, double observations, double residuals) {
+  const double dof = Num(g, "whitened_dof", path);
+  if (std::isfinite(dof)) {
+    if (dof < 1.0 || dof != std::floor(dof) || dof > 1000.0) {
+      Fail(Join(path, "whitened_dof"), Sig(dof), "a whole number in [1, 1000]");
+    }
+    return static_cast<int>(dof);
+  }
+  if (std::isfinite(observations) && std::isfinite(residuals) && observations > 0.0) {
+    const double per = residuals / observations;
+    if (per >= 1.0 && per == std::floor(per) && per <= 1000.0) return static_cast<int>(per);
+  }
+  return 1;
+}
+
+/// One row of the groups table; returns the group's plot.
+GroupPlot RenderGroupRow(const json& g, const std::string& path, std::ostringstream& html) {
+  GroupPlot plot;
+  plot.name = ReqString(g, "name", path);
+  plot.unit = OptString(g, "unit", path).value_or("");
+  const double observations = Num(g, "observations", path);
+  const double residuals = Num(g, "residuals", path);
+  const std::string loss = OptString(g, "loss", path).value_or("");
+  html << "<tr>" << TdText(Esc(plot.name)) << TdText(Esc(plot.unit)) << Td(Count(observations))
+       << Td(Count(residuals)) << Td(Sig(Num(g, "redundancy", path), 6))
+       << Td(Sig(Num(g, "sigma", path), 4)) << Td(Sig(Num(g, "rms", path), 4))
+       << Td(Sig(Num(g, "mean", path), 4)) << Td(Sig(Num(g, "max", path), 4))
+       << Td(FormatFixed(Num(g, "variance_component", path), 3))
+       << TdText(Esc(Reweighting(g, path))) << Td(Count(Num(g, "outliers", path))) << TdText(loss.empty() ? "none" : Esc(loss))
+       << "</tr>\n";
+  plot.whitened = NumberArray(g, "whitened", path);
+  plot.norms = WhitenedAreNorms(g, path, plot.whitened);
+  plot.dof = WhitenedDof(g, path, observations, residuals);
+  return plot;
+}
+
+/// A group's histogram of whitened residuals with the share beyond 3σ and its expectation.
+void RenderGroupHistogram(const GroupPlot& plot, std::ostringstream& html) {
+  HistogramOptions options;
+  options.title = plot.name;
+  options.width_px = 335;
+  options.height_px = 215;
+  if (plot.norms) {
+    options.density = ReferenceDensity::kChi;
+    options.chi_dof = plot.dof;
+    options.x_label = "|r|/" + std::string(kSigma) + " (norm of " + std::to_string(plot.dof) +
+                      " whitened component" + (plot.dof == 1 ? "" : "s") + ")";
+  } else {
+    options.density = ReferenceDensity::kStandardNormal;
+    options.x_label = "whitened residual r/" + std::string(kSigma);
+  }
+  options.y_label = "count";
+  size_t finite = 0, beyond3 = 0;
+  for (double v : plot.whitened) {
+    if (!std::isfinite(v)) continue;
+    ++finite;
+    if (std::abs(v) > 3.0) ++beyond3;
+  }
+  html << "<figure>\n" << SvgHistogram(plot.whitened, options) << "<figcaption>";
+  if (finite > 0) {
+    const int k = plot.norms ? plot.dof : 1;
+    html << (plot.norms ? "|r|/" : "|r/") << kSigma << (plot.norms ? "" : "|") << " &gt; 3: "
+         << FormatFixed(100.0 * beyond3 / finite, 2) << "&nbsp;% of " << Count(static_cast<double>(finite))
+         << " (expected " << FormatFixed(100.0 * ChiTail(3.0, k), 2) << "&nbsp;% under "
+         << (plot.norms ? "&chi;<sub>" + std::to_string(k) + "</sub>" : std::string("N(0,1)"))
+         << ")";
+  } else {
+    html << "no whitened residuals in the report";
+  }
+  html << "</figcaption>\n</figure>\n";
+}
+
 void RenderGroups(const json& groups, std::ostringstream& html) {
   html << "<section id=\"groups\">\n<h2>Observation groups</h2>\n";
   if (groups.empty()) {
@@ -502,52 +596,10 @@ void RenderGroups(const json& groups, std::ostringstream& html) {
        << kSigma << " a-priori</th><th>RMS</th><th>mean</th><th>max</th><th>"
        << kSigma << "&#770;<sup>2</sup><sub>k</sub></th><th>re-weighting</th><th>out&shy;liers</th>"
           "<th>robust loss</th></tr>\n";
-  struct Plot {
-    std::string name, unit;
-    std::vector<double> whitened;
-    bool norms = false;
-    int dof = 1;
-  };
-  std::vector<Plot> plots;
+  std::vector<GroupPlot> plots;
   for (size_t i = 0; i < groups.size(); ++i) {
     const std::string path = Index("groups", i);
-    const json& g = ElementObject(groups, i, "groups");
-    Plot plot;
-    plot.name = ReqString(g, "name", path);
-    plot.unit = OptString(g, "unit", path).value_or("");
-    const double observations = Num(g, "observations", path);
-    const double residuals = Num(g, "residuals", path);
-    const std::string loss = OptString(g, "loss", path).value_or("");
-    html << "<tr>" << TdText(Esc(plot.name)) << TdText(Esc(plot.unit)) << Td(Count(observations))
-         << Td(Count(residuals)) << Td(Sig(Num(g, "redundancy", path), 6))
-         << Td(Sig(Num(g, "sigma", path), 4)) << Td(Sig(Num(g, "rms", path), 4))
-         << Td(Sig(Num(g, "mean", path), 4)) << Td(Sig(Num(g, "max", path), 4))
-         << Td(FormatFixed(Num(g, "variance_component", path), 3))
-         << TdText(Esc(Reweighting(g, path))) << Td(Count(Num(g, "outliers", path))) << TdText(loss.empty() ? "none" : Esc(loss))
-         << "</tr>\n";
-    plot.whitened = NumberArray(g, "whitened", path);
-    const auto kind = OptString(g, "whitened_kind", path);
-    if (kind && *kind != "components" && *kind != "norms") {
-      Fail(Join(path, "whitened_kind"), "\"" + *kind + "\"", "\"components\" or \"norms\"");
-    }
-    if (kind) {
-      plot.norms = *kind == "norms";
-    } else {
-      plot.norms = !plot.whitened.empty() &&
-                   std::none_of(plot.whitened.begin(), plot.whitened.end(),
-                                [](double v) { return v < 0.0; });
-    }
-    const double dof = Num(g, "whitened_dof", path);
-    if (std::isfinite(dof)) {
-      if (dof < 1.0 || dof != std::floor(dof) || dof > 1000.0) {
-        Fail(Join(path, "whitened_dof"), Sig(dof), "a whole number in [1, 1000]");
-      }
-      plot.dof = static_cast<int>(dof);
-    } else if (std::isfinite(observations) && std::isfinite(residuals) && observations > 0.0) {
-      const double per = residuals / observations;
-      if (per >= 1.0 && per == std::floor(per) && per <= 1000.0) plot.dof = static_cast<int>(per);
-    }
-    plots.push_back(std::move(plot));
+    plots.push_back(RenderGroupRow(ElementObject(groups, i, "groups"), path, html));
   }
   html << "</table>\n<p class=\"note\">RMS, mean, max and " << kSigma
        << " in the group's unit; variance component " << kSigma
@@ -556,40 +608,7 @@ void RenderGroups(const json& groups, std::ostringstream& html) {
        << kSigma << " is right.</p>\n";
 
   html << "<h3>Whitened residuals</h3>\n<div class=\"plots\">\n";
-  for (const Plot& plot : plots) {
-    HistogramOptions options;
-    options.title = plot.name;
-    options.width_px = 335;
-    options.height_px = 215;
-    if (plot.norms) {
-      options.density = ReferenceDensity::kChi;
-      options.chi_dof = plot.dof;
-      options.x_label = "|r|/" + std::string(kSigma) + " (norm of " + std::to_string(plot.dof) +
-                        " whitened component" + (plot.dof == 1 ? "" : "s") + ")";
-    } else {
-      options.density = ReferenceDensity::kStandardNormal;
-      options.x_label = "whitened residual r/" + std::string(kSigma);
-    }
-    options.y_label = "count";
-    size_t finite = 0, beyond3 = 0;
-    for (double v : plot.whitened) {
-      if (!std::isfinite(v)) continue;
-      ++finite;
-      if (std::abs(v) > 3.0) ++beyond3;
-    }
-    html << "<figure>\n" << SvgHistogram(plot.whitened, options) << "<figcaption>";
-    if (finite > 0) {
-      const int k = plot.norms ? plot.dof : 1;
-      html << (plot.norms ? "|r|/" : "|r/") << kSigma << (plot.norms ? "" : "|") << " &gt; 3: "
-           << FormatFixed(100.0 * beyond3 / finite, 2) << "&nbsp;% of " << Count(static_cast<double>(finite))
-           << " (expected " << FormatFixed(100.0 * ChiTail(3.0, k), 2) << "&nbsp;% under "
-           << (plot.norms ? "&chi;<sub>" + std::to_string(k) + "</sub>" : std::string("N(0,1)"))
-           << ")";
-    } else {
-      html << "no whitened residuals in the report";
-    }
-    html << "</figcaption>\n</figure>\n";
-  }
+  for (const GroupPlot& plot : plots) RenderGroupHistogram(plot, html);
   html << "</div>\n</section>\n";
 }
 
@@ -708,13 +727,11 @@ void RenderBlunders(const json& report, std::ostringstream& html) {
        << kSigma << ". Rows in red were flagged but keep their full weight.</p>\n</section>\n";
 }
 
-void RenderPoseCorrections(const json& report, std::ostringstream& html) {
-  const json* array = OptArray(report, "pose_corrections", "");
-  if (array == nullptr || array->empty()) return;
+std::vector<PoseCorrectionPoint> ReadPoseCorrections(const json& array) {
   std::vector<PoseCorrectionPoint> poses;
-  for (size_t i = 0; i < array->size(); ++i) {
+  for (size_t i = 0; i < array.size(); ++i) {
     const std::string path = Index("pose_corrections", i);
-    const json& o = ElementObject(*array, i, "pose_corrections");
+    const json& o = ElementObject(array, i, "pose_corrections");
     PoseCorrectionPoint p;
     p.image = ReqString(o, "image", path);
     p.sensor = OptString(o, "sensor", path).value_or("");
@@ -729,13 +746,12 @@ void RenderPoseCorrections(const json& report, std::ostringstream& html) {
     p.rotation_deg = Num(o, "d_rotation_deg", path);
     poses.push_back(p);
   }
-  html << "<section id=\"poses\">\n<h2>Camera pose corrections</h2>\n";
-  if (report.contains("photo_block") && report["photo_block"].is_object() &&
-      report["photo_block"].contains("georeference") && report["photo_block"]["georeference"].is_string()) {
-    html << "<p>Initial georeference of the photo block: " << Esc(report["photo_block"]["georeference"].get<std::string>())
-         << ". The corrections below are from that initial pose.</p>\n";
-  }
-  // Per sensor: count, RMS and max of the position and rotation corrections.
+  return poses;
+}
+
+/// Per sensor: count, RMS and max of the position and rotation corrections.
+void RenderPoseCorrectionStats(const std::vector<PoseCorrectionPoint>& poses,
+                               std::ostringstream& html) {
   struct Stat {
     size_t n = 0, n_pos = 0, n_rot = 0;
     double sum_pos2 = 0, max_pos = 0, sum_rot2 = 0, max_rot = 0;
@@ -775,7 +791,21 @@ void RenderPoseCorrections(const json& report, std::ostringstream& html) {
          << Td(s.n_pos ? Mm(s.max_pos) : kDash) << TdText(Esc(s.max_pos_image)) << Td(FormatFixed(rms_rot, 4))
          << Td(s.n_rot ? FormatFixed(s.max_rot, 4) : kDash) << TdText(Esc(s.max_rot_image)) << "</tr>\n";
   }
-  html << "</table>\n<figure>\n" << SvgPoseCorrections(poses, 700)
+  html << "</table>\n";
+}
+
+void RenderPoseCorrections(const json& report, std::ostringstream& html) {
+  const json* array = OptArray(report, "pose_corrections", "");
+  if (array == nullptr || array->empty()) return;
+  const std::vector<PoseCorrectionPoint> poses = ReadPoseCorrections(*array);
+  html << "<section id=\"poses\">\n<h2>Camera pose corrections</h2>\n";
+  if (report.contains("photo_block") && report["photo_block"].is_object() &&
+      report["photo_block"].contains("georeference") && report["photo_block"]["georeference"].is_string()) {
+    html << "<p>Initial georeference of the photo block: " << Esc(report["photo_block"]["georeference"].get<std::string>())
+         << ". The corrections below are from that initial pose.</p>\n";
+  }
+  RenderPoseCorrectionStats(poses, html);
+  html << "<figure>\n" << SvgPoseCorrections(poses, 700)
        << "<figcaption>Change of each image's pose by the adjustment (cf. Fig. 13 of Wang, Ferrie "
           "&amp; Macfarlane 2012): bars |&Delta;position| and |&Delta;rotation|, markers the position "
           "components dx, dy, dz.</figcaption>\n</figure>\n";

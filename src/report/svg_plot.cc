@@ -211,6 +211,98 @@ Histogram ResolveHistogram(const std::vector<double>& values, const HistogramOpt
   return ComputeHistogram(values, lower, upper, bins);
 }
 
+namespace {
+
+/// Plot area of a histogram: x over [lower, upper], y over counts [0, y_top].
+struct HistogramFrame {
+  double left, top, plot_w, plot_h;
+  double lower, upper, y_top;
+  double X(double v) const { return left + (v - lower) / (upper - lower) * plot_w; }
+  double Y(double c) const { return top + plot_h - c / y_top * plot_h; }
+};
+
+/// The reference density scaled to counts, n · bin width · f(x), at `samples` abscissae.
+struct DensityCurve {
+  static constexpr int samples = 241;
+  std::vector<double> dx, dy;
+};
+
+DensityCurve ScaledDensity(const Histogram& h, ReferenceDensity density, int chi_dof) {
+  DensityCurve d;
+  d.dx.resize(DensityCurve::samples);
+  d.dy.resize(DensityCurve::samples);
+  const size_t n = h.total();
+  const double bin_w = h.bin_width();
+  for (int i = 0; i < DensityCurve::samples; ++i) {
+    d.dx[i] = h.lower + (h.upper - h.lower) * i / (DensityCurve::samples - 1);
+    d.dy[i] = n * bin_w * ReferenceValue(density, chi_dof, d.dx[i]);
+  }
+  return d;
+}
+
+/// "n = …", the values drawn in the end bins and the non-finite ones left out.
+std::string HistogramNote(const Histogram& h) {
+  std::string note = "n = " + std::to_string(h.total());
+  if (h.below + h.above > 0) {
+    note += "; " + std::to_string(h.below + h.above) + " beyond [" + Tick(h.lower) + ", " +
+            Tick(h.upper) + ") counted in the end bins";
+  }
+  if (h.non_finite > 0) note += "; " + std::to_string(h.non_finite) + " NaN/Inf left out";
+  return note;
+}
+
+/// One bar per non-empty bin; the end bins holding values beyond the range in red.
+void DrawHistogramBars(const Histogram& h, const HistogramFrame& f, std::ostringstream& svg) {
+  const double bin_w = h.bin_width();
+  svg << "<g fill=\"#4a78b5\" stroke=\"#ffffff\" stroke-width=\"0.5\">\n";
+  for (size_t i = 0; i < h.counts.size(); ++i) {
+    if (h.counts[i] == 0) continue;
+    const double x0 = f.X(h.lower + i * bin_w);
+    const double x1 = f.X(h.lower + (i + 1) * bin_w);
+    const bool end_bin = (i == 0 && h.below > 0) || (i + 1 == h.counts.size() && h.above > 0);
+    svg << "<rect x=\"" << Px(x0) << "\" y=\"" << Px(f.Y(h.counts[i])) << "\" width=\""
+        << Px(std::max(x1 - x0, 0.5)) << "\" height=\"" << Px(f.Y(0) - f.Y(h.counts[i])) << "\""
+        << (end_bin ? " fill=\"#c0504d\"" : "") << "><title>[" << Tick(h.lower + i * bin_w)
+        << ", " << Tick(h.lower + (i + 1) * bin_w) << "): " << h.counts[i] << "</title></rect>\n";
+  }
+  svg << "</g>\n";
+}
+
+/// The density curve, clipped at the top of the plot, and its legend entry.
+void DrawReferenceDensity(const DensityCurve& d, ReferenceDensity density, int chi_dof,
+                          const HistogramFrame& f, std::ostringstream& svg) {
+  svg << "<polyline fill=\"none\" stroke=\"#d62728\" stroke-width=\"1.6\" points=\"";
+  for (int i = 0; i < DensityCurve::samples; ++i) {
+    if (!std::isfinite(d.dy[i])) continue;
+    svg << Px(f.X(d.dx[i])) << "," << Px(f.Y(std::min(d.dy[i], f.y_top))) << " ";
+  }
+  svg << "\"/>\n";
+  const std::string label = density == ReferenceDensity::kStandardNormal
+                                ? "N(0,1) density"
+                                : "\xCF\x87 density, k = " + std::to_string(chi_dof);
+  svg << Line(f.left + f.plot_w - 118, f.top + 6, f.left + f.plot_w - 98, f.top + 6,
+              "stroke=\"#d62728\" stroke-width=\"1.6\"");
+  svg << Text(f.left + f.plot_w - 94, f.top + 9.5, HtmlEscape(label), "font-size=\"10\"");
+}
+
+/// Both axis lines, the x ticks and the axis labels.
+void DrawHistogramAxes(const HistogramFrame& f, int height, const HistogramOptions& options,
+                       std::ostringstream& svg) {
+  svg << Line(f.left, f.Y(0), f.left + f.plot_w, f.Y(0), "stroke=\"#333\" stroke-width=\"1\"");
+  svg << Line(f.left, f.top, f.left, f.Y(0), "stroke=\"#333\" stroke-width=\"1\"");
+  const double x_step = NiceStep((f.upper - f.lower) / 10.0);
+  for (double t : Ticks(f.lower, f.upper, x_step)) {
+    svg << Line(f.X(t), f.Y(0), f.X(t), f.Y(0) + 4, "stroke=\"#333\"");
+    svg << Text(f.X(t), f.Y(0) + 15, Tick(t), "text-anchor=\"middle\"");
+  }
+  svg << Text(f.left + f.plot_w / 2, height - 6, HtmlEscape(options.x_label),
+              "text-anchor=\"middle\"");
+  svg << "<text transform=\"translate(13," << Px(f.top + f.plot_h / 2)
+      << ") rotate(-90)\" text-anchor=\"middle\">" << HtmlEscape(options.y_label) << "</text>\n";
+}
+
+}  // namespace
+
 std::string SvgHistogram(const std::vector<double>& values, const HistogramOptions& options) {
   const int width = std::max(options.width_px, 200);
   const int height = std::max(options.height_px, 140);
@@ -232,76 +324,27 @@ std::string SvgHistogram(const std::vector<double>& values, const HistogramOptio
     svg << "</svg>\n";
     return svg.str();
   }
-  const double bin_w = h.bin_width();
   const int chi_dof = std::max(options.chi_dof, 1);
-  // The density scaled to counts: n · bin width · f(x).
-  const int samples = 241;
-  std::vector<double> dx(samples), dy(samples);
+  const DensityCurve density = ScaledDensity(h, options.density, chi_dof);
   double y_max = 0.0;
   for (size_t c : h.counts) y_max = std::max(y_max, static_cast<double>(c));
-  for (int i = 0; i < samples; ++i) {
-    dx[i] = h.lower + (h.upper - h.lower) * i / (samples - 1);
-    dy[i] = n * bin_w * ReferenceValue(options.density, chi_dof, dx[i]);
-    if (std::isfinite(dy[i])) y_max = std::max(y_max, dy[i]);
+  for (double y : density.dy) {
+    if (std::isfinite(y)) y_max = std::max(y_max, y);
   }
   const double y_step = NiceStep(y_max / 5.0);
   const double y_top = std::max(y_step, std::ceil(y_max * 1.05 / y_step) * y_step);
-  auto X = [&](double v) { return left + (v - h.lower) / (h.upper - h.lower) * plot_w; };
-  auto Y = [&](double c) { return top + plot_h - c / y_top * plot_h; };
-
-  // Note: n, the values drawn in the end bins, the non-finite ones.
-  std::string note = "n = " + std::to_string(n);
-  if (h.below + h.above > 0) {
-    note += "; " + std::to_string(h.below + h.above) + " beyond [" + Tick(h.lower) + ", " +
-            Tick(h.upper) + ") counted in the end bins";
-  }
-  if (h.non_finite > 0) note += "; " + std::to_string(h.non_finite) + " NaN/Inf left out";
-  svg << Text(4, 29, HtmlEscape(note), "fill=\"#444\" font-size=\"10\"");
-
+  const HistogramFrame f{left, top, plot_w, plot_h, h.lower, h.upper, y_top};
+  svg << Text(4, 29, HtmlEscape(HistogramNote(h)), "fill=\"#444\" font-size=\"10\"");
   // Grid and y axis.
   for (double t : Ticks(0.0, y_top, y_step)) {
-    svg << Line(left, Y(t), left + plot_w, Y(t), "stroke=\"#e4e4e4\" stroke-width=\"1\"");
-    svg << Text(left - 4, Y(t) + 3.5, Tick(t), "text-anchor=\"end\"");
+    svg << Line(left, f.Y(t), left + plot_w, f.Y(t), "stroke=\"#e4e4e4\" stroke-width=\"1\"");
+    svg << Text(left - 4, f.Y(t) + 3.5, Tick(t), "text-anchor=\"end\"");
   }
-  // Bars.
-  svg << "<g fill=\"#4a78b5\" stroke=\"#ffffff\" stroke-width=\"0.5\">\n";
-  for (size_t i = 0; i < h.counts.size(); ++i) {
-    if (h.counts[i] == 0) continue;
-    const double x0 = X(h.lower + i * bin_w);
-    const double x1 = X(h.lower + (i + 1) * bin_w);
-    const bool end_bin = (i == 0 && h.below > 0) || (i + 1 == h.counts.size() && h.above > 0);
-    svg << "<rect x=\"" << Px(x0) << "\" y=\"" << Px(Y(h.counts[i])) << "\" width=\""
-        << Px(std::max(x1 - x0, 0.5)) << "\" height=\"" << Px(Y(0) - Y(h.counts[i])) << "\""
-        << (end_bin ? " fill=\"#c0504d\"" : "") << "><title>[" << Tick(h.lower + i * bin_w)
-        << ", " << Tick(h.lower + (i + 1) * bin_w) << "): " << h.counts[i] << "</title></rect>\n";
-  }
-  svg << "</g>\n";
-  // Reference density.
+  DrawHistogramBars(h, f, svg);
   if (options.density != ReferenceDensity::kNone) {
-    svg << "<polyline fill=\"none\" stroke=\"#d62728\" stroke-width=\"1.6\" points=\"";
-    for (int i = 0; i < samples; ++i) {
-      if (!std::isfinite(dy[i])) continue;
-      svg << Px(X(dx[i])) << "," << Px(Y(std::min(dy[i], y_top))) << " ";
-    }
-    svg << "\"/>\n";
-    const std::string label = options.density == ReferenceDensity::kStandardNormal
-                                  ? "N(0,1) density"
-                                  : "\xCF\x87 density, k = " + std::to_string(chi_dof);
-    svg << Line(left + plot_w - 118, top + 6, left + plot_w - 98, top + 6,
-                "stroke=\"#d62728\" stroke-width=\"1.6\"");
-    svg << Text(left + plot_w - 94, top + 9.5, HtmlEscape(label), "font-size=\"10\"");
+    DrawReferenceDensity(density, options.density, chi_dof, f, svg);
   }
-  // X axis.
-  svg << Line(left, Y(0), left + plot_w, Y(0), "stroke=\"#333\" stroke-width=\"1\"");
-  svg << Line(left, top, left, Y(0), "stroke=\"#333\" stroke-width=\"1\"");
-  const double x_step = NiceStep((h.upper - h.lower) / 10.0);
-  for (double t : Ticks(h.lower, h.upper, x_step)) {
-    svg << Line(X(t), Y(0), X(t), Y(0) + 4, "stroke=\"#333\"");
-    svg << Text(X(t), Y(0) + 15, Tick(t), "text-anchor=\"middle\"");
-  }
-  svg << Text(left + plot_w / 2, height - 6, HtmlEscape(options.x_label), "text-anchor=\"middle\"");
-  svg << "<text transform=\"translate(13," << Px(top + plot_h / 2)
-      << ") rotate(-90)\" text-anchor=\"middle\">" << HtmlEscape(options.y_label) << "</text>\n";
+  DrawHistogramAxes(f, height, options, svg);
   svg << "</svg>\n";
   return svg.str();
 }
@@ -435,11 +478,171 @@ std::string SvgPlanView(const std::vector<PlanPoint>& points, const PlanViewOpti
   return svg.str();
 }
 
+namespace {
+
+/// Layout of the pose-correction plot: two panels of the same width, one slot per image.
+struct PoseFrame {
+  static constexpr double left = 62, right = 14, panel_h = 150, gap = 46, top = 44;
+  double plot_w = 0.0;
+  size_t n = 0;        // images
+  double slot = 0.0;   // px per image
+  double bar_w = 0.0;  // px
+  double X(size_t i) const { return left + (i + 0.5) * slot; }
+};
+
+/// Panel y mapping: [lo, hi] onto [y0 + panel_h, y0].
+struct PanelY {
+  double y0, lo, hi;
+  double operator()(double v) const {
+    return y0 + PoseFrame::panel_h - (v - lo) / (hi - lo) * PoseFrame::panel_h;
+  }
+};
+
+/// Sensors in order of appearance (one colour each) and the largest corrections.
+struct PoseExtent {
+  std::map<std::string, size_t> sensor_index;
+  std::vector<std::string> sensors;
+  double max_pos = 0.0;  // m, over |Δp| and the components
+  double max_rot = 0.0;  // degrees
+  bool any_component = false;
+  std::string Colour(const std::string& sensor) const {
+    return std::string(
+        kPalette[sensor_index.at(sensor) % (sizeof(kPalette) / sizeof(kPalette[0]))]);
+  }
+};
+
+constexpr const char* kComponentColour[3] = {"#d62728", "#2ca02c", "#1f3fbf"};
+constexpr const char* kComponentName[3] = {"dx", "dy", "dz"};
+
+PoseExtent ScanPoses(const std::vector<PoseCorrectionPoint>& poses) {
+  PoseExtent e;
+  for (const auto& p : poses) {
+    if (e.sensor_index.emplace(p.sensor, e.sensors.size()).second) e.sensors.push_back(p.sensor);
+  }
+  for (const auto& p : poses) {
+    if (std::isfinite(p.position_m)) e.max_pos = std::max(e.max_pos, std::abs(p.position_m));
+    for (double c : {p.dx, p.dy, p.dz}) {
+      if (std::isfinite(c)) {
+        e.max_pos = std::max(e.max_pos, std::abs(c));
+        e.any_component = true;
+      }
+    }
+    if (std::isfinite(p.rotation_deg)) e.max_rot = std::max(e.max_rot, std::abs(p.rotation_deg));
+  }
+  return e;
+}
+
+/// Grid, y ticks, frame and y label of the panel at y0; returns its y mapping.
+PanelY DrawPanelAxes(const PoseFrame& f, double y0, double lo, double hi, double step,
+                     const std::string& label, std::ostringstream& svg) {
+  const PanelY Y{y0, lo, hi};
+  for (double t : Ticks(lo, hi, step)) {
+    svg << Line(f.left, Y(t), f.left + f.plot_w, Y(t),
+                std::abs(t) < 1e-12 ? "stroke=\"#555\"" : "stroke=\"#e4e4e4\"");
+    svg << Text(f.left - 4, Y(t) + 3.5, Tick(t), "text-anchor=\"end\"");
+  }
+  svg << "<rect x=\"" << Px(f.left) << "\" y=\"" << Px(y0) << "\" width=\"" << Px(f.plot_w)
+      << "\" height=\"" << Px(f.panel_h) << "\" fill=\"none\" stroke=\"#999\"/>\n";
+  svg << "<text transform=\"translate(14," << Px(y0 + f.panel_h / 2)
+      << ") rotate(-90)\" text-anchor=\"middle\">" << HtmlEscape(label) << "</text>\n";
+  return Y;
+}
+
+/// Image-index ticks below a panel whose base is at y_base.
+void DrawImageTicks(const PoseFrame& f, double y_base, std::ostringstream& svg) {
+  const double x_step = std::max(1.0, NiceStep(f.n / 10.0));
+  for (double t : Ticks(0, f.n - 1, x_step)) {
+    const double x = f.X(static_cast<size_t>(t));
+    svg << Line(x, y_base, x, y_base + 4, "stroke=\"#333\"");
+    svg << Text(x, y_base + 15, Tick(t), "text-anchor=\"middle\"");
+  }
+}
+
+/// Title and legend: sensors, then the components.
+void DrawPoseLegend(const PoseExtent& e, std::ostringstream& svg) {
+  svg << Text(4, 14, "Pose corrections per image (adjusted \xE2\x88\x92 initial)",
+              "font-weight=\"bold\" font-size=\"12\"");
+  double lx = 4;
+  for (const std::string& sensor : e.sensors) {
+    svg << "<rect x=\"" << Px(lx) << "\" y=\"22\" width=\"10\" height=\"10\" fill=\""
+        << e.Colour(sensor) << "\"/>\n";
+    svg << Text(lx + 14, 31, HtmlEscape(sensor.empty() ? "(no sensor)" : sensor));
+    lx += 24 + 6.5 * std::min<size_t>(sensor.size(), 30);
+  }
+  if (e.any_component) {
+    for (int c = 0; c < 3; ++c) {
+      svg << "<circle cx=\"" << Px(lx + 4) << "\" cy=\"27\" r=\"3\" fill=\"" << kComponentColour[c]
+          << "\"/>\n";
+      svg << Text(lx + 10, 31, kComponentName[c]);
+      lx += 36;
+    }
+  }
+}
+
+/// Panel 1: |Δposition| bars and signed components, in cm below 1 m, else m.
+void DrawPositionPanel(const std::vector<PoseCorrectionPoint>& poses, const PoseExtent& e,
+                       const PoseFrame& f, std::ostringstream& svg) {
+  const bool centimetres = e.max_pos < 1.0;
+  const double pos_factor = centimetres ? 100.0 : 1.0;
+  const std::string pos_unit = centimetres ? "cm" : "m";
+  const double y0 = f.top;
+  const double extent = std::max(e.max_pos * pos_factor, 1e-9);
+  const double step = NiceStep(extent / 3.0);
+  const double hi = std::ceil(extent / step) * step;
+  const double lo = e.any_component ? -hi : 0.0;
+  const PanelY Y =
+      DrawPanelAxes(f, y0, lo, hi, step, "\xCE\x94position [" + pos_unit + "]", svg);
+  for (size_t i = 0; i < f.n; ++i) {
+    const auto& p = poses[i];
+    if (!std::isfinite(p.position_m)) continue;
+    const double v = std::abs(p.position_m) * pos_factor;
+    svg << "<rect x=\"" << Px(f.X(i) - f.bar_w / 2) << "\" y=\"" << Px(Y(v)) << "\" width=\""
+        << Px(f.bar_w) << "\" height=\"" << Px(Y(0) - Y(v)) << "\" fill=\"" << e.Colour(p.sensor)
+        << "\" fill-opacity=\"0.75\"><title>" << HtmlEscape(p.image) << ": |\xCE\x94p| = "
+        << FormatFixed(v, 2) << " " << pos_unit << "</title></rect>\n";
+  }
+  if (e.any_component) {
+    const double r = std::clamp(f.slot * 0.3, 1.0, 3.0);
+    for (int c = 0; c < 3; ++c) {
+      svg << "<g fill=\"" << kComponentColour[c] << "\">";
+      for (size_t i = 0; i < f.n; ++i) {
+        const double v = (c == 0 ? poses[i].dx : c == 1 ? poses[i].dy : poses[i].dz) * pos_factor;
+        if (!std::isfinite(v)) continue;
+        svg << "<circle cx=\"" << Px(f.X(i)) << "\" cy=\"" << Px(Y(v)) << "\" r=\"" << Px(r) << "\"/>";
+      }
+      svg << "</g>\n";
+    }
+  }
+  DrawImageTicks(f, y0 + f.panel_h, svg);
+}
+
+/// Panel 2: |Δrotation| bars in degrees.
+void DrawRotationPanel(const std::vector<PoseCorrectionPoint>& poses, const PoseExtent& e,
+                       const PoseFrame& f, std::ostringstream& svg) {
+  const double y0 = f.top + f.panel_h + f.gap;
+  const double extent = std::max(e.max_rot, 1e-9);
+  const double step = NiceStep(extent / 3.0);
+  const double hi = std::ceil(extent / step) * step;
+  const PanelY Y = DrawPanelAxes(f, y0, 0.0, hi, step, "\xCE\x94rotation [\xC2\xB0]", svg);
+  for (size_t i = 0; i < f.n; ++i) {
+    const auto& p = poses[i];
+    if (!std::isfinite(p.rotation_deg)) continue;
+    const double v = std::abs(p.rotation_deg);
+    svg << "<rect x=\"" << Px(f.X(i) - f.bar_w / 2) << "\" y=\"" << Px(Y(v)) << "\" width=\""
+        << Px(f.bar_w) << "\" height=\"" << Px(Y(0) - Y(v)) << "\" fill=\"" << e.Colour(p.sensor)
+        << "\" fill-opacity=\"0.75\"><title>" << HtmlEscape(p.image) << ": |\xCE\x94R| = "
+        << FormatFixed(v, 4) << "\xC2\xB0</title></rect>\n";
+  }
+  DrawImageTicks(f, y0 + f.panel_h, svg);
+  svg << Text(f.left + f.plot_w / 2, y0 + f.panel_h + 32, "image index (order of the report)",
+              "text-anchor=\"middle\"");
+}
+
+}  // namespace
+
 std::string SvgPoseCorrections(const std::vector<PoseCorrectionPoint>& poses, int width_px) {
   const int width = std::max(width_px, 300);
-  const double left = 62, right = 14, panel_h = 150, gap = 46, top = 44;
-  const int height = static_cast<int>(top + 2 * panel_h + gap + 44);
-  const double plot_w = width - left - right;
+  const int height = static_cast<int>(PoseFrame::top + 2 * PoseFrame::panel_h + PoseFrame::gap + 44);
   std::ostringstream svg;
   svg << SvgOpen(width, height, "pose corrections per image");
   if (poses.empty()) {
@@ -447,130 +650,15 @@ std::string SvgPoseCorrections(const std::vector<PoseCorrectionPoint>& poses, in
     svg << "</svg>\n";
     return svg.str();
   }
-  const size_t n = poses.size();
-  // Sensors in order of appearance, one colour each.
-  std::map<std::string, size_t> sensor_index;
-  std::vector<std::string> sensors;
-  for (const auto& p : poses) {
-    if (sensor_index.emplace(p.sensor, sensors.size()).second) sensors.push_back(p.sensor);
-  }
-  auto Colour = [&](const std::string& sensor) {
-    return std::string(kPalette[sensor_index[sensor] % (sizeof(kPalette) / sizeof(kPalette[0]))]);
-  };
-  double max_pos = 0.0, max_rot = 0.0;
-  bool any_component = false;
-  for (const auto& p : poses) {
-    if (std::isfinite(p.position_m)) max_pos = std::max(max_pos, std::abs(p.position_m));
-    for (double c : {p.dx, p.dy, p.dz}) {
-      if (std::isfinite(c)) {
-        max_pos = std::max(max_pos, std::abs(c));
-        any_component = true;
-      }
-    }
-    if (std::isfinite(p.rotation_deg)) max_rot = std::max(max_rot, std::abs(p.rotation_deg));
-  }
-  const bool centimetres = max_pos < 1.0;
-  const double pos_factor = centimetres ? 100.0 : 1.0;
-  const std::string pos_unit = centimetres ? "cm" : "m";
-  const double slot = plot_w / n;
-  const double bar_w = std::max(slot * 0.8, 0.6);
-  auto X = [&](size_t i) { return left + (i + 0.5) * slot; };
-
-  // Panel: y range [lo, hi] mapped onto [y0 + panel_h, y0].
-  auto Axes = [&](double y0, double lo, double hi, double step, const std::string& label) {
-    // By value: the returned mapping outlives this call's parameters.
-    auto Y = [=](double v) { return y0 + panel_h - (v - lo) / (hi - lo) * panel_h; };
-    for (double t : Ticks(lo, hi, step)) {
-      svg << Line(left, Y(t), left + plot_w, Y(t),
-                  std::abs(t) < 1e-12 ? "stroke=\"#555\"" : "stroke=\"#e4e4e4\"");
-      svg << Text(left - 4, Y(t) + 3.5, Tick(t), "text-anchor=\"end\"");
-    }
-    svg << "<rect x=\"" << Px(left) << "\" y=\"" << Px(y0) << "\" width=\"" << Px(plot_w)
-        << "\" height=\"" << Px(panel_h) << "\" fill=\"none\" stroke=\"#999\"/>\n";
-    svg << "<text transform=\"translate(14," << Px(y0 + panel_h / 2)
-        << ") rotate(-90)\" text-anchor=\"middle\">" << HtmlEscape(label) << "</text>\n";
-    return Y;
-  };
-  const double x_step = std::max(1.0, NiceStep(n / 10.0));
-  auto XTicks = [&](double y_base) {
-    for (double t : Ticks(0, n - 1, x_step)) {
-      const double x = X(static_cast<size_t>(t));
-      svg << Line(x, y_base, x, y_base + 4, "stroke=\"#333\"");
-      svg << Text(x, y_base + 15, Tick(t), "text-anchor=\"middle\"");
-    }
-  };
-
-  svg << Text(4, 14, "Pose corrections per image (adjusted \xE2\x88\x92 initial)",
-              "font-weight=\"bold\" font-size=\"12\"");
-  // Legend: sensors, then the components.
-  double lx = 4;
-  for (const std::string& sensor : sensors) {
-    svg << "<rect x=\"" << Px(lx) << "\" y=\"22\" width=\"10\" height=\"10\" fill=\"" << Colour(sensor)
-        << "\"/>\n";
-    svg << Text(lx + 14, 31, HtmlEscape(sensor.empty() ? "(no sensor)" : sensor));
-    lx += 24 + 6.5 * std::min<size_t>(sensor.size(), 30);
-  }
-  const char* component_colour[3] = {"#d62728", "#2ca02c", "#1f3fbf"};
-  const char* component_name[3] = {"dx", "dy", "dz"};
-  if (any_component) {
-    for (int c = 0; c < 3; ++c) {
-      svg << "<circle cx=\"" << Px(lx + 4) << "\" cy=\"27\" r=\"3\" fill=\"" << component_colour[c] << "\"/>\n";
-      svg << Text(lx + 10, 31, component_name[c]);
-      lx += 36;
-    }
-  }
-
-  // Panel 1: |Δposition| bars and signed components.
-  {
-    const double y0 = top;
-    const double extent = std::max(max_pos * pos_factor, 1e-9);
-    const double step = NiceStep(extent / 3.0);
-    const double hi = std::ceil(extent / step) * step;
-    const double lo = any_component ? -hi : 0.0;
-    auto Y = Axes(y0, lo, hi, step, "\xCE\x94position [" + pos_unit + "]");
-    for (size_t i = 0; i < n; ++i) {
-      const auto& p = poses[i];
-      if (!std::isfinite(p.position_m)) continue;
-      const double v = std::abs(p.position_m) * pos_factor;
-      svg << "<rect x=\"" << Px(X(i) - bar_w / 2) << "\" y=\"" << Px(Y(v)) << "\" width=\""
-          << Px(bar_w) << "\" height=\"" << Px(Y(0) - Y(v)) << "\" fill=\"" << Colour(p.sensor)
-          << "\" fill-opacity=\"0.75\"><title>" << HtmlEscape(p.image) << ": |\xCE\x94p| = "
-          << FormatFixed(v, 2) << " " << pos_unit << "</title></rect>\n";
-    }
-    if (any_component) {
-      const double r = std::clamp(slot * 0.3, 1.0, 3.0);
-      for (int c = 0; c < 3; ++c) {
-        svg << "<g fill=\"" << component_colour[c] << "\">";
-        for (size_t i = 0; i < n; ++i) {
-          const double v = (c == 0 ? poses[i].dx : c == 1 ? poses[i].dy : poses[i].dz) * pos_factor;
-          if (!std::isfinite(v)) continue;
-          svg << "<circle cx=\"" << Px(X(i)) << "\" cy=\"" << Px(Y(v)) << "\" r=\"" << Px(r) << "\"/>";
-        }
-        svg << "</g>\n";
-      }
-    }
-    XTicks(y0 + panel_h);
-  }
-  // Panel 2: |Δrotation| bars.
-  {
-    const double y0 = top + panel_h + gap;
-    const double extent = std::max(max_rot, 1e-9);
-    const double step = NiceStep(extent / 3.0);
-    const double hi = std::ceil(extent / step) * step;
-    auto Y = Axes(y0, 0.0, hi, step, "\xCE\x94rotation [\xC2\xB0]");
-    for (size_t i = 0; i < n; ++i) {
-      const auto& p = poses[i];
-      if (!std::isfinite(p.rotation_deg)) continue;
-      const double v = std::abs(p.rotation_deg);
-      svg << "<rect x=\"" << Px(X(i) - bar_w / 2) << "\" y=\"" << Px(Y(v)) << "\" width=\""
-          << Px(bar_w) << "\" height=\"" << Px(Y(0) - Y(v)) << "\" fill=\"" << Colour(p.sensor)
-          << "\" fill-opacity=\"0.75\"><title>" << HtmlEscape(p.image) << ": |\xCE\x94R| = "
-          << FormatFixed(v, 4) << "\xC2\xB0</title></rect>\n";
-    }
-    XTicks(y0 + panel_h);
-    svg << Text(left + plot_w / 2, y0 + panel_h + 32, "image index (order of the report)",
-                "text-anchor=\"middle\"");
-  }
+  PoseFrame f;
+  f.plot_w = width - f.left - f.right;
+  f.n = poses.size();
+  f.slot = f.plot_w / f.n;
+  f.bar_w = std::max(f.slot * 0.8, 0.6);
+  const PoseExtent e = ScanPoses(poses);
+  DrawPoseLegend(e, svg);
+  DrawPositionPanel(poses, e, f, svg);
+  DrawRotationPanel(poses, e, f, svg);
   svg << "</svg>\n";
   return svg.str();
 }

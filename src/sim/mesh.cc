@@ -258,8 +258,13 @@ double ReadPlyBinary(const std::string& type, const char* p) {
   return v;
 }
 
-TriangleMesh LoadPly(const std::string& path, const Material& default_material) {
-  const std::string data = io::ReadWholeFile(path);
+struct PlyHeader {
+  std::string format;  // "ascii" or "binary_little_endian"
+  std::vector<PlyElement> elements;
+  size_t body = 0;     // offset of the first byte after the end_header line
+};
+
+PlyHeader ReadPlyHeader(const std::string& path, const std::string& data) {
   if (data.rfind("ply", 0) != 0) {
     throw InputError(path, 1, "magic", data.substr(0, 3), "'ply'");
   }
@@ -268,8 +273,8 @@ TriangleMesh LoadPly(const std::string& path, const Material& default_material) 
     throw InputError::Message(path, "no 'end_header' line in the PLY header");
   }
   std::istringstream header(data.substr(0, header_end));
-  std::string raw, format;
-  std::vector<PlyElement> elements;
+  std::string raw;
+  PlyHeader h;
   int64_t line = 0;
   while (std::getline(header, raw)) {
     ++line;
@@ -277,9 +282,9 @@ TriangleMesh LoadPly(const std::string& path, const Material& default_material) 
     std::string keyword;
     if (!(tokens >> keyword)) continue;
     if (keyword == "format") {
-      tokens >> format;
-      if (format != "ascii" && format != "binary_little_endian") {
-        throw InputError(path, line, "format", format,
+      tokens >> h.format;
+      if (h.format != "ascii" && h.format != "binary_little_endian") {
+        throw InputError(path, line, "format", h.format,
                          "ascii or binary_little_endian");
       }
     } else if (keyword == "element") {
@@ -288,9 +293,9 @@ TriangleMesh LoadPly(const std::string& path, const Material& default_material) 
       if (element.count < 0) {
         throw InputError(path, line, "element count", std::to_string(element.count), ">= 0");
       }
-      elements.push_back(element);
+      h.elements.push_back(element);
     } else if (keyword == "property") {
-      if (elements.empty()) {
+      if (h.elements.empty()) {
         throw InputError(path, line, "property", raw, "a property after an element");
       }
       PlyProperty property;
@@ -306,70 +311,100 @@ TriangleMesh LoadPly(const std::string& path, const Material& default_material) 
           (!property.count_type.empty() && PlyTypeSize(property.count_type) == 0)) {
         throw InputError(path, line, "property type", raw, "a PLY scalar type");
       }
-      elements.back().properties.push_back(property);
+      h.elements.back().properties.push_back(property);
     }
   }
-  size_t pos = data.find('\n', header_end);
-  pos = pos == std::string::npos ? data.size() : pos + 1;
+  const size_t pos = data.find('\n', header_end);
+  h.body = pos == std::string::npos ? data.size() : pos + 1;
+  return h;
+}
+
+/// Reads the values of a PLY body in order, ASCII tokens or little-endian binary.
+class PlyValueReader {
+ public:
+  PlyValueReader(const std::string& path, const std::string& data, const PlyHeader& header)
+      : path_(path), data_(data), ascii_format_(header.format == "ascii"), pos_(header.body),
+        ascii_(ascii_format_ ? data.substr(header.body) : std::string()) {}
+
+  /// The next value, of PLY type `type`, of property `property` of record `i` of `element`.
+  double Read(const std::string& type, const PlyElement& element, int64_t i,
+              const PlyProperty& property) {
+    if (ascii_format_) {
+      std::string token;
+      if (!(ascii_ >> token)) {
+        throw InputError(path_, 0, element.name + " " + std::to_string(i),
+                         "end of file", "a value of property '" + property.name + "'");
+      }
+      char* end = nullptr;
+      const double value = std::strtod(token.c_str(), &end);
+      if (*end != '\0') {
+        throw InputError(path_, 0, element.name + " " + std::to_string(i),
+                         token, "a number for '" + property.name + "'");
+      }
+      return value;
+    }
+    const int size = PlyTypeSize(type);
+    if (pos_ + size > data_.size()) {
+      throw InputError::AtByte(path_, pos_, element.name + " " + std::to_string(i),
+                               "end of file", "more binary data");
+    }
+    const double value = ReadPlyBinary(type, data_.data() + pos_);
+    pos_ += size;
+    return value;
+  }
+
+ private:
+  const std::string& path_;
+  const std::string& data_;
+  bool ascii_format_;
+  size_t pos_;
+  std::istringstream ascii_;
+};
+
+/// Record `i` of `element`: a vertex (x, y, z) or a face (fanned into triangles).
+void ReadPlyRecord(const PlyElement& element, int64_t i, int material, PlyValueReader& reader,
+                   const std::string& path, TriangleMesh* mesh) {
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  std::vector<int> face;
+  for (const PlyProperty& property : element.properties) {
+    if (!property.count_type.empty()) {
+      const double count = reader.Read(property.count_type, element, i, property);
+      for (int k = 0; k < static_cast<int>(count); ++k) {
+        const double index = reader.Read(property.type, element, i, property);
+        if (element.name == "face") face.push_back(static_cast<int>(index));
+      }
+    } else {
+      const double value = reader.Read(property.type, element, i, property);
+      if (element.name == "vertex") {
+        if (property.name == "x") v.x() = value;
+        if (property.name == "y") v.y() = value;
+        if (property.name == "z") v.z() = value;
+      }
+    }
+  }
+  if (element.name == "vertex") {
+    mesh->vertices.push_back(v);
+  } else if (element.name == "face") {
+    if (face.size() < 3) {
+      throw InputError(path, 0, "face " + std::to_string(i),
+                       std::to_string(face.size()) + " vertices", "at least 3");
+    }
+    for (size_t k = 1; k + 1 < face.size(); ++k) {
+      mesh->triangles.emplace_back(face[0], face[k], face[k + 1]);
+      mesh->triangle_material.push_back(material);
+    }
+  }
+}
+
+TriangleMesh LoadPly(const std::string& path, const Material& default_material) {
+  const std::string data = io::ReadWholeFile(path);
+  const PlyHeader header = ReadPlyHeader(path, data);
   TriangleMesh mesh;
   const int material = mesh.AddMaterial(default_material);
-  std::istringstream ascii(format == "ascii" ? data.substr(pos) : std::string());
-  for (const PlyElement& element : elements) {
+  PlyValueReader reader(path, data, header);
+  for (const PlyElement& element : header.elements) {
     for (int64_t i = 0; i < element.count; ++i) {
-      Eigen::Vector3d v = Eigen::Vector3d::Zero();
-      std::vector<int> face;
-      for (const PlyProperty& property : element.properties) {
-        const auto read_value = [&](const std::string& type) -> double {
-          if (format == "ascii") {
-            std::string token;
-            if (!(ascii >> token)) {
-              throw InputError(path, 0, element.name + " " + std::to_string(i),
-                               "end of file", "a value of property '" + property.name + "'");
-            }
-            char* end = nullptr;
-            const double value = std::strtod(token.c_str(), &end);
-            if (*end != '\0') {
-              throw InputError(path, 0, element.name + " " + std::to_string(i),
-                               token, "a number for '" + property.name + "'");
-            }
-            return value;
-          }
-          const int size = PlyTypeSize(type);
-          if (pos + size > data.size()) {
-            throw InputError::AtByte(path, pos, element.name + " " + std::to_string(i),
-                                     "end of file", "more binary data");
-          }
-          const double value = ReadPlyBinary(type, data.data() + pos);
-          pos += size;
-          return value;
-        };
-        if (!property.count_type.empty()) {
-          const double count = read_value(property.count_type);
-          for (int k = 0; k < static_cast<int>(count); ++k) {
-            const double index = read_value(property.type);
-            if (element.name == "face") face.push_back(static_cast<int>(index));
-          }
-        } else {
-          const double value = read_value(property.type);
-          if (element.name == "vertex") {
-            if (property.name == "x") v.x() = value;
-            if (property.name == "y") v.y() = value;
-            if (property.name == "z") v.z() = value;
-          }
-        }
-      }
-      if (element.name == "vertex") {
-        mesh.vertices.push_back(v);
-      } else if (element.name == "face") {
-        if (face.size() < 3) {
-          throw InputError(path, 0, "face " + std::to_string(i),
-                           std::to_string(face.size()) + " vertices", "at least 3");
-        }
-        for (size_t k = 1; k + 1 < face.size(); ++k) {
-          mesh.triangles.emplace_back(face[0], face[k], face[k + 1]);
-          mesh.triangle_material.push_back(material);
-        }
-      }
+      ReadPlyRecord(element, i, material, reader, path, &mesh);
     }
   }
   return mesh;

@@ -196,29 +196,37 @@ SimScene MakeGateScene(const GateOptions& o, uint64_t seed) {
   return scene;
 }
 
-SimScene MakeCathedralScene(const CathedralOptions& o, uint64_t seed) {
-  SimScene scene;
-  scene.name = "cathedral";
-  TriangleMesh& mesh = scene.mesh;
-  std::mt19937_64 rng(seed * 2654435761ull + 2);
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  const int ground = mesh.AddMaterial(Make("ground_paving", MaterialClass::kDiffuse, TexturePattern::kStone, 0.45, 0.3, 0.8));
-  const int stone = mesh.AddMaterial(Make("facade_stone", MaterialClass::kDiffuse, TexturePattern::kStone, 0.62, 0.3, 0.5));
-  const int side = mesh.AddMaterial(Make("side_brick", MaterialClass::kDiffuse, TexturePattern::kBrick, 0.5, 0.3, 0.5));
-  const int roof = mesh.AddMaterial(Make("roof_slate", MaterialClass::kDiffuse, TexturePattern::kBrick, 0.3, 0.2, 0.4));
-  const int trim = mesh.AddMaterial(Make("trim_stone", MaterialClass::kDiffuse, TexturePattern::kNoise, 0.7, 0.3, 0.3));
-  const int relief = mesh.AddMaterial(Make("relief_sculpture", MaterialClass::kDiffuse, TexturePattern::kNoise, 0.66, 0.35, 0.15));
-  const int glass = mesh.AddMaterial(Make("glass_window", MaterialClass::kGlass, TexturePattern::kNoise, 0.12, 0.06, 0.4));
-  const int interior = mesh.AddMaterial(Make("interior_plaster", MaterialClass::kDiffuse, TexturePattern::kNoise, 0.35, 0.25, 1.0));
-  const int metal = mesh.AddMaterial(Make("metal_door_fittings", MaterialClass::kReflective, TexturePattern::kNoise, 0.4, 0.1, 0.2));
+namespace {
 
-  const double g = o.ground_half_size_m, w = 0.5 * o.width_m, h = o.height_m, d = o.depth_m;
-  const double wall_t = 0.6;  // thickness of the front wall
-  mesh.AddQuad({-g, -g, 0}, {g, -g, 0}, {g, g, 0}, {-g, g, 0}, ground);
-  // Openings: `bays` columns × `storeys` rows of windows; the central bottom one is a door.
-  const double bay_w = o.width_m / o.bays, storey_h = h / o.storeys;
+struct CathedralMaterials {
+  int ground, stone, side, roof, trim, relief, glass, interior, metal;
+};
+
+CathedralMaterials AddCathedralMaterials(TriangleMesh& mesh) {
+  CathedralMaterials m;
+  m.ground = mesh.AddMaterial(Make("ground_paving", MaterialClass::kDiffuse, TexturePattern::kStone, 0.45, 0.3, 0.8));
+  m.stone = mesh.AddMaterial(Make("facade_stone", MaterialClass::kDiffuse, TexturePattern::kStone, 0.62, 0.3, 0.5));
+  m.side = mesh.AddMaterial(Make("side_brick", MaterialClass::kDiffuse, TexturePattern::kBrick, 0.5, 0.3, 0.5));
+  m.roof = mesh.AddMaterial(Make("roof_slate", MaterialClass::kDiffuse, TexturePattern::kBrick, 0.3, 0.2, 0.4));
+  m.trim = mesh.AddMaterial(Make("trim_stone", MaterialClass::kDiffuse, TexturePattern::kNoise, 0.7, 0.3, 0.3));
+  m.relief = mesh.AddMaterial(Make("relief_sculpture", MaterialClass::kDiffuse, TexturePattern::kNoise, 0.66, 0.35, 0.15));
+  m.glass = mesh.AddMaterial(Make("glass_window", MaterialClass::kGlass, TexturePattern::kNoise, 0.12, 0.06, 0.4));
+  m.interior = mesh.AddMaterial(Make("interior_plaster", MaterialClass::kDiffuse, TexturePattern::kNoise, 0.35, 0.25, 1.0));
+  m.metal = mesh.AddMaterial(Make("metal_door_fittings", MaterialClass::kReflective, TexturePattern::kNoise, 0.4, 0.1, 0.2));
+  return m;
+}
+
+/// The front wall's openings: `bays` columns × `storeys` rows of windows (column-major); the
+/// central bottom one is a door.
+struct Openings {
   std::vector<Hole> holes;
   std::vector<bool> is_door;
+};
+
+Openings CathedralOpenings(const CathedralOptions& o) {
+  const double w = 0.5 * o.width_m, h = o.height_m;
+  const double bay_w = o.width_m / o.bays, storey_h = h / o.storeys;
+  Openings openings;
   for (int b = 0; b < o.bays; ++b) {
     for (int s = 0; s < o.storeys; ++s) {
       const double cx = -w + (b + 0.5) * bay_w;
@@ -226,54 +234,71 @@ SimScene MakeCathedralScene(const CathedralOptions& o, uint64_t seed) {
       const double hw = door ? 0.3 * bay_w : 0.22 * bay_w;
       const double z0 = door ? 0.45 : s * storey_h + 0.35 * storey_h;
       const double z1 = door ? std::min(0.75 * storey_h, 5.0) : s * storey_h + 0.85 * storey_h;
-      holes.push_back({cx - hw, cx + hw, z0, z1});
-      is_door.push_back(door);
+      openings.holes.push_back({cx - hw, cx + hw, z0, z1});
+      openings.is_door.push_back(door);
     }
   }
-  AddWallWithHoles(&mesh, -w, w, 0.0, h, 0.0, holes, -1, stone);
-  AddWallWithHoles(&mesh, -w, w, 0.0, h, wall_t, holes, +1, interior);
+  return openings;
+}
+
+/// The front wall (`wall_t` thick) with its openings: reveals, glass, a bar across the door.
+void AddFrontWall(TriangleMesh& mesh, const CathedralOptions& o, const Openings& openings,
+                  double wall_t, const CathedralMaterials& m) {
+  const double w = 0.5 * o.width_m, h = o.height_m;
+  const std::vector<Hole>& holes = openings.holes;
+  AddWallWithHoles(&mesh, -w, w, 0.0, h, 0.0, holes, -1, m.stone);
+  AddWallWithHoles(&mesh, -w, w, 0.0, h, wall_t, holes, +1, m.interior);
   for (size_t i = 0; i < holes.size(); ++i) {
-    AddReveals(&mesh, holes[i], 0.0, wall_t, trim);
+    AddReveals(&mesh, holes[i], 0.0, wall_t, m.trim);
     const double y_glass = 0.5 * wall_t;
     const Hole& k = holes[i];
     mesh.AddQuad({k.x0, y_glass, k.z0}, {k.x1, y_glass, k.z0}, {k.x1, y_glass, k.z1},
-                 {k.x0, y_glass, k.z1}, glass);
-    if (is_door[i]) {  // a metal bar across the glass door
-      mesh.AddBox({k.x0, y_glass - 0.06, 1.0}, {k.x1, y_glass - 0.01, 1.1}, metal);
+                 {k.x0, y_glass, k.z1}, m.glass);
+    if (openings.is_door[i]) {  // a metal bar across the glass door
+      mesh.AddBox({k.x0, y_glass - 0.06, 1.0}, {k.x1, y_glass - 0.01, 1.1}, m.metal);
     }
   }
-  // Side walls, back wall, roof (flat at h inside a gable), interior floor is the ground.
-  mesh.AddQuad({-w, d, 0}, {-w, 0, 0}, {-w, 0, h}, {-w, d, h}, side);
-  mesh.AddQuad({w, 0, 0}, {w, d, 0}, {w, d, h}, {w, 0, h}, side);
-  mesh.AddQuad({w, d, 0}, {-w, d, 0}, {-w, d, h}, {w, d, h}, side);
-  const double gable = 0.3 * o.width_m;
-  mesh.AddTriangle({-w, 0, h}, {w, 0, h}, {0, 0, h + gable}, stone);
-  mesh.AddTriangle({w, d, h}, {-w, d, h}, {0, d, h + gable}, side);
-  mesh.AddQuad({-w, 0, h}, {0, 0, h + gable}, {0, d, h + gable}, {-w, d, h}, roof);
-  mesh.AddQuad({w, 0, h}, {w, d, h}, {0, d, h + gable}, {0, 0, h + gable}, roof);
-  // Buttresses between bays and at the corners, stepped twice.
+}
+
+/// Side walls, back wall, roof (flat at h inside a gable `gable` high); the interior floor is
+/// the ground.
+void AddCathedralShell(TriangleMesh& mesh, const CathedralOptions& o, double gable,
+                       const CathedralMaterials& m) {
+  const double w = 0.5 * o.width_m, h = o.height_m, d = o.depth_m;
+  mesh.AddQuad({-w, d, 0}, {-w, 0, 0}, {-w, 0, h}, {-w, d, h}, m.side);
+  mesh.AddQuad({w, 0, 0}, {w, d, 0}, {w, d, h}, {w, 0, h}, m.side);
+  mesh.AddQuad({w, d, 0}, {-w, d, 0}, {-w, d, h}, {w, d, h}, m.side);
+  mesh.AddTriangle({-w, 0, h}, {w, 0, h}, {0, 0, h + gable}, m.stone);
+  mesh.AddTriangle({w, d, h}, {-w, d, h}, {0, d, h + gable}, m.side);
+  mesh.AddQuad({-w, 0, h}, {0, 0, h + gable}, {0, d, h + gable}, {-w, d, h}, m.roof);
+  mesh.AddQuad({w, 0, h}, {w, d, h}, {0, d, h + gable}, {0, 0, h + gable}, m.roof);
+}
+
+/// Buttresses between bays and at the corners (stepped twice) and three steps before the door.
+void AddButtressesAndSteps(TriangleMesh& mesh, const CathedralOptions& o, const Hole& door,
+                           const CathedralMaterials& m) {
+  const double w = 0.5 * o.width_m, h = o.height_m;
+  const double bay_w = o.width_m / o.bays;
   for (int b = 0; b <= o.bays; ++b) {
     const double x = -w + b * bay_w;
     const double bw = 0.45;
     const double x0 = std::max(-w, x - bw), x1 = std::min(w, x + bw);
-    mesh.AddBox({x0, -1.2, 0}, {x1, 0, 0.45 * h}, stone, true);
-    mesh.AddBox({x0 + 0.05, -0.7, 0.45 * h}, {x1 - 0.05, 0, 0.8 * h}, stone, true);
+    mesh.AddBox({x0, -1.2, 0}, {x1, 0, 0.45 * h}, m.stone, true);
+    mesh.AddBox({x0 + 0.05, -0.7, 0.45 * h}, {x1 - 0.05, 0, 0.8 * h}, m.stone, true);
   }
-  // Steps before the door.
-  const Hole& door = holes[static_cast<size_t>((o.bays / 2) * o.storeys)];
   for (int k = 0; k < 3; ++k) {
     mesh.AddBox({door.x0 - 1.0 + 0.3 * k, -2.4 + 0.8 * k, 0}, {door.x1 + 1.0 - 0.3 * k, 0, 0.15 * (k + 1)},
-                trim, true);
+                m.trim, true);
   }
-  // A round sculpted medallion in the gable (a fan standing out 0.25 m).
-  const Vector3d centre(0, -0.25, h + 0.38 * gable);
-  const double radius = std::min(0.25 * gable, 0.2 * o.width_m);
-  for (int k = 0; k < 24; ++k) {
-    const double a0 = 2 * M_PI * k / 24, a1 = 2 * M_PI * (k + 1) / 24;
-    mesh.AddTriangle(centre, centre + radius * Vector3d(std::cos(a1), 0, std::sin(a1)),
-                     centre + radius * Vector3d(std::cos(a0), 0, std::sin(a0)), relief);
-  }
-  // Relief blocks on the front wall, avoiding the openings and the buttresses.
+}
+
+/// Relief blocks on the front wall, avoiding the openings and the buttresses: up to
+/// `relief_blocks`, in at most 50 attempts each.
+void AddFrontRelief(TriangleMesh& mesh, const CathedralOptions& o, const std::vector<Hole>& holes,
+                    std::mt19937_64& rng, std::uniform_real_distribution<double>& unit,
+                    int relief) {
+  const double w = 0.5 * o.width_m, h = o.height_m;
+  const double bay_w = o.width_m / o.bays;
   int placed = 0;
   for (int attempt = 0; attempt < 50 * o.relief_blocks && placed < o.relief_blocks; ++attempt) {
     const double sx = 0.15 + 0.6 * unit(rng), sz = 0.15 + 0.6 * unit(rng);
@@ -291,13 +316,17 @@ SimScene MakeCathedralScene(const CathedralOptions& o, uint64_t seed) {
     mesh.AddBox({x0, -depth, z0}, {x0 + sx, 0, z0 + sz}, relief);
     ++placed;
   }
-  scene.object_min = Vector3d(-w, -2.4, 0.0);
-  scene.object_max = Vector3d(w, d, h + gable);
+}
+
+/// Six marks on an arc in front; targets beside the openings and one in the gable.
+void PlaceCathedralSurvey(SimScene* scene, const CathedralOptions& o, double gable) {
+  const double w = 0.5 * o.width_m, h = o.height_m;
+  const double bay_w = o.width_m / o.bays, storey_h = h / o.storeys;
   const double r = 1.4 * o.width_m;
   for (int i = 0; i < 6; ++i) {
     const double a = M_PI * (0.25 + 0.1 * i);
-    scene.marks.push_back({"M" + std::to_string(i + 1),
-                           Vector3d(-r * std::cos(a), -0.8 * r * std::sin(a) - 2.0, 0.0), "mark"});
+    scene->marks.push_back({"M" + std::to_string(i + 1),
+                            Vector3d(-r * std::cos(a), -0.8 * r * std::sin(a) - 2.0, 0.0), "mark"});
   }
   std::vector<std::pair<double, double>> xz;
   for (int b = 0; b < o.bays; ++b) {
@@ -306,7 +335,40 @@ SimScene MakeCathedralScene(const CathedralOptions& o, uint64_t seed) {
     xz.emplace_back(x, h - 0.3 * storey_h);
   }
   xz.emplace_back(0.0, h + 0.1 * gable);
-  PlaceTargets(&scene, xz, "T");
+  PlaceTargets(scene, xz, "T");
+}
+
+}  // namespace
+
+SimScene MakeCathedralScene(const CathedralOptions& o, uint64_t seed) {
+  SimScene scene;
+  scene.name = "cathedral";
+  TriangleMesh& mesh = scene.mesh;
+  std::mt19937_64 rng(seed * 2654435761ull + 2);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const CathedralMaterials m = AddCathedralMaterials(mesh);
+
+  const double g = o.ground_half_size_m, w = 0.5 * o.width_m, h = o.height_m, d = o.depth_m;
+  const double wall_t = 0.6;  // thickness of the front wall
+  mesh.AddQuad({-g, -g, 0}, {g, -g, 0}, {g, g, 0}, {-g, g, 0}, m.ground);
+  const Openings openings = CathedralOpenings(o);
+  AddFrontWall(mesh, o, openings, wall_t, m);
+  const double gable = 0.3 * o.width_m;
+  AddCathedralShell(mesh, o, gable, m);
+  const Hole& door = openings.holes[static_cast<size_t>((o.bays / 2) * o.storeys)];
+  AddButtressesAndSteps(mesh, o, door, m);
+  // A round sculpted medallion in the gable (a fan standing out 0.25 m).
+  const Vector3d centre(0, -0.25, h + 0.38 * gable);
+  const double radius = std::min(0.25 * gable, 0.2 * o.width_m);
+  for (int k = 0; k < 24; ++k) {
+    const double a0 = 2 * M_PI * k / 24, a1 = 2 * M_PI * (k + 1) / 24;
+    mesh.AddTriangle(centre, centre + radius * Vector3d(std::cos(a1), 0, std::sin(a1)),
+                     centre + radius * Vector3d(std::cos(a0), 0, std::sin(a0)), m.relief);
+  }
+  AddFrontRelief(mesh, o, openings.holes, rng, unit, m.relief);
+  scene.object_min = Vector3d(-w, -2.4, 0.0);
+  scene.object_max = Vector3d(w, d, h + gable);
+  PlaceCathedralSurvey(&scene, o, gable);
   return scene;
 }
 
