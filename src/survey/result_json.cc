@@ -1,0 +1,138 @@
+// adjusted.json of a survey adjustment (result_json.h).
+#include "mmba/survey/result_json.h"
+
+#include <cmath>
+
+#include "mmba/geodesy/geodesy.h"
+#include "survey/output_units_internal.h"
+
+namespace mmba::survey {
+namespace {
+
+using internal::AngleUnit;
+
+// The network's header entries: input, frame, σ0, dimensions, χ² test.
+nlohmann::json NetworkJson(const std::string& input, const SurveyNetwork& net,
+                           const SurveyAdjustment& adj, const AngleUnit& unit) {
+  const stats::NetworkStatistics& st = adj.statistics;
+  const double m0_apr = net.sigma0_apriori;
+  nlohmann::json json = {
+      {"input", input},
+      {"description", net.description},
+      {"axes_xy", net.axes.code},
+      {"angles", net.angles_left_handed ? "left-handed" : "right-handed"},
+      {"angle_unit", unit.name()},
+      {"sigma0_apriori", m0_apr},
+      {"sigma0_aposteriori", m0_apr * st.sigma0_ratio},
+      {"sigma0_ratio", st.sigma0_ratio},
+      {"sigma0_used", net.sigma_act_apriori ? "apriori" : "aposteriori"},
+      {"degrees_of_freedom", st.degrees_of_freedom},
+      {"equations", st.num_equations},
+      {"unknowns", st.num_unknowns},
+      {"defect", st.defect},
+      {"datum", adj.datum},
+      {"confidence", st.confidence},
+      {"chi2_lower", st.chi2_lower},
+      {"chi2_upper", st.chi2_upper},
+      {"chi2_test_passed", st.chi2_passed},
+      {"critical_value", st.critical_value},
+      {"iterations", adj.iterations},
+      {"removed_observations", adj.removed},
+  };
+  if (net.geodetic) {
+    json["origin"] = {{"latitude_deg", net.origin.latitude_deg},
+                      {"longitude_deg", net.origin.longitude_deg},
+                      {"height_m", net.origin.height_m}};
+    json["frame"] = "local tangent plane (ENU) at the origin, station verticals";
+  } else {
+    json["frame"] = "input plane (gama-local)";
+  }
+  return json;
+}
+
+// WGS84 geodetic and UTM coordinates of an adjusted point of a georeferenced network.
+void AddGeoreferencedCoordinates(const SurveyNetwork& net, const SurveyPoint& p,
+                                 nlohmann::json* jp) {
+  const geodesy::LocalTangentPlane plane(net.origin);
+  const Eigen::Vector3d enu(p.coords.x(), p.coords.y(), p.has_z ? p.coords.z() : 0.0);
+  const geodesy::Geodetic g = plane.GeodeticFromEnu(enu);
+  (*jp)["latitude_deg"] = g.latitude_deg;
+  (*jp)["longitude_deg"] = g.longitude_deg;
+  if (p.has_z) (*jp)["ellipsoidal_height_m"] = g.height_m;
+  const geodesy::Utm utm = geodesy::UtmFromGeodetic(g);
+  (*jp)["utm"] = {{"zone", utm.zone}, {"north", utm.northp}, {"easting", utm.easting_m},
+                  {"northing", utm.northing_m}};
+}
+
+// One adjusted point: coordinates in the input axes, status, σ, standard and confidence
+// ellipses (major axis angle from +x towards +y, Gama's convention, input unit), geodetic
+// coordinates when georeferenced, and the standard ellipsoid's axes.
+nlohmann::json PointJson(const SurveyNetwork& net, const SurveyAdjustment& adj,
+                         const SurveyPoint& p, const AngleUnit& unit) {
+  nlohmann::json jp;
+  jp["id"] = p.id;
+  const Eigen::Vector2d xy = net.axes.XyFromEn(p.coords.head<2>());
+  const Eigen::Matrix3d cov = PointCovariance(adj, net, p);
+  if (p.xy != CoordStatus::kUnused && p.has_xy) {
+    jp["x"] = xy.x();
+    jp["y"] = xy.y();
+    jp["status_x"] = jp["status_y"] = CoordStatusName(p.xy);
+    if (p.xy_free()) {
+      jp["sigma_x"] = std::sqrt(cov(0, 0));
+      jp["sigma_y"] = std::sqrt(cov(1, 1));
+      const stats::ErrorEllipse e = stats::StandardEllipse(cov.topLeftCorner<2, 2>());
+      jp["ellipse_a"] = e.a;
+      jp["ellipse_b"] = e.b;
+      jp["ellipse_azimuth"] = unit.FromRad(e.angle_rad);
+      const double k = std::sqrt(stats::ChiSquareQuantile(adj.statistics.confidence, 2));
+      jp["confidence_ellipse_a"] = k * e.a;
+      jp["confidence_ellipse_b"] = k * e.b;
+    }
+  }
+  if (p.z != CoordStatus::kUnused && p.has_z) {
+    jp["z"] = p.coords.z();
+    jp["status_z"] = CoordStatusName(p.z);
+    if (p.z_free()) jp["sigma_z"] = std::sqrt(cov(2, 2));
+  }
+  if (net.geodetic && p.has_xy) AddGeoreferencedCoordinates(net, p, &jp);
+  if (p.xy_free() && p.z_free()) {
+    Eigen::Vector3d axes_m;
+    Eigen::Matrix3d dirs;
+    stats::StandardEllipsoid(cov, &axes_m, &dirs);
+    jp["ellipsoid_axes"] = {axes_m(0), axes_m(1), axes_m(2)};
+  }
+  return jp;
+}
+
+}  // namespace
+
+nlohmann::json ResultToJson(const std::string& input, const SurveyNetwork& net,
+                            const SurveyAdjustment& adj) {
+  const AngleUnit unit{net.output_gons};
+  nlohmann::json json = NetworkJson(input, net, adj, unit);
+  nlohmann::json points = nlohmann::json::array();
+  for (const SurveyPoint& p : net.points) {
+    if (p.xy == CoordStatus::kUnused && p.z == CoordStatus::kUnused) continue;
+    points.push_back(PointJson(net, adj, p, unit));
+  }
+  json["points"] = points;
+  nlohmann::json orientations = nlohmann::json::array();
+  for (const Cluster& c : net.clusters) {
+    if (c.type != Cluster::Type::kStandpoint || !c.has_orientation) continue;
+    const double o = net.angles_left_handed ? c.orientation : -c.orientation;
+    orientations.push_back({{"station", c.station}, {"line", c.line},
+                            {"orientation", internal::Full(unit.FromRad(o), unit.FullTurn())}});
+  }
+  json["orientations"] = orientations;
+  nlohmann::json groups = nlohmann::json::array();
+  for (const stats::GroupStatistic& g : adj.statistics.groups) {
+    groups.push_back({{"name", g.name}, {"observations", g.rows},
+                      {"redundancy", g.redundancy},
+                      {"variance_component", g.variance_component},
+                      {"sigma0_ratio", std::sqrt(g.variance_component)}});
+  }
+  json["variance_components"] = groups;
+  return json;
+}
+
+}  // namespace mmba::survey
