@@ -5,16 +5,9 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "mmba/geometry/skew.h"
+
 namespace mmba::factors {
-namespace {
-
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
-
-}  // namespace
 
 bool SnavelyReprojectionError::Evaluate(double const* const* parameters, double* residuals,
                                         double** jacobians) const {
