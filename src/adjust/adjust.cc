@@ -53,9 +53,9 @@ namespace {
 namespace fs = std::filesystem;
 using namespace internal;  // the adjustment's private units
 
-/// The joint problem: every sensor's factor groups (in this order: report.json lists them so),
-/// then each sensor's manifolds and constant blocks. The datum comes from the control, GNSS and
-/// LiDAR (no gauge).
+/// The joint problem: every sensor's factor groups (in this order: report.json lists them so)
+/// and parameter options, applied by Build(); then the survey points' constant blocks. The
+/// datum comes from the control, GNSS and LiDAR (no gauge).
 void BuildProblem(JointState* s) {
   s->builder = std::make_unique<ProblemBuilder>(&s->scene);
   s->check_group = nullptr;
@@ -71,10 +71,7 @@ void BuildProblem(JointState* s) {
   s->builder->set_gauge(gauge);
   ceres::Problem& problem = s->builder->Build();
   if (s->joint) survey::SetSurveyParameterStates(&*s->joint, problem);
-  SetScanParameters(s, problem);
-  if (s->rig) SetRigParameters(s, problem);
-  if (s->mobile) SetMobileParameters(s, problem);
-  if (s->spheres) SetSphereParameters(s, problem);
+  if (s->rig) WarnHeldRigIntrinsics(s);
   for (const auto& group : s->builder->groups()) {
     group->set_outlier_threshold(s->project->settings.outlier_sigma);
   }
@@ -134,21 +131,23 @@ stats::NetworkStatistics Statistics(JointState* s) {
   }
   std::map<const double*, std::string> names;
   if (s->rig) {
-    for (size_t f = 0; f < s->rig->rig_from_world.size(); ++f) {
-      names[s->rig->rig_from_world[f].rotation.coeffs().data()] = "rotation of rig frame " + s->rig->frame_names[f];
-      names[s->rig->rig_from_world[f].translation.data()] = "position of rig frame " + s->rig->frame_names[f];
+    for (size_t f = 0; f < s->rig->frame_names.size(); ++f) {
+      Rigid3d& pose = s->scene.RigFrame(FrameId(f));
+      names[pose.rotation.coeffs().data()] = "rotation of rig frame " + s->rig->frame_names[f];
+      names[pose.translation.data()] = "position of rig frame " + s->rig->frame_names[f];
     }
-    for (size_t k = 0; k < s->rig->cam_from_rig.size(); ++k) {
-      names[s->rig->cam_from_rig[k].rotation.coeffs().data()] = "cam_from_rig rotation of " + s->rig->camera_names[k];
-      names[s->rig->cam_from_rig[k].translation.data()] = "cam_from_rig translation of " + s->rig->camera_names[k];
+    for (size_t k = 0; k < s->rig->cameras.size(); ++k) {
+      Rigid3d& pose = s->scene.CamFromRig(s->rig->cameras[k]);
+      names[pose.rotation.coeffs().data()] = "cam_from_rig rotation of " + s->rig->camera_names[k];
+      names[pose.translation.data()] = "cam_from_rig translation of " + s->rig->camera_names[k];
     }
   }
   if (s->mobile) {
-    for (const TrajectoryNode& node : s->mobile->nodes) {
+    for (const TrajectoryNode& node : s->scene.trajectory_nodes()) {
       names[node.correction] = "trajectory correction at t = " + std::to_string(node.time_s) + " s";
     }
-    names[s->mobile->vehicle_from_lidar.rotation.coeffs().data()] = "camera-LiDAR extrinsic rotation";
-    names[s->mobile->vehicle_from_lidar.translation.data()] = "camera-LiDAR extrinsic translation";
+    names[s->scene.Mount(s->mobile->mount).rotation.coeffs().data()] = "camera-LiDAR extrinsic rotation";
+    names[s->scene.Mount(s->mobile->mount).translation.data()] = "camera-LiDAR extrinsic translation";
   }
   std::map<ImageId, std::string> station_of;
   if (s->spheres) {

@@ -241,7 +241,7 @@ std::vector<ColourView> RigFrameViews(const JointState& s, size_t frame, const s
     const std::string stem = rig.frame_names[frame] + "_" + rig.camera_names[k];
     const auto it = files.find(stem);
     views.emplace_back(stem, it == files.end() ? std::string() : it->second, s.scene.Camera(rig.cameras[k]),
-                       rig.cam_from_rig[k] * rig.rig_from_world[frame]);
+                       s.scene.CamFromRig(rig.cameras[k]) * s.scene.RigFrame(FrameId(frame)));
   }
   return views;
 }
@@ -269,7 +269,7 @@ io::PointCloud LidarInBox(const JointState& s, const Eigen::Vector3d& lo, const 
     });
   };
   if (!s.scans.empty()) {
-    for (size_t k = 0; k < s.scans.size(); ++k) read(s.scans[k].file, s.scan_from_world[k].Inverse());
+    for (size_t k = 0; k < s.scans.size(); ++k) read(s.scans[k].file, s.scene.Scan(ScanId(k)).Inverse());
   } else {
     read(s.project->lidar_static.front().reference_cloud, Rigid3d());
   }
@@ -308,7 +308,7 @@ json WriteColouredLidar(const JointState& s, const fs::path& stage, json* files)
   if (s.rig) {
     const std::map<std::string, std::string> rig_files = FilesByStem(s.rig->config->images);
     for (size_t f = 0; f < s.rig->frame_names.size(); ++f) {
-      const Eigen::Vector3d centre = s.rig->rig_from_world[f].Inverse().translation;
+      const Eigen::Vector3d centre = s.scene.RigFrame(FrameId(f)).Inverse().translation;
       if ((centre - centre.cwiseMax(lo).cwiseMin(hi)).norm() > kStaticRigReachM) continue;
       for (ColourView& v : RigFrameViews(s, f, rig_files)) views.push_back(std::move(v));
     }

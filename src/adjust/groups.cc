@@ -80,24 +80,20 @@ void VectorPriorGroup::AddResiduals(Scene&, ceres::Problem& problem) {
   }
 }
 
-RigReprojectionGroup::RigReprojectionGroup(std::vector<RigObservation> observations,
-                                           std::vector<Rigid3d>* rig_from_world, std::vector<Rigid3d>* cam_from_rig,
-                                           std::vector<CameraId> cameras, LossOptions loss, std::string name)
-    : FactorGroup(std::move(name), "px", loss),
-      observations_(std::move(observations)),
-      rig_from_world_(rig_from_world),
-      cam_from_rig_(cam_from_rig),
-      cameras_(std::move(cameras)) {}
+RigReprojectionGroup::RigReprojectionGroup(std::vector<RigObservation> observations, std::vector<CameraId> cameras,
+                                           LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "px", loss), observations_(std::move(observations)), cameras_(std::move(cameras)) {}
 
 void RigReprojectionGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
   for (size_t i = 0; i < observations_.size(); ++i) {
     const RigObservation& o = observations_[i];
-    if (!scene.HasPoint(o.point3D_id) || o.frame >= rig_from_world_->size() || o.camera >= cam_from_rig_->size()) {
+    if (!scene.HasPoint(o.point3D_id) || !scene.HasRigFrame(FrameId(o.frame)) || o.camera >= cameras_.size() ||
+        !scene.HasCamFromRig(cameras_[o.camera])) {
       Skip();
       continue;
     }
-    Rigid3d& rw = (*rig_from_world_)[o.frame];
-    Rigid3d& cr = (*cam_from_rig_)[o.camera];
+    Rigid3d& rw = scene.RigFrame(FrameId(o.frame));
+    Rigid3d& cr = scene.CamFromRig(cameras_[o.camera]);
     sensors::Camera& camera = scene.Camera(cameras_[o.camera]);
     Eigen::Vector3d& point = scene.Point(o.point3D_id);
     // Observations within 15° of a fisheye's 90° limit are left out: a point that crosses the
@@ -208,15 +204,14 @@ void GnssCameraGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
   }
 }
 
-LidarSurfaceGroup::LidarSurfaceGroup(std::vector<SurfacePlane> planes, LossOptions loss, std::string name,
-                                     std::vector<Rigid3d>* scan_from_world)
-    : FactorGroup(std::move(name), "m", loss), planes_(std::move(planes)), scan_from_world_(scan_from_world) {}
+LidarSurfaceGroup::LidarSurfaceGroup(std::vector<SurfacePlane> planes, LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "m", loss), planes_(std::move(planes)) {}
 
 void LidarSurfaceGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
   for (size_t i = 0; i < planes_.size(); ++i) {
     const SurfacePlane& plane = planes_[i];
     if (!scene.HasPoint(plane.point3D_id) ||
-        (plane.scan >= 0 && (!scan_from_world_ || static_cast<size_t>(plane.scan) >= scan_from_world_->size()))) {
+        (plane.scan >= 0 && !scene.HasScan(ScanId(plane.scan)))) {
       Skip();
       continue;
     }
@@ -225,41 +220,40 @@ void LidarSurfaceGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
       AddBlock(problem, new factors::PointToPlaneCost(plane.normal, plane.point, plane.sigma_m), {point}, plane.sigma_m, i);
       continue;
     }
-    Rigid3d& pose = (*scan_from_world_)[plane.scan];
+    Rigid3d& pose = scene.Scan(ScanId(plane.scan));
     AddBlock(problem,
              factors::ScanPointToPlaneCost::Create(plane.normal, plane.point, plane.sigma_m),
              {pose.rotation.coeffs().data(), pose.translation.data(), point}, plane.sigma_m, i);
   }
 }
 
-ScanTargetGroup::ScanTargetGroup(survey::SurveyNetwork* network, std::vector<ScanTarget> targets,
-                                 std::vector<Rigid3d>* scan_from_world, LossOptions loss, std::string name)
-    : FactorGroup(std::move(name), "m", loss), network_(network), targets_(std::move(targets)), scan_from_world_(scan_from_world) {}
+ScanTargetGroup::ScanTargetGroup(survey::SurveyNetwork* network, std::vector<ScanTarget> targets, LossOptions loss,
+                                 std::string name)
+    : FactorGroup(std::move(name), "m", loss), network_(network), targets_(std::move(targets)) {}
 
-void ScanTargetGroup::AddResiduals(Scene&, ceres::Problem& problem) {
+void ScanTargetGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
   for (size_t i = 0; i < targets_.size(); ++i) {
     const ScanTarget& t = targets_[i];
     survey::SurveyPoint* point = network_ ? network_->Find(t.point_id) : nullptr;
-    if (point == nullptr || t.scan >= scan_from_world_->size()) {
+    if (point == nullptr || !scene.HasScan(ScanId(t.scan))) {
       Skip();
       continue;
     }
-    Rigid3d& pose = (*scan_from_world_)[t.scan];
+    Rigid3d& pose = scene.Scan(ScanId(t.scan));
     AddBlock(problem,
              factors::ScanTargetCost::Create(t.measured, t.sigma),
              {pose.rotation.coeffs().data(), pose.translation.data(), point->xy_block(), point->z_block()}, t.sigma, i);
   }
 }
 
-ScanToScanGroup::ScanToScanGroup(std::vector<ScanPairPoint> points, std::vector<Rigid3d>* scan_from_world,
-                                 LossOptions loss, std::string name)
-    : FactorGroup(std::move(name), "m", loss), points_(std::move(points)), scan_from_world_(scan_from_world) {}
+ScanToScanGroup::ScanToScanGroup(std::vector<ScanPairPoint> points, LossOptions loss, std::string name)
+    : FactorGroup(std::move(name), "m", loss), points_(std::move(points)) {}
 
-void ScanToScanGroup::AddResiduals(Scene&, ceres::Problem& problem) {
+void ScanToScanGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
   for (size_t i = 0; i < points_.size(); ++i) {
     const ScanPairPoint& p = points_[i];
-    Rigid3d& from = (*scan_from_world_)[p.from];
-    Rigid3d& to = (*scan_from_world_)[p.to];
+    Rigid3d& from = scene.Scan(ScanId(p.from));
+    Rigid3d& to = scene.Scan(ScanId(p.to));
     AddBlock(problem,
              factors::ScanToScanCost::Create(p.point, p.normal, p.plane_point, p.sigma_m),
              {from.rotation.coeffs().data(), from.translation.data(), to.rotation.coeffs().data(), to.translation.data()},

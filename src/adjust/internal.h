@@ -81,21 +81,20 @@ struct SphereBlock {
   std::map<std::string, StepStatus> registration_status;  ///< per station: the status of its `registration`
 };
 
-/// The camera rig: its own pose storage (frames, cameras); intrinsics are Scene cameras.
+/// The camera rig: frame f is the Scene rig frame FrameId(f) (its rig_from_world), camera k
+/// the Scene camera cameras[k] (intrinsics and cam_from_rig).
 struct RigBlock {
   const CameraRig* config = nullptr;
   std::vector<std::string> frame_names;
   std::vector<double> frame_times;
-  std::vector<Rigid3d> rig_from_world;   ///< per frame (adjusted)
   std::vector<Rigid3d> rig_prior;        ///< per frame, from the GNSS/INS trajectory
   std::vector<std::string> camera_names;
   std::vector<CameraId> cameras;         ///< Scene cameras
-  std::vector<Rigid3d> cam_from_rig;     ///< per camera (adjusted)
   std::vector<Rigid3d> cam_from_rig_initial;
   std::vector<std::vector<double>> initial_params;
   Rigid3d body_from_rig;
   /// MI results of the frames' stitched panoramas (pose = nullptr here; BuildProblem points
-  /// each at rig_from_world[mi_frame[i]]).
+  /// each at the Scene rig frame mi_frame[i]).
   std::vector<MiResult> mi;
   std::vector<size_t> mi_frame;
   /// With `mi_lidar: mobile`: the panoramas' MI poses against the mobile LiDAR's delivered
@@ -105,9 +104,9 @@ struct RigBlock {
   std::vector<std::string> sources;
 };
 
-/// The mobile LiDAR: a sample of its points in the LiDAR frame, the trajectory correction
-/// nodes and the extrinsic. `vehicle` = the rig frame when a rig shares the vehicle, else the
-/// GNSS/INS body.
+/// The mobile LiDAR: a sample of its points in the LiDAR frame; the trajectory correction
+/// nodes (the Scene's trajectory nodes) and the extrinsic vehicle_from_lidar (the Scene mount
+/// `mount`). `vehicle` = the rig frame when a rig shares the vehicle, else the GNSS/INS body.
 struct MobileBlock {
   const LidarMobile* config = nullptr;
   size_t num_points = 0;                               ///< in the delivered cloud (streamed, never held)
@@ -115,10 +114,9 @@ struct MobileBlock {
   std::vector<std::pair<double, Rigid3d>> trajectory;  ///< GNSS/INS world_from_body
   Rigid3d body_from_lidar_nominal;
   Rigid3d body_from_vehicle;                           ///< constant
-  Rigid3d vehicle_from_lidar;                          ///< estimated (the camera–LiDAR extrinsic with a rig)
+  MountId mount{0};                                    ///< vehicle_from_lidar: estimated (the camera–LiDAR extrinsic with a rig)
   Rigid3d vehicle_from_lidar_initial;
   bool with_rig = false;
-  std::vector<TrajectoryNode> nodes;
   std::vector<size_t> sample;                  ///< point indices in the delivered cloud
   std::vector<double> sample_time;             ///< their times
   std::vector<Eigen::Vector3d> sample_lidar;   ///< sample points in the LiDAR frame
@@ -182,8 +180,7 @@ struct JointState {
   Scene scene;
   std::unique_ptr<LidarSurface> surface;
   std::vector<SurfacePlane> planes;
-  std::vector<ScanBlock> scans;               ///< static scans adjusted (empty: reference cloud fixed)
-  std::vector<Rigid3d> scan_from_world;       ///< one per scan, the parameter blocks
+  std::vector<ScanBlock> scans;               ///< static scans adjusted (empty: reference cloud fixed); scan k = Scene scan ScanId(k)
   std::vector<ScanPairPoint> scan_pairs;      ///< scan-to-scan associations
   std::vector<ScanTarget> scan_targets;       ///< surveyed targets measured in the scans
   // Excluded by data snooping: group name → observation indices.

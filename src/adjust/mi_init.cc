@@ -131,7 +131,7 @@ std::vector<mi::View> TaskViews(const MiTask& t, const std::vector<mi::GrayImage
   for (size_t v = 0; v < t.view_cameras.size(); ++v) {
     const size_t k = t.view_cameras[v];
     const sensors::Camera& camera = scene.Camera(rig->cameras[k]);
-    mi::View view = mi::MakeRigCameraView(images[v], camera, rig->cam_from_rig[k], t.view_paths[v]);
+    mi::View view = mi::MakeRigCameraView(images[v], camera, scene.CamFromRig(rig->cameras[k]), t.view_paths[v]);
     if (mi::RigCameraSeesCloud(view, points, start, options.render)) out.push_back(std::move(view));
   }
   return out;
@@ -345,7 +345,7 @@ void AddRigTasks(JointState* s, std::vector<MiTask>* tasks) {
       t.kind = TaskKind::kPanorama;
     }
     t.name = rig.frame_names[k];
-    t.start = rig.rig_from_world[k];
+    t.start = s->scene.RigFrame(FrameId(k));
     t.frame = k;
     t.mobile = rig.config->mi_lidar == MiLidar::kMobile;
     t.time_s = rig.frame_times[k];
@@ -493,7 +493,7 @@ void RegisterOne(JointState* s, MiRun* run, size_t i, const io::PointCloud& near
     prior.image_id = t.image_id;
     s->photos->mi.push_back(prior);
   } else {
-    if (t.kind == TaskKind::kPanorama) s->rig->rig_from_world[t.frame] = result.cam_from_lidar;
+    if (t.kind == TaskKind::kPanorama) s->scene.RigFrame(FrameId(t.frame)) = result.cam_from_lidar;
     s->rig->mi.push_back(prior);
     s->rig->mi_frame.push_back(t.frame);
   }
@@ -534,7 +534,7 @@ io::PointCloud FramePointsInLidar(const JointState& s, const MiTask& t, const io
                                   std::vector<Eigen::Vector3f>* scanner) {
   const MobileBlock& m = *s.mobile;
   io::PointCloud local = Crop(cloud, CameraCentre(t.start), kRadius, t.time_s, window);
-  const Rigid3d body_from_lidar = m.body_from_vehicle * m.vehicle_from_lidar;
+  const Rigid3d body_from_lidar = m.body_from_vehicle * s.scene.Mount(m.mount);
   const Rigid3d lidar_from_world_t = (m.frames.at(t.frame).ins * body_from_lidar).Inverse();
   const Rigid3d mounting = body_from_lidar * m.body_from_lidar_nominal.Inverse();
   scanner->resize(local.size());
@@ -552,7 +552,7 @@ io::PointCloud FramePointsInLidar(const JointState& s, const MiTask& t, const io
 /// rig's orientation classes seen from the rig's start centre. `incidence` gets the fit.
 mi::LidarPoints PrepareFramePoints(const JointState& s, const MiRun& run, const MiTask& t, const io::PointCloud& local,
                                    const std::vector<Eigen::Vector3f>& scanner, json* incidence) {
-  const Eigen::Vector3f centre = CameraCentre(s.mobile->vehicle_from_lidar).cast<float>();
+  const Eigen::Vector3f centre = CameraCentre(s.scene.Mount(s.mobile->mount)).cast<float>();
   if (!s.rig->config->mi_incidence_correction) {
     mi::LidarPoints points = mi::PrepareLidarPoints(local);
     incidence->push_back({{"frame", t.name}, {"exponent", nullptr}});  // not corrected
@@ -640,7 +640,7 @@ void CalibrateRigOnMobileLidar(JointState* s, MiRun* run, std::vector<size_t> mo
   points.reserve(moving.size());
   std::vector<mi::Frame> frames;
   std::vector<size_t> frame_task;
-  const Rigid3d start = m.vehicle_from_lidar;  // rig_from_lidar (the rig frame is the vehicle's)
+  const Rigid3d start = s->scene.Mount(m.mount);  // rig_from_lidar (the rig frame is the vehicle's)
   // One streamed pass for all of them (≤ kJointFrames frames, ≤ 2·kMaxPoints points held).
   std::vector<std::pair<double, Eigen::Vector3d>> near;
   for (size_t i : moving) near.emplace_back(tasks[i].time_s, CameraCentre(tasks[i].start));

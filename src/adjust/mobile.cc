@@ -72,8 +72,8 @@ void LoadMobile(JointState* s) {
   // The vehicle frame: the rig's frame when the rig rides on the same vehicle.
   m.with_rig = !config.rig.empty() && s->rig && s->rig->config->id == config.rig;
   m.body_from_vehicle = m.with_rig ? s->rig->body_from_rig : Rigid3d();
-  m.vehicle_from_lidar = m.body_from_vehicle.Inverse() * m.body_from_lidar_nominal;
-  m.vehicle_from_lidar_initial = m.vehicle_from_lidar;
+  m.vehicle_from_lidar_initial = m.body_from_vehicle.Inverse() * m.body_from_lidar_nominal;
+  s->scene.AddMount(m.mount, m.vehicle_from_lidar_initial);
   // Nodes every node_spacing_s over the time span of the sample and the rig frames.
   if (m.with_rig) {
     for (double t : s->rig->frame_times) {
@@ -82,25 +82,27 @@ void LoadMobile(JointState* s) {
     }
   }
   const int intervals = std::max(1, static_cast<int>(std::ceil((hi - lo) / config.node_spacing_s - 1e-9)));
+  std::vector<TrajectoryNode> nodes;
   for (int k = 0; k <= intervals; ++k) {
     TrajectoryNode node;
     node.time_s = lo + (hi - lo) * k / intervals;
-    m.nodes.push_back(node);
+    nodes.push_back(node);
   }
-  if (hi <= lo) m.nodes.back().time_s = lo + config.node_spacing_s;
-  for (double time : m.sample_time) m.sample_weight.push_back(WeightAt(m.nodes, time));
+  if (hi <= lo) nodes.back().time_s = lo + config.node_spacing_s;
+  for (double time : m.sample_time) m.sample_weight.push_back(WeightAt(nodes, time));
   if (m.with_rig) {
     for (size_t f = 0; f < s->rig->frame_times.size(); ++f) {
       const double t = s->rig->frame_times[f];
-      m.frames.push_back({f, WeightAt(m.nodes, t), InterpolateTrajectory(m.trajectory, t)});
+      m.frames.push_back({f, WeightAt(nodes, t), InterpolateTrajectory(m.trajectory, t)});
     }
   }
+  s->scene.SetTrajectoryNodes(std::move(nodes));
   s->log.push_back("mobile LiDAR '" + config.id + "': " + std::to_string(m.num_points) + " points (" + m.format + ", streamed" +
                    "), " + std::to_string(m.sample.size()) + " used (" +
                    (max_range > 0 ? fmt::format("within {:.1f} m of the scanner", max_range) +
                                         (config.max_range_m < 0 ? ": first gate / tan(attitude σ)" : "")
                                   : "no range limit") +
-                   "); trajectory corrected at " + std::to_string(m.nodes.size()) +
+                   "); trajectory corrected at " + std::to_string(s->scene.trajectory_nodes().size()) +
                    " nodes over " + std::to_string(hi - lo) + " s" +
                    (m.with_rig ? "; rig '" + config.rig + "' on the same vehicle, camera-LiDAR extrinsic " + PoseTreatmentName(config.extrinsic)
                                : "; no rig on the vehicle: body_from_lidar held at the calibration"));
@@ -115,9 +117,9 @@ size_t AssociateMobile(JointState* s, double gate) {
   MobileBlock& m = *s->mobile;
   const double sigma = std::hypot(m.config->range_sigma_m, m.config->surface_sigma_m);
   m.points.clear();
-  const Rigid3d body_from_lidar = m.body_from_vehicle * m.vehicle_from_lidar;
+  const Rigid3d body_from_lidar = m.body_from_vehicle * s->scene.Mount(m.mount);
   for (size_t k = 0; k < m.sample.size(); ++k) {
-    const Rigid3d world_from_body = CorrectedPose(m.nodes, m.sample_weight[k], m.sample_ins[k]);
+    const Rigid3d world_from_body = CorrectedPose(s->scene.trajectory_nodes(), m.sample_weight[k], m.sample_ins[k]);
     const Eigen::Vector3d world = world_from_body * (body_from_lidar * m.sample_lidar[k]);
     SurfacePlane plane;
     if (!FitSurfacePlane(*s, world, gate, sigma, &plane)) continue;

@@ -19,29 +19,28 @@ Rigid3d WorldFromDelivered(const std::vector<TrajectoryNode>& nodes, const NodeW
   return CorrectedPose(nodes, w, ins) * body_from_vehicle * vehicle_from_lidar * (ins * body_from_lidar_nominal).Inverse();
 }
 
-MobileMiPriorGroup::MobileMiPriorGroup(std::vector<MobileMiFrame> frames, std::vector<Rigid3d>* rig_from_world,
-                                       std::vector<TrajectoryNode>* nodes, Rigid3d* vehicle_from_lidar,
+MobileMiPriorGroup::MobileMiPriorGroup(std::vector<MobileMiFrame> frames, std::vector<TrajectoryNode>* nodes,
+                                       Rigid3d* vehicle_from_lidar,
                                        const Rigid3d& body_from_vehicle, const Rigid3d& body_from_lidar_nominal,
                                        double covariance_scale, LossOptions loss, std::string name)
     : FactorGroup(std::move(name), "whitened", loss),
       frames_(std::move(frames)),
-      rig_from_world_(rig_from_world),
       nodes_(nodes),
       vehicle_from_lidar_(vehicle_from_lidar),
       body_from_vehicle_(body_from_vehicle),
       body_from_lidar_nominal_(body_from_lidar_nominal),
       covariance_scale_(covariance_scale) {}
 
-void MobileMiPriorGroup::AddResiduals(Scene&, ceres::Problem& problem) {
+void MobileMiPriorGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
   for (size_t i = 0; i < frames_.size(); ++i) {
     const MobileMiFrame& f = frames_[i];
     Eigen::Matrix<double, 6, 6> sqrt_information;
-    if (f.frame >= rig_from_world_->size() || f.weight.node + 1 >= nodes_->size() ||
+    if (!scene.HasRigFrame(FrameId(f.frame)) || f.weight.node + 1 >= nodes_->size() ||
         !registration::mi::MiPosePrior::SqrtInformation(covariance_scale_ * f.covariance, &sqrt_information)) {
       Skip();
       continue;
     }
-    Rigid3d& pose = (*rig_from_world_)[f.frame];
+    Rigid3d& pose = scene.RigFrame(FrameId(f.frame));
     AddBlock(problem,
              factors::MobileMiFrameCost<registration::mi::MiPosePrior>::Create(
                  f.weight.alpha, f.ins, body_from_vehicle_, body_from_lidar_nominal_,
@@ -76,23 +75,22 @@ Rigid3d CorrectedPose(const std::vector<TrajectoryNode>& nodes, const NodeWeight
 
 MobileLidarGroup::MobileLidarGroup(std::vector<MobilePoint> points, std::vector<TrajectoryNode>* nodes,
                                    Rigid3d* vehicle_from_lidar, const Rigid3d& body_from_vehicle, LossOptions loss,
-                                   std::string name, std::vector<Rigid3d>* scan_from_world)
+                                   std::string name)
     : FactorGroup(std::move(name), "m", loss),
       points_(std::move(points)),
       nodes_(nodes),
       vehicle_from_lidar_(vehicle_from_lidar),
-      body_from_vehicle_(body_from_vehicle),
-      scan_from_world_(scan_from_world) {}
+      body_from_vehicle_(body_from_vehicle) {}
 
-void MobileLidarGroup::AddResiduals(Scene&, ceres::Problem& problem) {
+void MobileLidarGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
   for (size_t i = 0; i < points_.size(); ++i) {
     const MobilePoint& p = points_[i];
     if (p.scan >= 0) {
-      if (!scan_from_world_ || static_cast<size_t>(p.scan) >= scan_from_world_->size()) {
+      if (!scene.HasScan(ScanId(p.scan))) {
         Skip();
         continue;
       }
-      Rigid3d& scan = (*scan_from_world_)[p.scan];
+      Rigid3d& scan = scene.Scan(ScanId(p.scan));
       AddBlock(problem,
                factors::MobileScanPointCost::Create(factors::MobilePointCost(
                    p.point_lidar, p.weight.alpha, p.ins, p.normal, p.plane_point, p.sigma_m, body_from_vehicle_)),
@@ -145,21 +143,20 @@ void TrajectorySmoothnessGroup::AddResiduals(Scene&, ceres::Problem& problem) {
   }
 }
 
-RigTrajectoryGroup::RigTrajectoryGroup(std::vector<FrameOnTrajectory> frames, std::vector<Rigid3d>* rig_from_world,
-                                       std::vector<TrajectoryNode>* nodes, const Rigid3d& body_from_rig, double sigma_m,
-                                       double sigma_rad, LossOptions loss, std::string name)
+RigTrajectoryGroup::RigTrajectoryGroup(std::vector<FrameOnTrajectory> frames, std::vector<TrajectoryNode>* nodes,
+                                       const Rigid3d& body_from_rig, double sigma_m, double sigma_rad, LossOptions loss,
+                                       std::string name)
     : FactorGroup(std::move(name), "whitened", loss),
       frames_(std::move(frames)),
-      rig_from_world_(rig_from_world),
       nodes_(nodes),
       body_from_rig_(body_from_rig),
       sigma_m_(sigma_m),
       sigma_rad_(sigma_rad) {}
 
-void RigTrajectoryGroup::AddResiduals(Scene&, ceres::Problem& problem) {
+void RigTrajectoryGroup::AddResiduals(Scene& scene, ceres::Problem& problem) {
   for (size_t i = 0; i < frames_.size(); ++i) {
     const FrameOnTrajectory& f = frames_[i];
-    Rigid3d& pose = (*rig_from_world_)[f.frame];
+    Rigid3d& pose = scene.RigFrame(FrameId(f.frame));
     ceres::CostFunction* cost =
         factors::FrameOnTrajectoryCost::Create(f.weight.alpha, f.ins, body_from_rig_, sigma_m_, sigma_rad_);
     AddBlock(problem, cost,

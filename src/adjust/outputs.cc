@@ -242,8 +242,8 @@ void MiRegistrationReport(const JointState& s, const fs::path& stage, json* file
     json e = s.mi_registration[i];
     if (e.value("prior", false)) {
       // The MI rig calibration found rig_from_lidar: against the adjusted extrinsic.
-      const Rigid3d adjusted = e.value("extrinsic", false) ? s.mobile->vehicle_from_lidar
-                               : e.contains("frame")       ? s.rig->rig_from_world.at(e["frame"].get<size_t>())
+      const Rigid3d adjusted = e.value("extrinsic", false) ? s.scene.Mount(s.mobile->mount)
+                               : e.contains("frame")       ? s.scene.RigFrame(FrameId(e["frame"].get<size_t>()))
                                                            : s.scene.Image(ImageId(e["image_id"].get<uint64_t>())).cam_from_world;
       const Rigid3d& registered = s.mi_registered[i];
       e["adjusted_minus_registered_m"] = (CameraCentre(adjusted) - CameraCentre(registered)).norm();

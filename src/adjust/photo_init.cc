@@ -129,7 +129,8 @@ bool PlacePhotoBlockByTiePoints(JointState* s) {
   if (s->rig && s->rig->config->tie_block == id) {
     const RigBlock& rig = *s->rig;
     for (const RigObservation& o : rig.observations) {
-      const Rigid3d world_from_cam = (rig.cam_from_rig[o.camera] * rig.rig_from_world[o.frame]).Inverse();
+      const Rigid3d world_from_cam =
+          (s->scene.CamFromRig(rig.cameras[o.camera]) * s->scene.RigFrame(FrameId(o.frame))).Inverse();
       const Eigen::Vector3d d = world_from_cam.rotation * s->scene.Camera(rig.cameras[o.camera]).CamFromImg(o.xy);
       if (d.allFinite() && d.norm() > 0) rays[o.point3D_id].emplace_back(world_from_cam.translation, d.normalized());
     }

@@ -209,7 +209,7 @@ void LoadScans(JointState* s, const Eigen::Vector3d& roi_min, const Eigen::Vecto
     Log(s, "static scan " + scan.name + ": " + std::to_string(scan.surface->num_read()) + " points read, " +
                std::to_string(scan.surface->size()) + " near the photo block kept, " +
                std::to_string(scan.sample.size()) + " sampled for scan-to-scan");
-    s->scan_from_world.push_back(scan.prior);
+    s->scene.AddScan(ScanId(s->scans.size()), scan.prior);
     s->scans.push_back(std::move(scan));
   }
 }
@@ -229,7 +229,7 @@ bool FitSurfacePlane(const JointState& s, const Eigen::Vector3d& world, double g
   // with a plane there.
   double best = std::numeric_limits<double>::infinity();
   for (size_t k = 0; k < s.scans.size(); ++k) {
-    const Eigen::Vector3d in_scan = s.scan_from_world[k] * world;
+    const Eigen::Vector3d in_scan = s.scene.Scan(ScanId(k)) * world;
     if (in_scan.norm() >= best || !s.scans[k].surface->FitPlane(in_scan, gate, 12, &n, &c, &roughness)) continue;
     best = in_scan.norm();
     plane->normal = n;
@@ -246,11 +246,11 @@ size_t AssociateScans(JointState* s, double gate) {
   // Both points carry range noise: σ = √2·σ_range, plus the target patch's roughness.
   const double sigma = std::sqrt(2.0) * l.range_sigma_m;
   for (size_t i = 0; i < s->scans.size(); ++i) {
-    const Rigid3d world_from_scan = s->scan_from_world[i].Inverse();
+    const Rigid3d world_from_scan = s->scene.Scan(ScanId(i)).Inverse();
     for (size_t j = 0; j < s->scans.size(); ++j) {
       if (i == j) continue;
       for (const Eigen::Vector3d& p : s->scans[i].sample) {
-        const Eigen::Vector3d in_to = s->scan_from_world[j] * (world_from_scan * p);
+        const Eigen::Vector3d in_to = s->scene.Scan(ScanId(j)) * (world_from_scan * p);
         Eigen::Vector3d n, c;
         double roughness = 0.0;
         if (!s->scans[j].surface->FitPlane(in_to, gate, 12, &n, &c, &roughness)) continue;

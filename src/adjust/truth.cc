@@ -83,17 +83,17 @@ void EvaluateRig(const JointState& s, json& truth, json* out) {
     for (const json& frame : t["frames"]) {
       if (frame["name"] != s.rig->frame_names[f]) continue;
       const Rigid3d true_pose = PoseFromJson(frame["rig_from_world"]);
-      worst = std::max(worst, (CameraCentre(s.rig->rig_from_world[f]) - CameraCentre(true_pose)).norm());
+      worst = std::max(worst, (CameraCentre(s.scene.RigFrame(FrameId(f))) - CameraCentre(true_pose)).norm());
       worst_prior = std::max(worst_prior, (CameraCentre(s.rig->rig_prior[f]) - CameraCentre(true_pose)).norm());
-      worst_rotation = std::max(worst_rotation, s.rig->rig_from_world[f].rotation.angularDistance(true_pose.rotation) * kDeg);
+      worst_rotation = std::max(worst_rotation, s.scene.RigFrame(FrameId(f)).rotation.angularDistance(true_pose.rotation) * kDeg);
     }
   }
   double worst_cam_t = 0.0, worst_cam_r = 0.0, worst_focal = 0.0;
   for (size_t k = 0; k < s.rig->cameras.size() && k < t["cameras"].size(); ++k) {
     const json& c = t["cameras"][k];
     const Rigid3d true_pose = PoseFromJson(c["cam_from_rig"]);
-    worst_cam_t = std::max(worst_cam_t, (CameraCentre(s.rig->cam_from_rig[k]) - CameraCentre(true_pose)).norm());
-    worst_cam_r = std::max(worst_cam_r, s.rig->cam_from_rig[k].rotation.angularDistance(true_pose.rotation) * kDeg);
+    worst_cam_t = std::max(worst_cam_t, (CameraCentre(s.scene.CamFromRig(s.rig->cameras[k])) - CameraCentre(true_pose)).norm());
+    worst_cam_r = std::max(worst_cam_r, s.scene.CamFromRig(s.rig->cameras[k]).rotation.angularDistance(true_pose.rotation) * kDeg);
     const std::vector<double> params = c["camera"]["params"];
     worst_focal = std::max(worst_focal, std::abs(s.scene.Camera(s.rig->cameras[k]).params[0] - params[0]));
   }
@@ -114,6 +114,7 @@ double Median(std::vector<double> v) {
 void ProjectedOffsets(const JointState& s, json& truth, const Rigid3d& true_rig_from_lidar,
                       std::vector<double>* offsets_out, std::vector<double>* offsets0_out) {
   const MobileBlock& m = *s.mobile;
+  const Rigid3d& vehicle_from_lidar = s.scene.Mount(m.mount);
   std::vector<double>& offsets = *offsets_out;
   std::vector<double>& offsets0 = *offsets0_out;
   for (size_t k = 0; k < s.rig->cameras.size() && k < truth["rig"]["cameras"].size(); ++k) {
@@ -127,7 +128,7 @@ void ProjectedOffsets(const JointState& s, json& truth, const Rigid3d& true_rig_
     initial_camera.params = s.rig->initial_params[k];
     const sensors::Camera& camera = s.scene.Camera(s.rig->cameras[k]);
     const Rigid3d true_cam_from_lidar = PoseFromJson(tc["cam_from_rig"]) * true_rig_from_lidar;
-    const Rigid3d cam_from_lidar = s.rig->cam_from_rig[k] * m.vehicle_from_lidar;
+    const Rigid3d cam_from_lidar = s.scene.CamFromRig(s.rig->cameras[k]) * vehicle_from_lidar;
     const Rigid3d initial = s.rig->cam_from_rig_initial[k] * m.vehicle_from_lidar_initial;
     for (size_t i = 0; i < m.sample_lidar.size(); i += 10) {
       const auto truth_xy = true_camera.ImgFromCam(true_cam_from_lidar * m.sample_lidar[i]);
@@ -147,11 +148,12 @@ void ProjectedOffsets(const JointState& s, json& truth, const Rigid3d& true_rig_
 /// rig_from_lidar) and rig_from_lidar against the truth.
 void EvaluateCamFromLidar(const JointState& s, json& truth, const Rigid3d& true_body_from_lidar, json* mobile) {
   const MobileBlock& m = *s.mobile;
+  const Rigid3d& vehicle_from_lidar = s.scene.Mount(m.mount);
   const Rigid3d true_rig_from_lidar = PoseFromJson(truth["rig"]["body_from_rig"]).Inverse() * true_body_from_lidar;
   double worst_r = 0.0, worst_t = 0.0, worst_r0 = 0.0, worst_t0 = 0.0;
   for (size_t k = 0; k < s.rig->cameras.size() && k < truth["rig"]["cameras"].size(); ++k) {
     const Rigid3d true_cam_from_lidar = PoseFromJson(truth["rig"]["cameras"][k]["cam_from_rig"]) * true_rig_from_lidar;
-    const auto [r, t] = PoseError(s.rig->cam_from_rig[k] * m.vehicle_from_lidar, true_cam_from_lidar);
+    const auto [r, t] = PoseError(s.scene.CamFromRig(s.rig->cameras[k]) * vehicle_from_lidar, true_cam_from_lidar);
     const auto [ri, ti] = PoseError(s.rig->cam_from_rig_initial[k] * m.vehicle_from_lidar_initial, true_cam_from_lidar);
     worst_r = std::max(worst_r, r);
     worst_t = std::max(worst_t, t);
@@ -160,7 +162,7 @@ void EvaluateCamFromLidar(const JointState& s, json& truth, const Rigid3d& true_
   }
   std::vector<double> offsets, offsets0;
   ProjectedOffsets(s, truth, true_rig_from_lidar, &offsets, &offsets0);
-  const auto [rr, rt] = PoseError(m.vehicle_from_lidar, true_rig_from_lidar);
+  const auto [rr, rt] = PoseError(vehicle_from_lidar, true_rig_from_lidar);
   (*mobile)["cam_from_lidar"] = {{"max_rotation_deg", worst_r}, {"max_translation_m", worst_t},
                                  {"initial_max_rotation_deg", worst_r0}, {"initial_max_translation_m", worst_t0},
                                  {"median_pixel_offset", Median(offsets)}, {"initial_median_pixel_offset", Median(offsets0)},
@@ -171,6 +173,7 @@ void EvaluateCamFromLidar(const JointState& s, json& truth, const Rigid3d& true_
 /// The corrected trajectory against the true one at the nodes (and the GNSS/INS before).
 void EvaluateTrajectory(const JointState& s, json& truth, json* mobile_out) {
   const MobileBlock& m = *s.mobile;
+  const std::vector<TrajectoryNode>& nodes = s.scene.trajectory_nodes();
   json& mobile = *mobile_out;
   // truth.json names the true trajectory relative to the simulation folder (its parent's parent).
   const fs::path true_file = truth.contains("trajectory") && truth["trajectory"].contains("true")
@@ -180,18 +183,18 @@ void EvaluateTrajectory(const JointState& s, json& truth, json* mobile_out) {
   if (!true_file.empty() && fs::exists(true_file)) {
     const auto true_trajectory = ReadTrajectory(true_file.string());
     double sum = 0.0, sum_ins = 0.0, worst_r = 0.0, worst_r_ins = 0.0;
-    for (size_t k = 0; k < m.nodes.size(); ++k) {
-      const double t = m.nodes[k].time_s;
+    for (size_t k = 0; k < nodes.size(); ++k) {
+      const double t = nodes[k].time_s;
       const Rigid3d ins = InterpolateTrajectory(m.trajectory, t);
-      const Rigid3d corrected = CorrectedPose(m.nodes, WeightAt(m.nodes, t), ins);
+      const Rigid3d corrected = CorrectedPose(nodes, WeightAt(nodes, t), ins);
       const Rigid3d truth_pose = InterpolateTrajectory(true_trajectory, t);
       sum += (corrected.translation - truth_pose.translation).squaredNorm();
       sum_ins += (ins.translation - truth_pose.translation).squaredNorm();
       worst_r = std::max(worst_r, corrected.rotation.angularDistance(truth_pose.rotation) * kDeg);
       worst_r_ins = std::max(worst_r_ins, ins.rotation.angularDistance(truth_pose.rotation) * kDeg);
     }
-    const double n = static_cast<double>(m.nodes.size());
-    mobile["trajectory"] = {{"nodes", m.nodes.size()}, {"rmse_position_m", std::sqrt(sum / n)},
+    const double n = static_cast<double>(nodes.size());
+    mobile["trajectory"] = {{"nodes", nodes.size()}, {"rmse_position_m", std::sqrt(sum / n)},
                             {"max_rotation_deg", worst_r}, {"ins_rmse_position_m", std::sqrt(sum_ins / n)},
                             {"ins_max_rotation_deg", worst_r_ins}};
   }
@@ -200,9 +203,10 @@ void EvaluateTrajectory(const JointState& s, json& truth, json* mobile_out) {
 /// The mobile LiDAR's body_from_lidar, the rig's cam_from_lidar and the trajectory.
 void EvaluateMobile(const JointState& s, json& truth, json* out) {
   const MobileBlock& m = *s.mobile;
+  const Rigid3d& vehicle_from_lidar = s.scene.Mount(m.mount);
   const Rigid3d true_body_from_lidar = PoseFromJson(truth["lidar"]["mobile"]["body_from_lidar"]);
   json mobile;
-  const Rigid3d body_from_lidar = m.body_from_vehicle * m.vehicle_from_lidar;
+  const Rigid3d body_from_lidar = m.body_from_vehicle * vehicle_from_lidar;
   const auto [r0, t0] = PoseError(m.body_from_lidar_nominal, true_body_from_lidar);
   const auto [r1, t1] = PoseError(body_from_lidar, true_body_from_lidar);
   mobile["body_from_lidar"] = {{"initial_rotation_deg", r0}, {"initial_translation_m", t0},
@@ -219,8 +223,8 @@ void EvaluateScans(const JointState& s, json& truth, json* out) {
     for (const json& t : truth["lidar"]["static_scans"]) {
       if (t.value("name", "") != s.scans[k].name) continue;
       const Rigid3d true_pose = PoseFromJson(t["world_from_scan"]).Inverse();
-      worst = std::max(worst, (CameraCentre(s.scan_from_world[k]) - CameraCentre(true_pose)).norm());
-      worst_r = std::max(worst_r, s.scan_from_world[k].rotation.angularDistance(true_pose.rotation) * kDeg);
+      worst = std::max(worst, (CameraCentre(s.scene.Scan(ScanId(k))) - CameraCentre(true_pose)).norm());
+      worst_r = std::max(worst_r, s.scene.Scan(ScanId(k)).rotation.angularDistance(true_pose.rotation) * kDeg);
       worst_prior = std::max(worst_prior, (CameraCentre(s.scans[k].prior) - CameraCentre(true_pose)).norm());
       worst_prior_r = std::max(worst_prior_r, s.scans[k].prior.rotation.angularDistance(true_pose.rotation) * kDeg);
     }

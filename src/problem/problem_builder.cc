@@ -87,6 +87,12 @@ ceres::Problem& ProblemBuilder::Build() {
 }
 
 void ProblemBuilder::ApplyParameterOptions() {
+  ApplyIntrinsics();
+  ApplyImagesAndPoints();
+  ApplySensorPoses();
+}
+
+void ProblemBuilder::ApplyIntrinsics() {
   const ParameterOptions& o = parameter_options_;
   for (auto& [id, camera] : scene_->cameras()) {
     double* params = camera.params.data();
@@ -95,9 +101,14 @@ void ProblemBuilder::ApplyParameterOptions() {
     auto hold = [&constant](const std::vector<int>& idxs) {
       constant.insert(constant.end(), idxs.begin(), idxs.end());
     };
-    if (!o.refine_focal) hold(sensors::CameraModelFocalIdxs(camera.model_id));
-    if (!o.refine_principal_point) hold(sensors::CameraModelPrincipalIdxs(camera.model_id));
-    if (!o.refine_extra) hold(sensors::CameraModelExtraIdxs(camera.model_id));
+    const auto held = o.held_intrinsics.find(id);
+    if (held != o.held_intrinsics.end()) {
+      hold(held->second);
+    } else {
+      if (!o.refine_focal) hold(sensors::CameraModelFocalIdxs(camera.model_id));
+      if (!o.refine_principal_point) hold(sensors::CameraModelPrincipalIdxs(camera.model_id));
+      if (!o.refine_extra) hold(sensors::CameraModelExtraIdxs(camera.model_id));
+    }
     const int size = static_cast<int>(camera.params.size());
     if (o.constant_cameras.count(id) || static_cast<int>(constant.size()) == size) {
       problem_->SetParameterBlockConstant(params);
@@ -106,6 +117,10 @@ void ProblemBuilder::ApplyParameterOptions() {
       problem_->SetManifold(params, new ceres::SubsetManifold(size, constant));
     }
   }
+}
+
+void ProblemBuilder::ApplyImagesAndPoints() {
+  const ParameterOptions& o = parameter_options_;
   for (auto& [id, image] : scene_->images()) {
     double* rotation = image.cam_from_world.rotation.coeffs().data();
     double* translation = image.cam_from_world.translation.data();
@@ -124,6 +139,35 @@ void ProblemBuilder::ApplyParameterOptions() {
     if (problem_->HasParameterBlock(point.data()) &&
         (!o.refine_points || o.constant_points.count(id))) {
       problem_->SetParameterBlockConstant(point.data());
+    }
+  }
+}
+
+void ProblemBuilder::ApplyPose(Rigid3d& pose, bool constant) {
+  double* rotation = pose.rotation.coeffs().data();
+  double* translation = pose.translation.data();
+  if (problem_->HasParameterBlock(rotation)) {
+    problem_->SetManifold(rotation, CreateQuaternionManifold().release());
+    if (constant) problem_->SetParameterBlockConstant(rotation);
+  }
+  if (constant && problem_->HasParameterBlock(translation)) {
+    problem_->SetParameterBlockConstant(translation);
+  }
+}
+
+void ProblemBuilder::ApplySensorPoses() {
+  const ParameterOptions& o = parameter_options_;
+  for (auto& [id, pose] : scene_->rig_frames()) ApplyPose(pose, o.constant_rig_frames.count(id) > 0);
+  for (auto& [id, pose] : scene_->cams_from_rig()) {
+    ApplyPose(pose, o.constant_cams_from_rig.count(id) > 0);
+  }
+  for (auto& [id, pose] : scene_->scans()) ApplyPose(pose, o.constant_scans.count(id) > 0);
+  for (auto& [id, pose] : scene_->mounts()) ApplyPose(pose, o.constant_mounts.count(id) > 0);
+  std::vector<TrajectoryNode>& nodes = scene_->trajectory_nodes();
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    if (problem_->HasParameterBlock(nodes[i].correction) &&
+        o.constant_trajectory_nodes.count(TrajectoryNodeId(i))) {
+      problem_->SetParameterBlockConstant(nodes[i].correction);
     }
   }
 }

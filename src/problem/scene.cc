@@ -17,6 +17,22 @@ Eigen::Vector3d& Scene::AddPoint(Point3DId point3D_id, const Eigen::Vector3d& po
   return points_[point3D_id] = point_in_world;
 }
 
+Rigid3d& Scene::AddRigFrame(FrameId frame_id, const Rigid3d& rig_from_world) {
+  return rig_frames_[frame_id] = rig_from_world;
+}
+
+Rigid3d& Scene::AddCamFromRig(CameraId camera_id, const Rigid3d& cam_from_rig) {
+  return cams_from_rig_[camera_id] = cam_from_rig;
+}
+
+Rigid3d& Scene::AddScan(ScanId scan_id, const Rigid3d& scan_from_world) {
+  return scans_[scan_id] = scan_from_world;
+}
+
+Rigid3d& Scene::AddMount(MountId mount_id, const Rigid3d& platform_from_sensor) {
+  return mounts_[mount_id] = platform_from_sensor;
+}
+
 std::vector<ImageId> Scene::SortedImageIds() const {
   std::vector<ImageId> ids;
   ids.reserve(images_.size());
@@ -30,6 +46,8 @@ void Scene::Transform(const Sim3d& new_from_old) {
   for (auto& [id, image] : images_) {
     image.cam_from_world = new_from_old.TransformCamFromSource(image.cam_from_world);
   }
+  for (auto& [id, rig_from_world] : rig_frames_) rig_from_world = new_from_old.TransformCamFromSource(rig_from_world);
+  for (auto& [id, scan_from_world] : scans_) scan_from_world = new_from_old.TransformCamFromSource(scan_from_world);
 }
 
 }  // namespace mmba

@@ -18,8 +18,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-double Cost(FactorGroup& group) {
-  Scene scene;
+/// 2·(Ceres cost) of the group's residuals over a copy of `scene`.
+double Cost(FactorGroup& group, Scene scene = Scene()) {
   ceres::Problem problem;
   group.AddResiduals(scene, problem);
   double cost = 0.0;
@@ -144,22 +144,23 @@ TEST(MobileMiPriorGroup, OneFramesMiPoseRecoversTheCameraLidarExtrinsic) {
   EXPECT_LT(identity.translation.norm() + identity.rotation.angularDistance(Eigen::Quaterniond::Identity()), 1e-9);
 
   // The MI pose a perfect registration finds, then the extrinsic from a start 3 cm / 0.5° off.
-  std::vector<Rigid3d> rig_from_world = {pose(0.0, 0.01, -0.4, 3.0, 80.0, -2.0)};
+  Scene scene;
+  Rigid3d& rig_from_world = scene.AddRigFrame(FrameId(0), pose(0.0, 0.01, -0.4, 3.0, 80.0, -2.0));
   MobileMiFrame frame;
+  frame.frame = 0;
   frame.weight = w;
   frame.ins = ins;
-  frame.rig_from_delivered = rig_from_world[0] * world_from_delivered;
+  frame.rig_from_delivered = rig_from_world * world_from_delivered;
   frame.covariance = Eigen::Matrix<double, 6, 6>::Identity() * 1e-4;  // 1 cm, 0.01°
   Rigid3d vehicle_from_lidar = pose(0.004 + 0.005, -0.003, 0.007 - 0.006, -0.2 + 0.02, 0.12 - 0.02, 0.43 + 0.01);
-  MobileMiPriorGroup group({frame}, &rig_from_world, &nodes, &vehicle_from_lidar, body_from_vehicle, body_from_lidar_nominal,
-                           1.0, LossOptions(), "mi");
-  EXPECT_GT(Cost(group), 100.0);
-  Scene scene;
+  MobileMiPriorGroup group({frame}, &nodes, &vehicle_from_lidar, body_from_vehicle, body_from_lidar_nominal, 1.0,
+                           LossOptions(), "mi");
+  EXPECT_GT(Cost(group, scene), 100.0);
   ceres::Problem problem;
   group.AddResiduals(scene, problem);
   problem.SetManifold(vehicle_from_lidar.rotation.coeffs().data(), new ceres::EigenQuaternionManifold);
-  for (double* block : {nodes[0].correction, nodes[1].correction, rig_from_world[0].rotation.coeffs().data(),
-                        rig_from_world[0].translation.data()}) {
+  for (double* block : {nodes[0].correction, nodes[1].correction, rig_from_world.rotation.coeffs().data(),
+                        rig_from_world.translation.data()}) {
     problem.SetParameterBlockConstant(block);
   }
   ceres::Solver::Options options;
@@ -169,7 +170,7 @@ TEST(MobileMiPriorGroup, OneFramesMiPoseRecoversTheCameraLidarExtrinsic) {
   ceres::Solve(options, &problem, &summary);
   EXPECT_LT((vehicle_from_lidar.translation - vehicle_from_lidar_true.translation).norm(), 1e-6);
   EXPECT_LT(vehicle_from_lidar.rotation.angularDistance(vehicle_from_lidar_true.rotation), 1e-8);
-  EXPECT_LT(Cost(group), 1e-10);
+  EXPECT_LT(Cost(group, scene), 1e-10);
 }
 
 // A cloud that misses the block: a units or frame mistake is named when one explains it.

@@ -79,7 +79,8 @@ class VectorPriorGroup : public FactorGroup {
 };
 
 /// A tie-point observation in camera `camera` of a rig at frame `frame`:
-/// x = π(cam_from_rig[camera] · rig_from_world[frame] · X).
+/// x = π(cam_from_rig · rig_from_world · X), the Scene's rig frame FrameId(frame) and the
+/// cam_from_rig of the group's camera `camera`.
 struct RigObservation {
   size_t frame = 0;
   size_t camera = 0;
@@ -90,18 +91,14 @@ struct RigObservation {
 
 class RigReprojectionGroup : public FactorGroup {
  public:
-  /// `rig_from_world` and `cam_from_rig` are the rig's parameter storage; `cameras` the Scene
-  /// camera of each rig camera.
-  RigReprojectionGroup(std::vector<RigObservation> observations, std::vector<Rigid3d>* rig_from_world,
-                       std::vector<Rigid3d>* cam_from_rig, std::vector<CameraId> cameras, LossOptions loss,
+  /// `cameras` is the Scene camera of each rig camera (its intrinsics and cam_from_rig).
+  RigReprojectionGroup(std::vector<RigObservation> observations, std::vector<CameraId> cameras, LossOptions loss,
                        std::string name);
   void AddResiduals(Scene& scene, ceres::Problem& problem) override;
   const std::vector<RigObservation>& observations() const { return observations_; }
 
  private:
   std::vector<RigObservation> observations_;
-  std::vector<Rigid3d>* rig_from_world_;
-  std::vector<Rigid3d>* cam_from_rig_;
   std::vector<CameraId> cameras_;
 };
 
@@ -134,7 +131,7 @@ double GaussMarkovFactor(double dt_s, double correlation_s);
 /// the camera pose and its 6×6 covariance (m², deg²; tx ty tz roll pitch yaw), used as a
 /// weighted pose prior (registration/mi/mi_prior.h). The prior is on the Scene image
 /// `image_id`, or on `pose` when set (a camera pose stored outside the Scene: a rig frame's
-/// rig_from_world, whose stitched panorama is in the rig frame).
+/// rig frame's rig_from_world, whose stitched panorama is in the rig frame).
 struct MiResult {
   ImageId image_id;
   Rigid3d* pose = nullptr;
@@ -206,24 +203,23 @@ struct SurfacePlane {
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
   double sigma_m = 0.01;
-  int scan = -1;  ///< −1: the reference cloud (world frame); else a scan (normal, point in its frame)
+  int scan = -1;  ///< −1: the reference cloud (world frame); else the Scene scan ScanId(scan) (normal, point in its frame)
 };
 
 /// Tie points on the LiDAR surface: n·(X − q)/σ against the reference cloud, or
 /// n·(scan_from_world·X − q)/σ against a scan's own plane, its pose a parameter block.
 class LidarSurfaceGroup : public FactorGroup {
  public:
-  LidarSurfaceGroup(std::vector<SurfacePlane> planes, LossOptions loss, std::string name,
-                    std::vector<Rigid3d>* scan_from_world = nullptr);
+  LidarSurfaceGroup(std::vector<SurfacePlane> planes, LossOptions loss, std::string name);
   void AddResiduals(Scene& scene, ceres::Problem& problem) override;
   const std::vector<SurfacePlane>& planes() const { return planes_; }
 
  private:
   std::vector<SurfacePlane> planes_;
-  std::vector<Rigid3d>* scan_from_world_;
 };
 
-/// A surveyed target measured in a static scan (its centre in the scan's frame).
+/// A surveyed target measured in a static scan (its centre in the frame of the Scene scan
+/// ScanId(scan)).
 struct ScanTarget {
   size_t scan = 0;
   std::string point_id;
@@ -237,17 +233,17 @@ struct ScanTarget {
 /// the total-station control.
 class ScanTargetGroup : public FactorGroup {
  public:
-  ScanTargetGroup(survey::SurveyNetwork* network, std::vector<ScanTarget> targets,
-                  std::vector<Rigid3d>* scan_from_world, LossOptions loss, std::string name);
+  ScanTargetGroup(survey::SurveyNetwork* network, std::vector<ScanTarget> targets, LossOptions loss,
+                  std::string name);
   void AddResiduals(Scene& scene, ceres::Problem& problem) override;
 
  private:
   survey::SurveyNetwork* network_;
   std::vector<ScanTarget> targets_;
-  std::vector<Rigid3d>* scan_from_world_;
 };
 
-/// A point of scan `from` (its own frame) on the local plane of scan `to` (that scan's frame).
+/// A point of scan `from` (its own frame) on the local plane of scan `to` (that scan's frame);
+/// the scans are the Scene scans ScanId(from), ScanId(to).
 struct ScanPairPoint {
   size_t from = 0, to = 0;
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
@@ -260,14 +256,12 @@ struct ScanPairPoint {
 /// n_to·(scan_to_from_world · world_from_scan_from · p − q_to)/σ; both poses are blocks.
 class ScanToScanGroup : public FactorGroup {
  public:
-  ScanToScanGroup(std::vector<ScanPairPoint> points, std::vector<Rigid3d>* scan_from_world, LossOptions loss,
-                  std::string name);
+  ScanToScanGroup(std::vector<ScanPairPoint> points, LossOptions loss, std::string name);
   void AddResiduals(Scene& scene, ceres::Problem& problem) override;
   const std::vector<ScanPairPoint>& points() const { return points_; }
 
  private:
   std::vector<ScanPairPoint> points_;
-  std::vector<Rigid3d>* scan_from_world_;
 };
 
 /// The LiDAR surface near a set of points: a k-d tree over the reference cloud (cropped to
@@ -315,14 +309,8 @@ std::string CoordinateHint(const Eigen::Vector3d& cloud_min, const Eigen::Vector
 
 // ---- mobile LiDAR and the vehicle trajectory ----------------------------------------------
 
-/// A node of the smooth correction of a GNSS/INS trajectory: rotation vector ω (world axes)
-/// and translation δ [m], applied as world_from_body = (Exp(ω)·R_ins, p_ins + δ) so that a
-/// rotation correction turns the vehicle about its own position. Between nodes ω and δ are
-/// interpolated linearly (corrections are small).
-struct TrajectoryNode {
-  double time_s = 0.0;
-  double correction[6] = {0, 0, 0, 0, 0, 0};  ///< ωx ωy ωz [rad], δx δy δz [m]
-};
+// TrajectoryNode (the correction of a GNSS/INS trajectory at one time) is a Scene parameter:
+// mmba/problem/scene.h.
 
 /// Where a time falls between nodes: node `node` and `node + 1`, weight `alpha` of the second.
 struct NodeWeight {
@@ -345,17 +333,16 @@ struct MobilePoint {
   double sigma_m = 0.005;
   size_t source = 0;  ///< index of the point in the delivered cloud
   double time_s = 0.0;  ///< its acquisition time
-  int scan = -1;      ///< −1: plane in the world (reference cloud); else an adjusted scan's plane in its frame
+  int scan = -1;      ///< −1: plane in the world (reference cloud); else the plane of Scene scan ScanId(scan) in its frame
 };
 
 class MobileLidarGroup : public FactorGroup {
  public:
   /// `vehicle_from_lidar` is the estimated extrinsic (the rig frame when a rig shares the
   /// vehicle, else the body); `body_from_vehicle` is constant.
-  /// A point on an adjusted scan's plane (`scan` ≥ 0) has that scan's pose as a block too.
+  /// A point on an adjusted scan's plane (`scan` ≥ 0) has that Scene scan's pose as a block too.
   MobileLidarGroup(std::vector<MobilePoint> points, std::vector<TrajectoryNode>* nodes, Rigid3d* vehicle_from_lidar,
-                   const Rigid3d& body_from_vehicle, LossOptions loss, std::string name,
-                   std::vector<Rigid3d>* scan_from_world = nullptr);
+                   const Rigid3d& body_from_vehicle, LossOptions loss, std::string name);
   void AddResiduals(Scene& scene, ceres::Problem& problem) override;
   const std::vector<MobilePoint>& points() const { return points_; }
 
@@ -364,7 +351,6 @@ class MobileLidarGroup : public FactorGroup {
   std::vector<TrajectoryNode>* nodes_;
   Rigid3d* vehicle_from_lidar_;
   Rigid3d body_from_vehicle_;
-  std::vector<Rigid3d>* scan_from_world_;
 };
 
 /// The GNSS/INS prior on the nodes' corrections c = (ω, δ): the trajectory as delivered. The
@@ -394,8 +380,9 @@ class TrajectorySmoothnessGroup : public FactorGroup {
   double sigma_m_, sigma_rad_;
 };
 
-/// A rig frame taken at a time on the corrected trajectory: rig_from_world[frame] ≈
-/// (world_from_body(t)·body_from_rig)⁻¹, σ of the time synchronisation (position, rotation).
+/// A rig frame taken at a time on the corrected trajectory: the Scene rig frame
+/// FrameId(frame) ≈ (world_from_body(t)·body_from_rig)⁻¹, σ of the time synchronisation
+/// (position, rotation).
 struct FrameOnTrajectory {
   size_t frame = 0;
   NodeWeight weight;
@@ -404,14 +391,13 @@ struct FrameOnTrajectory {
 
 class RigTrajectoryGroup : public FactorGroup {
  public:
-  RigTrajectoryGroup(std::vector<FrameOnTrajectory> frames, std::vector<Rigid3d>* rig_from_world,
-                     std::vector<TrajectoryNode>* nodes, const Rigid3d& body_from_rig, double sigma_m,
+  RigTrajectoryGroup(std::vector<FrameOnTrajectory> frames, std::vector<TrajectoryNode>* nodes,
+                     const Rigid3d& body_from_rig, double sigma_m,
                      double sigma_rad, LossOptions loss, std::string name);
   void AddResiduals(Scene& scene, ceres::Problem& problem) override;
 
  private:
   std::vector<FrameOnTrajectory> frames_;
-  std::vector<Rigid3d>* rig_from_world_;
   std::vector<TrajectoryNode>* nodes_;
   Rigid3d body_from_rig_;
   double sigma_m_, sigma_rad_;
@@ -431,7 +417,7 @@ Rigid3d WorldFromDelivered(const std::vector<TrajectoryNode>& nodes, const NodeW
 /// (the MI paper's setting): `rig_from_delivered` with its 6×6 covariance (register-mi's
 /// convention, m and °).
 struct MobileMiFrame {
-  size_t frame = 0;
+  size_t frame = 0;    ///< the Scene rig frame FrameId(frame)
   NodeWeight weight;   ///< the frame's time on the trajectory nodes
   Rigid3d ins;         ///< GNSS/INS world_from_body at the frame's time
   Rigid3d rig_from_delivered;
@@ -447,14 +433,13 @@ struct MobileMiFrame {
 class MobileMiPriorGroup : public FactorGroup {
  public:
   /// `covariance_scale` multiplies every covariance (variance-component factor²).
-  MobileMiPriorGroup(std::vector<MobileMiFrame> frames, std::vector<Rigid3d>* rig_from_world,
-                     std::vector<TrajectoryNode>* nodes, Rigid3d* vehicle_from_lidar, const Rigid3d& body_from_vehicle,
+  MobileMiPriorGroup(std::vector<MobileMiFrame> frames, std::vector<TrajectoryNode>* nodes,
+                     Rigid3d* vehicle_from_lidar, const Rigid3d& body_from_vehicle,
                      const Rigid3d& body_from_lidar_nominal, double covariance_scale, LossOptions loss, std::string name);
   void AddResiduals(Scene& scene, ceres::Problem& problem) override;
 
  private:
   std::vector<MobileMiFrame> frames_;
-  std::vector<Rigid3d>* rig_from_world_;
   std::vector<TrajectoryNode>* nodes_;
   Rigid3d* vehicle_from_lidar_;
   Rigid3d body_from_vehicle_, body_from_lidar_nominal_;

@@ -29,6 +29,9 @@ struct Point3DTag {};
 struct RigTag {};
 struct ScanTag {};
 struct StationTag {};
+struct FrameTag {};
+struct MountTag {};
+struct TrajectoryNodeTag {};
 
 using CameraId = Id<CameraTag>;    ///< intrinsics (COLMAP camera_id)
 using ImageId = Id<ImageTag>;      ///< an image and its pose (COLMAP image_id)
@@ -36,6 +39,9 @@ using Point3DId = Id<Point3DTag>;  ///< a 3D point (COLMAP point3D_id)
 using RigId = Id<RigTag>;
 using ScanId = Id<ScanTag>;
 using StationId = Id<StationTag>;
+using FrameId = Id<FrameTag>;                    ///< one epoch of a camera rig (its rig_from_world)
+using MountId = Id<MountTag>;                    ///< a sensor mounted on a platform (e.g. vehicle_from_lidar)
+using TrajectoryNodeId = Id<TrajectoryNodeTag>;  ///< a node of a trajectory correction (its index in time order)
 
 }  // namespace mmba
 

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <map>
 #include <memory>
 #include <set>
 #include <string>
@@ -14,6 +15,8 @@ namespace mmba {
 
 /// Which parameters are estimated. Intrinsics are held constant unless refined; subsets
 /// (focal, principal point, extra = distortion) are held with a ceres::SubsetManifold.
+/// Every rotation block (image, rig frame, rig camera, scan, mount) gets the quaternion
+/// manifold (geometry/pose_manifold.h); a pose held constant holds both its blocks.
 struct ParameterOptions {
   bool refine_focal = false;            ///< focal length(s)
   bool refine_principal_point = false;  ///< cx, cy
@@ -21,8 +24,16 @@ struct ParameterOptions {
   bool refine_poses = true;             ///< every image pose (except constant_images)
   bool refine_points = true;            ///< every 3-D point (except constant_points)
   std::set<CameraId> constant_cameras;  ///< held fully constant whatever the flags
+  /// Per camera, the intrinsics indices held instead of those of the refine flags: all of
+  /// them = the camera held constant, none = every parameter estimated.
+  std::map<CameraId, std::vector<int>> held_intrinsics;
   std::set<ImageId> constant_images;    ///< poses held constant
   std::set<Point3DId> constant_points;  ///< points held constant
+  std::set<FrameId> constant_rig_frames;          ///< rig_from_world held constant
+  std::set<CameraId> constant_cams_from_rig;      ///< cam_from_rig held constant
+  std::set<ScanId> constant_scans;                ///< scan_from_world held constant
+  std::set<MountId> constant_mounts;              ///< mounts held constant
+  std::set<TrajectoryNodeId> constant_trajectory_nodes;  ///< node corrections held constant
 };
 
 /// How the datum (gauge) of a network without external control is fixed. A free bundle
@@ -55,6 +66,8 @@ class ProblemBuilder {
 
   FactorGroup& AddGroup(std::unique_ptr<FactorGroup> group);
   void set_parameter_options(const ParameterOptions& options) { parameter_options_ = options; }
+  /// The options Build() applies, for callers that add to them group by group.
+  ParameterOptions& parameter_options() { return parameter_options_; }
   void set_gauge(const GaugeOptions& gauge) { gauge_ = gauge; }
 
   /// Adds every group, sets manifolds, constant blocks, the gauge and the Schur elimination
@@ -79,6 +92,11 @@ class ProblemBuilder {
 
  private:
   void ApplyParameterOptions();
+  void ApplyIntrinsics();
+  void ApplyImagesAndPoints();
+  /// Quaternion manifold on the pose's rotation block; both blocks constant when `constant`.
+  void ApplyPose(Rigid3d& pose, bool constant);
+  void ApplySensorPoses();
   void ApplyGauge();
 
   Scene* scene_;

@@ -2,8 +2,8 @@
 // holding its steps in the order RunAdjustment (adjust.cc) and WriteOutputs (outputs.cc) call
 // them:
 //   load        read the sensor's files into JointState (and the Scene), initialise its poses
-//   add groups  its factor groups in the joint problem (BuildProblem)
-//   parameters  its manifolds and constant blocks once the problem is built
+//   add groups  its factor groups in the joint problem and its ProblemBuilder parameter
+//               options (what is held constant), which Build() applies (BuildProblem)
 //   describe    one of its observations in words (data snooping's blunder list)
 //   outputs     its rows of poses.csv, its calibration files and report.json entries
 // photos.cc (photo collection), rig.cc (camera rig), spherical_stereo.cc (spherical stereo
@@ -128,21 +128,22 @@ void WritePhotoOutputs(const JointState& s, OutputSink* out);
 /// priors and its observations of the photo block's tie points.
 void LoadRig(JointState* s);
 /// Rig tie points, frame priors (or the frames on the mobile LiDAR's trajectory), MI frame
-/// priors, cam_from_rig priors.
+/// priors, cam_from_rig priors; the parameter options: cam_from_rig constant when fixed, the
+/// cameras' intrinsics by the rig's refine list (all held for a camera with fewer than 200
+/// observations).
 void AddRigGroups(JointState* s, const GroupWeights& w);
-/// Quaternion manifolds of frames and cam_from_rig (constant when fixed), intrinsics refine
-/// list (held for a camera with too few observations).
-void SetRigParameters(JointState* s, ceres::Problem& problem);
+/// Once the problem is built: a warning for each rig camera in it whose intrinsics are held
+/// for too few observations.
+void WarnHeldRigIntrinsics(JointState* s);
 std::string DescribeRigObservation(const JointState& s, const std::string& name, size_t index);
 /// poses.csv rows (each camera of each frame), frame corrections, calibration/<id>_rig.yaml.
 void WriteRigOutputs(const JointState& s, OutputSink* out);
 
 // ---- spherical stereo pair (blocks/spherical_stereo.cc) -----------------------------------
 
-/// Lower and upper sphere observations and the baseline prior.
+/// Lower and upper sphere observations and the baseline prior; the parameter options of the
+/// line-scan calibration (free: cy of both spheres, cx of the upper one, f when asked).
 void AddSphereGroups(JointState* s, const GroupWeights& w);
-/// The line-scan calibration's free parameters (cy of both spheres, cx of the upper one).
-void SetSphereParameters(JointState* s, ceres::Problem& problem);
 std::string DescribeSphereObservation(const JointState& s, const std::string& name, size_t index);
 /// poses.csv rows of both spheres of each station, corrections, calibration/<id>_spherical.yaml.
 void WriteSphereOutputs(const JointState& s, OutputSink* out);
@@ -156,8 +157,6 @@ void LoadLidar(JointState* s);
 size_t AssociateTiePoints(JointState* s, double gate);
 /// Tie points on the LiDAR surface, scan-to-scan pairs, targets in the scans, scan priors.
 void AddStaticLidarGroups(JointState* s, const GroupWeights& w);
-/// Quaternion manifolds of the scans' poses.
-void SetScanParameters(JointState* s, ceres::Problem& problem);
 std::string DescribeStaticLidarObservation(const JointState& s, const std::string& name, size_t index);
 /// scans.csv, the scans' calibration tables and report.json `static_scans`.
 void WriteScanOutputs(const JointState& s, OutputSink* out);
@@ -165,10 +164,9 @@ void WriteScanOutputs(const JointState& s, OutputSink* out);
 // ---- mobile LiDAR (blocks/mobile_lidar.cc, mobile.cc) --------------------------------------
 
 /// Trajectory prior and smoothness, mobile points on the static surface, the MI frame poses on
-/// the mobile LiDAR and the MI calibration, the extrinsic prior.
+/// the mobile LiDAR and the MI calibration, the extrinsic prior; the extrinsic held constant
+/// without a rig or when fixed.
 void AddMobileGroups(JointState* s, const GroupWeights& w);
-/// The extrinsic's manifold (constant without a rig or when fixed).
-void SetMobileParameters(JointState* s, ceres::Problem& problem);
 std::string DescribeMobileObservation(const JointState& s, const std::string& name, size_t index);
 /// The AdjustFailure message when fewer than 100 mobile points lie on the static surface
 /// (with a hint when the sample, scaled as millimetres, centimetres or feet, would).

@@ -21,48 +21,40 @@ using json = nlohmann::json;
 void AddMobileGroups(JointState* s, const GroupWeights& w) {
   MobileBlock& m = *s->mobile;
   const LidarMobile& mc = *m.config;
-  s->builder->AddGroup(std::make_unique<TrajectoryPriorGroup>(&m.nodes, w.Factor(kTrajectoryPrior) * mc.trajectory_sigma_m,
+  std::vector<TrajectoryNode>* nodes = &s->scene.trajectory_nodes();
+  Rigid3d* vehicle_from_lidar = &s->scene.Mount(m.mount);
+  s->builder->AddGroup(std::make_unique<TrajectoryPriorGroup>(nodes, w.Factor(kTrajectoryPrior) * mc.trajectory_sigma_m,
                                                               w.Factor(kTrajectoryPrior) * mc.trajectory_sigma_deg * M_PI / 180.0,
                                                               mc.trajectory_correlation_s, mc.loss, kTrajectoryPrior))
       .set_role(FactorRole::kPrior);
-  if (m.nodes.size() > 2 && (mc.smoothness_sigma_m > 0 || mc.smoothness_sigma_deg > 0)) {
-    s->builder->AddGroup(std::make_unique<TrajectorySmoothnessGroup>(&m.nodes, mc.smoothness_sigma_m,
+  if (nodes->size() > 2 && (mc.smoothness_sigma_m > 0 || mc.smoothness_sigma_deg > 0)) {
+    s->builder->AddGroup(std::make_unique<TrajectorySmoothnessGroup>(nodes, mc.smoothness_sigma_m,
                                                                      mc.smoothness_sigma_deg * M_PI / 180.0, kSmoothness))
         .set_role(FactorRole::kConstraint);
   }
   if (!m.points.empty()) {
-    s->builder->AddGroup(std::make_unique<MobileLidarGroup>(w.Scaled(kMobile, m.points), &m.nodes, &m.vehicle_from_lidar,
-                                                            m.body_from_vehicle, mc.loss, kMobile, &s->scan_from_world));
+    s->builder->AddGroup(std::make_unique<MobileLidarGroup>(w.Scaled(kMobile, m.points), nodes, vehicle_from_lidar,
+                                                            m.body_from_vehicle, mc.loss, kMobile));
   }
   if (m.with_rig && s->rig && !s->rig->mi_mobile.empty()) {
     s->builder->AddGroup(std::make_unique<MobileMiPriorGroup>(
-        w.Kept(kRigMiMobile, s->rig->mi_mobile), &s->rig->rig_from_world, &m.nodes, &m.vehicle_from_lidar,
-        m.body_from_vehicle, m.body_from_lidar_nominal, w.Factor(kRigMiMobile) * w.Factor(kRigMiMobile),
-        s->rig->config->loss, kRigMiMobile)).set_role(FactorRole::kPrior);
+        w.Kept(kRigMiMobile, s->rig->mi_mobile), nodes, vehicle_from_lidar, m.body_from_vehicle,
+        m.body_from_lidar_nominal, w.Factor(kRigMiMobile) * w.Factor(kRigMiMobile), s->rig->config->loss, kRigMiMobile))
+        .set_role(FactorRole::kPrior);
   }
   if (m.with_rig && !m.mi_extrinsic.empty()) {
     std::vector<MiResult> mi = m.mi_extrinsic;
-    for (MiResult& r : mi) r.pose = &m.vehicle_from_lidar;
+    for (MiResult& r : mi) r.pose = vehicle_from_lidar;
     s->builder->AddGroup(std::make_unique<MiPriorGroup>(w.Kept(kMiExtrinsic, mi), w.Factor(kMiExtrinsic) * w.Factor(kMiExtrinsic),
                                                         mc.loss, kMiExtrinsic)).set_role(FactorRole::kPrior);
   }
   if (m.with_rig && mc.extrinsic == PoseTreatment::kWeighted) {
     s->builder->AddGroup(std::make_unique<PosePriorGroup>(
-        std::vector<Rigid3d*>{&m.vehicle_from_lidar}, std::vector<Rigid3d>{m.vehicle_from_lidar_initial},
+        std::vector<Rigid3d*>{vehicle_from_lidar}, std::vector<Rigid3d>{m.vehicle_from_lidar_initial},
         w.Factor(kExtrinsicPrior) * mc.extrinsic_sigma_m, w.Factor(kExtrinsicPrior) * mc.extrinsic_sigma_deg * M_PI / 180.0,
         LossOptions(), kExtrinsicPrior)).set_role(FactorRole::kPrior);
   }
-}
-
-void SetMobileParameters(JointState* s, ceres::Problem& problem) {
-  MobileBlock& m = *s->mobile;
-  double* q = m.vehicle_from_lidar.rotation.coeffs().data();
-  if (!problem.HasParameterBlock(q)) return;
-  problem.SetManifold(q, new ceres::EigenQuaternionManifold);
-  if (!m.with_rig || m.config->extrinsic == PoseTreatment::kFixed) {
-    problem.SetParameterBlockConstant(q);
-    problem.SetParameterBlockConstant(m.vehicle_from_lidar.translation.data());
-  }
+  if (!m.with_rig || mc.extrinsic == PoseTreatment::kFixed) s->builder->parameter_options().constant_mounts.insert(m.mount);
 }
 
 std::string DescribeMobileObservation(const JointState& s, const std::string& name, size_t index) {
@@ -73,7 +65,7 @@ std::string DescribeMobileObservation(const JointState& s, const std::string& na
     return "mobile LiDAR point " + std::to_string(p.source) + " of " + s.mobile->config->cloud + " (t = " +
            std::to_string(p.time_s) + " s)";
   }
-  if (name == kTrajectoryPrior) return "GNSS/INS prior at t = " + std::to_string(s.mobile->nodes[index].time_s) + " s";
+  if (name == kTrajectoryPrior) return "GNSS/INS prior at t = " + std::to_string(s.scene.trajectory_nodes()[index].time_s) + " s";
   return "";
 }
 
@@ -108,10 +100,11 @@ namespace {
 /// every camera); its calibration table. Returns the extrinsic's change (deg, m).
 std::pair<double, double> WriteMobileCalibration(const JointState& s, OutputSink* out) {
   const MobileBlock& m = *s.mobile;
+  const Rigid3d& vehicle_from_lidar = s.scene.Mount(m.mount);
   const stats::NetworkStatistics& st = s.statistics;
-  const Rigid3d body_from_lidar = m.body_from_vehicle * m.vehicle_from_lidar;
+  const Rigid3d body_from_lidar = m.body_from_vehicle * vehicle_from_lidar;
   // Calibration: the extrinsic with σ (and, with a rig, cam_from_lidar of every camera).
-  const Eigen::Matrix<double, 6, 6> cov = ComposedPoseCovariance(st, Rigid3d(), m.vehicle_from_lidar);
+  const Eigen::Matrix<double, 6, 6> cov = ComposedPoseCovariance(st, Rigid3d(), vehicle_from_lidar);
   const auto sigma_text = [](const Eigen::Matrix<double, 6, 6>& c) {
     std::ostringstream o;
     o << std::setprecision(3) << "rotation_sigma_deg: [" << std::sqrt(std::max(0.0, c(0, 0))) * kDeg << ", "
@@ -126,15 +119,15 @@ std::pair<double, double> WriteMobileCalibration(const JointState& s, OutputSink
        << "); sigma from the adjustment (rotation sigma about the target frame's axes)\n"
        << "body_from_lidar: " << YamlPose(body_from_lidar) << "\n";
   json parameters = json::array();
-  const auto [dr, dt] = PoseError(m.vehicle_from_lidar, m.vehicle_from_lidar_initial);
+  const auto [dr, dt] = PoseError(vehicle_from_lidar, m.vehicle_from_lidar_initial);
   if (m.with_rig) {
-    yaml << "rig_from_lidar: " << YamlPose(m.vehicle_from_lidar) << "\nrig_from_lidar_sigma: {" << sigma_text(cov)
+    yaml << "rig_from_lidar: " << YamlPose(vehicle_from_lidar) << "\nrig_from_lidar_sigma: {" << sigma_text(cov)
          << "}\ncameras:\n";
     for (size_t k = 0; k < s.rig->cameras.size(); ++k) {
-      const Rigid3d cam_from_lidar = s.rig->cam_from_rig[k] * m.vehicle_from_lidar;
+      const Rigid3d cam_from_lidar = s.scene.CamFromRig(s.rig->cameras[k]) * vehicle_from_lidar;
       yaml << "  - name: " << s.rig->camera_names[k] << "\n    cam_from_lidar: " << YamlPose(cam_from_lidar)
            << "\n    cam_from_lidar_sigma: {"
-           << sigma_text(ComposedPoseCovariance(st, s.rig->cam_from_rig[k], m.vehicle_from_lidar)) << "}\n";
+           << sigma_text(ComposedPoseCovariance(st, s.scene.CamFromRig(s.rig->cameras[k]), vehicle_from_lidar)) << "}\n";
     }
   }
   parameters.push_back({{"name", "extrinsic rotation change [deg]"}, {"initial", 0.0}, {"adjusted", dr},
@@ -151,6 +144,7 @@ std::pair<double, double> WriteMobileCalibration(const JointState& s, OutputSink
 /// correction (m).
 json WriteMobileTrajectory(const JointState& s, OutputSink* out, double* worst_correction) {
   const MobileBlock& m = *s.mobile;
+  const std::vector<TrajectoryNode>& nodes = s.scene.trajectory_nodes();
   const stats::NetworkStatistics& st = s.statistics;
   // The trajectory corrections at the nodes, with σ.
   std::ostringstream trajectory;
@@ -161,7 +155,7 @@ json WriteMobileTrajectory(const JointState& s, OutputSink* out, double* worst_c
   // What observes each node: the mobile points on the static surface and the rig frames whose
   // time falls in the node's two intervals. A node with neither follows the GNSS/INS prior's
   // model alone (extrapolated from its neighbours).
-  std::vector<size_t> node_points(m.nodes.size(), 0), node_frames(m.nodes.size(), 0);
+  std::vector<size_t> node_points(nodes.size(), 0), node_frames(nodes.size(), 0);
   const auto touch = [&](const NodeWeight& w, std::vector<size_t>* count) {
     if (w.alpha < 1.0) ++(*count)[w.node];
     if (w.alpha > 0.0 && w.node + 1 < count->size()) ++(*count)[w.node + 1];
@@ -170,15 +164,15 @@ json WriteMobileTrajectory(const JointState& s, OutputSink* out, double* worst_c
   for (const FrameOnTrajectory& f : m.frames) touch(f.weight, &node_frames);
   json unobserved = json::array();
   double worst = 0.0;
-  for (size_t i = 0; i < m.nodes.size(); ++i) {
-    const TrajectoryNode& node = m.nodes[i];
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const TrajectoryNode& node = nodes[i];
     if (node_points[i] == 0 && node_frames[i] == 0) unobserved.push_back(node.time_s);
     double var_omega = 0.0, var_delta = 0.0;
     for (int k = 0; k < 3; ++k) {
       var_omega += st.Covariance(node.correction, k, node.correction, k);
       var_delta += st.Covariance(node.correction, 3 + k, node.correction, 3 + k);
     }
-    const Rigid3d corrected = CorrectedPose(m.nodes, WeightAt(m.nodes, node.time_s), InterpolateTrajectory(m.trajectory, node.time_s));
+    const Rigid3d corrected = CorrectedPose(nodes, WeightAt(nodes, node.time_s), InterpolateTrajectory(m.trajectory, node.time_s));
     trajectory << std::setprecision(10) << node.time_s << std::setprecision(6);
     for (int k = 0; k < 3; ++k) trajectory << "," << node.correction[k] * kDeg;
     for (int k = 0; k < 3; ++k) trajectory << "," << node.correction[3 + k];
@@ -198,7 +192,9 @@ json WriteMobileTrajectory(const JointState& s, OutputSink* out, double* worst_c
 /// chunk in memory at a time.
 void WriteCorrectedCloud(const JointState& s, int num_threads, OutputSink* out) {
   const MobileBlock& m = *s.mobile;
-  const Rigid3d body_from_lidar = m.body_from_vehicle * m.vehicle_from_lidar;
+  const Rigid3d& vehicle_from_lidar = s.scene.Mount(m.mount);
+  const std::vector<TrajectoryNode>& nodes = s.scene.trajectory_nodes();
+  const Rigid3d body_from_lidar = m.body_from_vehicle * vehicle_from_lidar;
   const Rigid3d lidar_from_body_nominal = m.body_from_lidar_nominal.Inverse();
   const auto correct = [&](const io::PointCloud& chunk, io::PointCloud* corrected) {
     corrected->points.resize(chunk.size());
@@ -207,7 +203,7 @@ void WriteCorrectedCloud(const JointState& s, int num_threads, OutputSink* out) 
     for (size_t i = 0; i < chunk.size(); ++i) {
       const Rigid3d ins = InterpolateTrajectory(m.trajectory, chunk.time[i]);
       const Eigen::Vector3d in_lidar = lidar_from_body_nominal * (ins.Inverse() * chunk.points[i]);
-      corrected->points[i] = CorrectedPose(m.nodes, WeightAt(m.nodes, chunk.time[i]), ins) * (body_from_lidar * in_lidar);
+      corrected->points[i] = CorrectedPose(nodes, WeightAt(nodes, chunk.time[i]), ins) * (body_from_lidar * in_lidar);
     }
   };
   MobileColouring colouring(s, num_threads);
@@ -234,7 +230,9 @@ void WriteCorrectedCloud(const JointState& s, int num_threads, OutputSink* out) 
 
 void WriteMobileOutputs(JointState& s, int num_threads, OutputSink* out) {
   const MobileBlock& m = *s.mobile;
-  const Rigid3d body_from_lidar = m.body_from_vehicle * m.vehicle_from_lidar;
+  const Rigid3d& vehicle_from_lidar = s.scene.Mount(m.mount);
+  const std::vector<TrajectoryNode>& nodes = s.scene.trajectory_nodes();
+  const Rigid3d body_from_lidar = m.body_from_vehicle * vehicle_from_lidar;
   const auto [dr, dt] = WriteMobileCalibration(s, out);
   double worst = 0.0;
   const json unobserved = WriteMobileTrajectory(s, out, &worst);
@@ -242,21 +240,21 @@ void WriteMobileOutputs(JointState& s, int num_threads, OutputSink* out) {
   // The error map of the points used (intensity = signed distance to the static surface).
   io::PointCloud error_map;
   for (const MobilePoint& p : m.points) {
-    const Eigen::Vector3d world = CorrectedPose(m.nodes, p.weight, p.ins) * (body_from_lidar * p.point_lidar);
+    const Eigen::Vector3d world = CorrectedPose(nodes, p.weight, p.ins) * (body_from_lidar * p.point_lidar);
     error_map.points.push_back(world);
-    const Eigen::Vector3d on_plane = p.scan < 0 ? world : s.scan_from_world[p.scan] * world;
+    const Eigen::Vector3d on_plane = p.scan < 0 ? world : s.scene.Scan(ScanId(p.scan)) * world;
     error_map.intensity.push_back(static_cast<float>(p.normal.dot(on_plane - p.plane_point)));
   }
   io::WritePly(error_map, (out->stage / ("error_map_" + m.config->id + ".ply")).string());
   (*out->report)["mobile_lidar"] = {{"sensor", m.config->id}, {"points", m.num_points}, {"used", m.sample.size()},
-                                    {"on_surface", m.points.size()}, {"nodes", m.nodes.size()},
+                                    {"on_surface", m.points.size()}, {"nodes", nodes.size()},
                                     {"max_position_correction_m", worst},
                                     {"extrinsic", m.with_rig ? PoseTreatmentName(m.config->extrinsic) : "held"},
                                     {"extrinsic_rotation_change_deg", dr}, {"extrinsic_translation_change_m", dt},
                                     {"unobserved_node_times_s", unobserved}};
   if (!unobserved.empty()) {
     s.warnings.push_back("lidar_mobile '" + m.config->id + "': " + std::to_string(unobserved.size()) + " of " +
-                         std::to_string(m.nodes.size()) + " trajectory nodes (t = " + unobserved.front().dump() + " to " +
+                         std::to_string(nodes.size()) + " trajectory nodes (t = " + unobserved.front().dump() + " to " +
                          unobserved.back().dump() + " s) have no mobile point on the static surface and no rig frame: "
                          "their corrections are the GNSS/INS prior's extrapolation, see the points and rig_frames "
                          "columns of " + m.config->id + "_trajectory.csv");

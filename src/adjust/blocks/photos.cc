@@ -315,11 +315,10 @@ void AddPhotoGroups(JointState* s, const GroupWeights& w) {
     s->builder->AddGroup(std::make_unique<GnssCameraGroup>(w.Scaled(kGnssCamera, block.gnss), s->project->gnss.front().loss,
                                                            kGnssCamera));
   }
-  ParameterOptions parameters;
+  ParameterOptions& parameters = s->builder->parameter_options();
   parameters.refine_focal = p.refine.focal;
   parameters.refine_principal_point = p.refine.principal_point;
   parameters.refine_extra = p.refine.distortion;
-  s->builder->set_parameter_options(parameters);
 }
 
 std::string DescribePhotoObservation(const JointState& s, const std::string& name, size_t index) {
@@ -382,7 +381,7 @@ void WriteTiePointClouds(const JointState& s, const io::ColmapModel& model, cons
   io::PointCloud ties, errors;
   std::map<Point3DId, double> distance;
   for (const SurfacePlane& p : s.planes) {
-    const Eigen::Vector3d x = p.scan < 0 ? s.scene.Point(p.point3D_id) : s.scan_from_world[p.scan] * s.scene.Point(p.point3D_id);
+    const Eigen::Vector3d x = p.scan < 0 ? s.scene.Point(p.point3D_id) : s.scene.Scan(ScanId(p.scan)) * s.scene.Point(p.point3D_id);
     distance[p.point3D_id] = p.normal.dot(x - p.point);
   }
   for (const auto& [id, point] : model.points3D) {

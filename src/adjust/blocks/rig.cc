@@ -40,15 +40,15 @@ void ReadRigCalibration(JointState* s, RigBlock* rig) {
     s->scene.AddCamera(camera);
     rig->cameras.push_back(camera.camera_id);
     rig->camera_names.push_back(calibration.names[k]);
-    rig->cam_from_rig.push_back(calibration.cam_from_rig[k]);
+    s->scene.AddCamFromRig(camera.camera_id, calibration.cam_from_rig[k]);
+    rig->cam_from_rig_initial.push_back(calibration.cam_from_rig[k]);
     rig->initial_params.push_back(camera.params);
   }
-  rig->cam_from_rig_initial = rig->cam_from_rig;
 }
 
 /// The frames of frames_file and their GNSS/INS pose priors (the trajectory through
-/// body_from_rig). Returns frame name → index.
-std::map<std::string, size_t> ReadRigFrames(RigBlock* rig) {
+/// body_from_rig), which are the Scene rig frames' initial values. Returns frame name → index.
+std::map<std::string, size_t> ReadRigFrames(RigBlock* rig, Scene* scene) {
   const CameraRig& config = *rig->config;
   const std::vector<std::pair<double, Rigid3d>> trajectory = ReadTrajectory(config.trajectory);
   const io::CsvTable frames = io::CsvTable::Read(config.frames_file, {"frame", "time_s"});
@@ -62,9 +62,9 @@ std::map<std::string, size_t> ReadRigFrames(RigBlock* rig) {
     rig->frame_names.push_back(frames.String(row, "frame"));
     rig->frame_times.push_back(time);
     const Rigid3d world_from_rig = InterpolateTrajectory(trajectory, time) * rig->body_from_rig;
+    scene->AddRigFrame(FrameId(rig->rig_prior.size()), world_from_rig.Inverse());
     rig->rig_prior.push_back(world_from_rig.Inverse());
   }
-  rig->rig_from_world = rig->rig_prior;
   return frame_index;
 }
 
@@ -117,7 +117,7 @@ void LoadRig(JointState* s) {
   RigBlock rig;
   rig.config = &config;
   ReadRigCalibration(s, &rig);
-  const std::map<std::string, size_t> frame_index = ReadRigFrames(&rig);
+  const std::map<std::string, size_t> frame_index = ReadRigFrames(&rig, &s->scene);
   ReadRigObservations(*s, frame_index, &rig);
   Note(s, "camera rig '" + config.id + "': " + std::to_string(rig.frame_names.size()) + " frames x " +
               std::to_string(rig.cameras.size()) + " cameras, " + std::to_string(rig.observations.size()) +
@@ -127,67 +127,35 @@ void LoadRig(JointState* s) {
   s->rig = std::move(rig);
 }
 
-void AddRigGroups(JointState* s, const GroupWeights& w) {
-  RigBlock& rig = *s->rig;
-  const CameraRig& c = *rig.config;
-  s->builder->AddGroup(std::make_unique<RigReprojectionGroup>(w.Scaled(kRig, rig.observations), &rig.rig_from_world,
-                                                              &rig.cam_from_rig, rig.cameras, c.loss, kRig));
-  if (s->mobile && s->mobile->with_rig) {
-    // The frames ride on the mobile LiDAR's corrected trajectory (its nodes carry the
-    // GNSS/INS prior).
-    const LidarMobile& mc = *s->mobile->config;
-    s->builder->AddGroup(std::make_unique<RigTrajectoryGroup>(
-        s->mobile->frames, &rig.rig_from_world, &s->mobile->nodes, rig.body_from_rig, mc.frame_sigma_m,
-        mc.frame_sigma_deg * M_PI / 180.0, LossOptions(), kRigOnTrajectory)).set_role(FactorRole::kConstraint);
-  } else {
-    std::vector<Rigid3d*> frames;
-    for (Rigid3d& pose : rig.rig_from_world) frames.push_back(&pose);
-    s->builder->AddGroup(std::make_unique<PosePriorGroup>(frames, rig.rig_prior, w.Factor(kRigPrior) * c.trajectory_sigma_m,
-                                                          w.Factor(kRigPrior) * c.trajectory_sigma_deg * M_PI / 180.0, c.loss,
-                                                          kRigPrior, rig.frame_times, c.trajectory_correlation_s))
-        .set_role(FactorRole::kPrior);
-  }
-  if (!rig.mi.empty()) {
-    std::vector<MiResult> mi = rig.mi;
-    for (size_t i = 0; i < mi.size(); ++i) mi[i].pose = &rig.rig_from_world[rig.mi_frame[i]];
-    s->builder->AddGroup(std::make_unique<MiPriorGroup>(w.Kept(kRigMi, mi), w.Factor(kRigMi) * w.Factor(kRigMi), c.loss, kRigMi))
-        .set_role(FactorRole::kPrior);
-  }
-  if (c.cam_from_rig == PoseTreatment::kWeighted) {
-    std::vector<Rigid3d*> cameras;
-    for (Rigid3d& pose : rig.cam_from_rig) cameras.push_back(&pose);
-    s->builder->AddGroup(std::make_unique<PosePriorGroup>(
-        cameras, rig.cam_from_rig_initial, w.Factor(kRigCalibration) * c.cam_from_rig_sigma_m,
-        w.Factor(kRigCalibration) * c.cam_from_rig_sigma_deg * M_PI / 180.0, LossOptions(), kRigCalibration))
-        .set_role(FactorRole::kPrior);
-  }
-}
-
 namespace {
 
-/// The rig cameras' intrinsics: the rig's own refine list; a camera with fewer than
-/// kMinObservations observations keeps its calibration (its 8 fisheye parameters would be
-/// undetermined and let the solver drift).
-void SetRigIntrinsics(JointState* s, ceres::Problem& problem) {
-  RigBlock& rig = *s->rig;
-  constexpr size_t kMinObservations = 200;
+/// Rig cameras with fewer observations keep their calibration: their 8 fisheye parameters
+/// would be undetermined and let the solver drift.
+constexpr size_t kMinRigCameraObservations = 200;
+
+/// Observations per rig camera.
+std::vector<size_t> RigCameraObservations(const RigBlock& rig) {
   std::vector<size_t> count(rig.cameras.size(), 0);
   for (const RigObservation& o : rig.observations) ++count[o.camera];
+  return count;
+}
+
+/// The rig cameras' parameter options: cam_from_rig held when fixed; the intrinsics indices
+/// the rig's refine list holds (all of them for a camera with too few observations).
+void SetRigParameterOptions(const JointState& s, ParameterOptions* options) {
+  const RigBlock& rig = *s.rig;
   const RefineIntrinsics& refine = rig.config->refine;
+  const std::vector<size_t> count = RigCameraObservations(rig);
   for (size_t k = 0; k < rig.cameras.size(); ++k) {
-    sensors::Camera& camera = s->scene.Camera(rig.cameras[k]);
-    double* params = camera.params.data();
-    if (!problem.HasParameterBlock(params)) continue;
-    if (count[k] < kMinObservations) {
-      problem.SetParameterBlockConstant(params);
-      const std::string warning = "rig camera " + rig.camera_names[k] + ": " + std::to_string(count[k]) +
-                                  " observations, intrinsics held at the calibration (fewer than " +
-                                  std::to_string(kMinObservations) + ")";
-      if (std::find(s->warnings.begin(), s->warnings.end(), warning) == s->warnings.end()) s->warnings.push_back(warning);
+    if (rig.config->cam_from_rig == PoseTreatment::kFixed) options->constant_cams_from_rig.insert(rig.cameras[k]);
+    const sensors::Camera& camera = s.scene.Camera(rig.cameras[k]);
+    std::vector<int>& held = options->held_intrinsics[rig.cameras[k]];
+    held.clear();
+    if (count[k] < kMinRigCameraObservations) {
+      for (size_t i = 0; i < camera.params.size(); ++i) held.push_back(static_cast<int>(i));
       continue;
     }
-    std::vector<int> constant;
-    const auto hold = [&](const std::vector<int>& idxs) { constant.insert(constant.end(), idxs.begin(), idxs.end()); };
+    const auto hold = [&](const std::vector<int>& idxs) { held.insert(held.end(), idxs.begin(), idxs.end()); };
     if (!refine.focal) hold(sensors::CameraModelFocalIdxs(camera.model_id));
     if (!refine.principal_point) hold(sensors::CameraModelPrincipalIdxs(camera.model_id));
     const std::vector<int> extra = sensors::CameraModelExtraIdxs(camera.model_id);
@@ -196,35 +164,60 @@ void SetRigIntrinsics(JointState* s, ceres::Problem& problem) {
     } else if (refine.distortion_terms > 0 && static_cast<int>(extra.size()) > refine.distortion_terms) {
       hold(std::vector<int>(extra.begin() + refine.distortion_terms, extra.end()));
     }
-    std::sort(constant.begin(), constant.end());
-    if (constant.size() == camera.params.size()) {
-      problem.SetParameterBlockConstant(params);
-    } else {
-      problem.SetParameterBlockVariable(params);
-      problem.SetManifold(params, constant.empty() ? nullptr : new ceres::SubsetManifold(camera.params.size(), constant));
-    }
   }
 }
 
 }  // namespace
 
-void SetRigParameters(JointState* s, ceres::Problem& problem) {
+void AddRigGroups(JointState* s, const GroupWeights& w) {
   RigBlock& rig = *s->rig;
-  for (Rigid3d& pose : rig.rig_from_world) {
-    if (problem.HasParameterBlock(pose.rotation.coeffs().data())) {
-      problem.SetManifold(pose.rotation.coeffs().data(), new ceres::EigenQuaternionManifold);
-    }
+  const CameraRig& c = *rig.config;
+  s->builder->AddGroup(std::make_unique<RigReprojectionGroup>(w.Scaled(kRig, rig.observations), rig.cameras, c.loss, kRig));
+  if (s->mobile && s->mobile->with_rig) {
+    // The frames ride on the mobile LiDAR's corrected trajectory (its nodes carry the
+    // GNSS/INS prior).
+    const LidarMobile& mc = *s->mobile->config;
+    s->builder->AddGroup(std::make_unique<RigTrajectoryGroup>(
+        s->mobile->frames, &s->scene.trajectory_nodes(), rig.body_from_rig, mc.frame_sigma_m,
+        mc.frame_sigma_deg * M_PI / 180.0, LossOptions(), kRigOnTrajectory)).set_role(FactorRole::kConstraint);
+  } else {
+    std::vector<Rigid3d*> frames;
+    for (size_t f = 0; f < rig.frame_names.size(); ++f) frames.push_back(&s->scene.RigFrame(FrameId(f)));
+    s->builder->AddGroup(std::make_unique<PosePriorGroup>(frames, rig.rig_prior, w.Factor(kRigPrior) * c.trajectory_sigma_m,
+                                                          w.Factor(kRigPrior) * c.trajectory_sigma_deg * M_PI / 180.0, c.loss,
+                                                          kRigPrior, rig.frame_times, c.trajectory_correlation_s))
+        .set_role(FactorRole::kPrior);
   }
-  for (Rigid3d& pose : rig.cam_from_rig) {
-    double* q = pose.rotation.coeffs().data();
-    if (!problem.HasParameterBlock(q)) continue;
-    problem.SetManifold(q, new ceres::EigenQuaternionManifold);
-    if (rig.config->cam_from_rig == PoseTreatment::kFixed) {
-      problem.SetParameterBlockConstant(q);
-      problem.SetParameterBlockConstant(pose.translation.data());
-    }
+  if (!rig.mi.empty()) {
+    std::vector<MiResult> mi = rig.mi;
+    for (size_t i = 0; i < mi.size(); ++i) mi[i].pose = &s->scene.RigFrame(FrameId(rig.mi_frame[i]));
+    s->builder->AddGroup(std::make_unique<MiPriorGroup>(w.Kept(kRigMi, mi), w.Factor(kRigMi) * w.Factor(kRigMi), c.loss, kRigMi))
+        .set_role(FactorRole::kPrior);
   }
-  SetRigIntrinsics(s, problem);
+  if (c.cam_from_rig == PoseTreatment::kWeighted) {
+    std::vector<Rigid3d*> cameras;
+    for (CameraId id : rig.cameras) cameras.push_back(&s->scene.CamFromRig(id));
+    s->builder->AddGroup(std::make_unique<PosePriorGroup>(
+        cameras, rig.cam_from_rig_initial, w.Factor(kRigCalibration) * c.cam_from_rig_sigma_m,
+        w.Factor(kRigCalibration) * c.cam_from_rig_sigma_deg * M_PI / 180.0, LossOptions(), kRigCalibration))
+        .set_role(FactorRole::kPrior);
+  }
+  SetRigParameterOptions(*s, &s->builder->parameter_options());
+}
+
+void WarnHeldRigIntrinsics(JointState* s) {
+  const RigBlock& rig = *s->rig;
+  const std::vector<size_t> count = RigCameraObservations(rig);
+  for (size_t k = 0; k < rig.cameras.size(); ++k) {
+    if (count[k] >= kMinRigCameraObservations ||
+        !s->builder->problem().HasParameterBlock(s->scene.Camera(rig.cameras[k]).params.data())) {
+      continue;
+    }
+    const std::string warning = "rig camera " + rig.camera_names[k] + ": " + std::to_string(count[k]) +
+                                " observations, intrinsics held at the calibration (fewer than " +
+                                std::to_string(kMinRigCameraObservations) + ")";
+    if (std::find(s->warnings.begin(), s->warnings.end(), warning) == s->warnings.end()) s->warnings.push_back(warning);
+  }
 }
 
 std::string DescribeRigObservation(const JointState& s, const std::string& name, size_t index) {
@@ -263,7 +256,7 @@ void WriteRigCalibration(const JointState& s, OutputSink* out) {
        << rig.body_from_rig.translation.z() << "]}\ncameras:\n";
   for (size_t k = 0; k < rig.cameras.size(); ++k) {
     const sensors::Camera& camera = s.scene.Camera(rig.cameras[k]);
-    const Rigid3d& cr = rig.cam_from_rig[k];
+    const Rigid3d& cr = s.scene.CamFromRig(rig.cameras[k]);
     const std::vector<double> sigma = ParameterSigmas(st, s.builder->problem(), camera.params.data());
     const std::vector<double> t_sigma = ParameterSigmas(st, s.builder->problem(), cr.translation.data());
     yaml << "  - name: " << rig.camera_names[k] << "\n    model: " << camera.ModelName() << "\n    width: "
@@ -289,15 +282,15 @@ void WriteRigCalibration(const JointState& s, OutputSink* out) {
 
 void WriteRigOutputs(const JointState& s, OutputSink* out) {
   const RigBlock& rig = *s.rig;
-  for (size_t f = 0; f < rig.rig_from_world.size(); ++f) {
-    const Rigid3d& pose = rig.rig_from_world[f];
+  for (size_t f = 0; f < rig.frame_names.size(); ++f) {
+    const Rigid3d& pose = s.scene.RigFrame(FrameId(f));
     const Eigen::Vector3d d = CameraCentre(pose) - CameraCentre(rig.rig_prior[f]);
     const double d_rotation = pose.rotation.angularDistance(rig.rig_prior[f].rotation) * kDeg;
     out->corrections.push_back({{"image", rig.frame_names[f]}, {"sensor", rig.config->id}, {"d", Vec(d)},
                                 {"d_position_m", d.norm()}, {"d_rotation_deg", d_rotation}});
     const Eigen::Vector3d sigma = CentreCovariance(s.statistics, pose).diagonal().cwiseMax(0.0).cwiseSqrt();
-    for (size_t k = 0; k < rig.cam_from_rig.size(); ++k) {
-      const Rigid3d cam_from_world = rig.cam_from_rig[k] * pose;
+    for (size_t k = 0; k < rig.cameras.size(); ++k) {
+      const Rigid3d cam_from_world = s.scene.CamFromRig(rig.cameras[k]) * pose;
       AppendPoseRow(*out->poses, rig.frame_names[f] + "_" + rig.camera_names[k], rig.config->id,
                     CameraCentre(cam_from_world), cam_from_world.rotation, s.plane, sigma, d.norm(), d_rotation);
     }

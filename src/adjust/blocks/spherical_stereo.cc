@@ -210,27 +210,18 @@ void AddSphereGroups(JointState* s, const GroupWeights& w) {
   s->builder->AddGroup(std::make_unique<UpperSphereGroup>(w.Scaled(kSphereUpper, sb.upper), &sb.baseline, loss, kSphereUpper));
   s->builder->AddGroup(std::make_unique<VectorPriorGroup>(&sb.baseline, sb.baseline_prior,
                                                           w.Factor(kBaseline) * sb.config->baseline_sigma_m, kBaseline));
-}
-
-void SetSphereParameters(JointState* s, ceres::Problem& problem) {
   // The line-scan calibration: the vertical principal offsets cy of both spheres and the
   // horizontal offset cx of the upper one relative to the lower (a common cx shift of a full
   // panorama is a rotation about the sphere's axis — the station's heading — so the lower
-  // cx is held as the datum); f (= W/2π for a full panorama) only when asked.
-  const SphericalStereo& config = *s->spheres->config;
-  for (CameraId id : {s->spheres->lower_camera, s->spheres->upper_camera}) {
-    double* params = s->scene.Camera(id).params.data();
-    if (!problem.HasParameterBlock(params)) continue;
-    std::vector<int> constant;
-    if (!config.refine_focal) constant.push_back(0);
-    if (!config.refine_principal_point || id == s->spheres->lower_camera) constant.push_back(1);
-    if (!config.refine_principal_point) constant.push_back(2);
-    if (constant.size() == 3) {
-      problem.SetParameterBlockConstant(params);
-    } else {
-      problem.SetParameterBlockVariable(params);
-      problem.SetManifold(params, constant.empty() ? nullptr : new ceres::SubsetManifold(3, constant));
-    }
+  // cx is held as the datum); f (= W/2π for a full panorama) only when asked. Parameters
+  // (f, cx, cy).
+  const SphericalStereo& config = *sb.config;
+  for (CameraId id : {sb.lower_camera, sb.upper_camera}) {
+    std::vector<int>& held = s->builder->parameter_options().held_intrinsics[id];
+    held.clear();
+    if (!config.refine_focal) held.push_back(0);
+    if (!config.refine_principal_point || id == sb.lower_camera) held.push_back(1);
+    if (!config.refine_principal_point) held.push_back(2);
   }
 }
 

@@ -67,36 +67,27 @@ size_t AssociateTiePoints(JointState* s, double gate) {
 void AddStaticLidarGroups(JointState* s, const GroupWeights& w) {
   const LidarStatic& l = s->project->lidar_static.front();
   if (!s->planes.empty()) {
-    s->builder->AddGroup(std::make_unique<LidarSurfaceGroup>(w.Scaled(kLidar, s->planes), l.loss, kLidar, &s->scan_from_world));
+    s->builder->AddGroup(std::make_unique<LidarSurfaceGroup>(w.Scaled(kLidar, s->planes), l.loss, kLidar));
   }
   if (s->scans.empty()) return;
   if (!s->scan_pairs.empty()) {
-    s->builder->AddGroup(std::make_unique<ScanToScanGroup>(w.Scaled(kScanToScan, s->scan_pairs), &s->scan_from_world, l.loss,
-                                                           kScanToScan));
+    s->builder->AddGroup(std::make_unique<ScanToScanGroup>(w.Scaled(kScanToScan, s->scan_pairs), l.loss, kScanToScan));
   }
   if (!s->scan_targets.empty()) {
-    s->builder->AddGroup(std::make_unique<ScanTargetGroup>(&*s->joint, w.Scaled(kScanTargets, s->scan_targets),
-                                                           &s->scan_from_world, l.loss, kScanTargets));
+    s->builder->AddGroup(std::make_unique<ScanTargetGroup>(&*s->joint, w.Scaled(kScanTargets, s->scan_targets), l.loss,
+                                                           kScanTargets));
   }
   std::vector<Rigid3d*> poses;
   std::vector<Rigid3d> priors;
   for (size_t k = 0; k < s->scans.size(); ++k) {
     if (!s->scans[k].has_prior) continue;  // placed by targets or feature registration: no observation
-    poses.push_back(&s->scan_from_world[k]);
+    poses.push_back(&s->scene.Scan(ScanId(k)));
     priors.push_back(s->scans[k].prior);
   }
   if (!poses.empty()) {
     s->builder->AddGroup(std::make_unique<PosePriorGroup>(poses, priors, w.Factor(kScanPrior) * l.scan_sigma_m,
                                                           w.Factor(kScanPrior) * l.scan_sigma_deg * M_PI / 180.0, l.loss,
                                                           kScanPrior)).set_role(FactorRole::kPrior);
-  }
-}
-
-void SetScanParameters(JointState* s, ceres::Problem& problem) {
-  for (Rigid3d& pose : s->scan_from_world) {
-    if (problem.HasParameterBlock(pose.rotation.coeffs().data())) {
-      problem.SetManifold(pose.rotation.coeffs().data(), new ceres::EigenQuaternionManifold);
-    }
   }
 }
 
@@ -121,7 +112,7 @@ void WriteScanOutputs(const JointState& s, OutputSink* out) {
          "d_position_m,d_rotation_deg\n";
   json scans = json::array();
   for (size_t k = 0; k < s.scans.size(); ++k) {
-    const Rigid3d& pose = s.scan_from_world[k];
+    const Rigid3d& pose = s.scene.Scan(ScanId(k));
     const Eigen::Vector3d centre = CameraCentre(pose);
     const Eigen::Vector3d sigma = CentreCovariance(st, pose).diagonal().cwiseMax(0.0).cwiseSqrt();
     const double* q = pose.rotation.coeffs().data();
