@@ -117,6 +117,50 @@ struct PlyHeader {
   size_t vertex_index = 0;
 };
 
+// The format of a "format FORMAT 1.0" header line.
+PlyFormat ParsePlyFormatLine(const TokenLine& t) {
+  t.ExpectCount(3, "format");
+  PlyFormat format = PlyFormat::kAscii;
+  const std::string& f = t.Str(1, "format");
+  if (f == "ascii") format = PlyFormat::kAscii;
+  else if (f == "binary_little_endian") format = PlyFormat::kBinaryLe;
+  else if (f == "binary_big_endian") format = PlyFormat::kBinaryBe;
+  else t.Fail("format", f, "ascii, binary_little_endian or binary_big_endian");
+  if (t.Str(2, "version") != "1.0") t.Fail("version", t.Str(2, "version"), "1.0");
+  return format;
+}
+
+// A "property TYPE NAME" or "property list COUNT_TYPE ITEM_TYPE NAME" header line.
+PlyProperty ParsePlyPropertyLine(const TokenLine& t) {
+  PlyProperty p;
+  if (t.size() >= 2 && t.Str(1, "type") == "list") {
+    t.ExpectCount(5, "list property");
+    p.is_list = true;
+    // A count is an integer: a float count (NaN, 1e30, 2.5) has no number of items.
+    if (!ParsePlyType(t.Str(2, "count type"), &p.count_type) || p.count_type == ScalarType::kFloat32 ||
+        p.count_type == ScalarType::kFloat64) {
+      t.Fail("count type", t.Str(2, "count type"), kCountTypeNames);
+    }
+    if (!ParsePlyType(t.Str(3, "item type"), &p.type)) {
+      t.Fail("item type", t.Str(3, "item type"), kTypeNames);
+    }
+    p.name = t.Str(4, "name");
+  } else {
+    t.ExpectCount(3, "property");
+    if (!ParsePlyType(t.Str(1, "type"), &p.type)) t.Fail("type", t.Str(1, "type"), kTypeNames);
+    p.name = t.Str(2, "name");
+  }
+  return p;
+}
+
+// The index of the first element named "vertex"; InputError if there is none.
+size_t FindVertexElement(const std::string& path, const std::vector<PlyElement>& elements) {
+  for (size_t i = 0; i < elements.size(); ++i) {
+    if (elements[i].name == "vertex") return i;
+  }
+  throw InputError::Message(path, "PLY header declares no 'vertex' element");
+}
+
 // Parses the header at the start of `data` (the whole file or a prefix ending after
 // end_header).
 PlyHeader ParsePlyHeader(const std::string& path, std::string_view data) {
@@ -130,7 +174,6 @@ PlyHeader ParsePlyHeader(const std::string& path, std::string_view data) {
   LineCursor cursor(data, path);
   std::string_view line;
   cursor.Next(&line);
-  PlyFormat& format = header.format;
   bool have_format = false;
   std::vector<PlyElement>& elements = header.elements;
   size_t header_end = std::string::npos;
@@ -140,13 +183,7 @@ PlyHeader ParsePlyHeader(const std::string& path, std::string_view data) {
     const std::string& key = t.Str(0, "keyword");
     if (key == "comment" || key == "obj_info") continue;
     if (key == "format") {
-      t.ExpectCount(3, "format");
-      const std::string& f = t.Str(1, "format");
-      if (f == "ascii") format = PlyFormat::kAscii;
-      else if (f == "binary_little_endian") format = PlyFormat::kBinaryLe;
-      else if (f == "binary_big_endian") format = PlyFormat::kBinaryBe;
-      else t.Fail("format", f, "ascii, binary_little_endian or binary_big_endian");
-      if (t.Str(2, "version") != "1.0") t.Fail("version", t.Str(2, "version"), "1.0");
+      header.format = ParsePlyFormatLine(t);
       have_format = true;
     } else if (key == "element") {
       t.ExpectCount(3, "element");
@@ -156,25 +193,7 @@ PlyHeader ParsePlyHeader(const std::string& path, std::string_view data) {
       elements.push_back(e);
     } else if (key == "property") {
       if (elements.empty()) t.Fail("property", std::string(line), "an 'element' line before it");
-      PlyProperty p;
-      if (t.size() >= 2 && t.Str(1, "type") == "list") {
-        t.ExpectCount(5, "list property");
-        p.is_list = true;
-        // A count is an integer: a float count (NaN, 1e30, 2.5) has no number of items.
-        if (!ParsePlyType(t.Str(2, "count type"), &p.count_type) || p.count_type == ScalarType::kFloat32 ||
-            p.count_type == ScalarType::kFloat64) {
-          t.Fail("count type", t.Str(2, "count type"), kCountTypeNames);
-        }
-        if (!ParsePlyType(t.Str(3, "item type"), &p.type)) {
-          t.Fail("item type", t.Str(3, "item type"), kTypeNames);
-        }
-        p.name = t.Str(4, "name");
-      } else {
-        t.ExpectCount(3, "property");
-        if (!ParsePlyType(t.Str(1, "type"), &p.type)) t.Fail("type", t.Str(1, "type"), kTypeNames);
-        p.name = t.Str(2, "name");
-      }
-      elements.back().properties.push_back(p);
+      elements.back().properties.push_back(ParsePlyPropertyLine(t));
     } else if (key == "end_header") {
       header_end = static_cast<size_t>(line.data() + line.size() - data.data());
       // Skip the line terminator ("\n" or "\r\n").
@@ -191,17 +210,7 @@ PlyHeader ParsePlyHeader(const std::string& path, std::string_view data) {
   }
   header.header_end = header_end;
   header.header_lines = cursor.line_number();
-  size_t vertex_index = elements.size();
-  for (size_t i = 0; i < elements.size(); ++i) {
-    if (elements[i].name == "vertex") {
-      vertex_index = i;
-      break;
-    }
-  }
-  if (vertex_index == elements.size()) {
-    throw InputError::Message(path, "PLY header declares no 'vertex' element");
-  }
-  header.vertex_index = vertex_index;
+  header.vertex_index = FindVertexElement(path, elements);
   return header;
 }
 

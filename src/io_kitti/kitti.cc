@@ -80,15 +80,21 @@ std::map<std::string, CalibRow> ReadCalibRows(const std::string& path) {
 constexpr const char* kRawCamToCam = "calib_cam_to_cam.txt";
 constexpr const char* kRawVeloToCam = "calib_velo_to_cam.txt";
 
-}  // namespace
+// The file(s) of a calibration: `path` alone, or a raw recording's cam-to-cam `path` with
+// its velo-to-cam `velo_path`.
+struct CalibFiles {
+  std::string path;
+  std::string velo_path;  // "" unless a raw recording
+};
 
-KittiCalibration ReadKittiCalibration(const std::string& path_or_folder, int camera) {
-  // A raw recording's calibration is two files in the date folder: calib_cam_to_cam.txt
-  // (P_rect_0X, R_rect_00) and calib_velo_to_cam.txt (R, T: velodyne → camera 0). Given the
-  // folder or either file, both are read; rows of the second file are named by it.
+// A raw recording's calibration is two files in the date folder: calib_cam_to_cam.txt
+// (P_rect_0X, R_rect_00) and calib_velo_to_cam.txt (R, T: velodyne → camera 0). Given the
+// folder or either file, both are named.
+CalibFiles ResolveCalibFiles(const std::string& path_or_folder) {
   namespace fs = std::filesystem;
-  std::string path = path_or_folder;
-  std::string velo_path;
+  CalibFiles files{path_or_folder, ""};
+  std::string& path = files.path;
+  std::string& velo_path = files.velo_path;
   const fs::path given(path_or_folder);
   std::error_code ec;
   if (fs::is_directory(given, ec)) {
@@ -111,42 +117,60 @@ KittiCalibration ReadKittiCalibration(const std::string& path_or_folder, int cam
                                            " and " + kRawVeloToCam + " side by side (given " + path_or_folder + ")");
     }
   }
-  std::map<std::string, CalibRow> rows = ReadCalibRows(path);
-  std::map<std::string, std::string> row_file;
-  if (!velo_path.empty()) {
-    const std::map<std::string, CalibRow> velo = ReadCalibRows(velo_path);
-    const auto r = velo.find("R"), t = velo.find("T");
-    if (r == velo.end() || t == velo.end()) {
-      throw InputError::Message(velo_path, "missing calibration key " + std::string(r == velo.end() ? "R" : "T") +
-                                               " (expected R: 9 numbers and T: 3 numbers, velodyne to camera 0)");
-    }
-    for (const auto& [key, row] : {std::pair{"R", r->second}, std::pair{"T", t->second}}) {
-      const size_t count = std::string(key) == "R" ? 9 : 3;
-      if (row.values.size() != count) {
-        throw InputError(velo_path, row.line, key, std::to_string(row.values.size()) + " numbers",
-                         std::to_string(count) + " numbers");
-      }
-    }
-    CalibRow tr;
-    tr.line = r->second.line;
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) tr.values.push_back(r->second.values[3 * i + j]);
-      tr.values.push_back(t->second.values[i]);
-    }
-    rows["Tr_velo_to_cam"] = tr;
-    row_file["Tr_velo_to_cam"] = velo_path;
+  return files;
+}
+
+// A raw recording's R (9 numbers) and T (3 numbers) of `velo_path` as one 3×4 row
+// "Tr_velo_to_cam", on the line of R.
+CalibRow ReadRawVeloToCam(const std::string& velo_path) {
+  const std::map<std::string, CalibRow> velo = ReadCalibRows(velo_path);
+  const auto r = velo.find("R"), t = velo.find("T");
+  if (r == velo.end() || t == velo.end()) {
+    throw InputError::Message(velo_path, "missing calibration key " + std::string(r == velo.end() ? "R" : "T") +
+                                             " (expected R: 9 numbers and T: 3 numbers, velodyne to camera 0)");
   }
-  const auto file_of = [&](const std::string& key) {
-    const auto it = row_file.find(key);
-    return it == row_file.end() ? path : it->second;
-  };
-  auto find = [&](std::initializer_list<const char*> names, size_t count, bool required,
-                  const std::string& why = "") -> const CalibRow* {
+  for (const auto& [key, row] : {std::pair{"R", r->second}, std::pair{"T", t->second}}) {
+    const size_t count = std::string(key) == "R" ? 9 : 3;
+    if (row.values.size() != count) {
+      throw InputError(velo_path, row.line, key, std::to_string(row.values.size()) + " numbers",
+                       std::to_string(count) + " numbers");
+    }
+  }
+  CalibRow tr;
+  tr.line = r->second.line;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) tr.values.push_back(r->second.values[3 * i + j]);
+    tr.values.push_back(t->second.values[i]);
+  }
+  return tr;
+}
+
+// The rows of a calibration with the file each came from.
+class CalibTable {
+ public:
+  explicit CalibTable(const CalibFiles& files) : path_(files.path), rows_(ReadCalibRows(files.path)) {
+    if (!files.velo_path.empty()) {
+      rows_["Tr_velo_to_cam"] = ReadRawVeloToCam(files.velo_path);
+      row_file_["Tr_velo_to_cam"] = files.velo_path;
+    }
+  }
+
+  bool Has(const std::string& key) const { return rows_.count(key) != 0; }
+
+  std::string FileOf(const std::string& key) const {
+    const auto it = row_file_.find(key);
+    return it == row_file_.end() ? path_ : it->second;
+  }
+
+  // The first of `names` present, which must hold `count` numbers; nullptr if none is and
+  // !required, else InputError naming the keys and `why`.
+  const CalibRow* Find(std::initializer_list<const char*> names, size_t count, bool required,
+                       const std::string& why = "") const {
     for (const char* name : names) {
-      auto it = rows.find(name);
-      if (it == rows.end()) continue;
+      auto it = rows_.find(name);
+      if (it == rows_.end()) continue;
       if (it->second.values.size() != count) {
-        throw InputError(file_of(name), it->second.line, name,
+        throw InputError(FileOf(name), it->second.line, name,
                          std::to_string(it->second.values.size()) + " numbers",
                          std::to_string(count) + " numbers");
       }
@@ -155,12 +179,25 @@ KittiCalibration ReadKittiCalibration(const std::string& path_or_folder, int cam
     if (required) {
       std::string list;
       for (const char* name : names) list += (list.empty() ? "" : " or ") + std::string(name);
-      throw InputError::Message(path, "missing calibration key " + list + why +
-                                          " (expected a KITTI object/odometry calib file, or a raw "
-                                          "recording's calib_cam_to_cam.txt + calib_velo_to_cam.txt)");
+      throw InputError::Message(path_, "missing calibration key " + list + why +
+                                           " (expected a KITTI object/odometry calib file, or a raw "
+                                           "recording's calib_cam_to_cam.txt + calib_velo_to_cam.txt)");
     }
     return nullptr;
-  };
+  }
+
+ private:
+  std::string path_;
+  std::map<std::string, CalibRow> rows_;
+  std::map<std::string, std::string> row_file_;
+};
+
+}  // namespace
+
+KittiCalibration ReadKittiCalibration(const std::string& path_or_folder, int camera) {
+  const CalibFiles files = ResolveCalibFiles(path_or_folder);
+  const std::string& path = files.path;
+  const CalibTable rows(files);
   if (camera < -1 || camera > 3) {
     throw InputError::Message(path, "KITTI camera index " + std::to_string(camera) + " out of range 0..3");
   }
@@ -171,7 +208,7 @@ KittiCalibration ReadKittiCalibration(const std::string& path_or_folder, int cam
     const std::string a = "P" + std::to_string(i);
     const std::string b = "P_rect_0" + std::to_string(i);
     const bool required = camera == -1 || camera == i;
-    if (const CalibRow* row = find({a.c_str(), b.c_str()}, 12, required, " (KITTI camera " + std::to_string(i) + ")")) {
+    if (const CalibRow* row = rows.Find({a.c_str(), b.c_str()}, 12, required, " (KITTI camera " + std::to_string(i) + ")")) {
       calibration.p[i] = Matrix3x4(*row);
       calibration.has_p[i] = true;
     }
@@ -181,18 +218,18 @@ KittiCalibration ReadKittiCalibration(const std::string& path_or_folder, int cam
   // tracking format's Tr_velo_cam, a raw recording's R, T) the rectifying rotation is part of
   // the projection (KITTI devkit: P2 · R0_rect · Tr_velo_to_cam), and a file without it is
   // refused rather than read with the identity (a 1-2 px error on KITTI).
-  const CalibRow* tr = find({"Tr_velo_to_cam", "Tr_velo_cam", "Tr"}, 12, true);
-  const bool odometry = rows.count("Tr_velo_to_cam") == 0 && rows.count("Tr_velo_cam") == 0;
-  if (const CalibRow* r0 = find({"R0_rect", "R_rect_00", "R_rect"}, 9, !odometry,
-                                " (the rectifying rotation, which goes with Tr_velo_to_cam)")) {
+  const CalibRow* tr = rows.Find({"Tr_velo_to_cam", "Tr_velo_cam", "Tr"}, 12, true);
+  const bool odometry = !rows.Has("Tr_velo_to_cam") && !rows.Has("Tr_velo_cam");
+  if (const CalibRow* r0 = rows.Find({"R0_rect", "R_rect_00", "R_rect"}, 9, !odometry,
+                                     " (the rectifying rotation, which goes with Tr_velo_to_cam)")) {
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c) calibration.r0_rect(r, c) = r0->values[3 * r + c];
     }
     CheckRotation(calibration.r0_rect, path, r0->line, "R0_rect", 1e-4);
   }
   calibration.tr_velo_to_cam = Matrix3x4(*tr);
-  CheckRotation(calibration.tr_velo_to_cam.leftCols<3>(), file_of("Tr_velo_to_cam"), tr->line,
-                velo_path.empty() ? "Tr_velo_to_cam" : "R", 1e-4);
+  CheckRotation(calibration.tr_velo_to_cam.leftCols<3>(), rows.FileOf("Tr_velo_to_cam"), tr->line,
+                files.velo_path.empty() ? "Tr_velo_to_cam" : "R", 1e-4);
   return calibration;
 }
 

@@ -329,12 +329,12 @@ class GamaReader {
     return *v;
   }
 
-  /// Unit factor (input unit -> SI) of σ for an observation, and the value conversion.
-  void ReadObs(const xml::Element& obs) {
+  /// A standpoint cluster from the attributes of <obs> (from, orientation) and its default
+  /// from_dh.
+  Cluster ReadObsAttributes(const xml::Element& obs, double* default_from_dh) const {
     Cluster cluster;
     cluster.type = Cluster::Type::kStandpoint;
     cluster.line = obs.line;
-    double default_from_dh = 0.0;
     for (const auto& [key, value] : obs.attributes) {
       if (key == "from") {
         cluster.station = Trim(value);
@@ -342,13 +342,99 @@ class GamaReader {
         cluster.orientation = Number(obs, key, value) * kGonToRad;
         cluster.orientation_known = true;
       } else if (key == "from_dh") {
-        default_from_dh = Number(obs, key, value);
+        *default_from_dh = Number(obs, key, value);
       } else {
         Fail(obs, "obs@" + key, value, "one of from, orientation, from_dh");
       }
     }
     if (!cluster.station.empty()) Id(obs, "from", false);
     CheckNoText(obs);
+    return cluster;
+  }
+
+  /// Kind, points and value of observation `e` inside <obs> (station `station`); `dms` is
+  /// set when an angle was given in DMS; returns the implicit σ (input unit) of its kind.
+  double ReadObsKind(const xml::Element& obs, const xml::Element& e, const std::string& station,
+                     Observation* o, bool* dms) const {
+    if (e.name == "direction") {
+      CheckAttributes(e, {"to", "val", "stdev", "from_dh", "to_dh", "extern"});
+      o->kind = ObsKind::kDirection;
+      o->from = station;
+      if (o->from.empty()) Fail(obs, "obs@from", "", "a station id for <direction>");
+      o->to = Id(e, "to", true);
+      o->value = Angle(e, "val", Required(e, "val"), dms);
+      return direction_sigma_;
+    }
+    if (e.name == "distance" || e.name == "s-distance") {
+      CheckAttributes(e, {"from", "to", "val", "stdev", "from_dh", "to_dh", "extern"});
+      o->kind = e.name == "distance" ? ObsKind::kDistance : ObsKind::kSlopeDistance;
+      o->from = Id(e, "from", true, station);
+      o->to = Id(e, "to", true);
+      o->value = Number(e, "val", Required(e, "val"));
+      if (!(o->value > 0)) Fail(e, e.name + "@val", Required(e, "val"), "a length > 0");
+      return distance_a_ + distance_b_ * std::pow(o->value / 1000.0, distance_c_);
+    }
+    if (e.name == "angle") {
+      CheckAttributes(e, {"from", "bs", "fs", "to", "rs", "val", "stdev", "from_dh", "bs_dh",
+                          "fs_dh", "extern"});
+      o->kind = ObsKind::kAngle;
+      o->from = Id(e, "from", true, station);
+      o->to = e.Attribute("bs") ? Id(e, "bs", true) : Id(e, "to", true);
+      const std::string fs_attribute = e.Attribute("fs") ? "fs" : "rs";
+      o->fs = Id(e, fs_attribute.c_str(), true);
+      o->value = Angle(e, "val", Required(e, "val"), dms);
+      o->to_dh = Height(e, "bs_dh", 0.0);
+      o->fs_dh = Height(e, "fs_dh", 0.0);
+      return angle_sigma_;
+    }
+    if (e.name == "z-angle" || e.name == "azimuth") {
+      CheckAttributes(e, {"from", "to", "val", "stdev", "from_dh", "to_dh", "extern"});
+      o->kind = e.name == "z-angle" ? ObsKind::kZenithAngle : ObsKind::kAzimuth;
+      o->from = Id(e, "from", true, station);
+      o->to = Id(e, "to", true);
+      o->value = Angle(e, "val", Required(e, "val"), dms);
+      return e.name == "z-angle" ? zenith_sigma_ : azimuth_sigma_;
+    }
+    Fail(e, "element", "<" + e.name + ">",
+         "<direction>, <distance>, <angle>, <s-distance>, <z-angle>, <azimuth> or "
+         "<cov-mat> inside <obs>");
+    return 0.0;
+  }
+
+  /// One observation of <obs>: σ in SI, the value clockwise for angles; `unit` is the
+  /// factor input σ unit -> SI.
+  Observation ReadObservation(const xml::Element& obs, const xml::Element& e,
+                              const std::string& station, double default_from_dh,
+                              const xml::Element* cov, double* unit) const {
+    Observation o;
+    o.line = e.line;
+    bool dms = false;
+    const std::string* stdev = e.Attribute("stdev");
+    o.from_dh = Height(e, "from_dh", default_from_dh);
+    const double implicit = ReadObsKind(obs, e, station, &o, &dms);
+    if (o.kind != ObsKind::kAngle) o.to_dh = Height(e, "to_dh", 0.0);
+    if (o.from == o.to || (!o.fs.empty() && (o.fs == o.from || o.fs == o.to))) {
+      Fail(e, e.name + "@to", o.to, "a target different from the station " + o.from);
+    }
+    const double sigma_input = stdev ? Number(e, "stdev", *stdev) : implicit;
+    *unit = kMmToM;
+    if (survey::ObsKindIsAngle(o.kind)) {
+      *unit = dms ? kArcsecToRad : kCcToRad;
+      if (!net_.angles_left_handed) o.value = -o.value;  // to clockwise
+    }
+    if (cov == nullptr && !(sigma_input > 0) && !HasCovMat(obs)) {
+      Fail(e, e.name + "@stdev", stdev ? *stdev : std::string("none (no default)"),
+           "a standard deviation > 0 (attribute stdev or a default in <points-observations>)");
+    }
+    o.sigma = sigma_input * *unit;
+    return o;
+  }
+
+  /// <obs>: one standpoint cluster of directions, distances, angles, zenith angles and
+  /// azimuths, with an optional <cov-mat> last.
+  void ReadObs(const xml::Element& obs) {
+    double default_from_dh = 0.0;
+    Cluster cluster = ReadObsAttributes(obs, &default_from_dh);
     std::vector<double> sigma_unit;  // input σ unit -> SI per observation
     const xml::Element* cov = nullptr;
     for (const auto& child_ptr : obs.children) {
@@ -358,76 +444,10 @@ class GamaReader {
         cov = &e;
         continue;
       }
-      Observation o;
-      o.line = e.line;
-      bool dms = false;
-      double implicit = 0.0;
-      const std::string* stdev = e.Attribute("stdev");
-      o.from_dh = Height(e, "from_dh", default_from_dh);
-      if (e.name == "direction") {
-        CheckAttributes(e, {"to", "val", "stdev", "from_dh", "to_dh", "extern"});
-        o.kind = ObsKind::kDirection;
-        o.from = cluster.station;
-        if (o.from.empty()) Fail(obs, "obs@from", "", "a station id for <direction>");
-        o.to = Id(e, "to", true);
-        o.value = Angle(e, "val", Required(e, "val"), &dms);
-        implicit = direction_sigma_;
-      } else if (e.name == "distance" || e.name == "s-distance") {
-        CheckAttributes(e, {"from", "to", "val", "stdev", "from_dh", "to_dh", "extern"});
-        o.kind = e.name == "distance" ? ObsKind::kDistance : ObsKind::kSlopeDistance;
-        o.from = Id(e, "from", true, cluster.station);
-        o.to = Id(e, "to", true);
-        o.value = Number(e, "val", Required(e, "val"));
-        if (!(o.value > 0)) Fail(e, e.name + "@val", Required(e, "val"), "a length > 0");
-        implicit = distance_a_ + distance_b_ * std::pow(o.value / 1000.0, distance_c_);
-      } else if (e.name == "angle") {
-        CheckAttributes(e, {"from", "bs", "fs", "to", "rs", "val", "stdev", "from_dh", "bs_dh",
-                            "fs_dh", "extern"});
-        o.kind = ObsKind::kAngle;
-        o.from = Id(e, "from", true, cluster.station);
-        o.to = e.Attribute("bs") ? Id(e, "bs", true) : Id(e, "to", true);
-        const std::string fs_attribute = e.Attribute("fs") ? "fs" : "rs";
-        o.fs = Id(e, fs_attribute.c_str(), true);
-        o.value = Angle(e, "val", Required(e, "val"), &dms);
-        o.to_dh = Height(e, "bs_dh", 0.0);
-        o.fs_dh = Height(e, "fs_dh", 0.0);
-        implicit = angle_sigma_;
-      } else if (e.name == "z-angle") {
-        CheckAttributes(e, {"from", "to", "val", "stdev", "from_dh", "to_dh", "extern"});
-        o.kind = ObsKind::kZenithAngle;
-        o.from = Id(e, "from", true, cluster.station);
-        o.to = Id(e, "to", true);
-        o.value = Angle(e, "val", Required(e, "val"), &dms);
-        implicit = zenith_sigma_;
-      } else if (e.name == "azimuth") {
-        CheckAttributes(e, {"from", "to", "val", "stdev", "from_dh", "to_dh", "extern"});
-        o.kind = ObsKind::kAzimuth;
-        o.from = Id(e, "from", true, cluster.station);
-        o.to = Id(e, "to", true);
-        o.value = Angle(e, "val", Required(e, "val"), &dms);
-        implicit = azimuth_sigma_;
-      } else {
-        Fail(e, "element", "<" + e.name + ">",
-             "<direction>, <distance>, <angle>, <s-distance>, <z-angle>, <azimuth> or "
-             "<cov-mat> inside <obs>");
-      }
-      if (o.kind != ObsKind::kAngle) o.to_dh = Height(e, "to_dh", 0.0);
-      if (o.from == o.to || (!o.fs.empty() && (o.fs == o.from || o.fs == o.to))) {
-        Fail(e, e.name + "@to", o.to, "a target different from the station " + o.from);
-      }
-      const double sigma_input = stdev ? Number(e, "stdev", *stdev) : implicit;
       double unit = kMmToM;
-      if (survey::ObsKindIsAngle(o.kind)) {
-        unit = dms ? kArcsecToRad : kCcToRad;
-        if (!net_.angles_left_handed) o.value = -o.value;  // to clockwise
-      }
-      if (cov == nullptr && !(sigma_input > 0) && !HasCovMat(obs)) {
-        Fail(e, e.name + "@stdev", stdev ? *stdev : std::string("none (no default)"),
-             "a standard deviation > 0 (attribute stdev or a default in <points-observations>)");
-      }
-      o.sigma = sigma_input * unit;
+      cluster.observations.push_back(
+          ReadObservation(obs, e, cluster.station, default_from_dh, cov, &unit));
       sigma_unit.push_back(unit);
-      cluster.observations.push_back(o);
     }
     FinishCluster(&cluster, cov, sigma_unit);
     net_.clusters.push_back(std::move(cluster));

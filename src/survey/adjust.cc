@@ -323,14 +323,20 @@ void ComputeApproximations(SurveyNetwork* net) {
   for (SurveyPoint& p : net->points) p.approx = p.coords;
 }
 
-std::vector<std::string> ReviseObservations(SurveyNetwork* net, bool test_absolute_terms) {
-  std::vector<std::string> removed;
-  auto passive = [&](Observation* o, const std::string& reason) {
-    o->active = false;
-    o->passive_reason = reason;
-    removed.push_back(Where(*net, o->line) + ": " + ObsKindName(o->kind) + " " + o->from +
-                      (o->to.empty() ? "" : " -> " + o->to) + ": " + reason);
-  };
+namespace {
+
+// Makes `o` passive for `reason` and lists it in `removed` ("file:line: kind from -> to:
+// reason").
+void MakePassive(const SurveyNetwork& net, Observation* o, const std::string& reason,
+                 std::vector<std::string>* removed) {
+  o->active = false;
+  o->passive_reason = reason;
+  removed->push_back(Where(net, o->line) + ": " + ObsKindName(o->kind) + " " + o->from +
+                     (o->to.empty() ? "" : " -> " + o->to) + ": " + reason);
+}
+
+// Observations of a point without the fixed or adjusted coordinates they need.
+void PassivateOnUnusedPoints(SurveyNetwork* net, std::vector<std::string>* removed) {
   for (Cluster& cluster : net->clusters) {
     for (Observation& o : cluster.observations) {
       if (!o.active) continue;
@@ -338,81 +344,97 @@ std::vector<std::string> ReviseObservations(SurveyNetwork* net, bool test_absolu
         const SurveyPoint& p = *net->Find(id);
         if ((NeedsXy(o.kind) && p.xy == CoordStatus::kUnused) ||
             (NeedsZ(o.kind) && p.z == CoordStatus::kUnused)) {
-          passive(&o, "point " + id + " has no fixed or adjusted " +
-                          (NeedsZ(o.kind) && p.z == CoordStatus::kUnused ? "z" : "x, y"));
+          MakePassive(*net, &o, "point " + id + " has no fixed or adjusted " +
+                                    (NeedsZ(o.kind) && p.z == CoordStatus::kUnused ? "z" : "x, y"),
+                      removed);
           break;
         }
       }
     }
   }
-  auto count_directions = [&]() {
-    for (Cluster& cluster : net->clusters) {
-      std::set<std::string> targets;
-      for (const Observation& o : cluster.observations) {
-        if (o.kind == ObsKind::kDirection && o.active) targets.insert(o.to);
-      }
-      cluster.has_orientation = targets.size() >= 2;
-      if (!cluster.has_orientation) {
-        for (Observation& o : cluster.observations) {
-          if (o.kind == ObsKind::kDirection && o.active) {
-            passive(&o, "the only direction of its set (an orientation needs two)");
-          }
+}
+
+// A set with fewer than two active directions has no orientation: its direction is passive.
+void CountDirections(SurveyNetwork* net, std::vector<std::string>* removed) {
+  for (Cluster& cluster : net->clusters) {
+    std::set<std::string> targets;
+    for (const Observation& o : cluster.observations) {
+      if (o.kind == ObsKind::kDirection && o.active) targets.insert(o.to);
+    }
+    cluster.has_orientation = targets.size() >= 2;
+    if (!cluster.has_orientation) {
+      for (Observation& o : cluster.observations) {
+        if (o.kind == ObsKind::kDirection && o.active) {
+          MakePassive(*net, &o, "the only direction of its set (an orientation needs two)",
+                      removed);
         }
       }
     }
-  };
-  count_directions();
+  }
+}
+
+// Gama's absolute term at the approximate values (network.cpp, TestAbsTermVisitor), mm:
+// lengths in mm, angles as the transverse offset in mm.
+double AbsoluteTermMm(const SurveyNetwork& net, const Cluster& cluster, const Observation& o) {
+  const SurveyPoint& a = *net.Find(o.from);
+  const SurveyPoint* b = o.to.empty() ? nullptr : net.Find(o.to);
+  double mm = 0.0;
+  const double d0 = b ? (b->coords.head<2>() - a.coords.head<2>()).norm() : 0.0;
+  const double dz = b ? b->coords.z() - a.coords.z() : 0.0;
+  const Eigen::Vector2d xy = net.axes.XyFromEn(a.coords.head<2>());
+  const Eigen::Vector2d dxy =
+      b ? net.axes.XyFromEn(b->coords.head<2>() - a.coords.head<2>()) : Eigen::Vector2d();
+  switch (o.kind) {
+    case ObsKind::kDirection:
+      mm = std::abs(Wrap(Bearing(a, *b) - cluster.orientation - o.value)) * d0 * 1000;
+      break;
+    case ObsKind::kAngle:
+      mm = std::abs(Wrap(Bearing(a, *net.Find(o.fs)) - Bearing(a, *b) - o.value)) * d0 *
+           1000;
+      break;
+    case ObsKind::kAzimuth:
+      mm = std::abs(Wrap(Bearing(a, *b) - o.value)) * d0 * 1000;
+      break;
+    case ObsKind::kDistance: mm = std::abs(o.value - d0) * 1000; break;
+    case ObsKind::kSlopeDistance:
+      mm = std::abs(std::hypot(d0, dz) - o.value) * 1000;
+      break;
+    case ObsKind::kZenithAngle:
+      mm = std::abs(Wrap(std::atan2(d0, dz + o.to_dh - o.from_dh) - o.value)) *
+           std::hypot(d0, dz) * 1000;
+      break;
+    case ObsKind::kHeightDiff: mm = std::abs(o.value - dz) * 1000; break;
+    case ObsKind::kCoordX: mm = std::abs(xy.x() - o.value) * 1000; break;
+    case ObsKind::kCoordY: mm = std::abs(xy.y() - o.value) * 1000; break;
+    case ObsKind::kCoordZ: mm = std::abs(a.coords.z() - o.value) * 1000; break;
+    case ObsKind::kVectorX: mm = std::abs(dxy.x() - o.value) * 1000; break;
+    case ObsKind::kVectorY: mm = std::abs(dxy.y() - o.value) * 1000; break;
+    case ObsKind::kVectorZ: mm = std::abs(dz - o.value) * 1000; break;
+  }
+  return mm;
+}
+
+}  // namespace
+
+std::vector<std::string> ReviseObservations(SurveyNetwork* net, bool test_absolute_terms) {
+  std::vector<std::string> removed;
+  PassivateOnUnusedPoints(net, &removed);
+  CountDirections(net, &removed);
   if (!test_absolute_terms) return removed;
-  // Gama's test of absolute terms at the approximate values (network.cpp,
-  // TestAbsTermVisitor): lengths in mm, angles as the transverse offset in mm.
   bool any = false;
   for (Cluster& cluster : net->clusters) {
     for (Observation& o : cluster.observations) {
       if (!o.active) continue;
-      const SurveyPoint& a = *net->Find(o.from);
-      const SurveyPoint* b = o.to.empty() ? nullptr : net->Find(o.to);
-      double mm = 0.0;
-      const double d0 = b ? (b->coords.head<2>() - a.coords.head<2>()).norm() : 0.0;
-      const double dz = b ? b->coords.z() - a.coords.z() : 0.0;
-      const Eigen::Vector2d xy = net->axes.XyFromEn(a.coords.head<2>());
-      const Eigen::Vector2d dxy =
-          b ? net->axes.XyFromEn(b->coords.head<2>() - a.coords.head<2>()) : Eigen::Vector2d();
-      switch (o.kind) {
-        case ObsKind::kDirection:
-          mm = std::abs(Wrap(Bearing(a, *b) - cluster.orientation - o.value)) * d0 * 1000;
-          break;
-        case ObsKind::kAngle:
-          mm = std::abs(Wrap(Bearing(a, *net->Find(o.fs)) - Bearing(a, *b) - o.value)) * d0 *
-               1000;
-          break;
-        case ObsKind::kAzimuth:
-          mm = std::abs(Wrap(Bearing(a, *b) - o.value)) * d0 * 1000;
-          break;
-        case ObsKind::kDistance: mm = std::abs(o.value - d0) * 1000; break;
-        case ObsKind::kSlopeDistance:
-          mm = std::abs(std::hypot(d0, dz) - o.value) * 1000;
-          break;
-        case ObsKind::kZenithAngle:
-          mm = std::abs(Wrap(std::atan2(d0, dz + o.to_dh - o.from_dh) - o.value)) *
-               std::hypot(d0, dz) * 1000;
-          break;
-        case ObsKind::kHeightDiff: mm = std::abs(o.value - dz) * 1000; break;
-        case ObsKind::kCoordX: mm = std::abs(xy.x() - o.value) * 1000; break;
-        case ObsKind::kCoordY: mm = std::abs(xy.y() - o.value) * 1000; break;
-        case ObsKind::kCoordZ: mm = std::abs(a.coords.z() - o.value) * 1000; break;
-        case ObsKind::kVectorX: mm = std::abs(dxy.x() - o.value) * 1000; break;
-        case ObsKind::kVectorY: mm = std::abs(dxy.y() - o.value) * 1000; break;
-        case ObsKind::kVectorZ: mm = std::abs(dz - o.value) * 1000; break;
-      }
+      const double mm = AbsoluteTermMm(*net, cluster, o);
       if (mm > net->tol_abs_mm) {
         std::ostringstream reason;
         reason << "absolute term " << mm << " mm > tol-abs " << net->tol_abs_mm << " mm";
-        passive(&o, reason.str());
+        MakePassive(*net, &o, reason.str(), &removed);
         any = true;
       }
     }
   }
-  if (any) count_directions();
+  if (any) CountDirections(net, &removed);
   return removed;
 }
 

@@ -39,105 +39,134 @@ std::string DescriptorName(Descriptor descriptor) {
   return "?";
 }
 
-bool CloudRegistrationOptions::Check(std::string* error) const {
-  auto fail = [error](const std::string& field, double value, const std::string& rule) {
-    std::ostringstream s;
-    s << "option '" << field << "' = " << value << " violates " << rule;
-    *error = s.str();
-    return false;
-  };
-  if (!(normal_radius_m >= 0)) return fail("normal_radius_m", normal_radius_m, ">= 0");
-  if (!(support_radius_m >= 0)) return fail("support_radius_m", support_radius_m, ">= 0");
-  if (normal_radius_m > 0 && support_radius_m > 0 && support_radius_m < normal_radius_m) {
-    return fail("support_radius_m", support_radius_m, ">= normal_radius_m");
+namespace {
+
+// Sets *error to "option 'field' = value violates rule"; returns false.
+bool Violation(std::string* error, const std::string& field, double value,
+               const std::string& rule) {
+  std::ostringstream s;
+  s << "option '" << field << "' = " << value << " violates " << rule;
+  *error = s.str();
+  return false;
+}
+
+// Normals, descriptors, keypoints, subsampling and the isolated-point filter.
+bool CheckFeatureOptions(const CloudRegistrationOptions& o, std::string* error) {
+  if (!(o.normal_radius_m >= 0)) return Violation(error, "normal_radius_m", o.normal_radius_m, ">= 0");
+  if (!(o.support_radius_m >= 0)) return Violation(error, "support_radius_m", o.support_radius_m, ">= 0");
+  if (o.normal_radius_m > 0 && o.support_radius_m > 0 && o.support_radius_m < o.normal_radius_m) {
+    return Violation(error, "support_radius_m", o.support_radius_m, ">= normal_radius_m");
   }
-  if (!(normal_radius_spacing > 0)) return fail("normal_radius_spacing", normal_radius_spacing, "> 0");
-  if (!(support_radius_spacing > 0)) return fail("support_radius_spacing", support_radius_spacing, "> 0");
-  if (!(keypoint_threshold >= 0 && keypoint_threshold <= 1.0 / 3.0)) {
-    return fail("keypoint_threshold", keypoint_threshold, "0 <= F_t <= 1/3");
+  if (!(o.normal_radius_spacing > 0)) return Violation(error, "normal_radius_spacing", o.normal_radius_spacing, "> 0");
+  if (!(o.support_radius_spacing > 0)) return Violation(error, "support_radius_spacing", o.support_radius_spacing, "> 0");
+  if (!(o.keypoint_threshold >= 0 && o.keypoint_threshold <= 1.0 / 3.0)) {
+    return Violation(error, "keypoint_threshold", o.keypoint_threshold, "0 <= F_t <= 1/3");
   }
-  if (!(keypoint_grid_spacing > 0)) return fail("keypoint_grid_spacing", keypoint_grid_spacing, "> 0");
-  if (min_keypoints < 3) return fail("min_keypoints", min_keypoints, ">= 3");
-  if (max_keypoints < min_keypoints) return fail("max_keypoints", max_keypoints, ">= min_keypoints");
-  if (max_points_features < 1000) return fail("max_points_features", max_points_features, ">= 1000");
-  if (max_points_icp < 1000) return fail("max_points_icp", max_points_icp, ">= 1000");
-  if (!(coarse_voxel_spacing >= 1)) return fail("coarse_voxel_spacing", coarse_voxel_spacing, ">= 1");
-  if (min_points_coarse < 10) return fail("min_points_coarse", min_points_coarse, ">= 10");
-  if (!(larger_cloud_factor >= 1)) return fail("larger_cloud_factor", larger_cloud_factor, ">= 1");
-  if (!(isolated_cell_spacing > 0)) return fail("isolated_cell_spacing", isolated_cell_spacing, "> 0");
-  if (isolated_min_neighbours < 1) return fail("isolated_min_neighbours", isolated_min_neighbours, ">= 1");
-  if (!(isolated_min_fraction >= 0 && isolated_min_fraction <= 1)) {
-    return fail("isolated_min_fraction", isolated_min_fraction, "0 <= x <= 1");
+  if (!(o.keypoint_grid_spacing > 0)) return Violation(error, "keypoint_grid_spacing", o.keypoint_grid_spacing, "> 0");
+  if (o.min_keypoints < 3) return Violation(error, "min_keypoints", o.min_keypoints, ">= 3");
+  if (o.max_keypoints < o.min_keypoints) return Violation(error, "max_keypoints", o.max_keypoints, ">= min_keypoints");
+  if (o.max_points_features < 1000) return Violation(error, "max_points_features", o.max_points_features, ">= 1000");
+  if (o.max_points_icp < 1000) return Violation(error, "max_points_icp", o.max_points_icp, ">= 1000");
+  if (!(o.coarse_voxel_spacing >= 1)) return Violation(error, "coarse_voxel_spacing", o.coarse_voxel_spacing, ">= 1");
+  if (o.min_points_coarse < 10) return Violation(error, "min_points_coarse", o.min_points_coarse, ">= 10");
+  if (!(o.larger_cloud_factor >= 1)) return Violation(error, "larger_cloud_factor", o.larger_cloud_factor, ">= 1");
+  if (!(o.isolated_cell_spacing > 0)) return Violation(error, "isolated_cell_spacing", o.isolated_cell_spacing, "> 0");
+  if (o.isolated_min_neighbours < 1) return Violation(error, "isolated_min_neighbours", o.isolated_min_neighbours, ">= 1");
+  if (!(o.isolated_min_fraction >= 0 && o.isolated_min_fraction <= 1)) {
+    return Violation(error, "isolated_min_fraction", o.isolated_min_fraction, "0 <= x <= 1");
   }
-  if (!(inlier_sigma > 0)) return fail("inlier_sigma", inlier_sigma, "> 0");
-  if (sac_ia_iterations < 1) return fail("sac_ia_iterations", sac_ia_iterations, ">= 1");
-  if (sac_ia_draws_per_iteration < 1) {
-    return fail("sac_ia_draws_per_iteration", sac_ia_draws_per_iteration, ">= 1");
+  return true;
+}
+
+// The coarse alignment: SAC-IA, hypotheses, search window, correspondences, up.
+bool CheckCoarseOptions(const CloudRegistrationOptions& o, std::string* error) {
+  if (!(o.inlier_sigma > 0)) return Violation(error, "inlier_sigma", o.inlier_sigma, "> 0");
+  if (o.sac_ia_iterations < 1) return Violation(error, "sac_ia_iterations", o.sac_ia_iterations, ">= 1");
+  if (o.sac_ia_draws_per_iteration < 1) {
+    return Violation(error, "sac_ia_draws_per_iteration", o.sac_ia_draws_per_iteration, ">= 1");
   }
-  if (num_cliques < 1) return fail("num_cliques", num_cliques, ">= 1");
-  if (sac_ia_randomness < 1) return fail("sac_ia_randomness", sac_ia_randomness, ">= 1");
-  if (!(sac_ia_confidence > 0 && sac_ia_confidence <= 1)) {
-    return fail("sac_ia_confidence", sac_ia_confidence, "0 < x <= 1");
+  if (o.num_cliques < 1) return Violation(error, "num_cliques", o.num_cliques, ">= 1");
+  if (o.sac_ia_randomness < 1) return Violation(error, "sac_ia_randomness", o.sac_ia_randomness, ">= 1");
+  if (!(o.sac_ia_confidence > 0 && o.sac_ia_confidence <= 1)) {
+    return Violation(error, "sac_ia_confidence", o.sac_ia_confidence, "0 < x <= 1");
   }
-  if (!(sac_ia_alternative_ratio > 0 && sac_ia_alternative_ratio <= 1)) {
-    return fail("sac_ia_alternative_ratio", sac_ia_alternative_ratio, "0 < x <= 1");
+  if (!(o.sac_ia_alternative_ratio > 0 && o.sac_ia_alternative_ratio <= 1)) {
+    return Violation(error, "sac_ia_alternative_ratio", o.sac_ia_alternative_ratio, "0 < x <= 1");
   }
-  if (num_hypotheses < 1) return fail("num_hypotheses", num_hypotheses, ">= 1");
-  if (!(search_window_m >= 0.0)) return fail("search_window_m", search_window_m, ">= 0");
-  if (search_window_m > 0.0 && !(search_window_deg > 0.0 && search_window_deg <= 180.0)) {
-    return fail("search_window_deg", search_window_deg, "(0, 180] with a search window");
+  if (o.num_hypotheses < 1) return Violation(error, "num_hypotheses", o.num_hypotheses, ">= 1");
+  if (!(o.search_window_m >= 0.0)) return Violation(error, "search_window_m", o.search_window_m, ">= 0");
+  if (o.search_window_m > 0.0 && !(o.search_window_deg > 0.0 && o.search_window_deg <= 180.0)) {
+    return Violation(error, "search_window_deg", o.search_window_deg, "(0, 180] with a search window");
   }
-  if (!(consistency_spacing > 0)) return fail("consistency_spacing", consistency_spacing, "> 0");
-  if (max_correspondences < 3) return fail("max_correspondences", max_correspondences, ">= 3");
-  if (!(std::abs(up.norm() - 1.0) < 1e-6)) return fail("up (norm)", up.norm(), "a unit vector");
-  if (icp_iterations < 1) return fail("icp_iterations", icp_iterations, ">= 1");
-  if (!(icp_distance_spacing > 0)) return fail("icp_distance_spacing", icp_distance_spacing, "> 0");
-  if (!(icp_plane_distance_spacing > 0)) {
-    return fail("icp_plane_distance_spacing", icp_plane_distance_spacing, "> 0");
+  if (!(o.consistency_spacing > 0)) return Violation(error, "consistency_spacing", o.consistency_spacing, "> 0");
+  if (o.max_correspondences < 3) return Violation(error, "max_correspondences", o.max_correspondences, ">= 3");
+  if (!(std::abs(o.up.norm() - 1.0) < 1e-6)) return Violation(error, "up (norm)", o.up.norm(), "a unit vector");
+  return true;
+}
+
+// ICP, the acceptance tests, symmetry and resolution.
+bool CheckFineOptions(const CloudRegistrationOptions& o, std::string* error) {
+  if (o.icp_iterations < 1) return Violation(error, "icp_iterations", o.icp_iterations, ">= 1");
+  if (!(o.icp_distance_spacing > 0)) return Violation(error, "icp_distance_spacing", o.icp_distance_spacing, "> 0");
+  if (!(o.icp_plane_distance_spacing > 0)) {
+    return Violation(error, "icp_plane_distance_spacing", o.icp_plane_distance_spacing, "> 0");
   }
-  if (!(icp_noise_sigmas >= 0)) return fail("icp_noise_sigmas", icp_noise_sigmas, ">= 0");
-  if (!(inlier_distance_spacing > 0)) {
-    return fail("inlier_distance_spacing", inlier_distance_spacing, "> 0");
+  if (!(o.icp_noise_sigmas >= 0)) return Violation(error, "icp_noise_sigmas", o.icp_noise_sigmas, ">= 0");
+  if (!(o.inlier_distance_spacing > 0)) {
+    return Violation(error, "inlier_distance_spacing", o.inlier_distance_spacing, "> 0");
   }
-  if (!(min_fitness > 0 && min_fitness <= 1)) return fail("min_fitness", min_fitness, "0 < x <= 1");
-  if (!(min_normal_agreement >= 0 && min_normal_agreement <= 1)) {
-    return fail("min_normal_agreement", min_normal_agreement, "0 <= x <= 1");
+  if (!(o.min_fitness > 0 && o.min_fitness <= 1)) return Violation(error, "min_fitness", o.min_fitness, "0 < x <= 1");
+  if (!(o.min_normal_agreement >= 0 && o.min_normal_agreement <= 1)) {
+    return Violation(error, "min_normal_agreement", o.min_normal_agreement, "0 <= x <= 1");
   }
-  if (!(min_significance >= 0)) return fail("min_significance", min_significance, ">= 0");
-  if (num_period_shifts < 0) return fail("num_period_shifts", num_period_shifts, ">= 0");
-  if (!(symmetry_cone_deg >= 0 && symmetry_cone_deg <= 90)) {
-    return fail("symmetry_cone_deg", symmetry_cone_deg, "0 <= x <= 90");
+  if (!(o.min_significance >= 0)) return Violation(error, "min_significance", o.min_significance, ">= 0");
+  if (o.num_period_shifts < 0) return Violation(error, "num_period_shifts", o.num_period_shifts, ">= 0");
+  if (!(o.symmetry_cone_deg >= 0 && o.symmetry_cone_deg <= 90)) {
+    return Violation(error, "symmetry_cone_deg", o.symmetry_cone_deg, "0 <= x <= 90");
   }
-  if (!(symmetry_cone_step_deg > 0)) {
-    return fail("symmetry_cone_step_deg", symmetry_cone_step_deg, "> 0");
+  if (!(o.symmetry_cone_step_deg > 0)) {
+    return Violation(error, "symmetry_cone_step_deg", o.symmetry_cone_step_deg, "> 0");
   }
-  if (!(resolution_t > 0)) return fail("resolution_t", resolution_t, "> 0");
-  if (!(max_resolution_spacing > 0)) {
-    return fail("max_resolution_spacing", max_resolution_spacing, "> 0");
+  if (!(o.resolution_t > 0)) return Violation(error, "resolution_t", o.resolution_t, "> 0");
+  if (!(o.max_resolution_spacing > 0)) {
+    return Violation(error, "max_resolution_spacing", o.max_resolution_spacing, "> 0");
   }
-  if (!(max_weak_motion_resolution_spacing > 0)) {
-    return fail("max_weak_motion_resolution_spacing", max_weak_motion_resolution_spacing, "> 0");
+  if (!(o.max_weak_motion_resolution_spacing > 0)) {
+    return Violation(error, "max_weak_motion_resolution_spacing", o.max_weak_motion_resolution_spacing, "> 0");
   }
-  if (!(min_coarse_agreement >= 0 && min_coarse_agreement <= 1)) {
-    return fail("min_coarse_agreement", min_coarse_agreement, "0 <= x <= 1");
+  if (!(o.min_coarse_agreement >= 0 && o.min_coarse_agreement <= 1)) {
+    return Violation(error, "min_coarse_agreement", o.min_coarse_agreement, "0 <= x <= 1");
   }
-  if (!(max_ambiguity >= 0 && max_ambiguity <= 1)) {
-    return fail("max_ambiguity", max_ambiguity, "0 <= x <= 1");
+  if (!(o.max_ambiguity >= 0 && o.max_ambiguity <= 1)) {
+    return Violation(error, "max_ambiguity", o.max_ambiguity, "0 <= x <= 1");
   }
-  if (!(max_violation_ratio >= 0)) return fail("max_violation_ratio", max_violation_ratio, ">= 0");
-  if (!(min_fitness_visible > 0 && min_fitness_visible <= 1)) {
-    return fail("min_fitness_visible", min_fitness_visible, "0 < x <= 1");
+  if (!(o.max_violation_ratio >= 0)) return Violation(error, "max_violation_ratio", o.max_violation_ratio, ">= 0");
+  if (!(o.min_fitness_visible > 0 && o.min_fitness_visible <= 1)) {
+    return Violation(error, "min_fitness_visible", o.min_fitness_visible, "0 < x <= 1");
   }
-  for (const auto* v : {&source_viewpoints, &target_viewpoints}) {
+  return true;
+}
+
+// The given sensor positions: finite coordinates.
+bool CheckViewpoints(const CloudRegistrationOptions& o, std::string* error) {
+  for (const auto* v : {&o.source_viewpoints, &o.target_viewpoints}) {
     for (size_t i = 0; i < v->size(); ++i) {
       if (!(*v)[i].allFinite()) {
-        return fail(std::string(v == &source_viewpoints ? "source" : "target") +
-                        "_viewpoints[" + std::to_string(i) + "] (a coordinate)",
-                    (*v)[i].sum(), "finite");
+        return Violation(error,
+                         std::string(v == &o.source_viewpoints ? "source" : "target") +
+                             "_viewpoints[" + std::to_string(i) + "] (a coordinate)",
+                         (*v)[i].sum(), "finite");
       }
     }
   }
   return true;
+}
+
+}  // namespace
+
+bool CloudRegistrationOptions::Check(std::string* error) const {
+  return CheckFeatureOptions(*this, error) && CheckCoarseOptions(*this, error) &&
+         CheckFineOptions(*this, error) && CheckViewpoints(*this, error);
 }
 
 double CloudRegistrationResult::total_seconds() const {

@@ -106,95 +106,115 @@ bool AddFinalist(RegistrationContext& ctx, Finalist f, double start, bool replac
   return true;
 }
 
-void LocalSearch(RegistrationContext& ctx) {
-  BestTested& best_tested = ctx.best_tested;
-  Eigen::Vector3d& centre = ctx.centre;
-  std::vector<Finalist>& finalists = ctx.finalists;
-  double& fine_spacing = ctx.fine_spacing;
-  std::vector<Eigen::Vector3d>& fine_src = ctx.fine_src;
-  std::vector<Eigen::Vector3d>& fine_src_n = ctx.fine_src_n;
-  double& fine_tau = ctx.fine_tau;
-  double& normal_radius = ctx.normal_radius;
+namespace {
+
+// The move off the best finalist `f0` along its open directions that screens best: the
+// moves are screened on f0's crop (no new crops) with a sample of the fine source
+// (kLocalSearchScreenPoints): a short ICP from δ (kLocalSearchIterations), scored against
+// f0's score on the same sample (free space left out). δ doubles from `bound` to the support
+// radius. Empty when no move screens above f0.
+std::optional<Finalist> BestScreenedMove(RegistrationContext& ctx, const Finalist& f0,
+                                         const std::vector<Vector6d>& open, double bound,
+                                         double reach) {
+  const std::vector<Eigen::Vector3d>& fine_src = ctx.fine_src;
+  const std::vector<Eigen::Vector3d>& fine_src_n = ctx.fine_src_n;
+  const double fine_tau = ctx.fine_tau;
+  const double support_radius = ctx.support_radius;
   const CloudRegistrationOptions& options = ctx.options;
-  double& support_radius = ctx.support_radius;
-  for (int round = 0; !options.paper_only && options.local_search && !finalists.empty() &&
+  Eigen::Vector3d c;
+  Eigen::Matrix3d cov;
+  RegisteredMoments(fine_src, f0.h.transform, &c, &cov);
+  std::optional<Finalist> top;
+  const TargetCrop& crop0 = *f0.crop;
+  const std::vector<size_t> screen_idx =
+      StrideSample(fine_src.size(), kLocalSearchScreenPoints);
+  const std::vector<Eigen::Vector3d> screen_src = Pick(fine_src, screen_idx);
+  const std::vector<Eigen::Vector3d> screen_n = Pick(fine_src_n, screen_idx);
+  auto screen_score = [&](const Eigen::Matrix4d& t) {
+    std::vector<double> residuals;
+    std::vector<bool> agree;
+    FineResiduals(screen_src, screen_n, crop0, t, reach, &residuals, &agree);
+    Hypothesis h;
+    ScoreFine(residuals, agree, fine_tau, {}, &h);
+    return h.score;
+  };
+  double top_screen = open.empty() ? 0.0 : screen_score(f0.h.transform);
+  for (double delta = bound; delta <= support_radius * 1.0001 && !open.empty(); delta *= 2.0) {
+    for (const Vector6d& xi : open) {
+      const Eigen::Matrix4d moved = PointToPlaneIcp(
+          screen_src, crop0.level.points, crop0.level.normals, *crop0.index,
+          MotionAbout(delta * xi, c) * f0.h.transform, delta,
+          options.icp_distance_spacing * f0.spacing,
+          std::min(options.icp_iterations, kLocalSearchIterations), nullptr);
+      if (!ctx.Inside(moved)) continue;
+      const double score = screen_score(moved);
+      if (score <= top_screen) continue;
+      top_screen = score;
+      top.emplace();
+      top->h = f0.h;
+      top->h.transform = moved;
+    }
+  }
+  return top;
+}
+
+// A move that scored above the best replaces a finalist it converged to (scoring below it),
+// else joins them; the finalists are sorted again.
+void AdoptMove(RegistrationContext& ctx, Finalist top) {
+  std::vector<Finalist>& finalists = ctx.finalists;
+  const double tolerance = std::max(10.0 * ctx.fine_tau, 2.0 * ctx.fine_spacing);
+  auto same = std::find_if(finalists.begin(), finalists.end(), [&](const Finalist& g) {
+    return SameTransform(top.h.transform, g.h.transform, ctx.centre, 10.0, tolerance);
+  });
+  if (same == finalists.end()) {
+    finalists.push_back(std::move(top));
+  } else if (top.h.score > same->h.score) {
+    *same = std::move(top);
+  }
+  SortFinalists(ctx);
+}
+
+// One round of the local search from the best finalist: tests its resolution (kept as
+// ctx.best_tested), screens moves along its open directions and refines the best one.
+// Returns whether a move beat the best (the search goes on from it).
+bool LocalSearchRound(RegistrationContext& ctx, int round) {
+  const CloudRegistrationOptions& options = ctx.options;
+  const Finalist& f0 = ctx.finalists.front();
+  const double bound = options.max_resolution_spacing * f0.spacing;
+  const double reach = std::min(ctx.normal_radius, options.normal_radius_spacing * f0.spacing);
+  BoundTest test;
+  PoseResolution(ctx.fine_src, ctx.fine_src_n, *f0.crop, f0.h.transform, f0.residuals, f0.agree,
+                 reach, ctx.fine_tau, ctx.support_radius, bound, ctx.support_radius,
+                 options.resolution_t, true, {}, &test);
+  ctx.best_tested = {f0.h.transform, f0.crop.get(), f0.spacing, std::move(test)};
+  const std::vector<Vector6d>& open = ctx.best_tested.test.directions;
+  std::optional<Finalist> top = BestScreenedMove(ctx, f0, open, bound, reach);
+  if (top) {
+    if (RefineFinalist(ctx, &*top, bound) && ctx.Inside(top->h.transform)) {
+      top->violates = Violations(ctx, *top);
+      ScoreFine(top->residuals, top->agree, ctx.fine_tau, top->violates, &top->h);
+    } else {
+      top.reset();
+    }
+  }
+  spdlog::debug("registration: local search round {}: {} open directions, best move scores "
+                "{:.4g} (best {:.4g})",
+                round + 1, open.size(), top ? top->h.score : 0.0, f0.h.score);
+  if (!top || !(top->h.score > f0.h.score)) return false;
+  if (round == 0) top->h.origin = f0.h.origin + ", local search";
+  top->coarse_score = f0.coarse_score;  // a refinement of the best
+  AdoptMove(ctx, std::move(*top));
+  return true;
+}
+
+}  // namespace
+
+void LocalSearch(RegistrationContext& ctx) {
+  const CloudRegistrationOptions& options = ctx.options;
+  for (int round = 0; !options.paper_only && options.local_search && !ctx.finalists.empty() &&
                       round < kLocalSearchRounds;
        ++round) {
-    const Finalist& f0 = finalists.front();
-    const double bound = options.max_resolution_spacing * f0.spacing;
-    const double reach = std::min(normal_radius, options.normal_radius_spacing * f0.spacing);
-    BoundTest test;
-    PoseResolution(fine_src, fine_src_n, *f0.crop, f0.h.transform, f0.residuals, f0.agree, reach,
-                   fine_tau, support_radius, bound, support_radius, options.resolution_t, true, {},
-                   &test);
-    best_tested = {f0.h.transform, f0.crop.get(), f0.spacing, std::move(test)};
-    const std::vector<Vector6d>& open = best_tested.test.directions;
-    Eigen::Vector3d c;
-    Eigen::Matrix3d cov;
-    RegisteredMoments(fine_src, f0.h.transform, &c, &cov);
-    // The moves are screened on the best's crop (no new crops) with a sample of the fine
-    // source (kLocalSearchScreenPoints): a short ICP from δ (kLocalSearchIterations), scored
-    // against the best's score on the same sample (free space left out). The move screening
-    // best is then refined in full on its own crop and scored like every finalist.
-    std::optional<Finalist> top;
-    const TargetCrop& crop0 = *f0.crop;
-    const std::vector<size_t> screen_idx =
-        StrideSample(fine_src.size(), kLocalSearchScreenPoints);
-    const std::vector<Eigen::Vector3d> screen_src = Pick(fine_src, screen_idx);
-    const std::vector<Eigen::Vector3d> screen_n = Pick(fine_src_n, screen_idx);
-    auto screen_score = [&](const Eigen::Matrix4d& t) {
-      std::vector<double> residuals;
-      std::vector<bool> agree;
-      FineResiduals(screen_src, screen_n, crop0, t, reach, &residuals, &agree);
-      Hypothesis h;
-      ScoreFine(residuals, agree, fine_tau, {}, &h);
-      return h.score;
-    };
-    double top_screen = open.empty() ? 0.0 : screen_score(f0.h.transform);
-    for (double delta = bound; delta <= support_radius * 1.0001 && !open.empty(); delta *= 2.0) {
-      for (const Vector6d& xi : open) {
-        const Eigen::Matrix4d moved = PointToPlaneIcp(
-            screen_src, crop0.level.points, crop0.level.normals, *crop0.index,
-            MotionAbout(delta * xi, c) * f0.h.transform, delta,
-            options.icp_distance_spacing * f0.spacing,
-            std::min(options.icp_iterations, kLocalSearchIterations), nullptr);
-        if (!ctx.Inside(moved)) continue;
-        const double score = screen_score(moved);
-        if (score <= top_screen) continue;
-        top_screen = score;
-        top.emplace();
-        top->h = f0.h;
-        top->h.transform = moved;
-      }
-    }
-    if (top) {
-      if (RefineFinalist(ctx, &*top, bound) && ctx.Inside(top->h.transform)) {
-        top->violates = Violations(ctx, *top);
-        ScoreFine(top->residuals, top->agree, fine_tau, top->violates, &top->h);
-      } else {
-        top.reset();
-      }
-    }
-    spdlog::debug("registration: local search round {}: {} open directions, best move scores "
-                  "{:.4g} (best {:.4g})",
-                  round + 1, open.size(), top ? top->h.score : 0.0, f0.h.score);
-    if (top && top->h.score > f0.h.score) {
-      if (round == 0) top->h.origin = f0.h.origin + ", local search";
-      top->coarse_score = f0.coarse_score;  // a refinement of the best
-      // It replaces a finalist it converged to (scoring below it), else joins them.
-      auto same = std::find_if(finalists.begin(), finalists.end(), [&](const Finalist& g) {
-        return SameTransform(top->h.transform, g.h.transform, centre, 10.0,
-                             std::max(10.0 * fine_tau, 2.0 * fine_spacing));
-      });
-      if (same == finalists.end()) {
-        finalists.push_back(std::move(*top));
-      } else if (top->h.score > same->h.score) {
-        *same = std::move(*top);
-      }
-      SortFinalists(ctx);
-    } else {
-      break;
-    }
+    if (!LocalSearchRound(ctx, round)) break;
   }
 }
 
