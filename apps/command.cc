@@ -120,6 +120,31 @@ void RefuseToOverwriteInputs(const std::vector<FileArg>& outputs, const std::vec
   CheckOutputFiles(outputs);
 }
 
+namespace {
+
+// Every option of `sub` that takes a value refuses one that is an option name: "--output
+// --help" is a forgotten value, not a folder named "--help". A value starting with "--", or
+// one of the subcommand's short names (-h, -q, -v), is such a name; a negative number ("-2")
+// or "x=-1" is a value. Flags take no value and are left alone.
+void RefuseOptionNamesAsValues(CLI::App* sub) {
+  std::vector<std::string> short_names;
+  for (const CLI::Option* option : sub->get_options()) {
+    for (const std::string& s : option->get_snames()) short_names.push_back("-" + s);
+  }
+  const CLI::Validator not_an_option_name(
+      [short_names](std::string& value) -> std::string {
+        const bool name = value.rfind("--", 0) == 0 ||
+                          std::find(short_names.begin(), short_names.end(), value) != short_names.end();
+        return name ? "needs a value, found the option name '" + value + "'" : std::string();
+      },
+      "");
+  for (CLI::Option* option : sub->get_options()) {
+    if (option->get_type_size_max() > 0) option->check(not_an_option_name);
+  }
+}
+
+}  // namespace
+
 bool RegisterCommand(int order, CommandSetup setup) {
   Registry().emplace_back(order, std::move(setup));
   return true;
@@ -141,7 +166,10 @@ int RunMain(int argc, char** argv) {
     const size_t before = app.get_subcommands({}).size();
     std::function<int()> run = setup(app, &common);
     const auto subs = app.get_subcommands({});
-    if (subs.size() > before) commands.emplace_back(subs.back(), std::move(run));
+    if (subs.size() > before) {
+      RefuseOptionNamesAsValues(subs.back());
+      commands.emplace_back(subs.back(), std::move(run));
+    }
   }
   if (const std::string unknown = UnknownArgument(app, argc, argv); !unknown.empty()) {
     std::cerr << "mmba: error: " << unknown << std::endl;

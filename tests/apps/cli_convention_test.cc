@@ -4,6 +4,8 @@
 
 #include <filesystem>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -72,6 +74,36 @@ TEST(CliConvention, SimulateTakesOutputAndOut) {
     EXPECT_EQ(run.exit_code, 2) << flag;
     EXPECT_THAT(run.output, ::testing::Not(HasSubstr("unknown option"))) << flag;
   }
+}
+
+// An option name given where a value belongs is a forgotten value (exit 2, naming the option),
+// never a file or folder of that name; negative numbers and NAME=-1 stay values.
+TEST(CliConvention, AnOptionNameIsNotAValue) {
+  const std::string dir = Tmp("names");
+  fs::create_directories(dir);
+  const std::string cd = "cd " + dir + " && ";
+  for (const auto& [args, option] : std::vector<std::pair<std::string, std::string>>{
+           {"simulate --out --help", "--output"},
+           {"simulate --output --quiet", "--output"},
+           {"simulate --out -q", "--output"},
+           {"adjust x.yaml --output --help", "--output"},
+           {"survey " + kNetwork + " --output --help", "--output"},
+           {"register-cloud --source a.ply --target b.ply --output --verbose", "--output"},
+           {"register-cloud --source --help --target b.ply --output o.json", "--source"}}) {
+    const RunResult run = mmba::test::RunShell(cd + MMBA_EXECUTABLE + " " + args);
+    EXPECT_EQ(run.exit_code, 2) << args << ": " << run.output;
+    EXPECT_THAT(run.output, HasSubstr(option + ": needs a value, found the option name '")) << args;
+  }
+  EXPECT_TRUE(fs::is_empty(dir)) << "an option name was taken for a file or folder name";
+  // Negative numbers and NAME=-1 are values: refused (or not) for what they are, not as names.
+  for (const std::string args : {"register-cloud --source a.ply --target b.ply --output o.json --up 0 0 -1",
+                                 "register-cloud --source a.ply --target b.ply --output o.json --set icp_iterations=-1",
+                                 "ba --input nowhere --output o --loss-scale -2"}) {
+    const RunResult run = mmba::test::RunShell(cd + MMBA_EXECUTABLE + " " + args);
+    EXPECT_EQ(run.exit_code, 2) << args;
+    EXPECT_THAT(run.output, ::testing::Not(HasSubstr("option name"))) << args;
+  }
+  fs::remove_all(dir);
 }
 
 }  // namespace
