@@ -194,6 +194,20 @@ registration::CloudRegistrationOptions OptionsOf(const RegisterCloudArgs& args) 
   return options;
 }
 
+// The cloud `path` given as `option`; a cloud without points (none in the file, or none left
+// by --skip-invalid) is bad input.
+io::PointCloud ReadCloud(const std::string& option, const std::string& path, const io::ReadOptions& options,
+                         io::ReadStats* stats) {
+  io::PointCloud cloud = io::ReadPointCloud(path, options, stats);
+  if (cloud.empty()) {
+    const std::string skipped =
+        stats->num_skipped > 0 ? " left (" + std::to_string(stats->num_skipped) + " not finite, skipped)" : "";
+    throw InputError::Message(path, "the " + option + " cloud has no points" + skipped +
+                                        "; expected a cloud of at least one point");
+  }
+  return cloud;
+}
+
 int RunRegisterCloud(const RegisterCloudArgs& args) {
   RefuseToOverwriteInputs({{"--output", args.output}, {"--error-map", args.error_map}},
                           {{"--source", args.source},
@@ -211,8 +225,8 @@ int RunRegisterCloud(const RegisterCloudArgs& args) {
   // with the reason), not unreadable input.
   std::string not_finite;
   try {
-    source = io::ReadPointCloud(args.source, read_options, &source_stats);
-    target = io::ReadPointCloud(args.target, read_options, &target_stats);
+    source = ReadCloud("--source", args.source, read_options, &source_stats);
+    target = ReadCloud("--target", args.target, read_options, &target_stats);
   } catch (const NonFiniteInput& e) {
     not_finite = e.what();
   }

@@ -297,24 +297,35 @@ TEST_F(CliTest, RegisterCloudScaleRange) {
   EXPECT_EQ(j["failed_attempt_target_from_source"].size(), 4u);
 }
 
-// An empty cloud, in any format, is a reported failure (exit 3, the JSON saying why) with no
-// transform, not a reading error.
-TEST_F(CliTest, RegisterCloudEmptySourceIsAFailureWithoutATransform) {
+// A cloud without points, in any format, as source or target, is bad input (exit 2, the error
+// naming the file and saying it has no points) and nothing is written.
+TEST_F(CliTest, RegisterCloudEmptyCloudIsBadInput) {
+  const std::string bun4 = kSource + "/data/pointclouds/pcl_test/bun4.pcd";
   for (const std::string name : {"empty.xyz", "empty.ply"}) {
     std::ofstream(Tmp(name)) << (name == "empty.xyz" ? "# x y z\n"
                                                      : "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\n"
                                                        "property float y\nproperty float z\nend_header\n");
-    const RunResult run = Mmba("register-cloud --source " + Tmp(name) + " --target " + kSource +
-                               "/data/pointclouds/pcl_test/bun4.pcd -q --output " + Tmp("out.json"));
-    EXPECT_EQ(run.exit_code, 3) << name << ": " << run.output;
-    EXPECT_THAT(run.output, HasSubstr("source cloud is empty"));
-    std::ifstream in(Tmp("out.json"));
-    const nlohmann::json j = nlohmann::json::parse(in);
-    EXPECT_EQ(j["status"], "failed");
-    EXPECT_TRUE(j["target_from_source"].is_null());
-    EXPECT_TRUE(j["failed_attempt_target_from_source"].is_null());
-    fs::remove(Tmp("out.json"));
+    for (const std::string role : {"source", "target"}) {
+      const std::string source = role == "source" ? Tmp(name) : bun4;
+      const std::string target = role == "target" ? Tmp(name) : bun4;
+      const RunResult run =
+          Mmba("register-cloud --source " + source + " --target " + target + " -q --output " + Tmp("out.json"));
+      EXPECT_EQ(run.exit_code, 2) << name << " as " << role << ": " << run.output;
+      EXPECT_THAT(run.output, HasSubstr("mmba: error: " + Tmp(name) + ": the --" + role + " cloud has no points"));
+      EXPECT_FALSE(fs::exists(Tmp("out.json")));
+    }
   }
+  // Every point not finite and dropped by --skip-invalid: no points left, bad input too.
+  std::ofstream(Tmp("all-nan.xyz")) << "1 nan 0\n";
+  const RunResult none = Mmba("register-cloud --skip-invalid --source " + Tmp("all-nan.xyz") + " --target " + bun4 +
+                              " -q --output " + Tmp("out.json"));
+  EXPECT_EQ(none.exit_code, 2) << none.output;
+  EXPECT_THAT(none.output, HasSubstr("the --source cloud has no points left (1 not finite, skipped)"));
+  EXPECT_FALSE(fs::exists(Tmp("out.json")));
+}
+
+// A point that is not finite makes a reported failure, not a reading error.
+TEST_F(CliTest, RegisterCloudNonFinitePointIsAFailureWithoutATransform) {
   // A NaN point (NaN/Inf points → status "failed" with a reason): exit 3, the JSON
   // written, the reason naming the file, line and field; --skip-invalid drops the point.
   std::ofstream(Tmp("nan.xyz")) << "0 0 0\n1 nan 0\n";
@@ -1310,11 +1321,11 @@ TEST_F(CliTest, AnOutputInUseByAnotherRunIsExitTwo) {
 // register-cloud's JSON and error map are one result: a failed run removes the error map of an
 // earlier run (no new JSON beside an old map), and a killed run's temporary goes.
 TEST_F(CliTest, RegisterCloudNeverLeavesAnEarlierErrorMapBesideItsJson) {
-  std::ofstream(Tmp("empty.xyz")) << "# x y z\n";
+  std::ofstream(Tmp("one-point.xyz")) << "0 0 0\n";  // too few points: a failed registration
   std::ofstream(Tmp("out.json")) << "{\"earlier\": true}\n";
   std::ofstream(Tmp("map.ply")) << "the earlier run's error map\n";
   std::ofstream(Tmp("out.json.tmp-999999999")) << "a killed run's half file\n";
-  const RunResult run = Mmba("register-cloud --source " + Tmp("empty.xyz") + " --target " + kSource +
+  const RunResult run = Mmba("register-cloud --source " + Tmp("one-point.xyz") + " --target " + kSource +
                              "/data/pointclouds/pcl_test/bun4.pcd -q --output " + Tmp("out.json") + " --error-map " +
                              Tmp("map.ply"));
   EXPECT_EQ(run.exit_code, 3) << run.output;
