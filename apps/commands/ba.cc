@@ -47,8 +47,9 @@ nlohmann::json GroupJson(const GroupEvaluation& e) {
           {"outlier_threshold_sigma", e.outlier_threshold}};
 }
 
-int RunBa(const BaArgs& args) {
-  Timer wall;
+/// The robust loss of --loss/--loss-scale in σ units (σ = --sigma-px); throws InputError
+/// naming the flag.
+LossOptions BaLoss(const BaArgs& args) {
   LossOptions loss;
   if (!ParseLossType(args.loss, &loss.type)) {
     throw InputError::Message("--loss", "found '" + args.loss +
@@ -62,41 +63,32 @@ int RunBa(const BaArgs& args) {
                                                 ", expected a number > 0");
   }
   if (!loss.Check(&error)) throw InputError::Message("--loss-scale", error);
+  return loss;
+}
+
+SolveOptions BaSolveOptions(const BaArgs& args) {
   SolveOptions solve_options;
   solve_options.max_iterations = args.max_iterations;
   solve_options.num_threads = args.threads;
   solve_options.log_progress = GetVerbosity() != Verbosity::kQuiet;
+  std::string error;
   if (!solve_options.Check(&error)) throw InputError::Message("options", error);
+  return solve_options;
+}
+
+/// The files of the model in --input (text and binary), which no output may overwrite.
+std::vector<FileArg> BaModelFiles(const std::string& input) {
   std::vector<FileArg> model_files;
   for (const char* name : {"cameras", "images", "points3D"}) {
     for (const char* ext : {".txt", ".bin"}) {
-      model_files.push_back({"--input", (fs::path(args.input) / (std::string(name) + ext)).string()});
+      model_files.push_back({"--input", (fs::path(input) / (std::string(name) + ext)).string()});
     }
   }
-  RefuseToOverwriteInputs({{"--json", args.json}}, model_files);
-  OutputFolder output(args.output, "--output", "mmba ba", {{"--input", args.input}});
+  return model_files;
+}
 
-  io::ColmapFormat format;
-  io::ColmapModel model = io::ReadColmapModel(args.input, &format);
-  spdlog::info("read {} ({}): {} cameras, {} images, {} points, {} observations", args.input,
-               format == io::ColmapFormat::kText ? "text" : "binary", model.cameras.size(),
-               model.images.size(), model.points3D.size(), model.NumObservations());
-
-  Scene scene;
-  std::vector<ReprojectionObservation> observations =
-      SceneFromColmap(model, args.sigma_px, &scene);
-  if (observations.empty()) {
-    throw InputError::Message(args.input, "the model has no observations (no 3-D point with a "
-                                          "track): nothing to adjust");
-  }
-  ProblemBuilder builder(&scene);
-  const FactorGroup& group =
-      builder.AddGroup(std::make_unique<ReprojectionGroup>(std::move(observations), loss));
-  ParameterOptions parameters;
-  parameters.refine_focal = args.refine_focal;
-  parameters.refine_principal_point = args.refine_principal_point;
-  parameters.refine_extra = args.refine_extra;
-  builder.set_parameter_options(parameters);
+/// --fix-images, else two poses (--gauge-images or the two smallest image ids).
+GaugeOptions BaGauge(const BaArgs& args) {
   GaugeOptions gauge;
   if (!args.fix_images.empty()) {
     gauge.kind = GaugeOptions::Kind::kFixedImages;
@@ -111,19 +103,16 @@ int RunBa(const BaArgs& args) {
       gauge.second = ImageId(args.gauge_images[1]);
     }
   }
-  builder.set_gauge(gauge);
-  builder.Build();
-  if (group.residual_blocks().empty()) {
-    throw CommandFailed("none of the " + std::to_string(group.num_skipped()) +
-                        " observations can be used (points behind their cameras at the "
-                        "start): no model written");
-  }
+  return gauge;
+}
 
-  SolveResult result = Solve(builder, solve_options);
+/// The --json report; wall_seconds is 0 until the end of the run.
+nlohmann::json BaReportJson(const BaArgs& args, const SolveResult& result,
+                            const io::ColmapModel& model, io::ColmapFormat format,
+                            const LossOptions& loss) {
   const GroupEvaluation& before = result.before.at(0);
   const GroupEvaluation& after = result.after.at(0);
-
-  nlohmann::json json = {
+  return {
       {"status", result.status},
       {"reason", result.reason},
       {"input", args.input},
@@ -150,7 +139,63 @@ int RunBa(const BaArgs& args) {
       {"refine_extra", args.refine_extra},
       {"groups", {GroupJson(after)}},
   };
+}
 
+/// The summary on stdout: status, RMS before and after, gauge and the files written.
+void PrintBaSummary(const BaArgs& args, const SolveResult& result, double wall_seconds,
+                    bool written) {
+  const GroupEvaluation& before = result.before.at(0);
+  const GroupEvaluation& after = result.after.at(0);
+  std::ostringstream summary;
+  summary << "mmba ba: " << result.status << " after " << result.iterations
+          << " iterations, " << wall_seconds << " s\n"
+          << "  RMS reprojection error: " << before.rms_units << " px -> " << after.rms_units
+          << " px (" << after.num_observations << " observations";
+  if (after.num_skipped) summary << ", " << after.num_skipped << " skipped";
+  summary << ")\n  gauge: " << result.gauge << "\n";
+  if (written) summary << "  adjusted model: " << args.output << "\n";
+  if (!args.json.empty()) summary << "  report: " << args.json << "\n";
+  std::cout << summary.str();
+}
+
+int RunBa(const BaArgs& args) {
+  Timer wall;
+  const LossOptions loss = BaLoss(args);
+  const SolveOptions solve_options = BaSolveOptions(args);
+  RefuseToOverwriteInputs({{"--json", args.json}}, BaModelFiles(args.input));
+  OutputFolder output(args.output, "--output", "mmba ba", {{"--input", args.input}});
+
+  io::ColmapFormat format;
+  io::ColmapModel model = io::ReadColmapModel(args.input, &format);
+  spdlog::info("read {} ({}): {} cameras, {} images, {} points, {} observations", args.input,
+               format == io::ColmapFormat::kText ? "text" : "binary", model.cameras.size(),
+               model.images.size(), model.points3D.size(), model.NumObservations());
+
+  Scene scene;
+  std::vector<ReprojectionObservation> observations =
+      SceneFromColmap(model, args.sigma_px, &scene);
+  if (observations.empty()) {
+    throw InputError::Message(args.input, "the model has no observations (no 3-D point with a "
+                                          "track): nothing to adjust");
+  }
+  ProblemBuilder builder(&scene);
+  const FactorGroup& group =
+      builder.AddGroup(std::make_unique<ReprojectionGroup>(std::move(observations), loss));
+  ParameterOptions parameters;
+  parameters.refine_focal = args.refine_focal;
+  parameters.refine_principal_point = args.refine_principal_point;
+  parameters.refine_extra = args.refine_extra;
+  builder.set_parameter_options(parameters);
+  builder.set_gauge(BaGauge(args));
+  builder.Build();
+  if (group.residual_blocks().empty()) {
+    throw CommandFailed("none of the " + std::to_string(group.num_skipped()) +
+                        " observations can be used (points behind their cameras at the "
+                        "start): no model written");
+  }
+
+  SolveResult result = Solve(builder, solve_options);
+  nlohmann::json json = BaReportJson(args, result, model, format, loss);
   const bool written = result.converged;
   if (written) {
     UpdateColmapFromScene(scene, &model);
@@ -163,17 +208,7 @@ int RunBa(const BaArgs& args) {
   if (!args.json.empty()) {
     WriteFileAtomically(args.json, [&](std::ostream& out) { out << json.dump(2) << "\n"; });
   }
-
-  std::ostringstream summary;
-  summary << "mmba ba: " << result.status << " after " << result.iterations
-          << " iterations, " << json["wall_seconds"].get<double>() << " s\n"
-          << "  RMS reprojection error: " << before.rms_units << " px -> " << after.rms_units
-          << " px (" << after.num_observations << " observations";
-  if (after.num_skipped) summary << ", " << after.num_skipped << " skipped";
-  summary << ")\n  gauge: " << result.gauge << "\n";
-  if (written) summary << "  adjusted model: " << args.output << "\n";
-  if (!args.json.empty()) summary << "  report: " << args.json << "\n";
-  std::cout << summary.str();
+  PrintBaSummary(args, result, json["wall_seconds"].get<double>(), written);
   if (!written) {
     throw CommandFailed("adjustment " + result.status + ": " + result.reason +
                         " — no model written" +

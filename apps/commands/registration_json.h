@@ -35,21 +35,26 @@ inline nlohmann::ordered_json FailedAttempt(bool ok, bool attempted, const Eigen
   return !ok && attempted ? nlohmann::ordered_json(MatrixJson(m)) : nlohmann::ordered_json(nullptr);
 }
 
-inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistrationResult& result) {
-  nlohmann::ordered_json runtime = nlohmann::ordered_json::object();
+// A value, or null when `valid` is false.
+inline nlohmann::ordered_json ValueIf(bool valid, double v) {
+  return valid ? nlohmann::ordered_json(v) : nlohmann::ordered_json(nullptr);
+}
+
+// Seconds per stage (wall or CPU, by `seconds`) and their "total".
+inline nlohmann::ordered_json StageSecondsJson(
+    const std::vector<registration::StageTime>& runtime,
+    double registration::StageTime::*seconds) {
+  nlohmann::ordered_json json = nlohmann::ordered_json::object();
   double total = 0.0;
-  for (const auto& stage : result.runtime) {
-    runtime[stage.stage] = stage.seconds;
-    total += stage.seconds;
+  for (const auto& stage : runtime) {
+    json[stage.stage] = stage.*seconds;
+    total += stage.*seconds;
   }
-  runtime["total"] = total;
-  nlohmann::ordered_json cpu = nlohmann::ordered_json::object();
-  double cpu_total = 0.0;
-  for (const auto& stage : result.runtime) {
-    cpu[stage.stage] = stage.cpu_seconds;
-    cpu_total += stage.cpu_seconds;
-  }
-  cpu["total"] = cpu_total;
+  json["total"] = total;
+  return json;
+}
+
+inline nlohmann::ordered_json HypothesesJson(const registration::CloudRegistrationResult& result) {
   nlohmann::ordered_json hypotheses = nlohmann::ordered_json::array();
   for (const auto& h : result.hypotheses) {
     hypotheses.push_back({{"origin", h.origin},
@@ -60,11 +65,26 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
                           {"conflict", h.conflict},
                           {"violation", h.violation},
                           {"intensity_correlation",
-                           h.intensity_correlation >= 0
-                               ? nlohmann::ordered_json(h.intensity_correlation)
-                               : nlohmann::ordered_json(nullptr)},
+                           ValueIf(h.intensity_correlation >= 0, h.intensity_correlation)},
                           {"target_from_source", MatrixJson(h.target_from_source)}});
   }
+  return hypotheses;
+}
+
+// The 6×6 covariance as rows, null when not finite.
+inline nlohmann::ordered_json CovarianceJson(const Eigen::Matrix<double, 6, 6>& covariance) {
+  if (!covariance.allFinite()) return nlohmann::ordered_json(nullptr);
+  nlohmann::ordered_json rows = nlohmann::ordered_json::array();
+  for (int r = 0; r < 6; ++r) {
+    nlohmann::ordered_json row = nlohmann::ordered_json::array();
+    for (int c = 0; c < 6; ++c) row.push_back(covariance(r, c));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistrationResult& result) {
+  using registration::StageTime;
   return {{"status", result.status},
           {"reason", result.reason},
           {"descriptor", result.descriptor},
@@ -76,9 +96,7 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
           {"normal_agreement", result.normal_agreement},
           {"confidence", result.confidence},
           // null when no distinct runner-up was left (JSON has no infinity)
-          {"significance", std::isfinite(result.significance)
-                               ? nlohmann::ordered_json(result.significance)
-                               : nlohmann::ordered_json(nullptr)},
+          {"significance", FiniteOrNull(result.significance)},
           {"conflict", result.conflict},
           // the free-space test (sensor positions given): fraction of the source in space a
           // sensor observed as empty
@@ -88,32 +106,18 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
           // chosen pose's |rank correlation| of source and target brightness over its inliers,
           // and the intensity t against the runner-up behind `significance`
           {"intensity_tested", result.intensity_tested},
-          {"intensity_correlation", result.intensity_tested
-                                        ? nlohmann::ordered_json(result.intensity_correlation)
-                                        : nlohmann::ordered_json(nullptr)},
-          {"intensity_significance", result.intensity_tested
-                                         ? nlohmann::ordered_json(result.intensity_significance)
-                                         : nlohmann::ordered_json(nullptr)},
+          {"intensity_correlation", ValueIf(result.intensity_tested, result.intensity_correlation)},
+          {"intensity_significance",
+           ValueIf(result.intensity_tested, result.intensity_significance)},
           {"fine_inlier_distance_m", result.fine_inlier_distance_m},
           // null when the pose is not resolved up to R_s (or not tested: --paper)
-          {"resolution_m", std::isfinite(result.resolution_m)
-                               ? nlohmann::ordered_json(result.resolution_m)
-                               : nlohmann::ordered_json(nullptr)},
+          {"resolution_m", FiniteOrNull(result.resolution_m)},
           {"weak_motion_resolution_m", FiniteOrNull(result.weak_motion_resolution_m)},
           {"fine_spacing_m", result.fine_spacing_m},
           // uncertainty of the fine fit (see feature_registration.h): covariance of
           // (rx, ry, rz [rad], tx, ty, tz [m]), a correction about covariance_centre in the
           // target frame; null when the inliers leave a motion free
-          {"covariance", [&] {
-             if (!result.covariance.allFinite()) return nlohmann::ordered_json(nullptr);
-             nlohmann::ordered_json rows = nlohmann::ordered_json::array();
-             for (int r = 0; r < 6; ++r) {
-               nlohmann::ordered_json row = nlohmann::ordered_json::array();
-               for (int c = 0; c < 6; ++c) row.push_back(result.covariance(r, c));
-               rows.push_back(row);
-             }
-             return rows;
-           }()},
+          {"covariance", CovarianceJson(result.covariance)},
           {"covariance_centre", VectorJson(result.covariance_centre)},
           {"sigma_translation_m", VectorJson(result.sigma_translation_m)},
           {"sigma_rotation_deg", VectorJson(result.sigma_rotation_deg)},
@@ -130,9 +134,10 @@ inline nlohmann::ordered_json RegistrationJson(const registration::CloudRegistra
                                 {"target", result.blunders_removed_target}}},
           {"normal_radius_m", result.normal_radius_m},
           {"support_radius_m", result.support_radius_m},
-          {"runtime_seconds", runtime},
-          {"cpu_seconds", cpu},  // process CPU time per stage (all threads)
-          {"hypotheses", hypotheses},
+          {"runtime_seconds", StageSecondsJson(result.runtime, &StageTime::seconds)},
+          // process CPU time per stage (all threads)
+          {"cpu_seconds", StageSecondsJson(result.runtime, &StageTime::cpu_seconds)},
+          {"hypotheses", HypothesesJson(result)},
           {"notes", result.notes}};
 }
 

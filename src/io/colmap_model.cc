@@ -62,14 +62,35 @@ sensors::Camera ParseCameraFields(const std::string& file, int64_t line_no,
   return camera;
 }
 
-void ReadCamerasText(const std::string& path, ColmapModel* model) {
+// Calls on_record(tokens, cursor) for each line of the text file `path` that is neither
+// blank nor a comment, once it has at least `min_tokens` tokens (`fields` names them).
+template <typename OnRecord>
+void ForEachTextRecord(const std::string& path, size_t max_line_bytes, size_t min_tokens,
+                       const std::string& fields, OnRecord on_record) {
   const std::string text = ReadWholeFile(path);
-  LineCursor cursor(text, path);
+  LineCursor cursor(text, path, max_line_bytes);
   std::string_view line;
   while (cursor.Next(&line)) {
     if (IsSkippable(line)) continue;
     TokenLine tokens(path, cursor.line_number(), line);
-    tokens.ExpectAtLeast(4, "CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]");
+    tokens.ExpectAtLeast(min_tokens, fields);
+    on_record(tokens, cursor);
+  }
+}
+
+// Adds `value` under `key`; a key already present fails at the line of `tokens`, naming
+// `field` = id.
+template <typename Map, typename Key, typename Value>
+void EmplaceUnique(Map* map, const Key& key, Value&& value, const TokenLine& tokens,
+                   const char* field, uint64_t id) {
+  if (!map->emplace(key, std::forward<Value>(value)).second) {
+    tokens.Fail(field, std::to_string(id), "a unique id (it appears twice)");
+  }
+}
+
+void ReadCamerasText(const std::string& path, ColmapModel* model) {
+  ForEachTextRecord(path, kMaxLineBytes, 4, "CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]",
+                    [&](const TokenLine& tokens, LineCursor& cursor) {
     const uint64_t id = tokens.UInt(0, "CAMERA_ID");
     const std::string& model_name = tokens.Str(1, "MODEL");
     const uint64_t width = tokens.UInt(2, "WIDTH");
@@ -83,20 +104,13 @@ void ReadCamerasText(const std::string& path, ColmapModel* model) {
     }
     sensors::Camera camera = ParseCameraFields(path, cursor.line_number(), model_name,
                                                static_cast<int64_t>(id), width, height, params);
-    if (!model->cameras.emplace(camera.camera_id, camera).second) {
-      tokens.Fail("CAMERA_ID", std::to_string(id), "a unique id (it appears twice)");
-    }
-  }
+    EmplaceUnique(&model->cameras, camera.camera_id, camera, tokens, "CAMERA_ID", id);
+  });
 }
 
 void ReadImagesText(const std::string& path, ColmapModel* model) {
-  const std::string text = ReadWholeFile(path);
-  LineCursor cursor(text, path, kMaxPoints2DLineBytes);
-  std::string_view line;
-  while (cursor.Next(&line)) {
-    if (IsSkippable(line)) continue;
-    TokenLine tokens(path, cursor.line_number(), line);
-    tokens.ExpectAtLeast(10, "IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME");
+  ForEachTextRecord(path, kMaxPoints2DLineBytes, 10, "IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME",
+                    [&](const TokenLine& tokens, LineCursor& cursor) {
     ColmapImage image;
     const uint64_t id = tokens.UInt(0, "IMAGE_ID");
     if (id > std::numeric_limits<uint32_t>::max()) {
@@ -145,20 +159,14 @@ void ReadImagesText(const std::string& path, ColmapModel* model) {
       image.point3D_ids.push_back(point3D_id == -1 ? Point3DId()
                                                    : Point3DId(static_cast<uint64_t>(point3D_id)));
     }
-    if (!model->images.emplace(image.image_id, std::move(image)).second) {
-      tokens.Fail("IMAGE_ID", std::to_string(id), "a unique id (it appears twice)");
-    }
-  }
+    const ImageId image_id = image.image_id;
+    EmplaceUnique(&model->images, image_id, std::move(image), tokens, "IMAGE_ID", id);
+  });
 }
 
 void ReadPoints3DText(const std::string& path, ColmapModel* model) {
-  const std::string text = ReadWholeFile(path);
-  LineCursor cursor(text, path, kMaxPoints2DLineBytes);
-  std::string_view line;
-  while (cursor.Next(&line)) {
-    if (IsSkippable(line)) continue;
-    TokenLine tokens(path, cursor.line_number(), line);
-    tokens.ExpectAtLeast(8, "POINT3D_ID X Y Z R G B ERROR TRACK[]");
+  ForEachTextRecord(path, kMaxPoints2DLineBytes, 8, "POINT3D_ID X Y Z R G B ERROR TRACK[]",
+                    [&](const TokenLine& tokens, LineCursor&) {
     ColmapPoint3D point;
     const uint64_t id = tokens.UInt(0, "POINT3D_ID");
     point.point3D_id = Point3DId(id);
@@ -186,10 +194,9 @@ void ReadPoints3DText(const std::string& path, ColmapModel* model) {
       element.point2D_idx = static_cast<uint32_t>(p2d);
       point.track.push_back(element);
     }
-    if (!model->points3D.emplace(point.point3D_id, std::move(point)).second) {
-      tokens.Fail("POINT3D_ID", std::to_string(id), "a unique id (it appears twice)");
-    }
-  }
+    const Point3DId point3D_id = point.point3D_id;
+    EmplaceUnique(&model->points3D, point3D_id, std::move(point), tokens, "POINT3D_ID", id);
+  });
 }
 
 // ---------------------------------------------------------------------------------------
