@@ -2,7 +2,7 @@
 
 // Shared by the MI benches (mi_kitti, mi_panoramas, mi_speed): the process's figures, comma
 // lists, the MI_* environment variables that set the same registration options in each, the
-// per-axis peak of a probe and the result's digest line.
+// per-axis peak of a probe, the result's digest line and the histograms of pixel offsets.
 
 #include <string>
 #include <vector>
@@ -36,5 +36,15 @@ void PrintProbeArgmax(const std::vector<registration::mi::ProbeSample>& probe);
 /// "<indent>digest %016llx  metric %a  iterations %d  evaluations %d": the result bit for bit
 /// (equal digests = a reproduced registration).
 void PrintDigest(const char* indent, const registration::mi::RegistrationResult& result);
+
+/// Wang et al.'s histogram of pixel offsets: counts per bin of `width` px, `bins` bins, the
+/// last holding everything beyond; divided by the number of values when `normalise`.
+std::vector<double> Histogram(const std::vector<double>& values, double width, int bins,
+                              bool normalise);
+/// Writes Histogram() of the offsets `before` and `after` registration as a CSV (bin_from_px,
+/// bin_to_px, <unit>_before, <unit>_after) and as an SVG bar chart titled `title`.
+void WriteHistogram(const std::string& csv, const std::string& svg, const std::string& title,
+                    const std::string& unit, const std::vector<double>& before,
+                    const std::vector<double>& after, double width, int bins, bool normalise);
 
 }  // namespace mmba::bench

@@ -40,8 +40,6 @@
 // (RegistrationOptions::scan_weak_direction); each
 // registration prints its whole-image checks and a `digest` line (RegistrationResult::Digest,
 // pose and metric in hex floats) to compare runs.
-#include <sys/resource.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -52,12 +50,12 @@
 #include <map>
 #include <optional>
 #include <random>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
+#include "mi_bench_common.h"
 #include "mmba/core/huge_pages.h"
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
@@ -72,18 +70,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-double PeakRssMiB() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return usage.ru_maxrss / 1024.0;
-}
-
-double CpuSeconds() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return usage.ru_utime.tv_sec + 1e-6 * usage.ru_utime.tv_usec + usage.ru_stime.tv_sec +
-         1e-6 * usage.ru_stime.tv_usec;
-}
 
 sensors::Camera CameraFromJson(const nlohmann::json& j) {
   sensors::Camera camera;
@@ -230,12 +216,6 @@ LidarPoints StitchWarp(const LidarPoints& points, const Rigid3d& rig_from_world,
   return out;
 }
 
-std::vector<std::string> Split(const std::string& text) {
-  std::vector<std::string> items;
-  std::stringstream list(text);
-  for (std::string item; std::getline(list, item, ',');) items.push_back(item);
-  return items;
-}
 
 double Median(std::vector<double> v) {
   if (v.empty()) return NAN;
@@ -255,78 +235,13 @@ std::vector<double> ViewOffsets(const LidarPoints& points, const std::vector<Vie
   return all;
 }
 
-// Histogram with the paper's presentation: counts per bin of width `width` px up to `max`,
-// the last bin holding everything beyond.
-std::vector<double> Histogram(const std::vector<double>& values, double width, int bins,
-                              bool normalise) {
-  std::vector<double> counts(bins, 0.0);
-  for (double v : values) {
-    if (!std::isfinite(v)) continue;
-    counts[std::min(bins - 1, static_cast<int>(v / width))] += 1;
-  }
-  if (normalise && !values.empty()) {
-    for (double& c : counts) c /= values.size();
-  }
-  return counts;
-}
-
-void WriteHistogram(const fs::path& csv, const fs::path& svg, const std::string& title,
-                    const std::string& unit, const std::vector<double>& before,
-                    const std::vector<double>& after, double width, int bins, bool normalise) {
-  const std::vector<double> hb = Histogram(before, width, bins, normalise);
-  const std::vector<double> ha = Histogram(after, width, bins, normalise);
-  {
-    std::ofstream out(csv);
-    out << "bin_from_px,bin_to_px," << unit << "_before," << unit << "_after\n";
-    for (int b = 0; b < bins; ++b) {
-      out << b * width << "," << (b + 1 == bins ? INFINITY : (b + 1) * width) << "," << hb[b]
-          << "," << ha[b] << "\n";
-    }
-  }
-  const double top = std::max(*std::max_element(hb.begin(), hb.end()),
-                              *std::max_element(ha.begin(), ha.end()));
-  constexpr double kW = 720, kH = 360, kLeft = 60, kBottom = 50, kTop = 40, kRight = 20;
-  const double plot_w = kW - kLeft - kRight, plot_h = kH - kTop - kBottom;
-  const double bar = plot_w / bins;
-  std::ofstream out(svg);
-  out << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << kW << "\" height=\"" << kH
-      << "\" font-family=\"sans-serif\" font-size=\"12\">\n"
-      << "<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
-      << "<text x=\"" << kLeft << "\" y=\"20\" font-size=\"14\">" << title << "</text>\n";
-  for (int b = 0; b < bins; ++b) {
-    const double x = kLeft + b * bar;
-    const double h1 = top > 0 ? hb[b] / top * plot_h : 0;
-    const double h2 = top > 0 ? ha[b] / top * plot_h : 0;
-    out << "<rect x=\"" << x + 1 << "\" y=\"" << kTop + plot_h - h1 << "\" width=\""
-        << bar / 2 - 1 << "\" height=\"" << h1 << "\" fill=\"#d62728\"/>\n";
-    out << "<rect x=\"" << x + bar / 2 << "\" y=\"" << kTop + plot_h - h2 << "\" width=\""
-        << bar / 2 - 1 << "\" height=\"" << h2 << "\" fill=\"#1f77b4\"/>\n";
-    if (b % std::max(1, bins / 10) == 0) {
-      out << "<text x=\"" << x << "\" y=\"" << kTop + plot_h + 15 << "\">" << b * width
-          << "</text>\n";
-    }
-  }
-  out << "<line x1=\"" << kLeft << "\" y1=\"" << kTop + plot_h << "\" x2=\"" << kLeft + plot_w
-      << "\" y2=\"" << kTop + plot_h << "\" stroke=\"black\"/>\n"
-      << "<line x1=\"" << kLeft << "\" y1=\"" << kTop << "\" x2=\"" << kLeft << "\" y2=\""
-      << kTop + plot_h << "\" stroke=\"black\"/>\n"
-      << "<text x=\"" << kLeft - 55 << "\" y=\"" << kTop + 10 << "\">" << top << "</text>\n"
-      << "<text x=\"" << kLeft + plot_w / 2 - 120 << "\" y=\"" << kH - 12
-      << "\">pixel offset (px; last bin: ≥ " << (bins - 1) * width << ")</text>\n"
-      << "<rect x=\"" << kW - 200 << "\" y=\"30\" width=\"12\" height=\"12\" fill=\"#d62728\"/>"
-      << "<text x=\"" << kW - 182 << "\" y=\"41\">before (start)</text>\n"
-      << "<rect x=\"" << kW - 200 << "\" y=\"48\" width=\"12\" height=\"12\" fill=\"#1f77b4\"/>"
-      << "<text x=\"" << kW - 182 << "\" y=\"59\">after (registered)</text>\n</svg>\n";
-}
-
-}  // namespace
 
 // MI_ONLY="NAME[:MAX_M],..." runs only the listed registrations (all sizes when MAX_M is
 // left out); the random starts are drawn as in the full run, so each keeps its start.
 bool Selected(const std::string& name, double max_m) {
   const char* only = std::getenv("MI_ONLY");
   if (only == nullptr) return true;
-  for (const std::string& item : Split(only)) {
+  for (const std::string& item : bench::SplitList(only)) {
     const size_t colon = item.find(':');
     if (item.substr(0, colon) != name) continue;
     if (colon == std::string::npos || std::abs(std::atof(item.c_str() + colon + 1) - max_m) < 1e-9) {
@@ -336,517 +251,604 @@ bool Selected(const std::string& name, double max_m) {
   return false;
 }
 
-int main(int argc, char** argv) {
-  mmba::ReexecWithHugePageMalloc(argv);  // as the mmba binary does (core/huge_pages.h)
+// The command line (the top of the file).
+struct Args {
+  fs::path dir, out_dir;
+  std::string cloud_kind = "mobile";
+  std::vector<std::string> kinds;
+  int draws = 2;
+  ViewOptions view_options;
+  /// perspective: the two cuts that see the most LiDAR at the start (SelectPerspectiveHeadings);
+  /// perspective90: the paper's cuts at ±90° from the panorama's centre column.
+  bool auto_headings = true;
+  int seed = 1;
+  std::string magnitudes = "both";
+};
+
+bool ParseArgs(int argc, char** argv, Args* args) {
   if (argc < 3) {
     std::fprintf(stderr,
                  "usage: mi_panoramas SIM_DIR OUT_DIR [CLOUD=mobile|static] "
                  "[KINDS=spheres,rig_panoramas] [DRAWS=2] [VIEW=perspective] [SEED=1] "
                  "[MAGNITUDES=both|small|large]\n");
-    return 2;
+    return false;
   }
-  const fs::path dir = argv[1];
-  const fs::path out_dir = argv[2];
-  const std::string cloud_kind = argc > 3 ? argv[3] : "mobile";
-  const std::vector<std::string> kinds = Split(argc > 4 ? argv[4] : "spheres,rig_panoramas");
-  const int draws = argc > 5 ? std::atoi(argv[5]) : 2;
-  ViewOptions view_options;
-  // perspective: the two cuts that see the most LiDAR at the start (SelectPerspectiveHeadings);
-  // perspective90: the paper's cuts at ±90° from the panorama's centre column.
+  args->dir = argv[1];
+  args->out_dir = argv[2];
+  if (argc > 3) args->cloud_kind = argv[3];
+  args->kinds = bench::SplitList(argc > 4 ? argv[4] : "spheres,rig_panoramas");
+  if (argc > 5) args->draws = std::atoi(argv[5]);
   const std::string view_arg = argc > 6 ? argv[6] : "perspective";
-  const bool auto_headings = view_arg == "perspective";
+  args->auto_headings = view_arg == "perspective";
   if (view_arg == "perspective90") {
-    view_options.kind = ViewKind::kPerspective;
-  } else if (!ParseViewKind(view_arg, &view_options.kind)) {
-    return 2;
+    args->view_options.kind = ViewKind::kPerspective;
+  } else if (!ParseViewKind(view_arg, &args->view_options.kind)) {
+    return false;
   }
-  const int seed = argc > 7 ? std::atoi(argv[7]) : 1;
-  const std::string magnitudes = argc > 8 ? argv[8] : "both";
-  if (std::getenv("MMBA_DEBUG") != nullptr) SetVerbosity(Verbosity::kVerbose);
-  else SetVerbosity(Verbosity::kQuiet);
-  fs::create_directories(out_dir);
+  if (argc > 7) args->seed = std::atoi(argv[7]);
+  if (argc > 8) args->magnitudes = argv[8];
+  return true;
+}
 
-  const std::string cloud_path = cloud_kind == "static"
-                                     ? (dir / "clouds" / "lidar.ply").string()
-                                     : (dir / "truth" / "mobile_lidar_true.ply").string();
-  Timer setup;
-  // MI_INCIDENCE=0: the mobile cloud's intensity as measured; by default it is corrected for
-  // the angle of incidence (IncidenceCorrection, register-mi --incidence-correction) with the
-  // scanner's centre at each point's time from the true trajectory and mounting (the cloud is
-  // the mobile scan at its true positions). The static model merges scans whose origins the
-  // cloud does not carry: never corrected here.
-  const char* incidence_env = std::getenv("MI_INCIDENCE");
-  const bool incidence = cloud_kind == "mobile" && (incidence_env == nullptr || std::atoi(incidence_env) != 0);
-  // MI_INCIDENCE=static (an experiment): the static model corrected too, each
-  // point's scanner the delivered registration's centre of the scan it came from (the
-  // simulator writes clouds/lidar.ply as the scans in order, truth.json gives their sizes).
-  const bool static_incidence = cloud_kind == "static" && incidence_env != nullptr &&
-                                std::string(incidence_env) == "static";
-  LidarPoints points;
-  {
-    const io::PointCloud cloud = io::ReadPointCloud(cloud_path);
-    if (static_incidence) {
-      std::ifstream in(dir / "truth" / "truth.json");
-      const nlohmann::json scans = nlohmann::json::parse(in).at("lidar").at("static_scans");
-      std::vector<std::pair<size_t, Eigen::Vector3d>> ends;  // (end index, scanner centre)
-      size_t end = 0;
-      for (const nlohmann::json& scan : scans) {
-        end += scan.at("points").get<size_t>();
-        ends.emplace_back(end, PoseFromJson(scan.at("world_from_scan_registered")).translation);
-      }
-      if (end != cloud.size()) {
-        std::fprintf(stderr, "%s: %zu points, the scans %zu\n", cloud_path.c_str(), cloud.size(), end);
-        return 2;
-      }
-      IncidenceCorrection correction;
-      correction.scanner = [&](size_t i) -> Eigen::Vector3d {
-        size_t s = 0;
-        while (i >= ends[s].first) ++s;
-        return ends[s].second;
-      };
-      IncidenceFit fit;
-      points = PrepareLidarPoints(cloud, correction, &fit);
-      std::printf("incidence correction (static scans): exponent %.3f (correlation %.3f, %zu points)\n",
-                  fit.exponent, fit.correlation, fit.points);
-    } else if (incidence) {
-      std::ifstream in(dir / "truth" / "truth.json");
-      const Rigid3d body_from_lidar =
-          PoseFromJson(nlohmann::json::parse(in).at("lidar").at("mobile").at("body_from_lidar"));
-      const auto trajectory = io::ReadTrajectory((dir / "truth" / "trajectory_true.csv").string());
-      IncidenceCorrection correction;
-      correction.scanner = [&](size_t i) -> Eigen::Vector3d {
-        return (io::InterpolateTrajectory(trajectory, cloud.time.at(i)) * body_from_lidar).translation;
-      };
-      IncidenceFit fit;
-      points = PrepareLidarPoints(cloud, correction, &fit);
-      std::printf("incidence correction: exponent %.3f (correlation %.3f, %zu points)\n", fit.exponent,
-                  fit.correlation, fit.points);
-    } else {
-      points = PrepareLidarPoints(cloud);
-    }
+// MI_INCIDENCE=static (an experiment): the static model's intensity corrected for the angle
+// of incidence, each point's scanner the delivered registration's centre of the scan it came
+// from (the simulator writes clouds/lidar.ply as the scans in order, truth.json gives their
+// sizes). False when the scans do not add up to the cloud.
+bool StaticScansPoints(const fs::path& dir, const std::string& cloud_path, const io::PointCloud& cloud,
+                       LidarPoints* points) {
+  std::ifstream in(dir / "truth" / "truth.json");
+  const nlohmann::json scans = nlohmann::json::parse(in).at("lidar").at("static_scans");
+  std::vector<std::pair<size_t, Eigen::Vector3d>> ends;  // (end index, scanner centre)
+  size_t end = 0;
+  for (const nlohmann::json& scan : scans) {
+    end += scan.at("points").get<size_t>();
+    ends.emplace_back(end, PoseFromJson(scan.at("world_from_scan_registered")).translation);
   }
-  // MI_STITCH_WARP=truth|start: the rig panoramas registered against the cloud warped to the
-  // stitching's geometry (StitchWarp) at the true or the start pose — an experiment.
-  const char* stitch_warp = std::getenv("MI_STITCH_WARP");
-  std::vector<sensors::Camera> rig_cameras;
-  std::vector<Rigid3d> rig_cam_from_rig;
-  double stitch_distance = 0;
-  if (stitch_warp != nullptr) {
-    std::ifstream in(dir / "truth" / "truth.json");
-    const nlohmann::json rig = nlohmann::json::parse(in).at("rig");
-    for (const nlohmann::json& c : rig.at("cameras")) {
-      rig_cameras.push_back(CameraFromJson(c.at("camera")));
-      rig_cam_from_rig.push_back(PoseFromJson(c.at("cam_from_rig")));
-    }
-    stitch_distance = rig.at("stitch_distance_m").get<double>();
+  if (end != cloud.size()) {
+    std::fprintf(stderr, "%s: %zu points, the scans %zu\n", cloud_path.c_str(), cloud.size(), end);
+    return false;
   }
-  if (const char* v = std::getenv("MI_SURFACE_CLASSES"); v != nullptr && std::atof(v) > 0) {
-    // register-mi --surface-classes true --surface-voxel-m V (MI_SURFACE_CLASSES=V).
-    EncodeSurfaceClasses(SurfaceClasses(points.points_in_lidar, Eigen::Vector3f::UnitZ(),
-                                        static_cast<float>(std::atof(v))),
-                         &points);
-  }
-  // MI_ORIENTATION="sectors[,voxel]": register-mi --orientation-classes sectors
-  // [--surface-voxel-m voxel]: the classes seen from each start's camera centre. By default
-  // register-mi's (kDefaultOrientationSectors, 0.5 m; none with MI_SURFACE_CLASSES);
-  // MI_ORIENTATION=0: the plain metric.
-  const char* surface_env = std::getenv("MI_SURFACE_CLASSES");
-  int orientation_sectors =
-      surface_env != nullptr && std::atof(surface_env) > 0 ? 0 : kDefaultOrientationSectors;
-  float orientation_voxel = static_cast<float>(kDefaultSurfaceVoxelM);
-  std::vector<Eigen::Vector3f> plane_normals;
-  if (const char* v = std::getenv("MI_ORIENTATION")) {
-    std::sscanf(v, "%d,%f", &orientation_sectors, &orientation_voxel);
-  }
-  if (orientation_sectors > 0) {
-    plane_normals = LocalPlaneNormals(points.points_in_lidar, orientation_voxel);
-  }
-  const std::vector<TrueView> views = ReadViews(dir, kinds);
-  std::printf("%s: %zu points, %zu views, setup %.1f s\n", cloud_path.c_str(), points.size(),
-              views.size(), setup.ElapsedSeconds());
-
-  // Both sizes are always drawn (in this order), MAGNITUDES only selects which are run: a
-  // start does not depend on which sizes are run.
-  const std::vector<std::pair<double, double>> sizes = {{0.1, 1.0}, {0.3, 2.0}};
-  auto size_selected = [&](double max_m) {
-    return magnitudes == "both" || (magnitudes == "small") == (max_m == 0.1);
+  IncidenceCorrection correction;
+  correction.scanner = [&](size_t i) -> Eigen::Vector3d {
+    size_t s = 0;
+    while (i >= ends[s].first) ++s;
+    return ends[s].second;
   };
+  IncidenceFit fit;
+  *points = PrepareLidarPoints(cloud, correction, &fit);
+  std::printf("incidence correction (static scans): exponent %.3f (correlation %.3f, %zu points)\n",
+              fit.exponent, fit.correlation, fit.points);
+  return true;
+}
 
-  RegistrationOptions options;
-  // Point-sample evaluator (0 = render every evaluation) and the level from which each
-  // point is one weighted sample (finer levels: one sample per covered pixel).
-  if (const char* v = std::getenv("MI_POINT_SAMPLES")) options.point_samples = std::atoi(v) != 0;
-  if (const char* v = std::getenv("MI_PER_POINT_FROM_LEVEL")) {
-    options.per_point_samples_from_level = std::atoi(v);
+// The mobile cloud's intensity corrected for the angle of incidence as register-mi
+// --trajectory --lidar-mount does (IncidenceCorrection), with the scanner's centre at each
+// point's time from the true trajectory and mounting (the cloud is the mobile scan at its true
+// positions). The whole cloud is prepared once for every view (register-mi would first drop
+// the points beyond range of each start's camera).
+LidarPoints MobilePoints(const fs::path& dir, const io::PointCloud& cloud) {
+  std::ifstream in(dir / "truth" / "truth.json");
+  const Rigid3d body_from_lidar =
+      PoseFromJson(nlohmann::json::parse(in).at("lidar").at("mobile").at("body_from_lidar"));
+  const auto trajectory = io::ReadTrajectory((dir / "truth" / "trajectory_true.csv").string());
+  IncidenceCorrection correction;
+  correction.scanner = [&](size_t i) -> Eigen::Vector3d {
+    return (io::InterpolateTrajectory(trajectory, cloud.time.at(i)) * body_from_lidar).translation;
+  };
+  IncidenceFit fit;
+  LidarPoints points = PrepareLidarPoints(cloud, correction, &fit);
+  std::printf("incidence correction: exponent %.3f (correlation %.3f, %zu points)\n", fit.exponent,
+              fit.correlation, fit.points);
+  return points;
+}
+
+// The cloud's points: the mobile cloud corrected for the angle of incidence unless
+// MI_INCIDENCE=0; the static model (which merges scans whose origins the cloud does not
+// carry) as measured unless MI_INCIDENCE=static. False on an inconsistent simulation.
+bool ReadPoints(const Args& args, const std::string& cloud_path, LidarPoints* points) {
+  const char* incidence_env = std::getenv("MI_INCIDENCE");
+  const bool incidence =
+      args.cloud_kind == "mobile" && (incidence_env == nullptr || std::atoi(incidence_env) != 0);
+  const bool static_incidence = args.cloud_kind == "static" && incidence_env != nullptr &&
+                                std::string(incidence_env) == "static";
+  const io::PointCloud cloud = io::ReadPointCloud(cloud_path);
+  if (static_incidence) return StaticScansPoints(args.dir, cloud_path, cloud, points);
+  *points = incidence ? MobilePoints(args.dir, cloud) : PrepareLidarPoints(cloud);
+  return true;
+}
+
+// MI_STITCH_WARP=truth|start (an experiment): the rig panoramas registered against the cloud
+// warped to the stitching's geometry (StitchWarp) at the true or the start pose; the rig's
+// cameras and stitching distance from truth.json.
+struct StitchRig {
+  const char* mode = nullptr;  ///< MI_STITCH_WARP; null: no warp
+  std::vector<sensors::Camera> cameras;
+  std::vector<Rigid3d> cam_from_rig;
+  double distance = 0;
+};
+
+StitchRig ReadStitchRig(const fs::path& dir) {
+  StitchRig stitch;
+  stitch.mode = std::getenv("MI_STITCH_WARP");
+  if (stitch.mode == nullptr) return stitch;
+  std::ifstream in(dir / "truth" / "truth.json");
+  const nlohmann::json rig = nlohmann::json::parse(in).at("rig");
+  for (const nlohmann::json& c : rig.at("cameras")) {
+    stitch.cameras.push_back(CameraFromJson(c.at("camera")));
+    stitch.cam_from_rig.push_back(PoseFromJson(c.at("cam_from_rig")));
   }
-  if (const char* v = std::getenv("MI_SAMPLE_BLOCK")) options.sample_block_px = std::atoi(v);
-  if (const char* v = std::getenv("MI_SAMPLES_IN_CHECKS")) {
-    options.point_samples_in_checks = std::atoi(v) != 0;
-  }
-  // MI_COV_PER_POINT=0: the covariance fit on per-pixel samples.
-  if (const char* v = std::getenv("MI_COV_PER_POINT")) {
-    options.covariance_per_point_samples = std::atoi(v) != 0;
-  }
-  // MI_COV_FLOOR=0: the calibrated Laplace covariance without the pixel-isotropic floor.
-  if (const char* v = std::getenv("MI_COV_FLOOR")) options.covariance_pixel_floor = std::atoi(v) != 0;
-  if (const char* v = std::getenv("MI_RESTART_LEVEL")) options.restart_level = std::atoi(v);
-  if (const char* v = std::getenv("MI_SPLIT_LEVEL")) options.split_level = std::atoi(v);
-  if (const char* v = std::getenv("MI_PYRAMID_PATHS")) options.pyramid_paths = std::atoi(v);
-  if (const char* v = std::getenv("MI_PATHS_ADAPTIVE")) {
-    options.pyramid_paths_adaptive = std::atoi(v) != 0;
-  }
-  if (const char* v = std::getenv("MI_COARSE_STARTS")) options.coarse_starts = std::atoi(v);
-  if (const char* v = std::getenv("MI_COARSE_CANDIDATES")) options.coarse_candidates = std::atoi(v);
-  if (const char* v = std::getenv("MI_COARSE_SPREAD")) options.coarse_start_spread = std::atof(v);
-  if (const char* v = std::getenv("MI_LEVELS")) options.pyramid_levels = std::atoi(v);
-  // The cuts' headings and the scoring keep the default footprint whatever MI_POINT_RADIUS says.
-  const RenderOptions scoring_render = options.render;
-  // MI_POINT_RADIUS="m,px": the z-buffer footprint (RenderOptions point_radius_m, max_point_radius_px).
-  if (const char* v = std::getenv("MI_POINT_RADIUS")) {
-    std::sscanf(v, "%lf,%d", &options.render.point_radius_m, &options.render.max_point_radius_px);
-  }
-  // MI_RANGE="min,max": the LiDAR points used, by range from the camera (RenderOptions
-  // min_range_m, max_range_m); the scoring keeps the default.
-  if (const char* v = std::getenv("MI_RANGE")) {
-    std::sscanf(v, "%lf,%lf", &options.render.min_range_m, &options.render.max_range_m);
-  }
-  if (const char* v = std::getenv("MI_THREADS")) options.threads = std::atoi(v);
-  if (const char* v = std::getenv("MI_WEAK_SCAN")) options.scan_weak_direction = std::atoi(v) != 0;
+  stitch.distance = rig.at("stitch_distance_m").get<double>();
+  return stitch;
+}
+
+// The metric's classes: register-mi's orientation classes (OrientationSectors: by default
+// kDefaultOrientationSectors on planes of kDefaultSurfaceVoxelM, none with surface classes),
+// seen from each start's camera centre, so only the local planes are computed here.
+struct Classes {
+  int sectors = 0;
+  float voxel = static_cast<float>(kDefaultSurfaceVoxelM);
+  std::vector<Eigen::Vector3f> plane_normals;  ///< of the cloud's points, when sectors > 0
+  bool surface = false;
+};
+
+// MI_SURFACE_CLASSES=V: register-mi --surface-classes true --surface-voxel-m V, encoded into
+// `points`. MI_ORIENTATION="sectors[,voxel]": register-mi --orientation-classes sectors
+// [--surface-voxel-m voxel] (0: the plain metric).
+Classes SetupClasses(LidarPoints* points) {
+  Classes classes;
   if (const char* v = std::getenv("MI_SURFACE_CLASSES"); v != nullptr && std::atof(v) > 0) {
-    options.metric.lidar_classes = 2;
+    classes.surface = true;
+    EncodeSurfaceClasses(SurfaceClasses(points->points_in_lidar, Eigen::Vector3f::UnitZ(),
+                                        static_cast<float>(std::atof(v))),
+                         points);
   }
-  if (orientation_sectors > 0) options.metric.lidar_classes = orientation_sectors + 3;
+  int asked = -1;
+  if (const char* v = std::getenv("MI_ORIENTATION")) std::sscanf(v, "%d,%f", &asked, &classes.voxel);
+  classes.sectors = OrientationSectors(asked, Representation::kIntensity, classes.surface);
+  if (classes.sectors > 0) classes.plane_normals = LocalPlaneNormals(points->points_in_lidar, classes.voxel);
+  return classes;
+}
+
+// The registration's options from the environment (the top of the file and
+// mi_bench_common.h) and the classes; `scoring_render` receives the rendering the cuts'
+// headings and the scoring use, the default footprint and range whatever MI_POINT_RADIUS and
+// MI_RANGE say. False on a bad MI_REGION or MI_METRIC.
+bool PanoramaOptions(const Classes& classes, RegistrationOptions* options, RenderOptions* scoring_render) {
+  bench::ApplyEvaluatorEnv(options);
+  bench::ApplySearchEnv(options);
+  // MI_COV_FLOOR=0: the calibrated Laplace covariance without the pixel-isotropic floor.
+  if (const char* v = std::getenv("MI_COV_FLOOR")) options->covariance_pixel_floor = std::atoi(v) != 0;
+  if (const char* v = std::getenv("MI_COARSE_CANDIDATES")) options->coarse_candidates = std::atoi(v);
+  if (const char* v = std::getenv("MI_COARSE_SPREAD")) options->coarse_start_spread = std::atof(v);
+  if (const char* v = std::getenv("MI_WEAK_SCAN")) options->scan_weak_direction = std::atoi(v) != 0;
+  if (classes.surface) options->metric.lidar_classes = 2;
+  if (classes.sectors > 0) options->metric.lidar_classes = OrientationClassCount(classes.sectors);
   // MI_BINS: the joint histogram's bins per axis (register-mi --bins).
-  if (const char* v = std::getenv("MI_BINS")) options.metric.bins = std::atoi(v);
-  // MI_ALL_CHECKS=1: every acceptance check measured also after one failed.
-  if (const char* v = std::getenv("MI_ALL_CHECKS")) options.measure_all_checks = std::atoi(v) != 0;
+  if (const char* v = std::getenv("MI_BINS")) options->metric.bins = std::atoi(v);
   if (const char* v = std::getenv("MI_RESTART_OFFSET")) {  // "m,deg"
-    std::sscanf(v, "%lf,%lf", &options.restart_offset_m, &options.restart_offset_deg);
+    std::sscanf(v, "%lf,%lf", &options->restart_offset_m, &options->restart_offset_deg);
   }
-  if (const char* v = std::getenv("MI_RESTARTS")) options.restarts = std::atoi(v);
-  if (const char* v = std::getenv("MI_POLISH")) options.polish_rounds = std::atoi(v);
+  if (const char* v = std::getenv("MI_RESTARTS")) options->restarts = std::atoi(v);
   if (const char* v = std::getenv("MI_WHOLE_IMAGE_CHECKS")) {
-    options.whole_image_checks = std::atoi(v) != 0;
+    options->whole_image_checks = std::atoi(v) != 0;
   }
   if (const char* v = std::getenv("MI_REGION")) {
-    if (!ParseRegion(v, &options.metric.region)) return 2;
+    if (!ParseRegion(v, &options->metric.region)) return false;
   }
   if (const char* v = std::getenv("MI_METRIC")) {
-    if (!ParseMetric(v, &options.metric.kind)) return 2;
+    if (!ParseMetric(v, &options->metric.kind)) return false;
+  }
+  *scoring_render = options->render;
+  // MI_POINT_RADIUS="m,px": the z-buffer footprint (RenderOptions point_radius_m,
+  // max_point_radius_px); MI_RANGE="min,max": the LiDAR points used, by range from the camera.
+  if (const char* v = std::getenv("MI_POINT_RADIUS")) {
+    std::sscanf(v, "%lf,%d", &options->render.point_radius_m, &options->render.max_point_radius_px);
+  }
+  if (const char* v = std::getenv("MI_RANGE")) {
+    std::sscanf(v, "%lf,%lf", &options->render.min_range_m, &options->render.max_range_m);
   }
   // MI_SEARCH_ONLY=1: no restarts and no halves (the search and its end pose are unchanged;
   // the status is then not the acceptance's) — for diagnosing the search quickly.
   if (std::getenv("MI_SEARCH_ONLY") != nullptr) {
-    options.restarts = 0;
-    options.split_check = false;
+    options->restarts = 0;
+    options->split_check = false;
   }
-  std::ofstream runs(out_dir / "runs.csv");
-  runs << "view,kind,max_m,max_deg,tx,ty,tz,roll,pitch,yaw,status,"
-          "image_px_before,image_px_after,view_px_before,view_px_after,sigma_px,"
-          "restart_spread_px,err_tx,err_ty,err_tz,err_roll,err_pitch,err_yaw,"
-          "sd_tx,sd_ty,sd_tz,sd_roll,sd_pitch,sd_yaw,mahalanobis2,n_eff,inflation,"
-          "sigma_px_calibrated,restart_rms_px,split_spread_px,variance_factor_halves,"
-          "variance_factor_restarts,variance_factor,evaluations,"
-          "metric_true_l0,metric_est_l0,metric_true_l1,metric_est_l1,metric_true_l2,"
-          "metric_est_l2,seconds,"
-          "cpu_seconds,reason\n";
-  struct Row {
-    std::string size;
-    bool ok;
-    double image_before, image_after, view_before, view_after, sigma, seconds;
-  };
+  return true;
+}
+
+// One registration's summary row (the per-magnitude summary).
+struct Row {
+  std::string size;
+  bool ok;
+  double image_before, image_after, view_before, view_after, sigma, seconds;
+};
+
+// Both sizes are always drawn (in this order), MAGNITUDES only selects which are run: a
+// start does not depend on which sizes are run.
+const std::vector<std::pair<double, double>> kSizes = {{0.1, 1.0}, {0.3, 2.0}};
+
+std::string SizeName(double max_m) { return max_m == 0.1 ? "0.1m/1deg" : "0.3m/2deg"; }
+
+// What every registration of the run shares.
+struct Bench {
+  Args args;
+  LidarPoints points;
+  Classes classes;
+  StitchRig stitch;
+  RegistrationOptions options;
+  RenderOptions scoring_render;
+  std::ofstream runs;
   std::vector<Row> rows;
   std::map<std::string, std::vector<double>> pooled_before, pooled_after;
-  std::mt19937 rng(seed);
-  for (size_t v = 0; v < views.size(); ++v) {
-    const TrueView& tv = views[v];
-    const GrayImage image = ReadGrayImage(tv.image_path);
-    // The views are cut for each start (the headings depend on the start pose).
-    auto make_frame = [&](const Rigid3d& start) {
-      Frame frame;
-      frame.name = tv.name;
-      ViewOptions vo = view_options;
-      if (!tv.camera.IsSpherical()) vo.kind = ViewKind::kImage;
-      if (auto_headings && vo.kind == ViewKind::kPerspective) {
-        frame.views = AutoPerspectiveViews(image, tv.camera, points, start, vo, scoring_render,
-                                           tv.image_path, nullptr);
-      } else {
-        frame.views = MakeViews(image, tv.camera, vo, tv.image_path);
-      }
-      frame.points = &points;
-      return frame;
-    };
-    const Frame truth_frame = make_frame(tv.cam_from_world);
-    View whole;
-    whole.camera = tv.camera;
-    whole.image = image;
-    if (const char* dump = std::getenv("MI_DUMP_DIR")) {
-      // Inspection: each registered view's photo and its LiDAR image at the true pose.
-      fs::create_directories(dump);
-      LidarImage lidar;
-      for (const View& view : truth_frame.views) {
-        const std::string base = std::string(dump) + "/" + tv.name + "_" + view.name;
-        WriteGrayPng(view.image, base + "_photo.png");
-        RenderLidarImage(points, view, tv.cam_from_world, options.render, &lidar);
-        WriteGrayPng(LidarImageToGray(lidar), base + "_lidar.png");
-      }
+  std::mt19937 rng;
+};
+
+void OpenRuns(Bench* b) {
+  b->runs.open(b->args.out_dir / "runs.csv");
+  b->runs << "view,kind,max_m,max_deg,tx,ty,tz,roll,pitch,yaw,status,"
+             "image_px_before,image_px_after,view_px_before,view_px_after,sigma_px,"
+             "restart_spread_px,err_tx,err_ty,err_tz,err_roll,err_pitch,err_yaw,"
+             "sd_tx,sd_ty,sd_tz,sd_roll,sd_pitch,sd_yaw,mahalanobis2,n_eff,inflation,"
+             "sigma_px_calibrated,restart_rms_px,split_spread_px,variance_factor_halves,"
+             "variance_factor_restarts,variance_factor,evaluations,"
+             "metric_true_l0,metric_est_l0,metric_true_l1,metric_est_l1,metric_true_l2,"
+             "metric_est_l2,seconds,"
+             "cpu_seconds,reason\n";
+}
+
+// The frame of a view at `start`: a panorama's perspective cuts at the headings that see the
+// most LiDAR at the start (AutoPerspectiveViews, as register-mi --headings auto) or the
+// view kind asked; fisheye images and photos whole.
+Frame MakeFrame(const Bench& b, const TrueView& tv, const GrayImage& image, const Rigid3d& start) {
+  Frame frame;
+  frame.name = tv.name;
+  ViewOptions vo = b.args.view_options;
+  if (!tv.camera.IsSpherical()) vo.kind = ViewKind::kImage;
+  if (b.args.auto_headings && vo.kind == ViewKind::kPerspective) {
+    frame.views = AutoPerspectiveViews(image, tv.camera, b.points, start, vo, b.scoring_render,
+                                       tv.image_path, nullptr);
+  } else {
+    frame.views = MakeViews(image, tv.camera, vo, tv.image_path);
+  }
+  frame.points = &b.points;
+  return frame;
+}
+
+// MI_DUMP_DIR (inspection): each registered view's photo and its LiDAR image at the true pose.
+void DumpViews(const Bench& b, const TrueView& tv, const Frame& truth_frame, const std::string& dump) {
+  fs::create_directories(dump);
+  LidarImage lidar;
+  for (const View& view : truth_frame.views) {
+    const std::string base = dump + "/" + tv.name + "_" + view.name;
+    WriteGrayPng(view.image, base + "_photo.png");
+    RenderLidarImage(b.points, view, tv.cam_from_world, b.options.render, &lidar);
+    WriteGrayPng(LidarImageToGray(lidar), base + "_lidar.png");
+  }
+}
+
+// MI_GROUND (inspection): of the views' LiDAR pixels at the true pose, the fraction on
+// surfaces facing up (orientation class 0), per view and in all.
+void PrintGround(const Bench& b, const TrueView& tv, const Frame& truth_frame) {
+  const std::vector<uint8_t> cls =
+      OrientationClasses(b.points.points_in_lidar, b.classes.plane_normals, Eigen::Vector3f::UnitZ(),
+                         tv.cam_from_world.Inverse().translation.cast<float>(), 4);
+  LidarImage lidar;
+  double up = 0, all = 0;
+  std::vector<double> per_view;
+  for (const View& view : truth_frame.views) {
+    RenderLidarImage(b.points, view, tv.cam_from_world, b.options.render, &lidar);
+    double u = 0, a = 0;
+    for (int idx : lidar.point_index) {
+      if (idx < 0) continue;
+      a += 1;
+      u += cls[idx] == 0;
     }
-    if (std::getenv("MI_GROUND") != nullptr && !plane_normals.empty()) {
-      // Inspection: of the views' LiDAR pixels at the true pose, the fraction on surfaces
-      // facing up (orientation class 0), per view and in all; no registration.
-      const std::vector<uint8_t> cls =
-          OrientationClasses(points.points_in_lidar, plane_normals, Eigen::Vector3f::UnitZ(),
-                             tv.cam_from_world.Inverse().translation.cast<float>(), 4);
-      LidarImage lidar;
-      double up = 0, all = 0;
-      std::vector<double> per_view;
-      for (const View& view : truth_frame.views) {
-        RenderLidarImage(points, view, tv.cam_from_world, options.render, &lidar);
-        double u = 0, a = 0;
-        for (int idx : lidar.point_index) {
-          if (idx < 0) continue;
-          a += 1;
-          u += cls[idx] == 0;
+    per_view.push_back(a > 0 ? u / a : 0);
+    up += u;
+    all += a;
+  }
+  std::printf("GROUND %s %s %.3f views", tv.kind.c_str(), tv.name.c_str(), up / all);
+  for (double v : per_view) std::printf(" %.3f", v);
+  std::printf(" covered %.0f\n", all);
+}
+
+// MI_PROBE (inspection): where does the metric peak along each axis around the truth?
+void ProbeAtTruth(const Bench& b, const TrueView& tv, const Frame& truth_frame) {
+  RegistrationOptions probe_options = b.options;
+  probe_options.bound_translation_m = 1.0;
+  probe_options.bound_rotation_deg = 2.0;
+  const FrameSetEvaluator evaluator({truth_frame}, tv.cam_from_world, probe_options);
+  for (int level = 0; level < 2; ++level) {
+    const std::vector<ProbeSample> probe = Probe(evaluator, tv.cam_from_world, 1.0, 0.05, level);
+    std::printf("%s probe level %d, argmax per axis (m / deg):", tv.name.c_str(), level);
+    bench::PrintProbeArgmax(probe);
+    std::printf("\n");
+  }
+}
+
+// The points a start's frame registers against: the cloud, warped to the stitching
+// (MI_STITCH_WARP, rig panoramas) into `warped`, and with the orientation classes seen from
+// the start's camera centre into `classed`.
+void SetFramePoints(const Bench& b, const TrueView& tv, const Rigid3d& start, Frame* frame,
+                    LidarPoints* warped, LidarPoints* classed) {
+  if (b.stitch.mode != nullptr && tv.kind == "rig_panoramas") {
+    *warped = StitchWarp(b.points, std::string(b.stitch.mode) == "truth" ? tv.cam_from_world : start,
+                         b.stitch.cameras, b.stitch.cam_from_rig, b.stitch.distance);
+    frame->points = warped;
+  }
+  if (b.classes.sectors > 0) {
+    *classed = frame->points == warped ? *warped : b.points;
+    const Eigen::Vector3f centre = start.Inverse().translation.cast<float>();
+    EncodeSurfaceClasses(OrientationClasses(classed->points_in_lidar, b.classes.plane_normals,
+                                            Eigen::Vector3f::UnitZ(), centre, b.classes.sectors),
+                         classed);
+    frame->points = classed;
+  }
+}
+
+// One registration from one start and its scores.
+struct Run {
+  const TrueView* view = nullptr;
+  double max_m = 0, max_deg = 0;
+  Vector6d perturbation;
+  RegistrationResult result;
+  PixelOffsetStats image_before, image_after;  ///< in the image's own pixels
+  Vector6d truth_correction;                   ///< the true correction from the start
+  Vector6d error;                              ///< estimate − truth
+  Vector6d sd = Vector6d::Constant(NAN);       ///< the covariance's, when valid
+  double mahalanobis2 = NAN;
+  std::array<double, 3> metric_true{NAN, NAN, NAN}, metric_est{NAN, NAN, NAN};
+  double seconds = 0, cpu = 0;
+  std::string reason;  ///< without commas and newlines
+};
+
+// MI_SAMPLES_DIAG: the metric and the samples at the truth and at the result at `level`, and
+// the rendered MI with the shuffled-pairing bias (EvaluateShuffled) subtracted.
+void PrintSamplesDiag(const FrameSetEvaluator& evaluator, const Run& run, int level) {
+  const Rigid3d& truth = run.view->cam_from_world;
+  const RegistrationResult& r = run.result;
+  const MetricValue a = evaluator.Evaluate(truth, level);
+  const MetricValue b = evaluator.Evaluate(r.cam_from_lidar, level);
+  std::printf("  l%d true: value %.6f mi %.5f H %.4f samples %.0f | est: value %.6f mi %.5f H %.4f samples %.0f\n",
+              level, a.value, a.mi, a.joint_entropy, a.samples, b.value, b.mi, b.joint_entropy, b.samples);
+  double mt, me;
+  std::vector<double> st, se;
+  evaluator.EvaluateShuffled(truth, level, 4, &mt, &st);
+  evaluator.EvaluateShuffled(r.cam_from_lidar, level, 4, &me, &se);
+  double bt = 0, be = 0;
+  for (double v : st) bt += v / st.size();
+  for (double v : se) be += v / se.size();
+  std::printf("  l%d rendered mi true %.5f - bias %.5f = %.5f | est %.5f - bias %.5f = %.5f | corrected est-true %+.5f\n",
+              level, mt, bt, mt - bt, me, be, me - be, (me - be) - (mt - bt));
+  if (level == 0) {
+    std::printf("  checks mi %.5f shuffled %.5f (sd %.6f)\n", r.checks.mi_bits,
+                r.checks.mi_shuffled_bits, r.checks.mi_shuffled_sd_bits);
+  }
+}
+
+// Does the metric itself prefer the truth (a search failure) or the estimate (a metric whose
+// maximum is not at the truth)? Each pyramid level up to 3, the default metric.
+void MetricAtLevels(const Bench& b, const Frame& frame, const Rigid3d& start, Run* run) {
+  const FrameSetEvaluator evaluator({frame}, start, b.options);
+  for (int level = 0; level < std::min(3, evaluator.levels()); ++level) {
+    run->metric_true[level] = evaluator.Evaluate(run->view->cam_from_world, level).value;
+    run->metric_est[level] = evaluator.Evaluate(run->result.cam_from_lidar, level).value;
+    if (std::getenv("MI_SAMPLES_DIAG") != nullptr) PrintSamplesDiag(evaluator, *run, level);
+  }
+}
+
+// MI_LINE_PROBE (inspection): the metric along the straight line truth → estimate (t = 0
+// truth, t = 1 estimate, in correction space) at each level, for several metric settings:
+// which of them put the maximum of that line at the truth at every level?
+void LineProbe(const Bench& b, const Frame& frame, const Rigid3d& start, const Run& run) {
+  const Vector6d c_est = run.result.correction;
+  const Vector6d c_true = run.truth_correction;
+  struct Setting {
+    const char* name;
+    MetricKind kind;
+    Region region;
+    int bins;
+  };
+  const Setting settings[] = {{"nmi overlap 64", MetricKind::kNmi, Region::kOverlap, 64},
+                              {"nmi whole 64", MetricKind::kNmi, Region::kWholeImage, 64},
+                              {"mi overlap 64", MetricKind::kMi, Region::kOverlap, 64},
+                              {"mi whole 64", MetricKind::kMi, Region::kWholeImage, 64},
+                              {"nmi overlap 32", MetricKind::kNmi, Region::kOverlap, 32}};
+  const FrameSetEvaluator evaluator({frame}, start, b.options);
+  for (const Setting& setting : settings) {
+    MetricOptions metric = b.options.metric;
+    metric.kind = setting.kind;
+    metric.region = setting.region;
+    metric.bins = setting.bins;
+    std::printf("  line %-16s", setting.name);
+    for (int level = 0; level < evaluator.levels(); ++level) {
+      double best = -INFINITY, best_t = 0, at_truth = 0, at_est = 0;
+      for (int k = -5; k <= 15; ++k) {
+        const double t = 0.1 * k;
+        const double value =
+            evaluator.Evaluate(ApplyCorrection(start, c_true + t * (c_est - c_true)), level, metric).value;
+        if (k == 0) at_truth = value;
+        if (k == 10) at_est = value;
+        if (value > best) {
+          best = value;
+          best_t = t;
         }
-        per_view.push_back(a > 0 ? u / a : 0);
-        up += u;
-        all += a;
       }
-      std::printf("GROUND %s %s %.3f views", tv.kind.c_str(), tv.name.c_str(), up / all);
-      for (double v : per_view) std::printf(" %.3f", v);
-      std::printf(" covered %.0f\n", all);
-      continue;
+      std::printf("  l%d argmax t=%+.1f (est-true %+.5f)", level, best_t, at_est - at_truth);
     }
-    if (std::getenv("MI_PROBE") != nullptr) {
-      // Inspection: where does the metric peak along each axis around the truth?
-      RegistrationOptions probe_options = options;
-      probe_options.bound_translation_m = 1.0;
-      probe_options.bound_rotation_deg = 2.0;
-      const FrameSetEvaluator evaluator({truth_frame}, tv.cam_from_world, probe_options);
-      for (int level = 0; level < 2; ++level) {
-        const std::vector<ProbeSample> probe =
-            Probe(evaluator, tv.cam_from_world, 1.0, 0.05, level);
-        std::printf("%s probe level %d, argmax per axis (m / deg):", tv.name.c_str(), level);
-        for (int axis = 0; axis < 6; ++axis) {
-          const ProbeSample* best = nullptr;
-          for (const ProbeSample& s : probe) {
-            if (s.axis == axis && (best == nullptr || s.metric.value > best->metric.value)) {
-              best = &s;
-            }
-          }
-          std::printf(" %s %+.2f", ParameterName(axis), best->offset);
-        }
-        std::printf("\n");
-      }
-    }
-    for (const auto& [max_m, max_deg] : sizes) {
-      for (int d = 0; d < draws; ++d) {
-        std::uniform_real_distribution<double> um(-max_m, max_m), ud(-max_deg, max_deg);
-        Vector6d p;
-        p << um(rng), um(rng), um(rng), ud(rng), ud(rng), ud(rng);
-        if (!size_selected(max_m) || !Selected(tv.name, max_m)) continue;
-        // MI_PERTURB="tx,ty,tz,roll,pitch,yaw" (m, deg) replaces the drawn start of every
-        // registration run (with MI_ONLY: one chosen start).
-        if (const char* v = std::getenv("MI_PERTURB")) {
-          const std::vector<std::string> items = Split(v);
-          if (items.size() != 6) {
-            std::fprintf(stderr, "MI_PERTURB needs 6 numbers\n");
-            return 2;
-          }
-          for (int i = 0; i < 6; ++i) p[i] = std::atof(items[i].c_str());
-        }
-        const Rigid3d start = ApplyCorrection(tv.cam_from_world, p);
-        Timer timer;
-        const double cpu0 = CpuSeconds();
-        Frame frame = make_frame(start);
-        LidarPoints warped;
-        if (stitch_warp != nullptr && tv.kind == "rig_panoramas") {
-          warped = StitchWarp(points,
-                              std::string(stitch_warp) == "truth" ? tv.cam_from_world : start,
-                              rig_cameras, rig_cam_from_rig, stitch_distance);
-          frame.points = &warped;
-        }
-        LidarPoints classed;
-        if (orientation_sectors > 0) {
-          classed = frame.points == &warped ? warped : points;
-          const Eigen::Vector3f centre =
-              start.Inverse().translation.cast<float>();
-          EncodeSurfaceClasses(OrientationClasses(classed.points_in_lidar, plane_normals,
-                                                  Eigen::Vector3f::UnitZ(), centre,
-                                                  orientation_sectors),
-                               &classed);
-          frame.points = &classed;
-        }
-        const RegistrationResult r = RegisterFrames({frame}, start, options);
-        const double seconds = timer.ElapsedSeconds();
-        const double cpu = CpuSeconds() - cpu0;
-        const PixelOffsetStats ib =
-            PixelOffsets(points, whole, tv.cam_from_world, start, scoring_render);
-        const PixelOffsetStats ia =
-            PixelOffsets(points, whole, tv.cam_from_world, r.cam_from_lidar, scoring_render);
-        const std::vector<double> vb =
-            ViewOffsets(points, frame.views, tv.cam_from_world, start, scoring_render);
-        const std::vector<double> va =
-            ViewOffsets(points, frame.views, tv.cam_from_world, r.cam_from_lidar, scoring_render);
-        // Error of the estimated correction (estimate − truth, both from the start).
-        const Vector6d truth_correction = CorrectionBetween(start, tv.cam_from_world);
-        const Vector6d error = r.correction - truth_correction;
-        Vector6d sd = Vector6d::Constant(NAN);
-        double mahalanobis2 = NAN;
-        if (r.covariance_valid) {
-          sd = r.covariance.diagonal().cwiseSqrt();
-          Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(r.covariance);
-          if (ldlt.info() == Eigen::Success) mahalanobis2 = error.dot(ldlt.solve(error));
-        }
-        // Does the metric itself prefer the truth (a search failure) or the estimate (a
-        // metric whose maximum is not at the truth)? Each pyramid level, the default metric.
-        std::array<double, 3> metric_true{NAN, NAN, NAN}, metric_est{NAN, NAN, NAN};
-        {
-          const FrameSetEvaluator evaluator({frame}, start, options);
-          for (int level = 0; level < std::min(3, evaluator.levels()); ++level) {
-            metric_true[level] = evaluator.Evaluate(tv.cam_from_world, level).value;
-            metric_est[level] = evaluator.Evaluate(r.cam_from_lidar, level).value;
-            if (std::getenv("MI_SAMPLES_DIAG") != nullptr) {
-              const MetricValue a = evaluator.Evaluate(tv.cam_from_world, level);
-              const MetricValue b = evaluator.Evaluate(r.cam_from_lidar, level);
-              std::printf("  l%d true: value %.6f mi %.5f H %.4f samples %.0f | est: value %.6f mi %.5f H %.4f samples %.0f\n",
-                          level, a.value, a.mi, a.joint_entropy, a.samples, b.value, b.mi,
-                          b.joint_entropy, b.samples);
-              {
-                double mt, me;
-                std::vector<double> st, se;
-                evaluator.EvaluateShuffled(tv.cam_from_world, level, 4, &mt, &st);
-                evaluator.EvaluateShuffled(r.cam_from_lidar, level, 4, &me, &se);
-                double bt = 0, be = 0;
-                for (double v : st) bt += v / st.size();
-                for (double v : se) be += v / se.size();
-                std::printf("  l%d rendered mi true %.5f - bias %.5f = %.5f | est %.5f - bias %.5f = %.5f | corrected est-true %+.5f\n",
-                            level, mt, bt, mt - bt, me, be, me - be, (me - be) - (mt - bt));
-              }
-              if (level == 0) {
-                std::printf("  checks mi %.5f shuffled %.5f (sd %.6f)\n", r.checks.mi_bits,
-                            r.checks.mi_shuffled_bits, r.checks.mi_shuffled_sd_bits);
-              }
-            }
-          }
-        }
-        if (std::getenv("MI_LINE_PROBE") != nullptr) {
-          // Inspection: the metric along the straight line truth → estimate (t = 0 truth,
-          // t = 1 estimate, in correction space) at each level, for several metric settings:
-          // which of them put the maximum of that line at the truth at every level?
-          const Vector6d c_est = r.correction;
-          const Vector6d c_true = truth_correction;
-          struct Setting {
-            const char* name;
-            MetricKind kind;
-            Region region;
-            int bins;
-          };
-          const Setting settings[] = {{"nmi overlap 64", MetricKind::kNmi, Region::kOverlap, 64},
-                                      {"nmi whole 64", MetricKind::kNmi, Region::kWholeImage, 64},
-                                      {"mi overlap 64", MetricKind::kMi, Region::kOverlap, 64},
-                                      {"mi whole 64", MetricKind::kMi, Region::kWholeImage, 64},
-                                      {"nmi overlap 32", MetricKind::kNmi, Region::kOverlap, 32}};
-          const FrameSetEvaluator evaluator({frame}, start, options);
-          for (const Setting& setting : settings) {
-            MetricOptions metric = options.metric;
-            metric.kind = setting.kind;
-            metric.region = setting.region;
-            metric.bins = setting.bins;
-            std::printf("  line %-16s", setting.name);
-            for (int level = 0; level < evaluator.levels(); ++level) {
-              double best = -INFINITY, best_t = 0, at_truth = 0, at_est = 0;
-              for (int k = -5; k <= 15; ++k) {
-                const double t = 0.1 * k;
-                const double value =
-                    evaluator
-                        .Evaluate(ApplyCorrection(start, c_true + t * (c_est - c_true)), level,
-                                  metric)
-                        .value;
-                if (k == 0) at_truth = value;
-                if (k == 10) at_est = value;
-                if (value > best) {
-                  best = value;
-                  best_t = t;
-                }
-              }
-              std::printf("  l%d argmax t=%+.1f (est-true %+.5f)", level, best_t,
-                          at_est - at_truth);
-            }
-            std::printf("\n");
-          }
-        }
-        const std::string size = max_m == 0.1 ? "0.1m/1deg" : "0.3m/2deg";
-        Row row{size,          r.ok(),     ib.median_px, ia.median_px, Median(vb),
-                Median(va),    r.checks.sigma_px,        seconds};
-        rows.push_back(row);
-        // Pooled point offsets: a thinned sample (every 50th point) of every registration.
-        for (size_t k = 0; k < ib.offsets_px.size(); k += 50) {
-          pooled_before[size].push_back(ib.offsets_px[k]);
-        }
-        for (size_t k = 0; k < ia.offsets_px.size(); k += 50) {
-          pooled_after[size].push_back(ia.offsets_px[k]);
-        }
-        std::string reason = r.reason;
-        std::replace(reason.begin(), reason.end(), ',', ';');
-        std::replace(reason.begin(), reason.end(), '\n', ' ');
-        runs << tv.name << "," << tv.kind << "," << max_m << "," << max_deg;
-        for (int i = 0; i < 6; ++i) runs << "," << p[i];
-        runs << "," << r.status << "," << ib.median_px << "," << ia.median_px << ","
-             << row.view_before << "," << row.view_after << "," << r.checks.sigma_px << ","
-             << r.checks.restart_spread_px;
-        for (int i = 0; i < 6; ++i) runs << "," << error[i];
-        for (int i = 0; i < 6; ++i) runs << "," << sd[i];
-        runs << "," << mahalanobis2 << "," << r.checks.effective_samples << ","
-             << r.checks.sample_inflation << "," << r.checks.sigma_px_calibrated << ","
-             << r.checks.restart_rms_px << "," << r.checks.split_spread_px << ","
-             << r.checks.variance_factor_halves << "," << r.checks.variance_factor_restarts << ","
-             << r.checks.variance_factor << "," << r.evaluations;
-        for (int level = 0; level < 3; ++level) {
-          runs << "," << metric_true[level] << "," << metric_est[level];
-        }
-        runs << "," << seconds << "," << cpu
-             << ",\"" << reason << "\"\n";
-        runs.flush();
-        std::string headings;
-        for (const View& view : frame.views) headings += view.name.substr(view.name.rfind('_') + 1) + " ";
-        std::printf("[%s] ", headings.c_str());
-        std::printf("%-16s %-9s %-6s image %6.2f -> %6.2f px  views %6.2f -> %6.2f px  sigma "
-                    "%.2f px (calibrated %.2f, factor %.1f)  restarts %.2f px (rms %.2f)  halves %.2f px  maha2 %.1f  N_eff %.0f (/%.1f)  metric est-true l0 %+.5f l1 %+.5f l2 %+.5f  %5.1f s (cpu %.1f)  %s\n",
-                    tv.name.c_str(), size.c_str(), r.status.c_str(), ib.median_px,
-                    ia.median_px, row.view_before, row.view_after, r.checks.sigma_px,
-                    r.checks.sigma_px_calibrated, r.checks.variance_factor,
-                    r.checks.restart_spread_px, r.checks.restart_rms_px, r.checks.split_spread_px, mahalanobis2, r.checks.effective_samples,
-                    r.checks.sample_inflation, metric_est[0] - metric_true[0],
-                    metric_est[1] - metric_true[1], metric_est[2] - metric_true[2], seconds, cpu,
-                    reason.c_str());
-        if (r.covariance_valid) {
-          std::printf("  restart best gain %+.6f\n", r.checks.restart_best_gain);
-          std::printf("  image checks: sigma %.3f px, restarts %.2f px, halves %.2f px, factor "
-                      "%.1f, calibrated sigma %.3f px\n",
-                      r.checks.image_sigma_px, r.checks.image_restart_spread_px,
-                      r.checks.image_split_spread_px, r.checks.image_variance_factor,
-                      r.checks.image_sigma_px_calibrated);
-        }
-        // The result bit for bit: equal digests = a reproduced registration.
-        std::printf("  digest %016llx  pose %a %a %a %a %a %a %a  metric %a  iterations %d  "
-                    "evaluations %d\n",
-                    static_cast<unsigned long long>(r.Digest()), r.cam_from_lidar.rotation.w(),
-                    r.cam_from_lidar.rotation.x(), r.cam_from_lidar.rotation.y(),
-                    r.cam_from_lidar.rotation.z(), r.cam_from_lidar.translation.x(),
-                    r.cam_from_lidar.translation.y(), r.cam_from_lidar.translation.z(),
-                    r.metric_after.value, r.iterations, r.evaluations);
-        std::fflush(stdout);
-      }
+    std::printf("\n");
+  }
+}
+
+// The estimate's error against the truth and, with a valid covariance, its σ and the squared
+// Mahalanobis distance.
+void ErrorStats(const Rigid3d& start, Run* run) {
+  const RegistrationResult& r = run->result;
+  run->truth_correction = CorrectionBetween(start, run->view->cam_from_world);
+  run->error = r.correction - run->truth_correction;
+  if (r.covariance_valid) {
+    run->sd = r.covariance.diagonal().cwiseSqrt();
+    Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt(r.covariance);
+    if (ldlt.info() == Eigen::Success) run->mahalanobis2 = run->error.dot(ldlt.solve(run->error));
+  }
+}
+
+void WriteRunRow(const Run& run, const Row& row, std::ofstream& runs) {
+  const RegistrationResult& r = run.result;
+  runs << run.view->name << "," << run.view->kind << "," << run.max_m << "," << run.max_deg;
+  for (int i = 0; i < 6; ++i) runs << "," << run.perturbation[i];
+  runs << "," << r.status << "," << run.image_before.median_px << "," << run.image_after.median_px << ","
+       << row.view_before << "," << row.view_after << "," << r.checks.sigma_px << ","
+       << r.checks.restart_spread_px;
+  for (int i = 0; i < 6; ++i) runs << "," << run.error[i];
+  for (int i = 0; i < 6; ++i) runs << "," << run.sd[i];
+  runs << "," << run.mahalanobis2 << "," << r.checks.effective_samples << ","
+       << r.checks.sample_inflation << "," << r.checks.sigma_px_calibrated << ","
+       << r.checks.restart_rms_px << "," << r.checks.split_spread_px << ","
+       << r.checks.variance_factor_halves << "," << r.checks.variance_factor_restarts << ","
+       << r.checks.variance_factor << "," << r.evaluations;
+  for (int level = 0; level < 3; ++level) {
+    runs << "," << run.metric_true[level] << "," << run.metric_est[level];
+  }
+  runs << "," << run.seconds << "," << run.cpu << ",\"" << run.reason << "\"\n";
+  runs.flush();
+}
+
+// The registration's lines: the cuts' headings, the offsets and checks; with a covariance
+// the whole-image checks; the digest (pose and metric in hex floats) to compare runs.
+void PrintRun(const Run& run, const Row& row, const Frame& frame) {
+  const RegistrationResult& r = run.result;
+  const std::array<double, 3>& mt = run.metric_true;
+  const std::array<double, 3>& me = run.metric_est;
+  std::string headings;
+  for (const View& view : frame.views) headings += view.name.substr(view.name.rfind('_') + 1) + " ";
+  std::printf("[%s] ", headings.c_str());
+  std::printf("%-16s %-9s %-6s image %6.2f -> %6.2f px  views %6.2f -> %6.2f px  sigma "
+              "%.2f px (calibrated %.2f, factor %.1f)  restarts %.2f px (rms %.2f)  halves %.2f px  maha2 %.1f  N_eff %.0f (/%.1f)  metric est-true l0 %+.5f l1 %+.5f l2 %+.5f  %5.1f s (cpu %.1f)  %s\n",
+              run.view->name.c_str(), row.size.c_str(), r.status.c_str(), row.image_before,
+              row.image_after, row.view_before, row.view_after, r.checks.sigma_px,
+              r.checks.sigma_px_calibrated, r.checks.variance_factor, r.checks.restart_spread_px,
+              r.checks.restart_rms_px, r.checks.split_spread_px, run.mahalanobis2,
+              r.checks.effective_samples, r.checks.sample_inflation, me[0] - mt[0], me[1] - mt[1],
+              me[2] - mt[2], run.seconds, run.cpu, run.reason.c_str());
+  if (r.covariance_valid) {
+    std::printf("  restart best gain %+.6f\n", r.checks.restart_best_gain);
+    std::printf("  image checks: sigma %.3f px, restarts %.2f px, halves %.2f px, factor "
+                "%.1f, calibrated sigma %.3f px\n",
+                r.checks.image_sigma_px, r.checks.image_restart_spread_px,
+                r.checks.image_split_spread_px, r.checks.image_variance_factor,
+                r.checks.image_sigma_px_calibrated);
+  }
+  std::printf("  digest %016llx  pose %a %a %a %a %a %a %a  metric %a  iterations %d  "
+              "evaluations %d\n",
+              static_cast<unsigned long long>(r.Digest()), r.cam_from_lidar.rotation.w(),
+              r.cam_from_lidar.rotation.x(), r.cam_from_lidar.rotation.y(),
+              r.cam_from_lidar.rotation.z(), r.cam_from_lidar.translation.x(),
+              r.cam_from_lidar.translation.y(), r.cam_from_lidar.translation.z(),
+              r.metric_after.value, r.iterations, r.evaluations);
+  std::fflush(stdout);
+}
+
+// Registers view `tv` from its true pose perturbed by `p`, scores it against the truth,
+// writes its row of runs.csv, pools its offsets and prints it.
+void RegisterStart(Bench* b, const TrueView& tv, const GrayImage& image, const View& whole,
+                   double max_m, double max_deg, const Vector6d& p) {
+  Run run;
+  run.view = &tv;
+  run.max_m = max_m;
+  run.max_deg = max_deg;
+  run.perturbation = p;
+  const Rigid3d start = ApplyCorrection(tv.cam_from_world, p);
+  Timer timer;
+  const double cpu0 = bench::CpuSeconds();
+  Frame frame = MakeFrame(*b, tv, image, start);
+  LidarPoints warped, classed;
+  SetFramePoints(*b, tv, start, &frame, &warped, &classed);
+  run.result = RegisterFrames({frame}, start, b->options);
+  const RegistrationResult& r = run.result;
+  run.seconds = timer.ElapsedSeconds();
+  run.cpu = bench::CpuSeconds() - cpu0;
+  const RenderOptions& scoring = b->scoring_render;
+  run.image_before = PixelOffsets(b->points, whole, tv.cam_from_world, start, scoring);
+  run.image_after = PixelOffsets(b->points, whole, tv.cam_from_world, r.cam_from_lidar, scoring);
+  const std::vector<double> vb = ViewOffsets(b->points, frame.views, tv.cam_from_world, start, scoring);
+  const std::vector<double> va =
+      ViewOffsets(b->points, frame.views, tv.cam_from_world, r.cam_from_lidar, scoring);
+  ErrorStats(start, &run);
+  MetricAtLevels(*b, frame, start, &run);
+  if (std::getenv("MI_LINE_PROBE") != nullptr) LineProbe(*b, frame, start, run);
+  const std::string size = SizeName(max_m);
+  const Row row{size,       r.ok(),     run.image_before.median_px, run.image_after.median_px,
+                Median(vb), Median(va), r.checks.sigma_px,          run.seconds};
+  b->rows.push_back(row);
+  // Pooled point offsets: a thinned sample (every 50th point) of every registration.
+  for (size_t k = 0; k < run.image_before.offsets_px.size(); k += 50) {
+    b->pooled_before[size].push_back(run.image_before.offsets_px[k]);
+  }
+  for (size_t k = 0; k < run.image_after.offsets_px.size(); k += 50) {
+    b->pooled_after[size].push_back(run.image_after.offsets_px[k]);
+  }
+  run.reason = r.reason;
+  std::replace(run.reason.begin(), run.reason.end(), ',', ';');
+  std::replace(run.reason.begin(), run.reason.end(), '\n', ' ');
+  WriteRunRow(run, row, b->runs);
+  PrintRun(run, row, frame);
+}
+
+// MI_PERTURB="tx,ty,tz,roll,pitch,yaw" (m, deg) replaces the drawn start of every
+// registration run (with MI_ONLY: one chosen start). False when it is not 6 numbers.
+bool FixedPerturbation(Vector6d* p) {
+  const char* v = std::getenv("MI_PERTURB");
+  if (v == nullptr) return true;
+  const std::vector<std::string> items = bench::SplitList(v);
+  if (items.size() != 6) {
+    std::fprintf(stderr, "MI_PERTURB needs 6 numbers\n");
+    return false;
+  }
+  for (int i = 0; i < 6; ++i) (*p)[i] = std::atof(items[i].c_str());
+  return true;
+}
+
+// One view: its inspections (MI_DUMP_DIR, MI_GROUND — which registers nothing —, MI_PROBE),
+// then its registrations, DRAWS random starts of each size (each of tx, ty, tz uniform in ±A
+// m, each angle in ±B°), the views cut for each start (the headings depend on the start
+// pose). False on a bad MI_PERTURB.
+bool RunView(Bench* b, const TrueView& tv) {
+  const GrayImage image = ReadGrayImage(tv.image_path);
+  const Frame truth_frame = MakeFrame(*b, tv, image, tv.cam_from_world);
+  View whole;
+  whole.camera = tv.camera;
+  whole.image = image;
+  if (const char* dump = std::getenv("MI_DUMP_DIR")) DumpViews(*b, tv, truth_frame, dump);
+  if (std::getenv("MI_GROUND") != nullptr && !b->classes.plane_normals.empty()) {
+    PrintGround(*b, tv, truth_frame);
+    return true;
+  }
+  if (std::getenv("MI_PROBE") != nullptr) ProbeAtTruth(*b, tv, truth_frame);
+  const std::string& magnitudes = b->args.magnitudes;
+  for (const auto& [max_m, max_deg] : kSizes) {
+    for (int d = 0; d < b->args.draws; ++d) {
+      std::uniform_real_distribution<double> um(-max_m, max_m), ud(-max_deg, max_deg);
+      Vector6d p;
+      p << um(b->rng), um(b->rng), um(b->rng), ud(b->rng), ud(b->rng), ud(b->rng);
+      const bool size_selected = magnitudes == "both" || (magnitudes == "small") == (max_m == 0.1);
+      if (!size_selected || !Selected(tv.name, max_m)) continue;
+      if (!FixedPerturbation(&p)) return false;
+      RegisterStart(b, tv, image, whole, max_m, max_deg, p);
     }
   }
-  // Summary per magnitude.
-  for (const auto& [max_m, max_deg] : sizes) {
-    const std::string size = max_m == 0.1 ? "0.1m/1deg" : "0.3m/2deg";
+  return true;
+}
+
+// Per magnitude: the counts of ok, right and wrong, the median offsets and time; writes the
+// histograms of the per-view median offsets and of the pooled point offsets.
+void PrintSummary(const Bench& b) {
+  for (const auto& [max_m, max_deg] : kSizes) {
+    const std::string size = SizeName(max_m);
     int n = 0, ok = 0, ok_below = 0, all_below = 0, wrong_ok = 0, false_fail = 0;
     int ok_below_view = 0, all_below_view = 0;
     std::vector<double> before, after, time;
-    for (const Row& r : rows) {
+    for (const Row& r : b.rows) {
       if (r.size != size) continue;
       ++n;
       before.push_back(r.image_before);
@@ -872,17 +874,45 @@ int main(int argc, char** argv) {
                 size.c_str(), n, ok, ok_below, ok > 0 ? 100.0 * ok_below / ok : 0.0,
                 ok_below_view, wrong_ok, false_fail, all_below, all_below_view, Median(before),
                 Median(after), Median(time));
-    std::string tag = max_m == 0.1 ? "small" : "large";
-    WriteHistogram(out_dir / ("hist_views_" + tag + ".csv"),
-                   out_dir / ("hist_views_" + tag + ".svg"),
-                   "Median pixel offset per view, start errors up to " + size + " (" +
-                       std::to_string(n) + " registrations)",
-                   "views", before, after, 0.5, 24, false);
-    WriteHistogram(out_dir / ("hist_points_" + tag + ".csv"),
-                   out_dir / ("hist_points_" + tag + ".svg"),
-                   "Pixel offsets of the LiDAR points (pooled), start errors up to " + size,
-                   "fraction", pooled_before[size], pooled_after[size], 0.5, 24, true);
+    const std::string tag = max_m == 0.1 ? "small" : "large";
+    const fs::path& out_dir = b.args.out_dir;
+    bench::WriteHistogram(out_dir / ("hist_views_" + tag + ".csv"), out_dir / ("hist_views_" + tag + ".svg"),
+                          "Median pixel offset per view, start errors up to " + size + " (" +
+                              std::to_string(n) + " registrations)",
+                          "views", before, after, 0.5, 24, false);
+    bench::WriteHistogram(out_dir / ("hist_points_" + tag + ".csv"), out_dir / ("hist_points_" + tag + ".svg"),
+                          "Pixel offsets of the LiDAR points (pooled), start errors up to " + size,
+                          "fraction", b.pooled_before.at(size), b.pooled_after.at(size), 0.5, 24, true);
   }
-  std::printf("peak memory %.0f MiB\n", PeakRssMiB());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  mmba::ReexecWithHugePageMalloc(argv);  // as the mmba binary does (core/huge_pages.h)
+  Bench b;
+  if (!ParseArgs(argc, argv, &b.args)) return 2;
+  if (std::getenv("MMBA_DEBUG") != nullptr) SetVerbosity(Verbosity::kVerbose);
+  else SetVerbosity(Verbosity::kQuiet);
+  fs::create_directories(b.args.out_dir);
+  const fs::path& dir = b.args.dir;
+  const std::string cloud_path = b.args.cloud_kind == "static"
+                                     ? (dir / "clouds" / "lidar.ply").string()
+                                     : (dir / "truth" / "mobile_lidar_true.ply").string();
+  Timer setup;
+  if (!ReadPoints(b.args, cloud_path, &b.points)) return 2;
+  b.stitch = ReadStitchRig(dir);
+  b.classes = SetupClasses(&b.points);
+  const std::vector<TrueView> views = ReadViews(dir, b.args.kinds);
+  std::printf("%s: %zu points, %zu views, setup %.1f s\n", cloud_path.c_str(), b.points.size(),
+              views.size(), setup.ElapsedSeconds());
+  if (!PanoramaOptions(b.classes, &b.options, &b.scoring_render)) return 2;
+  OpenRuns(&b);
+  b.rng.seed(b.args.seed);
+  for (const TrueView& tv : views) {
+    if (!RunView(&b, tv)) return 2;
+  }
+  PrintSummary(b);
+  std::printf("peak memory %.0f MiB\n", bench::PeakRssMiB());
   return 0;
 }
