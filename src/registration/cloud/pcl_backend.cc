@@ -193,19 +193,31 @@ void CopyDescriptors(const pcl::PointCloud<Feature>& features, int dim, Get get,
   }
 }
 
+// The PCL clouds of a descriptor computation, relative to one local origin (float
+// precision): the surface, its normals and the keypoints.
+struct PclDescriptorInput {
+  pcl::PointCloud<pcl::PointXYZ>::Ptr surface;
+  pcl::PointCloud<pcl::Normal>::Ptr surface_normals;
+  pcl::PointCloud<pcl::PointXYZ>::Ptr keypoints;
+};
+
+PclDescriptorInput ToPclDescriptorInput(const std::vector<Eigen::Vector3d>& points,
+                                        const std::vector<Eigen::Vector3d>& normals,
+                                        const std::vector<int>& keypoints) {
+  QuietPcl();
+  const Eigen::Vector3d origin = io::LocalOrigin(points);
+  std::vector<Eigen::Vector3d> kp_points;
+  for (int i : keypoints) kp_points.push_back(points[i]);
+  return {ToPcl(points, origin), ToPclNormals(normals), ToPcl(kp_points, origin)};
+}
+
 }  // namespace
 
 Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::Vector3d>& points,
                                const std::vector<Eigen::Vector3d>& normals,
                                const std::vector<int>& keypoints, double radius,
                                const Eigen::Vector3d* up) {
-  QuietPcl();
-  const Eigen::Vector3d origin = io::LocalOrigin(points);
-  auto surface = ToPcl(points, origin);
-  auto surface_normals = ToPclNormals(normals);
-  std::vector<Eigen::Vector3d> kp_points;
-  for (int i : keypoints) kp_points.push_back(points[i]);
-  auto input = ToPcl(kp_points, origin);
+  const auto [surface, surface_normals, input] = ToPclDescriptorInput(points, normals, keypoints);
   Descriptors out;
   switch (descriptor) {
     case Descriptor::kFpfh:
@@ -290,14 +302,9 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
 Descriptors ComputeFpfhPcl(const std::vector<Eigen::Vector3d>& points,
                            const std::vector<Eigen::Vector3d>& normals,
                            const std::vector<int>& keypoints, double radius) {
-  QuietPcl();
-  const Eigen::Vector3d origin = io::LocalOrigin(points);
-  auto surface = ToPcl(points, origin);
-  auto surface_normals = ToPclNormals(normals);
-  std::vector<Eigen::Vector3d> kp_points;
-  for (int i : keypoints) kp_points.push_back(points[i]);
+  const auto [surface, surface_normals, input] = ToPclDescriptorInput(points, normals, keypoints);
   pcl::FPFHEstimationOMP<pcl::PointXYZ, pcl::Normal, pcl::FPFHSignature33> est(kThreads);
-  est.setInputCloud(ToPcl(kp_points, origin));
+  est.setInputCloud(input);
   est.setSearchSurface(surface);
   est.setInputNormals(surface_normals);
   est.setRadiusSearch(radius);
