@@ -128,28 +128,16 @@ template <typename Model>
     // one. The same arithmetic as the loop below — Eigen's 3×3 product is r₀x + (r₁y + r₂z)
     // per row, the squared norm x² + (y² + z²) (test ProjectionBlocksEqualTheEigenExpressions),
     // PinholeModel::ImgFromCam is f·(x/z + 0) + c.
-    constexpr int kBlock = 64;
-    alignas(64) float bz[kBlock], b2[kBlock];
-    alignas(64) double bu[kBlock], bv[kBlock];
     const internal::PinholeBlockProjection projection(rotation, translation, params);
-    for (size_t begin = point_begin; begin < point_end; begin += kBlock) {
-      const int n = static_cast<int>(std::min<size_t>(kBlock, point_end - begin));
-      static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "packed points");
-      const float* xyz = points.points_in_lidar[begin].data();
-      projection.Project<3>(xyz, xyz + 1, xyz + 2, n, bz, b2, bu, bv);
-      for (int j = 0; j < n; ++j) {
-        if (!(bz[j] > 0.f)) continue;
-        const float range2 = b2[j];
-        if (range2 < min_range2 || range2 > max_range2) continue;
-        if (!(static_cast<double>(bz[j]) > std::numeric_limits<double>::epsilon())) continue;
-        const double xy[2] = {bu[j], bv[j]};
-        if (!(xy[0] >= 0 && xy[1] >= 0 && xy[0] < width && xy[1] < height)) continue;
-        // (The square root stays here: std::sqrt may set errno, which keeps GCC from
-        // vectorising the loop above — measured: the block then ran scalar, slower.)
-        const float range = std::sqrt(range2);
-        draw(begin + j, range, radius_factor / range, xy);
-      }
-    }
+    internal::ForEachPinholePoint(
+        projection, points.points_in_lidar, point_begin, point_end, min_range2, max_range2, width,
+        height, [&](size_t i, const double* xy, float range2) __attribute__((always_inline)) {
+          // (The square root stays here, out of the projection's block loop: std::sqrt may
+          // set errno, which keeps GCC from vectorising that loop — measured: it then ran
+          // scalar, slower.)
+          const float range = std::sqrt(range2);
+          draw(i, range, radius_factor / range, xy);
+        });
     return;
   }
   for (size_t i = point_begin; i < point_end; ++i) {

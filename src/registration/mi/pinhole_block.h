@@ -10,6 +10,11 @@
 // is compiled for each caller's target (the callers' target_clones: AVX2 and the default, no
 // FMA in either: the same roundings).
 
+#include <algorithm>
+#include <cstddef>
+#include <limits>
+#include <vector>
+
 #include <Eigen/Core>
 
 namespace mmba::registration::mi::internal {
@@ -48,5 +53,36 @@ struct PinholeBlockProjection {
     }
   }
 };
+
+/// Projects points[point_begin, point_end) with `projection` a block of 64 at a time and calls
+/// `body(index, xy, range2)` (xy: double[2], the pixel; range2: the squared range) for each
+/// point, in order, that is in front of the camera (depth > 0 and, in double, above its
+/// epsilon), whose squared range is within [min_range2, max_range2] and whose pixel is in the
+/// width × height image. The renderer's and the point samples' pinhole path.
+template <typename Body>
+[[gnu::always_inline]] inline void ForEachPinholePoint(const PinholeBlockProjection& projection,
+                                                       const std::vector<Eigen::Vector3f>& points,
+                                                       size_t point_begin, size_t point_end,
+                                                       float min_range2, float max_range2, int width,
+                                                       int height, Body&& body) {
+  constexpr int kBlock = 64;
+  alignas(64) float bz[kBlock], b2[kBlock];
+  alignas(64) double bu[kBlock], bv[kBlock];
+  static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "packed points");
+  for (size_t begin = point_begin; begin < point_end; begin += kBlock) {
+    const int n = static_cast<int>(std::min<size_t>(kBlock, point_end - begin));
+    const float* xyz = points[begin].data();
+    projection.Project<3>(xyz, xyz + 1, xyz + 2, n, bz, b2, bu, bv);
+    for (int j = 0; j < n; ++j) {
+      if (!(bz[j] > 0.f)) continue;
+      const float range2 = b2[j];
+      if (range2 < min_range2 || range2 > max_range2) continue;
+      if (!(static_cast<double>(bz[j]) > std::numeric_limits<double>::epsilon())) continue;
+      const double xy[2] = {bu[j], bv[j]};
+      if (!(xy[0] >= 0 && xy[1] >= 0 && xy[0] < width && xy[1] < height)) continue;
+      body(begin + j, xy, range2);
+    }
+  }
+}
 
 }  // namespace mmba::registration::mi::internal

@@ -236,25 +236,9 @@ template <typename Model>
     // vectorises; the same arithmetic as ProjectLikeRenderer (Eigen's 3×3 product is
     // r₀x + (r₁y + r₂z) per row, the squared norm x² + (y² + z²), PinholeModel::ImgFromCam
     // f·(x/z + 0) + c; test PointSamplesTest.PinholeBlocksAccumulateAsTheGenericModel).
-    constexpr int kBlock = 64;
-    alignas(64) float bz[kBlock], b2[kBlock];
-    alignas(64) double bu[kBlock], bv[kBlock];
     const internal::PinholeBlockProjection projection(t.rotation, t.translation, params);
-    static_assert(sizeof(Eigen::Vector3f) == 3 * sizeof(float), "packed points");
-    for (size_t begin = point_begin; begin < point_end; begin += kBlock) {
-      const int m = static_cast<int>(std::min<size_t>(kBlock, point_end - begin));
-      const float* xyz = samples.points_in_lidar[begin].data();
-      projection.Project<3>(xyz, xyz + 1, xyz + 2, m, bz, b2, bu, bv);
-      for (int j = 0; j < m; ++j) {
-        if (!(bz[j] > 0.f)) continue;
-        const float range2 = b2[j];
-        if (range2 < min_range2 || range2 > max_range2) continue;
-        if (!(static_cast<double>(bz[j]) > std::numeric_limits<double>::epsilon())) continue;
-        const double xy[2] = {bu[j], bv[j]};
-        if (!(xy[0] >= 0 && xy[1] >= 0 && xy[0] < width && xy[1] < height)) continue;
-        add_point(begin + j, xy, range2);
-      }
-    }
+    internal::ForEachPinholePoint(projection, samples.points_in_lidar, point_begin, point_end, min_range2,
+                                  max_range2, width, height, add_point);
   } else {
     for (size_t j = point_begin; j < point_end; ++j) {
       const Eigen::Vector3f p = t.rotation * samples.points_in_lidar[j] + t.translation;
