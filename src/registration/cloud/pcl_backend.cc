@@ -211,25 +211,34 @@ PclDescriptorInput ToPclDescriptorInput(const std::vector<Eigen::Vector3d>& poin
   return {ToPcl(points, origin), ToPclNormals(normals), ToPcl(kp_points, origin)};
 }
 
+// Runs a PCL feature estimator at in.keypoints over in.surface (with its normals) within
+// `radius`; other settings of `est` are made by the caller.
+template <typename Signature, typename Estimator>
+pcl::PointCloud<Signature> EstimateAtKeypoints(Estimator& est, const PclDescriptorInput& in,
+                                               double radius) {
+  est.setInputCloud(in.keypoints);
+  est.setSearchSurface(in.surface);
+  est.setInputNormals(in.surface_normals);
+  est.setRadiusSearch(radius);
+  pcl::PointCloud<Signature> f;
+  est.compute(f);
+  return f;
+}
+
 }  // namespace
 
 Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::Vector3d>& points,
                                const std::vector<Eigen::Vector3d>& normals,
                                const std::vector<int>& keypoints, double radius,
                                const Eigen::Vector3d* up) {
-  const auto [surface, surface_normals, input] = ToPclDescriptorInput(points, normals, keypoints);
+  const PclDescriptorInput in = ToPclDescriptorInput(points, normals, keypoints);
   Descriptors out;
   switch (descriptor) {
     case Descriptor::kFpfh:
       return ComputeFpfh(points, normals, keypoints, radius);
     case Descriptor::kShot: {
       pcl::SHOTEstimationOMP<pcl::PointXYZ, pcl::Normal, pcl::SHOT352> est(kThreads);
-      est.setInputCloud(input);
-      est.setSearchSurface(surface);
-      est.setInputNormals(surface_normals);
-      est.setRadiusSearch(radius);
-      pcl::PointCloud<pcl::SHOT352> f;
-      est.compute(f);
+      const auto f = EstimateAtKeypoints<pcl::SHOT352>(est, in, radius);
       CopyDescriptors(f, 352, [](const pcl::SHOT352& s) { return s.descriptor; }, &out);
       break;
     }
@@ -241,12 +250,12 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
       // left out (invalid) instead.
       constexpr int kMinNeighbours = 16;
       pcl::KdTreeFLANN<pcl::PointXYZ> tree;
-      tree.setInputCloud(surface);
+      tree.setInputCloud(in.surface);
       std::vector<int> kept;  // positions in `keypoints`
       pcl::Indices nn;
       std::vector<float> nn_sq;
       for (size_t i = 0; i < keypoints.size(); ++i) {
-        if (tree.radiusSearch((*surface)[keypoints[i]], radius, nn, nn_sq) >= kMinNeighbours) {
+        if (tree.radiusSearch((*in.surface)[keypoints[i]], radius, nn, nn_sq) >= kMinNeighbours) {
           kept.push_back(static_cast<int>(i));
         }
       }
@@ -258,9 +267,9 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
       for (int i : kept) indices->push_back(keypoints[i]);
       pcl::SpinImageEstimation<pcl::PointXYZ, pcl::Normal, pcl::Histogram<153>> est(
           8, 0.5, kMinNeighbours);
-      est.setInputCloud(surface);
+      est.setInputCloud(in.surface);
       est.setIndices(indices);
-      est.setInputNormals(surface_normals);
+      est.setInputNormals(in.surface_normals);
       if (up != nullptr) {
         pcl::Normal axis;
         axis.getNormalVector3fMap() = up->cast<float>();
@@ -281,14 +290,9 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
     case Descriptor::kShapeContext: {
       // 12 azimuth × 11 elevation × 15 log-radial bins (PCL defaults = Frome et al.).
       pcl::ShapeContext3DEstimation<pcl::PointXYZ, pcl::Normal, pcl::ShapeContext1980> est;
-      est.setInputCloud(input);
-      est.setSearchSurface(surface);
-      est.setInputNormals(surface_normals);
-      est.setRadiusSearch(radius);
       est.setMinimalRadius(radius / 10.0);
       est.setPointDensityRadius(radius / 5.0);
-      pcl::PointCloud<pcl::ShapeContext1980> f;
-      est.compute(f);
+      const auto f = EstimateAtKeypoints<pcl::ShapeContext1980>(est, in, radius);
       CopyDescriptors(f, 1980, [](const pcl::ShapeContext1980& s) { return s.descriptor; },
                       &out);
       break;
@@ -302,14 +306,9 @@ Descriptors ComputeDescriptors(Descriptor descriptor, const std::vector<Eigen::V
 Descriptors ComputeFpfhPcl(const std::vector<Eigen::Vector3d>& points,
                            const std::vector<Eigen::Vector3d>& normals,
                            const std::vector<int>& keypoints, double radius) {
-  const auto [surface, surface_normals, input] = ToPclDescriptorInput(points, normals, keypoints);
+  const PclDescriptorInput in = ToPclDescriptorInput(points, normals, keypoints);
   pcl::FPFHEstimationOMP<pcl::PointXYZ, pcl::Normal, pcl::FPFHSignature33> est(kThreads);
-  est.setInputCloud(input);
-  est.setSearchSurface(surface);
-  est.setInputNormals(surface_normals);
-  est.setRadiusSearch(radius);
-  pcl::PointCloud<pcl::FPFHSignature33> f;
-  est.compute(f);
+  const auto f = EstimateAtKeypoints<pcl::FPFHSignature33>(est, in, radius);
   Descriptors out;
   CopyDescriptors(f, 33, [](const pcl::FPFHSignature33& s) { return s.histogram; }, &out);
   return out;

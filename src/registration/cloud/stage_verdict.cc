@@ -14,6 +14,22 @@
 
 namespace mmba::registration::internal {
 
+namespace {
+
+// A hypothesis as the result lists it: origin (with `stage` appended), pose and scores.
+RegistrationHypothesis Reported(const Hypothesis& h, const std::string& stage) {
+  RegistrationHypothesis r;
+  r.origin = h.origin + stage;
+  r.target_from_source = h.transform;
+  r.fitness = h.fitness;
+  r.inlier_rmse = h.rmse;
+  r.normal_agreement = h.normal_agreement;
+  r.score = h.score;
+  return r;
+}
+
+}  // namespace
+
 void ReportFinalists(RegistrationContext& ctx) {
   Hypothesis& best = ctx.best;
   std::vector<Finalist>& finalists = ctx.finalists;
@@ -38,14 +54,8 @@ void ReportFinalists(RegistrationContext& ctx) {
   result.violation = fine_check.violation;
   for (size_t k = 0; k < finalists.size(); ++k) {
     const Hypothesis& h = finalists[k].h;
-    RegistrationHypothesis r;
-    r.origin = h.origin + " (fine)";
+    RegistrationHypothesis r = Reported(h, " (fine)");
     if (!photo.empty()) r.intensity_correlation = photo[k].AbsCorrelation();
-    r.target_from_source = h.transform;
-    r.fitness = h.fitness;
-    r.inlier_rmse = h.rmse;
-    r.normal_agreement = h.normal_agreement;
-    r.score = h.score;
     r.conflict = h.conflict;
     r.violation = h.violation;
     result.hypotheses.push_back(r);
@@ -54,14 +64,7 @@ void ReportFinalists(RegistrationContext& ctx) {
                   h.origin, h.score, h.fitness, h.normal_agreement, h.violation);
   }
   for (const Hypothesis& h : hypotheses) {
-    RegistrationHypothesis r;
-    r.origin = h.origin + " (coarse)";
-    r.target_from_source = h.transform;
-    r.fitness = h.fitness;
-    r.inlier_rmse = h.rmse;
-    r.normal_agreement = h.normal_agreement;
-    r.score = h.score;
-    result.hypotheses.push_back(r);
+    result.hypotheses.push_back(Reported(h, " (coarse)"));
   }
 }
 
