@@ -1,5 +1,5 @@
 // project.yaml validation: every bad input is one InputError naming the file, line and key.
-#include "mmba/adjust/project.h"
+#include "mmba/io_project/project.h"
 
 #include <cmath>
 #include <filesystem>

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "fuzz_input.h"
-#include "mmba/adjust/project.h"
+#include "mmba/io_project/project.h"
 
 namespace {
 

@@ -10,7 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "mmba/adjust/project.h"
+#include "mmba/io_project/project.h"
 
 namespace mmba::adjust {
 

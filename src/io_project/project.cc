@@ -1,4 +1,4 @@
-#include "mmba/adjust/project.h"
+#include "mmba/io_project/project.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,7 +9,6 @@
 #include "mmba/io/camera_yaml.h"
 #include "mmba/io/yaml_reader.h"
 #include "mmba/registration/mi/lidar_image.h"
-#include "internal.h"
 
 namespace mmba::adjust {
 namespace {
@@ -404,6 +403,77 @@ class ProjectReader {
   fs::path dir_;
 };
 
+/// check_points: each once, and a total station that surveys them; a project has photos or a
+/// total station.
+void CheckCheckPoints(const Project& project, const io::YamlReader& r, const YAML::Node& root) {
+  std::set<std::string> seen;
+  for (size_t i = 0; i < project.check_points.size(); ++i) {
+    if (!seen.insert(project.check_points[i]).second) {
+      r.Fail(root["check_points"][i], "check_points[" + std::to_string(i) + "]", "each point once", project.check_points[i]);
+    }
+  }
+  if (!project.check_points.empty() && project.total_stations.empty()) {
+    r.Fail(root["check_points"], "check_points", "a total_station sensor that surveys them", "none");
+  }
+  if (project.photos.empty() && project.total_stations.empty()) {
+    r.Fail(root["sensors"], "sensors", "at least a photo_collection or a total_station", "neither");
+  }
+}
+
+/// Sensors that name other sensors (tie_block, rig, mi_lidar) name ones that exist, and the
+/// sensors a sensor needs (a mobile LiDAR needs a static one and photos) are present.
+void CheckSensorReferences(const Project& project, const std::string& path) {
+  for (const SphericalStereo& sphere : project.spherical) {
+    bool found = false;
+    for (const PhotoCollection& p : project.photos) found = found || p.id == sphere.tie_block;
+    if (!found) {
+      throw InputError(path, sphere.line, "tie_block", sphere.tie_block, "the id of a photo_collection sensor");
+    }
+  }
+  for (const CameraRig& rig : project.rigs) {
+    bool found = false;
+    for (const PhotoCollection& p : project.photos) found = found || p.id == rig.tie_block;
+    if (!found) throw InputError(path, rig.line, "tie_block", rig.tie_block, "the id of a photo_collection sensor");
+  }
+  for (const LidarMobile& m : project.lidar_mobile) {
+    if (project.lidar_static.empty()) {
+      throw InputError(path, m.line, "type", "lidar_mobile",
+                       "a lidar_static sensor too: the mobile points are tied to its reference surface");
+    }
+    if (project.photos.empty()) {
+      throw InputError(path, m.line, "type", "lidar_mobile", "a photo_collection too (its block bounds the LiDAR surface)");
+    }
+    if (m.rig.empty()) continue;
+    bool found = false;
+    for (const CameraRig& rig : project.rigs) found = found || rig.id == m.rig;
+    if (!found) throw InputError(path, m.line, "rig", m.rig, "the id of a camera_rig sensor with observations");
+  }
+  // MI registration runs against the static LiDAR (the world-frame cloud).
+  for (const PhotoCollection& p : project.photos) {
+    if (p.register_to_lidar && project.lidar_static.empty()) {
+      throw InputError(path, p.line, "register_to_lidar", "true", "a lidar_static sensor too: the block's tie points are registered to its reference cloud");
+    }
+    if (p.mi_register && project.lidar_static.empty()) {
+      throw InputError(path, p.line, "mi_register", "true", "a lidar_static sensor too: the photos are registered to its reference cloud");
+    }
+  }
+  for (const CameraRig& rig : project.rigs) {
+    if (rig.mi_lidar == MiLidar::kMobile) {
+      const bool carried = std::any_of(project.lidar_mobile.begin(), project.lidar_mobile.end(),
+                                       [&](const LidarMobile& m) { return m.rig == rig.id; });
+      if (!carried) {
+        throw InputError(path, rig.line, "mi_lidar", "mobile",
+                         "a lidar_mobile sensor with rig: " + rig.id + " (the panoramas are registered to its cloud)");
+      }
+    } else if (rig.mi_register && project.lidar_static.empty()) {
+      throw InputError(path, rig.line, "mi_register", "true", "a lidar_static sensor too: the panoramas are registered to its reference cloud");
+    }
+  }
+  if (project.lidar_mobile.size() > 1) {
+    throw InputError(path, project.lidar_mobile[1].line, "type", "lidar_mobile", "one lidar_mobile sensor in this version");
+  }
+}
+
 }  // namespace
 
 const char* PoseTreatmentName(PoseTreatment treatment) {
@@ -476,67 +546,8 @@ Project LoadProject(const std::string& path) {
        }},
   });
   if (!have_origin) r.Fail(root, "origin", "the key to be present", "nothing");
-  std::set<std::string> seen;
-  for (size_t i = 0; i < project.check_points.size(); ++i) {
-    if (!seen.insert(project.check_points[i]).second) {
-      r.Fail(root["check_points"][i], "check_points[" + std::to_string(i) + "]", "each point once", project.check_points[i]);
-    }
-  }
-  if (!project.check_points.empty() && project.total_stations.empty()) {
-    r.Fail(root["check_points"], "check_points", "a total_station sensor that surveys them", "none");
-  }
-  if (project.photos.empty() && project.total_stations.empty()) {
-    r.Fail(root["sensors"], "sensors", "at least a photo_collection or a total_station", "neither");
-  }
-  for (const SphericalStereo& sphere : project.spherical) {
-    bool found = false;
-    for (const PhotoCollection& p : project.photos) found = found || p.id == sphere.tie_block;
-    if (!found) {
-      throw InputError(path, sphere.line, "tie_block", sphere.tie_block, "the id of a photo_collection sensor");
-    }
-  }
-  for (const CameraRig& rig : project.rigs) {
-    bool found = false;
-    for (const PhotoCollection& p : project.photos) found = found || p.id == rig.tie_block;
-    if (!found) throw InputError(path, rig.line, "tie_block", rig.tie_block, "the id of a photo_collection sensor");
-  }
-  for (const LidarMobile& m : project.lidar_mobile) {
-    if (project.lidar_static.empty()) {
-      throw InputError(path, m.line, "type", "lidar_mobile",
-                       "a lidar_static sensor too: the mobile points are tied to its reference surface");
-    }
-    if (project.photos.empty()) {
-      throw InputError(path, m.line, "type", "lidar_mobile", "a photo_collection too (its block bounds the LiDAR surface)");
-    }
-    if (m.rig.empty()) continue;
-    bool found = false;
-    for (const CameraRig& rig : project.rigs) found = found || rig.id == m.rig;
-    if (!found) throw InputError(path, m.line, "rig", m.rig, "the id of a camera_rig sensor with observations");
-  }
-  // MI registration runs against the static LiDAR (the world-frame cloud).
-  for (const PhotoCollection& p : project.photos) {
-    if (p.register_to_lidar && project.lidar_static.empty()) {
-      throw InputError(path, p.line, "register_to_lidar", "true", "a lidar_static sensor too: the block's tie points are registered to its reference cloud");
-    }
-    if (p.mi_register && project.lidar_static.empty()) {
-      throw InputError(path, p.line, "mi_register", "true", "a lidar_static sensor too: the photos are registered to its reference cloud");
-    }
-  }
-  for (const CameraRig& rig : project.rigs) {
-    if (rig.mi_lidar == MiLidar::kMobile) {
-      const bool carried = std::any_of(project.lidar_mobile.begin(), project.lidar_mobile.end(),
-                                       [&](const LidarMobile& m) { return m.rig == rig.id; });
-      if (!carried) {
-        throw InputError(path, rig.line, "mi_lidar", "mobile",
-                         "a lidar_mobile sensor with rig: " + rig.id + " (the panoramas are registered to its cloud)");
-      }
-    } else if (rig.mi_register && project.lidar_static.empty()) {
-      throw InputError(path, rig.line, "mi_register", "true", "a lidar_static sensor too: the panoramas are registered to its reference cloud");
-    }
-  }
-  if (project.lidar_mobile.size() > 1) {
-    throw InputError(path, project.lidar_mobile[1].line, "type", "lidar_mobile", "one lidar_mobile sensor in this version");
-  }
+  CheckCheckPoints(project, r, root);
+  CheckSensorReferences(project, path);
   if (project.name.empty()) project.name = fs::path(path).parent_path().filename().string();
   return project;
 }
