@@ -329,6 +329,36 @@ class GamaReader {
     return *v;
   }
 
+  /// A cluster of `type` at element `e`, which takes no attributes and no text.
+  Cluster ClusterWithoutAttributes(const xml::Element& e, Cluster::Type type) const {
+    Cluster cluster;
+    cluster.type = type;
+    cluster.line = e.line;
+    if (!e.attributes.empty()) {
+      Fail(e, e.name + "@" + e.attributes[0].first, e.attributes[0].second, "no attributes");
+    }
+    CheckNoText(e);
+    return cluster;
+  }
+
+  /// Calls on_observation(child) for each child of a cluster element up to its <cov-mat>,
+  /// which must come last; returns the <cov-mat> (nullptr if there is none).
+  template <typename OnObservation>
+  const xml::Element* ForEachObservation(const xml::Element& cluster,
+                                         OnObservation on_observation) const {
+    const xml::Element* cov = nullptr;
+    for (const auto& child_ptr : cluster.children) {
+      const xml::Element& e = *child_ptr;
+      if (cov != nullptr) Fail(e, "element", "<" + e.name + ">", "no observation after <cov-mat>");
+      if (e.name == "cov-mat") {
+        cov = &e;
+        continue;
+      }
+      on_observation(e);
+    }
+    return cov;
+  }
+
   /// A standpoint cluster from the attributes of <obs> (from, orientation) and its default
   /// from_dh.
   Cluster ReadObsAttributes(const xml::Element& obs, double* default_from_dh) const {
@@ -405,7 +435,7 @@ class GamaReader {
   /// factor input σ unit -> SI.
   Observation ReadObservation(const xml::Element& obs, const xml::Element& e,
                               const std::string& station, double default_from_dh,
-                              const xml::Element* cov, double* unit) const {
+                              double* unit) const {
     Observation o;
     o.line = e.line;
     bool dms = false;
@@ -422,7 +452,7 @@ class GamaReader {
       *unit = dms ? kArcsecToRad : kCcToRad;
       if (!net_.angles_left_handed) o.value = -o.value;  // to clockwise
     }
-    if (cov == nullptr && !(sigma_input > 0) && !HasCovMat(obs)) {
+    if (!(sigma_input > 0) && !HasCovMat(obs)) {
       Fail(e, e.name + "@stdev", stdev ? *stdev : std::string("none (no default)"),
            "a standard deviation > 0 (attribute stdev or a default in <points-observations>)");
     }
@@ -436,19 +466,12 @@ class GamaReader {
     double default_from_dh = 0.0;
     Cluster cluster = ReadObsAttributes(obs, &default_from_dh);
     std::vector<double> sigma_unit;  // input σ unit -> SI per observation
-    const xml::Element* cov = nullptr;
-    for (const auto& child_ptr : obs.children) {
-      const xml::Element& e = *child_ptr;
-      if (cov != nullptr) Fail(e, "element", "<" + e.name + ">", "no observation after <cov-mat>");
-      if (e.name == "cov-mat") {
-        cov = &e;
-        continue;
-      }
+    const xml::Element* cov = ForEachObservation(obs, [&](const xml::Element& e) {
       double unit = kMmToM;
       cluster.observations.push_back(
-          ReadObservation(obs, e, cluster.station, default_from_dh, cov, &unit));
+          ReadObservation(obs, e, cluster.station, default_from_dh, &unit));
       sigma_unit.push_back(unit);
-    }
+    });
     FinishCluster(&cluster, cov, sigma_unit);
     net_.clusters.push_back(std::move(cluster));
   }
@@ -524,23 +547,9 @@ class GamaReader {
   }
 
   void ReadHeightDifferences(const xml::Element& hd) {
-    Cluster cluster;
-    cluster.type = Cluster::Type::kHeightDifferences;
-    cluster.line = hd.line;
-    if (!hd.attributes.empty()) {
-      Fail(hd, "height-differences@" + hd.attributes[0].first, hd.attributes[0].second,
-           "no attributes");
-    }
-    CheckNoText(hd);
-    const xml::Element* cov = nullptr;
+    Cluster cluster = ClusterWithoutAttributes(hd, Cluster::Type::kHeightDifferences);
     std::vector<double> unit;
-    for (const auto& child_ptr : hd.children) {
-      const xml::Element& e = *child_ptr;
-      if (cov != nullptr) Fail(e, "element", "<" + e.name + ">", "no observation after <cov-mat>");
-      if (e.name == "cov-mat") {
-        cov = &e;
-        continue;
-      }
+    const xml::Element* cov = ForEachObservation(hd, [&](const xml::Element& e) {
       if (e.name != "dh") Fail(e, "element", "<" + e.name + ">", "<dh> or <cov-mat>");
       CheckAttributes(e, {"from", "to", "val", "stdev", "dist", "extern"});
       Observation o;
@@ -564,28 +573,15 @@ class GamaReader {
       o.sigma = sigma_mm * kMmToM;
       unit.push_back(kMmToM);
       cluster.observations.push_back(o);
-    }
+    });
     FinishCluster(&cluster, cov, unit);
     net_.clusters.push_back(std::move(cluster));
   }
 
   void ReadCoordinates(const xml::Element& c) {
-    Cluster cluster;
-    cluster.type = Cluster::Type::kCoordinates;
-    cluster.line = c.line;
-    if (!c.attributes.empty()) {
-      Fail(c, "coordinates@" + c.attributes[0].first, c.attributes[0].second, "no attributes");
-    }
-    CheckNoText(c);
-    const xml::Element* cov = nullptr;
+    Cluster cluster = ClusterWithoutAttributes(c, Cluster::Type::kCoordinates);
     std::vector<double> unit;
-    for (const auto& child_ptr : c.children) {
-      const xml::Element& e = *child_ptr;
-      if (cov != nullptr) Fail(e, "element", "<" + e.name + ">", "no observation after <cov-mat>");
-      if (e.name == "cov-mat") {
-        cov = &e;
-        continue;
-      }
+    const xml::Element* cov = ForEachObservation(c, [&](const xml::Element& e) {
       if (e.name != "point") Fail(e, "element", "<" + e.name + ">", "<point> or <cov-mat>");
       bool xy = false, z = false;
       const std::string* id = e.Attribute("id");
@@ -611,29 +607,16 @@ class GamaReader {
         add(ObsKind::kCoordY, input_xy.y());
       }
       if (z) add(ObsKind::kCoordZ, p.coords.z());
-    }
+    });
     if (cov == nullptr) Fail(c, "coordinates", "no <cov-mat>", "a <cov-mat> after the points");
     FinishCluster(&cluster, cov, unit);
     net_.clusters.push_back(std::move(cluster));
   }
 
   void ReadVectors(const xml::Element& v) {
-    Cluster cluster;
-    cluster.type = Cluster::Type::kVectors;
-    cluster.line = v.line;
-    if (!v.attributes.empty()) {
-      Fail(v, "vectors@" + v.attributes[0].first, v.attributes[0].second, "no attributes");
-    }
-    CheckNoText(v);
-    const xml::Element* cov = nullptr;
+    Cluster cluster = ClusterWithoutAttributes(v, Cluster::Type::kVectors);
     std::vector<double> unit;
-    for (const auto& child_ptr : v.children) {
-      const xml::Element& e = *child_ptr;
-      if (cov != nullptr) Fail(e, "element", "<" + e.name + ">", "no observation after <cov-mat>");
-      if (e.name == "cov-mat") {
-        cov = &e;
-        continue;
-      }
+    const xml::Element* cov = ForEachObservation(v, [&](const xml::Element& e) {
       if (e.name != "vec") Fail(e, "element", "<" + e.name + ">", "<vec> or <cov-mat>");
       CheckAttributes(e, {"from", "to", "dx", "dy", "dz", "from_dh", "to_dh", "extern"});
       Observation o;
@@ -651,7 +634,7 @@ class GamaReader {
         unit.push_back(kMmToM);
         cluster.observations.push_back(o);
       }
-    }
+    });
     if (cov == nullptr) Fail(v, "vectors", "no <cov-mat>", "a <cov-mat> after the vectors");
     FinishCluster(&cluster, cov, unit);
     net_.clusters.push_back(std::move(cluster));
