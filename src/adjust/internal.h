@@ -302,9 +302,10 @@ bool PlacePhotoBlockByLidar(JointState* s, std::string* reason);
 /// PhotoBlock::registration either way.
 void RegisterPhotoBlockToLidar(JointState* s);
 
-/// Reads a `mmba register-mi` result file as a pose prior. False (and `why` set) when it is not
-/// usable (status not "ok", no valid covariance); InputError when it is malformed.
-bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* why);
+/// Reads a `mmba register-mi` result file as a pose prior. False when the file does not exist,
+/// or, with a warning in s->warnings, when it is not usable (status not "ok", no valid
+/// covariance); InputError when it is malformed.
+bool ReadMiResultFile(JointState* s, const std::string& file, MiResult* result);
 /// The initialisation step "MI → camera corrections": with `mi_register`, images are registered
 /// to the static LiDAR's reference cloud by register-mi's library call with its default
 /// settings; "ok" results become MI pose priors. Stage kRigFrames (before the first solve):

@@ -37,9 +37,8 @@ MiFileStatus ParseMiFileStatus(const json& j) {
   return j.value("status", "") == "ok" ? MiFileStatus::kOk : MiFileStatus::kNotOk;
 }
 
-}  // namespace
-
-bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* why) {
+/// The result in `file` as a pose prior; false with `why` when it is not usable.
+bool ParseMiResultFile(const std::string& file, MiResult* result, std::string* why) {
   json j;
   io::RequireRegularFile(file);
   try {
@@ -79,6 +78,16 @@ bool ReadMiResultFile(const std::string& file, MiResult* result, std::string* wh
   }
   result->source = file;
   return true;
+}
+
+}  // namespace
+
+bool ReadMiResultFile(JointState* s, const std::string& file, MiResult* result) {
+  if (!fs::exists(file)) return false;
+  std::string why;
+  if (ParseMiResultFile(file, result, &why)) return true;
+  s->warnings.push_back("MI result " + file + " not used: " + why);
+  return false;
 }
 
 namespace {
@@ -274,13 +283,8 @@ void ReadRigMiResults(JointState* s) {
   const bool against_mobile = rig.config->mi_lidar == MiLidar::kMobile;
   for (size_t k = 0; k < rig.frame_names.size(); ++k) {
     const fs::path file = fs::path(rig.config->mi_results) / (rig.frame_names[k] + ".json");
-    if (!fs::exists(file)) continue;
     MiResult result;
-    std::string why;
-    if (!ReadMiResultFile(file.string(), &result, &why)) {
-      s->warnings.push_back("MI result " + file.string() + " not used: " + why);
-      continue;
-    }
+    if (!ReadMiResultFile(s, file.string(), &result)) continue;
     if (against_mobile) {
       if (!s->mobile || !s->mobile->with_rig) {
         s->warnings.push_back("MI result " + file.string() + " not used: mi_lidar mobile, but no mobile LiDAR on the rig's vehicle");

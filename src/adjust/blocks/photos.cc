@@ -216,13 +216,8 @@ void ReadPhotoMiResults(JointState* s, const std::map<std::string, ImageId>& ima
   const PhotoCollection& p = *block->config;
   for (const auto& [name, id] : image_by_name) {
     const fs::path file = fs::path(p.mi_results) / (fs::path(name).stem().string() + ".json");
-    if (!fs::exists(file)) continue;
     MiResult result;
-    std::string why;
-    if (!ReadMiResultFile(file.string(), &result, &why)) {
-      s->warnings.push_back("MI result " + file.string() + " not used: " + why);
-      continue;
-    }
+    if (!ReadMiResultFile(s, file.string(), &result)) continue;
     result.image_id = id;
     block->mi.push_back(result);
   }
