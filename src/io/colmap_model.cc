@@ -254,6 +254,14 @@ class BinaryCursor {
     }
   }
 
+  /// A record count (`field`, uint64), checked by CheckCount against the bytes that follow.
+  uint64_t ReadCount(const std::string& field, size_t min_record_bytes) {
+    const uint64_t at = offset_;
+    const uint64_t count = Read<uint64_t>(field);
+    CheckCount(count, min_record_bytes, field, at);
+    return count;
+  }
+
   void ExpectEnd() const {
     if (offset_ != data_.size()) {
       throw InputError::AtByte(path_, offset_, "end of file",
@@ -271,11 +279,20 @@ class BinaryCursor {
   uint64_t offset_ = 0;
 };
 
+// Adds `value` under `key`; a key already present fails at byte `record_at` of `path`,
+// naming `field` = id.
+template <typename Map, typename Key, typename Value>
+void EmplaceUniqueAt(Map* map, const Key& key, Value&& value, const std::string& path,
+                     uint64_t record_at, const char* field, uint64_t id) {
+  if (!map->emplace(key, std::forward<Value>(value)).second) {
+    throw InputError::AtByte(path, record_at, field, std::to_string(id),
+                             "a unique id (it appears twice)");
+  }
+}
+
 void ReadCamerasBinary(const std::string& path, ColmapModel* model) {
   BinaryCursor in(path, ReadWholeFile(path));
-  const uint64_t count_at = in.offset();
-  const uint64_t num_cameras = in.Read<uint64_t>("num_cameras");
-  in.CheckCount(num_cameras, 4 + 4 + 8 + 8, "num_cameras", count_at);
+  const uint64_t num_cameras = in.ReadCount("num_cameras", 4 + 4 + 8 + 8);
   for (uint64_t i = 0; i < num_cameras; ++i) {
     const uint64_t record_at = in.offset();
     const uint32_t camera_id = in.Read<uint32_t>("camera_id");
@@ -301,19 +318,15 @@ void ReadCamerasBinary(const std::string& path, ColmapModel* model) {
     for (int k = 0; k < num_params; ++k) {
       camera.params.push_back(in.ReadFinite("params[" + std::to_string(k) + "]"));
     }
-    if (!model->cameras.emplace(camera.camera_id, camera).second) {
-      throw InputError::AtByte(path, record_at, "camera_id", std::to_string(camera_id),
-                               "a unique id (it appears twice)");
-    }
+    EmplaceUniqueAt(&model->cameras, camera.camera_id, camera, path, record_at, "camera_id",
+                    camera_id);
   }
   in.ExpectEnd();
 }
 
 void ReadImagesBinary(const std::string& path, ColmapModel* model) {
   BinaryCursor in(path, ReadWholeFile(path));
-  const uint64_t count_at = in.offset();
-  const uint64_t num_images = in.Read<uint64_t>("num_reg_images");
-  in.CheckCount(num_images, 4 + 7 * 8 + 4 + 1 + 8, "num_reg_images", count_at);
+  const uint64_t num_images = in.ReadCount("num_reg_images", 4 + 7 * 8 + 4 + 1 + 8);
   for (uint64_t i = 0; i < num_images; ++i) {
     const uint64_t record_at = in.offset();
     ColmapImage image;
@@ -350,19 +363,15 @@ void ReadImagesBinary(const std::string& path, ColmapModel* model) {
       image.point3D_ids.push_back(id == kInvalidPoint3D ? Point3DId() : Point3DId(id));
     }
     const ImageId image_id = image.image_id;
-    if (!model->images.emplace(image_id, std::move(image)).second) {
-      throw InputError::AtByte(path, record_at, "image_id", std::to_string(image_id.value),
-                               "a unique id (it appears twice)");
-    }
+    EmplaceUniqueAt(&model->images, image_id, std::move(image), path, record_at, "image_id",
+                    image_id.value);
   }
   in.ExpectEnd();
 }
 
 void ReadPoints3DBinary(const std::string& path, ColmapModel* model) {
   BinaryCursor in(path, ReadWholeFile(path));
-  const uint64_t count_at = in.offset();
-  const uint64_t num_points = in.Read<uint64_t>("num_points3D");
-  in.CheckCount(num_points, 8 + 3 * 8 + 3 + 8 + 8, "num_points3D", count_at);
+  const uint64_t num_points = in.ReadCount("num_points3D", 8 + 3 * 8 + 3 + 8 + 8);
   for (uint64_t i = 0; i < num_points; ++i) {
     const uint64_t record_at = in.offset();
     ColmapPoint3D point;
@@ -384,10 +393,9 @@ void ReadPoints3DBinary(const std::string& path, ColmapModel* model) {
       element.point2D_idx = in.Read<uint32_t>("track.point2D_idx");
       point.track.push_back(element);
     }
-    if (!model->points3D.emplace(point.point3D_id, std::move(point)).second) {
-      throw InputError::AtByte(path, record_at, "point3D_id", std::to_string(id),
-                               "a unique id (it appears twice)");
-    }
+    const Point3DId point3D_id = point.point3D_id;
+    EmplaceUniqueAt(&model->points3D, point3D_id, std::move(point), path, record_at,
+                    "point3D_id", id);
   }
   in.ExpectEnd();
 }
