@@ -15,22 +15,18 @@
 
 namespace mmba::adjust::internal {
 
-void LoadMobile(JointState* s) {
-  if (s->project->lidar_mobile.empty()) return;
-  const LidarMobile& config = s->project->lidar_mobile.front();
-  MobileBlock m;
-  m.config = &config;
-  // Calibration: the mounting the delivered cloud was georeferenced with.
-  m.body_from_lidar_nominal = io::ReadLidarMountYaml(config.calibration);
-  m.trajectory = ReadTrajectory(config.trajectory);
-  // One streamed pass over the cloud (memory: one chunk and the sample, whatever the cloud's
-  // size): check every point's time against the trajectory, and keep `points` of them evenly
-  // spaced in file order (= time order for a scanner's file), un-georeferenced into the LiDAR
-  // frame with the GNSS/INS pose at their time.
+namespace {
+
+/// One streamed pass over the cloud (memory: one chunk and the sample, whatever the cloud's
+/// size): checks every point's time against the trajectory, and keeps `points` of them evenly
+/// spaced in file order (= time order for a scanner's file), un-georeferenced into the LiDAR
+/// frame with the GNSS/INS pose at their time. [*lo, *hi]: the points' time span [s].
+void SampleMobileCloud(const LidarMobile& config, double max_range, MobileBlock* m_ptr, double* lo_ptr, double* hi_ptr) {
+  MobileBlock& m = *m_ptr;
+  double& lo = *lo_ptr;
+  double& hi = *hi_ptr;
   const double t0 = m.trajectory.front().first, t1 = m.trajectory.back().first;
-  const double max_range = MobileMaxRange(config);
   const Rigid3d lidar_from_body = m.body_from_lidar_nominal.Inverse();
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   size_t wanted = 0, next = 0;  // next sample: the point index floor(next · total / wanted)
   io::ReadStats stats;
   io::StreamPointCloud(config.cloud, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t first, size_t total) {
@@ -69,18 +65,12 @@ void LoadMobile(JointState* s) {
   }, io::ReadOptions{}, &stats);
   if (m.num_points == 0) throw InputError::Message(config.cloud, "the mobile LiDAR cloud has no points (sensor '" + config.id + "')");
   m.format = stats.format;
-  // The vehicle frame: the rig's frame when the rig rides on the same vehicle.
-  m.with_rig = !config.rig.empty() && s->rig && s->rig->config->id == config.rig;
-  m.body_from_vehicle = m.with_rig ? s->rig->body_from_rig : Rigid3d();
-  m.vehicle_from_lidar_initial = m.body_from_vehicle.Inverse() * m.body_from_lidar_nominal;
-  s->scene.AddMount(m.mount, m.vehicle_from_lidar_initial);
-  // Nodes every node_spacing_s over the time span of the sample and the rig frames.
-  if (m.with_rig) {
-    for (double t : s->rig->frame_times) {
-      lo = std::min(lo, t);
-      hi = std::max(hi, t);
-    }
-  }
+}
+
+/// Trajectory-correction nodes every node_spacing_s over [lo, hi] (the sample's and the rig
+/// frames' times); each sample point's and rig frame's place between them.
+void PlaceTrajectoryNodes(JointState* s, const LidarMobile& config, double lo, double hi, MobileBlock* m_ptr) {
+  MobileBlock& m = *m_ptr;
   const int intervals = std::max(1, static_cast<int>(std::ceil((hi - lo) / config.node_spacing_s - 1e-9)));
   std::vector<TrajectoryNode> nodes;
   for (int k = 0; k <= intervals; ++k) {
@@ -97,6 +87,33 @@ void LoadMobile(JointState* s) {
     }
   }
   s->scene.SetTrajectoryNodes(std::move(nodes));
+}
+
+}  // namespace
+
+void LoadMobile(JointState* s) {
+  if (s->project->lidar_mobile.empty()) return;
+  const LidarMobile& config = s->project->lidar_mobile.front();
+  MobileBlock m;
+  m.config = &config;
+  // Calibration: the mounting the delivered cloud was georeferenced with.
+  m.body_from_lidar_nominal = io::ReadLidarMountYaml(config.calibration);
+  m.trajectory = ReadTrajectory(config.trajectory);
+  const double max_range = MobileMaxRange(config);
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  SampleMobileCloud(config, max_range, &m, &lo, &hi);
+  // The vehicle frame: the rig's frame when the rig rides on the same vehicle.
+  m.with_rig = !config.rig.empty() && s->rig && s->rig->config->id == config.rig;
+  m.body_from_vehicle = m.with_rig ? s->rig->body_from_rig : Rigid3d();
+  m.vehicle_from_lidar_initial = m.body_from_vehicle.Inverse() * m.body_from_lidar_nominal;
+  s->scene.AddMount(m.mount, m.vehicle_from_lidar_initial);
+  if (m.with_rig) {
+    for (double t : s->rig->frame_times) {
+      lo = std::min(lo, t);
+      hi = std::max(hi, t);
+    }
+  }
+  PlaceTrajectoryNodes(s, config, lo, hi, &m);
   s->log.push_back("mobile LiDAR '" + config.id + "': " + std::to_string(m.num_points) + " points (" + m.format + ", streamed" +
                    "), " + std::to_string(m.sample.size()) + " used (" +
                    (max_range > 0 ? fmt::format("within {:.1f} m of the scanner", max_range) +

@@ -26,22 +26,12 @@ namespace mmba::adjust::internal {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
 
-void LoadSpheres(JointState* s) {
-  const Project& project = *s->project;
-  if (project.spherical.empty()) return;
-  if (project.spherical.size() > 1) {
-    throw InputError::Message(ProjectKey(project, project.spherical[1].line, "sensors"),
-                              "found a second spherical_stereo sensor with observations, expected one");
-  }
-  const SphericalStereo& config = project.spherical.front();
-  if (!s->photos || s->photos->config->id != config.tie_block) {
-    throw InputError::Message(ProjectKey(project, config.line, "tie_block"),
-                              "found " + config.tie_block + ", expected the photo_collection whose tie points are observed");
-  }
-  SphereBlock block;
-  block.config = &config;
-  block.stations = config.stations;
-  // Calibration (calib/README.md).
+namespace {
+
+/// The pair's calibration (calib/README.md): both equirectangular cameras into the scene, the
+/// baseline vector and its prior. Returns the baseline length [m].
+double ReadSphereCalibration(JointState* s, const SphericalStereo& config, SphereBlock* block_ptr) {
+  SphereBlock& block = *block_ptr;
   const io::YamlReader r(config.calibration);
   const YAML::Node root = r.Load("spherical stereo calibration");
   std::string model;
@@ -73,7 +63,13 @@ void LoadSpheres(JointState* s) {
   block.initial_upper_params = cameras[1].params;
   // The baseline vector in the lower sphere's frame (x right, y down, z forward): up = −y.
   block.baseline = block.baseline_prior = Eigen::Vector3d(0, -baseline_m, 0);
-  // Station setups.
+  return baseline_m;
+}
+
+/// The stations' setups (stations_file: centre ENU [m], heading [deg]) as lower-sphere images
+/// with their given poses; every listed station must have a row.
+void ReadSphereSetups(JointState* s, const Project& project, const SphericalStereo& config, SphereBlock* block_ptr) {
+  SphereBlock& block = *block_ptr;
   const io::CsvTable setups = io::CsvTable::Read(config.stations_file, {"station", "east_m", "north_m", "up_m", "heading_deg"});
   uint64_t next_image = 3000000;
   for (const io::CsvTable::Row& row : setups.rows()) {
@@ -96,7 +92,12 @@ void LoadSpheres(JointState* s) {
                                 "station " + name + " has no row in " + config.stations_file);
     }
   }
-  // Observations.
+}
+
+/// The observations of the photo block's tie points in the panoramas (<station>_lower/_upper).
+void ReadSphereObservations(const JointState& s, const SphericalStereo& config, SphereBlock* block_ptr) {
+  SphereBlock& block = *block_ptr;
+  const sensors::Camera& panorama = s.scene.Camera(block.lower_camera);
   const io::CsvTable table = io::CsvTable::Read(config.observations, {"image", "point_id", "x_px", "y_px"});
   for (const io::CsvTable::Row& row : table.rows()) {
     const std::string stem = fs::path(table.String(row, "image")).stem().string();
@@ -108,11 +109,11 @@ void LoadSpheres(JointState* s) {
     }
     const double id = table.Double(row, "point_id");
     const Point3DId point3D_id(static_cast<uint64_t>(id));
-    if (id < 0 || id != std::floor(id) || !s->scene.HasPoint(point3D_id)) {
+    if (id < 0 || id != std::floor(id) || !s.scene.HasPoint(point3D_id)) {
       table.Fail(row, "point_id", table.String(row, "point_id"), "a point3D id of photo collection '" + config.tie_block + "'");
     }
     const Eigen::Vector2d xy(table.Double(row, "x_px"), table.Double(row, "y_px"));
-    if (xy.x() < -0.5 || xy.y() < -0.5 || xy.x() > cameras[0].width + 0.5 || xy.y() > cameras[0].height + 0.5) {
+    if (xy.x() < -0.5 || xy.y() < -0.5 || xy.x() > panorama.width + 0.5 || xy.y() > panorama.height + 0.5) {
       table.Fail(row, "x_px", table.String(row, "x_px") + ", " + table.String(row, "y_px"), "a pixel inside the panorama");
     }
     const double sigma = table.Double(row, "sigma_px", config.sigma_px);
@@ -126,6 +127,28 @@ void LoadSpheres(JointState* s) {
       block.upper_source.push_back(source);
     }
   }
+}
+
+}  // namespace
+
+void LoadSpheres(JointState* s) {
+  const Project& project = *s->project;
+  if (project.spherical.empty()) return;
+  if (project.spherical.size() > 1) {
+    throw InputError::Message(ProjectKey(project, project.spherical[1].line, "sensors"),
+                              "found a second spherical_stereo sensor with observations, expected one");
+  }
+  const SphericalStereo& config = project.spherical.front();
+  if (!s->photos || s->photos->config->id != config.tie_block) {
+    throw InputError::Message(ProjectKey(project, config.line, "tie_block"),
+                              "found " + config.tie_block + ", expected the photo_collection whose tie points are observed");
+  }
+  SphereBlock block;
+  block.config = &config;
+  block.stations = config.stations;
+  const double baseline_m = ReadSphereCalibration(s, config, &block);
+  ReadSphereSetups(s, project, config, &block);
+  ReadSphereObservations(*s, config, &block);
   Note(s, "spherical stereo '" + config.id + "': " + std::to_string(block.stations.size()) + " stations, " +
               std::to_string(block.lower.size()) + " lower + " + std::to_string(block.upper.size()) +
               " upper observations of photo tie points, baseline " + std::to_string(baseline_m) + " m (prior σ " +
