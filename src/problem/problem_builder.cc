@@ -122,18 +122,7 @@ void ProblemBuilder::ApplyIntrinsics() {
 void ProblemBuilder::ApplyImagesAndPoints() {
   const ParameterOptions& o = parameter_options_;
   for (auto& [id, image] : scene_->images()) {
-    double* rotation = image.cam_from_world.rotation.coeffs().data();
-    double* translation = image.cam_from_world.translation.data();
-    if (problem_->HasParameterBlock(rotation)) {
-      problem_->SetManifold(rotation, CreateQuaternionManifold().release());
-      if (!o.refine_poses || o.constant_images.count(id)) {
-        problem_->SetParameterBlockConstant(rotation);
-      }
-    }
-    if (problem_->HasParameterBlock(translation) &&
-        (!o.refine_poses || o.constant_images.count(id))) {
-      problem_->SetParameterBlockConstant(translation);
-    }
+    ApplyPose(image.cam_from_world, !o.refine_poses || o.constant_images.count(id) > 0);
   }
   for (auto& [id, point] : scene_->points()) {
     if (problem_->HasParameterBlock(point.data()) &&
