@@ -1,4 +1,4 @@
-// Shared helpers, the extension dispatch, the XYZ text and KITTI .bin readers.
+// Shared helpers, the extension dispatch and the XYZ text reader.
 
 #include <algorithm>
 #include <cctype>
@@ -94,6 +94,7 @@ PointCloud WithoutMarked(const PointCloud& cloud, const std::vector<char>& marke
   keep(cloud.intensity, &out.intensity);
   keep(cloud.colors, &out.colors);
   keep(cloud.time, &out.time);
+  keep(cloud.ring, &out.ring);
   return out;
 }
 
@@ -114,7 +115,13 @@ PointCloud ReadPointCloud(const std::string& path, const ReadOptions& options,
   if (ext == ".ply") return ReadPly(path, options, stats);
   if (ext == ".pcd") return ReadPcd(path, options, stats);
   if (ext == ".las") return ReadLas(path, options, stats);
-  if (ext == ".bin") return ReadKittiBin(path, options, stats);
+  if (ext == ".bin") {
+    // nuScenes names its sweeps NAME.pcd.bin (5 floats per point), KITTI NAME.bin (4).
+    if (ToLower(std::filesystem::path(path).stem().extension().string()) == ".pcd") {
+      return ReadNuScenesBin(path, options, stats);
+    }
+    return ReadKittiBin(path, options, stats);
+  }
   if (ext == ".xyz" || ext == ".txt" || ext == ".csv" || ext == ".pts") {
     return ReadXyz(path, options, stats);
   }
@@ -123,7 +130,7 @@ PointCloud ReadPointCloud(const std::string& path, const ReadOptions& options,
                      "an uncompressed format (.las); decompress LAZ first (laszip/pdal)");
   }
   throw InputError(path, 0, "extension", ext.empty() ? "(none)" : ext,
-                   "one of .ply .pcd .las .bin .xyz .txt .csv .pts");
+                   "one of .ply .pcd .las .bin .pcd.bin .xyz .txt .csv .pts");
 }
 
 void StreamPointCloud(const std::string& path, size_t chunk_points, const ChunkConsumer& consume,
@@ -149,6 +156,7 @@ void StreamPointCloud(const std::string& path, size_t chunk_points, const ChunkC
     slice(cloud.intensity, &chunk.intensity);
     slice(cloud.colors, &chunk.colors);
     slice(cloud.time, &chunk.time);
+    slice(cloud.ring, &chunk.ring);
     consume(chunk, first, cloud.size());
   }
 }
@@ -507,36 +515,6 @@ PointCloud ReadXyz(const std::string& path, const ReadOptions& options, ReadStat
     parser.Parse(path, t, &builder);
   }
   return builder.Finish("xyz", stats);
-}
-
-// ---------------------------------------------------------------------------------------
-// KITTI velodyne .bin: float32 x y z reflectance, little endian.
-
-PointCloud ReadKittiBin(const std::string& path, const ReadOptions& options,
-                        ReadStats* stats) {
-  const std::string data = ReadWholeFile(path);
-  if (data.empty()) return CloudBuilder(path, options, false, true, false, 0).Finish("kitti-bin", stats);
-  if (data.size() % 16 != 0) {
-    throw InputError::AtByte(path, data.size() - data.size() % 16, "file size",
-                             std::to_string(data.size()) + " bytes",
-                             "a multiple of 16 (float32 x y z reflectance per point)");
-  }
-  const size_t n = data.size() / 16;
-  const bool swap = !internal::HostIsLittleEndian();
-  CloudBuilder builder(path, options, false, true, false, n);
-  for (size_t i = 0; i < n; ++i) {
-    const char* p = data.data() + 16 * i;
-    double xyz[3];
-    for (int k = 0; k < 3; ++k) {
-      xyz[k] = internal::ReadScalar(p + 4 * k, internal::ScalarType::kFloat32, swap);
-    }
-    const float r =
-        static_cast<float>(internal::ReadScalar(p + 12, internal::ScalarType::kFloat32, swap));
-    builder.Add(xyz, nullptr, r, nullptr, [&] {
-      return path + " (byte " + std::to_string(16 * i) + ")";
-    });
-  }
-  return builder.Finish("kitti-bin", stats);
 }
 
 }  // namespace mmba::io

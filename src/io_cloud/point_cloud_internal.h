@@ -89,6 +89,17 @@ class CloudBuilder {
     if (has_time_) name("time", time);
     return "non-finite " + out;
   }
+  /// Keeps a ring (laser index) per point: AddRing after every Add that returned true.
+  void EnableRing() { has_ring_ = true; cloud_.ring.reserve(cloud_.points.capacity()); }
+  /// The ring of the point just added; InputError unless an integer in 0..65535.
+  template <typename Describe>
+  void AddRing(double ring, Describe describe_location) {
+    if (!(ring >= 0.0 && ring <= 65535.0) || ring != std::floor(ring)) {
+      throw InputError::Message(describe_location(), "ring " + std::to_string(ring) +
+                                                         "; expected a laser index, an integer in 0..65535");
+    }
+    cloud_.ring.push_back(static_cast<uint16_t>(ring));
+  }
   /// Counts a point that is dropped without a check (e.g. PCD NaN padding).
   void CountSkipped() { ++skipped_; }
 
@@ -98,6 +109,7 @@ class CloudBuilder {
   std::string file_;
   ReadOptions options_;
   bool has_normals_, has_intensity_, has_colors_, has_time_;
+  bool has_ring_ = false;
   size_t seen_ = 0;
   size_t skipped_ = 0;
   PointCloud cloud_;

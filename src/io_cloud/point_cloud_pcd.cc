@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "io_cloud/point_cloud_internal.h"
+#include "mmba/io_cloud/lzf.h"
 #include "mmba/io/text_reader.h"
 
 namespace mmba::io {
@@ -23,37 +24,6 @@ struct PcdField {
   ScalarType scalar = ScalarType::kFloat32;
   size_t offset = 0;  // byte offset within a point (AoS) / token offset (ascii)
 };
-
-// LZF decompression (Marc Lehmann's liblzf format). Returns false on corrupt input.
-bool LzfDecompress(const uint8_t* in, size_t in_size, uint8_t* out, size_t out_size) {
-  const uint8_t* ip = in;
-  const uint8_t* const in_end = in + in_size;
-  uint8_t* op = out;
-  uint8_t* const out_end = out + out_size;
-  while (ip < in_end) {
-    unsigned ctrl = *ip++;
-    if (ctrl < 32) {  // literal run
-      const size_t len = ctrl + 1;
-      if (op + len > out_end || ip + len > in_end) return false;
-      std::copy(ip, ip + len, op);
-      op += len;
-      ip += len;
-    } else {  // back reference
-      size_t len = ctrl >> 5;
-      if (len == 7) {
-        if (ip >= in_end) return false;
-        len += *ip++;
-      }
-      if (ip >= in_end) return false;
-      const size_t back = ((ctrl & 0x1f) << 8) + *ip++ + 1;
-      len += 2;
-      if (back > static_cast<size_t>(op - out) || op + len > out_end) return false;
-      const uint8_t* ref = op - back;
-      for (size_t k = 0; k < len; ++k) *op++ = *ref++;  // may overlap
-    }
-  }
-  return op == out_end;
-}
 
 // The header of a PCD file: its fields, point count and where and how its data are stored.
 struct PcdHeader {
@@ -162,9 +132,18 @@ PcdHeader ParsePcdHeader(const std::string& path, const std::string& data) {
 struct PcdLayout {
   size_t point_size = 0, tokens_per_point = 0;  // bytes (binary), values (ascii)
   std::vector<size_t> token_offset;             // first value of each field in an ascii line
-  int ix[3] = {-1, -1, -1}, inormal[3] = {-1, -1, -1}, iintensity = -1, irgb = -1;
+  int ix[3] = {-1, -1, -1}, inormal[3] = {-1, -1, -1}, iintensity = -1, irgb = -1, iring = -1;
   bool normals = false;
 };
+
+// The names LiDAR drivers give the return strength: PCL's `intensity`, `i` (Livox, some ROS
+// exporters), `reflectivity` (Ouster), `reflectance`. Any numeric type is read as a float.
+bool IsIntensityName(const std::string& name) {
+  return name == "intensity" || name == "i" || name == "reflectivity" || name == "reflectance";
+}
+
+// The laser (beam) index of a point: `ring` (Velodyne, Hesai, Ouster drivers) or `laser_id`.
+bool IsRingName(const std::string& name) { return name == "ring" || name == "laser_id"; }
 
 // Each field's scalar type and offset, the fields mmba reads; x, y and z are required.
 PcdLayout ResolveLayout(const std::string& path, std::vector<PcdField>* fields) {
@@ -193,7 +172,8 @@ PcdLayout ResolveLayout(const std::string& path, std::vector<PcdField>* fields) 
     else if (f.name == "normal_x") layout.inormal[0] = idx;
     else if (f.name == "normal_y") layout.inormal[1] = idx;
     else if (f.name == "normal_z") layout.inormal[2] = idx;
-    else if (f.name == "intensity") layout.iintensity = idx;
+    else if (IsIntensityName(f.name) && f.count == 1) layout.iintensity = idx;
+    else if (IsRingName(f.name) && f.count == 1 && f.type != 'F') layout.iring = idx;
     else if ((f.name == "rgb" || f.name == "rgba") && f.size == 4) layout.irgb = idx;
   }
   for (int k = 0; k < 3; ++k) {
@@ -242,7 +222,9 @@ class PcdPointEmitter {
       rgb[2] = bits & 0xff;
     }
     const float inten = layout_.iintensity >= 0 ? static_cast<float>(value_of(layout_.iintensity)) : 0.0f;
-    builder_->Add(xyz, layout_.normals ? n : nullptr, inten, rgb, describe);
+    if (builder_->Add(xyz, layout_.normals ? n : nullptr, inten, rgb, describe) && layout_.iring >= 0) {
+      builder_->AddRing(value_of(layout_.iring), describe);
+    }
   }
 
  private:
@@ -325,11 +307,16 @@ void DecompressPcd(const std::string& path, const std::string& data, const PcdHe
                                  " bytes of LZF data (the most LZF expands)");
   }
   decompressed->resize(total);
-  if (total > 0 &&
-      !LzfDecompress(reinterpret_cast<const uint8_t*>(data.data() + data_start + 8),
-                     compressed, decompressed->data(), total)) {
-    throw InputError::AtByte(path, data_start + 8, "compressed data", "corrupt LZF stream",
-                             "valid LZF data");
+  size_t at = 0;
+  const LzfProblem problem =
+      total == 0 ? LzfProblem::kNone
+                 : LzfDecompress(reinterpret_cast<const uint8_t*>(data.data() + data_start + 8), compressed,
+                                 decompressed->data(), total, &at);
+  if (problem != LzfProblem::kNone) {
+    throw InputError::AtByte(path, data_start + 8 + at, "compressed data",
+                             std::string("corrupt LZF stream: ") + LzfProblemText(problem),
+                             std::to_string(compressed) + " bytes of LZF data decoding to " +
+                                 std::to_string(total) + " bytes (POINTS x point size)");
   }
 }
 
@@ -403,6 +390,7 @@ PointCloud ReadPcd(const std::string& path, const ReadOptions& options, ReadStat
   if (h.mode == "binary") reserve = std::min<uint64_t>(h.points, data_bytes / std::max<size_t>(1, layout.point_size));
   CloudBuilder builder(path, options, layout.normals, layout.iintensity >= 0, layout.irgb >= 0,
                        static_cast<size_t>(reserve));
+  if (layout.iring >= 0) builder.EnableRing();
   const PcdPointEmitter emitter(layout, options, h.height > 1, &builder);
   if (h.mode == "ascii") {
     ReadPcdAscii(path, data, h, layout, emitter);

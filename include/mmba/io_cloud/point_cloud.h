@@ -4,8 +4,10 @@
 //   PLY  ascii / binary_little_endian / binary_big_endian; vertex properties x y z (any
 //        numeric type), optional nx ny nz (or normal_x …), intensity / scalar_intensity /
 //        reflectance, red green blue (or diffuse_red …); other elements are skipped.
-//   PCD  v0.7 ascii / binary / binary_compressed (LZF); fields x y z, normal_x…, intensity,
-//        rgb / rgba (packed). VIEWPOINT is not applied (as PCL's loadPCDFile).
+//   PCD  v0.7 ascii / binary / binary_compressed (LZF, io_cloud/lzf.h); fields x y z,
+//        normal_x…, intensity (or i / reflectivity / reflectance, any type and size), ring (or
+//        laser_id, an integer type), rgb / rgba (packed); other fields (a timestamp, …) are
+//        skipped. VIEWPOINT is not applied (as PCL's loadPCDFile).
 //   XYZ  text (.xyz .txt .csv .pts): whitespace or comma separated; an optional first line
 //        of column names (x y z nx ny nz intensity r g b …); without names the column count
 //        decides: 3 = xyz, 4 = xyz intensity, 6 = xyz rgb if the 3 extra values are integers
@@ -14,7 +16,8 @@
 //        (PTS point count) is skipped.
 //   LAS  1.2–1.4 uncompressed, point data formats 0–3 and 6–8, with scale and offset
 //        (a small reader written here: Debian packages no LAS library). LAZ is refused.
-//   BIN  KITTI velodyne: float32 little-endian x y z reflectance per point.
+//   BIN  KITTI velodyne (.bin): float32 little-endian x y z reflectance per point.
+//        nuScenes (.pcd.bin): float32 little-endian x y z intensity ring per point.
 // Non-finite coordinates are an InputError unless ReadOptions::skip_invalid_points, which
 // drops them (PCD's organised clouds mark missing returns with NaN x y z).
 
@@ -41,6 +44,8 @@ struct PointCloud {
   /// Optional acquisition time per point [s] (PLY `time` / `gps_time` / `timestamp`, LAS
   /// GPS time): what a mobile-mapping cloud needs to be re-georeferenced along its trajectory.
   std::vector<double> time;
+  /// Optional laser (beam) index per point: PCD `ring` / `laser_id`, nuScenes' fifth value.
+  std::vector<uint16_t> ring;
 
   size_t size() const { return points.size(); }
   bool empty() const { return points.empty(); }
@@ -48,6 +53,7 @@ struct PointCloud {
   bool has_intensity() const { return !intensity.empty(); }
   bool has_colors() const { return !colors.empty(); }
   bool has_time() const { return !time.empty(); }
+  bool has_ring() const { return !ring.empty(); }
 };
 
 /// How readers treat doubtful content.
@@ -73,8 +79,9 @@ using mmba::LocalOrigin;
 using mmba::MedianCentre;
 
 /// Reads a cloud, choosing the reader from the extension (.ply, .pcd, .xyz/.txt/.csv/.pts,
-/// .las, .bin = KITTI velodyne). Throws InputError naming the file (and line or byte) on bad
-/// input: missing file, bad header, truncated data, non-finite values (unless skipped).
+/// .las, .pcd.bin = nuScenes, any other .bin = KITTI velodyne). Throws InputError naming the
+/// file (and line or byte) on bad input: missing file, bad header, truncated data,
+/// non-finite values (unless skipped).
 PointCloud ReadPointCloud(const std::string& path);
 PointCloud ReadPointCloud(const std::string& path, const ReadOptions& options,
                           ReadStats* stats = nullptr);
@@ -92,6 +99,11 @@ PointCloud ReadLas(const std::string& path, const ReadOptions& options = {},
                    ReadStats* stats = nullptr);
 PointCloud ReadKittiBin(const std::string& path, const ReadOptions& options = {},
                         ReadStats* stats = nullptr);
+/// nuScenes LiDAR sweep (`*.pcd.bin`): 5 float32 per point, x y z intensity ring index; the
+/// ring goes to PointCloud::ring. InputError naming the file and its size unless the size is
+/// a multiple of 20 bytes, or when a ring is not an integer in 0..65535.
+PointCloud ReadNuScenesBin(const std::string& path, const ReadOptions& options = {},
+                           ReadStats* stats = nullptr);
 
 /// Called with consecutive chunks of a cloud: `first_index` is the index of the chunk's first
 /// point in the file, `total` the number of points the file declares.
