@@ -9,7 +9,7 @@
 
 #include "mmba/core/error.h"
 #include "mmba/io/text_reader.h"
-#include "xml_lite.h"
+#include "xml_tree.h"
 
 namespace mmba::io {
 
@@ -162,12 +162,14 @@ class GamaReader {
       } else if (key == "latitude") {
         double degrees = 0.0;
         if (!ParseDms(v, &degrees)) Number(e, key, v);
-      } else if (key == "algorithm" || key == "ellipsoid") {
-        // Gama's solver choice and ellipsoid name: the solution does not depend on them here.
+      } else if (key == "algorithm" || key == "ellipsoid" || key == "language" ||
+                 key == "encoding") {
+        // Gama's solver choice, ellipsoid name, and the language and encoding of its text
+        // output: no observation, and the solution does not depend on them here.
       } else {
         Fail(e, "parameters@" + key, value,
              "one of sigma-apr, conf-pr, tol-abs, sigma-act, update-constrained-coordinates, "
-             "angles, algorithm, cov-band, latitude, ellipsoid");
+             "angles, algorithm, cov-band, latitude, ellipsoid, language, encoding");
       }
     }
     CheckNoText(e);
@@ -329,13 +331,14 @@ class GamaReader {
     return *v;
   }
 
-  /// A cluster of `type` at element `e`, which takes no attributes and no text.
+  /// A cluster of `type` at element `e`, which takes no attributes but Gama's `extern` (a
+  /// label for other programs, no observation) and no text.
   Cluster ClusterWithoutAttributes(const xml::Element& e, Cluster::Type type) const {
     Cluster cluster;
     cluster.type = type;
     cluster.line = e.line;
-    if (!e.attributes.empty()) {
-      Fail(e, e.name + "@" + e.attributes[0].first, e.attributes[0].second, "no attributes");
+    for (const auto& [key, value] : e.attributes) {
+      if (key != "extern") Fail(e, e.name + "@" + key, value, "no attribute other than extern");
     }
     CheckNoText(e);
     return cluster;

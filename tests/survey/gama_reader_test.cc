@@ -208,5 +208,43 @@ TEST(GamaReader, UncorrelatedClustersHoldNoDenseCovariance) {
             std::string::npos);
 }
 
+// A network declaring ISO-8859-2, windows-1250 (also in Gama's own spelling cp-1250) or
+// UTF-16 (with a byte order mark) reads as the same UTF-8 network; an encoding iconv does not
+// know and a byte the declared encoding does not define are input errors naming file and line.
+TEST(GamaReader, AnyDeclaredEncodingIsReadAsUtf8) {
+  for (const std::string& name : {"encoding-iso-8859-2.gkf", "encoding-windows-1250.gkf",
+                                  "encoding-gama-cp-1250.gkf", "encoding-utf-16.gkf"}) {
+    SCOPED_TRACE(name);
+    survey::SurveyNetwork net = ReadGamaLocal(Fixture(name));
+    EXPECT_EQ(net.description.rfind("M\xC4\x9B\xC5\x99" "en\xC3\xAD s\xC3\xADt\xC4\x9B "
+                                    "\xC5\xBDi\xC5\xBEkov (", 0),  // Měření sítě Žižkov
+              0u)
+        << net.description;
+    ASSERT_NE(net.Find("\xC5\xA0\xC5\xA5\xC3\xA1va"), nullptr);  // Šťáva
+    EXPECT_EQ(net.Find("\xC4\x8C\xC3\xA1p")->line, 7);               // Čáp
+    const survey::SurveyAdjustment adj = survey::AdjustNetwork(&net, survey::SurveyAdjustOptions());
+    EXPECT_TRUE(adj.converged);
+    EXPECT_EQ(adj.statistics.degrees_of_freedom, 2);
+  }
+
+  std::string e = ErrorOf("encoding-unknown.gkf");
+  EXPECT_NE(e.find("encoding-unknown.gkf:1"), std::string::npos) << e;
+  EXPECT_NE(e.find("'KOI-9'"), std::string::npos) << e;
+  EXPECT_NE(e.find("encoding"), std::string::npos) << e;
+  e = ErrorOf("encoding-bad-byte.gkf");
+  EXPECT_NE(e.find("encoding-bad-byte.gkf:6"), std::string::npos) << e;
+  EXPECT_NE(e.find("0x81"), std::string::npos) << e;
+  EXPECT_NE(e.find("windows-1250"), std::string::npos) << e;
+}
+
+// Malformed XML is reported by pugixml with the line of the fault.
+TEST(GamaReader, MalformedXmlNamesTheLine) {
+  std::string text = WithDescription("ok");
+  text.replace(text.find("</obs>"), 6, "</ob>");  // line 7
+  const std::string e = ParseError(text);
+  EXPECT_NE(e.find("net.gkf:7:"), std::string::npos) << e;
+  EXPECT_NE(e.find("well-formed XML"), std::string::npos) << e;
+}
+
 }  // namespace
 }  // namespace mmba::io

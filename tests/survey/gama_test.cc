@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "io_survey/xml_lite.h"
+#include "io_survey/xml_tree.h"
 #include "mmba/io_survey/gama_local.h"
 #include "mmba/io/text_reader.h"
 #include "mmba/survey/adjust.h"
