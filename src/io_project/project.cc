@@ -9,6 +9,7 @@
 #include "mmba/io/camera_yaml.h"
 #include "mmba/io/yaml_reader.h"
 #include "mmba/registration/mi/lidar_image.h"
+#include "project_internal.h"
 
 namespace mmba::adjust {
 namespace {
@@ -129,13 +130,15 @@ class ProjectReader {
       LidarStaticSensor(n, f, id, line);
     } else if (type == "lidar_mobile") {
       LidarMobileSensor(n, f, id, line);
+    } else if (type == "photo_measurements") {
+      project_->photo_measurements.push_back(project_internal::ReadPhotoMeasurements(r_, n, f, id, dir_.string()));
     } else if (type == "spherical_stereo" || type == "camera_rig") {
       // Validated (keys, files, σ), not adjusted without observations (docs/project-yaml.md).
       const bool adjusted = type == "spherical_stereo" ? SphericalSensor(n, f, id, line) : RigSensor(n, f, id, line);
       if (!adjusted) project_->other_sensors.push_back({id, type, line});
     } else {
       r_.Fail(n["type"], f + ".type",
-              "photo_collection, total_station, gnss, lidar_static, spherical_stereo, camera_rig or lidar_mobile", type);
+              "photo_collection, photo_measurements, total_station, gnss, lidar_static, spherical_stereo, camera_rig or lidar_mobile", type);
     }
   }
 
@@ -412,11 +415,11 @@ void CheckCheckPoints(const Project& project, const io::YamlReader& r, const YAM
       r.Fail(root["check_points"][i], "check_points[" + std::to_string(i) + "]", "each point once", project.check_points[i]);
     }
   }
-  if (!project.check_points.empty() && project.total_stations.empty()) {
-    r.Fail(root["check_points"], "check_points", "a total_station sensor that surveys them", "none");
+  if (!project.check_points.empty() && project.total_stations.empty() && !project.control) {
+    r.Fail(root["check_points"], "check_points", "a total_station sensor or a control file that surveys them", "none");
   }
-  if (project.photos.empty() && project.total_stations.empty()) {
-    r.Fail(root["sensors"], "sensors", "at least a photo_collection or a total_station", "neither");
+  if (project.photos.empty() && project.total_stations.empty() && project.photo_measurements.empty()) {
+    r.Fail(root["sensors"], "sensors", "at least a photo_collection, photo_measurements or total_station", "none of them");
   }
 }
 
@@ -493,7 +496,7 @@ Project LoadProject(const std::string& path) {
   const io::YamlReader& r = reader.r();
   const YAML::Node root = r.Load("project file");
   if (!root.IsMap()) r.Fail(root, "(file)", "a mapping with mmba_project, name, origin, sensors", io::YamlReader::Kind(root));
-  r.Require(root, "", {"mmba_project", "origin", "sensors"});
+  r.Require(root, "", {"mmba_project", "sensors"});
   std::set<std::string> ids;
   bool have_origin = false;
   r.Map(root, "", {
@@ -523,6 +526,9 @@ Project LoadProject(const std::string& path) {
                       {"truth", [&](Node v, Field g) { project.truth = reader.ExistingPath(v, g, false); }}});
        }},
       {"check_points", [&](Node n, Field f) { project.check_points = r.StringList(n, f); }},
+      {"frame", [&](Node n, Field f) { project.frame = project_internal::ReadFrame(r, n, f); }},
+      {"control", [&](Node n, Field f) { project.control = project_internal::ReadControl(r, n, f, project.dir); }},
+      {"scale_bars", [&](Node n, Field f) { project.scale_bars = project_internal::ReadScaleBars(r, n, f); }},
       {"adjustment", [&](Node n, Field f) {
          AdjustSettings& s = project.settings;
          r.Map(n, f, {{"max_iterations", [&](Node v, Field g) {
@@ -545,7 +551,7 @@ Project LoadProject(const std::string& path) {
          for (size_t i = 0; i < n.size(); ++i) reader.Sensor(n[i], f + "[" + std::to_string(i) + "]", &ids);
        }},
   });
-  if (!have_origin) r.Fail(root, "origin", "the key to be present", "nothing");
+  project_internal::CheckPhotogrammetricKeys(project, r, root, have_origin);
   CheckCheckPoints(project, r, root);
   CheckSensorReferences(project, path);
   if (project.name.empty()) project.name = fs::path(path).parent_path().filename().string();

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <algorithm>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,7 @@
 
 #include "mmba/geodesy/geodesy.h"
 #include "mmba/geometry/rigid3d.h"
+#include "mmba/io/image_measurements.h"
 #include "mmba/problem/factor_group.h"
 
 namespace mmba::adjust {
@@ -275,6 +277,48 @@ struct LidarMobile {
 /// error of the GNSS/INS moves a point farther than the first association gate.
 double MobileMaxRange(const LidarMobile& mobile);
 
+/// The world frame of a project: `origin` (the east-north-up tangent plane at a WGS84 point) or
+/// `frame: cartesian` (the control's own local right-handed metric frame, no geodesy).
+enum class WorldFrame { kLocalTangentPlane, kCartesian };
+
+/// `control: {file, columns, sigma_m}`: surveyed points in the world frame (io/control_points.h).
+struct ControlFile {
+  std::string file;
+  std::vector<std::string> columns;
+  /// σ of every coordinate when the columns carry none (0 = fixed); negative = not given.
+  double sigma_m = -1.0;
+  int line = 0;
+};
+
+/// `scale_bars: [{from, to, distance_m, sigma_m}]`: a calibrated distance between two points.
+struct ScaleBar {
+  std::string from, to;
+  double distance_m = 0.0;
+  double sigma_m = 0.0;
+  int line = 0;
+};
+
+/// Image measurements of targets and tie points (`type: photo_measurements`): one camera, the
+/// images that measure the points, initialised without COLMAP (space resection from the
+/// control, relative orientation, forward intersection) unless `prior_eo` gives the poses.
+struct PhotoMeasurements {
+  std::string id;
+  int line = 0;
+  std::string camera;                            ///< camera YAML (any mmba model)
+  std::string images;                            ///< optional list: image id, file name
+  std::vector<io::MeasurementFile> measurements;
+  std::vector<int> measurement_lines;            ///< of each entry in the project file
+  /// `refine`: the camera's parameters estimated (indices in its model's order): focal,
+  /// principal_point, distortion, or single parameters by the model's names (k1, p2, …).
+  std::vector<int> free_intrinsics;
+  std::vector<std::string> refine;               ///< as written
+  /// `prior_eo: {file, columns}`: image, x, y, z (camera centre, world metres), omega, phi,
+  /// kappa (degrees, DBAT/PhotoModeler convention); "" = initialised from the measurements.
+  std::string prior_eo;
+  std::vector<std::string> prior_eo_columns;
+  LossOptions loss{LossType::kHuber, 3.0};
+};
+
 /// A sensor the project may name that this version validates but does not adjust
 /// (camera_rig, spherical_stereo without observations): reported as not used.
 struct OtherSensor {
@@ -298,8 +342,13 @@ struct Project {
   std::string path;  ///< the project file
   std::string dir;   ///< its folder (paths are relative to it)
   std::string name;
-  geodesy::Geodetic origin;  ///< world = ENU tangent plane here
-  std::vector<std::string> check_points;  ///< surveyed points withheld from the adjustment
+  WorldFrame frame = WorldFrame::kLocalTangentPlane;
+  geodesy::Geodetic origin;  ///< world = ENU tangent plane here (frame: local tangent plane)
+  /// Surveyed points withheld from the adjustment: of the total-station network, or of
+  /// `control`.
+  std::vector<std::string> check_points;
+  std::optional<ControlFile> control;
+  std::vector<ScaleBar> scale_bars;
   AdjustSettings settings;
   std::vector<PhotoCollection> photos;
   std::vector<TotalStation> total_stations;
@@ -308,6 +357,7 @@ struct Project {
   std::vector<SphericalStereo> spherical;  ///< with observations (adjusted)
   std::vector<CameraRig> rigs;             ///< with observations (adjusted)
   std::vector<LidarMobile> lidar_mobile;
+  std::vector<PhotoMeasurements> photo_measurements;
   std::vector<OtherSensor> other_sensors;
   std::string truth;  ///< simulations: truth JSON (evaluation only, never used to adjust)
 };
