@@ -81,10 +81,20 @@ Eigen::Matrix3d EnuFromEcefRotation(double latitude_deg, double longitude_deg) {
   return r;
 }
 
-LocalTangentPlane::LocalTangentPlane(const Geodetic& origin)
+namespace {
+GeographicLib::Geocentric GeocentricOf(const Ellipsoid& e) {
+  return GeographicLib::Geocentric(e.a_m, e.f);
+}
+}  // namespace
+
+LocalTangentPlane::LocalTangentPlane(const Geodetic& origin, const Ellipsoid& ellipsoid)
     : origin_(origin),
-      origin_in_ecef_(EcefFromGeodetic(origin)),
-      enu_from_ecef_(EnuFromEcefRotation(origin.latitude_deg, origin.longitude_deg)) {}
+      ellipsoid_(ellipsoid),
+      enu_from_ecef_(EnuFromEcefRotation(origin.latitude_deg, origin.longitude_deg)) {
+  GeocentricOf(ellipsoid_).Forward(origin.latitude_deg, origin.longitude_deg, origin.height_m,
+                                   origin_in_ecef_.x(), origin_in_ecef_.y(),
+                                   origin_in_ecef_.z());
+}
 
 Eigen::Vector3d LocalTangentPlane::EnuFromEcef(const Eigen::Vector3d& p) const {
   return enu_from_ecef_ * (p - origin_in_ecef_);
@@ -95,11 +105,18 @@ Eigen::Vector3d LocalTangentPlane::EcefFromEnu(const Eigen::Vector3d& p) const {
 }
 
 Eigen::Vector3d LocalTangentPlane::EnuFromGeodetic(const Geodetic& g) const {
-  return EnuFromEcef(EcefFromGeodetic(g));
+  Eigen::Vector3d ecef;
+  GeocentricOf(ellipsoid_).Forward(g.latitude_deg, g.longitude_deg, g.height_m, ecef.x(),
+                                   ecef.y(), ecef.z());
+  return EnuFromEcef(ecef);
 }
 
 Geodetic LocalTangentPlane::GeodeticFromEnu(const Eigen::Vector3d& p) const {
-  return GeodeticFromEcef(EcefFromEnu(p));
+  const Eigen::Vector3d ecef = EcefFromEnu(p);
+  Geodetic g;
+  GeocentricOf(ellipsoid_).Reverse(ecef.x(), ecef.y(), ecef.z(), g.latitude_deg,
+                                   g.longitude_deg, g.height_m);
+  return g;
 }
 
 Eigen::Matrix3d LocalTangentPlane::StationEnuFromWorld(const Eigen::Vector3d& station) const {

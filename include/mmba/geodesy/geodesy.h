@@ -13,6 +13,12 @@ struct Geodetic {
   double height_m = 0.0;
 };
 
+/// An ellipsoid by semi-major axis `a_m` (metres) and flattening `f`; WGS84 by default.
+struct Ellipsoid {
+  double a_m = 6378137.0;
+  double f = 1.0 / 298.257223563;
+};
+
 /// A UTM / UPS coordinate: zone (0 = UPS), hemisphere, easting and northing in metres.
 struct Utm {
   int zone = 0;
@@ -39,11 +45,14 @@ Geodetic GeodeticFromTransverseMercator(const Eigen::Vector2d& xy, double lon0_d
 
 /// A local tangent plane (east, north, up; metres) at a geodetic origin: the project's world
 /// frame (DESIGN.md). Rotation `enu_from_ecef` = R, point_in_enu = R·(p_ecef − origin_ecef).
+/// Geodetic coordinates and ECEF are on `ellipsoid` (WGS84 unless a project's CRS names
+/// another datum, e.g. Bessel 1841 for a Gauss–Krüger grid).
 class LocalTangentPlane {
  public:
-  explicit LocalTangentPlane(const Geodetic& origin);
+  explicit LocalTangentPlane(const Geodetic& origin, const Ellipsoid& ellipsoid = Ellipsoid());
 
   const Geodetic& origin() const { return origin_; }
+  const Ellipsoid& ellipsoid() const { return ellipsoid_; }
   const Eigen::Vector3d& origin_in_ecef() const { return origin_in_ecef_; }
   const Eigen::Matrix3d& enu_from_ecef_rotation() const { return enu_from_ecef_; }
 
@@ -59,6 +68,7 @@ class LocalTangentPlane {
 
  private:
   Geodetic origin_;
+  Ellipsoid ellipsoid_;
   Eigen::Vector3d origin_in_ecef_;
   Eigen::Matrix3d enu_from_ecef_;
 };
