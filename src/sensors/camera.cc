@@ -2,8 +2,22 @@
 
 #include <algorithm>
 #include <limits>
+#include <sstream>
+#include <type_traits>
 
 namespace mmba::sensors {
+namespace {
+
+template <typename Model, typename = void>
+struct FixedIdxsOf {
+  static std::vector<int> Get() { return {}; }
+};
+template <typename Model>
+struct FixedIdxsOf<Model, std::void_t<decltype(Model::kFixedIdxs)>> {
+  static std::vector<int> Get() { return std::vector<int>(Model::kFixedIdxs.begin(), Model::kFixedIdxs.end()); }
+};
+
+}  // namespace
 
 std::string CameraModelName(CameraModelId model_id) {
 #define MMBA_CASE(Model) \
@@ -73,21 +87,48 @@ std::vector<int> CameraModelPrincipalIdxs(CameraModelId model_id) {
   return {};
 }
 
+std::vector<int> CameraModelFixedIdxs(CameraModelId model_id) {
+#define MMBA_CASE(Model) \
+  if (model_id == Model::kModelId) return FixedIdxsOf<Model>::Get();
+  MMBA_FOR_EACH_CAMERA_MODEL(MMBA_CASE)
+#undef MMBA_CASE
+  return {};
+}
+
 std::vector<int> CameraModelExtraIdxs(CameraModelId model_id) {
   std::vector<int> extra;
   const int num_params = CameraModelNumParams(model_id);
-  const std::vector<int> focal = CameraModelFocalIdxs(model_id);
-  const std::vector<int> principal = CameraModelPrincipalIdxs(model_id);
+  std::vector<int> taken = CameraModelFocalIdxs(model_id);
+  for (const std::vector<int>& more : {CameraModelPrincipalIdxs(model_id), CameraModelFixedIdxs(model_id)}) {
+    taken.insert(taken.end(), more.begin(), more.end());
+  }
   for (int i = 0; i < num_params; ++i) {
-    if (std::find(focal.begin(), focal.end(), i) == focal.end() &&
-        std::find(principal.begin(), principal.end(), i) == principal.end()) {
-      extra.push_back(i);
-    }
+    if (std::find(taken.begin(), taken.end(), i) == taken.end()) extra.push_back(i);
   }
   return extra;
 }
 
+std::vector<std::string> CameraModelParamNames(CameraModelId model_id) {
+  std::vector<std::string> names;
+  std::istringstream info(CameraModelParamsInfo(model_id));
+  std::string name;
+  while (std::getline(info, name, ',')) {
+    name.erase(0, name.find_first_not_of(' '));
+    if (!name.empty()) names.push_back(name);
+  }
+  return names;
+}
+
+int CameraModelParamIdx(CameraModelId model_id, const std::string& name) {
+  const std::vector<std::string> names = CameraModelParamNames(model_id);
+  const auto it = std::find(names.begin(), names.end(), name);
+  return it == names.end() ? -1 : static_cast<int>(it - names.begin());
+}
+
 double Camera::MeanFocalLength() const {
+  if (model_id == CameraModelId::kPhotogrammetric) {
+    return params.at(0) * 2.0 / (params.at(10) + params.at(11));
+  }
   const std::vector<int> idxs = CameraModelFocalIdxs(model_id);
   double sum = 0.0;
   for (int i : idxs) sum += params.at(i);

@@ -24,9 +24,17 @@ std::string KnownCameraModelNames();
 int CameraModelNumParams(CameraModelId model_id);
 /// "fx, fy, cx, cy, ..." for an unknown model "".
 std::string CameraModelParamsInfo(CameraModelId model_id);
-/// Indices of the focal length(s), principal point, and the remaining (extra) parameters.
+/// Each parameter's name in the model's order ("fx", "fy", ...; PHOTOGRAMMETRIC: "c", "xp",
+/// ..., "K1", ...); empty for an unknown model.
+std::vector<std::string> CameraModelParamNames(CameraModelId model_id);
+/// Index of a parameter by its name (CameraModelParamNames); -1 when the model has none.
+int CameraModelParamIdx(CameraModelId model_id, const std::string& name);
+/// Indices of the focal length(s), principal point, the parameters that describe the sensor
+/// and are never estimated (PHOTOGRAMMETRIC's pixel pitch), and the remaining (extra:
+/// distortion) parameters. An adjustment holds the fixed ones whatever it refines.
 std::vector<int> CameraModelFocalIdxs(CameraModelId model_id);
 std::vector<int> CameraModelPrincipalIdxs(CameraModelId model_id);
+std::vector<int> CameraModelFixedIdxs(CameraModelId model_id);
 std::vector<int> CameraModelExtraIdxs(CameraModelId model_id);
 
 /// A camera's intrinsics (COLMAP "camera"): model, image size in pixels, parameters in the
@@ -39,7 +47,8 @@ struct Camera {
   std::vector<double> params;
 
   std::string ModelName() const { return CameraModelName(model_id); }
-  /// Mean focal length in pixels (pixels per radian for EQUIRECTANGULAR).
+  /// Mean focal length in pixels (pixels per radian for EQUIRECTANGULAR; c over the mean
+  /// pixel pitch for PHOTOGRAMMETRIC).
   double MeanFocalLength() const;
 
   /// Pixel of a point in the camera frame; nullopt where the model cannot image it.

@@ -22,24 +22,10 @@
 
 #include <ceres/jet.h>
 
-namespace mmba::sensors {
+#include "mmba/sensors/camera_model_id.h"
+#include "mmba/sensors/photogrammetric_model.h"
 
-/// Model ids, as COLMAP numbers them; EQUIRECTANGULAR is mmba's own (id 100).
-enum class CameraModelId : int {
-  kInvalid = -1,
-  kSimplePinhole = 0,
-  kPinhole = 1,
-  kSimpleRadial = 2,
-  kRadial = 3,
-  kOpenCV = 4,
-  kOpenCVFisheye = 5,
-  kFullOpenCV = 6,
-  kFOV = 7,
-  kSimpleRadialFisheye = 8,
-  kRadialFisheye = 9,
-  kThinPrismFisheye = 10,
-  kEquirectangular = 100,
-};
+namespace mmba::sensors {
 
 namespace internal {
 
@@ -540,6 +526,7 @@ struct EquirectangularModel {
   FUNC(::mmba::sensors::SimpleRadialFisheyeModel) \
   FUNC(::mmba::sensors::RadialFisheyeModel)    \
   FUNC(::mmba::sensors::ThinPrismFisheyeModel) \
-  FUNC(::mmba::sensors::EquirectangularModel)
+  FUNC(::mmba::sensors::EquirectangularModel)  \
+  FUNC(::mmba::sensors::PhotogrammetricModel)
 
 }  // namespace mmba::sensors
