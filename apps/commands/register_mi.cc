@@ -11,6 +11,8 @@
 #include <optional>
 #include <sstream>
 
+#include <unistd.h>
+
 #include <nlohmann/json.hpp>
 
 #include "command.h"
@@ -18,6 +20,10 @@
 #include "mmba/core/logging.h"
 #include "mmba/core/progress.h"
 #include "mmba/core/version.h"
+#include "mmba/io/camera_yaml.h"
+#include "mmba/io/pose_json.h"
+#include "mmba/io_kitti/camera_file.h"
+#include "mmba/registration/mi/image.h"
 #include "mmba/registration/mi/job.h"
 #include "mmba/registration/mi/mi_registration.h"
 #include "mmba/registration/mi/registration_settings.h"
@@ -221,14 +227,66 @@ void WriteOutputs(const RegisterMiArgs& args, const mi::Job& job, const mi::Regi
   files.Commit();
 }
 
+// OpenCalib files given as --camera (calib.txt, NAME-intrinsic.json) or --initial (calib.txt,
+// NAME-extrinsic.json), read by io_kitti/camera_file.h and handed to the job as the camera YAML
+// and pose JSON it reads, in a folder removed on return.
+class OpenCalibInputs {
+ public:
+  OpenCalibInputs(const RegisterMiArgs& args, const std::vector<mi::FramePaths>& paths, mi::JobRequest* request) {
+    const bool camera = !args.camera.empty() && args.rig.empty() && io::IsOpenCalibFile(args.camera);
+    const bool initial = !args.initial.empty() && io::IsOpenCalibFile(args.initial);
+    if (!camera && !initial) return;
+    // Everything is read and checked before the folder is made.
+    std::optional<io::CameraYaml> camera_yaml;
+    if (camera) {
+      // The size of the first image: calib.txt states none (each further frame's image is
+      // checked against it by the job).
+      const mi::GrayImage image = mi::ReadGrayImage(paths.at(0).image);
+      std::string note;
+      camera_yaml = io::ReadCameraFile(args.camera, paths[0].image, image.width, image.height, &note);
+      if (!note.empty()) spdlog::warn("{}", note);
+      if (!camera_yaml->cam_from_lidar && args.initial.empty()) {
+        throw InputError::Message(args.camera, "holds no cam_from_lidar (an intrinsic JSON); give the start pose "
+                                               "as --initial NAME-extrinsic.json, calib.txt or POSE.json");
+      }
+      spdlog::info("{}: {} camera {}x{} (OpenCalib, principal point + 0.5 px to mmba's pixel centres)", args.camera,
+                   camera_yaml->camera.ModelName(), image.width, image.height);
+    }
+    const std::string key = args.rig.empty() ? "cam_from_lidar" : "rig_from_lidar";
+    nlohmann::json pose;
+    if (initial) pose[key] = io::PoseToJson(io::ReadStartPoseFile(args.initial, key));
+    std::error_code ec;
+    folder_ = fs::temp_directory_path(ec) / ("mmba-register-mi-" + std::to_string(::getpid()));
+    fs::create_directories(folder_, ec);
+    if (camera_yaml) {
+      request->camera = (folder_ / "camera.yaml").string();
+      io::WriteCameraYaml(*camera_yaml, request->camera);
+    }
+    if (initial) {
+      request->initial = (folder_ / "initial.json").string();
+      WriteFileAtomically(request->initial, [&](std::ostream& out) { out << pose.dump(2) << "\n"; });
+    }
+  }
+  ~OpenCalibInputs() {
+    std::error_code ec;
+    if (!folder_.empty()) fs::remove_all(folder_, ec);
+  }
+  OpenCalibInputs(const OpenCalibInputs&) = delete;
+  OpenCalibInputs& operator=(const OpenCalibInputs&) = delete;
+
+ private:
+  fs::path folder_;
+};
+
 int RunRegisterMi(const RegisterMiArgs& args) {
   Timer wall;
   // Options and files are checked before any reading.
-  const mi::JobRequest request = RequestOf(args);
+  mi::JobRequest request = RequestOf(args);
   const std::vector<mi::FramePaths> paths = mi::ListFrames(request);
   const std::vector<FileArg> inputs = InputsOf(args, paths);
   RefuseToOverwriteInputs(
       {{"--output", args.output}, {"--lidar-image", args.lidar_image}, {"--overlay", args.overlay}}, inputs);
+  const OpenCalibInputs opencalib(args, paths, &request);
   std::optional<OutputFolder> probe_folder;
   if (!args.probe.empty()) probe_folder.emplace(args.probe, "--probe", "mmba register-mi --probe", AsNamedPaths(inputs));
   const mi::Job job = mi::PrepareJob(request, paths);
@@ -244,18 +302,20 @@ int RunRegisterMi(const RegisterMiArgs& args) {
 }
 
 void AddInputOptions(CLI::App* sub, RegisterMiArgs* args) {
-  sub->add_option("--lidar", args->lidar, "Cloud (.bin KITTI, .ply, .pcd, .las, .xyz); "
+  sub->add_option("--lidar", args->lidar, "Cloud (.bin KITTI, .pcd.bin nuScenes, .ply, .pcd, .las, .xyz); "
                                           "repeat with --image for several frames");
   sub->add_option("--image", args->image, "Image or equirectangular panorama; repeatable");
   sub->add_option("--list", args->list, "Text file of frames: IMAGE LIDAR per line");
-  sub->add_option("--camera", args->camera, "Camera YAML (calib/README.md)");
+  sub->add_option("--camera", args->camera,
+                  "Camera YAML (calib/README.md), or OpenCalib calib.txt / NAME-intrinsic.json");
   sub->add_option("--kitti-calib", args->kitti_calib, "KITTI calibration file (camera 2)");
   sub->add_option("--rig", args->rig,
                   "Rig YAML (calib/README.md camera_rig, optional rig_from_lidar): each --image is "
                   "a pattern with {camera}; the pose is rig_from_lidar");
   sub->add_option("--kitti-camera", args->kitti_camera, "KITTI camera index 0..3")->capture_default_str();
   sub->add_option("--initial", args->initial,
-                  "POSE.json with cam_from_lidar (with --rig: rig_from_lidar), 4x4 row-major");
+                  "POSE.json with cam_from_lidar (with --rig: rig_from_lidar), 4x4 row-major; or "
+                  "OpenCalib calib.txt / NAME-extrinsic.json");
   sub->add_option("--perturb", args->perturb,
                   "Test: start from the start pose corrected by tx,ty,tz,roll,pitch,yaw "
                   "(m, deg) and report pixel offsets against the unperturbed pose")
