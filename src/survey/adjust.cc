@@ -11,6 +11,7 @@
 #include "mmba/problem/problem_builder.h"
 #include "mmba/problem/solve.h"
 #include "mmba/survey/survey_group.h"
+#include "removed_coordinates_internal.h"
 
 namespace mmba::survey {
 
@@ -271,11 +272,9 @@ bool PointDetermined(SurveyPoint* point, const std::vector<double*>& blocks, boo
   return !(sv.size() < j.cols() || sv(sv.size() - 1) < 1e-6 * std::max(1e-300, sv(0)));
 }
 
-/// Tries to determine the unknown coordinates of `point` from observations to known points.
-bool ApproximatePoint(SurveyNetwork* net, SurveyPoint* point) {
-  const bool solve_xy = point->xy != CoordStatus::kUnused && !point->has_xy;
-  const bool solve_z = point->z != CoordStatus::kUnused && !point->has_z;
-  if (!solve_xy && !solve_z) return false;
+/// Tries to determine the coordinates `solve_xy`, `solve_z` of `point` together from
+/// observations to known points.
+bool ApproximateCoordinates(SurveyNetwork* net, SurveyPoint* point, bool solve_xy, bool solve_z) {
   const ApproximationInputs in = CollectApproximationInputs(net, point, solve_xy, solve_z);
   if (in.specs.empty()) return false;
   ceres::Problem::Options problem_options;
@@ -295,13 +294,31 @@ bool ApproximatePoint(SurveyNetwork* net, SurveyPoint* point) {
   return true;
 }
 
+/// Tries to determine the unknown coordinates of `point` from observations to known points:
+/// x, y and z together, else x, y alone (a height may be undetermined), else z alone.
+bool ApproximatePoint(SurveyNetwork* net, SurveyPoint* point) {
+  const auto unknown = [](CoordStatus s) { return s != CoordStatus::kUnused && s != CoordStatus::kRemoved; };
+  const bool solve_xy = unknown(point->xy) && !point->has_xy;
+  const bool solve_z = unknown(point->z) && !point->has_z;
+  if (!solve_xy && !solve_z) return false;
+  const Eigen::Vector3d start = point->coords;
+  if (ApproximateCoordinates(net, point, solve_xy, solve_z)) return true;
+  point->coords = start;
+  if (!solve_xy || !solve_z) return false;
+  if (ApproximateCoordinates(net, point, true, false)) return true;
+  point->coords = start;
+  if (ApproximateCoordinates(net, point, false, true)) return true;
+  point->coords = start;
+  return false;
+}
+
 std::string Where(const SurveyNetwork& net, int line) {
   return net.source + ":" + std::to_string(line);
 }
 
 }  // namespace
 
-void ComputeApproximations(SurveyNetwork* net) {
+std::vector<RemovedCoordinate> ComputeApproximations(SurveyNetwork* net) {
   bool progress = true;
   while (progress) {
     progress = false;
@@ -309,18 +326,26 @@ void ComputeApproximations(SurveyNetwork* net) {
       if (ApproximatePoint(net, &p)) progress = true;
     }
   }
+  // Gama's revision_points: a coordinate without approximate value leaves the adjustment.
+  std::vector<RemovedCoordinate> removed;
   for (SurveyPoint& p : net->points) {
-    const bool missing_xy = p.xy != CoordStatus::kUnused && !p.has_xy;
-    const bool missing_z = p.z != CoordStatus::kUnused && !p.has_z;
-    if (missing_xy || missing_z) {
-      throw InputError(net->source, p.line, "point " + p.id,
-                       std::string("no ") + (missing_xy ? "x, y" : "z") +
-                           " and too few observations to compute approximate values",
-                       "given coordinates or observations that determine the point");
+    if (p.xy != CoordStatus::kUnused && p.xy != CoordStatus::kRemoved && !p.has_xy) {
+      removed.push_back(internal::RemoveCoordinate(
+          &p, true, "missing x, y: the observations to known points cannot compute them"));
+    }
+    if (p.z != CoordStatus::kUnused && p.z != CoordStatus::kRemoved && !p.has_z) {
+      removed.push_back(internal::RemoveCoordinate(
+          &p, false, "missing z: no zenith angle, slope distance or height difference ties it to a known height"));
     }
   }
   for (Cluster& c : net->clusters) EstimateOrientation(net, &c);
   for (SurveyPoint& p : net->points) p.approx = p.coords;
+  return removed;
+}
+
+std::string RemovedCoordinateWarning(const std::string& source, const RemovedCoordinate& r) {
+  return "warning: " + source + ":" + std::to_string(r.line) + ": point " + r.point + ": " +
+         r.coordinates + " removed from the adjustment (" + r.reason + ")";
 }
 
 namespace {
@@ -342,10 +367,14 @@ void PassivateOnUnusedPoints(SurveyNetwork* net, std::vector<std::string>* remov
       if (!o.active) continue;
       for (const std::string& id : PointsOf(o)) {
         const SurveyPoint& p = *net->Find(id);
-        if ((NeedsXy(o.kind) && p.xy == CoordStatus::kUnused) ||
-            (NeedsZ(o.kind) && p.z == CoordStatus::kUnused)) {
-          MakePassive(*net, &o, "point " + id + " has no fixed or adjusted " +
-                                    (NeedsZ(o.kind) && p.z == CoordStatus::kUnused ? "z" : "x, y"),
+        const bool no_xy = p.xy == CoordStatus::kUnused || p.xy == CoordStatus::kRemoved;
+        const bool no_z = p.z == CoordStatus::kUnused || p.z == CoordStatus::kRemoved;
+        if ((NeedsXy(o.kind) && no_xy) || (NeedsZ(o.kind) && no_z)) {
+          const bool z = NeedsZ(o.kind) && no_z;
+          const CoordStatus status = z ? p.z : p.xy;
+          MakePassive(*net, &o, "point " + id + (status == CoordStatus::kRemoved ? " has its " : " has no fixed or adjusted ") +
+                                    (z ? "z" : "x, y") +
+                                    (status == CoordStatus::kRemoved ? " removed from the adjustment" : ""),
                       removed);
           break;
         }
@@ -608,27 +637,44 @@ SurveyAdjustment AdjustNetwork(SurveyNetwork* net, const SurveyAdjustOptions& op
   auto seconds_since = [](std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
   };
+  auto append = [](std::vector<std::string>* to, const std::vector<std::string>& more) {
+    to->insert(to->end(), more.begin(), more.end());
+  };
   result.removed = ReviseObservations(net, /*test_absolute_terms=*/false);
-  ComputeApproximations(net);
+  result.removed_points = ComputeApproximations(net);
+  append(&result.removed, ReviseObservations(net, /*test_absolute_terms=*/false));
   // Reference of the minimum-norm datum: the approximate (given) constrained coordinates.
   std::vector<Eigen::Vector3d> approximate;
   for (const SurveyPoint& p : net->points) approximate.push_back(p.coords);
   RefineApproximations(net, approximate);
-  const std::vector<std::string> more = ReviseObservations(net, /*test_absolute_terms=*/true);
-  result.removed = more;  // includes the first revision again (idempotent); keep the last
+  append(&result.removed, ReviseObservations(net, /*test_absolute_terms=*/true));
   for (Cluster& c : net->clusters) EstimateOrientation(net, &c);
 
-  Scene scene;  // survey parameters live in the SurveyNetwork
-  ProblemBuilder builder(&scene);
-  GaugeOptions gauge;
-  gauge.kind = GaugeOptions::Kind::kNone;
-  builder.set_gauge(gauge);
+  // The problem, rebuilt without the coordinates its design matrix cannot determine (and
+  // their observations) until there are none, as Gama's project_equations does.
+  std::unique_ptr<Scene> scene;  // survey parameters live in the SurveyNetwork
+  std::unique_ptr<ProblemBuilder> builder;
   std::vector<SurveyGroup*> groups;
-  for (auto& group : MakeSurveyGroups(net)) {
-    groups.push_back(static_cast<SurveyGroup*>(&builder.AddGroup(std::move(group))));
+  while (true) {
+    groups.clear();
+    builder.reset();
+    scene = std::make_unique<Scene>();
+    builder = std::make_unique<ProblemBuilder>(scene.get());
+    GaugeOptions gauge;
+    gauge.kind = GaugeOptions::Kind::kNone;
+    builder->set_gauge(gauge);
+    for (auto& group : MakeSurveyGroups(net)) {
+      groups.push_back(static_cast<SurveyGroup*>(&builder->AddGroup(std::move(group))));
+    }
+    ceres::Problem& built = builder->Build();
+    SetSurveyParameterStates(net, built);
+    const std::vector<RemovedCoordinate> singular = internal::RemoveSingularCoordinates(net, built);
+    if (singular.empty()) break;
+    result.removed_points.insert(result.removed_points.end(), singular.begin(), singular.end());
+    append(&result.removed, ReviseObservations(net, /*test_absolute_terms=*/false));
+    for (Cluster& c : net->clusters) EstimateOrientation(net, &c);
   }
-  ceres::Problem& problem = builder.Build();
-  SetSurveyParameterStates(net, problem);
+  ceres::Problem& problem = builder->Build();
 
   stats::StatisticsOptions stats_options;
   stats_options.confidence = options.confidence > 0 ? options.confidence : net->confidence;

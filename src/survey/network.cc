@@ -8,6 +8,7 @@ const char* CoordStatusName(CoordStatus status) {
     case CoordStatus::kFixed: return "fixed";
     case CoordStatus::kAdjusted: return "adjusted";
     case CoordStatus::kConstrained: return "constrained";
+    case CoordStatus::kRemoved: return "removed";
   }
   return "?";
 }

@@ -11,6 +11,16 @@ namespace {
 
 using internal::AngleUnit;
 
+// The coordinates removed from the adjustment (undetermined), with the warning's text.
+nlohmann::json RemovedPointsJson(const SurveyAdjustment& adj) {
+  nlohmann::json removed = nlohmann::json::array();
+  for (const RemovedCoordinate& r : adj.removed_points) {
+    removed.push_back({{"id", r.point}, {"line", r.line}, {"coordinates", r.coordinates},
+                       {"reason", r.reason}});
+  }
+  return removed;
+}
+
 // The network's header entries: input, frame, σ0, dimensions, χ² test.
 nlohmann::json NetworkJson(const std::string& input, const SurveyNetwork& net,
                            const SurveyAdjustment& adj, const AngleUnit& unit) {
@@ -38,6 +48,7 @@ nlohmann::json NetworkJson(const std::string& input, const SurveyNetwork& net,
       {"critical_value", st.critical_value},
       {"iterations", adj.iterations},
       {"removed_observations", adj.removed},
+      {"removed_points", RemovedPointsJson(adj)},
   };
   if (net.geodetic) {
     json["origin"] = {{"latitude_deg", net.origin.latitude_deg},
@@ -73,6 +84,8 @@ nlohmann::json PointJson(const SurveyNetwork& net, const SurveyAdjustment& adj,
   jp["id"] = p.id;
   const Eigen::Vector2d xy = net.axes.XyFromEn(p.coords.head<2>());
   const Eigen::Matrix3d cov = PointCovariance(adj, net, p);
+  if (p.xy == CoordStatus::kRemoved) jp["status_x"] = jp["status_y"] = CoordStatusName(p.xy);
+  if (p.z == CoordStatus::kRemoved) jp["status_z"] = CoordStatusName(p.z);
   if (p.xy != CoordStatus::kUnused && p.has_xy) {
     jp["x"] = xy.x();
     jp["y"] = xy.y();

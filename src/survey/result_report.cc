@@ -140,6 +140,9 @@ std::string ResultSummary(const std::string& input, const SurveyNetwork& net,
             << (row.critical ? "  <- likely blunder" : "") << "\n";
   }
   if (!adj.removed.empty()) summary << "  removed observations: " << adj.removed.size() << "\n";
+  for (const RemovedCoordinate& r : adj.removed_points) {
+    summary << "  " << RemovedCoordinateWarning(net.source, r) << "\n";
+  }
   return summary.str();
 }
 
@@ -155,6 +158,14 @@ std::string ReportMarkdown(const std::string& input, const SurveyNetwork& net,
        << Fixed(std::sqrt(g.variance_component), 3) << " |\n";
   }
   md << "\n## Largest studentized residuals\n\n" << LargestResidualsTable(ObservationRows(net, adj), largest_rows);
+  if (!adj.removed_points.empty()) {
+    md << "\n## Coordinates removed from the adjustment\n\n"
+       << "The observations cannot determine these coordinates; they are not adjusted, and the "
+          "observations that need them are passive.\n\n| point | line | coordinates | reason |\n|---|---|---|---|\n";
+    for (const RemovedCoordinate& r : adj.removed_points) {
+      md << "| " << r.point << " | " << r.line << " | " << r.coordinates << " | " << r.reason << " |\n";
+    }
+  }
   if (!adj.removed.empty()) {
     md << "\n## Removed observations\n\n";
     for (const std::string& r : adj.removed) md << "- " << r << "\n";

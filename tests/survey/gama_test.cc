@@ -3,7 +3,11 @@
 // a-posteriori σ0 within 1 %, the same degrees of freedom and defect, the same χ² verdict
 // and the same observation flagged by data snooping (largest studentized residual).
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <set>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -14,6 +18,8 @@
 #include "mmba/io_survey/gama_local.h"
 #include "mmba/io/text_reader.h"
 #include "mmba/survey/adjust.h"
+#include "mmba/survey/result_json.h"
+#include "mmba/survey/result_report.h"
 #include "mmba/survey/survey_group.h"
 
 namespace mmba::survey {
@@ -111,12 +117,30 @@ std::string DataPath(const std::string& name) {
   return std::string(MMBA_SOURCE_DIR) + "/data/gama/" + name;
 }
 
-void CompareWithGama(const std::string& name) {
-  SCOPED_TRACE(name);
-  SurveyNetwork net = io::ReadGamaLocal(DataPath(name + ".gkf"));
-  const GamaResult gama = ReadGamaResult(DataPath(name + ".xml"));
+/// How far one network's adjustment is from Gama's (for the table in the test's output).
+struct Agreement {
+  double max_coordinate_mm = 0.0;   ///< max |ours − Gama| over adjusted coordinates
+  double max_sigma_ratio = 1.0;     ///< the σ ratio ours/Gama farthest from 1
+  double sigma0 = 0.0, gama_sigma0 = 0.0;
+  int dof = 0, gama_dof = 0;
+  bool passed = false, gama_passed = false;
+};
+
+/// Adjusts `gkf` and compares it with Gama's result `xml`; observations from or to a point
+/// of `ignore` (points Gama's run of another network did not have) are skipped.
+void CompareWithGama(const std::string& gkf, const std::string& xml, Agreement* agreement,
+                     const std::set<std::string>& ignore = {}) {
+  SCOPED_TRACE(gkf);
+  SurveyNetwork net = io::ReadGamaLocal(gkf);
+  const GamaResult gama = ReadGamaResult(xml);
   const SurveyAdjustment adj = AdjustNetwork(&net, SurveyAdjustOptions());
   ASSERT_TRUE(adj.converged) << adj.reason;
+  agreement->dof = adj.statistics.degrees_of_freedom;
+  agreement->gama_dof = gama.dof;
+  agreement->sigma0 = net.sigma0_apriori * adj.statistics.sigma0_ratio;
+  agreement->gama_sigma0 = gama.aposteriori;
+  agreement->passed = adj.statistics.chi2_passed;
+  agreement->gama_passed = gama.passed;
   const stats::NetworkStatistics& st = adj.statistics;
 
   EXPECT_EQ(st.degrees_of_freedom, gama.dof);
@@ -130,7 +154,7 @@ void CompareWithGama(const std::string& name) {
   if (gama.no_test) {
     // Gama 1.13a did not test σ0 when sigma-act="apriori" (its XML says "no test" and
     // writes <passed/>); nothing to compare.
-    GTEST_LOG_(INFO) << name << ": Gama ran no chi2 test; ours says "
+    GTEST_LOG_(INFO) << gkf << ": Gama ran no chi2 test; ours says "
                      << (st.chi2_passed ? "passed" : "failed");
   } else {
     EXPECT_EQ(st.chi2_passed, gama.passed);
@@ -147,12 +171,19 @@ void CompareWithGama(const std::string& name) {
       EXPECT_NEAR(ours, value, 1e-4) << "point " << id << " " << axis;
       const double gama_sigma = std::sqrt(gama.cov_diag.at(gp.cov_row.at(axis)));
       const double our_sigma = std::sqrt(cov(k, k)) * scale_mm;
+      agreement->max_coordinate_mm =
+          std::max(agreement->max_coordinate_mm, std::abs(ours - value) * 1000.0);
+      if (gama_sigma > 0 && std::abs(our_sigma / gama_sigma - 1) > std::abs(agreement->max_sigma_ratio - 1)) {
+        agreement->max_sigma_ratio = our_sigma / gama_sigma;
+      }
       EXPECT_NEAR(our_sigma, gama_sigma, 0.01 * gama_sigma + 1e-9) << "sigma " << id << " " << axis;
     }
   }
   // Observations in Gama's order: by cluster, then within the cluster.
   std::map<std::pair<size_t, size_t>, size_t> row_of;
   for (size_t r = 0; r < adj.rows.size(); ++r) {
+    const Observation& o = net.clusters[adj.rows[r].cluster].observations[adj.rows[r].observation];
+    if (ignore.count(o.from) || ignore.count(o.to) || ignore.count(o.fs)) continue;
     row_of[{adj.rows[r].cluster, adj.rows[r].observation}] = r;
   }
   ASSERT_EQ(row_of.size(), gama.observations.size());
@@ -198,12 +229,77 @@ void CompareWithGama(const std::string& name) {
   }
 }
 
-TEST(GamaLocal, Triangle1) { CompareWithGama("triangle-1"); }
-TEST(GamaLocal, GamaLocal) { CompareWithGama("gama-local"); }
-TEST(GamaLocal, AzimuthDistance) { CompareWithGama("azimuth-distance"); }
-TEST(GamaLocal, StronerLevellingA) { CompareWithGama("stroner-levelling-a"); }
-TEST(GamaLocal, TetrahedronFreeNetwork) { CompareWithGama("tst-tetrahedron-1"); }
-TEST(GamaLocal, ZoltanDms) { CompareWithGama("zoltan-test_2d_dms"); }
+// Every network of data/gama with Gama's result next to it, in name order; prints one row
+// of the agreement table per network.
+TEST(GamaLocal, EveryNetworkOfDataGamaAgreesWithGama) {
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(DataPath(""))) {
+    const std::filesystem::path& path = entry.path();
+    if (path.extension() == ".gkf" && std::filesystem::exists(DataPath(path.stem().string() + ".xml"))) {
+      names.push_back(path.stem().string());
+    }
+  }
+  std::sort(names.begin(), names.end());
+  EXPECT_GE(names.size(), 6u);
+  std::ostringstream table;
+  table << "| network | max |dcoord| mm | max sigma ratio | sigma0 ours / Gama | dof ours / Gama | "
+           "test ours / Gama |\n";
+  for (const std::string& name : names) {
+    Agreement a;
+    CompareWithGama(DataPath(name + ".gkf"), DataPath(name + ".xml"), &a);
+    table << "| " << name << " | " << a.max_coordinate_mm << " | " << a.max_sigma_ratio << " | "
+          << a.sigma0 << " / " << a.gama_sigma0 << " | " << a.dof << " / " << a.gama_dof << " | "
+          << (a.passed ? "passed" : "failed") << " / " << (a.gama_passed ? "passed" : "failed")
+          << " |\n";
+  }
+  std::cout << table.str();
+}
+
+// gama-local.gkf with a point whose z no observation determines (U1: x, y by one direction
+// and one distance, no zenith angle) and a point seen by one direction only (U2): both
+// coordinates are removed with a warning naming them, as Gama removes them, and the rest of
+// the network is adjusted exactly as Gama adjusted gama-local.gkf (the added observations
+// have no redundancy).
+TEST(GamaLocal, UndeterminedCoordinatesAreRemovedWithAWarning) {
+  const std::string gkf =
+      std::string(MMBA_SOURCE_DIR) + "/tests/data/gama/gama-local-undetermined.gkf";
+  Agreement a;
+  CompareWithGama(gkf, DataPath("gama-local.xml"), &a, {"U1", "U2"});
+  EXPECT_LT(a.max_coordinate_mm, 0.1);
+  SurveyNetwork net = io::ReadGamaLocal(gkf);
+  const SurveyAdjustment adj = AdjustNetwork(&net, SurveyAdjustOptions());
+  ASSERT_TRUE(adj.converged);
+  ASSERT_EQ(adj.removed_points.size(), 2u) << ResultSummary(gkf, net, adj);
+  std::map<std::string, std::string> removed;
+  for (const RemovedCoordinate& r : adj.removed_points) removed[r.point] = r.coordinates;
+  EXPECT_EQ(removed["U1"], "z");
+  EXPECT_EQ(removed["U2"], "xy");
+  EXPECT_EQ(net.Find("U1")->z, CoordStatus::kRemoved);
+  EXPECT_EQ(net.Find("U1")->xy, CoordStatus::kAdjusted);
+  EXPECT_EQ(net.Find("U2")->xy, CoordStatus::kRemoved);
+  EXPECT_TRUE(adj.statistics.IsFree(net.Find("U1")->coords.data()));
+  EXPECT_FALSE(adj.statistics.IsFree(net.Find("U1")->coords.data() + 2));
+  // The summary printed on the terminal names each removed coordinate with its line.
+  const std::string summary = ResultSummary(gkf, net, adj);
+  EXPECT_NE(summary.find("gama-local-undetermined.gkf:43: point U1: z removed from the adjustment"),
+            std::string::npos) << summary;
+  EXPECT_NE(summary.find("gama-local-undetermined.gkf:44: point U2: xy removed from the adjustment"),
+            std::string::npos) << summary;
+  // adjusted.json marks them.
+  const nlohmann::json json = ResultToJson(gkf, net, adj);
+  ASSERT_EQ(json["removed_points"].size(), 2u);
+  for (const nlohmann::json& p : json["points"]) {
+    if (p["id"] == "U1") {
+      EXPECT_EQ(p["status_z"], "removed");
+      EXPECT_EQ(p["status_x"], "adjusted");
+      EXPECT_FALSE(p.contains("sigma_z"));
+    }
+    if (p["id"] == "U2") {
+      EXPECT_EQ(p["status_x"], "removed");
+      EXPECT_FALSE(p.contains("sigma_x"));
+    }
+  }
+}
 
 }  // namespace
 }  // namespace mmba::survey

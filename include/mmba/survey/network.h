@@ -16,6 +16,9 @@ enum class CoordStatus {
   kFixed,        ///< held at its given value
   kAdjusted,     ///< free unknown
   kConstrained,  ///< free unknown that takes part in the minimum-norm datum (free network)
+  kRemoved,      ///< adjusted or constrained in the input, but the observations cannot
+                 ///< determine it: left out of the adjustment with a warning (GNU Gama's
+                 ///< "removed points"), its observations passive
 };
 const char* CoordStatusName(CoordStatus status);
 
