@@ -9,40 +9,149 @@
 namespace mmba::io {
 namespace {
 
-std::string Trim(std::string_view s) {
-  size_t a = 0, b = s.size();
-  while (a < b && std::isspace(static_cast<unsigned char>(s[a]))) ++a;
-  while (b > a && std::isspace(static_cast<unsigned char>(s[b - 1]))) --b;
-  return std::string(s.substr(a, b - a));
-}
+bool IsBlank(char c) { return c == ' ' || c == '\t'; }
+bool IsLineEnd(char c) { return c == '\n' || c == '\r'; }
 
-std::vector<std::string> Split(std::string_view line) {
-  std::vector<std::string> cells;
-  size_t start = 0;
-  for (size_t i = 0; i <= line.size(); ++i) {
-    if (i == line.size() || line[i] == ',') {
-      cells.push_back(Trim(line.substr(start, i - start)));
-      start = i + 1;
-    }
+/// Splits RFC 4180 text record by record; `line_` is the line of the current position.
+class CsvSplitter {
+ public:
+  CsvSplitter(std::string_view text, const std::string& file, char comment, bool trailing_comments)
+      : text_(text), file_(file), comment_(comment), trailing_(trailing_comments) {
+    if (text_.substr(0, 3) == "\xEF\xBB\xBF") pos_ = 3;
   }
-  return cells;
-}
+
+  std::vector<CsvRecord> Records() {
+    std::vector<CsvRecord> records;
+    while (pos_ < text_.size()) {
+      if (SkipBlankOrCommentLine()) continue;
+      CsvRecord record;
+      record.line = line_;
+      const size_t start = pos_;
+      while (true) {
+        record.cells.push_back(Field());
+        if (pos_ - start > kMaxLineBytes) {
+          throw InputError(file_, record.line, "record", "more than " + std::to_string(kMaxLineBytes) + " bytes",
+                           "a shorter record (a quote left open?)");
+        }
+        if (pos_ < text_.size() && text_[pos_] == ',') {
+          ++pos_;
+          continue;
+        }
+        if (trailing_ && pos_ < text_.size() && text_[pos_] == comment_) SkipToLineEnd();
+        EndLine();
+        break;
+      }
+      records.push_back(std::move(record));
+    }
+    return records;
+  }
+
+ private:
+  /// Skips a blank line or one whose first non-blank character is the comment character.
+  bool SkipBlankOrCommentLine() {
+    size_t j = pos_;
+    while (j < text_.size() && IsBlank(text_[j])) ++j;
+    if (j < text_.size() && !IsLineEnd(text_[j]) && text_[j] != comment_) return false;
+    pos_ = j;
+    SkipToLineEnd();
+    EndLine();
+    return true;
+  }
+
+  void SkipToLineEnd() {
+    while (pos_ < text_.size() && !IsLineEnd(text_[pos_])) ++pos_;
+  }
+
+  /// Consumes LF, CRLF or CR (nothing at the end of the text).
+  void EndLine() {
+    if (pos_ >= text_.size()) return;
+    if (text_[pos_] == '\r') {
+      ++pos_;
+      if (pos_ < text_.size() && text_[pos_] == '\n') ++pos_;
+    } else if (text_[pos_] == '\n') {
+      ++pos_;
+    }
+    ++line_;
+  }
+
+  std::string Field() {
+    while (pos_ < text_.size() && IsBlank(text_[pos_])) ++pos_;
+    if (pos_ < text_.size() && text_[pos_] == '"') return QuotedField();
+    const size_t start = pos_;
+    while (pos_ < text_.size() && text_[pos_] != ',' && !IsLineEnd(text_[pos_]) &&
+           !(trailing_ && text_[pos_] == comment_)) {
+      ++pos_;
+    }
+    size_t end = pos_;
+    while (end > start && IsBlank(text_[end - 1])) --end;
+    return std::string(text_.substr(start, end - start));
+  }
+
+  std::string QuotedField() {
+    const int open_line = line_;
+    ++pos_;
+    std::string value;
+    while (true) {
+      if (pos_ >= text_.size()) {
+        throw InputError(file_, open_line, "quoted field", "no closing quote before the end of the file",
+                         "a field ending in '\"' (a quote inside a field is written '\"\"')");
+      }
+      const char c = text_[pos_];
+      if (c == '"') {
+        if (pos_ + 1 < text_.size() && text_[pos_ + 1] == '"') {
+          value += '"';
+          pos_ += 2;
+          continue;
+        }
+        ++pos_;
+        break;
+      }
+      if (c == '\r' && pos_ + 1 < text_.size() && text_[pos_ + 1] == '\n') {
+        value += '\n';
+        pos_ += 2;
+        ++line_;
+        continue;
+      }
+      if (IsLineEnd(c)) ++line_;
+      value += c;
+      ++pos_;
+    }
+    while (pos_ < text_.size() && IsBlank(text_[pos_])) ++pos_;
+    if (pos_ < text_.size() && text_[pos_] != ',' && !IsLineEnd(text_[pos_]) &&
+        !(trailing_ && text_[pos_] == comment_)) {
+      size_t end = pos_;
+      while (end < text_.size() && end < pos_ + 10 && !IsLineEnd(text_[end])) ++end;
+      throw InputError(file_, line_, "quoted field",
+                       "'" + std::string(text_.substr(pos_, end - pos_)) + "' after the closing quote",
+                       "a comma or the end of the line after a closing quote");
+    }
+    return value;
+  }
+
+  std::string_view text_;
+  const std::string& file_;
+  char comment_;
+  bool trailing_;
+  size_t pos_ = 0;
+  int line_ = 1;
+};
 
 }  // namespace
+
+std::vector<CsvRecord> SplitCsvRecords(std::string_view text, const std::string& file, char comment,
+                                       bool trailing_comments) {
+  return CsvSplitter(text, file, comment, trailing_comments).Records();
+}
 
 CsvTable CsvTable::Read(const std::string& path, const std::vector<std::string>& required) {
   CsvTable table;
   table.path_ = path;
   const std::string text = ReadWholeFile(path);
-  LineCursor cursor(text, path);
-  std::string_view line;
   bool have_header = false;
   size_t header_size = 0;
-  while (cursor.Next(&line)) {
-    const std::string trimmed = Trim(line);
-    if (trimmed.empty() || trimmed[0] == '#') continue;
-    const int line_number = static_cast<int>(cursor.line_number());
-    std::vector<std::string> cells = Split(trimmed);
+  for (CsvRecord& record : SplitCsvRecords(text, path)) {
+    const int line_number = record.line;
+    std::vector<std::string>& cells = record.cells;
     // Cells become ids and names in the outputs: text is checked here, where the line is known.
     for (size_t i = 0; i < cells.size(); ++i) {
       if (const size_t bad = InvalidUtf8Offset(cells[i]); bad != std::string::npos) {

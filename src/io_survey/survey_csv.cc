@@ -5,6 +5,7 @@
 
 #include "mmba/core/error.h"
 #include "mmba/io_survey/gama_local.h"
+#include "mmba/io/csv_table.h"
 #include "mmba/io/text_reader.h"
 
 namespace mmba::io {
@@ -16,45 +17,18 @@ using survey::Observation;
 
 namespace {
 
-std::vector<std::string> SplitCsv(std::string_view line) {
-  std::vector<std::string> out;
-  std::string field;
-  for (char c : line) {
-    if (c == ',') {
-      out.push_back(field);
-      field.clear();
-    } else {
-      field += c;
-    }
-  }
-  out.push_back(field);
-  for (std::string& f : out) {
-    size_t b = 0, e = f.size();
-    while (b < e && std::isspace(static_cast<unsigned char>(f[b]))) ++b;
-    while (e > b && std::isspace(static_cast<unsigned char>(f[e - 1]))) --e;
-    f = f.substr(b, e - b);
-  }
-  return out;
-}
-
-// A non-blank record: its line number and its comma-separated fields, trimmed.
+// A non-blank record: its line number and its fields (RFC 4180: quoted fields may hold
+// commas, line breaks and doubled quotes), unquoted ones trimmed.
 struct Row {
   int line;
   std::vector<std::string> f;
 };
 
-// The records of the file, '#' comments and blank lines dropped.
+// The records of the file; '#' starts a comment outside quotes, blank lines are dropped.
 std::vector<Row> ReadRows(const std::string& text, const std::string& file) {
   std::vector<Row> rows;
-  LineCursor cursor(text, file);
-  std::string_view line;
-  while (cursor.Next(&line)) {
-    const size_t hash = line.find('#');
-    if (hash != std::string_view::npos) line = line.substr(0, hash);
-    bool blank = true;
-    for (char c : line) blank = blank && std::isspace(static_cast<unsigned char>(c));
-    if (blank) continue;
-    rows.push_back({static_cast<int>(cursor.line_number()), SplitCsv(line)});
+  for (CsvRecord& record : SplitCsvRecords(text, file, '#', /*trailing_comments=*/true)) {
+    rows.push_back({record.line, std::move(record.cells)});
   }
   return rows;
 }

@@ -56,5 +56,42 @@ TEST(SurveyCsv, ADuplicatePointIdNamesBothLines) {
   EXPECT_NE(e.find("defined at line 3"), std::string::npos) << e;
 }
 
+// gama-local-subset.csv as a spreadsheet saves it (UTF-8 byte order mark, CRLF, text cells
+// in quotes, a point id holding a comma and quotes) reads as the same network, line for line.
+TEST(SurveyCsv, ASpreadsheetFileWithQuotedFieldsReadsAsThePlainOne) {
+  const std::string dir = std::string(MMBA_SOURCE_DIR) + "/tests/data/gama/";
+  survey::SurveyNetwork plain = ReadSurveyCsv(dir + "gama-local-subset.csv");
+  survey::SurveyNetwork sheet = ReadSurveyCsv(dir + "spreadsheet-subset.csv");
+  const std::string renamed = "422, \"Hill\"";
+  ASSERT_NE(sheet.Find(renamed), nullptr);
+  EXPECT_EQ(sheet.Find(renamed)->line, plain.Find("422")->line);
+  ASSERT_EQ(sheet.points.size(), plain.points.size());
+  ASSERT_EQ(sheet.clusters.size(), plain.clusters.size());
+  for (size_t c = 0; c < plain.clusters.size(); ++c) {
+    ASSERT_EQ(sheet.clusters[c].observations.size(), plain.clusters[c].observations.size());
+    for (size_t i = 0; i < plain.clusters[c].observations.size(); ++i) {
+      const survey::Observation& a = plain.clusters[c].observations[i];
+      const survey::Observation& b = sheet.clusters[c].observations[i];
+      EXPECT_EQ(b.line, a.line);
+      EXPECT_EQ(b.value, a.value);
+      EXPECT_EQ(b.sigma, a.sigma);
+      EXPECT_EQ(b.to == renamed ? std::string("422") : b.to, a.to);
+    }
+  }
+}
+
+TEST(SurveyCsv, AQuoteLeftOpenOrTextAfterItNamesTheLine) {
+  std::string e = ParseError(std::string(kPoints) + "distance,\"A,B,100.001,2\n\n");
+  EXPECT_NE(e.find("net.csv:3:"), std::string::npos) << e;
+  EXPECT_NE(e.find("no closing quote"), std::string::npos) << e;
+  e = ParseError(std::string(kPoints) + "distance,\"A\"x,B,100.001,2\n");
+  EXPECT_NE(e.find("net.csv:3:"), std::string::npos) << e;
+  EXPECT_NE(e.find("after the closing quote"), std::string::npos) << e;
+  // A '#' inside quotes is text, outside it starts a comment.
+  EXPECT_EQ(ParseError("point,\"A#1\",0,0,,xy,\npoint,B,100,0,,,xy # comment\n"
+                       "distance,\"A#1\",B,100.001,2\n"),
+            "no error");
+}
+
 }  // namespace
 }  // namespace mmba::io

@@ -1,13 +1,33 @@
-// Comma-separated tables with a header row (GNSS files, image measurements, pose lists).
-// Lines starting with '#' and blank lines are skipped; cells are trimmed. Every error names
-// the file, line and column.
+// Comma-separated tables with a header row (GNSS files, image measurements, pose lists), in
+// RFC 4180 form as spreadsheets write them: a field in double quotes may hold commas, line
+// breaks and doubled quotes; CRLF or LF line ends; a UTF-8 byte order mark. Lines starting
+// with '#' and blank lines are skipped; unquoted cells are trimmed. Every error names the
+// file, line and column.
 #pragma once
 
 #include <map>
+#include <string_view>
 #include <string>
 #include <vector>
 
 namespace mmba::io {
+
+/// One record of a comma-separated text: the line it starts on and its fields.
+struct CsvRecord {
+  int line = 0;
+  std::vector<std::string> cells;
+};
+
+/// Splits `text` into RFC 4180 records. Fields are separated by ','; a field in double quotes
+/// may hold ',', line breaks (CRLF inside becomes LF) and '""' for '"'; blanks around a field
+/// are dropped outside the quotes. Records end at LF, CRLF or CR; a UTF-8 byte order mark
+/// before the first record is dropped. Blank lines and lines whose first non-blank character
+/// is `comment` are skipped; with `trailing_comments`, an unquoted `comment` character also
+/// ends the record (the rest of the line is a comment). Throws InputError(file, line, ...)
+/// for a quote that is never closed (the line where it opens), text after a closing quote,
+/// and a record longer than kMaxLineBytes.
+std::vector<CsvRecord> SplitCsvRecords(std::string_view text, const std::string& file,
+                                       char comment = '#', bool trailing_comments = false);
 
 class CsvTable {
  public:

@@ -7,7 +7,9 @@
 namespace mmba::io {
 
 /// Reads the plain CSV form of a survey network (docs/formats.md). One record a line,
-/// comma separated, '#' starts a comment:
+/// comma separated as RFC 4180 (a field in double quotes may hold commas and doubled quotes,
+/// e.g. a point id "P ""A"", north"; CRLF line ends and a UTF-8 byte order mark as
+/// spreadsheets write them), '#' outside quotes starts a comment:
 ///   param,<name>,<value>        sigma-apr | conf-pr | sigma-act | axes-xy | angles |
 ///                               refraction (coefficient k of zenith angles)
 ///   param,origin,<lat>,<lon>,<h>  georeferenced network: WGS84 origin of the local tangent
