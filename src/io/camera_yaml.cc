@@ -1,6 +1,9 @@
 #include "mmba/io/camera_yaml.h"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -10,6 +13,7 @@
 #include "mmba/core/error.h"
 #include "mmba/core/number_text.h"
 #include "mmba/io/colmap_model.h"
+#include "mmba/io/dbat_camera.h"
 #include "mmba/io/pose_json.h"
 
 namespace mmba::io {
@@ -60,17 +64,92 @@ Rigid3d Matrix4Pose(const YamlReader& r, const YAML::Node& n, const std::string&
 
 }  // namespace
 
+namespace {
+
+/// `params: [...]` in the model's order, with positive focal lengths.
+std::vector<double> ReadParamsList(const YamlReader& r, const YAML::Node& params, sensors::CameraModelId model_id) {
+  const int expected = sensors::CameraModelNumParams(model_id);
+  if (!params.IsSequence() || static_cast<int>(params.size()) != expected) {
+    r.Fail(params, "params",
+           "a list of " + std::to_string(expected) + " values (" + sensors::CameraModelParamsInfo(model_id) + ")",
+           params.IsSequence() ? std::to_string(params.size()) + " values" : "a " + YamlReader::Kind(params));
+  }
+  std::vector<double> values = r.NumberList(params, "params");
+  for (int i : sensors::CameraModelFocalIdxs(model_id)) {
+    if (!(values[i] > 0)) {
+      r.Fail(params[i], "params[" + std::to_string(i) + "]", "a positive focal length", ExactNumber(values[i]));
+    }
+  }
+  return values;
+}
+
+}  // namespace
+
+namespace {
+
+/// PHOTOGRAMMETRIC's named fields and their parameter index; the pitch (10, 11) comes from
+/// format_width_mm / width and format_height_mm / height.
+struct PhotoField {
+  const char* key;
+  int index;
+  bool required;
+};
+constexpr PhotoField kPhotoFields[] = {
+    {"c_mm", 0, true}, {"xp_mm", 1, true}, {"yp_mm", 2, true}, {"K1", 3, false}, {"K2", 4, false},
+    {"K3", 5, false},  {"P1", 6, false},   {"P2", 7, false},   {"b1", 8, false}, {"b2", 9, false}};
+constexpr const char* kPhotoFormatKeys[] = {"format_width_mm", "format_height_mm"};
+
+bool IsPhotoKey(const std::string& key) {
+  for (const PhotoField& f : kPhotoFields) {
+    if (key == f.key) return true;
+  }
+  return key == kPhotoFormatKeys[0] || key == kPhotoFormatKeys[1];
+}
+
+/// The parameters of a PHOTOGRAMMETRIC camera from its named fields (calib/README.md).
+std::vector<double> ReadPhotoParams(const YamlReader& r, const YAML::Node& root, const sensors::Camera& camera) {
+  std::vector<std::string> required = {"format_width_mm", "format_height_mm"};
+  for (const PhotoField& f : kPhotoFields) {
+    if (f.required) required.push_back(f.key);
+  }
+  r.Require(root, "", required);
+  std::vector<double> params(sensors::PhotogrammetricModel::kNumParams, 0.0);
+  for (const PhotoField& f : kPhotoFields) {
+    if (root[f.key]) params[f.index] = r.Number(root[f.key], f.key);
+  }
+  if (!(params[0] > 0)) r.Fail(root["c_mm"], "c_mm", "a positive camera constant (mm)", YamlReader::Text(root["c_mm"]));
+  const uint64_t size[2] = {camera.width, camera.height};
+  for (int i = 0; i < 2; ++i) {
+    const YAML::Node node = root[kPhotoFormatKeys[i]];
+    const double format_mm = r.Number(node, kPhotoFormatKeys[i]);
+    if (!(format_mm > 0)) r.Fail(node, kPhotoFormatKeys[i], "a positive format size (mm)", YamlReader::Text(node));
+    params[10 + i] = format_mm / static_cast<double>(size[i]);
+  }
+  return params;
+}
+
+}  // namespace
+
 CameraYaml ReadCameraYaml(const std::string& path) {
   const YamlReader r(path);
   const YAML::Node root = r.Load("camera calibration");
   // The keys in any order: the parameter count depends on the model.
   std::optional<YAML::Node> model, width, height, params, pose;
+  std::vector<std::string> photo_keys;
   const auto keep = [](std::optional<YAML::Node>* slot) {
     return [slot](const YAML::Node& n, const std::string&) { slot->emplace(n); };
   };
-  r.Map(root, "", {{"model", keep(&model)}, {"width", keep(&width)}, {"height", keep(&height)},
-                   {"params", keep(&params)}, {"cam_from_lidar", keep(&pose)}});
-  r.Require(root, "", {"model", "width", "height", "params"});
+  std::map<std::string, YamlReader::Handler> handlers = {
+      {"model", keep(&model)}, {"width", keep(&width)}, {"height", keep(&height)},
+      {"params", keep(&params)}, {"cam_from_lidar", keep(&pose)}};
+  for (const PhotoField& f : kPhotoFields) {
+    handlers[f.key] = [&photo_keys](const YAML::Node&, const std::string& g) { photo_keys.push_back(g); };
+  }
+  for (const char* key : kPhotoFormatKeys) {
+    handlers[key] = [&photo_keys](const YAML::Node&, const std::string& g) { photo_keys.push_back(g); };
+  }
+  r.Map(root, "", handlers);
+  r.Require(root, "", {"model", "width", "height"});
   CameraYaml result;
   const std::string model_name = r.String(*model, "model");
   result.camera.model_id = sensors::CameraModelFromName(model_name);
@@ -86,19 +165,28 @@ CameraYaml ReadCameraYaml(const std::string& path) {
   };
   result.camera.width = size(*width, "width");
   result.camera.height = size(*height, "height");
-  const int expected = sensors::CameraModelNumParams(result.camera.model_id);
-  if (!params->IsSequence() || static_cast<int>(params->size()) != expected) {
-    r.Fail(*params, "params",
-           "a list of " + std::to_string(expected) + " values (" + sensors::CameraModelParamsInfo(result.camera.model_id) + ")",
-           params->IsSequence() ? std::to_string(params->size()) + " values" : "a " + YamlReader::Kind(*params));
-  }
-  result.camera.params = r.NumberList(*params, "params");
-  for (int i : sensors::CameraModelFocalIdxs(result.camera.model_id)) {
-    if (!(result.camera.params[i] > 0)) {
-      r.Fail((*params)[i], "params[" + std::to_string(i) + "]", "a positive focal length", ExactNumber(result.camera.params[i]));
+  if (result.camera.model_id == sensors::CameraModelId::kPhotogrammetric) {
+    if (params) {
+      r.Fail(*params, "params", "the named fields of PHOTOGRAMMETRIC (c_mm, xp_mm, yp_mm, format_width_mm, format_height_mm, K1, K2, K3, P1, P2, b1, b2)", "params");
     }
+    result.camera.params = ReadPhotoParams(r, root, result.camera);
+  } else {
+    if (!photo_keys.empty()) {
+      r.Fail(root[photo_keys.front()], photo_keys.front(), "params: [...] for a " + model_name + " camera (named fields are for PHOTOGRAMMETRIC)", photo_keys.front());
+    }
+    r.Require(root, "", {"params"});
+    result.camera.params = ReadParamsList(r, *params, result.camera.model_id);
   }
   if (pose) result.cam_from_lidar = Matrix4Pose(r, *pose, "cam_from_lidar");
+  return result;
+}
+
+CameraYaml ReadCameraFile(const std::string& path) {
+  std::string extension = path.size() >= 4 ? path.substr(path.size() - 4) : "";
+  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+  if (extension != ".xml") return ReadCameraYaml(path);
+  CameraYaml result;
+  result.camera = ReadDbatCamera(path);
   return result;
 }
 
@@ -170,14 +258,19 @@ void WriteCameraYaml(const CameraYaml& camera_yaml, const std::string& path) {
   WriteFileAtomically(path, [&](std::ostream& out) {
     out.precision(17);
     out << "# mmba camera (schema: calib/README.md)\n";
-    out << "model: " << camera_yaml.camera.ModelName() << "\n";
-    out << "width: " << camera_yaml.camera.width << "\n";
-    out << "height: " << camera_yaml.camera.height << "\n";
-    out << "params: [";
-    for (size_t i = 0; i < camera_yaml.camera.params.size(); ++i) {
-      out << (i ? ", " : "") << camera_yaml.camera.params[i];
+    const sensors::Camera& camera = camera_yaml.camera;
+    out << "model: " << camera.ModelName() << "\n";
+    out << "width: " << camera.width << "\n";
+    out << "height: " << camera.height << "\n";
+    if (camera.model_id == sensors::CameraModelId::kPhotogrammetric) {
+      out << "format_width_mm: " << camera.params.at(10) * static_cast<double>(camera.width) << "\n";
+      out << "format_height_mm: " << camera.params.at(11) * static_cast<double>(camera.height) << "\n";
+      for (const PhotoField& f : kPhotoFields) out << f.key << ": " << camera.params.at(f.index) << "\n";
+    } else {
+      out << "params: [";
+      for (size_t i = 0; i < camera.params.size(); ++i) out << (i ? ", " : "") << camera.params[i];
+      out << "]\n";
     }
-    out << "]\n";
     if (camera_yaml.cam_from_lidar) {
       const Eigen::Matrix4d m = camera_yaml.cam_from_lidar->ToMatrix4();
       out << "cam_from_lidar: [";

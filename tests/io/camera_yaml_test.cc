@@ -1,5 +1,6 @@
 #include "mmba/io/camera_yaml.h"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -90,7 +91,8 @@ TEST(CameraYaml, UnknownOrRepeatedKeysAndHugeSizesAreRefused) {
   };
   EXPECT_EQ(error_of("model: PINHOLE\nwidth: 1242\nheight: 375\n" + params), "ok");
   EXPECT_NE(error_of("model: PINHOLE\nwidth: 1242\nheight: 375\nwidht: 1300\n" + params)
-                .find(":4: field 'widht': found 'widht (unknown key)', expected one of cam_from_lidar, height, model, params, width"),
+                .find(":4: field 'widht': found 'widht (unknown key)', expected one of K1, K2, K3, P1, P2, b1, b2, c_mm, "
+                      "cam_from_lidar, format_height_mm, format_width_mm, height, model, params, width, xp_mm, yp_mm"),
             std::string::npos);
   EXPECT_NE(error_of("model: PINHOLE\nwidth: 1242\nheight: 375\n" + params + "width: 1300\n")
                 .find(":5: field 'width': found 'the key a second time (first on line 2)', expected each key once"),
@@ -147,6 +149,44 @@ TEST(RigYaml, ReadsCamerasAndTheStartPose) {
   expect("rig_from_lidar: [1, 0, 0]\ncameras:\n  - name: a\n" + camera + pose, "rig_from_lidar");
   expect("body_from_rig: {qvec_wxyz: [1, 0, 0, 0], tvec: [0, 0, 0]}\n", "cameras");
   std::filesystem::remove(good);
+}
+
+// PHOTOGRAMMETRIC has named fields in mm; the pitch is format / size. Written and read back.
+TEST(CameraYaml, PhotogrammetricNamedFieldsRoundTrip) {
+  const CameraYaml camera = ReadCameraYaml(Fixture("camera_photogrammetric_ok.yaml"));
+  ASSERT_EQ(camera.camera.model_id, sensors::CameraModelId::kPhotogrammetric);
+  const std::vector<double>& p = camera.camera.params;
+  ASSERT_EQ(p.size(), 12u);
+  EXPECT_EQ(p[0], 7.457);
+  EXPECT_EQ(p[2], 2.61329);
+  EXPECT_EQ(p[3], 4.58861e-3);
+  EXPECT_EQ(p[8], 3.89598e-4);
+  EXPECT_EQ(p[9], 0.0);  // b2 absent
+  EXPECT_DOUBLE_EQ(p[10], 7.250187 / 2272);
+  EXPECT_DOUBLE_EQ(p[11], 5.43764 / 1704);
+  const std::string out = (std::filesystem::temp_directory_path() /
+                           ("mmba_photo_" + std::to_string(::getpid()) + ".yaml")).string();
+  WriteCameraYaml(camera, out);
+  const CameraYaml again = ReadCameraYaml(out);
+  std::filesystem::remove(out);
+  ASSERT_EQ(again.camera.params.size(), 12u);
+  for (size_t i = 0; i < 12; ++i) EXPECT_NEAR(again.camera.params[i], p[i], 1e-15 * std::abs(p[i])) << i;
+  EXPECT_EQ(again.camera.width, 2272u);
+}
+
+TEST(CameraYaml, PhotogrammetricBrokenFilesNameTheField) {
+  auto expect = [](const std::string& file, const std::string& needle) {
+    try {
+      ReadCameraYaml(Fixture(file));
+      FAIL() << "no error for " << file;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  expect("camera_photogrammetric_no_c.yaml", "field 'c_mm': found 'nothing', expected the key to be present");
+  expect("camera_photogrammetric_params.yaml", "camera_photogrammetric_params.yaml:4: field 'params'");
+  expect("camera_photogrammetric_params.yaml", "expected the named fields of PHOTOGRAMMETRIC");
+  expect("camera_pinhole_named.yaml", "camera_pinhole_named.yaml:5: field 'K1'");
 }
 
 }  // namespace

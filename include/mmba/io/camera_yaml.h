@@ -21,6 +21,10 @@ namespace mmba::io {
 ///   height: 375
 ///   params: [fx, fy, cx, cy]  # in the model's order
 ///   cam_from_lidar: [16 numbers, 4×4 row-major]   # optional
+/// A PHOTOGRAMMETRIC camera has named fields in mm instead of `params` (calib/README.md):
+///   c_mm, xp_mm, yp_mm, format_width_mm, format_height_mm (required), K1, K2, K3, P1, P2,
+///   b1, b2 (0 when absent); the pixel pitch is format_width_mm / width, format_height_mm /
+///   height.
 struct CameraYaml {
   sensors::Camera camera;
   std::optional<Rigid3d> cam_from_lidar;
@@ -31,6 +35,9 @@ struct CameraYaml {
 CameraYaml ReadCameraYaml(const std::string& path);
 /// Writes the same schema atomically.
 void WriteCameraYaml(const CameraYaml& camera_yaml, const std::string& path);
+/// A camera file of a project: DBAT's camera XML (io/dbat_camera.h) when `path` ends in
+/// ".xml" (any case), the camera YAML otherwise. InputError as either reader.
+CameraYaml ReadCameraFile(const std::string& path);
 
 /// The rig YAML of a Ladybug-style multi-camera rig (docs/formats.md, "Rig YAML"), as
 /// `mmba register-mi --rig` reads it:
