@@ -14,6 +14,8 @@
 //   static void CamFromImg(const T* params, const T& x, const T& y, T* ray);
 //     The viewing ray of a pixel: (u, v, 1) for perspective models (normalised image
 //     coordinates, distortion removed), a unit bearing for EQUIRECTANGULAR.
+// and kFocalIdxs, kPrincipalIdxs; a model whose parameters include constants of the sensor
+// (PHOTOGRAMMETRIC's pixel pitch) lists them in kFixedIdxs (CameraModelFixedIdxs).
 
 #include <algorithm>
 #include <array>
