@@ -21,12 +21,22 @@ std::string Extension(const std::string& path) {
 
 std::string SizeText(uint64_t width, uint64_t height) { return std::to_string(width) + "x" + std::to_string(height); }
 
+// OpenCalibJsonKind, or "" for a file that is not valid JSON: the pose JSON reader then names
+// the problem with its line.
+std::string JsonKindOrNone(const std::string& path) {
+  try {
+    return OpenCalibJsonKind(path);
+  } catch (const InputError&) {
+    return "";
+  }
+}
+
 }  // namespace
 
 bool IsOpenCalibFile(const std::string& path) {
   const std::string ext = Extension(path);
   if (ext == ".txt") return true;
-  return ext == ".json" && !OpenCalibJsonKind(path).empty();
+  return ext == ".json" && !JsonKindOrNone(path).empty();
 }
 
 void CheckImageAgainstCamera(const std::string& image_path, uint64_t image_width, uint64_t image_height,
@@ -86,7 +96,7 @@ CameraYaml ReadCameraFile(const std::string& path, const std::string& image_path
 
 Rigid3d ReadStartPoseFile(const std::string& path, const std::string& key) {
   const std::string ext = Extension(path);
-  const std::string kind = ext == ".json" ? OpenCalibJsonKind(path) : (ext == ".txt" ? "txt" : "");
+  const std::string kind = ext == ".json" ? JsonKindOrNone(path) : (ext == ".txt" ? "txt" : "");
   if (kind.empty()) return ReadPoseJson(path, key);
   if (key != "cam_from_lidar") {
     throw InputError::Message(path, "an OpenCalib file holds a camera's pose to the LiDAR, not " + key +

@@ -194,5 +194,21 @@ TEST(CameraFile, ChosenByTypeAndCheckedAgainstTheImage) {
   EXPECT_NO_THROW(CheckImageAgainstCamera("a.png", 1242, 375, "cam.yaml", yaml_camera, true));
 }
 
+// A pose JSON that is not valid JSON is left to the pose reader, which names the line and the
+// number (1e400 overflows a double); an mmba pose JSON is not OpenCalib's.
+TEST(CameraFile, PoseJsonIsReadByThePoseReader) {
+  const fs::path dir = fs::temp_directory_path() / "mmba_opencalib_pose_json";
+  fs::create_directories(dir);
+  const std::string overflow = (dir / "pose_inf.json").string();
+  std::ofstream(overflow) << "{\"cam_from_lidar\": [1e400, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]}\n";
+  const std::string pose = (dir / "pose.json").string();
+  std::ofstream(pose) << "{\"cam_from_lidar\": [1, 0, 0, 0.5, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]}\n";
+  EXPECT_FALSE(IsOpenCalibFile(overflow));
+  EXPECT_FALSE(IsOpenCalibFile(pose));
+  ExpectInputError([&] { ReadStartPoseFile(overflow, "cam_from_lidar"); }, {"pose_inf.json:1", "1e400"});
+  EXPECT_EQ(ReadStartPoseFile(pose, "cam_from_lidar").translation, Eigen::Vector3d(0.5, 0, 0));
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace mmba::io

@@ -20,7 +20,8 @@
 namespace mmba::io {
 
 /// True when `path` is an OpenCalib file by its type: a .txt file, or a .json file holding
-/// OpenCalib's one sensor object with param.cam_K or param.sensor_calib.
+/// OpenCalib's one sensor object with param.cam_K or param.sensor_calib (a file that is not
+/// valid JSON is not: the pose JSON reader names its problem). InputError for a missing file.
 bool IsOpenCalibFile(const std::string& path);
 
 /// The camera (and its cam_from_lidar where the file has one) of a camera file of any kind
