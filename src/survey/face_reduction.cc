@@ -213,8 +213,11 @@ SetupFaceSummary CheckSetup(const FieldBook& book, size_t s, const FaceReduction
     p.blunder = what;
     if (!what.empty()) {
       ++sum.blunders;
-      blunders->push_back(book.source + ":" + std::to_string(p.line_face1 ? p.line_face1 : p.line_face2) +
-                          " " + p.station + " -> " + p.target + " round " + std::to_string(p.round) +
+      const std::string where =
+          p.line_face1 && p.line_face2
+              ? std::to_string(p.line_face1) + " (face II at line " + std::to_string(p.line_face2) + ")"
+              : std::to_string(p.line_face1 ? p.line_face1 : p.line_face2);
+      blunders->push_back(book.source + ":" + where + " " + p.station + " -> " + p.target + " round " + std::to_string(p.round) +
                           ": " + what);
     }
   }

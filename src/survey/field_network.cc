@@ -184,6 +184,60 @@ std::pair<bool, bool> ApplyKnown(const std::vector<KnownPoint>& known, SurveyNet
   return {any_xy, any_z};
 }
 
+/// 2-D rotation and translation (no scale) taking `from` onto `to` in the least-squares sense
+/// (one pair: translation only). `m`, `t`: to = m · from + t.
+void FitRigid2d(const std::vector<Eigen::Vector2d>& from, const std::vector<Eigen::Vector2d>& to,
+                Eigen::Matrix2d* m, Eigen::Vector2d* t) {
+  Eigen::Vector2d fc = Eigen::Vector2d::Zero(), tc = Eigen::Vector2d::Zero();
+  for (size_t i = 0; i < from.size(); ++i) fc += from[i], tc += to[i];
+  fc /= from.size();
+  tc /= to.size();
+  double cross = 0, dot = 0;
+  for (size_t i = 0; i < from.size(); ++i) {
+    const Eigen::Vector2d a = from[i] - fc, b = to[i] - tc;
+    cross += a.x() * b.y() - a.y() * b.x();
+    dot += a.dot(b);
+  }
+  const double phi = from.size() > 1 ? std::atan2(cross, dot) : 0.0;
+  *m << std::cos(phi), -std::sin(phi), std::sin(phi), std::cos(phi);
+  *t = tc - *m * fc;
+}
+
+/// Approximate coordinates of the points without given ones: the network placed freely from
+/// its first station (0, 0, 0, first round's zero direction north), then moved onto the known
+/// points (rotation and translation from their horizontal positions, a shift from their
+/// heights).
+void ApplyApproximations(const FaceReduction& reduction, SurveyNetwork* net) {
+  if (reduction.sets.empty()) return;
+  Approximator approx(reduction);
+  const std::string& first = reduction.sets.front().station;
+  approx.xy[first] = Eigen::Vector2d::Zero();
+  approx.orientation[0] = 0.0;
+  approx.z[first] = 0.0;
+  approx.Run();
+  std::vector<Eigen::Vector2d> from, to;
+  double dz = 0;
+  int nz = 0;
+  for (const SurveyPoint& p : net->points) {
+    if (p.has_xy && approx.xy.count(p.id)) from.push_back(approx.xy.at(p.id)), to.push_back(p.coords.head<2>());
+    if (p.has_z && approx.z.count(p.id)) dz += p.coords.z() - approx.z.at(p.id), ++nz;
+  }
+  Eigen::Matrix2d m = Eigen::Matrix2d::Identity();
+  Eigen::Vector2d t = Eigen::Vector2d::Zero();
+  if (!from.empty()) FitRigid2d(from, to, &m, &t);
+  if (nz > 0) dz /= nz;
+  for (SurveyPoint& p : net->points) {
+    if (!p.has_xy && approx.xy.count(p.id)) {
+      p.coords.head<2>() = m * approx.xy.at(p.id) + t;
+      p.has_xy = p.given_xy = true;
+    }
+    if (!p.has_z && approx.z.count(p.id)) {
+      p.coords.z() = approx.z.at(p.id) + dz;
+      p.has_z = p.given_z = true;
+    }
+  }
+}
+
 }  // namespace
 
 SurveyNetwork BuildFieldNetwork(const FaceReduction& reduction, const std::vector<KnownPoint>& known,
@@ -202,30 +256,7 @@ SurveyNetwork BuildFieldNetwork(const FaceReduction& reduction, const std::vecto
     if (p.xy != CoordStatus::kFixed) p.xy = any_xy ? CoordStatus::kAdjusted : CoordStatus::kConstrained;
     if (p.z != CoordStatus::kFixed) p.z = any_z ? CoordStatus::kAdjusted : CoordStatus::kConstrained;
   }
-  Approximator approx(reduction);
-  for (const SurveyPoint& p : net.points) {
-    if (p.has_xy) approx.xy[p.id] = p.coords.head<2>();
-    if (p.has_z) approx.z[p.id] = p.coords.z();
-  }
-  if (!reduction.sets.empty()) {
-    const std::string& first = reduction.sets.front().station;
-    if (approx.xy.empty()) {
-      approx.xy[first] = Eigen::Vector2d::Zero();
-      approx.orientation[0] = 0.0;
-    }
-    if (approx.z.empty()) approx.z[first] = 0.0;
-  }
-  approx.Run();
-  for (SurveyPoint& p : net.points) {
-    if (!p.has_xy && approx.xy.count(p.id)) {
-      p.coords.head<2>() = approx.xy.at(p.id);
-      p.has_xy = p.given_xy = true;
-    }
-    if (!p.has_z && approx.z.count(p.id)) {
-      p.coords.z() = approx.z.at(p.id);
-      p.has_z = p.given_z = true;
-    }
-  }
+  ApplyApproximations(reduction, &net);
   return net;
 }
 

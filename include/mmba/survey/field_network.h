@@ -21,11 +21,12 @@ namespace mmba::survey {
 ///    z); the others are adjusted. Without known horizontal positions every point's xy is
 ///    constrained (GNU Gama's free network: minimum norm of the changes from the
 ///    approximations); without known heights likewise every z;
-///  - approximate coordinates: from the known points (or the first station at 0, 0, 0 with
-///    its first round's zero direction as north) set by set: an oriented station places its
+///  - approximate coordinates: the network placed freely from its first station (0, 0, 0, its
+///    first round's zero direction as north) set by set — an oriented station places its
 ///    targets (polar), a station seeing two placed targets is placed (2-D Helmert without
-///    scale), heights by trigonometric levelling. Points not reached are left to
-///    AdjustNetwork's approximations.
+///    scale), heights by trigonometric levelling — then moved onto the known points (rotation
+///    and translation from their horizontal positions, a shift from their heights). Points not
+///    reached are left to AdjustNetwork's approximations.
 /// Throws InputError when `known` is not empty and none of its points is in the network.
 SurveyNetwork BuildFieldNetwork(const FaceReduction& reduction, const std::vector<KnownPoint>& known,
                                 const FaceReductionOptions& options, const std::string& source);
