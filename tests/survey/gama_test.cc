@@ -255,6 +255,16 @@ TEST(GamaLocal, EveryNetworkOfDataGamaAgreesWithGama) {
   std::cout << table.str();
 }
 
+// Gama's extern-azimuth-distance.gkf is azimuth-distance.gkf with `extern` labels on its two
+// azimuths; Gama's result for it equals azimuth-distance.xml (σ0 9.9123357, dof 33, the same
+// adjusted coordinates), so ours must match that file.
+TEST(GamaLocal, ExternAttributesAreReadWithoutEffect) {
+  Agreement a;
+  CompareWithGama(DataPath("extern-azimuth-distance.gkf"), DataPath("azimuth-distance.xml"), &a);
+  EXPECT_LT(a.max_coordinate_mm, 0.1);
+  EXPECT_EQ(a.dof, 33);
+}
+
 // gama-local.gkf with a point whose z no observation determines (U1: x, y by one direction
 // and one distance, no zenith angle) and a point seen by one direction only (U2): both
 // coordinates are removed with a warning naming them, as Gama removes them, and the rest of
