@@ -367,6 +367,24 @@ std::vector<FramePaths> ListFrames(const JobRequest& request) {
   return paths;
 }
 
+namespace {
+
+// RegistrationOptions::edges "auto": on where each cloud is a LiDAR sweep about its own origin
+// (no map-grid origin, no scanner given by --scanner-origin, a trajectory or a sidecar) and the
+// camera is perspective (not a panorama, not a rig): the geometric term's rings are found
+// about the cloud's origin.
+void ResolveEdges(const JobRequest& request, Job* job) {
+  if (job->options.edges != "auto") return;
+  bool sweeps = !job->rig_mode && job->view_name == "image" && !job->camera.IsSpherical() &&
+                job->origin.isZero() && request.scanner_origin.empty() && request.trajectory.empty();
+  for (const FramePaths& p : job->paths) {
+    if (sweeps && io::ReadScannerSidecar(p.lidar)) sweeps = false;
+  }
+  job->options.edges = sweeps ? "on" : "off";
+}
+
+}  // namespace
+
 Job PrepareJob(const JobRequest& request, std::vector<FramePaths> paths) {
   JobBuilder builder(request);
   builder.ApplyPolicy(false);
@@ -386,6 +404,7 @@ Job PrepareJob(const JobRequest& request, std::vector<FramePaths> paths) {
   job.rig_mode = builder.rig_mode;
   job.view_name = builder.view_name;
   job.paths = std::move(paths);
+  ResolveEdges(request, &job);
   return std::move(builder.job);
 }
 
@@ -406,7 +425,9 @@ bool RigCameraSeesCloud(const View& view, const LidarPoints& points, const Rigid
 
 RegistrationResult RegisterJob(const Job& job, Rigid3d* cam_from_local) {
   RegistrationResult result;
-  if (job.frames.size() == 1) {
+  if (job.options.edges == "on") {
+    result = RegisterEdges(job.frames, job.start, job.options);
+  } else if (job.frames.size() == 1) {
     result = RegisterFrames(job.frames, job.start, job.options);
   } else {
     RigOptions rig;

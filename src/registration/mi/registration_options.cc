@@ -136,6 +136,58 @@ void AddAcceptance(SettingsTable<Options>* t) {
             "measure every check after one has failed (diagnostics; slower)");
 }
 
+void AddEdges(SettingsTable<Options>* t) {
+  t->Choice("edges", &Options::edges, {"auto", "on", "off"},
+            "geometric term (LiDAR edges against image edges) with MI; auto: LiDAR sweeps and a perspective camera")
+      .Flag("edge_mi", &Options::edge_mi, "add MI on intensity to the geometric term, weighted from the data")
+      .Number("edge_mi_scale", &Options::edge_mi_scale, SettingRange::AtLeast(0), "times the data's MI weight")
+      .Number("edge_cell_deg", {&Options::edge, &EdgeOptions::cell_deg}, SettingRange::LeftOpen(0, 5),
+              "LiDAR scan grid cell (azimuth x elevation), deg")
+      .Integer("edge_neighbour_cells", {&Options::edge, &EdgeOptions::neighbour_cells}, SettingRange::Closed(1, 64),
+               "ring neighbours searched within this many cells")
+      .Number("edge_min_jump_m", {&Options::edge, &EdgeOptions::min_jump_m}, SettingRange::Above(0),
+              "depth edge: a neighbour farther by at least this, m")
+      .Number("edge_jump_fraction", {&Options::edge, &EdgeOptions::jump_fraction}, SettingRange::AtLeast(0),
+              "or by this fraction of the range")
+      .Number("edge_intensity_quantile", {&Options::edge, &EdgeOptions::intensity_quantile},
+              SettingRange::LeftOpen(0, 1), "intensity edges above this quantile of ring differences (1: none)")
+      .Number("edge_alpha", {&Options::edge, &EdgeOptions::alpha}, SettingRange::Closed(0, 1),
+              "Levinson & Thrun's alpha: edge image weight in D")
+      .Number("edge_gamma", {&Options::edge, &EdgeOptions::gamma}, SettingRange::Open(0, 1),
+              "Levinson & Thrun's gamma: decay per pixel of the spread edges")
+      .Number("edge_blur_px", {&Options::edge, &EdgeOptions::blur_px}, SettingRange::AtLeast(0),
+              "photo blur before its edges at the finest level, px")
+      .Number("edge_level_blur_factor", {&Options::edge, &EdgeOptions::level_blur_factor}, SettingRange::AtLeast(1),
+              "blur and spread grow by this per coarser level")
+      .Integer("edge_levels", {&Options::edge, &EdgeOptions::levels}, SettingRange::Closed(1, 6),
+               "coarse-to-fine edge levels")
+      .Number("edge_bound_m", &Options::edge_bound_m, SettingRange::Above(0),
+              "edge registration's search box, +- m around the start")
+      .Number("edge_bound_deg", &Options::edge_bound_deg, SettingRange::LeftOpen(0, 45),
+              "edge registration's search box, +- deg around the start")
+      .Number("edge_grid_step_deg", &Options::edge_grid_step_deg, SettingRange::Above(0),
+              "global stage: rotation grid step over +-edge_bound_deg, deg")
+      .Integer("edge_grid_keep", &Options::edge_grid_keep, SettingRange::Closed(1, 64),
+               "grid points searched on")
+      .Flag("edge_translation_stage", &Options::edge_translation_stage,
+            "after the rotation stage, all six parameters (false: the start's translation kept)")
+      .Number("edge_simplex_m", &Options::edge_simplex_m, SettingRange::Above(0), "coarsest simplex, m")
+      .Number("edge_simplex_deg", &Options::edge_simplex_deg, SettingRange::Above(0), "coarsest simplex, deg")
+      .Integer("edge_min_points", &Options::edge_min_points, SettingRange::AtLeast(1),
+               "fewer LiDAR edge points in the views: failed")
+      .Number("edge_min_score", &Options::edge_min_score, SettingRange::AtLeast(0),
+              "edge score at the optimum (1 = chance) at least")
+      .Number("edge_max_sigma_deg", &Options::edge_max_sigma_deg, SettingRange::Above(0),
+              "ok: largest sigma of the angles, deg")
+      .Number("edge_max_sigma_m", &Options::edge_max_sigma_m, SettingRange::Above(0),
+              "ok: largest sigma of the shifts, m")
+      .Number("edge_sigma_scale", &Options::edge_sigma_scale, SettingRange::Above(0),
+              "sigma = this x the scatter of half-data and restart optima")
+      .Number("edge_floor_px", &Options::edge_floor_px, SettingRange::AtLeast(0), "sigma floor, px")
+      .Number("edge_floor_depth_m", &Options::edge_floor_depth_m, SettingRange::Above(0),
+              "depth at which the floor is taken for the shifts, m");
+}
+
 }  // namespace
 
 const SettingsTable<RegistrationOptions>& RegistrationSettingsTable() {
@@ -145,6 +197,7 @@ const SettingsTable<RegistrationOptions>& RegistrationSettingsTable() {
     AddSearch(&t);
     AddPointSamples(&t);
     AddAcceptance(&t);
+    AddEdges(&t);
     return t;
   }();
   return table;

@@ -93,6 +93,12 @@ std::string RegistrationResult::BriefReport() const {
   out << "; correction t = (" << Fixed(correction[0]) << ", " << Fixed(correction[1]) << ", "
       << Fixed(correction[2]) << ") m, r/p/y = (" << Fixed(correction[3]) << ", "
       << Fixed(correction[4]) << ", " << Fixed(correction[5]) << ") deg; ";
+  if (edge_term) {
+    out << "edge score " << Fixed(edge_score_before, 3) << " -> " << Fixed(edge_score_after, 3)
+        << " (1 = chance; MI weight " << Fixed(edge_mi_weight, 3) << "); sigma " << Fixed(sigma_deg, 3) << " deg, "
+        << Fixed(100 * sigma_m, 1) << " cm; " << evaluations << " evaluations, " << Fixed(runtime_seconds, 2) << " s";
+    return out.str();
+  }
   // The values OUT.json holds (metric_before/after).
   out << MetricName(metric_kind) << " " << Fixed(ReportedMetric(metric_kind, metric_before.value), 5) << " -> "
       << Fixed(ReportedMetric(metric_kind, metric_after.value), 5)

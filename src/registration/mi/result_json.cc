@@ -129,6 +129,17 @@ json ResultToJson(const RegistrationResult& result, const RegistrationOptions& o
   out["iterations"] = result.iterations;
   out["evaluations"] = result.evaluations;
   out["runtime_seconds"] = result.runtime_seconds;
+  if (result.edge_term) {
+    out["edges"] = {{"depth_points", result.edge_points},
+                    {"intensity_points", result.edge_intensity_points},
+                    {"score_before", result.edge_score_before},
+                    {"score_after", result.edge_score_after},
+                    {"grid_peakedness_edges", result.edge_peakedness},
+                    {"grid_peakedness_mi", result.mi_peakedness},
+                    {"mi_weight", result.edge_mi_weight},
+                    {"sigma_deg", result.sigma_deg},
+                    {"sigma_m", result.sigma_m}};
+  }
   return out;
 }
 

@@ -22,6 +22,7 @@
 #include <Eigen/Core>
 
 #include "mmba/geometry/rigid3d.h"
+#include "mmba/registration/mi/edges.h"
 #include "mmba/registration/mi/lidar_image.h"
 #include "mmba/registration/mi/metric.h"
 #include "mmba/registration/mi/nelder_mead.h"
@@ -226,6 +227,39 @@ struct RegistrationOptions {
   /// pose and the values of an "ok" result are the same either way; true measures every
   /// check of a failed registration too (diagnostics; slower).
   bool measure_all_checks = false;
+
+  /// The geometric term (edges.h; Levinson & Thrun 2013) and its registration (RegisterEdges):
+  /// "on", "off", or "auto" — on where the clouds are LiDAR sweeps in their own frame seen by a
+  /// perspective camera (PrepareJob decides: not a panorama, not a rig, not a map-grid cloud,
+  /// no scanner sidecar or trajectory). With intensity, MI on it is added, weighted from the
+  /// data (edge_mi). Off by default: on the three real frames of bench/RESULTS.md "Real
+  /// vehicles: the geometric term" it does not yet recover the calibration from one frame.
+  std::string edges = "off";
+  EdgeOptions edge;
+  bool edge_mi = true;             ///< add the MI term where the clouds carry intensity
+  double edge_mi_scale = 1.0;      ///< × the data's weight of the MI term
+  /// The edge registration's search box (instead of bound_m, bound_deg): a start up to 3° per
+  /// angle and 0.2 m off lies inside it, off its 90 % margin.
+  double edge_bound_m = 0.3;
+  double edge_bound_deg = 4.5;
+  double edge_grid_step_deg = 0.5;  ///< global stage: rotation grid step over ±edge_bound_deg
+  int edge_grid_keep = 4;          ///< grid points searched on, best first
+  double edge_simplex_m = 0.1;     ///< simplex at the coarsest edge level, m
+  /// After the rotation stage, all six parameters at the finest level (false: the translation
+  /// stays the start's).
+  bool edge_translation_stage = true;
+  double edge_simplex_deg = 1.0;   ///< and deg
+  int edge_min_points = 100;       ///< fewer LiDAR edge points in the views: failed
+  /// The edge score at the optimum (1 = the image's mean edge value, chance) must reach this.
+  double edge_min_score = 1.2;
+  /// "ok" needs the largest σ of the angles and of the shifts within these.
+  double edge_max_sigma_deg = 0.2;
+  double edge_max_sigma_m = 0.05;
+  /// σ = edge_sigma_scale · the scatter of the half-data and restart optima.
+  double edge_sigma_scale = 1.0;
+  /// σ floor: this many pixels, at edge_floor_depth_m for the shifts.
+  double edge_floor_px = 0.5;
+  double edge_floor_depth_m = 10.0;
   bool Check(std::string* error) const;
 };
 
@@ -352,6 +386,18 @@ struct RegistrationResult {
   std::vector<std::string> used_frames;
   std::vector<std::pair<std::string, std::string>> rejected_frames;
   std::vector<RegistrationResult> frame_results;  ///< per frame (multi-frame only)
+
+  /// RegisterEdges: the geometric term's figures.
+  bool edge_term = false;
+  int edge_points = 0;            ///< LiDAR depth-edge points in the views
+  int edge_intensity_points = 0;  ///< intensity-edge points
+  double edge_peakedness = 0;     ///< of each term over the rotation grid, MAD-σ
+  double mi_peakedness = 0;
+  double edge_mi_weight = 0;      ///< MI term's weight (0: edges alone)
+  double edge_score_before = 0;   ///< edge score at the start and the result (1 = chance)
+  double edge_score_after = 0;
+  double sigma_deg = 0;           ///< the covariance's largest σ of the angles, deg
+  double sigma_m = 0;             ///< and of the shifts, m
 
   bool ok() const { return status == "ok"; }
   std::string BriefReport() const;
@@ -481,6 +527,13 @@ std::array<std::vector<Frame>, 2> SplitIntoHalves(const std::vector<Frame>& fram
 /// Columns [col0, col1) of a view: the image cropped and the principal point shifted (any
 /// model, including the equirectangular one, whose columns outside are then not drawn).
 View CropView(const View& view, int col0, int col1);
+
+/// Registers frames sharing one pose by the geometric term (edges.h) and, with intensity, MI:
+/// a grid over the rotation at the coarsest edge level, coarse-to-fine Nelder–Mead from its
+/// best points, restarts, and the covariance from the scatter of the optima of independent
+/// halves of the data (left/right, upper/lower, odd/even frames) and of the restarts.
+RegistrationResult RegisterEdges(const std::vector<Frame>& frames, const Rigid3d& cam_from_lidar_start,
+                                 const RegistrationOptions& options);
 
 /// Registers one frame (or several frames sharing one pose, treated as one image set).
 RegistrationResult RegisterFrames(const std::vector<Frame>& frames,
