@@ -265,6 +265,32 @@ TEST(GamaLocal, ExternAttributesAreReadWithoutEffect) {
   EXPECT_EQ(a.dof, 33);
 }
 
+// Gama's extern-tst-tetrahedron-3-gon.gkf: a 3-D free network with an `extern` label on every
+// observation. Gama's result (extern-tst-tetrahedron-3-gon.xml, gama-local 2.02; its figures
+// in data/SOURCES.md): dof 37, defect 1, σ0 51.791759, χ² test failed, and these coordinates.
+TEST(GamaLocal, ExternTetrahedronAgreesWithGamasFigures) {
+  SurveyNetwork net = io::ReadGamaLocal(DataPath("extern-tst-tetrahedron-3-gon.gkf"));
+  const SurveyAdjustment adj = AdjustNetwork(&net, SurveyAdjustOptions());
+  ASSERT_TRUE(adj.converged) << adj.reason;
+  EXPECT_EQ(adj.statistics.degrees_of_freedom, 37);
+  EXPECT_EQ(adj.statistics.defect, 1);
+  EXPECT_NEAR(net.sigma0_apriori * adj.statistics.sigma0_ratio, 51.791759, 0.01 * 51.791759);
+  EXPECT_FALSE(adj.statistics.chi2_passed);
+  const std::map<std::string, std::map<char, double>> gama = {
+      {"1", {{'z', -0.0177135264248634}}},
+      {"2", {{'x', 3000.0087434691331509}, {'y', 0.0297875255750141}, {'z', 0.0177135264248634}}},
+      {"3", {{'z', 0.0919950640650400}}},
+      {"4", {{'x', 1500.0104715662891977}, {'y', 865.9905732048272284}, {'z', 2449.4975008629194235}}}};
+  for (const auto& [id, coordinates] : gama) {
+    const SurveyPoint& p = *net.Find(id);
+    const Eigen::Vector2d xy = net.axes.XyFromEn(p.coords.head<2>());
+    for (const auto& [axis, value] : coordinates) {
+      const double ours = axis == 'x' ? xy.x() : axis == 'y' ? xy.y() : p.coords.z();
+      EXPECT_NEAR(ours, value, 1e-4) << id << " " << axis;
+    }
+  }
+}
+
 // gama-local.gkf with a point whose z no observation determines (U1: x, y by one direction
 // and one distance, no zenith angle) and a point seen by one direction only (U2): both
 // coordinates are removed with a warning naming them, as Gama removes them, and the rest of
