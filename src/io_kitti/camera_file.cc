@@ -8,6 +8,7 @@
 
 #include "mmba/core/error.h"
 #include "mmba/io/pose_json.h"
+#include "mmba/io/text_reader.h"
 #include "mmba/io_kitti/opencalib.h"
 
 namespace mmba::io {
@@ -31,11 +32,27 @@ std::string JsonKindOrNone(const std::string& path) {
   }
 }
 
+// A .txt file whose first key is one of the camera YAML's (model:, width:, …): a camera YAML
+// under another name, read as such.
+bool TxtIsCameraYaml(const std::string& path) {
+  std::istringstream text(ReadWholeFile(path));
+  std::string word;
+  while (text >> word) {
+    if (word[0] == '#') {
+      std::getline(text, word);
+      continue;
+    }
+    return word == "model:" || word == "width:" || word == "height:" || word == "params:" ||
+           word == "cam_from_lidar:";
+  }
+  return false;
+}
+
 }  // namespace
 
 bool IsOpenCalibFile(const std::string& path) {
   const std::string ext = Extension(path);
-  if (ext == ".txt") return true;
+  if (ext == ".txt") return !TxtIsCameraYaml(path);
   return ext == ".json" && !JsonKindOrNone(path).empty();
 }
 
@@ -64,7 +81,7 @@ CameraYaml ReadCameraFile(const std::string& path, const std::string& image_path
   if (note != nullptr) note->clear();
   CameraYaml out;
   const std::string ext = Extension(path);
-  if (ext == ".txt") {
+  if (ext == ".txt" && !TxtIsCameraYaml(path)) {
     const OpenCalibTxt txt = ReadOpenCalibTxt(path);
     out.camera = CameraFromOpenCalib(txt.intrinsics, image_width, image_height);
     out.cam_from_lidar = txt.cam_from_lidar;
@@ -96,7 +113,7 @@ CameraYaml ReadCameraFile(const std::string& path, const std::string& image_path
 
 Rigid3d ReadStartPoseFile(const std::string& path, const std::string& key) {
   const std::string ext = Extension(path);
-  const std::string kind = ext == ".json" ? JsonKindOrNone(path) : (ext == ".txt" ? "txt" : "");
+  const std::string kind = ext == ".json" ? JsonKindOrNone(path) : (ext == ".txt" && !TxtIsCameraYaml(path) ? "txt" : "");
   if (kind.empty()) return ReadPoseJson(path, key);
   if (key != "cam_from_lidar") {
     throw InputError::Message(path, "an OpenCalib file holds a camera's pose to the LiDAR, not " + key +

@@ -207,6 +207,12 @@ TEST(CameraFile, PoseJsonIsReadByThePoseReader) {
   EXPECT_FALSE(IsOpenCalibFile(pose));
   ExpectInputError([&] { ReadStartPoseFile(overflow, "cam_from_lidar"); }, {"pose_inf.json:1", "1e400"});
   EXPECT_EQ(ReadStartPoseFile(pose, "cam_from_lidar").translation, Eigen::Vector3d(0.5, 0, 0));
+  // A camera YAML saved as .txt is read as the YAML it is.
+  const std::string yaml_txt = (dir / "camera.txt").string();
+  std::ofstream(yaml_txt) << "# a camera\nmodel: PINHOLE\nwidth: 1242\nheight: 375\nparams: [700, 700, 621, 187.5]\n";
+  EXPECT_FALSE(IsOpenCalibFile(yaml_txt));
+  EXPECT_EQ(ReadCameraFile(yaml_txt, "a.png", 1242, 375).camera.ModelName(), "PINHOLE");
+  ExpectInputError([&] { ReadCameraFile(yaml_txt, "a.png", 1920, 1200); }, {"a.png", "1920x1200", "camera.txt is 1242x375"});
   fs::remove_all(dir);
 }
 

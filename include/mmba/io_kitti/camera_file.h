@@ -3,7 +3,8 @@
 // The camera and start-pose files `mmba register-mi` accepts, chosen by file type (library
 // mmba_io_kitti):
 //   --camera   FILE.yaml / .yml        mmba camera YAML (io/camera_yaml.h)
-//              calib.txt (any .txt)    OpenCalib calib.txt: K, D and T (io_kitti/opencalib.h)
+//              calib.txt (a .txt)      OpenCalib calib.txt: K, D and T (io_kitti/opencalib.h);
+//                                      a .txt whose first key is model:, width:, … is a YAML
 //              NAME-intrinsic.json     OpenCalib intrinsic JSON (no pose)
 //   --initial  POSE.json               mmba pose JSON (io/pose_json.h)
 //              calib.txt (any .txt)    OpenCalib calib.txt's T
@@ -19,9 +20,10 @@
 
 namespace mmba::io {
 
-/// True when `path` is an OpenCalib file by its type: a .txt file, or a .json file holding
-/// OpenCalib's one sensor object with param.cam_K or param.sensor_calib (a file that is not
-/// valid JSON is not: the pose JSON reader names its problem). InputError for a missing file.
+/// True when `path` is an OpenCalib file by its type: a .txt file (not a camera YAML), or a
+/// .json file holding OpenCalib's one sensor object with param.cam_K or param.sensor_calib (a
+/// file that is not valid JSON is not: the pose JSON reader names its problem). InputError
+/// for a missing file.
 bool IsOpenCalibFile(const std::string& path);
 
 /// The camera (and its cam_from_lidar where the file has one) of a camera file of any kind
