@@ -55,7 +55,8 @@ using namespace internal;  // the adjustment's private units
 
 /// The joint problem: every sensor's factor groups (in this order: report.json lists them so)
 /// and parameter options, applied by Build(); then the survey points' constant blocks. The
-/// datum comes from the control, GNSS and LiDAR (no gauge).
+/// datum comes from the control, GNSS and LiDAR (no gauge), or for image measurements without
+/// control from PhotoMeasurementGauge.
 void BuildProblem(JointState* s) {
   s->builder = std::make_unique<ProblemBuilder>(&s->scene);
   s->check_group = nullptr;
@@ -66,9 +67,8 @@ void BuildProblem(JointState* s) {
   AddNetworkGroups(s, weights);
   if (!s->project->lidar_static.empty()) AddStaticLidarGroups(s, weights);
   if (s->mobile) AddMobileGroups(s, weights);
-  GaugeOptions gauge;
-  gauge.kind = GaugeOptions::Kind::kNone;
-  s->builder->set_gauge(gauge);
+  if (s->measured) AddPhotoMeasurementGroups(s, weights);
+  s->builder->set_gauge(PhotoMeasurementGauge(*s));  // kNone unless a block without control
   ceres::Problem& problem = s->builder->Build();
   if (s->joint) survey::SetSurveyParameterStates(&*s->joint, problem);
   if (s->rig) WarnHeldRigIntrinsics(s);
@@ -155,9 +155,11 @@ stats::NetworkStatistics Statistics(JointState* s) {
     names[s->spheres->baseline.data()] = "spherical stereo baseline";
   }
   for (const auto& [id, image] : s->scene.images()) {
-    const std::string name = station_of.count(id) ? station_of.at(id)
-                             : s->photos         ? s->photos->model.images.at(id).name
-                                                 : std::to_string(id.value);
+    const std::string measured = PhotoMeasurementImageName(*s, id);
+    const std::string name = station_of.count(id)                          ? station_of.at(id)
+                             : !measured.empty()                             ? measured
+                             : s->photos && s->photos->model.images.count(id) ? s->photos->model.images.at(id).name
+                                                                             : std::to_string(id.value);
     names[image.cam_from_world.rotation.coeffs().data()] = "rotation of image " + name;
     names[image.cam_from_world.translation.data()] = "position of image " + name;
   }
@@ -189,7 +191,7 @@ std::string DescribeObservation(const JointState& s, const FactorGroup& group, s
   const size_t index = group.block_observation_index()[block];
   const std::string name = group.name();
   for (const auto& describe : {DescribePhotoObservation, DescribeRigObservation, DescribeSphereObservation,
-                               DescribeMobileObservation, DescribeStaticLidarObservation}) {
+                               DescribeMobileObservation, DescribeStaticLidarObservation, DescribePhotoMeasurement}) {
     std::string text = describe(s, name, index);
     if (!text.empty()) return text;
   }
@@ -272,6 +274,7 @@ void LoadSensors(JointState* s, const std::string& work_dir) {
   spdlog::info("adjust: reading sensors of {}", project.path);
   LoadNetwork(s);
   LoadGnss(s);
+  LoadPhotoMeasurements(s);
   LoadPhotos(s, work_dir);
   LoadSpheres(s);
   LoadRig(s);

@@ -161,6 +161,8 @@ struct ScanBlock {
   std::vector<Eigen::Vector3d> sample;    ///< scan frame: the scan-to-scan points
 };
 
+struct MeasurementBlock;  // blocks/photo_measurements.h
+
 struct JointState {
   const Project* project = nullptr;
   geodesy::LocalTangentPlane plane{geodesy::Geodetic{}};
@@ -177,6 +179,7 @@ struct JointState {
   std::optional<SphereBlock> spheres;
   std::optional<RigBlock> rig;
   std::optional<MobileBlock> mobile;
+  std::shared_ptr<MeasurementBlock> measured;  ///< a photo_measurements sensor
   Scene scene;
   std::unique_ptr<LidarSurface> surface;
   std::vector<SurfacePlane> planes;

@@ -382,6 +382,7 @@ void WriteSensorOutputs(JointState& s, const AdjustOptions& options, const fs::p
   sink.poses = &poses;
   sink.report = report;
   if (s.photos) WritePhotoOutputs(s, &sink);
+  if (s.measured) WritePhotoMeasurementOutputs(s, &sink);
   if (s.spheres) WriteSphereOutputs(s, &sink);
   if (s.rig) WriteRigOutputs(s, &sink);
   if (s.mobile) WriteMobileOutputs(s, options.num_threads, &sink);
@@ -414,6 +415,13 @@ std::vector<NamedPath> ProjectInputs(const Project& project) {
     }
   }
   for (const TotalStation& t : project.total_stations) add(t.id, "file", t.file);
+  for (const PhotoMeasurements& p : project.photo_measurements) {
+    add(p.id, "camera", p.camera);
+    add(p.id, "images", p.images);
+    add(p.id, "prior_eo", p.prior_eo);
+    for (const io::MeasurementFile& m : p.measurements) add(p.id, "measurements", m.file);
+  }
+  if (project.control) inputs.push_back({"'control'", project.control->file});
   for (const Gnss& g : project.gnss) add(g.id, "file", g.file);
   for (const LidarStatic& l : project.lidar_static) {
     add(l.id, "reference_cloud", l.reference_cloud);

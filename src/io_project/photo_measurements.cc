@@ -1,5 +1,6 @@
 // Project keys of photogrammetric networks from image measurements: frame, control,
 // scale_bars and the sensor `type: photo_measurements` (docs/project-yaml.md).
+#include <algorithm>
 #include <filesystem>
 #include <set>
 
@@ -54,6 +55,7 @@ std::vector<int> FreeIntrinsics(const io::YamlReader& r, Node n, Field f, const 
     }
     free.insert(idx.begin(), idx.end());
   }
+  for (int k : sensors::CameraModelFixedIdxs(camera.model_id)) free.erase(k);  // the sensor's pixel pitch
   return {free.begin(), free.end()};
 }
 
@@ -167,12 +169,15 @@ PhotoMeasurements ReadPhotoMeasurements(const io::YamlReader& r, Node n, Field f
                   if (!ParseLossType(name, &p.loss.type)) r.Fail(v, g, "none, huber, cauchy or soft_l1", name);
                 }}});
   r.Require(n, f, {"camera", "measurements"});
-  const sensors::Camera camera = io::ReadCameraYaml(p.camera).camera;
+  const sensors::Camera camera = io::ReadCameraFile(p.camera).camera;
   if (have_refine) {
     p.free_intrinsics = FreeIntrinsics(r, refine, f + ".refine", camera, &p.refine);
   } else {  // default: self-calibration of every parameter
     p.refine = {"focal", "principal_point", "distortion"};
-    for (int k = 0; k < static_cast<int>(camera.params.size()); ++k) p.free_intrinsics.push_back(k);
+    const std::vector<int> fixed = sensors::CameraModelFixedIdxs(camera.model_id);
+    for (int k = 0; k < static_cast<int>(camera.params.size()); ++k) {
+      if (std::find(fixed.begin(), fixed.end(), k) == fixed.end()) p.free_intrinsics.push_back(k);
+    }
   }
   return p;
 }

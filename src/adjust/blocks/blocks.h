@@ -49,6 +49,9 @@ inline constexpr char kMiExtrinsic[] = "mobile: MI camera-LiDAR calibration";
 inline constexpr char kTrajectoryPrior[] = "mobile: GNSS/INS trajectory prior";
 inline constexpr char kSmoothness[] = "mobile: trajectory smoothness";
 inline constexpr char kExtrinsicPrior[] = "mobile: camera-LiDAR extrinsic prior";
+inline constexpr char kMeasured[] = "photo measurements: image points";
+inline constexpr char kMeasuredControl[] = "photo measurements: control coordinates";
+inline constexpr char kScaleBars[] = "photo measurements: scale bars";
 
 /// The observations data snooping excluded and the variance-component σ factors, by group
 /// name: what a group's observation list becomes when the problem is built again.
@@ -175,6 +178,24 @@ std::string MobileOverlapFailure(const JointState& s, size_t on_surface, double 
 /// error_map_<id>.ply, report.json `mobile_lidar` (and `mobile_lidar_coloured`); a warning for
 /// nodes that nothing observes.
 void WriteMobileOutputs(JointState& s, int num_threads, OutputSink* out);
+
+// ---- image measurements with control (blocks/photo_measurements.cc) ------------------------
+
+/// Reads the photo_measurements sensor (camera, images, measurements, control, check points,
+/// scale bars), initialises its images and points (orientation/block_initialisation.h) and
+/// puts them in the Scene. InputError for bad files; AdjustFailure when no image is oriented.
+void LoadPhotoMeasurements(JointState* s);
+/// Image points, control coordinates and scale bars; held control points and intrinsics.
+void AddPhotoMeasurementGroups(JointState* s, const GroupWeights& w);
+/// The gauge of a block without control (one pose and a distance, or one pose with a scale
+/// bar); kNone otherwise.
+GaugeOptions PhotoMeasurementGauge(const JointState& s);
+std::string DescribePhotoMeasurement(const JointState& s, const std::string& name, size_t index);
+/// The name of one of the block's images ("" when `id` is not one).
+std::string PhotoMeasurementImageName(const JointState& s, ImageId id);
+/// images.csv and points.csv of the block, poses.csv rows, its calibration and report.json
+/// `photo_measurements` (initialisation, datum, per-image RMS, check points).
+void WritePhotoMeasurementOutputs(const JointState& s, OutputSink* out);
 
 // ---- total station and GNSS (blocks/network.cc) --------------------------------------------
 

@@ -1,0 +1,313 @@
+// A photogrammetric network from image measurements (`type: photo_measurements`): its files
+// read through `columns`, the initial orientation without COLMAP (space resection from the
+// control, relative orientation, forward intersection; orientation/block_initialisation.h),
+// its factor groups (image points with σ = sigma_px, control coordinates, scale bars), the
+// datum of a block without control, and its outputs (images.csv, points.csv, report.json
+// `photo_measurements`).
+#include "photo_measurements.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include <spdlog/spdlog.h>
+
+#include "../output_support.h"
+#include "blocks.h"
+#include "mmba/core/error.h"
+#include "mmba/factors/coordinate_observation.h"
+#include "mmba/factors/distance_observation.h"
+#include "mmba/factors/reprojection_error.h"
+#include "mmba/io/camera_yaml.h"
+#include "mmba/io/image_measurements.h"
+
+namespace mmba::adjust::internal {
+namespace {
+
+using json = nlohmann::json;
+
+/// Scene ids of the block: images and the points that the statistics eliminate (Schur) from
+/// here, the points kept in the covariance (scale-bar ends, check points, every point of a
+/// block of up to kFreePointLimit points: their σ is reported) from kCheckPointIdBase up.
+constexpr uint64_t kImageIdBase = 3000000000ULL;
+constexpr uint64_t kPointIdBase = 3000000000ULL;
+constexpr uint64_t kFreePointIdBase = kCheckPointIdBase + 100000000ULL;
+constexpr uint64_t kCameraId = 3000001;
+/// Points of a block up to which every point's covariance is computed (3 unknowns each: with
+/// the poses and intrinsics within the statistics' dense path).
+constexpr size_t kFreePointLimit = 700;
+
+/// The control coordinates of the photo block: weighted, fixed or withheld (check points).
+class ControlGroup : public FactorGroup {
+ public:
+  ControlGroup(std::vector<ControlCoordinate> c, LossOptions loss, std::string name)
+      : FactorGroup(std::move(name), "m", loss), c_(std::move(c)) {}
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override {
+    for (size_t i = 0; i < c_.size(); ++i) {
+      AddBlock(problem, new factors::ScalarPriorCost(c_[i].axis, c_[i].value_m, c_[i].sigma_m),
+               {scene.Point(c_[i].point).data()}, c_[i].sigma_m, i);
+    }
+  }
+  bool FixesDatum() const override { return true; }
+
+ private:
+  std::vector<ControlCoordinate> c_;
+};
+
+struct BarObservation {
+  Point3DId from, to;
+  double distance_m = 0.0;
+  double sigma = 0.0;  ///< m (GroupWeights::Scaled scales `sigma`)
+};
+
+class ScaleBarGroup : public FactorGroup {
+ public:
+  ScaleBarGroup(std::vector<BarObservation> bars, std::string name)
+      : FactorGroup(std::move(name), "m", LossOptions()), bars_(std::move(bars)) {}
+  void AddResiduals(Scene& scene, ceres::Problem& problem) override {
+    for (size_t i = 0; i < bars_.size(); ++i) {
+      AddBlock(problem, new factors::DistanceCost(bars_[i].distance_m, bars_[i].sigma),
+               {scene.Point(bars_[i].from).data(), scene.Point(bars_[i].to).data()}, bars_[i].sigma, i);
+    }
+  }
+
+ private:
+  std::vector<BarObservation> bars_;
+};
+
+std::vector<BarObservation> Bars(const JointState& s) {
+  std::vector<BarObservation> bars;
+  for (size_t i = 0; i < s.project->scale_bars.size(); ++i) {
+    const ScaleBar& b = s.project->scale_bars[i];
+    bars.push_back({s.measured->bar_points[i].first, s.measured->bar_points[i].second, b.distance_m, b.sigma_m});
+  }
+  return bars;
+}
+
+/// Every measurement file read, checked against the camera's image.
+std::vector<io::ImageMeasurement> ReadMeasurements(const PhotoMeasurements& p, const sensors::Camera& camera) {
+  std::vector<io::ImageMeasurement> all;
+  for (const io::MeasurementFile& f : p.measurements) {
+    for (io::ImageMeasurement& m : io::ReadImageMeasurements(f)) {
+      io::CheckInsideImage(m, camera.width, camera.height);
+      all.push_back(std::move(m));
+    }
+  }
+  return all;
+}
+
+/// The control file: weighted and fixed points to `control`, check points withheld.
+std::map<std::string, io::ControlPoint> ReadControl(const JointState& s, std::map<std::string, Eigen::Vector3d>* check) {
+  const Project& project = *s.project;
+  std::map<std::string, io::ControlPoint> control;
+  if (!project.control) return control;
+  const ControlFile& c = *project.control;
+  for (io::ControlPoint& p : io::ReadControlPoints(c.file, c.columns, c.sigma_m >= 0 ? std::optional<double>(c.sigma_m) : std::nullopt)) {
+    const int zero = (p.sigma_m.array() == 0).count();
+    if (zero != 0 && zero != 3) {
+      throw InputError(c.file, p.line, "sigma", "σ 0 on " + std::to_string(zero) + " of 3 coordinates (point " + p.id + ")",
+                       "σ 0 on all three coordinates (fixed) or none (weighted)");
+    }
+    control.emplace(p.id, std::move(p));
+  }
+  for (const std::string& id : project.check_points) {
+    const auto it = control.find(id);
+    if (it == control.end()) {
+      if (!project.total_stations.empty()) continue;  // a point of the network
+      throw InputError(project.path, 0, "check_points", id, "the id of a point of the control file " + c.file);
+    }
+    (*check)[id] = it->second.xyz_m;
+    control.erase(it);
+  }
+  return control;
+}
+
+/// Runs the initialisation and logs it; AdjustFailure when no image could be oriented.
+void Initialise(JointState* s, const sensors::Camera& camera, const std::vector<io::ImageMeasurement>& all,
+                const std::map<std::string, io::ControlPoint>& control) {
+  MeasurementBlock& b = *s->measured;
+  orientation::BlockInput input;
+  input.camera = &camera;
+  std::set<std::string> seen;
+  for (const io::ImageMeasurement& m : all) {
+    if (seen.insert(m.image_id).second) input.images.push_back(m.image_id);
+    input.measurements.push_back({m.image_id, m.point_id, m.xy_px});
+  }
+  for (const auto& [id, p] : control) input.control[id] = p.xyz_m;
+  b.initial = orientation::InitialiseBlock(input, orientation::BlockOptions{});
+  for (const std::string& line : b.initial.log) spdlog::debug("adjust: {}: {}", b.config->id, line);
+  const std::string& id = b.config->id;
+  Note(s, "photo measurements '" + id + "': " + std::to_string(b.initial.cam_from_world.size()) + " of " +
+              std::to_string(input.images.size()) + " images oriented without COLMAP (" + b.initial.frame + "), " +
+              std::to_string(b.initial.points.size()) + " points, " + std::to_string(b.initial.outliers.size()) +
+              " measurements off by more than the RANSAC threshold at the start (kept: the bundle's loss and data snooping judge them)");
+  for (const orientation::InitialOutlier& o : b.initial.outliers) {
+    spdlog::info("adjust: photo measurements '{}': point {} in image {} off by {:.1f} px at the initialisation ({})", id,
+                 o.point_id, o.image_id, o.error_px, o.stage);
+  }
+  for (const auto& [image, reason] : b.initial.failed_images) {
+    s->warnings.push_back("photo measurements '" + id + "': image " + image + " not oriented: " + reason);
+  }
+  for (const auto& [point, reason] : b.initial.failed_points) {
+    s->warnings.push_back("photo measurements '" + id + "': point " + point + " not adjusted: " + reason);
+  }
+  if (b.initial.cam_from_world.empty()) {
+    throw AdjustFailure(AdjustStatus::kFailed, "photo measurements '" + id + "': no image could be oriented (" +
+                                                   (b.initial.log.empty() ? "no seed" : b.initial.log.back()) + ")");
+  }
+}
+
+/// The Scene's camera, images and points from the initialisation; the observations kept.
+void FillScene(JointState* s, const sensors::Camera& camera, const std::vector<io::ImageMeasurement>& all) {
+  MeasurementBlock& b = *s->measured;
+  std::set<std::string> bar_ends;
+  for (const ScaleBar& bar : s->project->scale_bars) bar_ends.insert({bar.from, bar.to});
+  const bool all_free = b.initial.points.size() <= kFreePointLimit;
+  size_t next_point = 0;
+  for (const auto& [id, xyz] : b.initial.points) {
+    const bool free = all_free || bar_ends.count(id) || b.check_reference.count(id);
+    const Point3DId pid((free ? kFreePointIdBase : kPointIdBase) + next_point++);
+    s->scene.AddPoint(pid, xyz);
+    b.point_of[id] = pid;
+    b.point_name[pid] = id;
+  }
+  for (const auto& [id, pose] : b.initial.cam_from_world) {
+    const ImageId iid(kImageIdBase + b.image_names.size());
+    b.image_names.push_back(id);
+    b.image_of[id] = iid;
+    s->scene.AddImage(iid, b.camera_id, pose);
+    b.initial_poses[iid] = pose;
+  }
+  for (const io::ImageMeasurement& m : all) {
+    // The initialisation's outliers stay: with the start camera's distortion unknown (DBAT's
+    // camcaldemo: 116 px at the corners) most are good measurements; the bundle's robust loss
+    // and data snooping judge them.
+    if (!b.image_of.count(m.image_id) || !b.point_of.count(m.point_id)) continue;
+    b.observations.push_back({b.image_of.at(m.image_id), b.point_of.at(m.point_id), m.xy_px, m.sigma_px.mean()});
+    b.sources.push_back(m.file + ":" + std::to_string(m.line));
+  }
+}
+
+}  // namespace
+
+void LoadPhotoMeasurements(JointState* s) {
+  const Project& project = *s->project;
+  if (project.photo_measurements.empty()) return;
+  if (project.photo_measurements.size() > 1) {
+    throw InputError(project.path, project.photo_measurements[1].line, "type", "photo_measurements",
+                     "one photo_measurements sensor in this version");
+  }
+  const PhotoMeasurements& p = project.photo_measurements.front();
+  s->measured = std::make_shared<MeasurementBlock>();
+  MeasurementBlock& b = *s->measured;
+  b.config = &p;
+  sensors::Camera camera = io::ReadCameraFile(p.camera).camera;
+  camera.camera_id = CameraId(kCameraId);
+  if (!std::unique_ptr<ceres::CostFunction>(
+          factors::CreateReprojectionCost(camera.model_id, Eigen::Vector2d::Zero(), 1.0, camera.params.data()))) {
+    throw InputError(p.camera, 0, "model", camera.ModelName(), "a camera model with a reprojection residual");
+  }
+  b.camera_id = camera.camera_id;
+  b.initial_params = camera.params;
+  s->scene.AddCamera(camera);
+  if (!p.images.empty()) b.image_files = io::ReadImageList(p.images);
+  const std::vector<io::ImageMeasurement> all = ReadMeasurements(p, camera);
+  const std::map<std::string, io::ControlPoint> control = ReadControl(*s, &b.check_reference);
+  Initialise(s, camera, all, control);
+  FillScene(s, camera, all);
+  for (const auto& [id, c] : control) {
+    const auto it = b.point_of.find(id);
+    if (it == b.point_of.end()) continue;  // not measured (or not intersected: a warning says so)
+    s->scene.Point(it->second) = c.xyz_m;
+    if (c.Fixed()) {
+      b.fixed_points.insert(it->second);
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) {
+      b.control.push_back({it->second, k, c.xyz_m[k], c.sigma_m[k], project.control->file + ":" + std::to_string(c.line)});
+    }
+  }
+  for (const ScaleBar& bar : project.scale_bars) {
+    for (const std::string& end : {bar.from, bar.to}) {
+      if (!b.point_of.count(end)) {
+        throw InputError(project.path, bar.line, "scale_bars.from/to", end,
+                         "a point of the photo measurements with coordinates (measured in 2+ oriented images)");
+      }
+    }
+    b.bar_points.push_back({b.point_of.at(bar.from), b.point_of.at(bar.to)});
+  }
+  if (b.fixed_points.size() + b.control.size() / 3 >= 3) {
+    b.datum = "control: " + std::to_string(b.fixed_points.size()) + " fixed, " + std::to_string(b.control.size() / 3) +
+              " weighted points";
+    return;
+  }
+  // No control: a minimal datum — the first image's pose and, without a scale bar, its
+  // distance to the second (the block's scale); with scale bars the first pose only.
+  b.gauge_needed = true;
+  const ImageId first(kImageIdBase);
+  if (!project.scale_bars.empty()) {
+    b.gauge.kind = GaugeOptions::Kind::kFixedImages;
+    b.gauge.fixed_images = {first};
+    b.datum = "free network: image " + b.image_names[0] + "'s pose held, scale from " +
+              std::to_string(project.scale_bars.size()) + " scale bar(s)";
+  } else {
+    b.gauge.kind = GaugeOptions::Kind::kTwoPoses;
+    b.gauge.first = first;
+    b.gauge.second = ImageId(kImageIdBase + 1);
+    b.datum = "free network: image " + b.image_names[0] + "'s pose and its distance to image " +
+              (b.image_names.size() > 1 ? b.image_names[1] : "?") + " held (arbitrary scale)";
+  }
+}
+
+GaugeOptions PhotoMeasurementGauge(const JointState& s) {
+  GaugeOptions none;
+  none.kind = GaugeOptions::Kind::kNone;
+  return s.measured && s.measured->gauge_needed ? s.measured->gauge : none;
+}
+
+void AddPhotoMeasurementGroups(JointState* s, const GroupWeights& w) {
+  const MeasurementBlock& b = *s->measured;
+  s->builder->AddGroup(std::make_unique<ReprojectionGroup>(w.Scaled(kMeasured, b.observations), b.config->loss, kMeasured));
+  if (!b.control.empty()) {
+    s->builder->AddGroup(std::make_unique<ControlGroup>(w.Kept(kMeasuredControl, b.control), LossOptions(), kMeasuredControl))
+        .set_role(FactorRole::kPrior);
+  }
+  if (!b.bar_points.empty()) {
+    s->builder->AddGroup(std::make_unique<ScaleBarGroup>(Bars(*s), kScaleBars)).set_role(FactorRole::kPrior);
+  }
+  ParameterOptions& parameters = s->builder->parameter_options();
+  std::vector<int> held;
+  const std::vector<int>& free = b.config->free_intrinsics;
+  for (int k = 0; k < static_cast<int>(b.initial_params.size()); ++k) {
+    if (std::find(free.begin(), free.end(), k) == free.end()) held.push_back(k);
+  }
+  parameters.held_intrinsics[b.camera_id] = held;
+  parameters.constant_points.insert(b.fixed_points.begin(), b.fixed_points.end());
+}
+
+std::string DescribePhotoMeasurement(const JointState& s, const std::string& name, size_t index) {
+  if (!s.measured) return "";
+  const MeasurementBlock& b = *s.measured;
+  if (name == kMeasured) {
+    const ReprojectionObservation& o = b.observations[index];
+    return "point " + b.point_name.at(o.point3D_id) + " in image " + PhotoMeasurementImageName(s, o.image_id) + " (" +
+           b.sources[index] + ")";
+  }
+  if (name == kMeasuredControl) {
+    const ControlCoordinate& c = b.control[index];
+    return std::string(1, "xyz"[c.axis]) + " of control point " + b.point_name.at(c.point) + " (" + c.source + ")";
+  }
+  if (name == kScaleBars) {
+    const ScaleBar& bar = s.project->scale_bars[index];
+    return "scale bar " + bar.from + " - " + bar.to;
+  }
+  return "";
+}
+
+std::string PhotoMeasurementImageName(const JointState& s, ImageId id) {
+  if (!s.measured || id.value < kImageIdBase || id.value - kImageIdBase >= s.measured->image_names.size()) return "";
+  return s.measured->image_names[id.value - kImageIdBase];
+}
+
+}  // namespace mmba::adjust::internal

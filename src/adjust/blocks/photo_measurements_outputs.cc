@@ -1,0 +1,174 @@
+// Outputs of a photo_measurements block: images.csv (exterior orientation with σ, per-image
+// residual RMS and counts), points.csv (adjusted points with σ and 95 % ellipsoid semi-axes),
+// the camera calibration with σ, and report.json `photo_measurements` (initialisation, datum,
+// images, check points with dX, dY, dZ and RMSE per axis and 3-D).
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include <Eigen/Eigenvalues>
+
+#include "../output_support.h"
+#include "blocks.h"
+#include "photo_measurements.h"
+
+namespace mmba::adjust::internal {
+namespace {
+
+using json = nlohmann::json;
+
+/// Scale of a standard-error ellipsoid's semi-axes to its 95 % confidence region (3 degrees
+/// of freedom: sqrt of the χ²(3) quantile 7.8147).
+constexpr double k95Ellipsoid3d = 2.7955;
+
+struct ImageResidual {
+  size_t count = 0;
+  double sum_squares_px = 0.0;
+};
+
+std::map<ImageId, ImageResidual> ResidualsByImage(const JointState& s) {
+  std::map<ImageId, ImageResidual> by_image;
+  const MeasurementBlock& b = *s.measured;
+  const Scene& scene = s.scene;
+  const sensors::Camera& camera = scene.Camera(b.camera_id);
+  for (const ReprojectionObservation& o : b.observations) {
+    const auto xy = camera.ImgFromCam(scene.Image(o.image_id).cam_from_world * scene.Point(o.point3D_id));
+    ImageResidual& r = by_image[o.image_id];
+    ++r.count;
+    if (xy) r.sum_squares_px += (*xy - o.xy).squaredNorm();
+  }
+  return by_image;
+}
+
+json Images(const JointState& s, std::ostringstream* csv) {
+  const MeasurementBlock& b = *s.measured;
+  const auto residuals = ResidualsByImage(s);
+  json images = json::array();
+  *csv << "# mmba adjust: exterior orientation of the photo measurements' images; centre in the world frame, "
+          "q = cam_from_world (w, x, y, z); sigma from the adjustment (scaled by sigma0); rms_px per coordinate\n"
+          "image,file,x_m,y_m,z_m,qw,qx,qy,qz,sigma_x_m,sigma_y_m,sigma_z_m,sigma_rx_deg,sigma_ry_deg,sigma_rz_deg,"
+          "observations,rms_px\n";
+  for (size_t i = 0; i < b.image_names.size(); ++i) {
+    const ImageId id = b.image_of.at(b.image_names[i]);
+    const Rigid3d& pose = s.scene.Image(id).cam_from_world;
+    const Eigen::Vector3d c = CameraCentre(pose);
+    const Eigen::Vector3d sigma = CentreCovariance(s.statistics, pose).diagonal().cwiseMax(0.0).cwiseSqrt();
+    Eigen::Vector3d sigma_rotation = Eigen::Vector3d::Zero();  // about the camera axes, deg
+    const double* q = pose.rotation.coeffs().data();
+    for (int k = 0; k < 3; ++k) sigma_rotation[k] = std::sqrt(std::max(0.0, s.statistics.Covariance(q, k, q, k))) * kDeg;
+    const auto it = residuals.find(id);
+    const size_t n = it == residuals.end() ? 0 : it->second.count;
+    const double rms = n ? std::sqrt(it->second.sum_squares_px / (2.0 * n)) : 0.0;
+    const std::string file = b.image_files.count(b.image_names[i]) ? b.image_files.at(b.image_names[i]) : "";
+    *csv << std::setprecision(10) << b.image_names[i] << "," << file << "," << c.x() << "," << c.y() << "," << c.z() << ","
+         << pose.rotation.w() << "," << pose.rotation.x() << "," << pose.rotation.y() << "," << pose.rotation.z() << ","
+         << std::setprecision(4) << sigma.x() << "," << sigma.y() << "," << sigma.z() << "," << sigma_rotation.x() << ","
+         << sigma_rotation.y() << "," << sigma_rotation.z() << "," << n << "," << rms << "\n";
+    images.push_back({{"image", b.image_names[i]}, {"file", file}, {"centre_m", Vec(c)}, {"sigma_centre_m", Vec(sigma)},
+                      {"sigma_rotation_deg", Vec(sigma_rotation)}, {"observations", n}, {"rms_px", rms}});
+  }
+  return images;
+}
+
+/// points.csv; returns the number of points written.
+size_t Points(const JointState& s, std::ostringstream* csv) {
+  const MeasurementBlock& b = *s.measured;
+  std::map<Point3DId, size_t> rays;
+  for (const ReprojectionObservation& o : b.observations) ++rays[o.point3D_id];
+  std::set<Point3DId> weighted;
+  for (const ControlCoordinate& c : b.control) weighted.insert(c.point);
+  *csv << "# mmba adjust: points of the photo measurements in the world frame; sigma from the adjustment (scaled by "
+          "sigma0; 0 when held or when the block's points are eliminated from the covariance); a95 >= b95 >= c95 = "
+          "semi-axes of the 95 % confidence ellipsoid\n"
+          "point,kind,x_m,y_m,z_m,sigma_x_m,sigma_y_m,sigma_z_m,a95_m,b95_m,c95_m,rays\n";
+  for (const auto& [name, id] : b.point_of) {
+    const Eigen::Vector3d& x = s.scene.Point(id);
+    const Eigen::Matrix3d cov = PointCovariance3(s.statistics, x.data());
+    const Eigen::Vector3d axes = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvalues().cwiseMax(0.0).cwiseSqrt();
+    const char* kind = b.fixed_points.count(id) ? "control (fixed)" : weighted.count(id) ? "control (weighted)"
+                       : b.check_reference.count(name) ? "check" : "tie";
+    *csv << name << "," << kind << "," << std::setprecision(10) << x.x() << "," << x.y() << "," << x.z() << ","
+         << std::setprecision(4) << std::sqrt(std::max(0.0, cov(0, 0))) << "," << std::sqrt(std::max(0.0, cov(1, 1))) << ","
+         << std::sqrt(std::max(0.0, cov(2, 2))) << "," << k95Ellipsoid3d * axes[2] << "," << k95Ellipsoid3d * axes[1] << ","
+         << k95Ellipsoid3d * axes[0] << "," << rays[id] << "\n";
+  }
+  return b.point_of.size();
+}
+
+json CheckPoints(const JointState& s) {
+  const MeasurementBlock& b = *s.measured;
+  json rows = json::array();
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  size_t n = 0;
+  for (const auto& [name, reference] : b.check_reference) {
+    const auto it = b.point_of.find(name);
+    if (it == b.point_of.end()) {
+      rows.push_back({{"point", name}, {"status", "not intersected"}});
+      continue;
+    }
+    const Eigen::Vector3d d = s.scene.Point(it->second) - reference;
+    const Eigen::Vector3d sigma = PointCovariance3(s.statistics, s.scene.Point(it->second).data()).diagonal().cwiseMax(0.0).cwiseSqrt();
+    rows.push_back({{"point", name}, {"d_m", Vec(d)}, {"sigma_m", Vec(sigma)}});
+    sum += d.cwiseProduct(d);
+    ++n;
+  }
+  json out = {{"points", rows}, {"count", n}};
+  if (n) {
+    const Eigen::Vector3d rmse = (sum / n).cwiseSqrt();
+    out["rmse_m"] = Vec(rmse);
+    out["rmse_3d_m"] = std::sqrt(sum.sum() / n);
+  }
+  return out;
+}
+
+json Calibration(const JointState& s, OutputSink* out) {
+  const MeasurementBlock& b = *s.measured;
+  const sensors::Camera& camera = s.scene.Camera(b.camera_id);
+  const std::vector<double> sigma = ParameterSigmas(s.statistics, s.builder->problem(), camera.params.data());
+  std::vector<std::string> names;
+  std::stringstream info(sensors::CameraModelParamsInfo(camera.model_id));
+  for (std::string name; std::getline(info, name, ',');) names.push_back(name.substr(name.find_first_not_of(' ')));
+  json parameters = json::array();
+  std::ostringstream yaml, sigmas;
+  yaml << "# mmba adjust: calibration of photo measurements '" << b.config->id << "', sigma from the adjustment\nmodel: "
+       << camera.ModelName() << "\nwidth: " << camera.width << "\nheight: " << camera.height << "\nparams: [";
+  for (size_t k = 0; k < camera.params.size(); ++k) {
+    yaml << (k ? ", " : "") << std::setprecision(10) << camera.params[k];
+    sigmas << (k ? ", " : "") << std::setprecision(4) << sigma[k];
+    parameters.push_back({{"name", k < names.size() ? names[k] : "p" + std::to_string(k)},
+                          {"initial", b.initial_params[k]}, {"adjusted", camera.params[k]}, {"sigma", sigma[k]}});
+  }
+  yaml << "]\nsigma: [" << sigmas.str() << "]\n";
+  WriteText(out->stage / "calibration" / (b.config->id + "_camera.yaml"), yaml.str());
+  out->calibrations.push_back({{"name", b.config->id + " camera (" + camera.ModelName() + ")"}, {"parameters", parameters}});
+  return parameters;
+}
+
+}  // namespace
+
+void WritePhotoMeasurementOutputs(const JointState& s, OutputSink* out) {
+  const MeasurementBlock& b = *s.measured;
+  std::ostringstream images_csv, points_csv;
+  json images = Images(s, &images_csv);
+  Points(s, &points_csv);
+  WriteText(out->stage / (b.config->id + "_images.csv"), images_csv.str());
+  WriteText(out->stage / (b.config->id + "_points.csv"), points_csv.str());
+  json outliers = json::array();
+  for (const orientation::InitialOutlier& o : b.initial.outliers) {
+    outliers.push_back({{"image", o.image_id}, {"point", o.point_id}, {"error_px", o.error_px}, {"stage", o.stage}});
+  }
+  (*out->report)["photo_measurements"] = {
+      {"id", b.config->id},
+      {"initialisation", {{"frame", b.initial.frame}, {"steps", b.initial.log}, {"left_out", outliers},
+                          {"images_not_oriented", b.initial.failed_images}, {"points_not_adjusted", b.initial.failed_points}}},
+      {"datum", b.datum},
+      {"observations", b.observations.size()},
+      {"points", b.point_of.size()},
+      {"refine", b.config->refine},
+      {"camera", Calibration(s, out)},
+      {"images", images},
+      {"check_points", CheckPoints(s)},
+      {"files", {b.config->id + "_images.csv", b.config->id + "_points.csv", "calibration/" + b.config->id + "_camera.yaml"}}};
+}
+
+}  // namespace mmba::adjust::internal
