@@ -113,6 +113,14 @@ ReducedObservation Reduce(const TargetFaces& t, FacePair* pair) {
       }
     }
   }
+  if (!r.has_slope) {  // a job that records horizontal distances only
+    int n = 0;
+    for (const RawObservation* o : {t.face1, t.face2}) {
+      if (o && o->has_horizontal) r.horizontal_m += o->horizontal_m, ++n;
+    }
+    r.has_horizontal = n > 0;
+    if (n > 0) r.horizontal_m /= n;
+  }
   return r;
 }
 

@@ -14,7 +14,10 @@ constexpr double kCcToRad = kPi / 200.0 * 1e-4;
 
 /// Horizontal distance and height difference (instrument mark to target mark) of `o`.
 bool Polar(const ReducedObservation& o, double instrument_height, double* hd, double* dz) {
-  if (!o.has_slope) return false;
+  if (!o.has_slope) {
+    *hd = o.horizontal_m;  // 0 without one
+    return false;
+  }
   const double zenith = o.has_zenith ? o.zenith_rad : kPi / 2;
   *hd = o.slope_m * std::sin(zenith);
   *dz = o.slope_m * std::cos(zenith) + instrument_height - o.reflector_height_m;
@@ -56,7 +59,7 @@ struct Approximator {
       auto it = xy.find(o.target);
       if (it == xy.end() || !o.has_direction) continue;
       Polar(o, set.instrument_height_m, &hd, &dz);
-      if (!o.has_slope) continue;
+      if (!(hd > 0)) continue;
       p.emplace_back(hd * std::sin(o.direction_rad), hd * std::cos(o.direction_rad));
       q.push_back(it->second);
     }
@@ -87,7 +90,7 @@ struct Approximator {
     for (const ReducedObservation& o : set.observations) {
       double hd = 0, dz = 0;
       const bool has_dz = Polar(o, set.instrument_height_m, &hd, &dz);
-      if (orientation[k] && o.has_slope && o.has_direction && !xy.count(o.target)) {
+      if (orientation[k] && hd > 0 && o.has_direction && !xy.count(o.target)) {
         const double bearing = o.direction_rad + *orientation[k];
         xy[o.target] = xy.at(set.station) + hd * Eigen::Vector2d(std::sin(bearing), std::cos(bearing));
         changed = true;
@@ -145,6 +148,11 @@ Cluster MakeCluster(const ReducedSet& set, const FaceReductionOptions& options) 
       const double sigma_mm = options.distance_sigma_mm + options.distance_sigma_ppm * o.slope_m * 1e-3;
       cluster.observations.push_back(
           MakeObservation(ObsKind::kSlopeDistance, set, o, o.slope_m, sigma_mm * 1e-3));
+    }
+    if (o.has_horizontal) {
+      const double sigma_mm = options.distance_sigma_mm + options.distance_sigma_ppm * o.horizontal_m * 1e-3;
+      cluster.observations.push_back(
+          MakeObservation(ObsKind::kDistance, set, o, o.horizontal_m, sigma_mm * 1e-3));
     }
     if (o.has_zenith) {
       const double angle = options.zenith_sigma_cc * kCcToRad;

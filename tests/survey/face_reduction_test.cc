@@ -61,6 +61,8 @@ FieldBook Book() {
   t.line = 13;
   t.observations = {FaceOne("X", 14, 5, 100, 0, 0), FaceOne("Y", 15, 50, 100, 0, 0),
                     FaceOne("X", 16, 5.001, 100, 0, 0), FaceOne("Y", 17, 50.001, 100, 0, 0)};
+  t.observations[0].has_horizontal = true;  // a horizontal distance only (WI 32)
+  t.observations[0].horizontal_m = 30.0;
   book.setups.push_back(t);
   return book;
 }
@@ -91,6 +93,9 @@ TEST(FaceReduction, PairsRoundsAndFaceDifferencesAsByHand) {
   EXPECT_NEAR(r.pairs[0].index_mgon, -0.5, 1e-9);
   EXPECT_NEAR(r.pairs[0].distance_difference_mm, -2.0, 1e-9);
   EXPECT_NEAR(r.pairs[2].collimation_mgon, 1.0, 1e-9);  // C across the seam
+  EXPECT_TRUE(r.sets[2].observations[0].has_horizontal);
+  EXPECT_DOUBLE_EQ(r.sets[2].observations[0].horizontal_m, 30.0);
+  EXPECT_FALSE(r.sets[0].observations[0].has_horizontal);  // A has a slope distance
   ASSERT_EQ(r.setups.size(), 2u);
   EXPECT_EQ(r.setups[0].rounds, 2);
   EXPECT_EQ(r.setups[0].pairs, 5);

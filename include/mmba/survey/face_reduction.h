@@ -89,6 +89,10 @@ struct ReducedObservation {
   double zenith_rad = 0.0;
   bool has_slope = false;
   double slope_m = 0.0;
+  /// Horizontal distance (WI 32) meaned over the faces, used only where no slope distance was
+  /// recorded.
+  bool has_horizontal = false;
+  double horizontal_m = 0.0;
   double reflector_height_m = 0.0;
 };
 
