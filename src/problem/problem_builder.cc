@@ -101,6 +101,7 @@ void ProblemBuilder::ApplyIntrinsics() {
     auto hold = [&constant](const std::vector<int>& idxs) {
       constant.insert(constant.end(), idxs.begin(), idxs.end());
     };
+    hold(sensors::CameraModelFixedIdxs(camera.model_id));  // e.g. a pixel pitch: never estimated
     const auto held = o.held_intrinsics.find(id);
     if (held != o.held_intrinsics.end()) {
       hold(held->second);
@@ -114,6 +115,7 @@ void ProblemBuilder::ApplyIntrinsics() {
       problem_->SetParameterBlockConstant(params);
     } else if (!constant.empty()) {
       std::sort(constant.begin(), constant.end());
+      constant.erase(std::unique(constant.begin(), constant.end()), constant.end());
       problem_->SetManifold(params, new ceres::SubsetManifold(size, constant));
     }
   }

@@ -13,6 +13,7 @@ namespace {
 using sensors::CameraModelId;
 using sensors::EquirectangularModel;
 using sensors::OpenCVModel;
+using sensors::PhotogrammetricModel;
 using sensors::PinholeModel;
 
 TEST(ReprojectionError, HandComputedPinholeResidual) {
@@ -57,6 +58,28 @@ TEST(ReprojectionError, GradientCheckOpenCV) {
   const double t[3] = {0.3, -0.2, 1.0}, x[3] = {0.5, 0.7, 6.0};
   const double params[8] = {500, 510, 320, 240, -0.1, 0.02, 0.001, -0.002};
   CheckGradients(cost, {q.coeffs().data(), t, x, params});
+}
+
+TEST(ReprojectionError, GradientCheckPhotogrammetric) {
+  // The C4040Z of DBAT's camcaldemo: c, xp, yp in mm, K1–K3, P1, P2, b1, b2, pixel pitch (mm).
+  const double params[12] = {7.457, 3.615, 2.613, 3e-3, -1e-4, 2e-6, 1e-4, -2e-4, 1e-4, 0.0,
+                             0.0031913, 0.0031913};
+  const Eigen::Quaterniond q = Eigen::Quaterniond(0.98, 0.05, -0.1, 0.02).normalized();
+  const double t[3] = {0.3, -0.2, 1.0}, x[3] = {0.5, 0.7, 6.0};
+  std::unique_ptr<ceres::CostFunction> cost(
+      ReprojectionError<PhotogrammetricModel>::Create(Eigen::Vector2d(1500, 1100), 0.5));
+  // The pitch is held (a property of the sensor), as ProblemBuilder holds it. Ridders' first
+  // step is a fraction of the whole block's scale: 1e-2 of c would make P1 (1e-4 mm⁻¹) 0.3,
+  // where the Newton inverse of the correction has no solution, so the steps start smaller.
+  ceres::EigenQuaternionManifold quaternion;
+  ceres::SubsetManifold pitch_held(12, {10, 11});
+  const std::vector<const ceres::Manifold*> manifolds{&quaternion, nullptr, nullptr, &pitch_held};
+  ceres::NumericDiffOptions numeric;
+  numeric.ridders_relative_initial_step_size = 1e-4;
+  ceres::GradientChecker checker(cost.get(), &manifolds, numeric);
+  ceres::GradientChecker::ProbeResults results;
+  const double* blocks[4] = {q.coeffs().data(), t, x, params};
+  EXPECT_TRUE(checker.Probe(blocks, 1e-6, &results)) << results.error_log;
 }
 
 TEST(SphericalReprojectionError, ZeroAtTheTruthAndAnAngleOnTheSphere) {
@@ -126,7 +149,8 @@ TEST(CreateReprojectionCost, DispatchesEveryModel) {
                            CameraModelId::kOpenCV, CameraModelId::kOpenCVFisheye,
                            CameraModelId::kFullOpenCV, CameraModelId::kFOV,
                            CameraModelId::kSimpleRadialFisheye, CameraModelId::kRadialFisheye,
-                           CameraModelId::kThinPrismFisheye, CameraModelId::kEquirectangular}) {
+                           CameraModelId::kThinPrismFisheye, CameraModelId::kEquirectangular,
+                           CameraModelId::kPhotogrammetric}) {
     std::unique_ptr<ceres::CostFunction> cost(
         CreateReprojectionCost(id, Eigen::Vector2d(1, 2), 1.0, params));
     ASSERT_NE(cost, nullptr);

@@ -162,6 +162,7 @@ inline ceres::CostFunction* CreateReprojectionCost(sensors::CameraModelId model_
       MMBA_CASE(sensors::SimpleRadialFisheyeModel)
       MMBA_CASE(sensors::RadialFisheyeModel)
       MMBA_CASE(sensors::ThinPrismFisheyeModel)
+      MMBA_CASE(sensors::PhotogrammetricModel)
 #undef MMBA_CASE
     default:
       return nullptr;

@@ -156,6 +156,7 @@ void SetRigParameterOptions(const JointState& s, ParameterOptions* options) {
       continue;
     }
     const auto hold = [&](const std::vector<int>& idxs) { held.insert(held.end(), idxs.begin(), idxs.end()); };
+    hold(sensors::CameraModelFixedIdxs(camera.model_id));
     if (!refine.focal) hold(sensors::CameraModelFocalIdxs(camera.model_id));
     if (!refine.principal_point) hold(sensors::CameraModelPrincipalIdxs(camera.model_id));
     const std::vector<int> extra = sensors::CameraModelExtraIdxs(camera.model_id);
