@@ -49,7 +49,10 @@ std::string HeightKindName(HeightKind kind) {
 struct Crs::Impl {
   PJ_CONTEXT* ctx = nullptr;
   PjPtr crs;             // as given (a BoundCRS unwrapped to its source)
+  PjPtr horizontal_part; // the horizontal component of a compound CRS, or null
+  const PJ* horizontal = nullptr;  // crs or horizontal_part
   PjPtr to_geodetic;     // horizontal CRS → its own geographic CRS, normalised axis order
+  PjPtr projection;      // the projection as a classic PROJ operation (radians in), for proj_factors
   PjPtr geoid;           // +proj=vgridshift (H → h), or null
   std::string definition, where, identifier, name, wkt, wkt1, geoid_grid;
   HeightKind height_kind = HeightKind::kAsGiven;
@@ -60,6 +63,8 @@ struct Crs::Impl {
     geoid.reset();
     to_geodetic.reset();
     crs.reset();
+    projection.reset();
+    horizontal_part.reset();
     if (ctx) proj_context_destroy(ctx);
   }
 
@@ -72,7 +77,19 @@ struct Crs::Impl {
   void SetEllipsoid(const PJ* geodetic_crs);
   void SetIdentity(const PJ* horizontal);
   void OpenGeoid();
+  void OpenProjection();
 };
+
+// The horizontal CRS's PROJ.4 string without +type=crs: an operation from geodetic radians to
+// the grid in its own unit, without the EPSG axis order (as pyproj's Proj is built).
+void Crs::Impl::OpenProjection() {
+  const char* text = proj_as_proj_string(ctx, horizontal, PJ_PROJ_4, nullptr);
+  if (!text) return;
+  std::string projection_string = text;
+  const size_t type = projection_string.find("+type=crs");
+  if (type != std::string::npos) projection_string.erase(type, 9);
+  projection.reset(proj_create(ctx, projection_string.c_str()));
+}
 
 void Crs::Impl::Parse() {
   crs.reset(proj_create(ctx, definition.c_str()));
@@ -161,8 +178,8 @@ Crs::Crs(const std::string& definition, const std::string& where, const std::str
   m.ctx = proj_context_create();
   proj_log_level(m.ctx, PJ_LOG_NONE);
   m.Parse();
-  PjPtr horizontal_holder;
-  const PJ* horizontal = m.Horizontal(&horizontal_holder);
+  m.horizontal = m.Horizontal(&m.horizontal_part);
+  const PJ* horizontal = m.horizontal;
   PjPtr geodetic(proj_crs_get_geodetic_crs(m.ctx, horizontal));
   if (!geodetic) m.Fail("'" + definition + "' has no geodetic datum PROJ can read");
   m.SetEllipsoid(geodetic.get());
@@ -173,6 +190,7 @@ Crs::Crs(const std::string& definition, const std::string& where, const std::str
     m.Fail("'" + definition + "': PROJ finds no conversion to its geodetic CRS (" +
            ContextError(m.ctx) + ")");
   }
+  if (!m.is_geographic) m.OpenProjection();
   if (!geoid_grid.empty() && m.height_kind == HeightKind::kEllipsoidal) {
     m.Fail("a geoid grid is given, but '" + definition + "' has ellipsoidal heights; a grid " +
            "needs orthometric heights (a compound CRS such as EPSG:25832+7837) or a 2-D CRS");
@@ -250,6 +268,22 @@ Eigen::Vector3d Crs::CrsFromGeodetic(const Geodetic& geodetic) const {
            " is outside the domain of " + m.name);
   }
   return {p.xyz.x, p.xyz.y, height};
+}
+
+GridFactors Crs::Factors(const Geodetic& geodetic) const {
+  const Impl& m = *impl_;
+  GridFactors out;
+  if (m.is_geographic || !m.projection) return out;
+  const PJ_COORD lp = proj_coord(proj_torad(geodetic.longitude_deg),
+                                 proj_torad(geodetic.latitude_deg), 0, 0);
+  const PJ_FACTORS f = proj_factors(m.projection.get(), lp);
+  if (!(f.meridional_scale > 0) || !std::isfinite(f.meridian_convergence)) {
+    m.Fail("latitude/longitude " + Triple(geodetic.latitude_deg, geodetic.longitude_deg, 0) +
+           ": PROJ gives no scale factor of " + m.name + " there");
+  }
+  out.point_scale = f.meridional_scale;
+  out.convergence_deg = proj_todeg(f.meridian_convergence);
+  return out;
 }
 
 }  // namespace mmba::geodesy

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "mmba/core/error.h"
+#include "mmba/geodesy/crs_frame.h"
 
 namespace mmba::geodesy {
 namespace {
@@ -139,5 +140,42 @@ TEST(Crs, OutsideTheGridIsAnError) {
   EXPECT_THROW(crs.GeodeticFromCrs({500000.0, 9000000.0, 0.0}), InputError);
 }
 
+// Reference: pyproj 3.4.1 Proj(CRS.from_epsg(code)).get_factors(lon, lat).
+TEST(Crs, GridFactorsAsPyproj) {
+  struct Case { const char* code; double lon, lat, scale, convergence; };
+  const Case cases[] = {{"EPSG:25832", 9.3, 49.7, 0.9996057483247974, 0.22880138103944606},
+                        {"EPSG:2154", 3.9, 46.9, 0.9990730496094041, 0.6530469885481185},
+                        {"EPSG:31467", 9.4, 49.6, 1.0000102654746417, 0.3046174194936913}};
+  for (const Case& c : cases) {
+    const GridFactors f = Crs(c.code, "t").Factors({c.lat, c.lon, 0.0});
+    EXPECT_NEAR(f.point_scale, c.scale, 1e-10) << c.code;  // PROJ's numerical derivatives
+    EXPECT_NEAR(f.convergence_deg, c.convergence, 1e-9) << c.code;
+  }
+  const GridFactors geographic = Crs("EPSG:4326", "t").Factors({49.7, 9.3, 0.0});
+  EXPECT_EQ(geographic.point_scale, 1.0);
+  EXPECT_EQ(geographic.convergence_deg, 0.0);
+}
+
+TEST(CrsFrame, WorldAndCrsRoundTripAndCombinedScale) {
+  auto crs = std::make_shared<const Crs>("EPSG:25832", "t");
+  const Geodetic origin = OriginOfCrsPoints(*crs, {{480000.0, 5500000.0, 90.0}, {482000.0, 5502000.0, 110.0}});
+  const CrsFrame frame(crs, origin);
+  EXPECT_NEAR(frame.WorldFromCrs({481000.0, 5501000.0, 100.0}).norm(), 0.0, 1e-6);
+  const Eigen::Vector3d a(-700.0, 400.0, 25.0), b(650.0, -300.0, -5.0);
+  for (const Eigen::Vector3d& p : {a, b}) {
+    EXPECT_NEAR((frame.WorldFromCrs(frame.CrsFromWorld(p)) - p).norm(), 0.0, 1e-7);
+  }
+  // A grid distance is the horizontal ground distance times the combined scale (short line,
+  // both ends at the same height; the factor taken at the midpoint).
+  const Eigen::Vector3d p(100.0, 200.0, 300.0), q(400.0, 600.0, 300.0);
+  const double ground = (q - p).head<2>().norm();
+  const double grid = (frame.CrsFromWorld(q) - frame.CrsFromWorld(p)).head<2>().norm();
+  const PointFactors f = frame.FactorsAtWorld(0.5 * (p + q));
+  const double height = frame.GeodeticFromWorld(0.5 * (p + q)).height_m;
+  EXPECT_NEAR(f.elevation_factor, 1.0 - height / 6.38e6, 2e-7);
+  EXPECT_NEAR(grid / ground, f.combined_scale, 2e-7);
+}
+
 }  // namespace
 }  // namespace mmba::geodesy
+

@@ -19,6 +19,16 @@ enum class HeightKind {
 /// "ellipsoidal", "orthometric", "as given".
 std::string HeightKindName(HeightKind kind);
 
+/// The projection's local distortion at a point (PROJ's proj_factors; Snyder, Map Projections —
+/// A Working Manual, USGS PP 1395, 1987, Eq. (4-2), (4-3)): a short grid distance is the
+/// ellipsoidal distance times `point_scale` (the meridional scale h; a conformal grid's k = h),
+/// and grid north is `convergence_deg` east of true north. A geographic CRS (or a projection
+/// PROJ cannot write as a PROJ string): 1 and 0.
+struct GridFactors {
+  double point_scale = 1.0;
+  double convergence_deg = 0.0;
+};
+
 /// A coordinate reference system known to PROJ (`EPSG:25832`, `EPSG:2154+5720`, a PROJ string
 /// or WKT), with the conversions between its coordinates and geodetic coordinates on ITS OWN
 /// datum. No datum shift is applied: the project's world frame is a local tangent plane on the
@@ -67,6 +77,8 @@ class Crs {
   Geodetic GeodeticFromCrs(const Eigen::Vector3d& xyz) const;
   /// The inverse of GeodeticFromCrs.
   Eigen::Vector3d CrsFromGeodetic(const Geodetic& geodetic) const;
+  /// The grid's scale and meridian convergence at `geodetic` (on the CRS's datum).
+  GridFactors Factors(const Geodetic& geodetic) const;
 
  private:
   struct Impl;
