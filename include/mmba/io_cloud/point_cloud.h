@@ -16,6 +16,8 @@
 //        (PTS point count) is skipped.
 //   LAS  1.2–1.4 uncompressed, point data formats 0–3 and 6–8, with scale and offset
 //        (a small reader written here: Debian packages no LAS library). LAZ is refused.
+//        ReadLas also returns the WKT CRS and named extra-byte fields (LasInfo); the LAS 1.4
+//        writer is io_cloud/las_writer.h.
 //   BIN  KITTI velodyne (.bin): float32 little-endian x y z reflectance per point.
 //        nuScenes (.pcd.bin): float32 little-endian x y z intensity ring per point.
 // Non-finite coordinates are an InputError unless ReadOptions::skip_invalid_points, which
@@ -93,10 +95,39 @@ PointCloud ReadPcd(const std::string& path, const ReadOptions& options = {},
                    ReadStats* stats = nullptr);
 PointCloud ReadXyz(const std::string& path, const ReadOptions& options = {},
                    ReadStats* stats = nullptr);
+/// A named per-point scalar of a LAS file, described in its Extra Bytes VLR (user id
+/// "LASF_Spec", record id 4; LAS 1.4 R15, Table 24): a signed distance `distance_m`, a σ.
+struct LasExtraField {
+  std::string name;            ///< at most 32 characters, e.g. "distance_m"
+  std::string description;     ///< at most 32 characters, e.g. "signed distance to the mesh"
+  bool is_double = false;      ///< stored as float64 (data type 10), else float32 (type 9)
+  std::vector<double> values;  ///< one per point (scale and offset of the descriptor applied)
+};
+
+/// What a LAS file holds besides a PointCloud's attributes.
+struct LasInfo {
+  /// OGC WKT of the "LASF_Projection" record 2112 (VLR or EVLR); empty when there is none.
+  std::string crs_wkt;
+  /// The extra-byte fields of a numeric type (1–10) in record order, values kept in step with
+  /// the points read (skipped points dropped). Undocumented bytes (type 0) are not returned.
+  std::vector<LasExtraField> extra_fields;
+  std::string system_identifier;    ///< header bytes 26–57, trailing NULs removed
+  std::string generating_software;  ///< header bytes 58–89, trailing NULs removed
+  uint16_t global_encoding = 0;     ///< header bytes 6–7 (bit 4: the CRS is WKT)
+  int point_format = 0;             ///< point data record format, 0–3 or 6–8
+  Eigen::Vector3d scale = Eigen::Vector3d::Zero();   ///< x y z scale factors [m]
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  ///< x y z offsets [m]
+
+  /// The extra field named `name`, or nullptr.
+  const LasExtraField* Field(const std::string& name) const;
+};
+
 /// LAS: intensity is the raw 16-bit value; 16-bit colours are reduced to 8 bits (>> 8)
 /// unless every stored value is <= 255 (writers that store 8-bit colour in 16-bit fields).
+/// `info`, when given, receives the CRS WKT, the named extra-byte fields and the header's
+/// identification (io_cloud/las_writer.h writes them).
 PointCloud ReadLas(const std::string& path, const ReadOptions& options = {},
-                   ReadStats* stats = nullptr);
+                   ReadStats* stats = nullptr, LasInfo* info = nullptr);
 PointCloud ReadKittiBin(const std::string& path, const ReadOptions& options = {},
                         ReadStats* stats = nullptr);
 /// nuScenes LiDAR sweep (`*.pcd.bin`): 5 float32 per point, x y z intensity ring index; the
