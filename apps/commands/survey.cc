@@ -13,6 +13,7 @@
 #include "mmba/core/atomic_file.h"
 #include "mmba/core/output_folder.h"
 #include "mmba/core/version.h"
+#include "mmba/geodesy/crs_frame.h"
 #include "mmba/io_survey/field_job.h"
 #include "mmba/io_survey/gama_local.h"
 #include "mmba/io_survey/gama_local_writer.h"
@@ -35,7 +36,26 @@ struct SurveyArgs {
   std::vector<std::string> known;     ///< --known: coordinates for a field file
   std::string export_gama_local;      ///< --export-gama-local FILE
   std::vector<std::string> settings;  ///< --set NAME=VALUE (survey/face_reduction.h)
+  std::string crs;                    ///< --crs: the CRS of the network's coordinates
+  std::string geoid_grid;             ///< --geoid-grid: with --crs, orthometric heights
 };
+
+/// --crs: the network's coordinates in the CRS moved into the tangent plane at the mean of its
+/// points (crs_frame.h); std::nullopt without --crs.
+std::optional<geodesy::CrsFrame> NetworkCrs(const SurveyArgs& args, std::shared_ptr<const geodesy::Crs> crs,
+                                            survey::SurveyNetwork* net) {
+  if (!crs) return std::nullopt;
+  std::vector<Eigen::Vector3d> points;
+  for (const survey::SurveyPoint& p : net->points) {
+    if (p.has_xy) points.emplace_back(p.coords.x(), p.coords.y(), p.has_z ? p.coords.z() : 0.0);
+  }
+  if (points.empty()) {
+    throw InputError::Message("--crs", args.input + " has no point with plane coordinates to place the origin at");
+  }
+  geodesy::CrsFrame frame(crs, geodesy::OriginOfCrsPoints(*crs, points));
+  survey::NetworkFromCrs(frame, "--crs " + args.crs, net);
+  return frame;
+}
 
 /// A field file's job, or writes its gama-local export; the options that only field files
 /// take are refused for other inputs.
@@ -79,11 +99,15 @@ int RunSurvey(const SurveyArgs& args) {
   if (args.output.empty()) {
     throw InputError::Message("--output", "needed (a folder for the results) unless --export-gama-local is given");
   }
+  if (args.crs.empty() && !args.geoid_grid.empty()) throw InputError::Message("--geoid-grid", "applies with --crs only");
+  const auto crs_given = args.crs.empty() ? nullptr
+                                          : std::make_shared<const geodesy::Crs>(args.crs, "--crs", args.geoid_grid);
   OutputFolder output(args.output, "--output", "mmba survey", {{"--input", args.input}});
   const std::string ext = std::filesystem::path(args.input).extension().string();
   survey::SurveyNetwork net = field ? std::move(field->network)
                               : (ext == ".csv") ? io::ReadSurveyCsv(args.input)
                                                 : io::ReadGamaLocal(args.input);
+  const std::optional<geodesy::CrsFrame> crs = NetworkCrs(args, crs_given, &net);
   survey::SurveyAdjustOptions options;
   options.confidence = args.confidence;
   options.max_iterations = args.max_iterations;
@@ -91,14 +115,15 @@ int RunSurvey(const SurveyArgs& args) {
   if (!adj.converged) {
     throw CommandFailed("survey adjustment " + adj.status + ": " + adj.reason);
   }
-  nlohmann::json json = survey::ResultToJson(args.input, net, adj);
+  nlohmann::json json = survey::ResultToJson(args.input, net, adj, crs ? &*crs : nullptr);
   const std::string csv_text = survey::ObservationsCsv(net, adj);
   std::string summary = survey::ResultSummary(args.input, net, adj);
   if (field) {
     json["face_reduction"] = survey::FaceReductionToJson(field->reduction);
     summary += survey::FaceReductionSummary(field->reduction);
   }
-  const std::string md_text = survey::ReportMarkdown(args.input, net, adj, args.report_rows);
+  std::string md_text = survey::ReportMarkdown(args.input, net, adj, args.report_rows);
+  if (crs) md_text += survey::CrsPointsMarkdown(net, *crs);
 
   RecordBuild(&json);
   AtomicFileSet files;
@@ -135,6 +160,10 @@ std::function<int()> SetupSurveyCommand(CLI::App& app, CommonOptions* common) {
                   "Confidence level of the tests (default: the file's conf-pr, else 0.95)");
   sub->add_option("--max-iterations", args->max_iterations, "Levenberg-Marquardt iterations")
       ->capture_default_str();
+  sub->add_option("--crs", args->crs,
+                  "Coordinate reference system of the network's coordinates (EPSG:25832, EPSG:2154+5720, a PROJ string or WKT): adjusted in the tangent plane at their mean, written back in the CRS with latitude, longitude, height and the grid scale");
+  sub->add_option("--geoid-grid", args->geoid_grid,
+                  "With --crs: a geoid grid (GTX, GeoTIFF) for the CRS's orthometric heights (h = H + N)");
   AddCommonOptions(sub, common);
   return [args]() { return RunSurvey(*args); };
 }

@@ -373,7 +373,7 @@ AdjustOutcome RunAdjustment(const Project& project, const AdjustOptions& options
   Timer timer;
   JointState s;
   s.project = &project;
-  s.plane = geodesy::LocalTangentPlane(project.origin);
+  s.plane = geodesy::LocalTangentPlane(project.origin, project.crs ? project.crs->ellipsoid() : geodesy::Ellipsoid());
   // Checked and locked before any work; the result is staged beside it and swapped in whole.
   OutputFolder output(options.output_dir, "--output", "mmba adjust", ProjectInputs(project));
   const std::string work_dir = output.path().string() + ".work";

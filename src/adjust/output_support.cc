@@ -121,6 +121,44 @@ std::string Geo(const geodesy::LocalTangentPlane& plane, const Eigen::Vector3d& 
   return s.str();
 }
 
+std::string CrsColumns(const geodesy::Crs& crs) {
+  std::string tag = crs.identifier();
+  if (tag.rfind("EPSG:", 0) == 0) {
+    tag = "epsg" + tag.substr(5);
+    std::replace(tag.begin(), tag.end(), '+', '_');
+  } else {
+    tag = "crs";
+  }
+  if (crs.is_geographic()) return ",longitude_" + tag + "_deg,latitude_" + tag + "_deg,height_" + tag + "_m";
+  return ",easting_" + tag + "_m,northing_" + tag + "_m,height_" + tag + "_m";
+}
+
+std::string CrsValues(const geodesy::CrsFrame& frame, const Eigen::Vector3d& point_in_world) {
+  const Eigen::Vector3d xyz = frame.CrsFromWorld(point_in_world);
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(frame.crs().is_geographic() ? 10 : 4) << "," << xyz.x() << "," << xyz.y()
+    << std::setprecision(4) << "," << xyz.z();
+  return s.str();
+}
+
+nlohmann::json CrsJson(const geodesy::Crs& crs) {
+  const std::string& id = crs.identifier();
+  nlohmann::json epsg = nullptr;
+  if (id.rfind("EPSG:", 0) == 0 && id.find('+') == std::string::npos) epsg = std::stoi(id.substr(5));
+  std::string columns = CrsColumns(crs).substr(1);
+  return {{"definition", crs.definition()},
+          {"identifier", id},
+          {"epsg", epsg},
+          {"name", crs.name()},
+          {"wkt", crs.wkt()},
+          {"axes", crs.is_geographic() ? "longitude_deg, latitude_deg, height_m" : "easting_m, northing_m, height_m"},
+          {"height_kind", geodesy::HeightKindName(crs.height_kind())},
+          {"geoid_grid", crs.geoid_grid().empty()
+                             ? nlohmann::json(nullptr)
+                             : nlohmann::json(std::filesystem::path(crs.geoid_grid()).filename().string())},
+          {"columns", columns}};
+}
+
 void WriteText(const std::filesystem::path& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary);
   out << text;

@@ -14,6 +14,7 @@
 #include <ceres/problem.h>
 #include <nlohmann/json.hpp>
 
+#include "mmba/geodesy/crs_frame.h"
 #include "mmba/geodesy/geodesy.h"
 #include "mmba/geometry/rigid3d.h"
 #include "mmba/stats/statistics.h"
@@ -50,6 +51,16 @@ std::string YamlPose(const Rigid3d& p);
 nlohmann::json Ellipse(const Eigen::Matrix3d& enu);
 /// The CSV columns latitude_deg,longitude_deg,height_m,utm_zone,utm_easting_m,utm_northing_m.
 std::string Geo(const geodesy::LocalTangentPlane& plane, const Eigen::Vector3d& enu);
+/// The CSV columns of the project CRS's coordinates, named by its EPSG code so that a GIS picks
+/// them and their CRS from the header: ",easting_epsg25832_m,northing_epsg25832_m,
+/// height_epsg25832_m" (a compound code "epsg25832_7837"; a geographic CRS "longitude_…_deg,
+/// latitude_…_deg"; a CRS without a code "crs" in place of "epsgNNNN", its WKT in report.json).
+std::string CrsColumns(const geodesy::Crs& crs);
+/// The values of CrsColumns at a world point (",e,n,h", 4 decimals; 10 for degrees).
+std::string CrsValues(const geodesy::CrsFrame& frame, const Eigen::Vector3d& point_in_world);
+/// report.json's `crs` block (definition, identifier, epsg, name, wkt, axes, height_kind,
+/// geoid_grid, columns).
+nlohmann::json CrsJson(const geodesy::Crs& crs);
 /// Writes `text` to `path` (binary); throws std::runtime_error when it cannot.
 void WriteText(const std::filesystem::path& path, const std::string& text);
 

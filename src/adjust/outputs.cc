@@ -6,6 +6,7 @@
 #include <ctime>
 #include <filesystem>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -56,8 +57,16 @@ void ReportHeader(const JointState& s, const std::string& status, json* report) 
   (*report)["status"] = status;
   (*report)["origin"] = {{"latitude_deg", project.origin.latitude_deg}, {"longitude_deg", project.origin.longitude_deg},
                       {"height_m", project.origin.height_m}};
+  (*report)["origin"]["source"] = project.origin_source;
   const geodesy::Utm origin_utm = geodesy::UtmFromGeodetic(project.origin);
   (*report)["frame"] = "local ENU tangent plane at the project origin (metres); WGS84 and UTM in the CSV files";
+  if (project.crs) {
+    (*report)["crs"] = CrsJson(*project.crs);
+    (*report)["origin"]["datum"] = project.crs->name();
+    (*report)["frame"] = "local ENU tangent plane at the project origin on the datum of " + project.crs->name() +
+                         " (metres); " + project.crs->name() + " coordinates (" + CrsColumns(*project.crs).substr(1) +
+                         "), latitude/longitude on its datum and UTM in the CSV files";
+  }
   (*report)["utm_zone"] = std::to_string(origin_utm.zone) + (origin_utm.northp ? "N" : "S");
   (*report)["solver"] = {{"iterations", s.total_iterations}, {"outer_iterations", s.outer_iterations},
                       {"initial_cost", s.solve.initial_cost}, {"final_cost", s.solve.final_cost},
@@ -114,6 +123,7 @@ json GroupsReport(const JointState& s) {
 /// coordinates) and `check_summary`.
 void ControlPointsReport(const JointState& s, json* report) {
   const stats::NetworkStatistics& st = s.statistics;
+  const std::optional<geodesy::CrsFrame> crs = ProjectCrsFrame(*s.project);
   json control = json::array();
   double check_sum[3] = {0, 0, 0}, expected_sum = 0.0;
   size_t check_count = 0;
@@ -142,6 +152,10 @@ void ControlPointsReport(const JointState& s, json* report) {
       const Eigen::Vector3d sigma = cov.diagonal().cwiseMax(0.0).cwiseSqrt();
       control.push_back({{"id", p.id}, {"role", check ? "check" : "control"}, {"surveyed", Vec(surveyed)},
                          {"adjusted", Vec(adjusted)}, {"d", Vec(d)}, {"sigma", Vec(sigma)}, {"ellipse", Ellipse(cov)}});
+      if (crs) {
+        control.back()["surveyed_crs"] = Vec(crs->CrsFromWorld(surveyed));
+        control.back()["adjusted_crs"] = Vec(crs->CrsFromWorld(adjusted));
+      }
       if (check) {
         for (int a = 0; a < 3; ++a) check_sum[a] += d(a) * d(a);
         expected_sum += cov.trace();
@@ -166,7 +180,9 @@ void WriteSurveyPoints(const JointState& s, const fs::path& stage) {
   points << "# mmba adjust: surveyed points in the world (local ENU at the project origin); sigma and ellipse "
             "(1 sigma, azimuth from north) from the joint adjustment\n"
             "id,role,east_m,north_m,up_m,sigma_east_m,sigma_north_m,sigma_up_m,ellipse_a_m,ellipse_b_m,"
-            "ellipse_azimuth_deg,latitude_deg,longitude_deg,height_m,utm_zone,utm_easting_m,utm_northing_m\n";
+            "ellipse_azimuth_deg,latitude_deg,longitude_deg,height_m,utm_zone,utm_easting_m,utm_northing_m"
+         << (project.crs ? CrsColumns(*project.crs) : "") << "\n";
+  const std::optional<geodesy::CrsFrame> crs = ProjectCrsFrame(project);
   for (const survey::SurveyPoint& p : s.joint->points) {
     const bool check = std::count(project.check_points.begin(), project.check_points.end(), p.id) > 0;
     if (check && !(s.photos && s.photos->check_ids.count(p.id))) continue;
@@ -179,7 +195,7 @@ void WriteSurveyPoints(const JointState& s, const fs::path& stage) {
     points << p.id << "," << role << "," << std::setprecision(12) << x.x() << "," << x.y() << "," << x.z() << ","
            << std::setprecision(6) << sigma.x() << "," << sigma.y() << "," << sigma.z() << ","
            << e["a"].get<double>() << "," << e["b"].get<double>() << "," << e["azimuth_deg"].get<double>() << ","
-           << Geo(s.plane, x) << "\n";
+           << Geo(s.plane, x) << (crs ? CrsValues(*crs, x) : "") << "\n";
   }
   WriteText(stage / "points.csv", points.str());
 }
@@ -369,6 +385,34 @@ std::string Summary(const JointState& s, const json& report, const std::vector<S
 }
 
 
+/// poses.csv `text` (a # line, the header, rows whose columns 3–5 are the centre in the world)
+/// with the project CRS's columns appended (output_support.h CrsColumns); unchanged without a CRS.
+std::string WithCrsColumns(const Project& project, const std::string& text) {
+  const std::optional<geodesy::CrsFrame> crs = ProjectCrsFrame(project);
+  if (!crs) return text;
+  std::istringstream in(text);
+  std::ostringstream out;
+  std::string line;
+  for (int n = 0; std::getline(in, line); ++n) {
+    if (n == 0) {
+      out << line << "\n";
+      continue;
+    }
+    if (n == 1) {
+      out << line << CrsColumns(crs->crs()) << "\n";
+      continue;
+    }
+    std::istringstream row(line);
+    std::string cell;
+    Eigen::Vector3d centre;
+    for (int c = 0; c < 5 && std::getline(row, cell, ','); ++c) {
+      if (c >= 2) centre(c - 2) = std::stod(cell);
+    }
+    out << line << CrsValues(*crs, centre) << "\n";
+  }
+  return out.str();
+}
+
 /// The sensor units' outputs in poses.csv's order (photos, spheres, rig), then the mobile LiDAR
 /// and the static scans; poses.csv, pose corrections and calibrations into the report.
 void WriteSensorOutputs(JointState& s, const AdjustOptions& options, const fs::path& stage, json* report) {
@@ -387,7 +431,7 @@ void WriteSensorOutputs(JointState& s, const AdjustOptions& options, const fs::p
   if (s.rig) WriteRigOutputs(s, &sink);
   if (s.mobile) WriteMobileOutputs(s, options.num_threads, &sink);
   if (!s.scans.empty()) WriteScanOutputs(s, &sink);
-  WriteText(stage / "poses.csv", poses.str());
+  WriteText(stage / "poses.csv", WithCrsColumns(*s.project, poses.str()));
   (*report)["pose_corrections"] = sink.corrections;
   (*report)["calibrations"] = sink.calibrations;
 }

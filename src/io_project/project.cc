@@ -544,6 +544,8 @@ Project LoadProject(const std::string& path) {
                          if (!(s.confidence > 0.5 && s.confidence < 1)) r.Fail(v, g, "a probability in (0.5, 1)", r.Text(v));
                        }},
                       {"outlier_sigma", [&](Node v, Field g) { s.outlier_sigma = r.Positive(v, g, 100, "σ units"); }},
+      {"crs", [](Node, Field) {}},  // read below, with geoid_grid
+      {"geoid_grid", [](Node, Field) {}},
                       {"variance_components", [&](Node v, Field g) { s.variance_components = r.Bool(v, g); }}});
        }},
       {"sensors", [&](Node n, Field f) {
@@ -551,11 +553,18 @@ Project LoadProject(const std::string& path) {
          for (size_t i = 0; i < n.size(); ++i) reader.Sensor(n[i], f + "[" + std::to_string(i) + "]", &ids);
        }},
   });
-  project_internal::CheckPhotogrammetricKeys(project, r, root, have_origin);
+  project_internal::ReadCrs(r, root["crs"], root["geoid_grid"], &project);
+  project_internal::SetCrsOrigin(r, root, have_origin, &project);
+  project_internal::CheckPhotogrammetricKeys(project, r, root, have_origin || project.crs);
   CheckCheckPoints(project, r, root);
   CheckSensorReferences(project, path);
   if (project.name.empty()) project.name = fs::path(path).parent_path().filename().string();
   return project;
+}
+
+std::optional<geodesy::CrsFrame> ProjectCrsFrame(const Project& project) {
+  if (!project.crs) return std::nullopt;
+  return geodesy::CrsFrame(project.crs, project.origin);
 }
 
 double MobileMaxRange(const LidarMobile& mobile) {

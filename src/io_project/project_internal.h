@@ -28,4 +28,11 @@ PhotoMeasurements ReadPhotoMeasurements(const io::YamlReader& r, const YAML::Nod
 void CheckPhotogrammetricKeys(const Project& project, const io::YamlReader& r, const YAML::Node& root,
                               bool have_origin);
 
+/// `crs` and `geoid_grid` (nodes undefined when absent): the CRS parsed by PROJ; an unknown
+/// CRS is an InputError naming the file, the line and the value.
+void ReadCrs(const io::YamlReader& r, const YAML::Node& crs, const YAML::Node& grid, Project* project);
+/// With `crs`: `frame: cartesian` refused; without `origin`, the origin at the mean of the
+/// control's CRS coordinates (the total-station network's points, else the control file's).
+void SetCrsOrigin(const io::YamlReader& r, const YAML::Node& root, bool have_origin, Project* project);
+
 }  // namespace mmba::adjust::project_internal

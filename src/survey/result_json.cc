@@ -2,7 +2,11 @@
 #include "mmba/survey/result_json.h"
 
 #include <cmath>
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
 
+#include "mmba/core/error.h"
 #include "mmba/geodesy/geodesy.h"
 #include "survey/output_units_internal.h"
 
@@ -23,7 +27,8 @@ nlohmann::json RemovedPointsJson(const SurveyAdjustment& adj) {
 
 // The network's header entries: input, frame, σ0, dimensions, χ² test.
 nlohmann::json NetworkJson(const std::string& input, const SurveyNetwork& net,
-                           const SurveyAdjustment& adj, const AngleUnit& unit) {
+                           const SurveyAdjustment& adj, const AngleUnit& unit,
+                           const geodesy::CrsFrame* crs) {
   const stats::NetworkStatistics& st = adj.statistics;
   const double m0_apr = net.sigma0_apriori;
   nlohmann::json json = {
@@ -55,6 +60,10 @@ nlohmann::json NetworkJson(const std::string& input, const SurveyNetwork& net,
                       {"longitude_deg", net.origin.longitude_deg},
                       {"height_m", net.origin.height_m}};
     json["frame"] = "local tangent plane (ENU) at the origin, station verticals";
+    if (crs) {
+      json["crs"] = CrsToJson(crs->crs());
+      json["frame"] = "coordinates in " + crs->crs().name() + "; adjusted in the local tangent plane (ENU) at the origin on its datum, station verticals";
+    }
   } else {
     json["frame"] = "input plane (gama-local)";
   }
@@ -75,11 +84,37 @@ void AddGeoreferencedCoordinates(const SurveyNetwork& net, const SurveyPoint& p,
                   {"northing", utm.northing_m}};
 }
 
+// A point of a network given in a CRS: x, y, z replaced by the CRS's coordinates (in the input
+// axes), the tangent-plane coordinates kept as `local`, geodetic coordinates on the CRS's datum
+// and the grid factors there.
+void AddCrsCoordinates(const SurveyNetwork& net, const geodesy::CrsFrame& crs,
+                       const SurveyPoint& p, nlohmann::json* jp) {
+  const Eigen::Vector3d xyz = crs.CrsFromWorld(p.coords);
+  const Eigen::Vector2d xy = net.axes.XyFromEn(xyz.head<2>());
+  (*jp)["local"] = {{"east_m", p.coords.x()}, {"north_m", p.coords.y()}};
+  if (p.xy != CoordStatus::kUnused) {
+    (*jp)["x"] = xy.x();
+    (*jp)["y"] = xy.y();
+  }
+  if (p.has_z) {
+    (*jp)["local"]["up_m"] = p.coords.z();
+    if (p.z != CoordStatus::kUnused) (*jp)["z"] = xyz.z();
+  }
+  const geodesy::Geodetic g = crs.GeodeticFromWorld(p.coords);
+  (*jp)["latitude_deg"] = g.latitude_deg;
+  (*jp)["longitude_deg"] = g.longitude_deg;
+  if (p.has_z) (*jp)["ellipsoidal_height_m"] = g.height_m;
+  const geodesy::PointFactors f = geodesy::FactorsAt(crs.crs(), g);
+  (*jp)["grid"] = {{"point_scale", f.point_scale}, {"elevation_factor", f.elevation_factor},
+                   {"combined_scale", f.combined_scale}, {"convergence_deg", f.convergence_deg}};
+}
+
 // One adjusted point: coordinates in the input axes, status, σ, standard and confidence
 // ellipses (major axis angle from +x towards +y, Gama's convention, input unit), geodetic
 // coordinates when georeferenced, and the standard ellipsoid's axes.
 nlohmann::json PointJson(const SurveyNetwork& net, const SurveyAdjustment& adj,
-                         const SurveyPoint& p, const AngleUnit& unit) {
+                         const SurveyPoint& p, const AngleUnit& unit,
+                         const geodesy::CrsFrame* crs) {
   nlohmann::json jp;
   jp["id"] = p.id;
   const Eigen::Vector2d xy = net.axes.XyFromEn(p.coords.head<2>());
@@ -107,7 +142,11 @@ nlohmann::json PointJson(const SurveyNetwork& net, const SurveyAdjustment& adj,
     jp["status_z"] = CoordStatusName(p.z);
     if (p.z_free()) jp["sigma_z"] = std::sqrt(cov(2, 2));
   }
-  if (net.geodetic && p.has_xy) AddGeoreferencedCoordinates(net, p, &jp);
+  if (crs && p.has_xy) {
+    AddCrsCoordinates(net, *crs, p, &jp);
+  } else if (net.geodetic && p.has_xy) {
+    AddGeoreferencedCoordinates(net, p, &jp);
+  }
   if (p.xy_free() && p.z_free()) {
     Eigen::Vector3d axes_m;
     Eigen::Matrix3d dirs;
@@ -120,13 +159,13 @@ nlohmann::json PointJson(const SurveyNetwork& net, const SurveyAdjustment& adj,
 }  // namespace
 
 nlohmann::json ResultToJson(const std::string& input, const SurveyNetwork& net,
-                            const SurveyAdjustment& adj) {
+                            const SurveyAdjustment& adj, const geodesy::CrsFrame* crs) {
   const AngleUnit unit{net.output_gons};
-  nlohmann::json json = NetworkJson(input, net, adj, unit);
+  nlohmann::json json = NetworkJson(input, net, adj, unit, crs);
   nlohmann::json points = nlohmann::json::array();
   for (const SurveyPoint& p : net.points) {
     if (p.xy == CoordStatus::kUnused && p.z == CoordStatus::kUnused) continue;
-    points.push_back(PointJson(net, adj, p, unit));
+    points.push_back(PointJson(net, adj, p, unit, crs));
   }
   json["points"] = points;
   nlohmann::json orientations = nlohmann::json::array();
@@ -148,4 +187,77 @@ nlohmann::json ResultToJson(const std::string& input, const SurveyNetwork& net,
   return json;
 }
 
+nlohmann::json CrsToJson(const geodesy::Crs& crs) {
+  const std::string& id = crs.identifier();
+  nlohmann::json epsg = nullptr;
+  if (id.rfind("EPSG:", 0) == 0 && id.find('+') == std::string::npos) epsg = std::stoi(id.substr(5));
+  return {{"definition", crs.definition()},
+          {"identifier", id},
+          {"epsg", epsg},
+          {"name", crs.name()},
+          {"wkt", crs.wkt()},
+          {"axes", crs.is_geographic() ? "longitude_deg, latitude_deg, height_m" : "easting_m, northing_m, height_m"},
+          {"height_kind", geodesy::HeightKindName(crs.height_kind())},
+          {"geoid_grid", crs.geoid_grid().empty() ? nlohmann::json(nullptr)
+                                                  : nlohmann::json(std::filesystem::path(crs.geoid_grid()).filename().string())}};
+}
+
+std::string CrsPointsMarkdown(const SurveyNetwork& net, const geodesy::CrsFrame& frame) {
+  const geodesy::Crs& crs = frame.crs();
+  std::ostringstream md;
+  md << std::fixed << "\n## Coordinates in " << crs.name()
+     << (crs.identifier().empty() ? "" : " (" + crs.identifier() + ")") << "\n\n"
+     << "Heights: " << geodesy::HeightKindName(crs.height_kind()) << ". The network was adjusted in the local "
+     << "tangent plane at latitude " << std::setprecision(9) << frame.origin().latitude_deg << "°, longitude "
+     << frame.origin().longitude_deg << "°, h " << std::setprecision(3) << frame.origin().height_m
+     << " m (the mean of its points, on the CRS's datum): the table above is in that plane (x, y in the input's "
+     << "axes); observed distances are ground distances, and a horizontal ground distance times the combined "
+     << "scale is the grid distance.\n\n"
+     << "| point | x [m] | y [m] | z [m] | latitude [°] | longitude [°] | h [m] | combined scale |\n"
+     << "|---|---|---|---|---|---|---|---|\n";
+  for (const SurveyPoint& p : net.points) {
+    if (!p.has_xy || (p.xy == CoordStatus::kUnused && p.z == CoordStatus::kUnused)) continue;
+    const Eigen::Vector3d xyz = frame.CrsFromWorld(p.coords);
+    const Eigen::Vector2d xy = net.axes.XyFromEn(xyz.head<2>());
+    const geodesy::Geodetic g = frame.GeodeticFromWorld(p.coords);
+    md << "| `" << p.id << "` | " << internal::Fixed(xy.x(), 4) << " | " << internal::Fixed(xy.y(), 4) << " | "
+       << (p.has_z ? internal::Fixed(xyz.z(), 4) : "") << " | " << internal::Fixed(g.latitude_deg, 9) << " | "
+       << internal::Fixed(g.longitude_deg, 9) << " | " << (p.has_z ? internal::Fixed(g.height_m, 4) : "") << " | "
+       << internal::Fixed(geodesy::FactorsAt(crs, g).combined_scale, 8) << " |\n";
+  }
+  return md.str();
+}
+
+void NetworkFromCrs(const geodesy::CrsFrame& frame, const std::string& where, SurveyNetwork* net) {
+  if (net->geodetic) {
+    throw InputError::Message(where, net->source + " is already georeferenced (an origin record); " +
+                                         "expected plane coordinates in " + frame.crs().name());
+  }
+  for (const Cluster& c : net->clusters) {
+    if (c.type == Cluster::Type::kCoordinates || c.type == Cluster::Type::kVectors) {
+      throw InputError(net->source, c.line, c.type == Cluster::Type::kVectors ? "vectors" : "coordinates",
+                       "an observed coordinate or vector set",
+                       "directions, angles, distances, zenith angles, azimuths and height differences only with " + where);
+    }
+  }
+  double height_sum = 0.0;
+  int heights = 0;
+  for (const SurveyPoint& p : net->points) {
+    if (p.has_z) height_sum += p.coords.z(), ++heights;
+  }
+  const double default_height = heights ? height_sum / heights : 0.0;
+  const Eigen::Vector3d origin_in_crs = frame.CrsFromWorld(Eigen::Vector3d::Zero());
+  for (SurveyPoint& p : net->points) {
+    if (p.has_xy) {
+      const Eigen::Vector3d xyz(p.coords.x(), p.coords.y(), p.has_z ? p.coords.z() : default_height);
+      p.coords = frame.WorldFromCrs(xyz);
+    } else if (p.has_z) {  // a height alone: its up coordinate above the origin's plumb line
+      p.coords.z() = frame.WorldFromCrs({origin_in_crs.x(), origin_in_crs.y(), p.coords.z()}).z();
+    }
+  }
+  net->geodetic = true;
+  net->origin = frame.origin();
+}
+
 }  // namespace mmba::survey
+

@@ -138,7 +138,7 @@ TEST(GamaReader, CharacterReferencesMustNameXmlCharacters) {
 }
 
 TEST(GamaReader, TextMustBeUtf8AndXmlCharacters) {
-  for (const std::string bad : {std::string("\xFF"), std::string("\xC3\x28"),
+  for (const std::string& bad : {std::string("\xFF"), std::string("\xC3\x28"),
                                 std::string("\xC0\xAF"), std::string("\xED\xA0\x80"),
                                 std::string("\xF4\x90\x80\x80"), std::string("\xE2\x82")}) {
     const std::string e = ParseError(WithDescription("caf" + bad + " bar"));
@@ -212,7 +212,7 @@ TEST(GamaReader, UncorrelatedClustersHoldNoDenseCovariance) {
 // UTF-16 (with a byte order mark) reads as the same UTF-8 network; an encoding iconv does not
 // know and a byte the declared encoding does not define are input errors naming file and line.
 TEST(GamaReader, AnyDeclaredEncodingIsReadAsUtf8) {
-  for (const std::string& name : {"encoding-iso-8859-2.gkf", "encoding-windows-1250.gkf",
+  for (const char* name : {"encoding-iso-8859-2.gkf", "encoding-windows-1250.gkf",
                                   "encoding-gama-cp-1250.gkf", "encoding-utf-16.gkf"}) {
     SCOPED_TRACE(name);
     survey::SurveyNetwork net = ReadGamaLocal(Fixture(name));

@@ -5,12 +5,14 @@
 #pragma once
 
 #include <algorithm>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "mmba/geodesy/crs_frame.h"
 #include "mmba/geodesy/geodesy.h"
 #include "mmba/geometry/rigid3d.h"
 #include "mmba/io/image_measurements.h"
@@ -343,7 +345,17 @@ struct Project {
   std::string dir;   ///< its folder (paths are relative to it)
   std::string name;
   WorldFrame frame = WorldFrame::kLocalTangentPlane;
-  geodesy::Geodetic origin;  ///< world = ENU tangent plane here (frame: local tangent plane)
+  /// World = ENU tangent plane here (frame: local tangent plane): latitude, longitude on the
+  /// datum of `crs` when one is given (WGS84 otherwise), ellipsoidal height.
+  geodesy::Geodetic origin;
+  /// `crs:` the coordinate reference system of the control, the total-station network's
+  /// coordinates and the outputs' CRS columns (EPSG code, EPSG:h+v, PROJ string or WKT; with
+  /// `geoid_grid:` orthometric heights through the grid); null = none (WGS84 and UTM only).
+  std::shared_ptr<const geodesy::Crs> crs;
+  int crs_line = 0;
+  /// How the origin was set: "origin" (the key) or, with `crs` and no `origin`, the mean of
+  /// the network's (else the control file's) CRS coordinates ("mean of N point(s) of FILE in the crs").
+  std::string origin_source = "origin";
   /// Surveyed points withheld from the adjustment: of the total-station network, or of
   /// `control`.
   std::vector<std::string> check_points;
@@ -364,5 +376,9 @@ struct Project {
 
 /// Reads and validates `path` (see above). Throws InputError.
 Project LoadProject(const std::string& path);
+
+/// The project's world frame tied to its CRS (CrsFrame::CrsFromWorld turns world coordinates
+/// into the CRS, e.g. for a LAS or GeoJSON writer); std::nullopt without `crs`.
+std::optional<geodesy::CrsFrame> ProjectCrsFrame(const Project& project);
 
 }  // namespace mmba::adjust

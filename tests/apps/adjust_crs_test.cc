@@ -1,0 +1,168 @@
+// Coordinates in a national CRS through `mmba adjust` and `mmba survey --crs`: a simulated
+// total-station network whose control is given in the CRS (computed by pyproj from the truth)
+// is adjusted once in the CRS and once in the local tangent plane; the adjusted coordinates in
+// the CRS agree with the local adjustment converted by PROJ's own transformation (pyproj,
+// tests/apps/adjust_crs_reference.py) within 1 mm. An unknown EPSG code is exit 2 naming the
+// file and line (or the option) and the value, with nothing written.
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "shell.h"
+
+namespace mmba::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::string kMmba = MMBA_EXECUTABLE;
+const std::string kReference = "/usr/bin/python3 " MMBA_SOURCE_DIR "/tests/apps/adjust_crs_reference.py";
+
+bool HavePyproj() { return RunShell("/usr/bin/python3 -c 'import pyproj'").exit_code == 0; }
+
+/// The figure after `key` in the reference script's output, or -1.
+double Figure(const std::string& output, const std::string& key) {
+  const size_t at = output.find(key + " ");
+  return at == std::string::npos ? -1.0 : std::stod(output.substr(at + key.size() + 1));
+}
+
+std::string ReadFile(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+class AdjustCrsTest : public ::testing::TestWithParam<const char*> {
+ protected:
+  void SetUp() override {
+    if (!HavePyproj()) GTEST_SKIP() << "no pyproj for /usr/bin/python3 (Debian python3-pyproj)";
+    dir_ = fs::path(::testing::TempDir()) / ("mmba_adjust_crs_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  /// Runs `command`, expecting exit 0.
+  std::string Run(const std::string& command) {
+    const RunResult run = RunShell(command);
+    EXPECT_EQ(run.exit_code, 0) << command << "\n" << run.output;
+    return run.output;
+  }
+
+  fs::path dir_;
+};
+
+struct Place {
+  const char* code;
+  const char* lat;
+  const char* lon;
+};
+
+// ETRS89 / UTM 32N near Würzburg; RGF93 / Lambert-93 in the Massif Central.
+const Place kPlaces[] = {{"EPSG:25832", "49.7", "9.3"}, {"EPSG:2154", "45.6", "3.4"}};
+
+Place PlaceOf(const std::string& code) {
+  for (const Place& p : kPlaces) {
+    if (code == p.code) return p;
+  }
+  return kPlaces[0];
+}
+
+TEST_P(AdjustCrsTest, AdjustInTheCrsEqualsTheLocalFrameAdjustmentConvertedByPyproj) {
+  const Place place = PlaceOf(GetParam());
+  const std::string d = dir_.string();
+  Run(kReference + " make " + d + " " + place.code + " " + place.lat + " " + place.lon);
+  Run(kMmba + " adjust " + d + "/project_crs.yaml --output " + d + "/out_crs");
+  Run(kReference + " local " + d + " " + place.code + " " + d + "/out_crs/report.json");
+  Run(kMmba + " adjust " + d + "/project_local.yaml --output " + d + "/out_local");
+  const std::string compared =
+      Run(kReference + " compare-adjust " + d + " " + place.code + " " + d + "/out_crs " + d + "/out_local");
+  EXPECT_EQ(Figure(compared, "points"), 7) << compared;
+  const double max_difference = Figure(compared, "max_difference_m");
+  EXPECT_GE(max_difference, 0.0) << compared;
+  EXPECT_LT(max_difference, 0.001) << compared;
+  std::cout << place.code << " adjust: " << compared;
+  // The CRS named in the outputs: the CSV header and report.json.
+  const std::string tag = std::string("epsg") + (place.code + 5);
+  const std::string points = ReadFile(dir_ / "out_crs" / "points.csv");
+  EXPECT_NE(points.find(",easting_" + tag + "_m,northing_" + tag + "_m,height_" + tag + "_m\n"), std::string::npos)
+      << points.substr(0, 600);
+  const std::string report = ReadFile(dir_ / "out_crs" / "report.json");
+  EXPECT_NE(report.find("\"epsg\": " + std::string(place.code + 5)), std::string::npos);
+  EXPECT_NE(report.find("\"height_kind\": \"as given\""), std::string::npos);
+  EXPECT_NE(report.find("mean of 7 point(s) of network_crs.csv"), std::string::npos);
+}
+
+TEST_P(AdjustCrsTest, SurveyWithCrsEqualsTheLocalFrameSurveyConvertedByPyproj) {
+  const Place place = PlaceOf(GetParam());
+  const std::string d = dir_.string();
+  Run(kReference + " make " + d + " " + place.code + " " + place.lat + " " + place.lon);
+  Run(kMmba + " survey " + d + "/network_crs.csv --crs " + place.code + " --output " + d + "/survey_crs");
+  Run(kReference + " local " + d + " " + place.code + " " + d + "/survey_crs/adjusted.json");
+  Run(kMmba + " survey " + d + "/network_local.csv --output " + d + "/survey_local");
+  const std::string compared =
+      Run(kReference + " compare-survey " + d + " " + place.code + " " + d + "/survey_crs " + d + "/survey_local");
+  EXPECT_EQ(Figure(compared, "points"), 7) << compared;
+  const double max_difference = Figure(compared, "max_difference_m");
+  EXPECT_GE(max_difference, 0.0) << compared;
+  EXPECT_LT(max_difference, 0.001) << compared;
+  std::cout << place.code << " survey: " << compared;
+  const std::string adjusted = ReadFile(dir_ / "survey_crs" / "adjusted.json");
+  EXPECT_NE(adjusted.find("\"identifier\": \"" + std::string(place.code) + "\""), std::string::npos);
+  EXPECT_NE(adjusted.find("\"combined_scale\""), std::string::npos);
+  EXPECT_NE(adjusted.find("\"latitude_deg\""), std::string::npos);
+}
+
+INSTANTIATE_TEST_SUITE_P(Crs, AdjustCrsTest, ::testing::Values("EPSG:25832", "EPSG:2154"));
+
+class UnknownCrsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::path(::testing::TempDir()) / ("mmba_unknown_crs_" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    std::ofstream(dir_ / "network.csv") << "param,axes-xy,en\n"
+                                        << "point,M1,500000,5500000,100,xyz,\n"
+                                        << "point,M2,500100,5500000,100,xyz,\n"
+                                        << "point,M3,500000,5500100,100,,xyz\n"
+                                        << "distance,M1,M3,100.001,2\n"
+                                        << "distance,M2,M3,141.422,2\n"
+                                        << "dh,M1,M3,0.001,2\n";
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  fs::path dir_;
+};
+
+TEST_F(UnknownCrsTest, InTheProjectFileIsExit2NamingFileLineAndValue) {
+  std::ofstream(dir_ / "project.yaml") << "mmba_project: 1\nname: t\n"
+                                       << "crs: EPSG:999999\n"
+                                       << "sensors:\n  - {id: ts, type: total_station, file: network.csv}\n";
+  const RunResult run = RunShell(kMmba + " adjust " + (dir_ / "project.yaml").string() + " --output " +
+                                 (dir_ / "out").string());
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_NE(run.output.find("project.yaml:3"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("'EPSG:999999'"), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+}
+
+TEST_F(UnknownCrsTest, ForSurveyIsExit2NamingTheOptionAndValue) {
+  const RunResult run = RunShell(kMmba + " survey " + (dir_ / "network.csv").string() +
+                                 " --crs EPSG:999999 --output " + (dir_ / "out").string());
+  EXPECT_EQ(run.exit_code, 2) << run.output;
+  EXPECT_NE(run.output.find("--crs"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("'EPSG:999999'"), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(dir_ / "out"));
+  // A known CRS adjusts the same file.
+  const RunResult ok = RunShell(kMmba + " survey " + (dir_ / "network.csv").string() +
+                                " --crs EPSG:25832 --output " + (dir_ / "out").string());
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+}
+
+}  // namespace
+}  // namespace mmba::test
