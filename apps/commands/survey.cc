@@ -156,14 +156,14 @@ std::function<int()> SetupSurveyCommand(CLI::App& app, CommonOptions* common) {
                   "Field file only: write the reduced observations as gama-local XML to FILE and exit without adjusting");
   sub->add_option("--set", args->settings, "Field file only: NAME=VALUE, face tolerances and a-priori sigmas (listed below)");
   sub->footer(survey::FaceReductionSettingsTable().Footer("Settings for --set NAME=VALUE (default; accepted values):"));
-  sub->add_option("--confidence", args->confidence,
-                  "Confidence level of the tests (default: the file's conf-pr, else 0.95)");
-  sub->add_option("--max-iterations", args->max_iterations, "Levenberg-Marquardt iterations")
-      ->capture_default_str();
   sub->add_option("--crs", args->crs,
                   "Coordinate reference system of the network's coordinates (EPSG:25832, EPSG:2154+5720, a PROJ string or WKT): adjusted in the tangent plane at their mean, written back in the CRS with latitude, longitude, height and the grid scale");
   sub->add_option("--geoid-grid", args->geoid_grid,
                   "With --crs: a geoid grid (GTX, GeoTIFF) for the CRS's orthometric heights (h = H + N)");
+  sub->add_option("--confidence", args->confidence,
+                  "Confidence level of the tests (default: the file's conf-pr, else 0.95)");
+  sub->add_option("--max-iterations", args->max_iterations, "Levenberg-Marquardt iterations")
+      ->capture_default_str();
   AddCommonOptions(sub, common);
   return [args]() { return RunSurvey(*args); };
 }

@@ -527,6 +527,8 @@ Project LoadProject(const std::string& path) {
        }},
       {"check_points", [&](Node n, Field f) { project.check_points = r.StringList(n, f); }},
       {"frame", [&](Node n, Field f) { project.frame = project_internal::ReadFrame(r, n, f); }},
+      {"crs", [](Node, Field) {}},  // read below, with geoid_grid
+      {"geoid_grid", [](Node, Field) {}},
       {"control", [&](Node n, Field f) { project.control = project_internal::ReadControl(r, n, f, project.dir); }},
       {"scale_bars", [&](Node n, Field f) { project.scale_bars = project_internal::ReadScaleBars(r, n, f); }},
       {"adjustment", [&](Node n, Field f) {
@@ -544,8 +546,6 @@ Project LoadProject(const std::string& path) {
                          if (!(s.confidence > 0.5 && s.confidence < 1)) r.Fail(v, g, "a probability in (0.5, 1)", r.Text(v));
                        }},
                       {"outlier_sigma", [&](Node v, Field g) { s.outlier_sigma = r.Positive(v, g, 100, "σ units"); }},
-      {"crs", [](Node, Field) {}},  // read below, with geoid_grid
-      {"geoid_grid", [](Node, Field) {}},
                       {"variance_components", [&](Node v, Field g) { s.variance_components = r.Bool(v, g); }}});
        }},
       {"sensors", [&](Node n, Field f) {

@@ -12,8 +12,8 @@
 #include "mmba/io/csv_table.h"
 #include "mmba/io_survey/gama_local.h"
 #include "mmba/io_survey/survey_csv.h"
-#include "mmba/survey/survey_group.h"
 #include "mmba/survey/result_json.h"
+#include "mmba/survey/survey_group.h"
 
 namespace mmba::adjust::internal {
 
@@ -40,10 +40,10 @@ void LoadNetwork(JointState* s) {
   const TotalStation& ts = project.total_stations.front();
   const std::string ext = fs::path(ts.file).extension().string();
   survey::SurveyNetwork network = ext == ".csv" ? io::ReadSurveyCsv(ts.file) : io::ReadGamaLocal(ts.file);
-  for (size_t i = 0; i < project.check_points.size(); ++i) {
   if (const auto crs = ProjectCrsFrame(project)) {  // coordinates in the project's crs → world
     survey::NetworkFromCrs(*crs, project.path + ":" + std::to_string(project.crs_line) + ": crs", &network);
   }
+  for (size_t i = 0; i < project.check_points.size(); ++i) {
     if (!network.Find(project.check_points[i])) {
       throw InputError::Message(project.path, "check_points[" + std::to_string(i) + "]: found " +
                                                   project.check_points[i] + ", expected a point of " + ts.file);

@@ -108,8 +108,8 @@ std::map<std::string, io::ControlPoint> ReadControl(const JointState& s, std::ma
     if (zero != 0 && zero != 3) {
       throw InputError(c.file, p.line, "sigma", "σ 0 on " + std::to_string(zero) + " of 3 coordinates (point " + p.id + ")",
                        "σ 0 on all three coordinates (fixed) or none (weighted)");
-    if (const auto crs = ProjectCrsFrame(project)) p.xyz_m = crs->WorldFromCrs(p.xyz_m);  // the project's crs → world
     }
+    if (const auto crs = ProjectCrsFrame(project)) p.xyz_m = crs->WorldFromCrs(p.xyz_m);  // the project's crs → world
     control.emplace(p.id, std::move(p));
   }
   for (const std::string& id : project.check_points) {
