@@ -1,7 +1,9 @@
-// Renders the sample report.html in headless Chromium (Debian package `chromium`) and checks
-// the screenshot: it exists, has the requested size, is not one colour, and shows the CSS
-// (the green χ²-test verdict) and the inline SVG (histogram bars) actually drawn.
-// One Chromium start per test run; a missing Chromium is a failure, not a skip.
+// Renders the client report.html (sample_report.h: MakeClientReport) in headless Chromium
+// (Debian package `chromium`) and checks the screenshot: it exists, has the requested size, is
+// not one colour, and shows the CSS (the green and the red χ²-test verdicts, the red caution
+// box of too few check points) and the inline SVG (histogram bars) actually drawn; then the DOM
+// Chromium built holds every section of the client report.
+// Two Chromium starts per test run; a missing Chromium is a failure, not a skip.
 
 #include <cstdlib>
 #include <filesystem>
@@ -72,7 +74,7 @@ TEST(RenderChromium, SampleReportScreenshot) {
   fs::remove(png_path);
   {
     std::ofstream out(html_path, std::ios::binary);
-    out << RenderAdjustReportHtml(testing::MakeSampleReport());
+    out << RenderAdjustReportHtml(testing::MakeClientReport());
     ASSERT_TRUE(out.good()) << "cannot write " << html_path;
   }
   // A private profile so that concurrent runs do not share Chromium's lock.
@@ -81,7 +83,7 @@ TEST(RenderChromium, SampleReportScreenshot) {
                               "' --headless --no-sandbox --disable-gpu --disable-dev-shm-usage "
                               "--hide-scrollbars --user-data-dir='" + profile.string() +
                               "' --screenshot='" + png_path.string() +
-                              "' --window-size=1200,2000 'file://" + html_path.string() + "' > '" +
+                              "' --window-size=1200,6000 'file://" + html_path.string() + "' > '" +
                               log_path.string() + "' 2>&1";
   const int status = std::system(command.c_str());
   std::error_code ec;
@@ -93,7 +95,7 @@ TEST(RenderChromium, SampleReportScreenshot) {
   const cv::Mat image = cv::imread(png_path.string(), cv::IMREAD_COLOR);
   ASSERT_FALSE(image.empty()) << "cannot decode " << png_path;
   EXPECT_EQ(image.cols, 1200);
-  EXPECT_EQ(image.rows, 2000);
+  EXPECT_EQ(image.rows, 6000);
   // Not one uniform colour.
   double lo = 0.0, hi = 0.0;
   cv::minMaxLoc(image.reshape(1), &lo, &hi);
@@ -104,6 +106,28 @@ TEST(RenderChromium, SampleReportScreenshot) {
   EXPECT_GT(CountColour(image, 0x37, 0x7f, 0x1a, 12), 200) << "no green verdict in the screenshot";
   // The inline SVG drawn: histogram bars (#4a78b5).
   EXPECT_GT(CountColour(image, 0xb5, 0x78, 0x4a, 12), 2000) << "no histogram bars in the screenshot";
+  // The red "FAILED" verdict of the test with the project's σ (#c62828).
+  EXPECT_GT(CountColour(image, 0x28, 0x28, 0xc6, 12), 200) << "no red verdict in the screenshot";
+  // The caution box of the accuracy block (background #fdecea).
+  EXPECT_GT(CountColour(image, 0xea, 0xec, 0xfd, 3), 5000) << "no caution box in the screenshot";
+
+  // The DOM as Chromium parsed it: every client section is there.
+  const fs::path dom_path = dir / "sample_report_dom.html";
+  const fs::path profile2 = dir / ("profile-dom-" + std::to_string(::getpid()));
+  const std::string dump = "timeout 120 '" + chromium +
+                           "' --headless --no-sandbox --disable-gpu --disable-dev-shm-usage --user-data-dir='" +
+                           profile2.string() + "' --dump-dom 'file://" + html_path.string() + "' > '" +
+                           dom_path.string() + "' 2> '" + log_path.string() + "'";
+  const int dump_status = std::system(dump.c_str());
+  fs::remove_all(profile2, ec);
+  ASSERT_EQ(dump_status, 0) << dump << "\n" << ReadTail(log_path, 2000);
+  const std::string dom = ReadTail(dom_path, 100000000);
+  for (const char* id : {"summary", "accuracy", "points", "relative", "observations", "images", "crs", "settings",
+                         "control", "files"}) {
+    EXPECT_NE(dom.find("id=\"" + std::string(id) + "\""), std::string::npos) << "no section " << id << " in the DOM";
+  }
+  EXPECT_NE(dom.find("test, project's"), std::string::npos);
+  EXPECT_EQ(dom.find("/home/surveyor"), std::string::npos);
 }
 
 }  // namespace

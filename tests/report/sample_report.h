@@ -121,4 +121,54 @@ inline nlohmann::json MakeSampleReport() {
   return report;
 }
 
+/// The sample report with the sections a client report adds: the χ² test with the project's
+/// σ (failed) next to the one after variance components (passed), every adjusted point, the
+/// relative precision of neighbours, the observation table (more rows than the page shows),
+/// a photo block's images and check points, the CRS, the settings and a project folder whose
+/// absolute path appears in a warning, a reason and an image file.
+inline nlohmann::json MakeClientReport() {
+  using nlohmann::json;
+  json report = MakeSampleReport();
+  report["project_dir"] = "/home/surveyor/jobs/gate";
+  report["project_file"] = "/home/surveyor/jobs/gate/project.yaml";
+  report["mmba"] = {{"version", "0.9.0"}, {"commit", "abc1234"}};
+  report["sigma0_given_weights"] = {{"aposteriori", 1.84}, {"dof", 12345}, {"chi2_lower", 0.9876},
+                                    {"chi2_upper", 1.0125}, {"passed", false}};
+  report["crs"] = {{"name", "ETRS89 / UTM zone 33N"}, {"code", "EPSG:25833"}, {"heights", "ellipsoidal (GRS80)"}};
+  report["settings"] = {{"confidence", 0.95}, {"variance_components", true},
+                        {"loss", {{"photos", "huber 3"}, {"lidar", "cauchy 2"}}}};
+  report["warnings"].push_back("control file /home/surveyor/jobs/gate/control/points.csv line 7: point T9 unused");
+  json points = json::array();
+  for (int i = 0; i < 70; ++i) {
+    points.push_back({{"id", "P" + std::to_string(i + 1)}, {"role", i < 8 ? "control" : "new"},
+                      {"adjusted", {1.5 * i, 0.5 * i, 10.0}}, {"sigma", {0.002, 0.003, 0.005}},
+                      {"ellipse", {{"a", 0.003}, {"b", 0.002}, {"azimuth_deg", 10.0}}}});
+  }
+  report["points"] = points;
+  report["relative_precision"] = json::array(
+      {{{"from", "T1"}, {"to", "T5"}, {"distance_m", 30.414}, {"sigma_distance_m", 0.0012},
+        {"sigma", {0.0011, 0.0013, 0.002}}, {"ellipse", {{"a", 0.0014}, {"b", 0.0010}, {"azimuth_deg", 80.0}}}}});
+  json rows = json::array();
+  for (int i = 0; i < 320; ++i) {
+    const double w = i == 17 ? 5.2 : 0.01 * (i % 200) - 1.0;
+    rows.push_back({{"group", "total station"}, {"observation", "direction S1->P" + std::to_string(i)},
+                    {"residual", 0.3 * w}, {"unit", "mgon"}, {"sigma", 0.3}, {"redundancy", 0.62},
+                    {"studentized", w}, {"critical", std::abs(w) > 3.29}});
+  }
+  report["observations"] = {{"file", "observations.csv"}, {"total", 401}, {"critical_value", 3.29}, {"rows", rows}};
+  json images = json::array();
+  for (int i = 0; i < 5; ++i) {
+    images.push_back({{"image", "IMG_" + std::to_string(100 + i)},
+                      {"file", "/home/surveyor/jobs/gate/images/IMG_" + std::to_string(100 + i) + ".JPG"},
+                      {"centre_m", {1.0 * i, 2.0, 30.0}}, {"sigma_centre_m", {0.004, 0.004, 0.006}},
+                      {"sigma_rotation_deg", {0.002, 0.002, 0.001}}, {"observations", i == 4 ? 4 : 60},
+                      {"rms_px", i == 3 ? 0.9 : 0.3}});
+  }
+  report["photo_measurements"] = {
+      {"id", "drone"}, {"images", images},
+      {"check_points", {{"count", 2}, {"points", {{{"point", "CP1"}, {"d_m", {0.004, -0.003, 0.010}}, {"sigma_m", {0.003, 0.003, 0.005}}},
+                                                  {{"point", "CP2"}, {"d_m", {-0.002, 0.001, -0.006}}, {"sigma_m", {0.003, 0.003, 0.005}}}}}}}};
+  return report;
+}
+
 }  // namespace mmba::report::testing
