@@ -195,7 +195,7 @@ std::string DescribePhotoMeasurement(const JointState& s, const std::string& nam
 std::string PhotoMeasurementImageName(const JointState& s, ImageId id);
 /// images.csv and points.csv of the block, poses.csv rows, its calibration and report.json
 /// `photo_measurements` (initialisation, datum, per-image RMS, check points).
-void WritePhotoMeasurementOutputs(const JointState& s, OutputSink* out);
+void WritePhotoMeasurementOutputs(JointState& s, OutputSink* out);
 
 // ---- total station and GNSS (blocks/network.cc) --------------------------------------------
 

@@ -1,7 +1,8 @@
 // Outputs of a photo_measurements block: images.csv (exterior orientation with σ, per-image
 // residual RMS and counts), points.csv (adjusted points with σ and 95 % ellipsoid semi-axes),
 // the camera calibration with σ, and report.json `photo_measurements` (initialisation, datum,
-// images, check points with dX, dY, dZ and RMSE per axis and 3-D).
+// images, check points with dX, dY, dZ and RMSE per axis and 3-D, the camera's parameters with
+// σ and the correlation matrix of the refined ones, pairs with |ρ| > 0.95 flagged).
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -20,6 +21,8 @@ using json = nlohmann::json;
 /// Scale of a standard-error ellipsoid's semi-axes to its 95 % confidence region (3 degrees
 /// of freedom: sqrt of the χ²(3) quantile 7.8147).
 constexpr double k95Ellipsoid3d = 2.7955;
+/// |ρ| above which two camera parameters are reported as highly correlated (DBAT's 95 %).
+constexpr double kHighCorrelation = 0.95;
 
 struct ImageResidual {
   size_t count = 0;
@@ -121,32 +124,88 @@ json CheckPoints(const JointState& s) {
   return out;
 }
 
-json Calibration(const JointState& s, OutputSink* out) {
+/// Covariance of the camera's parameters (ambient, in the model's units, scaled by σ0² as
+/// every σ of the report): Σ = J Σ_t Jᵀ with Σ_t the tangent covariance and J the
+/// manifold's PlusJacobian (the held parameters' rows are zero).
+Eigen::MatrixXd CameraCovariance(const JointState& s, const double* params) {
+  const ceres::Problem& problem = s.builder->problem();
+  const int n = problem.HasParameterBlock(params) ? problem.ParameterBlockSize(params) : 0;
+  if (n == 0 || !s.statistics.IsFree(params)) return Eigen::MatrixXd::Zero(n, n);
+  const int m = problem.ParameterBlockTangentSize(params);
+  Eigen::MatrixXd tangent(m, m);
+  for (int a = 0; a < m; ++a) {
+    for (int b = 0; b < m; ++b) tangent(a, b) = s.statistics.Covariance(params, a, params, b);
+  }
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> plus(n, m);
+  const ceres::Manifold* manifold = problem.GetManifold(params);
+  if (manifold) {
+    manifold->PlusJacobian(params, plus.data());
+  } else {
+    plus.setIdentity();
+  }
+  return plus * tangent * plus.transpose();
+}
+
+/// Correlations ρ_ij = Σ_ij / (σ_i σ_j) of the refined parameters (`refined` = their indices),
+/// and the pairs with |ρ| above kHighCorrelation, as DBAT's report lists them ("Correlations
+/// over 95%"; Börlin & Grussenmeyer 2013, "Bundle adjustment with and without damping",
+/// Photogramm. Rec. 28(144)). Each high pair becomes a warning of the run.
+json Correlations(const Eigen::MatrixXd& cov, const std::vector<int>& refined, const std::vector<std::string>& names,
+                  const std::string& sensor, std::vector<std::string>* warnings) {
+  json matrix = json::array(), high = json::array(), refined_names = json::array();
+  for (int i : refined) refined_names.push_back(names[i]);
+  for (size_t a = 0; a < refined.size(); ++a) {
+    json row = json::array();
+    for (size_t b = 0; b < refined.size(); ++b) {
+      const int i = refined[a], j = refined[b];
+      const double d = std::sqrt(cov(i, i) * cov(j, j));
+      const double rho = d > 0.0 ? cov(i, j) / d : 0.0;
+      row.push_back(rho);
+      if (b > a && std::abs(rho) > kHighCorrelation) {
+        high.push_back({{"a", names[i]}, {"b", names[j]}, {"rho", rho}});
+        std::ostringstream w;
+        w << "photo_measurements '" << sensor << "': camera parameters " << names[i] << " and " << names[j]
+          << " correlated, rho " << std::fixed << std::setprecision(3) << rho << " (|rho| > " << kHighCorrelation << ")";
+        warnings->push_back(w.str());
+      }
+    }
+    matrix.push_back(row);
+  }
+  return {{"parameters", refined_names}, {"matrix", matrix}, {"threshold", kHighCorrelation}, {"high", high}};
+}
+
+/// The camera with σ (calibration/<id>_camera.yaml, report.json `camera` and `outputs`
+/// calibrations) and the correlations of its refined parameters.
+json Calibration(JointState& s, OutputSink* out, json* correlations) {
   const MeasurementBlock& b = *s.measured;
   const sensors::Camera& camera = s.scene.Camera(b.camera_id);
-  const std::vector<double> sigma = ParameterSigmas(s.statistics, s.builder->problem(), camera.params.data());
-  std::vector<std::string> names;
-  std::stringstream info(sensors::CameraModelParamsInfo(camera.model_id));
-  for (std::string name; std::getline(info, name, ',');) names.push_back(name.substr(name.find_first_not_of(' ')));
+  const Eigen::MatrixXd cov = CameraCovariance(s, camera.params.data());
+  const std::vector<std::string> names = sensors::CameraModelParamNames(camera.model_id);
+  const std::set<int> free(b.config->free_intrinsics.begin(), b.config->free_intrinsics.end());
   json parameters = json::array();
   std::ostringstream yaml, sigmas;
   yaml << "# mmba adjust: calibration of photo measurements '" << b.config->id << "', sigma from the adjustment\nmodel: "
        << camera.ModelName() << "\nwidth: " << camera.width << "\nheight: " << camera.height << "\nparams: [";
+  std::vector<int> refined;
   for (size_t k = 0; k < camera.params.size(); ++k) {
+    const double sigma = cov.rows() ? std::sqrt(std::max(0.0, cov(k, k))) : 0.0;
+    const bool is_refined = free.count(static_cast<int>(k)) && sigma > 0.0;
+    if (is_refined) refined.push_back(static_cast<int>(k));
     yaml << (k ? ", " : "") << std::setprecision(10) << camera.params[k];
-    sigmas << (k ? ", " : "") << std::setprecision(4) << sigma[k];
-    parameters.push_back({{"name", k < names.size() ? names[k] : "p" + std::to_string(k)},
-                          {"initial", b.initial_params[k]}, {"adjusted", camera.params[k]}, {"sigma", sigma[k]}});
+    sigmas << (k ? ", " : "") << std::setprecision(4) << sigma;
+    parameters.push_back({{"name", k < names.size() ? names[k] : "p" + std::to_string(k)}, {"initial", b.initial_params[k]},
+                          {"adjusted", camera.params[k]}, {"sigma", sigma}, {"refined", is_refined}});
   }
   yaml << "]\nsigma: [" << sigmas.str() << "]\n";
   WriteText(out->stage / "calibration" / (b.config->id + "_camera.yaml"), yaml.str());
   out->calibrations.push_back({{"name", b.config->id + " camera (" + camera.ModelName() + ")"}, {"parameters", parameters}});
+  *correlations = Correlations(cov, refined, names, b.config->id, &s.warnings);
   return parameters;
 }
 
 }  // namespace
 
-void WritePhotoMeasurementOutputs(const JointState& s, OutputSink* out) {
+void WritePhotoMeasurementOutputs(JointState& s, OutputSink* out) {
   const MeasurementBlock& b = *s.measured;
   std::ostringstream images_csv, points_csv;
   json images = Images(s, &images_csv);
@@ -157,6 +216,8 @@ void WritePhotoMeasurementOutputs(const JointState& s, OutputSink* out) {
   for (const orientation::InitialOutlier& o : b.initial.outliers) {
     outliers.push_back({{"image", o.image_id}, {"point", o.point_id}, {"error_px", o.error_px}, {"stage", o.stage}});
   }
+  json correlations;
+  const json camera = Calibration(s, out, &correlations);
   (*out->report)["photo_measurements"] = {
       {"id", b.config->id},
       {"initialisation", {{"frame", b.initial.frame}, {"steps", b.initial.log}, {"left_out", outliers},
@@ -165,7 +226,8 @@ void WritePhotoMeasurementOutputs(const JointState& s, OutputSink* out) {
       {"observations", b.observations.size()},
       {"points", b.point_of.size()},
       {"refine", b.config->refine},
-      {"camera", Calibration(s, out)},
+      {"camera", camera},
+      {"camera_correlations", correlations},
       {"images", images},
       {"check_points", CheckPoints(s)},
       {"files", {b.config->id + "_images.csv", b.config->id + "_points.csv", "calibration/" + b.config->id + "_camera.yaml"}}};
