@@ -7,6 +7,7 @@
 #include <utility>
 #include <vector>
 
+#include "mmba/stats/statistics.h"
 #include "survey/output_units_internal.h"
 
 namespace mmba::survey {
@@ -96,6 +97,103 @@ std::string LargestResidualsTable(const std::vector<ObservationRow>& rows, size_
   return table;
 }
 
+// sqrt(χ²_{2;0.95}) and the two-sided 95 % normal quantile: the factors from σ to the 95 %
+// confidence ellipse and to the 95 % interval of a height (Ghilani 2017, §19.6).
+double K95Ellipse() { return std::sqrt(stats::ChiSquareQuantile(0.95, 2)); }
+constexpr double kK95Height = 1.959964;
+
+// Cov(east, north, up of p; east, north, up of q), scaled by the σ0 used; zero for fixed
+// coordinates.
+Eigen::Matrix3d CrossCovarianceEnu(const stats::NetworkStatistics& st, const SurveyPoint& p, const SurveyPoint& q) {
+  double* pb = const_cast<double*>(p.coords.data());
+  double* qb = const_cast<double*>(q.coords.data());
+  const std::pair<double*, int> ps[3] = {{pb, 0}, {pb, 1}, {pb + 2, 0}};
+  const std::pair<double*, int> qs[3] = {{qb, 0}, {qb, 1}, {qb + 2, 0}};
+  Eigen::Matrix3d c;
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) c(a, b) = st.Covariance(ps[a].first, ps[a].second, qs[b].first, qs[b].second);
+  }
+  return c;
+}
+
+// The adjusted points with σ, the 95 % confidence ellipse and the 95 % interval of the height.
+std::string PointsTable(const SurveyNetwork& net, const SurveyAdjustment& adj) {
+  const AngleUnit unit{net.output_gons};
+  std::ostringstream md;
+  md << "| point | x [m] | y [m] | z [m] | σx [mm] | σy [mm] | σz [mm] | 95 % a [mm] | 95 % b [mm] | azimuth of a ["
+     << unit.name() << "] | 95 % z [mm] |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+  const double k = K95Ellipse();
+  for (const SurveyPoint& p : net.points) {
+    if (!p.xy_free() && !p.z_free()) continue;
+    const Eigen::Matrix3d cov = PointCovariance(adj, net, p);
+    const Eigen::Vector2d xy = net.axes.XyFromEn(p.coords.head<2>());
+    md << "| `" << p.id << "` | " << (p.has_xy ? Fixed(xy.x(), 4) : "") << " | " << (p.has_xy ? Fixed(xy.y(), 4) : "")
+       << " | " << (p.has_z ? Fixed(p.coords.z(), 4) : "") << " | ";
+    if (p.xy_free()) {
+      const stats::ErrorEllipse e = stats::StandardEllipse(cov.topLeftCorner<2, 2>());
+      md << Fixed(1e3 * std::sqrt(cov(0, 0)), 2) << " | " << Fixed(1e3 * std::sqrt(cov(1, 1)), 2) << " | ";
+      md << (p.z_free() ? Fixed(1e3 * std::sqrt(cov(2, 2)), 2) : "") << " | " << Fixed(1e3 * k * e.a, 2) << " | "
+         << Fixed(1e3 * k * e.b, 2) << " | " << Fixed(unit.FromRad(e.angle_rad), 4) << " | ";
+    } else {
+      md << " |  | " << Fixed(1e3 * std::sqrt(cov(2, 2)), 2) << " |  |  |  | ";
+    }
+    md << (p.z_free() ? Fixed(1e3 * kK95Height * std::sqrt(cov(2, 2)), 2) : "") << " |\n";
+  }
+  return md.str();
+}
+
+// Pairs (i < j) of horizontally placed points, each joined to its `k` nearest neighbours,
+// at least one of the two adjusted.
+std::vector<std::pair<size_t, size_t>> NeighbourPairs(const SurveyNetwork& net, int k) {
+  std::vector<std::pair<size_t, size_t>> pairs;
+  const auto& pts = net.points;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    if (!pts[i].has_xy || pts[i].xy == CoordStatus::kUnused || pts[i].xy == CoordStatus::kRemoved) continue;
+    std::vector<std::pair<double, size_t>> near;
+    for (size_t j = 0; j < pts.size(); ++j) {
+      if (j == i || !pts[j].has_xy || pts[j].xy == CoordStatus::kUnused || pts[j].xy == CoordStatus::kRemoved) continue;
+      if (!pts[i].xy_free() && !pts[j].xy_free()) continue;
+      near.push_back({(pts[j].coords.head<2>() - pts[i].coords.head<2>()).norm(), j});
+    }
+    std::sort(near.begin(), near.end());
+    for (size_t m = 0; m < near.size() && m < static_cast<size_t>(k); ++m) {
+      pairs.push_back({std::min(i, near[m].second), std::max(i, near[m].second)});
+    }
+  }
+  std::sort(pairs.begin(), pairs.end());
+  pairs.erase(std::unique(pairs.begin(), pairs.end()), pairs.end());
+  return pairs;
+}
+
+// σ of the coordinate difference of neighbouring points from the joint covariance,
+// C_Δ = C_ii + C_jj − C_ij − C_ijᵀ (Ghilani 2017, §19.7), its 95 % relative ellipse and the
+// σ of the horizontal distance uᵀ C_Δ u.
+std::string RelativePrecisionTable(const SurveyNetwork& net, const SurveyAdjustment& adj) {
+  const stats::NetworkStatistics& st = adj.statistics;
+  const double k = K95Ellipse();
+  std::ostringstream md;
+  md << "| from | to | distance [m] | σ distance [mm] | σ/distance [ppm] | σΔe [mm] | σΔn [mm] | σΔz [mm] | 95 % a [mm] | "
+        "95 % b [mm] |\n|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const auto& [i, j] : NeighbourPairs(net, 2)) {
+    const SurveyPoint& p = net.points[i];
+    const SurveyPoint& q = net.points[j];
+    const Eigen::Matrix3d cij = CrossCovarianceEnu(st, p, q);
+    const Eigen::Matrix3d c = CrossCovarianceEnu(st, p, p) + CrossCovarianceEnu(st, q, q) - cij - cij.transpose();
+    const Eigen::Vector2d d = q.coords.head<2>() - p.coords.head<2>();
+    const double distance = d.norm();
+    const Eigen::Vector2d u = distance > 0.0 ? Eigen::Vector2d(d / distance) : Eigen::Vector2d::Zero();
+    const double sd = std::sqrt(std::max(0.0, u.dot(c.topLeftCorner<2, 2>() * u)));
+    const stats::ErrorEllipse e = stats::StandardEllipse(c.topLeftCorner<2, 2>());
+    const bool z = p.has_z && q.has_z && (p.z_free() || q.z_free());
+    md << "| `" << p.id << "` | `" << q.id << "` | " << Fixed(distance, 3) << " | " << Fixed(1e3 * sd, 2) << " | "
+       << (distance > 0.0 ? Fixed(1e6 * sd / distance, 1) : "") << " | " << Fixed(1e3 * std::sqrt(std::max(0.0, c(0, 0))), 2)
+       << " | " << Fixed(1e3 * std::sqrt(std::max(0.0, c(1, 1))), 2) << " | "
+       << (z ? Fixed(1e3 * std::sqrt(std::max(0.0, c(2, 2))), 2) : "") << " | " << Fixed(1e3 * k * e.a, 2) << " | "
+       << Fixed(1e3 * k * e.b, 2) << " |\n";
+  }
+  return md.str();
+}
+
 }  // namespace
 
 std::string ObservationsCsv(const SurveyNetwork& net, const SurveyAdjustment& adj) {
@@ -157,6 +255,13 @@ std::string ReportMarkdown(const std::string& input, const SurveyNetwork& net,
     md << "| " << g.name << " | " << g.rows << " | " << Fixed(g.redundancy, 2) << " | "
        << Fixed(std::sqrt(g.variance_component), 3) << " |\n";
   }
+  md << "\n## Adjusted points\n\nσ from the covariance of the adjustment (σ0 "
+     << (net.sigma_act_apriori ? "a-priori" : "a-posteriori") << "); 95 % confidence ellipse = standard ellipse × "
+     << Fixed(K95Ellipse(), 4) << " = sqrt(χ²(2; 0.95)); 95 % z = " << Fixed(kK95Height, 2)
+     << " σz; azimuth of a from the x axis towards y.\n\n" << PointsTable(net, adj);
+  md << "\n## Relative precision between neighbouring points\n\nEach point with its two nearest neighbours in "
+        "plan (Δ in east, north, up); differences do not depend on the datum, so the figures hold for a free "
+        "network too.\n\n" << RelativePrecisionTable(net, adj);
   md << "\n## Largest studentized residuals\n\n" << LargestResidualsTable(ObservationRows(net, adj), largest_rows);
   if (!adj.removed_points.empty()) {
     md << "\n## Coordinates removed from the adjustment\n\n"

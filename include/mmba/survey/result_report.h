@@ -23,8 +23,10 @@ std::string ObservationsCsv(const SurveyNetwork& net, const SurveyAdjustment& ad
 std::string ResultSummary(const std::string& input, const SurveyNetwork& net,
                           const SurveyAdjustment& adj);
 
-/// report.md: ResultSummary, the variance components per group, the `largest_rows` largest
-/// studentized residuals and the removed observations.
+/// report.md: ResultSummary, the variance components per group, the adjusted points with σ,
+/// 95 % confidence ellipses and 95 % height intervals, the relative precision of each point
+/// and its two nearest neighbours (σ of the difference from the joint covariance), the
+/// `largest_rows` largest studentized residuals and the removed observations.
 std::string ReportMarkdown(const std::string& input, const SurveyNetwork& net,
                            const SurveyAdjustment& adj, size_t largest_rows);
 
