@@ -161,6 +161,9 @@ TEST(PhotogrammetricSelfCalibration, PhotoModelerParameterSetAgreesWithPhotoMode
   const auto mmba = MmbaCamera(report);
   ASSERT_EQ(pm.size(), 8u);
   EXPECT_EQ(mmba.at("K3").value, 0.0);  // not estimated, as in PhotoModeler
+  // Without K3 no pair of the refined parameters is correlated above 95 %.
+  EXPECT_TRUE(report["photo_measurements"]["camera_correlations"]["high"].empty());
+  EXPECT_EQ(report["photo_measurements"]["camera_correlations"]["parameters"].size(), 8u);
   const double scale = 1.0 + mmba.at("b1").value;
   const std::map<std::string, double> ours = {
       {"Focal Length", mmba.at("c").value}, {"Xp -", scale * mmba.at("xp").value}, {"Yp -", mmba.at("yp").value},
