@@ -180,7 +180,10 @@ stats::NetworkStatistics Statistics(JointState* s) {
   std::vector<const FactorGroup*> groups;
   for (const auto& g : s->builder->groups()) groups.push_back(g.get());
   try {
-    return stats::ComputeStatistics(s->builder->problem(), groups, options);
+    MovePhotoMeasurementsToDatum(s);  // inner constraints of a block without control
+    stats::NetworkStatistics st = stats::ComputeStatistics(s->builder->problem(), groups, options);
+    TransformPhotoMeasurementCovariance(s, &st);
+    return st;
   } catch (const stats::DegenerateNetworkError& e) {
     throw AdjustFailure(AdjustStatus::kFailed, std::string("degenerate configuration: ") + e.what());
   }

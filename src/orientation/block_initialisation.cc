@@ -47,6 +47,8 @@ class Block {
     }
     for (const auto& [point, xyz] : in_.control) out_.points[point] = xyz;
     out_.frame = "prior EO";
+    gate_px_ = options_.prior_max_error_px;  // approximate poses: the bundle refines them
+    gate_deg_ = options_.prior_min_angle_deg;
     for (const auto& [point, obs] : by_point_) TryIntersect(point, GrowingRays(point));
     return true;
   }
@@ -123,8 +125,8 @@ class Block {
       for (const Obs& o : obs) oriented += out_.cam_from_world.count(o.first);
       out_.failed_points[point] = obs.size() < 2 ? "measured in one image only (image " + obs[0].first + ")"
                                   : oriented < 2 ? "measured in " + std::to_string(oriented) + " oriented image(s)"
-                                                 : "its rays do not intersect within " + std::to_string(options_.max_error_px) +
-                                                       " px at " + std::to_string(options_.min_angle_deg) + " deg or more";
+                                                 : "its rays do not intersect within " + std::to_string(gate_px_) +
+                                                       " px at " + std::to_string(gate_deg_) + " deg or more";
     }
   }
 
@@ -180,8 +182,8 @@ class Block {
       images.push_back(o.first);
     }
     if (rays.size() < std::max<size_t>(2, min_rays)) return false;
-    IntersectionResult r = Intersect(rays, options_.min_angle_deg);
-    if (r.ok && r.max_error_px > options_.max_error_px && rays.size() >= 3) {
+    IntersectionResult r = Intersect(rays, gate_deg_);
+    if (r.ok && r.max_error_px > gate_px_ && rays.size() >= 3) {
       // One ray off: leave out the worst and intersect again (it is reported).
       size_t worst = 0;
       double e_max = 0;
@@ -191,8 +193,8 @@ class Block {
       }
       std::vector<Ray> kept = rays;
       kept.erase(kept.begin() + worst);
-      const IntersectionResult again = Intersect(kept, options_.min_angle_deg);
-      if (again.ok && again.max_error_px <= options_.max_error_px) {
+      const IntersectionResult again = Intersect(kept, gate_deg_);
+      if (again.ok && again.max_error_px <= gate_px_) {
         outlier_.insert({images[worst], point});
         out_.outliers.push_back({images[worst], point,
                                  ReprojectionErrorPx(*in_.camera, rays[worst].cam_from_world, rays[worst].xy_px, again.point_in_world),
@@ -200,7 +202,7 @@ class Block {
         r = again;
       }
     }
-    if (!r.ok || r.max_error_px > options_.max_error_px) return false;
+    if (!r.ok || r.max_error_px > gate_px_) return false;
     out_.points[point] = r.point_in_world;
     return true;
   }
@@ -237,16 +239,19 @@ class Block {
   BlockResult& out_;
   std::map<std::string, std::vector<Obs>> by_image_, by_point_;
   std::set<std::pair<std::string, std::string>> outlier_;  // (image, point)
+  double gate_px_ = options_.max_error_px;  ///< intersection gate: max_error_px, or prior_max_error_px
+  double gate_deg_ = options_.min_angle_deg;  ///< min_angle_deg, or prior_min_angle_deg
 };
 
 }  // namespace
 
 bool BlockOptions::Check(std::string* error) const {
   if (!resection.Check(error)) return false;
-  if (!(min_angle_deg > 0 && min_angle_deg < 90)) {
-    *error = "min_angle_deg: " + std::to_string(min_angle_deg) + ", expected (0, 90) degrees";
-  } else if (!(max_error_px > 0) || !(relative_max_error_px > 0)) {
-    *error = "max_error_px, relative_max_error_px: expected > 0 pixels";
+  if (!(min_angle_deg > 0 && min_angle_deg < 90) || !(prior_min_angle_deg > 0 && prior_min_angle_deg < 90)) {
+    *error = "min_angle_deg, prior_min_angle_deg: " + std::to_string(min_angle_deg) + ", " +
+             std::to_string(prior_min_angle_deg) + ", expected (0, 90) degrees";
+  } else if (!(max_error_px > 0) || !(relative_max_error_px > 0) || !(prior_max_error_px > 0)) {
+    *error = "max_error_px, relative_max_error_px, prior_max_error_px: expected > 0 pixels";
   } else {
     return true;
   }

@@ -38,6 +38,12 @@ struct BlockOptions {
   double min_angle_deg = 2.0;         ///< a point is intersected when two rays meet at ≥ this
   double max_error_px = 8.0;          ///< largest reprojection error of an intersected point's rays
   double relative_max_error_px = 4.0; ///< RANSAC threshold of the relative orientation
+  /// Intersection gate with prior EO: prior poses are approximate (DBAT's Roma prior is off
+  /// by tens of pixels), the bundle refines them.
+  double prior_max_error_px = 100.0;
+  /// Smallest intersection angle with prior EO: the poses do not grow from the points, so a
+  /// weak point cannot bend the block; DBAT's Roma network holds points seen at 1.05°.
+  double prior_min_angle_deg = 0.5;
   bool Check(std::string* error) const;
 };
 

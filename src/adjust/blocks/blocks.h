@@ -193,6 +193,12 @@ GaugeOptions PhotoMeasurementGauge(const JointState& s);
 std::string DescribePhotoMeasurement(const JointState& s, const std::string& name, size_t index);
 /// The name of one of the block's images ("" when `id` is not one).
 std::string PhotoMeasurementImageName(const JointState& s, ImageId id);
+/// Without control: moves the solved block into the inner-constraints datum (before the
+/// statistics; blocks/photo_measurements_datum.cc). No-op otherwise.
+void MovePhotoMeasurementsToDatum(JointState* s);
+/// After the statistics: every eliminated point's covariance and, without control, the
+/// S-transformation of the statistics' cofactor into the inner-constraints datum.
+void TransformPhotoMeasurementCovariance(JointState* s, stats::NetworkStatistics* st);
 /// images.csv and points.csv of the block, poses.csv rows, its calibration and report.json
 /// `photo_measurements` (initialisation, datum, per-image RMS, check points).
 void WritePhotoMeasurementOutputs(JointState& s, OutputSink* out);

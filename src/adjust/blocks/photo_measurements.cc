@@ -19,6 +19,8 @@
 #include "mmba/factors/coordinate_observation.h"
 #include "mmba/factors/distance_observation.h"
 #include "mmba/factors/reprojection_error.h"
+#include "mmba/geometry/opk.h"
+#include "mmba/io/column_text.h"
 #include "mmba/io/camera_yaml.h"
 #include "mmba/io/image_measurements.h"
 
@@ -27,16 +29,13 @@ namespace {
 
 using json = nlohmann::json;
 
-/// Scene ids of the block: images and the points that the statistics eliminate (Schur) from
-/// here, the points kept in the covariance (scale-bar ends, check points, every point of a
-/// block of up to kFreePointLimit points: their σ is reported) from kCheckPointIdBase up.
+/// Scene ids of the block: images and the points that the statistics eliminate (Schur; their
+/// covariance is then formed in photo_measurements_datum.cc) from here, the points kept in the
+/// statistics' cofactor (scale-bar ends, check points) from kCheckPointIdBase up.
 constexpr uint64_t kImageIdBase = 3000000000ULL;
 constexpr uint64_t kPointIdBase = 3000000000ULL;
 constexpr uint64_t kFreePointIdBase = kCheckPointIdBase + 100000000ULL;
 constexpr uint64_t kCameraId = 3000001;
-/// Points of a block up to which every point's covariance is computed (3 unknowns each: with
-/// the poses and intrinsics within the statistics' dense path).
-constexpr size_t kFreePointLimit = 700;
 
 /// The control coordinates of the photo block: weighted, fixed or withheld (check points).
 class ControlGroup : public FactorGroup {
@@ -124,6 +123,26 @@ std::map<std::string, io::ControlPoint> ReadControl(const JointState& s, std::ma
   return control;
 }
 
+/// The prior EO file: image, x, y, z (projection centre, world metres), omega, phi, kappa
+/// (degrees, geometry/opk.h) through its columns.
+std::map<std::string, Rigid3d> ReadPriorEo(const PhotoMeasurements& p) {
+  std::map<std::string, Rigid3d> poses;
+  if (p.prior_eo.empty()) return poses;
+  const std::vector<std::string>& c = p.prior_eo_columns;
+  io::ForEachColumnLine(p.prior_eo, [&](int64_t line, const std::vector<std::string>& fields) {
+    const io::ColumnRow row(p.prior_eo, line, &fields, &c);
+    if (fields.size() != c.size()) row.Text(std::max(fields.size(), c.size()) - 1);
+    const auto number = [&](const char* name) { return row.Number(io::ColumnIndex(c, name)); };
+    OpkPose opk;
+    opk.center_in_world = {number("x"), number("y"), number("z")};
+    opk.omega_rad = number("omega") * M_PI / 180.0;
+    opk.phi_rad = number("phi") * M_PI / 180.0;
+    opk.kappa_rad = number("kappa") * M_PI / 180.0;
+    poses[row.Text(io::ColumnIndex(c, "image"))] = CamFromWorldFromOpk(opk);
+  });
+  return poses;
+}
+
 /// Runs the initialisation and logs it; AdjustFailure when no image could be oriented.
 void Initialise(JointState* s, const sensors::Camera& camera, const std::vector<io::ImageMeasurement>& all,
                 const std::map<std::string, io::ControlPoint>& control) {
@@ -136,6 +155,7 @@ void Initialise(JointState* s, const sensors::Camera& camera, const std::vector<
     input.measurements.push_back({m.image_id, m.point_id, m.xy_px});
   }
   for (const auto& [id, p] : control) input.control[id] = p.xyz_m;
+  input.prior_cam_from_world = ReadPriorEo(*b.config);
   b.initial = orientation::InitialiseBlock(input, orientation::BlockOptions{});
   for (const std::string& line : b.initial.log) spdlog::debug("adjust: {}: {}", b.config->id, line);
   const std::string& id = b.config->id;
@@ -164,10 +184,9 @@ void FillScene(JointState* s, const sensors::Camera& camera, const std::vector<i
   MeasurementBlock& b = *s->measured;
   std::set<std::string> bar_ends;
   for (const ScaleBar& bar : s->project->scale_bars) bar_ends.insert({bar.from, bar.to});
-  const bool all_free = b.initial.points.size() <= kFreePointLimit;
   size_t next_point = 0;
   for (const auto& [id, xyz] : b.initial.points) {
-    const bool free = all_free || bar_ends.count(id) || b.check_reference.count(id);
+    const bool free = bar_ends.count(id) || b.check_reference.count(id);
     const Point3DId pid((free ? kFreePointIdBase : kPointIdBase) + next_point++);
     s->scene.AddPoint(pid, xyz);
     b.point_of[id] = pid;
@@ -243,21 +262,25 @@ void LoadPhotoMeasurements(JointState* s) {
               " weighted points";
     return;
   }
-  // No control: a minimal datum — the first image's pose and, without a scale bar, its
-  // distance to the second (the block's scale); with scale bars the first pose only.
+  // No control: the solve fixes a minimal datum — the first image's pose and, without a scale
+  // bar, its distance to the second (the block's scale); with scale bars the first pose only —
+  // and photo_measurements_datum.cc moves the solution and its covariance into the inner
+  // constraints over the object points.
   b.gauge_needed = true;
   const ImageId first(kImageIdBase);
+  const std::string points = std::to_string(b.point_of.size());
   if (!project.scale_bars.empty()) {
     b.gauge.kind = GaugeOptions::Kind::kFixedImages;
     b.gauge.fixed_images = {first};
-    b.datum = "free network: image " + b.image_names[0] + "'s pose held, scale from " +
+    b.datum = "inner constraints: free network of minimum trace over the " + points +
+              " points (rotation and translation w.r.t. their approximations), scale from " +
               std::to_string(project.scale_bars.size()) + " scale bar(s)";
   } else {
     b.gauge.kind = GaugeOptions::Kind::kTwoPoses;
     b.gauge.first = first;
     b.gauge.second = ImageId(kImageIdBase + 1);
-    b.datum = "free network: image " + b.image_names[0] + "'s pose and its distance to image " +
-              (b.image_names.size() > 1 ? b.image_names[1] : "?") + " held (arbitrary scale)";
+    b.datum = "inner constraints: free network of minimum trace over the " + points +
+              " points (rotation, translation and scale w.r.t. their approximations; arbitrary scale)";
   }
 }
 

@@ -47,6 +47,9 @@ struct MeasurementBlock {
   bool gauge_needed = false;                         ///< no control: the datum is fixed here
   GaugeOptions gauge;
   std::string datum;                                 ///< how the datum is fixed, in words
+  /// Covariance (m², scaled by σ0) of each point the statistics eliminate, in the block's
+  /// datum (photo_measurements_datum.cc); the other points' is in the statistics.
+  std::map<Point3DId, Eigen::Matrix3d> point_covariance;
 };
 
 }  // namespace mmba::adjust::internal

@@ -81,12 +81,12 @@ size_t Points(const JointState& s, std::ostringstream* csv) {
   std::set<Point3DId> weighted;
   for (const ControlCoordinate& c : b.control) weighted.insert(c.point);
   *csv << "# mmba adjust: points of the photo measurements in the world frame; sigma from the adjustment (scaled by "
-          "sigma0; 0 when held or when the block's points are eliminated from the covariance); a95 >= b95 >= c95 = "
+          "sigma0; 0 when held); a95 >= b95 >= c95 = "
           "semi-axes of the 95 % confidence ellipsoid\n"
           "point,kind,x_m,y_m,z_m,sigma_x_m,sigma_y_m,sigma_z_m,a95_m,b95_m,c95_m,rays\n";
   for (const auto& [name, id] : b.point_of) {
     const Eigen::Vector3d& x = s.scene.Point(id);
-    const Eigen::Matrix3d cov = PointCovariance3(s.statistics, x.data());
+    const Eigen::Matrix3d cov = b.point_covariance.count(id) ? b.point_covariance.at(id) : PointCovariance3(s.statistics, x.data());
     const Eigen::Vector3d axes = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvalues().cwiseMax(0.0).cwiseSqrt();
     const char* kind = b.fixed_points.count(id) ? "control (fixed)" : weighted.count(id) ? "control (weighted)"
                        : b.check_reference.count(name) ? "check" : "tie";
