@@ -62,9 +62,10 @@ double ChiTail(double t, int k);
 /// What every section needs besides the JSON: the folder the project's paths are relative to.
 struct PageContext {
   std::string project_dir;  ///< report.json `project_dir`; empty: paths shown as given
-  /// `path` relative to project_dir when it lies inside it (or shares a prefix with it:
-  /// "../data/x"); other paths unchanged. Also rewrites "<project_dir>/" inside free text.
+  /// An absolute `path` relative to project_dir ("images/a.jpg", "../data/x"); without
+  /// project_dir, its file name. Relative paths unchanged.
   std::string Path(const std::string& path) const;
+  /// `text` with "<project_dir>/" removed and project_dir itself shown as ".".
   std::string Text(const std::string& text) const;
 };
 

@@ -53,9 +53,11 @@ std::string CrsName(const json& crs) {
 }  // namespace
 
 std::string PageContext::Path(const std::string& path) const {
-  if (project_dir.empty() || path.empty()) return path;
   const fs::path p(path), base(project_dir);
-  if (!p.is_absolute() || !base.is_absolute()) return path;
+  // Without the project folder an absolute path is shown by its file name: no local folder
+  // names in a page that is sent on.
+  if (project_dir.empty()) return p.is_absolute() ? p.filename().string() : path;
+  if (path.empty() || !p.is_absolute() || !base.is_absolute()) return path;
   const fs::path relative = p.lexically_normal().lexically_relative(base.lexically_normal());
   return relative.empty() ? path : relative.string();
 }

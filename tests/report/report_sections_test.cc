@@ -9,6 +9,7 @@
 #include "mmba/report/accuracy.h"
 #include "mmba/report/adjust_report.h"
 #include "mmba/report/relative_precision.h"
+#include "mmba/report/report_entries.h"
 #include "sample_report.h"
 
 namespace mmba::report {
@@ -167,6 +168,73 @@ TEST(ReportSections, PhotoImagesCrsSettingsAndRelativePaths) {
   EXPECT_NE(html.find("control file control/points.csv line 7"), std::string::npos);
   EXPECT_NE(html.find("<code>project.yaml</code>"), std::string::npos);
   EXPECT_EQ(html.find("/home/surveyor"), std::string::npos) << "an absolute path left in the page";
+}
+
+TEST(ReportSections, AbsolutePathsWithoutAProjectFolderShowTheirFileName) {
+  nlohmann::json report = testing::MakeClientReport();
+  report.erase("project_dir");
+  const std::string images = Section(RenderAdjustReportHtml(report), "images");
+  EXPECT_NE(images.find("<code>IMG_101.JPG</code>"), std::string::npos);
+  EXPECT_EQ(images.find("/home/surveyor"), std::string::npos);
+}
+
+TEST(ReportEntries, ObservationsFromTheStatisticsRenderAsTheTable) {
+  stats::NetworkStatistics st;
+  st.critical_value = 3.29;
+  const double w[3] = {0.5, -4.1, 2.0};
+  for (int i = 0; i < 3; ++i) {
+    stats::RowStatistic r;
+    r.group = i == 2 ? 1 : 0;
+    r.block = i;
+    r.residual = 1e-5 * w[i];
+    r.sigma = 1e-5;
+    r.redundancy = 0.5;
+    r.studentized = w[i];
+    r.critical = std::abs(w[i]) > 3.29;
+    st.rows.push_back(r);
+  }
+  const std::vector<GroupLabel> groups = {{"directions", "mgon", 200000.0 / M_PI}, {"distances", "mm", 1000.0}};
+  const nlohmann::json all = ObservationsEntry(st, groups, "observations.csv");
+  ASSERT_EQ(all["rows"].size(), 3u);
+  EXPECT_EQ(all["rows"][2]["group"], "distances");
+  EXPECT_NEAR(all["rows"][2]["residual"].get<double>(), 0.02, 1e-12);
+  EXPECT_NEAR(all["rows"][0]["sigma"].get<double>(), 1e-5 * 200000.0 / M_PI, 1e-12);
+  const nlohmann::json two = ObservationsEntry(st, groups, "observations.csv", 2);
+  ASSERT_EQ(two["rows"].size(), 2u);
+  EXPECT_EQ(two["rows"][0]["studentized"].get<double>(), -4.1);  // the largest |w| first
+  EXPECT_EQ(two["rows"][1]["studentized"].get<double>(), 2.0);
+  EXPECT_EQ(two["total"].get<size_t>(), 3u);
+  st.rows[0].group = 5;
+  EXPECT_THROW(ObservationsEntry(st, groups, "x.csv"), std::out_of_range);
+
+  nlohmann::json report = testing::MakeSampleReport();
+  report["observations"] = two;
+  const std::string obs = Section(RenderAdjustReportHtml(report), "observations");
+  EXPECT_NE(obs.find("2 of 3 rows shown"), std::string::npos);
+  EXPECT_EQ(Occurrences(obs, "<b>blunder?</b>"), 1u);
+}
+
+TEST(ReportEntries, RelativePrecisionEntriesRenderAsTheTable) {
+  const std::vector<std::string> ids = {"A", "B", "C"};
+  const std::vector<std::array<double, 3>> xyz = {{0, 0, 0}, {100, 0, 0}, {0, 50, 0}};
+  // Independent points, σ 2 mm per axis: σ of any difference 2.83 mm.
+  const auto cov = [](size_t i, size_t j) {
+    std::array<double, 9> c{};
+    if (i == j) c[0] = c[4] = c[8] = 4e-6;
+    return c;
+  };
+  const nlohmann::json entries = RelativePrecisionEntries(ids, xyz, cov, 1);
+  ASSERT_EQ(entries.size(), 2u);  // A-B (B's nearest), A-C
+  EXPECT_EQ(entries[0]["from"], "A");
+  EXPECT_NEAR(entries[0]["sigma"][0].get<double>(), std::sqrt(8e-6), 1e-12);
+  nlohmann::json report = testing::MakeSampleReport();
+  report["relative_precision"] = entries;
+  const std::string rel = Section(RenderAdjustReportHtml(report), "relative");
+  EXPECT_NE(rel.find("<td>A</td><td>C</td><td class=\"num\">50.000</td><td class=\"num\">2.83</td>"
+                     "<td class=\"num\">56.6</td>"),
+            std::string::npos);
+  // Already at 95 %: a = 2.4477 × 2.83 mm = 6.92 mm, not scaled twice.
+  EXPECT_NE(rel.find(">6.92<"), std::string::npos);
 }
 
 }  // namespace
