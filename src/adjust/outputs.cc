@@ -466,7 +466,10 @@ std::vector<NamedPath> ProjectInputs(const Project& project) {
     for (const io::MeasurementFile& m : p.measurements) add(p.id, "measurements", m.file);
   }
   if (project.control) inputs.push_back({"'control'", project.control->file});
-  for (const Gnss& g : project.gnss) add(g.id, "file", g.file);
+  for (const Gnss& g : project.gnss) {
+    add(g.id, "file", g.file);
+    add(g.id, "photos", g.photos);
+  }
   for (const LidarStatic& l : project.lidar_static) {
     add(l.id, "reference_cloud", l.reference_cloud);
     add(l.id, "targets", l.targets);

@@ -212,9 +212,26 @@ class ProjectReader {
     g.id = id;
     g.line = line;
     r_.Map(n, f, {{"id", keep}, {"type", keep}, {"file", path(&g.file, false)},
+                  {"photos", [&](Node v, Field h) { GnssPhotos(v, h, &g); }},
                   {"loss", [&](Node v, Field h) { g.loss = Loss(v, h); }}});
-    r_.Require(n, f, {"file"});
+    if (g.file.empty() == g.photos.empty()) {
+      r_.Fail(n, f, "one of file (a GNSS CSV) or photos (EXIF positions)", g.file.empty() ? "neither" : "both");
+    }
     project_->gnss.push_back(g);
+  }
+
+  /// A gnss sensor's `photos: {folder, sigma_horizontal_m, sigma_vertical_m, geoid_undulation_m}`.
+  void GnssPhotos(Node n, Field f, Gnss* g) {
+    r_.Map(n, f, {{"folder", [&](Node v, Field h) { g->photos = ExistingPath(v, h, true); }},
+                  {"sigma_horizontal_m", [&](Node v, Field h) { g->photos_sigma_horizontal_m = SigmaM(v, h, 10.0); }},
+                  {"sigma_vertical_m", [&](Node v, Field h) { g->photos_sigma_vertical_m = SigmaM(v, h, 10.0); }},
+                  {"geoid_undulation_m", [&](Node v, Field h) {
+                     g->photos_geoid_undulation_m = r_.Number(v, h);
+                     if (std::abs(g->photos_geoid_undulation_m) > 150) {
+                       r_.Fail(v, h, "a geoid undulation N in [-150, 150] m", io::YamlReader::Text(v));
+                     }
+                   }}});
+    r_.Require(n, f, {"folder", "sigma_horizontal_m", "sigma_vertical_m", "geoid_undulation_m"});
   }
 
   /// A lidar_static.

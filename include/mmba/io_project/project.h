@@ -94,6 +94,13 @@ struct Gnss {
   std::string id;
   int line = 0;
   std::string file;  ///< CSV id,kind,time_s,latitude_deg,longitude_deg,height_m,sigma_{east,north,up}_m
+  /// Or `photos: {folder, sigma_horizontal_m, sigma_vertical_m, geoid_undulation_m}`: the GPS
+  /// position each photo's EXIF holds (io/exif_gps.h) as that photo's camera row, height =
+  /// EXIF altitude + geoid_undulation_m (0 when the camera writes ellipsoidal heights).
+  std::string photos;
+  double photos_sigma_horizontal_m = 0;
+  double photos_sigma_vertical_m = 0;
+  double photos_geoid_undulation_m = 0;
   LossOptions loss{LossType::kHuber, 3.0};
 };
 

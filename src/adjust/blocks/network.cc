@@ -10,6 +10,7 @@
 #include "blocks.h"
 #include "mmba/core/error.h"
 #include "mmba/io/csv_table.h"
+#include "mmba/io/exif_gps.h"
 #include "mmba/io_survey/gama_local.h"
 #include "mmba/io_survey/survey_csv.h"
 #include "mmba/survey/result_json.h"
@@ -96,11 +97,52 @@ void LoadNetwork(JointState* s) {
 }
 
 
+/// The camera rows of a gnss sensor's `photos`: each image's EXIF GPS position with the
+/// sensor's σ, height = EXIF altitude + geoid undulation. An image without a GPS position or
+/// altitude is a warning naming it.
+void LoadExifCameras(JointState* s, const Gnss& g) {
+  std::vector<fs::path> images;
+  for (const auto& entry : fs::directory_iterator(g.photos)) {
+    std::string ext = entry.path().extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    const bool photo = ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" || ext == ".png";
+    if (entry.is_regular_file() && photo) images.push_back(entry.path());
+  }
+  std::sort(images.begin(), images.end());
+  int without = 0;
+  for (const fs::path& image : images) {
+    const std::optional<io::ExifGps> gps = io::ReadExifGps(image.string());
+    if (!gps || !gps->altitude_m) {
+      s->warnings.push_back("GNSS " + g.id + ": " + image.string() + " has no EXIF GPS " + (gps ? "altitude" : "position") + ": no camera prior");
+      ++without;
+      continue;
+    }
+    const geodesy::Geodetic geo{gps->latitude_deg, gps->longitude_deg, *gps->altitude_m + g.photos_geoid_undulation_m};
+    GnssCamera c;
+    c.image = image.filename().string();
+    c.enu = s->plane.EnuFromGeodetic(geo);
+    if (c.enu.norm() > 50000) {
+      throw InputError::Message(image.string(), "EXIF GPS position " + std::to_string(geo.latitude_deg) + ", " + std::to_string(geo.longitude_deg) +
+                                                    " is more than 50 km from the project origin (expected a photo of the site)");
+    }
+    c.sigma = {g.photos_sigma_horizontal_m, g.photos_sigma_horizontal_m, g.photos_sigma_vertical_m};
+    c.source = image.string() + " (EXIF)";
+    s->gnss_camera_rows.push_back(c);
+  }
+  if (images.empty() || without == static_cast<int>(images.size())) {
+    throw InputError::Message(g.photos, "no JPEG, TIFF or PNG photo with an EXIF GPS position and altitude (gnss " + g.id + " photos)");
+  }
+}
+
 void LoadGnss(JointState* s) {
   // Each control mark and each photo's antenna position once over all GNSS files: a second
   // row would silently stand beside (or replace) the first.
   std::map<std::pair<std::string, std::string>, std::string> first_row;  // (kind, id) -> file:line
   for (const Gnss& g : s->project->gnss) {
+    if (!g.photos.empty()) {
+      LoadExifCameras(s, g);
+      continue;
+    }
     const io::CsvTable table = io::CsvTable::Read(
         g.file, {"id", "kind", "latitude_deg", "longitude_deg", "height_m", "sigma_east_m", "sigma_north_m", "sigma_up_m"});
     for (const io::CsvTable::Row& row : table.rows()) {
