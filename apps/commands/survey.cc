@@ -118,6 +118,11 @@ int RunSurvey(const SurveyArgs& args) {
   nlohmann::json json = survey::ResultToJson(args.input, net, adj, crs ? &*crs : nullptr);
   const std::string csv_text = survey::ObservationsCsv(net, adj);
   std::string summary = survey::ResultSummary(args.input, net, adj);
+  if (crs) {
+    summary += "  crs: " + crs->crs().name() + (crs->crs().identifier().empty() ? "" : " (" + crs->crs().identifier() + ")") +
+               ", heights " + geodesy::HeightKindName(crs->crs().height_kind()) +
+               "; adjusted in the tangent plane at the mean of the points (report.md, adjusted.json origin)\n";
+  }
   if (field) {
     json["face_reduction"] = survey::FaceReductionToJson(field->reduction);
     summary += survey::FaceReductionSummary(field->reduction);

@@ -94,9 +94,12 @@ void Crs::Impl::OpenProjection() {
 void Crs::Impl::Parse() {
   crs.reset(proj_create(ctx, definition.c_str()));
   if (!crs || !proj_is_crs(crs.get())) {
-    Fail("'" + definition + "' is not a coordinate reference system PROJ knows (" +
-         ContextError(ctx) + "); expected e.g. EPSG:25832, EPSG:2154+5720 or a PROJ string " +
-         "with +type=crs");
+    std::string reason = crs ? std::string("not a CRS") : ContextError(ctx);
+    if (reason.rfind("Unknown error", 0) == 0) {  // PROJ 9.1 names no reason for an unknown code
+      reason = definition.rfind("EPSG:", 0) == 0 ? "no such code in PROJ's EPSG database" : "PROJ cannot parse it";
+    }
+    Fail("'" + definition + "' is not a coordinate reference system PROJ knows (" + reason +
+         "); expected e.g. EPSG:25832, EPSG:2154+5720 or a PROJ string with +type=crs");
   }
   if (proj_get_type(crs.get()) == PJ_TYPE_BOUND_CRS) {
     crs.reset(proj_get_source_crs(ctx, crs.get()));

@@ -207,7 +207,9 @@ std::string CrsPointsMarkdown(const SurveyNetwork& net, const geodesy::CrsFrame&
   std::ostringstream md;
   md << std::fixed << "\n## Coordinates in " << crs.name()
      << (crs.identifier().empty() ? "" : " (" + crs.identifier() + ")") << "\n\n"
-     << "Heights: " << geodesy::HeightKindName(crs.height_kind()) << ". The network was adjusted in the local "
+     << "Heights: " << geodesy::HeightKindName(crs.height_kind())
+     << (crs.height_kind() == geodesy::HeightKind::kAsGiven ? " (a 2-D CRS: taken as ellipsoidal heights)" : "")
+     << ". The network was adjusted in the local "
      << "tangent plane at latitude " << std::setprecision(9) << frame.origin().latitude_deg << "°, longitude "
      << frame.origin().longitude_deg << "°, h " << std::setprecision(3) << frame.origin().height_m
      << " m (the mean of its points, on the CRS's datum): the table above is in that plane (x, y in the input's "

@@ -6,7 +6,10 @@
 // file and line (or the option) and the value, with nothing written.
 #include <unistd.h>
 
+#include <cstdint>
 #include <filesystem>
+#include <map>
+#include <vector>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -120,6 +123,73 @@ TEST_P(AdjustCrsTest, SurveyWithCrsEqualsTheLocalFrameSurveyConvertedByPyproj) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Crs, AdjustCrsTest, ::testing::Values("EPSG:25832", "EPSG:2154"));
+
+/// A CSV file's rows by their first column (the header names the columns), the # line skipped.
+std::map<std::string, std::map<std::string, std::string>> CsvRows(const fs::path& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::vector<std::string> names;
+  std::map<std::string, std::map<std::string, std::string>> rows;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) cells.push_back(cell);
+    if (names.empty()) {
+      names = cells;
+      continue;
+    }
+    for (size_t i = 0; i < cells.size() && i < names.size(); ++i) rows[cells[0]][names[i]] = cells[i];
+  }
+  return rows;
+}
+
+// The same network with orthometric heights H = h − N in EPSG:25832+7837 (ETRS89 / UTM 32N +
+// DHHN2016) and a geoid grid of constant N = 47.25 m: the same ellipsoidal heights and plane
+// coordinates as with ellipsoidal heights in EPSG:25832, the CRS heights 47.25 m lower.
+TEST_F(AdjustCrsTest, CompoundCrsWithAGeoidGridGivesOrthometricHeights) {
+  const std::string d = dir_.string();
+  Run(kReference + " make " + d + " EPSG:25832 49.7 9.3");
+  std::ofstream grid(dir_ / "geoid.gtx", std::ios::binary);  // NOAA GTX: big-endian header, float32 rows
+  const auto put = [&grid](const void* value, int size) {
+    for (int i = size - 1; i >= 0; --i) grid.put(static_cast<const char*>(value)[i]);
+  };
+  for (double v : {40.0, 0.0, 1.0, 1.0}) put(&v, 8);
+  for (int32_t v : {21, 21}) put(&v, 4);
+  const float undulation = 47.25f;
+  for (int i = 0; i < 21 * 21; ++i) put(&undulation, 4);
+  grid.close();
+  std::ifstream in(dir_ / "network_crs.csv");
+  std::ofstream out(dir_ / "network_h.csv");
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("point,", 0) == 0) {  // point,id,x,y,z,fix,adj
+      std::vector<std::string> c;
+      std::stringstream ss(line);
+      for (std::string cell; std::getline(ss, cell, ',');) c.push_back(cell);
+      c[4] = std::to_string(std::stod(c[4]) - 47.25);
+      line = c[0];
+      for (size_t i = 1; i < 7; ++i) line += "," + (i < c.size() ? c[i] : "");
+    }
+    out << line << "\n";
+  }
+  out.close();
+  std::ofstream(dir_ / "project_h.yaml") << "mmba_project: 1\nname: h\ncrs: EPSG:25832+7837\ngeoid_grid: geoid.gtx\n"
+                                         << "sensors:\n  - {id: ts, type: total_station, file: network_h.csv}\n";
+  Run(kMmba + " adjust " + d + "/project_h.yaml --output " + d + "/out_h");
+  Run(kMmba + " adjust " + d + "/project_crs.yaml --output " + d + "/out_e");
+  const auto h = CsvRows(dir_ / "out_h" / "points.csv");
+  const auto e = CsvRows(dir_ / "out_e" / "points.csv");
+  ASSERT_EQ(h.size(), 7u);
+  for (const auto& [id, row] : h) {
+    const auto& other = e.at(id);
+    EXPECT_NEAR(std::stod(row.at("easting_epsg25832_7837_m")), std::stod(other.at("easting_epsg25832_m")), 2e-4) << id;
+    EXPECT_NEAR(std::stod(row.at("height_epsg25832_7837_m")), std::stod(other.at("height_epsg25832_m")) - 47.25, 2e-4) << id;
+    EXPECT_NEAR(std::stod(row.at("height_m")), std::stod(other.at("height_m")), 2e-4) << id;  // ellipsoidal
+  }
+  const std::string report = ReadFile(dir_ / "out_h" / "report.json");
+  EXPECT_NE(report.find("\"height_kind\": \"orthometric\""), std::string::npos);
+  EXPECT_NE(report.find("\"geoid_grid\": \"geoid.gtx\""), std::string::npos);
+}
 
 class UnknownCrsTest : public ::testing::Test {
  protected:
