@@ -20,6 +20,7 @@
 import csv
 import json
 import math
+import os
 import random
 import sys
 
@@ -48,6 +49,7 @@ def topocentric(lat, lon, h, ellps):
 
 
 def make(folder, code, lat0, lon0):
+    os.makedirs(folder, exist_ok=True)
     rng = random.Random(58)
     ellps = "GRS80"
     truth = {}
