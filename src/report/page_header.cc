@@ -89,6 +89,11 @@ void RenderSigma0Rows(const json& report, std::ostringstream& html) {
        << " after variance components (a-priori " << Sig(after.apriori, 4) << ")</td></tr>\n";
   RenderChi2Row("&chi;<sup>2</sup> test, project's " + std::string(kSigma), given,
                 "the project's " + std::string(kSigma), html);
+  if (given.aposteriori / given.apriori == after.aposteriori / after.apriori) {
+    html << "<tr><th>&chi;<sup>2</sup> test, after variance components</th><td>the same: the variance components "
+            "re-weighted no group</td></tr>\n";
+    return;
+  }
   RenderChi2Row("&chi;<sup>2</sup> test, after variance components", after,
                 "the re-weighted " + std::string(kSigma), html);
 }

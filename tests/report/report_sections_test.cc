@@ -39,6 +39,13 @@ TEST(ReportSections, BothChiSquareTests) {
   EXPECT_NE(summary.substr(given, after - given).find("FAILED"), std::string::npos);
   EXPECT_NE(summary.substr(given, after - given).find("1.840"), std::string::npos);
   EXPECT_NE(summary.substr(after).find("PASSED"), std::string::npos);
+  // Variance components that changed nothing: the second test is named, not repeated.
+  nlohmann::json same = testing::MakeClientReport();
+  same["sigma0_given_weights"]["aposteriori"] = 1.006;
+  same["sigma0_given_weights"]["passed"] = true;
+  const std::string once = RenderAdjustReportHtml(same);
+  EXPECT_NE(once.find("the same: the variance components re-weighted no group"), std::string::npos);
+  EXPECT_EQ(Occurrences(once, "verdict pass\">PASSED"), 1u);
   // Without sigma0_given_weights: one test.
   const std::string single = RenderAdjustReportHtml(testing::MakeSampleReport());
   EXPECT_EQ(single.find("test, project's"), std::string::npos);
