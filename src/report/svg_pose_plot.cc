@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "mmba/report/svg_plot.h"
+
+#include "mmba/report/label_layout.h"
 #include "report/svg_internal.h"
 
 namespace mmba::report {
@@ -101,8 +103,9 @@ void DrawPoseLegend(const PoseExtent& e, std::ostringstream& svg) {
   for (const std::string& sensor : e.sensors) {
     svg << "<rect x=\"" << Px(lx) << "\" y=\"22\" width=\"10\" height=\"10\" fill=\""
         << e.Colour(sensor) << "\"/>\n";
-    svg << Text(lx + 14, 31, HtmlEscape(sensor.empty() ? "(no sensor)" : sensor));
-    lx += 24 + 6.5 * std::min<size_t>(sensor.size(), 30);
+    const std::string name = sensor.empty() ? "(no sensor)" : sensor;
+    svg << Text(lx + 14, 31, HtmlEscape(name));
+    lx += 24 + EstimateTextWidth(name, 11.0);  // the next entry starts after this one's text
   }
   if (e.any_component) {
     for (int c = 0; c < 3; ++c) {

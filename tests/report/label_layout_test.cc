@@ -94,5 +94,21 @@ TEST(LabelLayout, PlanViewLabelsDoNotOverprint) {
   }
 }
 
+TEST(LabelLayout, PoseLegendEntriesDoNotOverprint) {
+  // A sensor name of 41 characters followed by another sensor: the second swatch starts after
+  // the first name's text.
+  const std::string long_name = "ladybug5_plus_rear_left_camera_number_003";
+  std::vector<PoseCorrectionPoint> poses = {{"a.jpg", long_name, 0.01, 0.0, 0.0, 0.01, 0.1},
+                                            {"b.jpg", "photos", 0.0, 0.02, 0.0, 0.02, 0.2}};
+  const std::string svg = SvgPoseCorrections(poses, 900);
+  const std::regex swatch(R"re(<rect x="([0-9.]+)" y="22" width="10" height="10")re");
+  std::vector<double> x;
+  for (auto it = std::sregex_iterator(svg.begin(), svg.end(), swatch); it != std::sregex_iterator(); ++it) {
+    x.push_back(std::stod((*it)[1]));
+  }
+  ASSERT_EQ(x.size(), 2u);
+  EXPECT_GE(x[1], x[0] + 14 + EstimateTextWidth(long_name, 11.0));
+}
+
 }  // namespace
 }  // namespace mmba::report
