@@ -38,11 +38,11 @@ struct RegisterMiArgs {
   std::vector<std::string> lidar;
   std::vector<std::string> image;
   std::string list;
-  std::string camera;
+  std::vector<std::string> camera;  ///< one, or several: a ring, each paired with its --image
   std::string kitti_calib;
   int kitti_camera = 2;
   std::string rig;
-  std::string initial;
+  std::vector<std::string> initial;  ///< none, or one per --camera
   std::string metric = "nmi";
   std::string representation = "intensity";
   bool representation_given = false;  ///< --representation on the command line
@@ -149,11 +149,11 @@ mi::JobRequest RequestOf(const RegisterMiArgs& args) {
   request.lidar = args.lidar;
   request.image = args.image;
   request.list = args.list;
-  request.camera = args.camera;
+  request.camera = args.camera.empty() ? "" : args.camera[0];
   request.kitti_calib = args.kitti_calib;
   request.kitti_camera = args.kitti_camera;
   request.rig = args.rig;
-  request.initial = args.initial;
+  request.initial = args.initial.empty() ? "" : args.initial[0];
   request.perturb = args.perturb;
   request.surface_classes = args.surface_classes;
   request.orientation_classes = args.orientation_classes;
@@ -167,10 +167,13 @@ mi::JobRequest RequestOf(const RegisterMiArgs& args) {
 
 // The inputs the outputs must not overwrite: the files given and every frame's.
 std::vector<FileArg> InputsOf(const RegisterMiArgs& args, const std::vector<mi::FramePaths>& paths) {
-  std::vector<FileArg> inputs = {{"--list", args.list},       {"--camera", args.camera},
-                                 {"--kitti-calib", args.kitti_calib}, {"--rig", args.rig},
-                                 {"--initial", args.initial}, {"--trajectory", args.trajectory},
+  std::vector<FileArg> inputs = {{"--list", args.list},
+                                 {"--kitti-calib", args.kitti_calib},
+                                 {"--rig", args.rig},
+                                 {"--trajectory", args.trajectory},
                                  {"--lidar-mount", args.lidar_mount}};
+  for (const std::string& camera : args.camera) inputs.push_back({"--camera", camera});
+  for (const std::string& initial : args.initial) inputs.push_back({"--initial", initial});
   for (const mi::FramePaths& frame : paths) {
     inputs.push_back({"--image", frame.image});
     inputs.push_back({"--lidar", frame.lidar});
@@ -215,8 +218,18 @@ void WriteOutputs(const RegisterMiArgs& args, const mi::Job& job, const mi::Regi
     mi::LidarImage at_start, at_result;
     mi::RenderLidarImage(job.clouds[0], view, job.start, job.options.render, &at_start);
     mi::RenderLidarImage(job.clouds[0], view, cam_from_local, job.options.render, &at_result);
-    const std::vector<uint8_t> png = mi::EncodeRangeOverlayPng(
-        view.image, {&at_start, &at_result}, {"start (" + view.name + ")", "result: " + result.status});
+    std::vector<const mi::LidarImage*> panels = {&at_start, &at_result};
+    std::vector<std::string> labels = {"start (" + view.name + ")", "result: " + result.status};
+    // With the geometric term, its LiDAR edge points at the start and at the result too.
+    mi::LidarImage edges_at_start, edges_at_result;
+    if (job.options.edges == "on") {
+      const mi::LidarPoints edges = mi::EdgeCloud(job.clouds[0], job.options.edge);
+      mi::RenderLidarImage(edges, view, job.start, job.options.render, &edges_at_start);
+      mi::RenderLidarImage(edges, view, cam_from_local, job.options.render, &edges_at_result);
+      panels.insert(panels.end(), {&edges_at_start, &edges_at_result});
+      labels.insert(labels.end(), {"LiDAR edges at the start", "LiDAR edges at the result"});
+    }
+    const std::vector<uint8_t> png = mi::EncodeRangeOverlayPng(view.image, panels, labels);
     files.Add(
         args.overlay,
         [png](std::ostream& stream) {
@@ -233,8 +246,10 @@ void WriteOutputs(const RegisterMiArgs& args, const mi::Job& job, const mi::Regi
 class OpenCalibInputs {
  public:
   OpenCalibInputs(const RegisterMiArgs& args, const std::vector<mi::FramePaths>& paths, mi::JobRequest* request) {
-    const bool camera = !args.camera.empty() && args.rig.empty() && io::IsOpenCalibFile(args.camera);
-    const bool initial = !args.initial.empty() && io::IsOpenCalibFile(args.initial);
+    const std::string camera_path = args.camera.empty() ? "" : args.camera[0];
+    const std::string initial_path = args.initial.empty() ? "" : args.initial[0];
+    const bool camera = !camera_path.empty() && args.rig.empty() && io::IsOpenCalibFile(camera_path);
+    const bool initial = !initial_path.empty() && io::IsOpenCalibFile(initial_path);
     if (!camera && !initial) return;
     // Everything is read and checked before the folder is made.
     std::optional<io::CameraYaml> camera_yaml;
@@ -243,18 +258,18 @@ class OpenCalibInputs {
       // checked against it by the job).
       const mi::GrayImage image = mi::ReadGrayImage(paths.at(0).image);
       std::string note;
-      camera_yaml = io::ReadCameraFile(args.camera, paths[0].image, image.width, image.height, &note);
+      camera_yaml = io::ReadCameraFile(camera_path, paths[0].image, image.width, image.height, &note);
       if (!note.empty()) spdlog::warn("{}", note);
-      if (!camera_yaml->cam_from_lidar && args.initial.empty()) {
-        throw InputError::Message(args.camera, "holds no cam_from_lidar (an intrinsic JSON); give the start pose "
+      if (!camera_yaml->cam_from_lidar && initial_path.empty()) {
+        throw InputError::Message(camera_path, "holds no cam_from_lidar (an intrinsic JSON); give the start pose "
                                                "as --initial NAME-extrinsic.json, calib.txt or POSE.json");
       }
-      spdlog::info("{}: {} camera {}x{} (OpenCalib, principal point + 0.5 px to mmba's pixel centres)", args.camera,
+      spdlog::info("{}: {} camera {}x{} (OpenCalib, principal point + 0.5 px to mmba's pixel centres)", camera_path,
                    camera_yaml->camera.ModelName(), image.width, image.height);
     }
     const std::string key = args.rig.empty() ? "cam_from_lidar" : "rig_from_lidar";
     nlohmann::json pose;
-    if (initial) pose[key] = io::PoseToJson(io::ReadStartPoseFile(args.initial, key));
+    if (initial) pose[key] = io::PoseToJson(io::ReadStartPoseFile(initial_path, key));
     std::error_code ec;
     folder_ = fs::temp_directory_path(ec) / ("mmba-register-mi-" + std::to_string(::getpid()));
     fs::create_directories(folder_, ec);
@@ -278,7 +293,93 @@ class OpenCalibInputs {
   fs::path folder_;
 };
 
+// A ring of cameras (several --camera, each paired in order with its --image and --initial)
+// about one LiDAR sweep: the options a ring cannot take are refused before any reading.
+void CheckRing(const RegisterMiArgs& args) {
+  const size_t n = args.camera.size();
+  if (args.initial.size() > std::max<size_t>(n, 1) || (n > 1 && !args.initial.empty() && args.initial.size() != n)) {
+    throw InputError::Message("--initial", "found " + std::to_string(args.initial.size()) + " for " +
+                                               std::to_string(n) + " --camera: give none or one per camera, in order");
+  }
+  if (n < 2) return;
+  for (const auto& [option, given] : std::vector<std::pair<std::string, bool>>{
+           {"--rig", !args.rig.empty()},
+           {"--kitti-calib", !args.kitti_calib.empty()},
+           {"--list", !args.list.empty()},
+           {"--probe", !args.probe.empty()},
+           {"--lidar-image", !args.lidar_image.empty()},
+           {"--overlay", !args.overlay.empty()}}) {
+    if (given) {
+      throw InputError::Message(option, "cannot be combined with several --camera (a ring: each camera with its "
+                                            "own --image and --initial, one --lidar); run one camera for it");
+    }
+  }
+  if (args.image.size() != n || args.lidar.size() != 1) {
+    throw InputError::Message("--camera/--image/--lidar", "a ring of " + std::to_string(n) + " --camera needs " +
+                                                              std::to_string(n) + " --image (in the same order) and "
+                                                              "one --lidar; found " +
+                                                              std::to_string(args.image.size()) + " and " +
+                                                              std::to_string(args.lidar.size()));
+  }
+}
+
+// One camera of a ring: its own job (the sweep, its image, its camera and start), its result as
+// register-mi writes it for one camera, with the camera's and the image's files.
+nlohmann::json RegisterRingCamera(const RegisterMiArgs& args, size_t k, bool* ok, std::string* brief) {
+  RegisterMiArgs one = args;
+  one.camera = {args.camera[k]};
+  one.image = {args.image[k]};
+  one.initial = args.initial.empty() ? std::vector<std::string>{} : std::vector<std::string>{args.initial[k]};
+  mi::JobRequest request = RequestOf(one);
+  const std::vector<mi::FramePaths> paths = mi::ListFrames(request);
+  const OpenCalibInputs opencalib(one, paths, &request);
+  const mi::Job job = mi::PrepareJob(request, paths);
+  Rigid3d cam_from_local;
+  const mi::RegistrationResult result = mi::RegisterJob(job, &cam_from_local);
+  nlohmann::json out = mi::JobResultToJson(request, job, result, cam_from_local);
+  out["camera"] = args.camera[k];
+  out["image"] = args.image[k];
+  *ok = result.ok();
+  *brief = result.BriefReport();
+  return out;
+}
+
+// Every camera of the ring registered to the one sweep, each its own cam_from_lidar; "ok" when
+// every camera's is. The jobs are prepared one after the other (a bad file of the last camera
+// is found after the first is registered; nothing is written then).
+int RunRing(const RegisterMiArgs& args) {
+  Timer wall;
+  RefuseToOverwriteInputs({{"--output", args.output}}, InputsOf(args, {{args.image[0], args.lidar[0]}}));
+  nlohmann::json out = {{"status", "ok"}, {"reason", ""}, {"lidar", args.lidar[0]}};
+  out["cameras"] = nlohmann::json::array();
+  std::string reasons, briefs;
+  for (size_t k = 0; k < args.camera.size(); ++k) {
+    bool ok = false;
+    std::string brief;
+    out["cameras"].push_back(RegisterRingCamera(args, k, &ok, &brief));
+    briefs += "camera " + std::to_string(k) + " (" + args.camera[k] + "): " + brief + "\n";
+    if (!ok) {
+      reasons += (reasons.empty() ? "" : "; ") + std::string("camera ") + std::to_string(k) + " (" +
+                 args.camera[k] + "): " + out["cameras"][k]["reason"].get<std::string>();
+    }
+  }
+  if (!reasons.empty()) {
+    out["status"] = "failed";
+    out["reason"] = reasons;
+  }
+  RecordBuild(&out);
+  AtomicFileSet files;
+  files.Add(args.output, [&](std::ostream& stream) { stream << out.dump(2) << "\n"; });
+  files.Commit();
+  spdlog::info("wrote {} ({:.2f} s)", args.output, wall.ElapsedSeconds());
+  if (!reasons.empty()) throw CommandFailed("MI registration of a ring: failed (" + reasons + ")");
+  std::cout << briefs << std::flush;
+  return kExitOk;
+}
+
 int RunRegisterMi(const RegisterMiArgs& args) {
+  CheckRing(args);
+  if (args.camera.size() > 1) return RunRing(args);
   Timer wall;
   // Options and files are checked before any reading.
   mi::JobRequest request = RequestOf(args);
@@ -307,7 +408,8 @@ void AddInputOptions(CLI::App* sub, RegisterMiArgs* args) {
   sub->add_option("--image", args->image, "Image or equirectangular panorama; repeatable");
   sub->add_option("--list", args->list, "Text file of frames: IMAGE LIDAR per line");
   sub->add_option("--camera", args->camera,
-                  "Camera YAML (calib/README.md), or OpenCalib calib.txt / NAME-intrinsic.json");
+                  "Camera YAML (calib/README.md), or OpenCalib calib.txt / NAME-intrinsic.json; repeat for "
+                  "a ring of cameras about one --lidar, each paired in order with its --image and --initial");
   sub->add_option("--kitti-calib", args->kitti_calib, "KITTI calibration file (camera 2)");
   sub->add_option("--rig", args->rig,
                   "Rig YAML (calib/README.md camera_rig, optional rig_from_lidar): each --image is "
@@ -315,7 +417,7 @@ void AddInputOptions(CLI::App* sub, RegisterMiArgs* args) {
   sub->add_option("--kitti-camera", args->kitti_camera, "KITTI camera index 0..3")->capture_default_str();
   sub->add_option("--initial", args->initial,
                   "POSE.json with cam_from_lidar (with --rig: rig_from_lidar), 4x4 row-major; or "
-                  "OpenCalib calib.txt / NAME-extrinsic.json");
+                  "OpenCalib calib.txt / NAME-extrinsic.json; one per --camera of a ring");
   sub->add_option("--perturb", args->perturb,
                   "Test: start from the start pose corrected by tx,ty,tz,roll,pitch,yaw "
                   "(m, deg) and report pixel offsets against the unperturbed pose")

@@ -125,4 +125,13 @@ std::vector<EdgePoint> DetectLidarEdges(const LidarPoints& points, const Eigen::
   return edges;
 }
 
+LidarPoints EdgeCloud(const LidarPoints& points, const EdgeOptions& options) {
+  LidarPoints cloud;
+  for (const EdgePoint& edge : DetectLidarEdges(points, Eigen::Vector3f::Zero(), options)) {
+    cloud.points_in_lidar.push_back(edge.point_in_lidar);
+  }
+  cloud.intensity01.assign(cloud.size(), 1.f);
+  return cloud;
+}
+
 }  // namespace mmba::registration::mi

@@ -53,6 +53,7 @@ class JobBuilder {
   void PrepareClouds();
   void PrepareCloud(const std::string& lidar_path);
   io::PointCloud ReadCloud(const std::string& lidar_path);
+  void GeometricTermAlone(io::PointCloud* cloud, const std::string& lidar_path);
   void CheckIntensity(const io::PointCloud& cloud, const std::string& lidar_path) const;
   void FindScanner(const std::string& lidar_path, ScannerSource* source) const;
   IncidenceCorrection ScannerCorrection(const io::PointCloud& cloud, const std::string& lidar_path,

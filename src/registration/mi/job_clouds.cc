@@ -121,7 +121,8 @@ void JobBuilder::CheckIntensity(const io::PointCloud& cloud, const std::string& 
     throw InputError::Message(lidar_path, std::string("cloud has no intensity, which --representation intensity") +
                                               (request.representation_given ? "" : " (the default)") +
                                               " needs; use --representation depth or points (points are "
-                                              "compared over the whole image)");
+                                              "compared over the whole image), or --set edges=on (the "
+                                              "geometric term alone)");
   }
   if (options.render.representation == Representation::kIntensity) {
     // A LAS file always has the field; a cloud without a measured intensity holds one value
@@ -131,7 +132,8 @@ void JobBuilder::CheckIntensity(const io::PointCloud& cloud, const std::string& 
       throw InputError::Message(lidar_path, "every point's intensity is " + fmt::format("{:g}", *lowest) +
                                                 ": no intensity to register by, which --representation intensity" +
                                                 (request.representation_given ? "" : " (the default)") +
-                                                " needs; use --representation depth or points");
+                                                " needs; use --representation depth or points, or --set "
+                                                "edges=on (the geometric term alone)");
     }
   }
 }
@@ -271,8 +273,28 @@ void JobBuilder::EncodeClasses(const std::string& lidar_path, const std::vector<
   }
 }
 
+// With the geometric term on (--set edges=on), a cloud without a measured intensity (no field,
+// or one value in it) is registered by its depth edges alone: its intensity is dropped, and the
+// job's LiDAR image (--overlay, --lidar-image) shows depth; the MI term needs every cloud's
+// intensity (RegisterEdges), so it is left out.
+void JobBuilder::GeometricTermAlone(io::PointCloud* cloud, const std::string& lidar_path) {
+  if (options.edges != "on") return;
+  const auto [lowest, highest] = std::minmax_element(cloud->intensity.begin(), cloud->intensity.end());
+  if (cloud->has_intensity() && *lowest != *highest) return;
+  spdlog::info("{}: {}; the geometric term alone (depth edges, no MI)", lidar_path,
+               cloud->has_intensity() ? "every point's intensity is " + fmt::format("{:g}", *lowest)
+                                      : std::string("no intensity"));
+  cloud->intensity.clear();
+  if (options.render.representation != Representation::kIntensity) return;
+  options.render.representation = Representation::kDepth;
+  options.metric.lidar_classes = 1;
+  job.orientation_sectors = 0;
+  correct_incidence = false;
+}
+
 void JobBuilder::PrepareCloud(const std::string& lidar_path) {
-  const io::PointCloud cloud = ReadCloud(lidar_path);
+  io::PointCloud cloud = ReadCloud(lidar_path);
+  GeometricTermAlone(&cloud, lidar_path);
   CheckIntensity(cloud, lidar_path);
   // The scanner's centre for each point, in the local frame: given (the options, else the
   // cloud's sidecar CLOUD.scanner.yaml, io::ReadScannerSidecar), from the trajectory at the

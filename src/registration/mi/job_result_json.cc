@@ -20,7 +20,7 @@ json OffsetJson(const PixelOffsetStats& s) {
 json SettingsJson(const JobRequest& request, const Job& job) {
   const RegistrationOptions& o = request.options;
   json settings = {{"metric", MetricName(o.metric.kind)},
-                   {"representation", RepresentationName(o.render.representation)},
+                   {"representation", RepresentationName(job.options.render.representation)},
                    {"view", job.view_name},
                    {"bins", o.metric.bins},
                    {"smoothing", SmoothingName(o.metric.smoothing)},

@@ -66,6 +66,9 @@ struct EdgePoint {
 std::vector<EdgePoint> DetectLidarEdges(const LidarPoints& points, const Eigen::Vector3f& centre,
                                         const EdgeOptions& options);
 
+/// DetectLidarEdges' points as a cloud (intensity 1), for drawing them (register-mi --overlay).
+LidarPoints EdgeCloud(const LidarPoints& points, const EdgeOptions& options);
+
 /// The photo's edge image E (each pixel's largest absolute difference to its 8 neighbours,
 /// after a Gaussian blur of `blur_px`), spread by Levinson & Thrun's inverse distance
 /// transform D = α E + (1 − α) max E γ^{Chebyshev distance} (two raster passes, exact for
