@@ -1,6 +1,7 @@
 #include "mmba/problem/problem_builder.h"
 
 #include <algorithm>
+#include <set>
 #include <sstream>
 
 #include "mmba/core/error.h"
@@ -73,8 +74,22 @@ ceres::Problem& ProblemBuilder::Build() {
   ApplyGauge();
 
   ordering_ = std::make_shared<ceres::ParameterBlockOrdering>();
+  // Group 0 must be an independent set: a point that shares a residual block with another
+  // point (a measured distance, a scale bar) goes with the other blocks.
+  std::set<const double*> points, linked;
+  for (auto& [id, point] : scene_->points()) points.insert(point.data());
+  std::vector<ceres::ResidualBlockId> residual_blocks;
+  problem_->GetResidualBlocks(&residual_blocks);
+  std::vector<double*> parameters;
+  for (const ceres::ResidualBlockId id : residual_blocks) {
+    problem_->GetParameterBlocksForResidualBlock(id, &parameters);
+    const auto n = std::count_if(parameters.begin(), parameters.end(), [&](double* b) { return points.count(b) > 0; });
+    for (double* b : parameters) {
+      if (n > 1 && points.count(b)) linked.insert(b);
+    }
+  }
   for (auto& [id, point] : scene_->points()) {
-    if (problem_->HasParameterBlock(point.data())) {
+    if (problem_->HasParameterBlock(point.data()) && !linked.count(point.data())) {
       ordering_->AddElementToGroup(point.data(), 0);
     }
   }

@@ -188,6 +188,47 @@ TEST(PhotoMeasurementsDatum, InnerConstraintsOnASimulatedBlock) {
   EXPECT_LT(rms, 0.01);
 }
 
+// With a scale bar the scale comes from the bar: the inner constraints hold rotation and
+// translation only (6 columns), and the block's scale is the bar's.
+TEST(PhotoMeasurementsDatum, InnerConstraintsWithAScaleBar) {
+  const fs::path dir = ScratchRoot("pm_datum_bar") / "block";
+  fs::remove_all(dir.parent_path());
+  const SimulatedBlock block = Simulate(dir);
+  const double length = (block.truth.at("p0") - block.truth.at("p1")).norm();
+  std::ostringstream bar;
+  bar << std::setprecision(12) << "scale_bars: [{from: p0, to: p1, distance_m: " << length << ", sigma_m: 0.0001}]\n";
+  WriteProject(dir, bar.str());
+  const AdjustOutcome outcome = RunProject((dir / "project.yaml").string(), (dir / "out").string());
+  ASSERT_TRUE(outcome.ok) << outcome.status << ": " << outcome.reason;
+  const nlohmann::json report = nlohmann::json::parse(ReadText(dir / "out/report.json"));
+  const std::string datum = report["photo_measurements"]["datum"];
+  EXPECT_NE(datum.find("scale from 1 scale bar"), std::string::npos) << datum;
+  const orientation::BlockResult initial = orientation::InitialiseBlock(block.input, orientation::BlockOptions{});
+  std::map<std::string, Eigen::Vector3d> adjusted;
+  for (const auto& row : ReadCsv(dir / "out/sim_points.csv")) {
+    adjusted[row.at("point")] = {std::stod(row.at("x_m")), std::stod(row.at("y_m")), std::stod(row.at("z_m"))};
+  }
+  ASSERT_EQ(adjusted.size(), 80u);
+  Eigen::Vector3d mean_x = Eigen::Vector3d::Zero(), mean_x0 = Eigen::Vector3d::Zero();
+  for (const auto& [id, x] : adjusted) {
+    mean_x += x / 80.0;
+    mean_x0 += initial.points.at(id) / 80.0;
+  }
+  Eigen::Vector3d rotation = Eigen::Vector3d::Zero();
+  double spread = 0.0;
+  for (const auto& [id, x] : adjusted) {
+    const Eigen::Vector3d xc = x - mean_x, x0c = initial.points.at(id) - mean_x0;
+    rotation += x0c.cross(xc - x0c);
+    spread += x0c.squaredNorm();
+  }
+  EXPECT_LT((mean_x - mean_x0).norm(), 1e-8);
+  EXPECT_LT(rotation.norm() / spread, 1e-9);
+  EXPECT_NEAR((adjusted.at("p0") - adjusted.at("p1")).norm(), length, 5e-4);
+  const auto [trace, trace_minimal] = Traces(datum);
+  ASSERT_GT(trace, 0.0) << datum;
+  EXPECT_LT(trace, trace_minimal);
+}
+
 /// DBAT's exterior orientations of result/report.txt: omega, phi, kappa (deg), Xc, Yc, Zc
 /// with their deviations (0 where DBAT held the value: image 1 and image 19's Yc).
 struct DbatStation {

@@ -84,7 +84,8 @@ class ProblemBuilder {
   ceres::Problem& problem() { return *problem_; }
   Scene& scene() { return *scene_; }
   const std::vector<std::unique_ptr<FactorGroup>>& groups() const { return groups_; }
-  /// The elimination ordering of Build(): points in group 0, everything else in group 1.
+  /// The elimination ordering of Build(): points in group 0 (but those sharing a residual
+  /// block with another point), everything else in group 1.
   std::shared_ptr<ceres::ParameterBlockOrdering> ordering() const { return ordering_; }
 
   /// A sentence saying how the datum was fixed, for reports.
