@@ -41,21 +41,20 @@ double Median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-}  // namespace
-
-void RenderPhotoImages(const json& report, const PageContext& context, std::ostringstream& html) {
-  const json* pm = OptObject(report, "photo_measurements", "");
-  const json* images = pm != nullptr ? OptArray(*pm, "images", "photo_measurements") : nullptr;
-  if (images == nullptr || images->empty()) return;
-  const std::vector<ImageRow> rows = ReadImages(*images, "photo_measurements.images");
+/// The table of one block's images (`key`.images).
+void RenderImageBlock(const json& block, const std::string& key, const PageContext& context,
+                      std::ostringstream& html) {
+  const json& images = block["images"];
+  if (images.empty()) return;
+  const std::vector<ImageRow> rows = ReadImages(images, key + ".images");
   std::vector<double> rms, counts;
   for (const ImageRow& r : rows) {
     rms.push_back(r.rms_px);
     counts.push_back(r.observations);
   }
   const double median_rms = Median(rms), median_count = Median(counts);
-  const std::string id = OptString(*pm, "id", "photo_measurements").value_or("photos");
-  html << "<section id=\"images\">\n<h2>Images of the photo block " << Esc(id) << "</h2>\n<p>" << rows.size()
+  const std::string id = OptString(block, "id", key).value_or("photos");
+  html << "<section id=\"images" << (key == "photo_measurements" ? "" : "-" + key) << "\">\n<h2>Images of the photo block " << Esc(id) << "</h2>\n<p>" << rows.size()
        << " images; median " << Count(median_count) << " image points and RMS " << FormatFixed(median_rms, 3)
        << " px per image. Rows in red: RMS above twice the median, or fewer than 6 image points.</p>\n";
   if (rows.size() > 40) html << "<details><summary>All " << rows.size() << " images</summary>\n";
@@ -76,6 +75,19 @@ void RenderPhotoImages(const json& report, const PageContext& context, std::ostr
   html << "<p class=\"note\">RMS per image coordinate of the image residuals; " << kSigma
        << " from the covariance of the adjustment; rotation about the camera axes. The same rows in <code>"
        << Esc(id) << "_images.csv</code>.</p>\n</section>\n";
+}
+
+}  // namespace
+
+void RenderPhotoImages(const json& report, const PageContext& context, std::ostringstream& html) {
+  // photo_measurements.images; photo_block.images when it is the per-image array (it may be
+  // the image count).
+  for (const char* key : {"photo_measurements", "photo_block"}) {
+    const json* block = OptObject(report, key, "");
+    if (block == nullptr) continue;
+    const json* images = Member(*block, "images");
+    if (images != nullptr && images->is_array()) RenderImageBlock(*block, key, context, html);
+  }
 }
 
 }  // namespace mmba::report::internal

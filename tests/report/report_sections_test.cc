@@ -177,6 +177,16 @@ TEST(ReportSections, PhotoImagesCrsSettingsAndRelativePaths) {
   EXPECT_EQ(html.find("/home/surveyor"), std::string::npos) << "an absolute path left in the page";
 }
 
+TEST(ReportSections, PhotoBlockImagesWhenTheyAreAnArray) {
+  nlohmann::json report = testing::MakeClientReport();
+  report["photo_block"] = {{"id", "colmap"}, {"images", 12}};  // a count: no table
+  EXPECT_EQ(RenderAdjustReportHtml(report).find("id=\"images-photo_block\""), std::string::npos);
+  report["photo_block"]["images"] = report["photo_measurements"]["images"];
+  const std::string html = RenderAdjustReportHtml(report);
+  EXPECT_NE(html.find("id=\"images-photo_block\""), std::string::npos);
+  EXPECT_NE(html.find("Images of the photo block colmap"), std::string::npos);
+}
+
 TEST(ReportSections, AbsolutePathsWithoutAProjectFolderShowTheirFileName) {
   nlohmann::json report = testing::MakeClientReport();
   report.erase("project_dir");
