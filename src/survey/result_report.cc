@@ -262,7 +262,10 @@ std::string ReportMarkdown(const std::string& input, const SurveyNetwork& net,
   md << "\n## Relative precision between neighbouring points\n\nEach point with its two nearest neighbours in "
         "plan (Δ in east, north, up); differences do not depend on the datum, so the figures hold for a free "
         "network too.\n\n" << RelativePrecisionTable(net, adj);
-  md << "\n## Largest studentized residuals\n\n" << LargestResidualsTable(ObservationRows(net, adj), largest_rows);
+  md << "\n## Largest studentized residuals\n\nResidual v = adjusted − observed; redundancy r_i = (Q_vv P)_ii; "
+        "studentized w_i = v_i / (σ_i √r_i) against the critical value " << Fixed(adj.statistics.critical_value, 3)
+     << " (data snooping, Baarda 1968). All " << adj.rows.size() << " observations with these columns are in "
+        "observations.csv.\n\n" << LargestResidualsTable(ObservationRows(net, adj), largest_rows);
   if (!adj.removed_points.empty()) {
     md << "\n## Coordinates removed from the adjustment\n\n"
        << "The observations cannot determine these coordinates; they are not adjusted, and the "
