@@ -20,6 +20,9 @@
 #include "mmba/geometry/opk.h"
 #include "mmba/io/camera_yaml.h"
 #include "mmba/orientation/block_initialisation.h"
+#include "mmba/problem/problem_builder.h"
+#include "mmba/problem/reprojection_group.h"
+#include "mmba/stats/statistics.h"
 #include "test_support.h"
 
 namespace mmba::adjust {
@@ -186,6 +189,60 @@ TEST(PhotoMeasurementsDatum, InnerConstraintsOnASimulatedBlock) {
   const Eigen::Matrix4d sim = Eigen::umeyama(a, t, true);
   const double rms = std::sqrt((((sim.topLeftCorner<3, 3>() * a).colwise() + sim.topRightCorner<3, 1>()) - t).squaredNorm() / 80);
   EXPECT_LT(rms, 0.01);
+}
+
+// The S-transformed point covariance equals the minimum-norm g-inverse over the point
+// coordinates (stats' dense path with every point in minimum_norm, GNU Gama's free network),
+// computed here independently at the adjusted block without any gauge.
+TEST(PhotoMeasurementsDatum, PointCovarianceEqualsTheMinimumNormInverse) {
+  const fs::path dir = ScratchRoot("pm_datum_gi") / "block";
+  fs::remove_all(dir.parent_path());
+  const SimulatedBlock block = Simulate(dir);
+  WriteProject(dir, "");
+  const AdjustOutcome outcome = RunProject((dir / "project.yaml").string(), (dir / "out").string());
+  ASSERT_TRUE(outcome.ok) << outcome.status << ": " << outcome.reason;
+  Scene scene;
+  sensors::Camera camera = block.camera;
+  camera.camera_id = CameraId(1);
+  scene.AddCamera(camera);
+  std::map<std::string, ImageId> image_of;
+  for (const auto& row : ReadCsv(dir / "out/sim_images.csv")) {
+    const Eigen::Quaterniond q(std::stod(row.at("qw")), std::stod(row.at("qx")), std::stod(row.at("qy")), std::stod(row.at("qz")));
+    const Eigen::Vector3d c(std::stod(row.at("x_m")), std::stod(row.at("y_m")), std::stod(row.at("z_m")));
+    image_of[row.at("image")] = ImageId(image_of.size() + 1);
+    scene.AddImage(image_of.at(row.at("image")), camera.camera_id, Rigid3d(q.normalized(), -(q.normalized() * c)));
+  }
+  std::map<std::string, Point3DId> point_of;
+  std::map<std::string, Eigen::Vector3d> sigma;
+  for (const auto& row : ReadCsv(dir / "out/sim_points.csv")) {
+    point_of[row.at("point")] = Point3DId(point_of.size() + 1);
+    scene.AddPoint(point_of.at(row.at("point")), {std::stod(row.at("x_m")), std::stod(row.at("y_m")), std::stod(row.at("z_m"))});
+    sigma[row.at("point")] = {std::stod(row.at("sigma_x_m")), std::stod(row.at("sigma_y_m")), std::stod(row.at("sigma_z_m"))};
+  }
+  std::vector<ReprojectionObservation> observations;
+  for (const orientation::BlockMeasurement& m : block.input.measurements) {
+    observations.push_back({image_of.at(m.image_id), point_of.at(m.point_id), m.xy_px, 0.3});
+  }
+  ProblemBuilder builder(&scene);
+  builder.AddGroup(std::make_unique<ReprojectionGroup>(observations));
+  builder.parameter_options().constant_cameras.insert(camera.camera_id);
+  GaugeOptions free;
+  free.kind = GaugeOptions::Kind::kNone;
+  builder.set_gauge(free);
+  ceres::Problem& problem = builder.Build();
+  stats::StatisticsOptions options;
+  for (auto& [id, x] : scene.points()) {
+    for (int k = 0; k < 3; ++k) options.minimum_norm.push_back({x.data(), k});
+  }
+  const stats::NetworkStatistics st = stats::ComputeStatistics(problem, {builder.groups().front().get()}, options);
+  EXPECT_EQ(st.defect, 7);
+  for (const auto& [name, id] : point_of) {
+    const double* x = scene.Point(id).data();
+    for (int k = 0; k < 3; ++k) {
+      ASSERT_GT(sigma.at(name)[k], 0.0) << name;
+      EXPECT_NEAR(sigma.at(name)[k], std::sqrt(st.Covariance(x, k, x, k)), 2e-3 * sigma.at(name)[k]) << name;
+    }
+  }
 }
 
 // With a scale bar the scale comes from the bar: the inner constraints hold rotation and
