@@ -264,7 +264,7 @@ std::string ReportMarkdown(const std::string& input, const SurveyNetwork& net,
         "network too.\n\n" << RelativePrecisionTable(net, adj);
   md << "\n## Largest studentized residuals\n\nResidual v = adjusted − observed; redundancy r_i = (Q_vv P)_ii; "
         "studentized w_i = v_i / (σ_i √r_i) against the critical value " << Fixed(adj.statistics.critical_value, 3)
-     << " (data snooping, Baarda 1968). All " << adj.rows.size() << " observations with these columns are in "
+     << " (Baarda's data snooping with the a-priori σ0, Pope's τ with the a-posteriori one). All " << adj.rows.size() << " observations with these columns are in "
         "observations.csv.\n\n" << LargestResidualsTable(ObservationRows(net, adj), largest_rows);
   if (!adj.removed_points.empty()) {
     md << "\n## Coordinates removed from the adjustment\n\n"
