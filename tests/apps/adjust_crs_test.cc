@@ -144,6 +144,38 @@ std::map<std::string, std::map<std::string, std::string>> CsvRows(const fs::path
   return rows;
 }
 
+// GNSS control in the project's crs (easting_m, northing_m, height_m): a mark 3 mm east of
+// where the network alone puts it (σ of the point there ≈ 1 mm), with σ 1 mm, pulls the
+// adjusted point about half-way east, not north.
+TEST_F(AdjustCrsTest, GnssRowsInTheCrsPullTheirPointInTheGrid) {
+  const std::string d = dir_.string();
+  Run(kReference + " make " + d + " EPSG:25832 49.7 9.3");
+  Run(kMmba + " adjust " + d + "/project_crs.yaml --output " + d + "/out_alone");
+  const auto alone = CsvRows(dir_ / "out_alone" / "points.csv").at("D");
+  const double east = std::stod(alone.at("easting_epsg25832_m")), north = std::stod(alone.at("northing_epsg25832_m"));
+  std::ofstream(dir_ / "gnss.csv") << "id,kind,easting_m,northing_m,height_m,sigma_east_m,sigma_north_m,sigma_up_m\n"
+                                   << "D,control," << std::to_string(east + 0.003) << "," << std::to_string(north) << ","
+                                   << alone.at("height_epsg25832_m") << ",0.001,0.001,0.001\n";
+  std::ofstream(dir_ / "project_gnss.yaml") << "mmba_project: 1\nname: g\ncrs: EPSG:25832\nsensors:\n"
+                                            << "  - {id: ts, type: total_station, file: network_crs.csv}\n"
+                                            << "  - {id: g, type: gnss, file: gnss.csv}\n";
+  Run(kMmba + " adjust " + d + "/project_gnss.yaml --output " + d + "/out_gnss");
+  const auto pulled = CsvRows(dir_ / "out_gnss" / "points.csv").at("D");
+  const double d_east = std::stod(pulled.at("easting_epsg25832_m")) - east;
+  const double d_north = std::stod(pulled.at("northing_epsg25832_m")) - north;
+  EXPECT_GT(d_east, 0.0008) << d_east;
+  EXPECT_LT(d_east, 0.0025) << d_east;
+  EXPECT_LT(std::abs(d_north), 0.0005) << d_north;
+  // Without a crs, easting/northing columns are refused naming the file.
+  std::ofstream(dir_ / "project_nocrs.yaml") << "mmba_project: 1\nname: n\n"
+                                             << "origin: {latitude_deg: 49.7, longitude_deg: 9.3, height_m: 150}\nsensors:\n"
+                                             << "  - {id: ts, type: total_station, file: network_crs.csv}\n"
+                                             << "  - {id: g, type: gnss, file: gnss.csv}\n";
+  const RunResult refused = RunShell(kMmba + " adjust " + d + "/project_nocrs.yaml --output " + d + "/out_nocrs");
+  EXPECT_EQ(refused.exit_code, 2) << refused.output;
+  EXPECT_NE(refused.output.find("gnss.csv:1"), std::string::npos) << refused.output;
+}
+
 // The same network with orthometric heights H = h − N in EPSG:25832+7837 (ETRS89 / UTM 32N +
 // DHHN2016) and a geoid grid of constant N = 47.25 m: the same ellipsoidal heights and plane
 // coordinates as with ellipsoidal heights in EPSG:25832, the CRS heights 47.25 m lower.

@@ -134,6 +134,38 @@ void LoadExifCameras(JointState* s, const Gnss& g) {
   }
 }
 
+namespace {
+
+/// A GNSS file's coordinate columns: easting_m, northing_m (the project's crs; height_m its
+/// height) or latitude_deg, longitude_deg (WGS84, or the crs's datum; height_m ellipsoidal).
+bool GnssInCrs(const Project& project, const io::CsvTable& table, const std::string& file) {
+  if (table.Has("easting_m") || table.Has("northing_m")) {
+    if (!table.Has("easting_m") || !table.Has("northing_m")) {
+      throw InputError(file, 1, "(header)", table.Has("easting_m") ? "easting_m without northing_m" : "northing_m without easting_m",
+                       "both columns (coordinates in the project's crs)");
+    }
+    if (!project.crs) {
+      throw InputError(file, 1, "(header)", "easting_m, northing_m", "latitude_deg, longitude_deg, or a crs key in " + project.path);
+    }
+    return true;
+  }
+  if (!table.Has("latitude_deg") || !table.Has("longitude_deg")) {
+    throw InputError(file, 1, "(header)", "no latitude_deg/longitude_deg columns",
+                     "latitude_deg, longitude_deg (or easting_m, northing_m with the project's crs)");
+  }
+  return false;
+}
+
+/// A row's latitude, longitude and height, checked.
+geodesy::Geodetic GnssGeodetic(const io::CsvTable& table, const io::CsvTable::Row& row) {
+  geodesy::Geodetic geo{table.Double(row, "latitude_deg"), table.Double(row, "longitude_deg"), table.Double(row, "height_m")};
+  if (std::abs(geo.latitude_deg) > 90) table.Fail(row, "latitude_deg", table.String(row, "latitude_deg"), "[-90, 90] degrees");
+  if (std::abs(geo.longitude_deg) > 180) table.Fail(row, "longitude_deg", table.String(row, "longitude_deg"), "[-180, 180] degrees");
+  return geo;
+}
+
+}  // namespace
+
 void LoadGnss(JointState* s) {
   // Each control mark and each photo's antenna position once over all GNSS files: a second
   // row would silently stand beside (or replace) the first.
@@ -144,7 +176,8 @@ void LoadGnss(JointState* s) {
       continue;
     }
     const io::CsvTable table = io::CsvTable::Read(
-        g.file, {"id", "kind", "latitude_deg", "longitude_deg", "height_m", "sigma_east_m", "sigma_north_m", "sigma_up_m"});
+        g.file, {"id", "kind", "height_m", "sigma_east_m", "sigma_north_m", "sigma_up_m"});
+    const bool in_crs = GnssInCrs(*s->project, table, g.file);
     for (const io::CsvTable::Row& row : table.rows()) {
       const std::string& kind = table.String(row, "kind");
       if (kind == "trajectory") {
@@ -157,15 +190,15 @@ void LoadGnss(JointState* s) {
       if (!inserted) {
         table.Fail(row, "id", table.String(row, "id"), "each " + kind + " id once (also at " + first->second + ")");
       }
-      geodesy::Geodetic geo{table.Double(row, "latitude_deg"), table.Double(row, "longitude_deg"),
-                            table.Double(row, "height_m")};
-      if (std::abs(geo.latitude_deg) > 90) table.Fail(row, "latitude_deg", table.String(row, "latitude_deg"), "[-90, 90] degrees");
-      if (std::abs(geo.longitude_deg) > 180) table.Fail(row, "longitude_deg", table.String(row, "longitude_deg"), "[-180, 180] degrees");
       GnssPoint p;
       p.point_id = table.String(row, "id");
-      p.enu = s->plane.EnuFromGeodetic(geo);
+      p.enu = in_crs ? ProjectCrsFrame(*s->project)->WorldFromCrs({table.Double(row, "easting_m"),
+                                                                   table.Double(row, "northing_m"), table.Double(row, "height_m")})
+                     : s->plane.EnuFromGeodetic(GnssGeodetic(table, row));
       if (p.enu.norm() > 50000) {
-        table.Fail(row, "latitude_deg", table.String(row, "latitude_deg") + ", " + table.String(row, "longitude_deg"),
+        const std::string first_column = in_crs ? "easting_m" : "latitude_deg";
+        const std::string second_column = in_crs ? "northing_m" : "longitude_deg";
+        table.Fail(row, first_column, table.String(row, first_column) + ", " + table.String(row, second_column),
                    "a point within 50 km of the project origin (inconsistent origin or units?)");
       }
       const char* sigma_columns[3] = {"sigma_east_m", "sigma_north_m", "sigma_up_m"};
