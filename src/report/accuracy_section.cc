@@ -132,7 +132,7 @@ void RenderAccuracy(const json& report, std::ostringstream& html) {
     for (int k = 0; k < 3; ++k) html << Td(Mm(r.sigma[k]));
     html << "</tr>\n";
   }
-  html << "</table>\n</details>\n<p class=\"note\">NSSDA: FGDC-STD-007.3-1998, &sect;3.2.2 and Appendix 3-A "
+  html << "</table>\n</details>\n<p class=\"note\">NSSDA: FGDC-STD-007.3-1998, Appendix 3-A "
           "(Accuracy<sub>r</sub> = 1.7308 RMSE<sub>r</sub> when RMSE<sub>x</sub> = RMSE<sub>y</sub>, "
           "&asymp; 2.4477&middot;0.5&middot;(RMSE<sub>x</sub> + RMSE<sub>y</sub>) when 0.6 &lt; "
           "RMSE<sub>min</sub>/RMSE<sub>max</sub> &lt; 1; Accuracy<sub>z</sub> = 1.9600 RMSE<sub>z</sub>), at least 20 "

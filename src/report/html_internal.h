@@ -107,8 +107,8 @@ double EllipseFactorTo95(double confidence, const std::string& path);
 void RenderControlPoints(const json& report, std::ostringstream& html);
 
 /// k with P(χ²_2 ≤ k²) = 0.95: the factor from the standard (1σ) error ellipse to the 95 %
-/// confidence ellipse, sqrt(χ²_{2;0.95}) = sqrt(5.9915) (Mikhail & Ackermann 1976, §3.7;
-/// Ghilani 2017, Table 19.1 / eq. 19.13).
+/// confidence ellipse, sqrt(χ²_{2;0.95}) = sqrt(5.9915) (Mikhail & Ackermann 1976;
+/// Ghilani 2017, ch. 19, error ellipses).
 inline constexpr double k95Ellipse2d = 2.447747;
 /// The same for a 3-D ellipsoid: sqrt(χ²_{3;0.95}) = sqrt(7.8147).
 inline constexpr double k95Ellipsoid3d = 2.795483;

@@ -36,7 +36,7 @@ std::string StatusBadge(const std::string& status) {
 
 /// One table row of a χ² test. Global test of the adjustment: f·σ̂0²/σ0² ~ χ²_f, so the
 /// two-sided acceptance interval of the ratio σ̂0/σ0 is [sqrt(χ²_{α/2,f}/f), sqrt(χ²_{1−α/2,f}/f)]
-/// (Koch 1999, §4.2.4; mmba_stats computes it as chi2_lower/chi2_upper, the test of GNU Gama).
+/// (Koch 1999, ch. 4, test of the variance factor; mmba_stats computes it as chi2_lower/chi2_upper, the test of GNU Gama).
 /// Recomputed here only when "passed" is absent; a disagreement with "passed" is shown.
 void RenderChi2Row(const std::string& label, const Sigma0& s0, const std::string& meaning,
                    std::ostringstream& html) {

@@ -62,7 +62,7 @@ void RenderAdjustedPoints(const json& report, std::ostringstream& html) {
   html << "<p class=\"note\">" << kSigma << " from the covariance of the adjustment (scaled by " << kSigma
        << "&#770;<sub>0</sub><sup>2</sup> where the project says so). 95&nbsp;% confidence ellipse: the standard "
           "ellipse &times; " << FormatFixed(k95Ellipse2d, 4) << " = sqrt(&chi;<sup>2</sup><sub>2;0.95</sub>) "
-          "(Ghilani 2017, &sect;19.6); 95&nbsp;% of the height: " << FormatFixed(k95Normal, 2) << " " << kSigma
+          "(Ghilani 2017, ch. 19, error ellipses); 95&nbsp;% of the height: " << FormatFixed(k95Normal, 2) << " " << kSigma
        << "<sub>U</sub>; a 3-D 95&nbsp;% ellipsoid would take &times; " << FormatFixed(k95Ellipsoid3d, 4)
        << " = sqrt(&chi;<sup>2</sup><sub>3;0.95</sub>).</p>\n</section>\n";
 }
@@ -98,7 +98,7 @@ void RenderRelativePrecision(const json& report, std::ostringstream& html) {
   CloseLongTable(pairs->size(), 60, "report.json", html);
   html << "<p class=\"note\">Each point with its nearest neighbours in plan. " << kSigma
        << " of the coordinate difference from the joint covariance, C<sub>&Delta;</sub> = C<sub>ii</sub> + "
-          "C<sub>jj</sub> &minus; C<sub>ij</sub> &minus; C<sub>ij</sub><sup>T</sup> (Ghilani 2017, &sect;19.7, relative "
+          "C<sub>jj</sub> &minus; C<sub>ij</sub> &minus; C<sub>ij</sub><sup>T</sup> (Ghilani 2017, ch. 19, relative "
           "error ellipses); it is smaller than either point's own " << kSigma
        << " where the two are correlated, as neighbours measured together are.</p>\n</section>\n";
 }

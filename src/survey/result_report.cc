@@ -98,7 +98,7 @@ std::string LargestResidualsTable(const std::vector<ObservationRow>& rows, size_
 }
 
 // sqrt(χ²_{2;0.95}) and the two-sided 95 % normal quantile: the factors from σ to the 95 %
-// confidence ellipse and to the 95 % interval of a height (Ghilani 2017, §19.6).
+// confidence ellipse and to the 95 % interval of a height (Ghilani 2017, ch. 19).
 double K95Ellipse() { return std::sqrt(stats::ChiSquareQuantile(0.95, 2)); }
 constexpr double kK95Height = 1.959964;
 
@@ -166,7 +166,7 @@ std::vector<std::pair<size_t, size_t>> NeighbourPairs(const SurveyNetwork& net, 
 }
 
 // σ of the coordinate difference of neighbouring points from the joint covariance,
-// C_Δ = C_ii + C_jj − C_ij − C_ijᵀ (Ghilani 2017, §19.7), its 95 % relative ellipse and the
+// C_Δ = C_ii + C_jj − C_ij − C_ijᵀ (Ghilani 2017, ch. 19), its 95 % relative ellipse and the
 // σ of the horizontal distance uᵀ C_Δ u.
 std::string RelativePrecisionTable(const SurveyNetwork& net, const SurveyAdjustment& adj) {
   const stats::NetworkStatistics& st = adj.statistics;

@@ -2,7 +2,7 @@
 
 // Positional accuracy from check points (coordinate differences adjusted − reference of points
 // withheld from the adjustment), as the map-accuracy standards state it:
-//  - FGDC-STD-007.3-1998 (NSSDA), §3.2 and Appendix 3-A: RMSE_x, RMSE_y, RMSE_r =
+//  - FGDC-STD-007.3-1998 (NSSDA), Appendix 3-A: RMSE_x, RMSE_y, RMSE_r =
 //    sqrt(RMSE_x² + RMSE_y²), RMSE_z; 95 % figures Accuracy_r = 1.7308·RMSE_r when
 //    RMSE_x = RMSE_y, ≈ 2.4477·0.5·(RMSE_x + RMSE_y) when 0.6 < RMSE_min/RMSE_max < 1
 //    (not defined below 0.6), Accuracy_z = 1.9600·RMSE_z; at least 20 check points.

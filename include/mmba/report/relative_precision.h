@@ -2,8 +2,8 @@
 
 // Relative precision between neighbouring points: the σ of the coordinate difference
 // Δ = x_j − x_i from the joint covariance, C_Δ = C_ii + C_jj − C_ij − C_ijᵀ (propagation of
-// the covariance of a linear function; Ghilani 2017, §6.1, and the relative error ellipses of
-// §19.7), its 95 % relative ellipse and the σ of the distance, σ_d² = uᵀ C_Δ u with
+// the covariance of a linear function; Ghilani 2017, ch. 6, and the relative error ellipses of
+// ch. 19), its 95 % relative ellipse and the σ of the distance, σ_d² = uᵀ C_Δ u with
 // u = Δ/|Δ| (horizontal). Pairs: each point with its k nearest neighbours in plan.
 // Lengths in metres; axes east, north, up; covariances row-major 3×3.
 
