@@ -42,6 +42,7 @@ ul.warnings li { margin: 2px 0; }
 .caution { border-left: 4px solid #c62828; background: #fdecea; padding: 4px 10px; margin: 6px 0; }
 .caution ul { margin: 2px 0 2px 16px; padding: 0; }
 details summary { cursor: pointer; color: #1f5fa8; margin: 4px 0; }
+pre.wrap { white-space: pre-wrap; word-break: break-all; font-size: 7.5pt; margin: 2px 0; }
 section.warnings { border-left: 4px solid #b26a00; background: #fff7e6; padding: 2px 10px 4px; margin: 10px 0; }
 section.warnings h2 { border: none; margin-top: 6px; }
 code { font-family: "DejaVu Sans Mono", monospace; font-size: 8.5pt; }

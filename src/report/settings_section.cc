@@ -13,6 +13,7 @@ namespace fs = std::filesystem;
 
 /// A scalar JSON value as text: strings as they are, numbers and booleans as JSON writes them.
 std::string ScalarText(const json& v) {
+  if (v.is_null()) return kDash;
   if (v.is_string()) return v.get<std::string>();
   return v.dump(-1, ' ', false, json::error_handler_t::replace);
 }
@@ -31,7 +32,14 @@ void FlatRows(const json& object, const std::string& prefix, const PageContext& 
     } else {
       value = ScalarText(*it);
     }
-    html << "<tr><th>" << Esc(key) << "</th><td><code>" << Esc(context.Text(value)) << "</code></td></tr>\n";
+    html << "<tr><th>" << Esc(key) << "</th><td>";
+    if (value.size() > 120) {  // a WKT or a long PROJ string: folded, wrapped
+      html << "<details><summary>" << value.size() << " characters</summary><pre class=\"wrap\">"
+           << Esc(context.Text(value)) << "</pre></details>";
+    } else {
+      html << "<code>" << Esc(context.Text(value)) << "</code>";
+    }
+    html << "</td></tr>\n";
   }
 }
 
@@ -40,7 +48,7 @@ std::string CrsName(const json& crs) {
   if (crs.is_string()) return crs.get<std::string>();
   std::string name = OptString(crs, "name", "crs").value_or("");
   std::string code;
-  for (const char* key : {"code", "id", "epsg"}) {
+  for (const char* key : {"code", "identifier", "id", "epsg"}) {
     const json* v = Member(crs, key);
     if (v == nullptr) continue;
     code = v->is_number() ? "EPSG:" + ScalarText(*v) : ScalarText(*v);

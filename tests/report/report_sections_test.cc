@@ -187,6 +187,22 @@ TEST(ReportSections, PhotoBlockImagesWhenTheyAreAnArray) {
   EXPECT_NE(html.find("Images of the photo block colmap"), std::string::npos);
 }
 
+TEST(ReportSections, CrsAsMmbaAdjustWritesIt) {
+  nlohmann::json report = testing::MakeClientReport();
+  const std::string wkt(400, 'W');
+  report["crs"] = {{"definition", "EPSG:25833"}, {"identifier", "EPSG:25833"}, {"epsg", 25833},
+                   {"name", "ETRS89 / UTM zone 33N"}, {"wkt", wkt}, {"axes", "easting_m, northing_m, height_m"},
+                   {"height_kind", "ellipsoidal"}, {"geoid_grid", nullptr}, {"columns", "easting_m,northing_m"}};
+  const std::string html = RenderAdjustReportHtml(report);
+  EXPECT_NE(html.find("<td>ETRS89 / UTM zone 33N (EPSG:25833) <a href"), std::string::npos);
+  const std::string crs = Section(html, "crs");
+  EXPECT_NE(crs.find("<summary>400 characters</summary><pre class=\"wrap\">" + wkt), std::string::npos);
+  EXPECT_NE(crs.find("<th>geoid_grid</th><td><code>\xE2\x80\x94</code>"), std::string::npos);
+  report["crs"]["epsg"] = nullptr;
+  report["crs"]["identifier"] = "+proj=tmerc +lat_0=0";
+  EXPECT_NE(RenderAdjustReportHtml(report).find("ETRS89 / UTM zone 33N (+proj=tmerc +lat_0=0)"), std::string::npos);
+}
+
 TEST(ReportSections, AbsolutePathsWithoutAProjectFolderShowTheirFileName) {
   nlohmann::json report = testing::MakeClientReport();
   report.erase("project_dir");
