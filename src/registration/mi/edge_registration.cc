@@ -33,10 +33,11 @@ struct EdgeObjective {
   const MetricOptions& metric;  ///< the MI term's metric
   double mi_weight = 0;  ///< per unit of the MI metric's value
   int mi_levels = 1;
+  int mi_finest = 0;  ///< RegistrationOptions::edge_mi_level
   int edge_levels = 1;
 
   bool UsesMi() const { return mi != nullptr && mi_weight > 0; }
-  int MiLevel(int level) const { return std::min(level, mi_levels - 1); }
+  int MiLevel(int level) const { return std::min(std::max(level, mi_finest), mi_levels - 1); }
   // Level l of the search: the edge level l and the MI level min(l, MI levels − 1), MI from
   // the point samples `samples` when given (visibility frozen at their reference).
   double operator()(const Vector6d& x, int level, uint8_t mask = 0, uint8_t value = 0,
@@ -189,6 +190,7 @@ class EdgeRegistration {
     mi_ = std::make_unique<FrameSetEvaluator>(frames_, start_, mi_options);
     f_.mi = mi_.get();
     f_.mi_levels = mi_->levels();
+    f_.mi_finest = options_.edge_mi_level;
   }
 
   // The edge score over the rotation grid; its best points (and the start). With MI, the MI

@@ -141,6 +141,8 @@ void AddEdges(SettingsTable<Options>* t) {
             "geometric term (LiDAR edges against image edges) with MI; auto: LiDAR sweeps and a perspective camera")
       .Flag("edge_mi", &Options::edge_mi, "add MI on intensity to the geometric term, weighted from the data")
       .Number("edge_mi_scale", &Options::edge_mi_scale, SettingRange::AtLeast(0), "times the data's MI weight")
+      .Integer("edge_mi_level", &Options::edge_mi_level, SettingRange::Closed(0, 5),
+               "finest pyramid level of the MI term (each level 4x fewer pixels to render)")
       .Number("edge_cell_deg", {&Options::edge, &EdgeOptions::cell_deg}, SettingRange::LeftOpen(0, 5),
               "LiDAR scan grid cell (azimuth x elevation), deg")
       .Integer("edge_neighbour_cells", {&Options::edge, &EdgeOptions::neighbour_cells}, SettingRange::Closed(1, 64),

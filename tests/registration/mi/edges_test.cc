@@ -79,6 +79,10 @@ TEST(EdgeSettings, ReachedByNameAndChecked) {
   EXPECT_FALSE(RegistrationSettingsTable().Apply({"edge_gamma=1.5"}, &options, &problem));
   EXPECT_NE(problem.find("edge_gamma"), std::string::npos) << problem;
   EXPECT_FALSE(RegistrationSettingsTable().Apply({"edges=maybe"}, &options, &problem));
+  ASSERT_TRUE(RegistrationSettingsTable().Apply({"edge_mi_level=2"}, &options, &problem)) << problem;
+  EXPECT_EQ(options.edge_mi_level, 2);
+  EXPECT_FALSE(RegistrationSettingsTable().Apply({"edge_mi_level=6"}, &options, &problem));
+  EXPECT_NE(problem.find("edge_mi_level"), std::string::npos) << problem;
 }
 
 }  // namespace

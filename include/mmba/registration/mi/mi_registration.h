@@ -238,6 +238,9 @@ struct RegistrationOptions {
   EdgeOptions edge;
   bool edge_mi = true;             ///< add the MI term where the clouds carry intensity
   double edge_mi_scale = 1.0;      ///< × the data's weight of the MI term
+  /// The finest pyramid level at which the MI term is evaluated (0: full resolution; clamped
+  /// to pyramid_levels − 1): its cost is the rendered image's pixels, 4× less per level.
+  int edge_mi_level = 0;
   /// The edge registration's search box (instead of bound_m, bound_deg): a start up to 3° per
   /// angle and 0.2 m off lies inside it, off its 90 % margin.
   double edge_bound_m = 0.3;
