@@ -15,6 +15,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "shell.h"
 
@@ -221,6 +222,23 @@ TEST_F(AdjustCrsTest, CompoundCrsWithAGeoidGridGivesOrthometricHeights) {
   const std::string report = ReadFile(dir_ / "out_h" / "report.json");
   EXPECT_NE(report.find("\"height_kind\": \"orthometric\""), std::string::npos);
   EXPECT_NE(report.find("\"geoid_grid\": \"geoid.gtx\""), std::string::npos);
+  // mmba survey --crs --geoid-grid: the same.
+  Run(kMmba + " survey " + d + "/network_h.csv --crs EPSG:25832+7837 --geoid-grid " + d + "/geoid.gtx --output " + d +
+      "/survey_h");
+  Run(kMmba + " survey " + d + "/network_crs.csv --crs EPSG:25832 --output " + d + "/survey_e");
+  const auto points = [](const fs::path& path) {
+    std::map<std::string, nlohmann::json> out;
+    const nlohmann::json adjusted = nlohmann::json::parse(ReadFile(path));
+    for (const nlohmann::json& p : adjusted["points"]) out[p["id"].get<std::string>()] = p;
+    return out;
+  };
+  const auto sh = points(dir_ / "survey_h" / "adjusted.json"), se = points(dir_ / "survey_e" / "adjusted.json");
+  ASSERT_EQ(sh.size(), 7u);
+  for (const auto& [id, p] : sh) {
+    EXPECT_NEAR(p["x"].get<double>(), se.at(id)["x"].get<double>(), 1e-6) << id;
+    EXPECT_NEAR(p["z"].get<double>(), se.at(id)["z"].get<double>() - 47.25, 1e-6) << id;
+    EXPECT_NEAR(p["ellipsoidal_height_m"].get<double>(), se.at(id)["ellipsoidal_height_m"].get<double>(), 1e-6) << id;
+  }
 }
 
 class UnknownCrsTest : public ::testing::Test {

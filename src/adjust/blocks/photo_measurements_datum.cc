@@ -117,12 +117,12 @@ Tangents SimilarityTangents(const JointState& s, const std::vector<Point3DId>& p
   }
   for (const auto& [name, id] : s.measured->image_of) {
     const Rigid3d& pose = s.scene.Image(id).cam_from_world;
-    Eigen::MatrixXd gq(3, t.m), gt(problem.ParameterBlockTangentSize(pose.translation.data()), t.m);
+    Eigen::MatrixXd gq(3, t.m), gt(3, t.m);  // translation in its 3 ambient coordinates (ExtendedColumns)
     for (int j = 0; j < t.m; ++j) {
       const Rigid3d moved = MovedPose(pose, t.centroid, j, kStep);
       gq.col(j) = Tangent(problem, pose.rotation.coeffs().data(), pose.rotation.coeffs().data(),
                           moved.rotation.coeffs().data(), 4);
-      gt.col(j) = Tangent(problem, pose.translation.data(), pose.translation.data(), moved.translation.data(), 3);
+      gt.col(j) = (moved.translation - pose.translation) / kStep;
     }
     t.g[pose.rotation.coeffs().data()] = gq;
     t.g[pose.translation.data()] = gt;
@@ -208,21 +208,69 @@ Eigen::MatrixXd Transformed(const Eigen::MatrixXd& sigma, const Eigen::MatrixXd&
   return sigma - gab - gab.transpose() + g * u.h_inv * u.q * u.h_inv * g.transpose();
 }
 
-/// The kept columns extended by the first image's pose (held in the minimal datum, with a
-/// covariance in the inner-constraints datum); C with zero rows and columns for it.
-Eigen::MatrixXd ExtendedCofactor(const JointState& s, stats::NetworkStatistics* st) {
-  const Eigen::MatrixXd c = st->cofactor.Dense();
-  int n = static_cast<int>(c.rows());
+/// The columns of the transformed cofactor: the statistics' kept columns, with a pose
+/// translation that the minimal datum restricts to a sphere (its 2-D tangent, ProblemBuilder's
+/// kTwoPoses) in its 3 coordinates, and the first image's pose (held in the minimal datum) added.
+/// x_new = E x_old; C_new = E C Eᵀ; a row L over the old columns becomes L E⁺.
+struct ExtendedColumns {
+  Eigen::MatrixXd e, e_plus;  // N_new × N_old and its left inverse
+  std::map<const double*, int> column;
+  std::vector<double*> blocks;
+};
+
+ExtendedColumns Extend(const JointState& s, const stats::NetworkStatistics& st) {
+  const ceres::Problem& problem = s.builder->problem();
+  std::set<const double*> translations;
+  for (const auto& [name, id] : s.measured->image_of) translations.insert(s.scene.Image(id).cam_from_world.translation.data());
   const Rigid3d& first = s.scene.Image(s.measured->image_of.at(s.measured->image_names.front())).cam_from_world;
+  std::vector<double*> blocks = st.blocks;
   for (double* b : {const_cast<double*>(first.rotation.coeffs().data()), const_cast<double*>(first.translation.data())}) {
-    if (st->column.count(b)) continue;
-    st->column[b] = n;
-    st->blocks.push_back(b);
-    n += s.builder->problem().ParameterBlockTangentSize(b);
+    if (!st.column.count(b)) blocks.push_back(b);
   }
-  Eigen::MatrixXd extended = Eigen::MatrixXd::Zero(n, n);
-  extended.topLeftCorner(c.rows(), c.cols()) = c;
-  return extended;
+  const int n_old = static_cast<int>(st.cofactor.rows());
+  ExtendedColumns x;
+  std::vector<std::pair<int, Eigen::MatrixXd>> maps;  // per block: old column (-1: none), new × old
+  int n_new = 0;
+  for (double* b : blocks) {
+    const int tangent = problem.ParameterBlockTangentSize(b);
+    const auto old = st.column.find(b);
+    Eigen::MatrixXd m = Eigen::MatrixXd::Identity(tangent, tangent);
+    if (translations.count(b) && tangent < 3 && problem.GetManifold(b)) {
+      Eigen::Matrix<double, 3, Eigen::Dynamic, Eigen::RowMajor> plus(3, tangent);
+      problem.GetManifold(b)->PlusJacobian(b, plus.data());
+      m = plus;
+    }
+    x.column[b] = n_new;
+    x.blocks.push_back(b);
+    maps.emplace_back(old == st.column.end() ? -1 : old->second, m);
+    n_new += static_cast<int>(m.rows());
+  }
+  x.e = Eigen::MatrixXd::Zero(n_new, n_old);
+  for (size_t k = 0; k < blocks.size(); ++k) {
+    if (maps[k].first >= 0) x.e.block(x.column.at(blocks[k]), maps[k].first, maps[k].second.rows(), maps[k].second.cols()) = maps[k].second;
+  }
+  x.e_plus = (x.e.transpose() * x.e).ldlt().solve(x.e.transpose());
+  return x;
+}
+
+/// An eliminated point's L from the old columns to the new ones (L E⁺, E⁺ row by row).
+void Remap(const ExtendedColumns& x, EliminatedPoint* p) {
+  std::map<int, Eigen::Vector3d> columns;
+  for (size_t k = 0; k < p->cols.size(); ++k) {
+    for (int j = 0; j < x.e_plus.cols(); ++j) {
+      const double v = x.e_plus(p->cols[k], j);
+      if (v != 0.0) {
+        auto [it, inserted] = columns.emplace(j, Eigen::Vector3d::Zero());
+        it->second += v * p->l.col(static_cast<Eigen::Index>(k));
+      }
+    }
+  }
+  p->cols.clear();
+  p->l.resize(3, static_cast<Eigen::Index>(columns.size()));
+  for (const auto& [j, v] : columns) {
+    p->l.col(static_cast<Eigen::Index>(p->cols.size())) = v;
+    p->cols.push_back(j);
+  }
 }
 
 }  // namespace
@@ -263,8 +311,7 @@ void TransformPhotoMeasurementCovariance(JointState* s, stats::NetworkStatistics
     if (!st->column.count(s->scene.Point(id).data())) eliminated.insert(s->scene.Point(id).data());
   }
   const auto blocks = BlocksByPoint(problem, eliminated);
-  const bool transform = b.gauge_needed;
-  Eigen::MatrixXd c = transform ? ExtendedCofactor(*s, st) : st->cofactor.Dense();
+  Eigen::MatrixXd c = st->cofactor.Dense();
   const double scale2 = st->scale_used * st->scale_used;
   std::map<Point3DId, EliminatedPoint> folded;
   for (const Point3DId id : points) {
@@ -272,10 +319,15 @@ void TransformPhotoMeasurementCovariance(JointState* s, stats::NetworkStatistics
     if (eliminated.count(x) && blocks.count(x)) folded[id] = Eliminate(problem, *st, x, blocks.at(x));
   }
   b.point_covariance.clear();
-  if (!transform) {
+  if (!b.gauge_needed) {
     for (const auto& [id, e] : folded) b.point_covariance[id] = scale2 * (e.d + e.l * c(e.cols, e.cols) * e.l.transpose());
     return;
   }
+  const ExtendedColumns extended = Extend(*s, *st);
+  c = extended.e * c * extended.e.transpose();
+  for (auto& [id, e] : folded) Remap(extended, &e);
+  st->column = extended.column;
+  st->blocks = extended.blocks;
   const Tangents tg = SimilarityTangents(*s, points);
   const int n = static_cast<int>(c.rows()), m = tg.m;
   Sums u{Eigen::MatrixXd::Zero(m, m), Eigen::MatrixXd::Zero(m, n), Eigen::MatrixXd::Zero(m, m), {}, {}, {}};
