@@ -129,6 +129,10 @@ int RunSurvey(const SurveyArgs& args) {
   }
   std::string md_text = survey::ReportMarkdown(args.input, net, adj, args.report_rows);
   if (crs) md_text += survey::CrsPointsMarkdown(net, *crs);
+  if (field) {
+    md_text += "\n## Field book: rounds and face differences\n\n```\n" +
+               survey::FaceReductionSummary(field->reduction) + "```\n";
+  }
 
   RecordBuild(&json);
   AtomicFileSet files;

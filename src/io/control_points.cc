@@ -53,6 +53,7 @@ std::vector<ControlPoint> ReadControlPoints(const std::string& path, const std::
     }
     ControlPoint p;
     p.line = line;
+    p.file = path;
     p.id = row.Text(id);
     if (p.id.empty()) row.Fail(id, "an empty field", "a point id");
     if (label >= 0) p.label = row.Text(label);

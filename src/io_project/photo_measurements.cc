@@ -163,12 +163,25 @@ PhotoMeasurements ReadPhotoMeasurements(const io::YamlReader& r, Node n, Field f
                                 }}});
                   r.Require(v, g, {"file", "columns"});
                 }},
+               {"gcp_list", [&](Node v, Field g) {
+                  p.gcp_list_line = v.Mark().line + 1;
+                  r.Map(v, g, {{"file", [&](Node w, Field h) { p.gcp_list = ExistingFile(r, w, h, dir); }},
+                               {"sigma_px", [&](Node w, Field h) { p.gcp_sigma_px = r.Positive(w, h, 50.0, "px"); }},
+                               {"sigma_m", [&](Node w, Field h) {
+                                  p.gcp_sigma_m = r.Number(w, h);
+                                  if (!(p.gcp_sigma_m >= 0 && p.gcp_sigma_m <= 100)) {
+                                    r.Fail(w, h, "a σ in metres in [0, 100] (0 = fixed)", io::YamlReader::Text(w));
+                                  }
+                                }}});
+                  r.Require(v, g, {"file", "sigma_px", "sigma_m"});
+                }},
                {"loss", [&](Node v, Field g) {
                   if (!v.IsScalar()) r.Fail(v, g, "none, huber, cauchy or soft_l1", io::YamlReader::Kind(v));
                   const std::string name = r.String(v, g);
                   if (!ParseLossType(name, &p.loss.type)) r.Fail(v, g, "none, huber, cauchy or soft_l1", name);
                 }}});
-  r.Require(n, f, {"camera", "measurements"});
+  r.Require(n, f, {"camera"});
+  if (p.measurements.empty() && p.gcp_list.empty()) r.Require(n, f, {"measurements"});
   const sensors::Camera camera = io::ReadCameraFile(p.camera).camera;
   if (have_refine) {
     p.free_intrinsics = FreeIntrinsics(r, refine, f + ".refine", camera, &p.refine);

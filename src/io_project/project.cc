@@ -432,8 +432,10 @@ void CheckCheckPoints(const Project& project, const io::YamlReader& r, const YAM
       r.Fail(root["check_points"][i], "check_points[" + std::to_string(i) + "]", "each point once", project.check_points[i]);
     }
   }
-  if (!project.check_points.empty() && project.total_stations.empty() && !project.control) {
-    r.Fail(root["check_points"], "check_points", "a total_station sensor or a control file that surveys them", "none");
+  bool gcp_list = false;
+  for (const PhotoMeasurements& p : project.photo_measurements) gcp_list = gcp_list || !p.gcp_list.empty();
+  if (!project.check_points.empty() && project.total_stations.empty() && !project.control && !gcp_list) {
+    r.Fail(root["check_points"], "check_points", "a total_station sensor, a control file or a gcp_list that surveys them", "none");
   }
   if (project.photos.empty() && project.total_stations.empty() && project.photo_measurements.empty()) {
     r.Fail(root["sensors"], "sensors", "at least a photo_collection, photo_measurements or total_station", "none of them");
@@ -571,7 +573,8 @@ Project LoadProject(const std::string& path) {
        }},
   });
   project_internal::ReadCrs(r, root["crs"], root["geoid_grid"], &project);
-  project_internal::SetCrsOrigin(r, root, have_origin, &project);
+  const bool gcp_origin = project_internal::ApplyGcpListCrs(r, root, have_origin, &project);
+  project_internal::SetCrsOrigin(r, root, have_origin || gcp_origin, &project);
   project_internal::CheckPhotogrammetricKeys(project, r, root, have_origin || project.crs);
   CheckCheckPoints(project, r, root);
   CheckSensorReferences(project, path);

@@ -34,5 +34,10 @@ void ReadCrs(const io::YamlReader& r, const YAML::Node& crs, const YAML::Node& g
 /// With `crs`: `frame: cartesian` refused; without `origin`, the origin at the mean of the
 /// control's CRS coordinates (the total-station network's points, else the control file's).
 void SetCrsOrigin(const io::YamlReader& r, const YAML::Node& root, bool have_origin, Project* project);
+/// The projection of each photo_measurements sensor's gcp_list is the project's crs: taken
+/// as the crs when the project names none, else an InputError unless it is the same CRS.
+/// Without `origin`, a total-station network or a control file, the origin is the mean of
+/// the GCPs (returns true then).
+bool ApplyGcpListCrs(const io::YamlReader& r, const YAML::Node& root, bool have_origin, Project* project);
 
 }  // namespace mmba::adjust::project_internal

@@ -28,6 +28,7 @@ struct ControlPoint {
   Eigen::Vector3d xyz_m = Eigen::Vector3d::Zero();   ///< world frame
   Eigen::Vector3d sigma_m = Eigen::Vector3d::Zero(); ///< 0 = fixed coordinate
   int64_t line = 0;
+  std::string file;  ///< where it was read
   bool Fixed() const { return sigma_m.isZero(); }
 };
 

@@ -325,6 +325,13 @@ struct PhotoMeasurements {
   /// kappa (degrees, DBAT/PhotoModeler convention); "" = initialised from the measurements.
   std::string prior_eo;
   std::vector<std::string> prior_eo_columns;
+  /// `gcp_list: {file, sigma_px, sigma_m}`: OpenDroneMap's gcp_list.txt (io/odm_gcp_list.h),
+  /// control points in its projection with their image measurements; the projection is the
+  /// project's `crs` (taken from the file when the project names none). "" = none.
+  std::string gcp_list;
+  int gcp_list_line = 0;        ///< of the key in the project file
+  double gcp_sigma_px = 1.0;    ///< σ of each GCP image coordinate
+  double gcp_sigma_m = 0.0;     ///< σ of each GCP coordinate; 0 = held fixed
   LossOptions loss{LossType::kHuber, 3.0};
 };
 

@@ -96,26 +96,32 @@ std::vector<io::ImageMeasurement> ReadMeasurements(const PhotoMeasurements& p, c
   return all;
 }
 
-/// The control file: weighted and fixed points to `control`, check points withheld.
+/// The points of the project's control file (none without one).
+std::vector<io::ControlPoint> ReadControlFile(const Project& project) {
+  if (!project.control) return {};
+  const ControlFile& c = *project.control;
+  return io::ReadControlPoints(c.file, c.columns, c.sigma_m >= 0 ? std::optional<double>(c.sigma_m) : std::nullopt);
+}
+
+/// The control file and the gcp_lists: weighted and fixed points to `control`, check points withheld.
 std::map<std::string, io::ControlPoint> ReadControl(const JointState& s, std::map<std::string, Eigen::Vector3d>* check) {
   const Project& project = *s.project;
   std::map<std::string, io::ControlPoint> control;
-  if (!project.control) return control;
-  const ControlFile& c = *project.control;
-  for (io::ControlPoint& p : io::ReadControlPoints(c.file, c.columns, c.sigma_m >= 0 ? std::optional<double>(c.sigma_m) : std::nullopt)) {
+  for (io::ControlPoint& p : ReadControlFile(project)) {
     const int zero = (p.sigma_m.array() == 0).count();
     if (zero != 0 && zero != 3) {
-      throw InputError(c.file, p.line, "sigma", "σ 0 on " + std::to_string(zero) + " of 3 coordinates (point " + p.id + ")",
+      throw InputError(p.file, p.line, "sigma", "σ 0 on " + std::to_string(zero) + " of 3 coordinates (point " + p.id + ")",
                        "σ 0 on all three coordinates (fixed) or none (weighted)");
     }
     if (const auto crs = ProjectCrsFrame(project)) p.xyz_m = crs->WorldFromCrs(p.xyz_m);  // the project's crs → world
     control.emplace(p.id, std::move(p));
   }
+  AppendGcpControl(project, &control);
   for (const std::string& id : project.check_points) {
     const auto it = control.find(id);
     if (it == control.end()) {
       if (!project.total_stations.empty()) continue;  // a point of the network
-      throw InputError(project.path, 0, "check_points", id, "the id of a point of the control file " + c.file);
+      throw InputError(project.path, 0, "check_points", id, "the id of a point of the control file or a gcp_list");
     }
     (*check)[id] = it->second.xyz_m;
     control.erase(it);
@@ -232,7 +238,8 @@ void LoadPhotoMeasurements(JointState* s) {
   b.initial_params = camera.params;
   s->scene.AddCamera(camera);
   if (!p.images.empty()) b.image_files = io::ReadImageList(p.images);
-  const std::vector<io::ImageMeasurement> all = ReadMeasurements(p, camera);
+  std::vector<io::ImageMeasurement> all = ReadMeasurements(p, camera);
+  AppendGcpMeasurements(p, camera, b.image_files, &all);
   const std::map<std::string, io::ControlPoint> control = ReadControl(*s, &b.check_reference);
   Initialise(s, camera, all, control);
   FillScene(s, camera, all);
@@ -245,7 +252,7 @@ void LoadPhotoMeasurements(JointState* s) {
       continue;
     }
     for (int k = 0; k < 3; ++k) {
-      b.control.push_back({it->second, k, c.xyz_m[k], c.sigma_m[k], project.control->file + ":" + std::to_string(c.line)});
+      b.control.push_back({it->second, k, c.xyz_m[k], c.sigma_m[k], c.file + ":" + std::to_string(c.line)});
     }
   }
   for (const ScaleBar& bar : project.scale_bars) {

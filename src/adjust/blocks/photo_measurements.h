@@ -11,6 +11,8 @@
 #include "mmba/core/ids.h"
 #include "mmba/geometry/rigid3d.h"
 #include "mmba/io/control_points.h"
+#include "mmba/io/image_measurements.h"
+#include "mmba/sensors/camera.h"
 #include "mmba/io_project/project.h"
 #include "mmba/orientation/block_initialisation.h"
 #include "mmba/problem/reprojection_group.h"
@@ -51,5 +53,14 @@ struct MeasurementBlock {
   /// datum (photo_measurements_datum.cc); the other points' is in the statistics.
   std::map<Point3DId, Eigen::Matrix3d> point_covariance;
 };
+
+/// The image measurements of the sensor's gcp_list (blocks/photo_measurements_gcp.cc), each
+/// image named as the images list or the measurement files name it; InputError naming the
+/// gcp_list's line for an image the sensor does not have.
+void AppendGcpMeasurements(const PhotoMeasurements& p, const sensors::Camera& camera,
+                           const std::map<std::string, std::string>& image_files, std::vector<io::ImageMeasurement>* all);
+/// The gcp_lists' points as control (world frame, σ = sigma_m, fixed at 0); InputError for a
+/// point also in the control file.
+void AppendGcpControl(const Project& project, std::map<std::string, io::ControlPoint>* control);
 
 }  // namespace mmba::adjust::internal
