@@ -376,10 +376,10 @@ TEST(PhotoMeasurementsDatum, RomaAgreesWithDbatAfterASimilarity) {
     }
   }
   // mmba's residuals are pixels, DBAT's the corrected image plane (up to 9 % distortion at the
-  // corners weighs them differently): typical differences a third of DBAT's σ, the largest
-  // 1.43 σ (image 5's omega, 0.0116° against σ 0.0082°).
+  // corners weighs them differently): the median image's largest difference 0.49 of DBAT's σ,
+  // the largest 1.43 σ (image 5's omega, 0.0116° against σ 0.0082°).
   std::nth_element(image_worst.begin(), image_worst.begin() + 30, image_worst.end());
-  EXPECT_LT(image_worst[30], 0.5);
+  EXPECT_LT(image_worst[30], 0.6);
   EXPECT_LT(worst, 1.5) << worst_what;
   std::printf("Roma: sigma0 %.6f (DBAT 0.582769), EO differences: median image %.3f sigma, largest %.3f sigma (%s)\n",
               sigma0, image_worst[30], worst, worst_what.c_str());
