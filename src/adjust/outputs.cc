@@ -20,6 +20,11 @@
 namespace mmba::adjust::internal {
 
 nlohmann::json EvaluateTruth(const JointState& s);
+// report_points.cc: report.json `points`, `points_file` and `relative_precision`; `observations`;
+// `settings`.
+void PointsReport(const JointState& s, nlohmann::json* report);
+nlohmann::json ObservationsReport(const JointState& s);
+nlohmann::json SettingsReport(const JointState& s, const AdjustOptions& options);
 
 namespace {
 
@@ -48,6 +53,9 @@ void ReportHeader(const JointState& s, const std::string& status, json* report) 
   (*report)["schema"] = "mmba-adjust-report-1";
   RecordBuild(report);
   (*report)["project"] = project.name;
+  // Absolute, so that report.html shows the paths of the run relative to the project folder.
+  (*report)["project_file"] = fs::absolute(project.path).lexically_normal().string();
+  (*report)["project_dir"] = fs::absolute(project.dir.empty() ? "." : project.dir).lexically_normal().string();
   {
     std::time_t now = std::time(nullptr);
     char buffer[32];
@@ -515,6 +523,9 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, const fs::path& s
   WriteSensorOutputs(s, options, stage, &report);
   if (s.joint) WriteSurveyPoints(s, stage);
   WriteObservations(s, stage);
+  PointsReport(s, &report);
+  report["observations"] = ObservationsReport(s);
+  report["settings"] = SettingsReport(s, options);
   if (!project.truth.empty()) report["truth_evaluation"] = EvaluateTruth(s);
   json files = ListFiles(s);
   std::vector<StepStatus> dense_status;  // per entry of report["spherical_dense"]

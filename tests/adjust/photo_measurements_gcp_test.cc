@@ -13,6 +13,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -140,6 +141,36 @@ TEST(PhotoMeasurementsGcp, GcpListControlsTheBlockInItsProjection) {
     ++compared;
   }
   EXPECT_EQ(compared, 54);
+  // The CSV files carry the project CRS's columns: the held GCPs at their gcp_list coordinates.
+  std::map<std::string, Eigen::Vector3d> gcp;
+  std::istringstream gcp_list(ReadText(dir / "gcp_list.txt"));
+  std::getline(gcp_list, line);
+  while (std::getline(gcp_list, line)) {
+    std::istringstream row(line);
+    Eigen::Vector3d g;
+    double x, y;
+    std::string image, id;
+    row >> g.x() >> g.y() >> g.z() >> x >> y >> image >> id;
+    gcp[id] = g;
+  }
+  const std::string columns = ",easting_epsg32632_m,northing_epsg32632_m,height_epsg32632_m";
+  EXPECT_NE(ReadText(dir / "out/drone_images.csv").find("rms_px" + columns + "\n"), std::string::npos);
+  std::istringstream crs_points(ReadText(dir / "out/drone_points.csv"));
+  std::getline(crs_points, line);
+  std::getline(crs_points, line);
+  EXPECT_EQ(line.substr(line.size() - columns.size()), columns);
+  int held = 0;
+  while (std::getline(crs_points, line)) {
+    std::vector<std::string> cells;
+    std::istringstream row(line);
+    for (std::string cell; std::getline(row, cell, ',');) cells.push_back(cell);
+    ASSERT_EQ(cells.size(), 15u) << line;
+    if (cells[1] != "control (fixed)") continue;
+    const Eigen::Vector3d e(std::stod(cells[12]), std::stod(cells[13]), std::stod(cells[14]));
+    EXPECT_LT((e - gcp.at(cells[0])).norm(), 0.001) << line;
+    ++held;
+  }
+  EXPECT_EQ(held, 5);
   // The check point against its gcp_list coordinates.
   const nlohmann::json& check = pm["check_points"];
   ASSERT_FALSE(check.is_null()) << pm.dump(1);

@@ -1,10 +1,12 @@
 // Outputs of a photo_measurements block: images.csv (exterior orientation with σ, per-image
-// residual RMS and counts), points.csv (adjusted points with σ and 95 % ellipsoid semi-axes),
+// residual RMS and counts), points.csv (adjusted points with σ and 95 % ellipsoid semi-axes;
+// both with the project CRS's columns when the project has a `crs`),
 // the camera calibration with σ, and report.json `photo_measurements` (initialisation, datum,
 // images, check points with dX, dY, dZ and RMSE per axis and 3-D, the camera's parameters with
 // σ and the correlation matrix of the refined ones, pairs with |ρ| > 0.95 flagged).
 #include <cmath>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 
 #include <Eigen/Eigenvalues>
@@ -46,11 +48,13 @@ std::map<ImageId, ImageResidual> ResidualsByImage(const JointState& s) {
 json Images(const JointState& s, std::ostringstream* csv) {
   const MeasurementBlock& b = *s.measured;
   const auto residuals = ResidualsByImage(s);
+  const std::optional<geodesy::CrsFrame> crs = ProjectCrsFrame(*s.project);
   json images = json::array();
   *csv << "# mmba adjust: exterior orientation of the photo measurements' images; centre in the world frame, "
           "q = cam_from_world (w, x, y, z); sigma from the adjustment (scaled by sigma0); rms_px per coordinate\n"
           "image,file,x_m,y_m,z_m,qw,qx,qy,qz,sigma_x_m,sigma_y_m,sigma_z_m,sigma_rx_deg,sigma_ry_deg,sigma_rz_deg,"
-          "observations,rms_px\n";
+          "observations,rms_px"
+       << (crs ? CrsColumns(crs->crs()) : "") << "\n";
   for (size_t i = 0; i < b.image_names.size(); ++i) {
     const ImageId id = b.image_of.at(b.image_names[i]);
     const Rigid3d& pose = s.scene.Image(id).cam_from_world;
@@ -66,7 +70,8 @@ json Images(const JointState& s, std::ostringstream* csv) {
     *csv << std::setprecision(10) << b.image_names[i] << "," << file << "," << c.x() << "," << c.y() << "," << c.z() << ","
          << pose.rotation.w() << "," << pose.rotation.x() << "," << pose.rotation.y() << "," << pose.rotation.z() << ","
          << std::setprecision(4) << sigma.x() << "," << sigma.y() << "," << sigma.z() << "," << sigma_rotation.x() << ","
-         << sigma_rotation.y() << "," << sigma_rotation.z() << "," << n << "," << rms << "\n";
+         << sigma_rotation.y() << "," << sigma_rotation.z() << "," << n << "," << rms
+         << (crs ? CrsValues(*crs, c) : "") << "\n";
     images.push_back({{"image", b.image_names[i]}, {"file", file}, {"centre_m", Vec(c)}, {"sigma_centre_m", Vec(sigma)},
                       {"sigma_rotation_deg", Vec(sigma_rotation)}, {"observations", n}, {"rms_px", rms}});
   }
@@ -80,10 +85,12 @@ size_t Points(const JointState& s, std::ostringstream* csv) {
   for (const ReprojectionObservation& o : b.observations) ++rays[o.point3D_id];
   std::set<Point3DId> weighted;
   for (const ControlCoordinate& c : b.control) weighted.insert(c.point);
+  const std::optional<geodesy::CrsFrame> crs = ProjectCrsFrame(*s.project);
   *csv << "# mmba adjust: points of the photo measurements in the world frame; sigma from the adjustment (scaled by "
           "sigma0; 0 when held); a95 >= b95 >= c95 = "
           "semi-axes of the 95 % confidence ellipsoid\n"
-          "point,kind,x_m,y_m,z_m,sigma_x_m,sigma_y_m,sigma_z_m,a95_m,b95_m,c95_m,rays\n";
+          "point,kind,x_m,y_m,z_m,sigma_x_m,sigma_y_m,sigma_z_m,a95_m,b95_m,c95_m,rays"
+       << (crs ? CrsColumns(crs->crs()) : "") << "\n";
   for (const auto& [name, id] : b.point_of) {
     const Eigen::Vector3d& x = s.scene.Point(id);
     const Eigen::Matrix3d cov = b.point_covariance.count(id) ? b.point_covariance.at(id) : PointCovariance3(s.statistics, x.data());
@@ -93,7 +100,7 @@ size_t Points(const JointState& s, std::ostringstream* csv) {
     *csv << name << "," << kind << "," << std::setprecision(10) << x.x() << "," << x.y() << "," << x.z() << ","
          << std::setprecision(4) << std::sqrt(std::max(0.0, cov(0, 0))) << "," << std::sqrt(std::max(0.0, cov(1, 1))) << ","
          << std::sqrt(std::max(0.0, cov(2, 2))) << "," << k95Ellipsoid3d * axes[2] << "," << k95Ellipsoid3d * axes[1] << ","
-         << k95Ellipsoid3d * axes[0] << "," << rays[id] << "\n";
+         << k95Ellipsoid3d * axes[0] << "," << rays[id] << (crs ? CrsValues(*crs, x) : "") << "\n";
   }
   return b.point_of.size();
 }
