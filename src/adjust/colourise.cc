@@ -25,6 +25,7 @@
 
 #include "codecs/image_codecs.h"
 #include "internal.h"
+#include "las_output.h"
 #include "mmba/core/parallel_for.h"
 
 namespace mmba::adjust::internal {
@@ -336,10 +337,12 @@ json WriteColouredLidar(const JointState& s, const fs::path& stage, json* files)
   FinishColours(sum, weight, &cloud.colors, &coloured);
   for (uint8_t b : seen) from_rig += (b & 2) ? 1 : 0;
   io::WritePly(cloud, (stage / "lidar_coloured.ply").string());
+  WriteLasBeside(s, cloud, stage / "lidar_coloured.ply");
   files->push_back({{"name", "lidar_coloured.ply"},
                     {"description", "the static LiDAR around the photo block (adjusted scans, else the reference "
                                     "cloud), coloured from the adjusted photos and the rig images near it where seen "
                                     "(grey: not seen)"}});
+  files->push_back(LasFileEntry(s, "lidar_coloured.ply", "the coloured static LiDAR"));
   entry = {{"file", "lidar_coloured.ply"}, {"points", n}, {"coloured", coloured}, {"images", photos + rig_images},
            {"photos", photos}, {"rig_images", rig_images}, {"coloured_by_rig_images", from_rig},
            {"unreadable_images", unreadable}};

@@ -12,7 +12,9 @@
 #include <Eigen/Geometry>
 
 #include "blocks/blocks.h"
+#include "geojson_output.h"
 #include "internal.h"
+#include "las_output.h"
 #include "mmba/core/version.h"
 #include "mmba/report/adjust_report.h"
 #include "output_support.h"
@@ -243,13 +245,17 @@ json ListFiles(const JointState& s) {
     files.push_back({{"name", id + "_trajectory.csv"}, {"description", "trajectory corrections at the nodes with sigma"}});
     files.push_back({{"name", id + "_corrected.ply"}, {"description", "the mobile cloud re-georeferenced (corrected trajectory and extrinsic), coloured from the adjusted rig images and photos where seen (grey: not seen)"}});
     files.push_back({{"name", "error_map_" + id + ".ply"}, {"description", "mobile points used, intensity = signed distance to the static surface (m)"}});
+    files.push_back(LasFileEntry(s, id + "_corrected.ply", "the corrected mobile cloud"));
+    files.push_back(LasFileEntry(s, "error_map_" + id + ".ply", "mobile points used, extra field distance_m = signed distance to the static surface (m)"));
   }
   if (s.joint) files.push_back({{"name", "points.csv"}, {"description", "surveyed points with sigma and error ellipses"}});
   if (s.photos) {
     files.push_back({{"name", "colmap/" + s.photos->config->id}, {"description", "adjusted COLMAP model (text)"}});
     files.push_back({{"name", "calibration/" + s.photos->config->id + "_camera.yaml"}, {"description", "camera calibration with sigma"}});
     files.push_back({{"name", "tie_points.ply"}, {"description", "georeferenced tie points, coloured from the images"}});
+    files.push_back(LasFileEntry(s, "tie_points.ply", "the tie points"));
     if (!s.planes.empty()) files.push_back({{"name", "error_map_lidar.ply"}, {"description", "tie points, intensity = signed distance to the LiDAR surface (m)"}});
+    if (!s.planes.empty()) files.push_back(LasFileEntry(s, "error_map_lidar.ply", "tie points, extra field distance_m = signed distance to the LiDAR surface (m)"));
     if (!s.scans.empty()) files.push_back({{"name", "scans.csv"}, {"description", "adjusted static scans: world_from_scan with sigma and the correction of the registration"}});
   }
   return files;
@@ -528,6 +534,7 @@ void WriteOutputs(JointState& s, const AdjustOptions& options, const fs::path& s
   report["settings"] = SettingsReport(s, options);
   if (!project.truth.empty()) report["truth_evaluation"] = EvaluateTruth(s);
   json files = ListFiles(s);
+  WriteGeoJson(s, stage, &files);
   std::vector<StepStatus> dense_status;  // per entry of report["spherical_dense"]
   if (s.spheres && s.spheres->config->dense_cloud) {
     report["spherical_dense"] = WriteSphereDense(s, stage, &files, &dense_status);

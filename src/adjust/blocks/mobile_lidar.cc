@@ -5,10 +5,12 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 
 #include <Eigen/Geometry>
 
+#include "../las_output.h"
 #include "../output_support.h"
 #include "blocks.h"
 #include "mmba/core/atomic_file.h"
@@ -186,7 +188,7 @@ json WriteMobileTrajectory(const JointState& s, OutputSink* out, double* worst_c
   return unobserved;
 }
 
-/// <id>_corrected.ply: the whole delivered cloud re-georeferenced with the corrected trajectory
+/// <id>_corrected.ply and .las: the whole delivered cloud re-georeferenced with the corrected trajectory
 /// and extrinsic, coloured from the adjusted rig images and photos where seen (colourise.cc: a
 /// first pass builds the images' z-buffers from the cloud, the second colours). Streamed: one
 /// chunk in memory at a time.
@@ -214,14 +216,24 @@ void WriteCorrectedCloud(const JointState& s, int num_threads, OutputSink* out) 
       colouring.AddDepths(corrected);
     });
   }
-  WriteFileAtomically(out->stage / (m.config->id + "_corrected.ply"), [&](std::ostream& ply) {
-    io::PointCloud corrected;
-    io::StreamPointCloud(m.config->cloud, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t first, size_t total) {
-      correct(chunk, &corrected);
-      colouring.Colour(&corrected);
-      if (first == 0) io::WritePlyHeader(ply, total, corrected);
-      io::AppendPlyRecords(ply, corrected);
-    });
+  // The PLY and the LAS (in the output CRS) from one pass over the delivered cloud.
+  const LasOutputFrame las_frame(s);
+  WriteFileAtomically(LasBeside(out->stage / (m.config->id + "_corrected.ply")), [&](std::ostream& las) {
+    std::optional<io::LasStreamWriter> las_writer;
+    WriteFileAtomically(out->stage / (m.config->id + "_corrected.ply"), [&](std::ostream& ply) {
+      io::PointCloud corrected;
+      io::StreamPointCloud(m.config->cloud, kMobileChunkPoints, [&](const io::PointCloud& chunk, size_t first, size_t total) {
+        correct(chunk, &corrected);
+        colouring.Colour(&corrected);
+        if (first == 0) io::WritePlyHeader(ply, total, corrected);
+        io::AppendPlyRecords(ply, corrected);
+        const io::PointCloud in_crs = las_frame.FromWorld(corrected);
+        if (!las_writer) las_writer.emplace(&las, in_crs, las_frame.Options());
+        las_writer->Append(in_crs);
+      });
+    }, /*binary=*/true);
+    if (!las_writer) las_writer.emplace(&las, io::PointCloud(), las_frame.Options());
+    las_writer->Finish();
   }, /*binary=*/true);
   if (colouring.active()) (*out->report)["mobile_lidar_coloured"] = colouring.Report(m.config->id + "_corrected.ply");
 }
@@ -246,6 +258,7 @@ void WriteMobileOutputs(JointState& s, int num_threads, OutputSink* out) {
     error_map.intensity.push_back(static_cast<float>(p.normal.dot(on_plane - p.plane_point)));
   }
   io::WritePly(error_map, (out->stage / ("error_map_" + m.config->id + ".ply")).string());
+  WriteErrorMapLas(s, error_map, out->stage / ("error_map_" + m.config->id + ".ply"), "signed distance to static LiDAR");
   (*out->report)["mobile_lidar"] = {{"sensor", m.config->id}, {"points", m.num_points}, {"used", m.sample.size()},
                                     {"on_surface", m.points.size()}, {"nodes", nodes.size()},
                                     {"max_position_correction_m", worst},

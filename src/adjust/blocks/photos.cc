@@ -15,6 +15,7 @@
 #include <Eigen/Geometry>
 #include <spdlog/spdlog.h>
 
+#include "../las_output.h"
 #include "../output_support.h"
 #include "blocks.h"
 #include "mmba/core/error.h"
@@ -371,7 +372,8 @@ void WritePhotoCalibration(const JointState& s, OutputSink* out) {
 }
 
 /// tie_points.ply (georeferenced, coloured from the images) and error_map_lidar.ply (the tie
-/// points on the LiDAR surface, intensity = signed distance, m).
+/// points on the LiDAR surface, intensity = signed distance, m), each with its LAS 1.4 in the
+/// output CRS (the error map's distance as the extra field distance_m).
 void WriteTiePointClouds(const JointState& s, const io::ColmapModel& model, const fs::path& stage) {
   io::PointCloud ties, errors;
   std::map<Point3DId, double> distance;
@@ -388,7 +390,11 @@ void WriteTiePointClouds(const JointState& s, const io::ColmapModel& model, cons
     }
   }
   io::WritePly(ties, (stage / "tie_points.ply").string());
-  if (!errors.empty()) io::WritePly(errors, (stage / "error_map_lidar.ply").string());
+  WriteLasBeside(s, ties, stage / "tie_points.ply");
+  if (!errors.empty()) {
+    io::WritePly(errors, (stage / "error_map_lidar.ply").string());
+    WriteErrorMapLas(s, errors, stage / "error_map_lidar.ply", "signed distance to LiDAR surface");
+  }
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>
 #include <spdlog/spdlog.h>
 
+#include "../las_output.h"
 #include "../output_support.h"
 #include "blocks.h"
 #include "../sphere_dense.h"
@@ -217,9 +218,11 @@ json WriteSphereDense(const JointState& s, const fs::path& stage, json* files, s
     }
     const std::string name = sb.config->id + "_" + station + "_dense.ply";
     io::WritePly(cloud, (stage / name).string());
+    WriteLasBeside(s, cloud, stage / name);
     files->push_back({{"name", name},
                       {"description", "dense cloud of spherical station " + station +
                                           " (vertical-baseline stereo), georeferenced; intensity from the lower panorama"}});
+    files->push_back(LasFileEntry(s, name, "dense cloud of spherical station " + station));
     stations.push_back(entry);
     statuses->push_back(StepStatus::kOk);
   }
