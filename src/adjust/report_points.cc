@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,15 +21,35 @@ namespace {
 using json = nlohmann::json;
 
 /// One adjusted point: where it is, its covariance (ENU, m², scaled as every σ of the report)
-/// and the three parameter scalars that hold its coordinates in the statistics (none when the
-/// statistics eliminated the point: its covariance is then the block's own and its
-/// covariance with other points is not kept).
+/// and how its coordinates follow from columns of the statistics, x = G·(those parameters) +
+/// a part of its own: G a selection of its own columns when the statistics hold the point,
+/// the back-substitution gain L when they eliminated it (MeasurementBlock::point_gain). Without
+/// `related` its covariance with the other points is not known.
 struct AdjustedPoint {
   std::string id, role;
   Eigen::Vector3d x;
   Eigen::Matrix3d cov;
-  std::optional<std::array<std::pair<const double*, int>, 3>> scalars;
+  bool related = false;
+  std::vector<int> columns;
+  Eigen::MatrixXd gain;  ///< 3 × columns
 };
+
+/// Relates `a` to the statistics' columns of its three coordinate scalars (a held scalar has
+/// none: a zero row).
+void HeldBy(const stats::NetworkStatistics& st, const std::array<std::pair<const double*, int>, 3>& scalars,
+            AdjustedPoint* a) {
+  std::vector<std::pair<int, int>> rows;  // (coordinate, column)
+  for (int k = 0; k < 3; ++k) {
+    const auto it = st.column.find(scalars[k].first);
+    if (it != st.column.end()) rows.push_back({k, it->second + scalars[k].second});
+  }
+  a->gain = Eigen::MatrixXd::Zero(3, static_cast<Eigen::Index>(rows.size()));
+  for (size_t c = 0; c < rows.size(); ++c) {
+    a->gain(rows[c].first, static_cast<Eigen::Index>(c)) = 1.0;
+    a->columns.push_back(rows[c].second);
+  }
+  a->related = true;
+}
 
 bool HasCovariance(const Eigen::Matrix3d& cov) { return cov.diagonal().maxCoeff() > 0.0; }
 
@@ -49,13 +68,13 @@ void NetworkPoints(const JointState& s, std::vector<AdjustedPoint>* out) {
       a.role = "check (photos only)";
       a.x = s.scene.Point(s.photos->check_ids.at(p.id));
       a.cov = PointCovariance3(st, x);
-      a.scalars = {{{x, 0}, {x, 1}, {x, 2}}};
+      HeldBy(st, {{{x, 0}, {x, 1}, {x, 2}}}, &a);
     } else {
       const double* xy = p.coords.data();
       a.role = "adjusted";
       a.x = WorldFromSurvey(*s.joint, p);
       a.cov = SurveyPointCovariance(st, *s.joint, p);
-      a.scalars = {{{xy, 0}, {xy, 1}, {xy + 2, 0}}};
+      HeldBy(st, {{{xy, 0}, {xy, 1}, {xy + 2, 0}}}, &a);
     }
     if (HasCovariance(a.cov)) out->push_back(a);
   }
@@ -75,23 +94,38 @@ void MeasuredPoints(const JointState& s, std::vector<AdjustedPoint>* out) {
     a.role = weighted.count(id) ? "control (weighted)" : b.check_reference.count(name) ? "check" : "tie";
     a.x = s.scene.Point(id);
     const auto folded = b.point_covariance.find(id);
-    a.cov = folded != b.point_covariance.end() ? folded->second : PointCovariance3(s.statistics, x);
-    if (folded == b.point_covariance.end() && s.statistics.IsFree(x)) a.scalars = {{{x, 0}, {x, 1}, {x, 2}}};
+    const auto gain = b.point_gain.find(id);
+    if (folded == b.point_covariance.end()) {
+      a.cov = PointCovariance3(s.statistics, x);
+      if (s.statistics.IsFree(x)) HeldBy(s.statistics, {{{x, 0}, {x, 1}, {x, 2}}}, &a);
+    } else {
+      a.cov = folded->second;
+      if (gain != b.point_gain.end()) {
+        a.columns = gain->second.first;
+        a.gain = gain->second.second;
+        a.related = true;
+      }
+    }
     if (HasCovariance(a.cov)) out->push_back(a);
   }
 }
 
-/// Cov(x_i, x_j) from the statistics, row-major 3×3; the columns of x_j outermost, so that a
-/// cofactor held as a factor solves once per column.
+/// Cov(x_i, x_j) = σ0² G_i Q(cols_i, cols_j) G_jᵀ, row-major 3×3; the point's own
+/// covariance when i = j. The columns of x_j outermost, so that a cofactor held as a factor
+/// solves once per column.
 std::array<double, 9> CrossCovariance(const stats::NetworkStatistics& st, const AdjustedPoint& i,
                                       const AdjustedPoint& j) {
   std::array<double, 9> c{};
-  for (int b = 0; b < 3; ++b) {
-    for (int a = 0; a < 3; ++a) {
-      c[3 * a + b] = st.Covariance((*i.scalars)[a].first, (*i.scalars)[a].second, (*j.scalars)[b].first,
-                                   (*j.scalars)[b].second);
-    }
+  if (&i == &j) {
+    for (int k = 0; k < 9; ++k) c[k] = i.cov(k / 3, k % 3);
+    return c;
   }
+  Eigen::MatrixXd q(i.columns.size(), j.columns.size());
+  for (size_t b = 0; b < j.columns.size(); ++b) {
+    for (size_t a = 0; a < i.columns.size(); ++a) q(a, b) = st.cofactor(i.columns[a], j.columns[b]);
+  }
+  const Eigen::Matrix3d cov = st.scale_used * st.scale_used * i.gain * q * j.gain.transpose();
+  for (int k = 0; k < 9; ++k) c[k] = cov(k / 3, k % 3);
   return c;
 }
 
@@ -111,10 +145,10 @@ void PointsReport(const JointState& s, json* report) {
   std::string file = s.joint ? "points.csv" : "";
   if (s.measured) file += (file.empty() ? "" : " and ") + s.measured->config->id + "_points.csv";
   (*report)["points_file"] = file;
-  // Relative precision needs Cov(x_i, x_j): the points whose coordinates the statistics hold.
+  // Relative precision needs Cov(x_i, x_j): the points related to the statistics' columns.
   std::vector<const AdjustedPoint*> held;
   for (const AdjustedPoint& p : points) {
-    if (p.scalars) held.push_back(&p);
+    if (p.related) held.push_back(&p);
   }
   std::vector<std::string> ids;
   std::vector<std::array<double, 3>> xyz;

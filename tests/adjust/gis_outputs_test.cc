@@ -120,11 +120,11 @@ class GisOutputsTest : public ::testing::Test {
   }
   static void TearDownTestSuite() {
     outcome_.reset();
-    crs_outcome_.reset();
+    crs_outcomes_.clear();
     if (!std::getenv("MMBA_KEEP_TEST_OUTPUT")) fs::remove_all(Root());
   }
   static fs::path Out() { return Root() / "out"; }
-  static fs::path CrsOut() { return Root() / "out_crs"; }
+  static fs::path CrsOut(const std::string& code) { return Root() / ("out_" + code.substr(5)); }
 
   /// The adjustment of the simulated project (run once, by the first test that needs it).
   static const AdjustOutcome& Adjusted() {
@@ -135,27 +135,30 @@ class GisOutputsTest : public ::testing::Test {
     return *outcome_;
   }
 
-  /// The adjustment of the same project in EPSG:25832 (run once).
-  static const AdjustOutcome& AdjustedInCrs() {
-    if (crs_outcome_) return *crs_outcome_;
+  /// The adjustment of the same project in `code` (a projected CRS; run once per code): the
+  /// network's coordinates in the CRS, the origin (taken on the CRS's datum) and the GNSS
+  /// latitudes and longitudes as they are.
+  static const AdjustOutcome& AdjustedIn(const std::string& code) {
+    if (crs_outcomes_.count(code)) return crs_outcomes_.at(code);
     const fs::path sim = Root() / "sim";
-    // The same project in ETRS89 / UTM 32N: the network's coordinates in the CRS, the origin
-    // (taken on ETRS89) and the GNSS latitudes and longitudes as they are.
-    const auto crs = std::make_shared<const geodesy::Crs>("EPSG:25832", "test");
-    WriteNetworkInCrs(sim / "survey" / "network.xml", sim / "survey" / "network_crs.xml", geodesy::CrsFrame(crs, kOrigin));
+    const std::string tag = code.substr(5);
+    const auto crs = std::make_shared<const geodesy::Crs>(code, "test");
+    WriteNetworkInCrs(sim / "survey" / "network.xml", sim / "survey" / ("network_" + tag + ".xml"),
+                      geodesy::CrsFrame(crs, kOrigin));
     std::string yaml = ReadText(sim / "project.yaml");
-    yaml = std::regex_replace(yaml, std::regex("survey/network.xml"), "survey/network_crs.xml");
-    yaml = std::regex_replace(yaml, std::regex("\norigin:"), "\ncrs: EPSG:25832\norigin:");
-    std::ofstream(sim / "project_crs.yaml") << yaml;
-    crs_outcome_ = std::make_unique<AdjustOutcome>(
-        testing_support::RunProject((sim / "project_crs.yaml").string(), CrsOut().string()));
-    return *crs_outcome_;
+    yaml = std::regex_replace(yaml, std::regex("survey/network.xml"), "survey/network_" + tag + ".xml");
+    yaml = std::regex_replace(yaml, std::regex("\norigin:"), "\ncrs: " + code + "\norigin:");
+    std::ofstream(sim / ("project_" + tag + ".yaml")) << yaml;
+    return crs_outcomes_[code] =
+               testing_support::RunProject((sim / ("project_" + tag + ".yaml")).string(), CrsOut(code).string());
   }
 
-  static std::unique_ptr<AdjustOutcome> outcome_, crs_outcome_;
+  static std::unique_ptr<AdjustOutcome> outcome_;
+  static std::map<std::string, AdjustOutcome> crs_outcomes_;
 };
 
-std::unique_ptr<AdjustOutcome> GisOutputsTest::outcome_, GisOutputsTest::crs_outcome_;
+std::unique_ptr<AdjustOutcome> GisOutputsTest::outcome_;
+std::map<std::string, AdjustOutcome> GisOutputsTest::crs_outcomes_;
 
 /// Whether report.json `files` names `name`.
 bool Listed(const json& report, const std::string& name) {
@@ -295,11 +298,13 @@ TEST_F(GisOutputsTest, GeoJsonPointsWithClosedEllipsesAndCamerasAtTheCsvPosition
 }
 
 TEST_F(GisOutputsTest, WithACrsTheLasIsInTheCrsAsPointsCsvAndAsPyprojConvertsIt) {
-  ASSERT_TRUE(AdjustedInCrs().ok) << AdjustedInCrs().reason;
+  const AdjustOutcome& outcome = AdjustedIn("EPSG:25832");
+  ASSERT_TRUE(outcome.ok) << outcome.reason;
+  const fs::path out_dir = CrsOut("EPSG:25832");
   const auto crs = std::make_shared<const geodesy::Crs>("EPSG:25832", "test");
   const geodesy::CrsFrame frame(crs, kOrigin);
   // points.csv's CRS columns are the world columns converted by this frame ...
-  const auto csv = CsvRows(CrsOut() / "points.csv");
+  const auto csv = CsvRows(out_dir / "points.csv");
   ASSERT_FALSE(csv.empty());
   for (const auto& [id, row] : csv) {
     const Eigen::Vector3d expected =
@@ -309,9 +314,9 @@ TEST_F(GisOutputsTest, WithACrsTheLasIsInTheCrsAsPointsCsvAndAsPyprojConvertsIt)
     EXPECT_NEAR(Cell(row, "height_epsg25832_m"), expected.z(), 1e-4) << id;
   }
   // ... and so are the LAS coordinates of the PLY's world points.
-  const io::PointCloud ply = io::ReadPly((CrsOut() / "tie_points.ply").string());
+  const io::PointCloud ply = io::ReadPly((out_dir / "tie_points.ply").string());
   io::LasInfo info;
-  const io::PointCloud las = io::ReadLas((CrsOut() / "tie_points.las").string(), {}, nullptr, &info);
+  const io::PointCloud las = io::ReadLas((out_dir / "tie_points.las").string(), {}, nullptr, &info);
   ASSERT_EQ(las.size(), ply.size());
   EXPECT_EQ(info.crs_wkt, crs->wkt1());
   EXPECT_NE(info.crs_wkt.find("ETRS89 / UTM zone 32N"), std::string::npos);
@@ -352,12 +357,62 @@ TEST_F(GisOutputsTest, WithACrsTheLasIsInTheCrsAsPointsCsvAndAsPyprojConvertsIt)
   std::cout << "EPSG:25832 LAS vs pyproj: " << compared << " points, worst " << worst_proj << " m\n";
   // The GeoJSON in WGS84: ETRS89 to WGS 84 is PROJ's null transformation here, so the point
   // is at points.csv's latitude and longitude (on ETRS89).
-  const json points = json::parse(ReadText(CrsOut() / "points.geojson"));
+  const json points = json::parse(ReadText(out_dir / "points.geojson"));
   ASSERT_FALSE(points["features"].empty());
   const json& first = points["features"][0];
   const auto& row = csv.at(first["properties"]["id"].get<std::string>());
   EXPECT_NEAR(first["geometry"]["coordinates"][0].get<double>(), Cell(row, "longitude_deg"), 1e-8);
   EXPECT_NEAR(first["geometry"]["coordinates"][1].get<double>(), Cell(row, "latitude_deg"), 1e-8);
+}
+
+// A CRS on another datum (DHDN / 3-degree Gauss-Kruger zone 3, Bessel 1841): the GeoJSON is
+// in WGS84 through PROJ's DHDN → WGS 84 transformation, as pyproj transforms points.csv's
+// latitude, longitude and height (on DHDN) from EPSG:4314 (3-D) to EPSG:4979; the shift is
+// about 100 m, so the datum step is not skipped.
+TEST_F(GisOutputsTest, OnAnotherDatumTheGeoJsonIsTransformedToWgs84AsPyprojDoes) {
+  int status = -1;
+  if (Shell("/usr/bin/python3 -c 'import pyproj'", &status), status != 0) GTEST_SKIP() << "no pyproj";
+  const AdjustOutcome& outcome = AdjustedIn("EPSG:31467");
+  ASSERT_TRUE(outcome.ok) << outcome.reason;
+  const fs::path out_dir = CrsOut("EPSG:31467");
+  io::LasInfo info;
+  io::ReadLas((out_dir / "tie_points.las").string(), {}, nullptr, &info);
+  EXPECT_NE(info.crs_wkt.find("DHDN / 3-degree Gauss-Kruger zone 3"), std::string::npos) << info.crs_wkt.substr(0, 200);
+  const auto csv = CsvRows(out_dir / "points.csv");
+  const json points = json::parse(ReadText(out_dir / "points.geojson"));
+  std::ofstream(Root() / "datum.py")
+      << "import pyproj,sys\n"
+         "t=pyproj.Transformer.from_crs(pyproj.CRS('EPSG:4314').to_3d(),'EPSG:4979',always_xy=True)\n"
+         "for l in sys.stdin:\n  lat,lon,h=map(float,l.split())\n  print('%.10f %.10f %.4f'%t.transform(lon,lat,h))\n";
+  std::ofstream geodetic(Root() / "dhdn.txt");
+  std::vector<json> features;
+  for (const json& f : points["features"]) {
+    if (f["geometry"]["type"] != "Point") continue;
+    const auto& row = csv.at(f["properties"]["id"].get<std::string>());
+    geodetic << row.at("latitude_deg") << " " << row.at("longitude_deg") << " " << row.at("height_m") << "\n";
+    features.push_back(f);
+  }
+  geodetic.close();
+  const std::string out =
+      Shell("/usr/bin/python3 " + (Root() / "datum.py").string() + " < " + (Root() / "dhdn.txt").string(), &status);
+  ASSERT_EQ(status, 0) << out;
+  std::istringstream rows(out);
+  double worst_deg = 0.0, worst_h = 0.0, shift_deg = 0.0;
+  for (const json& f : features) {
+    double lon, lat, h;
+    ASSERT_TRUE(rows >> lon >> lat >> h) << out.substr(0, 500);
+    const json& c = f["geometry"]["coordinates"];
+    worst_deg = std::max({worst_deg, std::abs(c[0].get<double>() - lon), std::abs(c[1].get<double>() - lat)});
+    worst_h = std::max(worst_h, std::abs(c[2].get<double>() - h));
+    const auto& row = csv.at(f["properties"]["id"].get<std::string>());
+    shift_deg = std::max(shift_deg, std::abs(c[0].get<double>() - Cell(row, "longitude_deg")));
+  }
+  ASSERT_FALSE(features.empty());
+  EXPECT_LT(worst_deg, 1e-8);  // 1 mm; points.csv holds 10 significant digits (5e-9 deg here)
+  EXPECT_LT(worst_h, 2e-4);
+  EXPECT_GT(shift_deg, 5e-4);  // the datum shift, about 0.001 deg of longitude here
+  std::cout << "DHDN -> WGS84 in points.geojson vs pyproj: " << features.size() << " points, worst " << worst_deg
+            << " deg, " << worst_h << " m; datum shift " << shift_deg << " deg of longitude\n";
 }
 
 }  // namespace

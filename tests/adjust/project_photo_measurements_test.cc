@@ -96,7 +96,7 @@ TEST_F(PhotoMeasurementsProject, BadInputNamesLineAndKey) {
                     "[{file: markpts.txt, columns: [image, id, x, y]}]}\n"),
               HasSubstr("field 'sensors[0].measurements[0].sigma_px': found 'nothing'"));
   EXPECT_THAT(Error("frame: cartesian\ncheck_points: [1]\n" + sensor_),
-              HasSubstr("field 'check_points': found 'none', expected a total_station sensor or a control file"));
+              HasSubstr("field 'check_points': found 'none', expected a total_station sensor, a control file or a gcp_list that surveys them"));
   EXPECT_THAT(Error("frame: cartesian\nscale_bars: [{from: a, to: a, distance_m: 1, sigma_m: 0.001}]\n" + sensor_),
               HasSubstr("field 'scale_bars[0].to': found 'a', expected a point other than 'from'"));
   EXPECT_THAT(Error("frame: cartesian\nscale_bars: [{from: a, to: b, distance_m: 1, sigma_m: 5}]\n" + sensor_),

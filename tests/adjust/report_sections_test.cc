@@ -2,7 +2,8 @@
 // the project folder and file, every adjusted point with σ and ellipse, the relative precision
 // of neighbouring points, the observations with redundancy and studentized residual, and the
 // settings in force; the page renders them without an error. On DBAT's camcaldemo (a
-// photo_measurements block) and on a total-station network in EPSG:25832.
+// photo_measurements block whose points the adjustment eliminates) and on a total-station
+// network in EPSG:25832.
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -82,6 +83,22 @@ TEST(AdjustReportSections, CamcaldemoWritesThePointsObservationsAndSettings) {
   ExpectPointShapes(points);
   EXPECT_EQ(points[0]["role"], "tie");
   EXPECT_EQ(report["points_file"], "c4040z_points.csv");
+  // Relative precision of the points the adjustment eliminated (Schur complement): their
+  // covariance through the back-substitution gain. |Cov(x_i, x_j)| <= σ_i σ_j (Cauchy–Schwarz),
+  // so σ of a difference lies within |σ_i − σ_j| and σ_i + σ_j per axis.
+  std::map<std::string, json> by_id;
+  for (const json& p : points) by_id[p["id"].get<std::string>()] = p["sigma"];
+  const json& relative = report["relative_precision"];
+  ASSERT_GE(relative.size(), 96u) << relative.size();
+  for (const json& r : relative) {
+    const json& si = by_id.at(r["from"].get<std::string>());
+    const json& sj = by_id.at(r["to"].get<std::string>());
+    for (int k = 0; k < 3; ++k) {
+      const double a = si[k].get<double>(), b = sj[k].get<double>(), d = r["sigma"][k].get<double>();
+      EXPECT_LE(d, (a + b) * (1 + 1e-9)) << r.dump();
+      EXPECT_GE(d, std::abs(a - b) * (1 - 1e-9)) << r.dump();
+    }
+  }
   // Every row of observations.csv counted; 300 listed, by decreasing |w|.
   const json& obs = report["observations"];
   EXPECT_EQ(obs["file"], "observations.csv");
@@ -93,7 +110,7 @@ TEST(AdjustReportSections, CamcaldemoWritesThePointsObservationsAndSettings) {
   EXPECT_EQ(settings["variance_components"], false);
   EXPECT_EQ(settings["max_iterations"], 100);
   EXPECT_DOUBLE_EQ(settings["confidence"].get<double>(), 0.95);
-  ExpectSections(report, {"points", "observations", "settings", "images"});
+  ExpectSections(report, {"points", "relative", "observations", "settings", "images"});
   // The project file is shown relative to the project folder.
   const std::string html = ReadText(out / "report.html");
   EXPECT_NE(html.find("<tr><th>Project file</th><td><code>project.yaml</code></td></tr>"), std::string::npos);

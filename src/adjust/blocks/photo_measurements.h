@@ -52,6 +52,10 @@ struct MeasurementBlock {
   /// Covariance (m², scaled by σ0) of each point the statistics eliminate, in the block's
   /// datum (photo_measurements_datum.cc); the other points' is in the statistics.
   std::map<Point3DId, Eigen::Matrix3d> point_covariance;
+  /// With the control as the datum: each eliminated point's x = L·(parameters at `columns` of
+  /// the statistics) + its own part, so that Cov(x_i, x_j) = σ0² L_i Q(cols_i, cols_j) L_jᵀ
+  /// (report.json relative_precision); empty with an S-transformed datum.
+  std::map<Point3DId, std::pair<std::vector<int>, Eigen::MatrixXd>> point_gain;
 };
 
 /// The image measurements of the sensor's gcp_list (blocks/photo_measurements_gcp.cc), each

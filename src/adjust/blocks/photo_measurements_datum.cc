@@ -319,8 +319,10 @@ void TransformPhotoMeasurementCovariance(JointState* s, stats::NetworkStatistics
     if (eliminated.count(x) && blocks.count(x)) folded[id] = Eliminate(problem, *st, x, blocks.at(x));
   }
   b.point_covariance.clear();
+  b.point_gain.clear();
   if (!b.gauge_needed) {
     for (const auto& [id, e] : folded) b.point_covariance[id] = scale2 * (e.d + e.l * c(e.cols, e.cols) * e.l.transpose());
+    for (const auto& [id, e] : folded) b.point_gain[id] = {e.cols, e.l};
     return;
   }
   const ExtendedColumns extended = Extend(*s, *st);
