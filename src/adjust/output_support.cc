@@ -26,7 +26,7 @@ Eigen::Matrix3d CentreCovariance(const stats::NetworkStatistics& st, const Rigid
   }
   const Eigen::Matrix3d rt = cam_from_world.rotation.toRotationMatrix().transpose();
   Eigen::Matrix<double, 3, 6> j;
-  j << -rt * Skew(cam_from_world.translation), -rt;
+  j << -kRotationPerTangent * rt * Skew(cam_from_world.translation), -rt;
   return j * c * j.transpose();
 }
 
@@ -73,7 +73,7 @@ Eigen::Matrix<double, 6, 6> ComposedPoseCovariance(const stats::NetworkStatistic
     Rigid3d pa = a, pb = b;
     Eigen::Vector3d d = Eigen::Vector3d::Zero();
     d[k % 3] = h;
-    const Eigen::Quaterniond turn(Eigen::AngleAxisd(d.norm(), d.normalized()));
+    const Eigen::Quaterniond turn(Eigen::AngleAxisd(kRotationPerTangent * d.norm(), d.normalized()));
     if (k < 3) pa.rotation = turn * a.rotation;
     else if (k < 6) pa.translation += d;
     else if (k < 9) pb.rotation = turn * b.rotation;

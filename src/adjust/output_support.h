@@ -29,8 +29,13 @@ nlohmann::json Vec(const Eigen::Vector3d& v);
 /// `v`, or 0 when it is not finite (JSON has no NaN).
 inline double Num(double v) { return std::isfinite(v) ? v : 0.0; }
 
-/// Covariance of a camera centre c = −Rᵀt from the pose blocks' covariance (rotation on
-/// Ceres' EigenQuaternionManifold: R ⊞ δ = Exp(δ)·R, so ∂c/∂δ = −Rᵀ[t]×, ∂c/∂t = −Rᵀ).
+/// Ceres' EigenQuaternionManifold turns a rotation by twice its tangent vector: R ⊞ δ =
+/// Exp(2δ)·R (the quaternion [cos|δ|, sin|δ| δ/|δ|]; Ceres' manifold tests say so). The
+/// rotation vector's covariance is therefore 4 C_δ; kRotationPerTangent is that factor 2.
+constexpr double kRotationPerTangent = 2.0;
+
+/// Covariance of a camera centre c = −Rᵀt from the pose blocks' covariance (R ⊞ δ =
+/// Exp(2δ)·R, so ∂c/∂δ = −2Rᵀ[t]×, ∂c/∂t = −Rᵀ).
 Eigen::Matrix3d CentreCovariance(const stats::NetworkStatistics& st, const Rigid3d& cam_from_world);
 /// σ of each ambient parameter of `block` (its covariance in the tangent space mapped through
 /// the manifold's Plus Jacobian: a SubsetManifold's constant entries get 0).
@@ -40,7 +45,7 @@ std::vector<double> ParameterSigmas(const stats::NetworkStatistics& st, const ce
 Eigen::Matrix3d PointCovariance3(const stats::NetworkStatistics& st, const double* p);
 /// Covariance of (rotation vector, translation) of the composed pose a·b (e.g. cam_from_lidar =
 /// cam_from_rig · rig_from_lidar) from the blocks' joint covariance, by numerical first-order
-/// propagation (rotation perturbations as on Ceres' quaternion manifold: Exp(δ)·R).
+/// propagation (rotation perturbations as on Ceres' quaternion manifold: Exp(2δ)·R).
 Eigen::Matrix<double, 6, 6> ComposedPoseCovariance(const stats::NetworkStatistics& st, const Rigid3d& a,
                                                    const Rigid3d& b);
 /// Rotation error (deg) and translation error (m) of an estimated pose against the truth.

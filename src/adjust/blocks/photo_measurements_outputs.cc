@@ -62,7 +62,9 @@ json Images(const JointState& s, std::ostringstream* csv) {
     const Eigen::Vector3d sigma = CentreCovariance(s.statistics, pose).diagonal().cwiseMax(0.0).cwiseSqrt();
     Eigen::Vector3d sigma_rotation = Eigen::Vector3d::Zero();  // about the camera axes, deg
     const double* q = pose.rotation.coeffs().data();
-    for (int k = 0; k < 3; ++k) sigma_rotation[k] = std::sqrt(std::max(0.0, s.statistics.Covariance(q, k, q, k))) * kDeg;
+    for (int k = 0; k < 3; ++k) {
+      sigma_rotation[k] = kRotationPerTangent * std::sqrt(std::max(0.0, s.statistics.Covariance(q, k, q, k))) * kDeg;
+    }
     const auto it = residuals.find(id);
     const size_t n = it == residuals.end() ? 0 : it->second.count;
     const double rms = n ? std::sqrt(it->second.sum_squares_px / (2.0 * n)) : 0.0;

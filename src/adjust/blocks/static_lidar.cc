@@ -120,7 +120,7 @@ void WriteScanOutputs(const JointState& s, OutputSink* out) {
     if (st.IsFree(q)) {
       for (int a = 0; a < 3; ++a) rotation_variance += st.Covariance(q, a, q, a);
     }
-    const double sigma_rotation = std::sqrt(std::max(0.0, rotation_variance)) * kDeg;  // of the rotation vector
+    const double sigma_rotation = kRotationPerTangent * std::sqrt(std::max(0.0, rotation_variance)) * kDeg;  // of the rotation vector
     const double dp = (centre - CameraCentre(s.scans[k].prior)).norm();
     const double dr = pose.rotation.angularDistance(s.scans[k].prior.rotation) * kDeg;
     csv << s.scans[k].name << "," << centre.x() << "," << centre.y() << "," << centre.z() << "," << pose.rotation.w()
