@@ -1,5 +1,7 @@
 #include "mmba/factors/reprojection_error.h"
 
+#include <algorithm>
+#include <cmath>
 #include <memory>
 #include <vector>
 
@@ -80,6 +82,57 @@ TEST(ReprojectionError, GradientCheckPhotogrammetric) {
   ceres::GradientChecker::ProbeResults results;
   const double* blocks[4] = {q.coeffs().data(), t, x, params};
   EXPECT_TRUE(checker.Probe(blocks, 1e-6, &results)) << results.error_log;
+}
+
+/// The chain-rule cost (Create) against autodiff of the functor over all parameters
+/// (CreateAutoDiff): the same residual and Jacobians, with the camera's Jacobian requested and
+/// without it (a held camera).
+template <typename Model>
+void ExpectChainRuleEqualsAutoDiff(const double* params) {
+  const Eigen::Vector2d observed(300, 200);
+  std::unique_ptr<ceres::CostFunction> chained(ReprojectionError<Model>::Create(observed, 1.5));
+  std::unique_ptr<ceres::CostFunction> autodiff(ReprojectionError<Model>::CreateAutoDiff(observed, 1.5));
+  // Not of unit norm: the functor rotates by Eigen's formula, the chain rule must follow it.
+  const double q[4] = {0.05, -0.1, 0.02, 0.99}, t[3] = {0.3, -0.2, 1.0}, x[3] = {0.5, 0.7, 6.0};
+  const double* blocks[4] = {q, t, x, params};
+  const int n = Model::kNumParams;
+  for (bool with_camera : {true, false}) {
+    std::vector<std::vector<double>> ja{std::vector<double>(8), std::vector<double>(6), std::vector<double>(6),
+                                        std::vector<double>(2 * n)};
+    std::vector<std::vector<double>> jb = ja;
+    double* pa[4] = {ja[0].data(), ja[1].data(), ja[2].data(), with_camera ? ja[3].data() : nullptr};
+    double* pb[4] = {jb[0].data(), jb[1].data(), jb[2].data(), with_camera ? jb[3].data() : nullptr};
+    double ra[2], rb[2];
+    ASSERT_TRUE(chained->Evaluate(blocks, ra, pa));
+    ASSERT_TRUE(autodiff->Evaluate(blocks, rb, pb));
+    for (int i = 0; i < 2; ++i) EXPECT_NEAR(ra[i], rb[i], 1e-12 * std::max(1.0, std::abs(rb[i]))) << Model::kName;
+    for (int b = 0; b < (with_camera ? 4 : 3); ++b) {
+      for (size_t k = 0; k < ja[b].size(); ++k) {
+        EXPECT_NEAR(ja[b][k], jb[b][k], 1e-9 * std::max(1.0, std::abs(jb[b][k])))
+            << Model::kName << " block " << b << " entry " << k;
+      }
+    }
+  }
+}
+
+TEST(ReprojectionError, ChainRuleEqualsAutoDiffForEveryPerspectiveModel) {
+  const double generic[12] = {500, 510, 320, 240, -0.05, 0.01, 0.001, -0.002, 0.001, 0.0005, 0.0002, -0.0001};
+  const double one_focal[5] = {500, 320, 240, -0.05, 0.01};  // f, cx, cy, k1, k2
+  ExpectChainRuleEqualsAutoDiff<sensors::SimplePinholeModel>(one_focal);
+  ExpectChainRuleEqualsAutoDiff<sensors::PinholeModel>(generic);
+  ExpectChainRuleEqualsAutoDiff<sensors::SimpleRadialModel>(one_focal);
+  ExpectChainRuleEqualsAutoDiff<sensors::RadialModel>(one_focal);
+  ExpectChainRuleEqualsAutoDiff<OpenCVModel>(generic);
+  ExpectChainRuleEqualsAutoDiff<sensors::OpenCVFisheyeModel>(generic);
+  ExpectChainRuleEqualsAutoDiff<sensors::FullOpenCVModel>(generic);
+  const double fov[5] = {500, 510, 320, 240, 0.3};
+  ExpectChainRuleEqualsAutoDiff<sensors::FOVModel>(fov);
+  ExpectChainRuleEqualsAutoDiff<sensors::SimpleRadialFisheyeModel>(one_focal);
+  ExpectChainRuleEqualsAutoDiff<sensors::RadialFisheyeModel>(one_focal);
+  ExpectChainRuleEqualsAutoDiff<sensors::ThinPrismFisheyeModel>(generic);
+  const double photogrammetric[12] = {7.457, 3.615, 2.613, 3e-3, -1e-4, 2e-6, 1e-4, -2e-4, 1e-4, 0.0,
+                                      0.0031913, 0.0031913};
+  ExpectChainRuleEqualsAutoDiff<PhotogrammetricModel>(photogrammetric);
 }
 
 TEST(SphericalReprojectionError, ZeroAtTheTruthAndAnAngleOnTheSphere) {

@@ -16,6 +16,7 @@
 #include <ceres/autodiff_cost_function.h>
 #include <ceres/rotation.h>
 
+#include "mmba/factors/perspective_reprojection_cost.h"
 #include "mmba/sensors/camera.h"
 #include "mmba/sensors/camera_models.h"
 
@@ -30,9 +31,15 @@ class ReprojectionError {
         observed_y_(observed_xy.y()),
         inv_sigma_(1.0 / sigma_px) {}
 
+  /// The residual with its Jacobian by the chain rule (perspective_reprojection_cost.h).
   static ceres::CostFunction* Create(const Eigen::Vector2d& observed_xy, double sigma_px) {
-    return new ceres::AutoDiffCostFunction<ReprojectionError, 2, 4, 3, 3,
-                                           CameraModel::kNumParams>(
+    return new PerspectiveReprojectionCost<CameraModel>(observed_xy, sigma_px);
+  }
+
+  /// The same residual differentiated by one Jet over all parameters (the reference of the
+  /// chain rule in tests).
+  static ceres::CostFunction* CreateAutoDiff(const Eigen::Vector2d& observed_xy, double sigma_px) {
+    return new ceres::AutoDiffCostFunction<ReprojectionError, 2, 4, 3, 3, CameraModel::kNumParams>(
         new ReprojectionError(observed_xy, sigma_px));
   }
 
