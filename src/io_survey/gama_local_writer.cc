@@ -5,6 +5,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "mmba/core/xml_escape.h"
+
 namespace mmba::io {
 namespace {
 
@@ -18,20 +20,6 @@ std::string Num(const char* format, double v) {
   char buffer[64];
   std::snprintf(buffer, sizeof(buffer), format, v);
   return buffer;
-}
-
-std::string Escape(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
 }
 
 /// The gama-local element of a standpoint observation.
@@ -62,7 +50,7 @@ std::string Codes(const survey::SurveyPoint& p) {
 }
 
 void WritePoint(const survey::SurveyNetwork& net, const survey::SurveyPoint& p, std::ostream& out) {
-  out << "<point id=\"" << Escape(p.id) << "\"";
+  out << "<point id=\"" << XmlEscape(p.id) << "\"";
   if (p.has_xy) {
     const Eigen::Vector2d xy = net.axes.XyFromEn(p.coords.head<2>());
     out << " x=\"" << Num("%.6f", xy.x()) << "\" y=\"" << Num("%.6f", xy.y()) << "\"";
@@ -77,9 +65,9 @@ void WriteObservation(const survey::SurveyNetwork& net, const survey::Observatio
   const double sign = net.angles_left_handed ? 1.0 : -1.0;
   out << "  <" << ElementName(o.kind);
   if (o.kind == ObsKind::kAngle) {
-    out << " bs=\"" << Escape(o.to) << "\" fs=\"" << Escape(o.fs) << "\"";
+    out << " bs=\"" << XmlEscape(o.to) << "\" fs=\"" << XmlEscape(o.fs) << "\"";
   } else {
-    out << " to=\"" << Escape(o.to) << "\"";
+    out << " to=\"" << XmlEscape(o.to) << "\"";
   }
   if (angle) {
     double gon = sign * o.value * kRadToGon;
@@ -107,7 +95,7 @@ std::string GamaLocalText(const survey::SurveyNetwork& net) {
       << "<gama-local xmlns=\"http://www.gnu.org/software/gama/gama-local\">\n"
       << "<network axes-xy=\"" << net.axes.code << "\""
       << (net.angles_left_handed ? "" : " angles=\"right-handed\"") << ">\n"
-      << "<description>" << Escape(net.description) << "</description>\n"
+      << "<description>" << XmlEscape(net.description) << "</description>\n"
       << "<parameters sigma-apr=\"" << Num("%.6g", net.sigma0_apriori) << "\" conf-pr=\""
       << Num("%.6g", net.confidence) << "\" tol-abs=\"" << Num("%.6g", net.tol_abs_mm) << "\""
       << (net.sigma_act_apriori ? " sigma-act=\"apriori\"" : "")
@@ -119,7 +107,7 @@ std::string GamaLocalText(const survey::SurveyNetwork& net) {
       throw std::invalid_argument("GamaLocalText: only uncorrelated standpoint clusters are written");
     }
     const double from_dh = c.observations.empty() ? 0.0 : c.observations.front().from_dh;
-    out << "<obs from=\"" << Escape(c.station) << "\"";
+    out << "<obs from=\"" << XmlEscape(c.station) << "\"";
     if (from_dh != 0) out << " from_dh=\"" << Num("%.6f", from_dh) << "\"";
     out << ">\n";
     for (const survey::Observation& o : c.observations) WriteObservation(net, o, from_dh, out);

@@ -112,7 +112,9 @@ struct Reader {
   void CodeBlock(int line, const std::vector<GsiWord>& words);
   void StationRecord(int line, const std::vector<GsiWord>& words, const std::string& id);
   void Measurement(int line, const std::vector<GsiWord>& words, const std::string& id);
-  void Coordinates(int line, const std::vector<GsiWord>& words, const std::string& id);
+  /// The coordinates in words easting_wi, +1, +2 (81-83 of a coordinate record, 84-86 of a
+  /// station record) as a known point, when the record has any.
+  void Coordinates(int line, const std::vector<GsiWord>& words, const std::string& id, int easting_wi);
   void Line(int line, const std::vector<GsiWord>& words);
 };
 
@@ -161,23 +163,7 @@ void Reader::StationRecord(int line, const std::vector<GsiWord>& words, const st
     setup.instrument_height_m = Length(line, *h);
     setup.has_instrument_height = true;
   }
-  survey::KnownPoint p;
-  p.id = id;
-  p.file = file;
-  p.line = line;
-  const GsiWord* e = FindWord(words, 84);
-  const GsiWord* n = FindWord(words, 85);
-  const GsiWord* z = FindWord(words, 86);
-  if (e && n && !e->Missing() && !n->Missing()) {
-    p.en_h.x() = Length(line, *e);
-    p.en_h.y() = Length(line, *n);
-    p.has_xy = true;
-  }
-  if (z && !z->Missing()) {
-    p.en_h.z() = Length(line, *z);
-    p.has_z = true;
-  }
-  if (p.has_xy || p.has_z) book.points.push_back(p);
+  Coordinates(line, words, id, 84);
   default_reflector_m.reset();
   book.setups.push_back(std::move(setup));
 }
@@ -238,17 +224,18 @@ void Reader::Measurement(int line, const std::vector<GsiWord>& words, const std:
   setup.observations.push_back(std::move(o));
 }
 
-void Reader::Coordinates(int line, const std::vector<GsiWord>& words, const std::string& id) {
+void Reader::Coordinates(int line, const std::vector<GsiWord>& words, const std::string& id, int easting_wi) {
   survey::KnownPoint p;
   p.id = id;
   p.file = file;
   p.line = line;
-  const GsiWord* e = FindWord(words, 81);
-  const GsiWord* n = FindWord(words, 82);
-  const GsiWord* z = FindWord(words, 83);
+  const GsiWord* e = FindWord(words, easting_wi);
+  const GsiWord* n = FindWord(words, easting_wi + 1);
+  const GsiWord* z = FindWord(words, easting_wi + 2);
   if ((e == nullptr) != (n == nullptr)) {
-    throw InputError(file, line, e ? "WI 82" : "WI 81", "missing",
-                     "both easting (81) and northing (82), or neither");
+    throw InputError(file, line, "WI " + std::to_string(e ? easting_wi + 1 : easting_wi), "missing",
+                     "both easting (" + std::to_string(easting_wi) + ") and northing (" +
+                         std::to_string(easting_wi + 1) + "), or neither");
   }
   if (e && !e->Missing() && !n->Missing()) {
     p.en_h.x() = Length(line, *e);
@@ -288,7 +275,7 @@ void Reader::Line(int line, const std::vector<GsiWord>& words) {
   } else if (station) {
     StationRecord(line, words, id);
   } else {
-    Coordinates(line, words, id);
+    Coordinates(line, words, id, 81);
   }
 }
 

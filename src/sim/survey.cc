@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "mmba/core/atomic_file.h"
+#include "mmba/core/xml_escape.h"
 #include "mmba/sim/simulate.h"
 #include "sim/random_internal.h"
 
@@ -17,20 +18,6 @@ double Wrap400(double gon) {
   double g = std::fmod(gon, 400.0);
   if (g < 0) g += 400.0;
   return g;
-}
-
-std::string XmlEscape(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -132,6 +133,21 @@ TEST(Gsi, BrokenFilesNameFileLineAndWord) {
   ExpectFails("bad_dms.gsi", "2:", "minutes and seconds below 60");
   ExpectFails("bad_digits.gsi", "2:", "digits of an angle");
   EXPECT_THROW(ParseGsi("\n! comment only\n", "empty.gsi"), InputError);
+  // An easting without its northing, in a station record (84/85) and a coordinate record (81/82).
+  for (const auto& [text, word] :
+       {std::pair<std::string, std::string>{"*110001+000000000000ST01 84..10+0000000000100000 "
+                                            "86..10+0000000000010000\n",
+                                            "WI 85"},
+        {"*110001+000000000000ST01 88..10+0000000000001620\n*110004+00000000000000K1 82..10-0000000000654321\n",
+         "WI 81"}}) {
+    try {
+      ParseGsi(text, "half.gsi");
+      ADD_FAILURE() << text;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("or neither"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(Gsi, RealNetworkFile) {
