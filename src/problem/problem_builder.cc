@@ -20,7 +20,22 @@ FactorGroup& ProblemBuilder::AddGroup(std::unique_ptr<FactorGroup> group) {
 
 ceres::Problem& ProblemBuilder::Build() {
   if (problem_) return *problem_;  // built already: the groups' blocks exist once
-  // Check the gauge before any work.
+  CheckGauge();
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+  problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;
+  problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  problem_ = std::make_unique<ceres::Problem>(problem_options);
+  for (auto& group : groups_) group->AddResiduals(*scene_, *problem_);
+
+  ApplyParameterOptions();
+  ApplyGauge();
+
+  BuildOrdering();
+  return *problem_;
+}
+
+void ProblemBuilder::CheckGauge() {
   const bool datum_fixed_by_groups =
       std::any_of(groups_.begin(), groups_.end(),
                   [](const auto& group) { return group->FixesDatum(); });
@@ -63,16 +78,9 @@ ceres::Problem& ProblemBuilder::Build() {
     }
   }
 
-  ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::TAKE_OWNERSHIP;
-  problem_options.manifold_ownership = ceres::TAKE_OWNERSHIP;
-  problem_options.cost_function_ownership = ceres::TAKE_OWNERSHIP;
-  problem_ = std::make_unique<ceres::Problem>(problem_options);
-  for (auto& group : groups_) group->AddResiduals(*scene_, *problem_);
+}
 
-  ApplyParameterOptions();
-  ApplyGauge();
-
+void ProblemBuilder::BuildOrdering() {
   ordering_ = std::make_shared<ceres::ParameterBlockOrdering>();
   // Group 0 must be an independent set: a point that shares a residual block with another
   // point (a measured distance, a scale bar) goes with the other blocks.
@@ -98,7 +106,6 @@ ceres::Problem& ProblemBuilder::Build() {
   for (double* block : blocks) {
     if (!ordering_->IsMember(block)) ordering_->AddElementToGroup(block, 1);
   }
-  return *problem_;
 }
 
 void ProblemBuilder::ApplyParameterOptions() {

@@ -92,6 +92,12 @@ class ProblemBuilder {
   const std::string& gauge_description() const { return gauge_description_; }
 
  private:
+  /// Checks the gauge options against the groups and the scene (InputError) and, for a
+  /// two-pose gauge, moves the scene into the first camera's frame.
+  void CheckGauge();
+  /// Points in elimination group 0 unless a residual ties them to another point (a distance,
+  /// a scale bar): group 0 must be an independent set; every other block in group 1.
+  void BuildOrdering();
   void ApplyParameterOptions();
   void ApplyIntrinsics();
   void ApplyImagesAndPoints();
