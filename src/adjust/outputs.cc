@@ -12,6 +12,7 @@
 #include <Eigen/Geometry>
 
 #include "blocks/blocks.h"
+#include "blocks/photo_measurements.h"
 #include "geojson_output.h"
 #include "internal.h"
 #include "las_output.h"
@@ -187,9 +188,7 @@ void WriteSurveyPoints(const JointState& s, const fs::path& stage) {
   const Project& project = *s.project;
   const stats::NetworkStatistics& st = s.statistics;
   std::ostringstream points;
-  points << "# mmba adjust: surveyed points in the world (local ENU at the project origin); sigma and ellipse "
-            "(1 sigma, azimuth from north) from the joint adjustment\n"
-            "id,role,east_m,north_m,up_m,sigma_east_m,sigma_north_m,sigma_up_m,ellipse_a_m,ellipse_b_m,"
+  points << "id,role,east_m,north_m,up_m,sigma_east_m,sigma_north_m,sigma_up_m,ellipse_a_m,ellipse_b_m,"
             "ellipse_azimuth_deg,latitude_deg,longitude_deg,height_m,utm_zone,utm_easting_m,utm_northing_m"
          << (project.crs ? CrsColumns(*project.crs) : "") << "\n";
   const std::optional<geodesy::CrsFrame> crs = ProjectCrsFrame(project);
@@ -215,8 +214,7 @@ void WriteObservations(const JointState& s, const fs::path& stage) {
   const stats::NetworkStatistics& st = s.statistics;
   const auto& builder_groups = s.builder->groups();
   std::ostringstream obs;
-  obs << "# mmba adjust: every residual row; residual = adjusted - observed in the group's unit; w = studentized\n"
-         "group,block,row,residual,whitened,sigma,redundancy,studentized,critical\n";
+  obs << "group,block,row,residual,whitened,sigma,redundancy,studentized,critical\n";
   for (const stats::RowStatistic& r : st.rows) {
     obs << '"' << builder_groups[r.group]->name() << "\"," << r.block << "," << r.row << "," << std::setprecision(6)
         << r.residual << "," << r.whitened << "," << r.sigma << "," << r.redundancy << "," << r.studentized << ","
@@ -229,8 +227,14 @@ void WriteObservations(const JointState& s, const fs::path& stage) {
 json ListFiles(const JointState& s) {
   json files = json::array({json{{"name", "report.html"}, {"description", "this report"}},
                             json{{"name", "report.json"}, {"description", "the report's data"}},
-                            json{{"name", "poses.csv"}, {"description", "camera poses: local ENU, WGS84, UTM, sigma"}},
-                            json{{"name", "observations.csv"}, {"description", "every residual with redundancy and studentized residual"}}});
+                            json{{"name", "poses.csv"},
+                                 {"description", "camera poses: the camera centre in the world (local ENU at the project "
+                                                 "origin), WGS84 and UTM, q = cam_from_world (w, x, y, z), sigma of the "
+                                                 "centre from the adjustment (scaled by sigma0), the corrections"}},
+                            json{{"name", "observations.csv"},
+                                 {"description", "every residual row: residual = adjusted - observed in the group's unit, "
+                                                 "whitened, sigma, redundancy number, studentized residual w, critical = 1 "
+                                                 "where |w| exceeds the data-snooping limit"}}});
   if (s.rig) {
     files.push_back({{"name", "calibration/" + s.rig->config->id + "_rig.yaml"},
                      {"description", "rig calibration (cam_from_rig, intrinsics) with sigma"}});
@@ -242,13 +246,34 @@ json ListFiles(const JointState& s) {
   if (s.mobile) {
     const std::string id = s.mobile->config->id;
     files.push_back({{"name", "calibration/" + id + "_camera_lidar.yaml"}, {"description", "camera-LiDAR extrinsic with sigma"}});
-    files.push_back({{"name", id + "_trajectory.csv"}, {"description", "trajectory corrections at the nodes with sigma"}});
+    files.push_back({{"name", id + "_trajectory.csv"}, {"description", "corrections of the GNSS/INS trajectory at the nodes (linear in between): world_from_body = (Exp(omega) R_ins, p_ins + delta), with sigma, the corrected position in the world and what observes each node"}});
     files.push_back({{"name", id + "_corrected.ply"}, {"description", "the mobile cloud re-georeferenced (corrected trajectory and extrinsic), coloured from the adjusted rig images and photos where seen (grey: not seen)"}});
     files.push_back({{"name", "error_map_" + id + ".ply"}, {"description", "mobile points used, intensity = signed distance to the static surface (m)"}});
     files.push_back(LasFileEntry(s, id + "_corrected.ply", "the corrected mobile cloud"));
     files.push_back(LasFileEntry(s, "error_map_" + id + ".ply", "mobile points used, extra field distance_m = signed distance to the static surface (m)"));
   }
-  if (s.joint) files.push_back({{"name", "points.csv"}, {"description", "surveyed points with sigma and error ellipses"}});
+  if (s.joint) {
+    files.push_back({{"name", "points.csv"},
+                     {"description", "surveyed points in the world (local ENU at the project origin), WGS84 and UTM, "
+                                     "sigma and the 1-sigma error ellipse (azimuth from north) from the joint adjustment"}});
+  }
+  if (s.measured) {
+    const std::string id = s.measured->config->id;
+    files.push_back({{"name", id + "_images.csv"},
+                     {"description", "exterior orientation of the photo measurements' images: centre in the world, "
+                                     "q = cam_from_world (w, x, y, z), sigma (scaled by sigma0), observations and rms_px "
+                                     "per coordinate"}});
+    files.push_back({{"name", id + "_points.csv"},
+                     {"description", "points of the photo measurements in the world: sigma (scaled by sigma0; 0 when "
+                                     "held), a95 >= b95 >= c95 the semi-axes of the 95 % confidence ellipsoid, rays"}});
+    files.push_back({{"name", "calibration/" + id + "_camera.yaml"}, {"description", "camera calibration with sigma"}});
+  }
+  if (!s.scans.empty()) {
+    files.push_back({{"name", "scans.csv"},
+                     {"description", "static scans, world_from_scan: scanner position in the world (local ENU), "
+                                     "q = scan_from_world (w, x, y, z), sigma, the correction of the registration given "
+                                     "in the project"}});
+  }
   if (s.photos) {
     files.push_back({{"name", "colmap/" + s.photos->config->id}, {"description", "adjusted COLMAP model (text)"}});
     files.push_back({{"name", "calibration/" + s.photos->config->id + "_camera.yaml"}, {"description", "camera calibration with sigma"}});
@@ -256,7 +281,6 @@ json ListFiles(const JointState& s) {
     files.push_back(LasFileEntry(s, "tie_points.ply", "the tie points"));
     if (!s.planes.empty()) files.push_back({{"name", "error_map_lidar.ply"}, {"description", "tie points, intensity = signed distance to the LiDAR surface (m)"}});
     if (!s.planes.empty()) files.push_back(LasFileEntry(s, "error_map_lidar.ply", "tie points, extra field distance_m = signed distance to the LiDAR surface (m)"));
-    if (!s.scans.empty()) files.push_back({{"name", "scans.csv"}, {"description", "adjusted static scans: world_from_scan with sigma and the correction of the registration"}});
   }
   return files;
 }
@@ -399,7 +423,7 @@ std::string Summary(const JointState& s, const json& report, const std::vector<S
 }
 
 
-/// poses.csv `text` (a # line, the header, rows whose columns 3–5 are the centre in the world)
+/// poses.csv `text` (the header, rows whose columns 3–5 are the centre in the world)
 /// with the project CRS's columns appended (output_support.h CrsColumns); unchanged without a CRS.
 std::string WithCrsColumns(const Project& project, const std::string& text) {
   const std::optional<geodesy::CrsFrame> crs = ProjectCrsFrame(project);
@@ -409,10 +433,6 @@ std::string WithCrsColumns(const Project& project, const std::string& text) {
   std::string line;
   for (int n = 0; std::getline(in, line); ++n) {
     if (n == 0) {
-      out << line << "\n";
-      continue;
-    }
-    if (n == 1) {
       out << line << CrsColumns(crs->crs()) << "\n";
       continue;
     }
@@ -431,9 +451,7 @@ std::string WithCrsColumns(const Project& project, const std::string& text) {
 /// and the static scans; poses.csv, pose corrections and calibrations into the report.
 void WriteSensorOutputs(JointState& s, const AdjustOptions& options, const fs::path& stage, json* report) {
   std::ostringstream poses;
-  poses << "# mmba adjust: camera poses; position = camera centre in the world (local ENU at the project origin), "
-           "q = cam_from_world (w, x, y, z); sigma from the adjustment's covariance (scaled by sigma0)\n"
-           "image,sensor,east_m,north_m,up_m,qw,qx,qy,qz,latitude_deg,longitude_deg,height_m,utm_zone,utm_easting_m,"
+  poses << "image,sensor,east_m,north_m,up_m,qw,qx,qy,qz,latitude_deg,longitude_deg,height_m,utm_zone,utm_easting_m,"
            "utm_northing_m,sigma_east_m,sigma_north_m,sigma_up_m,d_position_m,d_rotation_deg\n";
   OutputSink sink;
   sink.stage = stage;

@@ -41,7 +41,7 @@ fs::path Root() { return testing_support::ScratchRoot("mmba_gis_outputs"); }
 
 const geodesy::Geodetic kOrigin{49.7, 9.3, 180.0};
 
-/// A CSV file's rows by their first column (the header names the columns), # lines skipped.
+/// A CSV file's rows by their first column (the header, its first line, names the columns).
 std::map<std::string, std::map<std::string, std::string>> CsvRows(const fs::path& path) {
   std::ifstream in(path);
   std::vector<std::string> names;
@@ -313,6 +313,28 @@ TEST_F(GisOutputsTest, WithACrsTheLasIsInTheCrsAsPointsCsvAndAsPyprojConvertsIt)
     EXPECT_NEAR(Cell(row, "northing_epsg25832_m"), expected.y(), 1e-4) << id;
     EXPECT_NEAR(Cell(row, "height_epsg25832_m"), expected.z(), 1e-4) << id;
   }
+  // So are scans.csv's scanner positions (the trajectory's corrected positions go through the
+  // same CrsValues; this project has no mobile LiDAR); every CSV starts with its header, as a
+  // GIS or a spreadsheet reads it.
+  int scans = 0;
+  for (const auto& entry : fs::directory_iterator(out_dir)) {
+    if (entry.path().extension() != ".csv") continue;
+    std::ifstream in(entry.path());
+    std::string header;
+    std::getline(in, header);
+    EXPECT_FALSE(header.empty() || header[0] == '#') << entry.path() << ": " << header;
+    const std::string name = entry.path().filename().string();
+    if (name != "scans.csv") continue;
+    for (const auto& [id, row] : CsvRows(entry.path())) {
+      const Eigen::Vector3d expected =
+          frame.CrsFromWorld(Eigen::Vector3d(Cell(row, "east_m"), Cell(row, "north_m"), Cell(row, "up_m")));
+      EXPECT_NEAR(Cell(row, "easting_epsg25832_m"), expected.x(), 1e-4) << name << " " << id;
+      EXPECT_NEAR(Cell(row, "northing_epsg25832_m"), expected.y(), 1e-4) << name << " " << id;
+      EXPECT_NEAR(Cell(row, "height_epsg25832_m"), expected.z(), 1e-4) << name << " " << id;
+      ++scans;
+    }
+  }
+  EXPECT_GT(scans, 0);
   // ... and so are the LAS coordinates of the PLY's world points.
   const io::PointCloud ply = io::ReadPly((out_dir / "tie_points.ply").string());
   io::LasInfo info;

@@ -156,8 +156,7 @@ TEST(PhotoMeasurementsGcp, GcpListControlsTheBlockInItsProjection) {
   const std::string columns = ",easting_epsg32632_m,northing_epsg32632_m,height_epsg32632_m";
   EXPECT_NE(ReadText(dir / "out/drone_images.csv").find("rms_px" + columns + "\n"), std::string::npos);
   std::istringstream crs_points(ReadText(dir / "out/drone_points.csv"));
-  std::getline(crs_points, line);
-  std::getline(crs_points, line);
+  std::getline(crs_points, line);  // the header is the first line
   EXPECT_EQ(line.substr(line.size() - columns.size()), columns);
   int held = 0;
   while (std::getline(crs_points, line)) {

@@ -149,11 +149,11 @@ json WriteMobileTrajectory(const JointState& s, OutputSink* out, double* worst_c
   const std::vector<TrajectoryNode>& nodes = s.scene.trajectory_nodes();
   const stats::NetworkStatistics& st = s.statistics;
   // The trajectory corrections at the nodes, with σ.
+  const std::optional<geodesy::CrsFrame> crs = ProjectCrsFrame(*s.project);
   std::ostringstream trajectory;
-  trajectory << "# mmba adjust: corrections of the GNSS/INS trajectory of '" << m.config->id
-             << "' at the nodes (linear in between): world_from_body = (Exp(omega) R_ins, p_ins + delta)\n"
-                "time_s,omega_x_deg,omega_y_deg,omega_z_deg,delta_east_m,delta_north_m,delta_up_m,sigma_omega_deg,"
-                "sigma_delta_m,east_m,north_m,up_m,points,rig_frames\n";
+  trajectory << "time_s,omega_x_deg,omega_y_deg,omega_z_deg,delta_east_m,delta_north_m,delta_up_m,sigma_omega_deg,"
+                "sigma_delta_m,east_m,north_m,up_m,points,rig_frames"
+             << (crs ? CrsColumns(crs->crs()) : "") << "\n";
   // What observes each node: the mobile points on the static surface and the rig frames whose
   // time falls in the node's two intervals. A node with neither follows the GNSS/INS prior's
   // model alone (extrapolated from its neighbours).
@@ -180,7 +180,8 @@ json WriteMobileTrajectory(const JointState& s, OutputSink* out, double* worst_c
     for (int k = 0; k < 3; ++k) trajectory << "," << node.correction[3 + k];
     trajectory << "," << std::sqrt(std::max(0.0, var_omega)) * kDeg << "," << std::sqrt(std::max(0.0, var_delta))
                << std::setprecision(12) << "," << corrected.translation.x() << "," << corrected.translation.y() << ","
-               << corrected.translation.z() << "," << node_points[i] << "," << node_frames[i] << "\n";
+               << corrected.translation.z() << "," << node_points[i] << "," << node_frames[i]
+               << (crs ? CrsValues(*crs, corrected.translation) : "") << "\n";
     worst = std::max(worst, Eigen::Vector3d(node.correction[3], node.correction[4], node.correction[5]).norm());
   }
   WriteText(out->stage / (m.config->id + "_trajectory.csv"), trajectory.str());

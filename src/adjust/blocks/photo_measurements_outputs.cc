@@ -50,9 +50,7 @@ json Images(const JointState& s, std::ostringstream* csv) {
   const auto residuals = ResidualsByImage(s);
   const std::optional<geodesy::CrsFrame> crs = ProjectCrsFrame(*s.project);
   json images = json::array();
-  *csv << "# mmba adjust: exterior orientation of the photo measurements' images; centre in the world frame, "
-          "q = cam_from_world (w, x, y, z); sigma from the adjustment (scaled by sigma0); rms_px per coordinate\n"
-          "image,file,x_m,y_m,z_m,qw,qx,qy,qz,sigma_x_m,sigma_y_m,sigma_z_m,sigma_rx_deg,sigma_ry_deg,sigma_rz_deg,"
+  *csv << "image,file,x_m,y_m,z_m,qw,qx,qy,qz,sigma_x_m,sigma_y_m,sigma_z_m,sigma_rx_deg,sigma_ry_deg,sigma_rz_deg,"
           "observations,rms_px"
        << (crs ? CrsColumns(crs->crs()) : "") << "\n";
   for (size_t i = 0; i < b.image_names.size(); ++i) {
@@ -88,10 +86,7 @@ size_t Points(const JointState& s, std::ostringstream* csv) {
   std::set<Point3DId> weighted;
   for (const ControlCoordinate& c : b.control) weighted.insert(c.point);
   const std::optional<geodesy::CrsFrame> crs = ProjectCrsFrame(*s.project);
-  *csv << "# mmba adjust: points of the photo measurements in the world frame; sigma from the adjustment (scaled by "
-          "sigma0; 0 when held); a95 >= b95 >= c95 = "
-          "semi-axes of the 95 % confidence ellipsoid\n"
-          "point,kind,x_m,y_m,z_m,sigma_x_m,sigma_y_m,sigma_z_m,a95_m,b95_m,c95_m,rays"
+  *csv << "point,kind,x_m,y_m,z_m,sigma_x_m,sigma_y_m,sigma_z_m,a95_m,b95_m,c95_m,rays"
        << (crs ? CrsColumns(crs->crs()) : "") << "\n";
   for (const auto& [name, id] : b.point_of) {
     const Eigen::Vector3d& x = s.scene.Point(id);

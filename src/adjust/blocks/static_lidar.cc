@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -104,12 +105,12 @@ std::string DescribeStaticLidarObservation(const JointState& s, const std::strin
 
 void WriteScanOutputs(const JointState& s, OutputSink* out) {
   const stats::NetworkStatistics& st = s.statistics;
+  const std::optional<geodesy::CrsFrame> crs = ProjectCrsFrame(*s.project);
   std::ostringstream csv;
   csv << std::setprecision(12)
-      << "# mmba adjust: static scans, world_from_scan (scanner position in the world, local ENU; q = scan_from_world "
-         "w, x, y, z); sigma from the adjustment; corrections from the registration given in the project\n"
-         "scan,east_m,north_m,up_m,qw,qx,qy,qz,sigma_east_m,sigma_north_m,sigma_up_m,sigma_rotation_deg,"
-         "d_position_m,d_rotation_deg\n";
+      << "scan,east_m,north_m,up_m,qw,qx,qy,qz,sigma_east_m,sigma_north_m,sigma_up_m,sigma_rotation_deg,"
+         "d_position_m,d_rotation_deg"
+      << (crs ? CrsColumns(crs->crs()) : "") << "\n";
   json scans = json::array();
   for (size_t k = 0; k < s.scans.size(); ++k) {
     const Rigid3d& pose = s.scene.Scan(ScanId(k));
@@ -125,7 +126,8 @@ void WriteScanOutputs(const JointState& s, OutputSink* out) {
     const double dr = pose.rotation.angularDistance(s.scans[k].prior.rotation) * kDeg;
     csv << s.scans[k].name << "," << centre.x() << "," << centre.y() << "," << centre.z() << "," << pose.rotation.w()
         << "," << pose.rotation.x() << "," << pose.rotation.y() << "," << pose.rotation.z() << "," << sigma.x() << ","
-        << sigma.y() << "," << sigma.z() << "," << sigma_rotation << "," << dp << "," << dr << "\n";
+        << sigma.y() << "," << sigma.z() << "," << sigma_rotation << "," << dp << "," << dr
+        << (crs ? CrsValues(*crs, centre) : "") << "\n";
     // In the report's calibration tables: the scanner position and the rotation change.
     const Eigen::Vector3d registered = CameraCentre(s.scans[k].prior);
     json parameters = json::array();
