@@ -23,19 +23,23 @@ class Block {
     }
   }
 
-  /// Seeds by resection from the control when an image sees min_inliers control points.
+  /// Seeds by resection from the control: the images that see min_inliers control points or
+  /// more, the one seeing the most first, until one is oriented.
   bool SeedFromControl() {
-    std::string best;
-    size_t most = 0;
+    std::vector<std::pair<size_t, std::string>> candidates;  // (control points seen, image)
     for (const std::string& image : in_.images) {
       size_t n = 0;
       for (const Obs& o : by_image_[image]) n += in_.control.count(o.first);
-      if (n > most) most = n, best = image;
+      if (static_cast<int>(n) >= options_.resection.min_inliers) candidates.push_back({n, image});
     }
-    if (static_cast<int>(most) < options_.resection.min_inliers) return false;
+    std::stable_sort(candidates.begin(), candidates.end(),
+                     [](const auto& a, const auto& b) { return a.first > b.first; });
     out_.points = in_.control;
     out_.frame = "control";
-    return Orient(best);
+    for (const auto& [n, image] : candidates) {
+      if (Orient(image)) return true;
+    }
+    return false;
   }
 
   bool SeedFromPrior() {
@@ -80,7 +84,14 @@ class Block {
         const size_t n = KnownCount(image);
         if (n > most) most = n, best = image;
       }
-      if (best.empty() || static_cast<int>(most) < options_.resection.min_inliers) return;
+      if (best.empty() || static_cast<int>(most) < options_.resection.min_inliers) {
+        // Stuck: the points of two oriented rays (held back for a third while growing)
+        // may give the remaining images their points.
+        size_t added = 0;
+        for (const auto& [point, obs] : by_point_) added += TryIntersect(point, 2);
+        if (added == 0) return;
+        continue;
+      }
       Orient(best);
     }
   }

@@ -11,6 +11,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include <ceres/ceres.h>
 #include <spdlog/spdlog.h>
 
 #include "../output_support.h"
@@ -20,6 +21,7 @@
 #include "mmba/factors/distance_observation.h"
 #include "mmba/factors/reprojection_error.h"
 #include "mmba/geometry/opk.h"
+#include "mmba/geometry/pose_manifold.h"
 #include "mmba/io/column_text.h"
 #include "mmba/io/camera_yaml.h"
 #include "mmba/io/image_measurements.h"
@@ -149,12 +151,89 @@ std::map<std::string, Rigid3d> ReadPriorEo(const PhotoMeasurements& p) {
   return poses;
 }
 
+/// The start camera refined on an initial block: its poses and points free (control points
+/// held in a control frame, the first pose in an arbitrary one), the project's refine set
+/// free, a Cauchy loss of scale 4 px against wrongly placed rays. The nominal camera's
+/// distortion (DBAT's camcaldemo: 116 px at the corners) keeps images from the 8 px
+/// resection; with this camera a second initialisation reaches them.
+sensors::Camera RefineStartCamera(const sensors::Camera& camera, const orientation::BlockInput& input,
+                                  const orientation::BlockResult& block, const std::vector<int>& free) {
+  sensors::Camera refined = camera;
+  std::map<std::string, Rigid3d> poses = block.cam_from_world;
+  std::map<std::string, Eigen::Vector3d> points = block.points;
+  ceres::Problem problem;
+  for (const orientation::BlockMeasurement& m : input.measurements) {
+    const auto pose = poses.find(m.image_id);
+    const auto point = points.find(m.point_id);
+    if (pose == poses.end() || point == points.end()) continue;
+    problem.AddResidualBlock(factors::CreateReprojectionCost(refined.model_id, m.xy_px, 1.0, refined.params.data()),
+                             new ceres::CauchyLoss(4.0), pose->second.rotation.coeffs().data(),
+                             pose->second.translation.data(), point->second.data(), refined.params.data());
+  }
+  if (!problem.HasParameterBlock(refined.params.data())) return camera;
+  for (auto& [image, pose] : poses) {
+    if (problem.HasParameterBlock(pose.rotation.coeffs().data())) {
+      problem.SetManifold(pose.rotation.coeffs().data(), CreateQuaternionManifold().release());
+    }
+  }
+  const bool in_control_frame = block.frame.find("arbitrary") == std::string::npos;
+  for (auto& [id, xyz] : points) {
+    if (in_control_frame && input.control.count(id) && problem.HasParameterBlock(xyz.data())) {
+      problem.SetParameterBlockConstant(xyz.data());
+    }
+  }
+  if (!in_control_frame) {
+    Rigid3d& first = poses.begin()->second;
+    problem.SetParameterBlockConstant(first.rotation.coeffs().data());
+    problem.SetParameterBlockConstant(first.translation.data());
+  }
+  std::vector<int> held;
+  for (int k = 0; k < static_cast<int>(refined.params.size()); ++k) {
+    if (std::find(free.begin(), free.end(), k) == free.end()) held.push_back(k);
+  }
+  problem.SetManifold(refined.params.data(), new ceres::SubsetManifold(static_cast<int>(refined.params.size()), held));
+  ceres::Solver::Options options;
+  options.max_num_iterations = 50;
+  options.linear_solver_type = ceres::SPARSE_SCHUR;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  const bool finite = std::all_of(refined.params.begin(), refined.params.end(), [](double v) { return std::isfinite(v); });
+  return summary.IsSolutionUsable() && finite ? refined : camera;
+}
+
+/// The initial block; when the start camera leaves images unoriented or, with 3 or more
+/// control points, the block in an arbitrary frame, the block again with the camera refined
+/// on the first one (RefineStartCamera), kept when it orients more images or reaches the
+/// control frame. `camera` becomes the camera of the block kept.
+orientation::BlockResult InitialiseSelfCalibrating(orientation::BlockInput input, const std::vector<int>& free,
+                                                   sensors::Camera* camera) {
+  input.camera = camera;
+  orientation::BlockResult first = orientation::InitialiseBlock(input, orientation::BlockOptions{});
+  const auto arbitrary = [&](const orientation::BlockResult& r) {
+    return input.control.size() >= 3 && r.frame.find("arbitrary") != std::string::npos;
+  };
+  if ((first.failed_images.empty() && !arbitrary(first)) || free.empty() || first.cam_from_world.size() < 2) {
+    return first;
+  }
+  const sensors::Camera refined = RefineStartCamera(*camera, input, first, free);
+  input.camera = &refined;
+  orientation::BlockResult second = orientation::InitialiseBlock(input, orientation::BlockOptions{});
+  if (second.cam_from_world.size() < first.cam_from_world.size() ||
+      (second.cam_from_world.size() == first.cam_from_world.size() && arbitrary(second) >= arbitrary(first))) {
+    return first;
+  }
+  second.log.insert(second.log.begin(), "the start camera refined on a first block of " +
+                                            std::to_string(first.cam_from_world.size()) + " images (" + first.frame +
+                                            "); the block initialised again with it");
+  *camera = refined;
+  return second;
+}
+
 /// Runs the initialisation and logs it; AdjustFailure when no image could be oriented.
-void Initialise(JointState* s, const sensors::Camera& camera, const std::vector<io::ImageMeasurement>& all,
+void Initialise(JointState* s, sensors::Camera* camera, const std::vector<io::ImageMeasurement>& all,
                 const std::map<std::string, io::ControlPoint>& control) {
   MeasurementBlock& b = *s->measured;
   orientation::BlockInput input;
-  input.camera = &camera;
   std::set<std::string> seen;
   for (const io::ImageMeasurement& m : all) {
     if (seen.insert(m.image_id).second) input.images.push_back(m.image_id);
@@ -162,13 +241,15 @@ void Initialise(JointState* s, const sensors::Camera& camera, const std::vector<
   }
   for (const auto& [id, p] : control) input.control[id] = p.xyz_m;
   input.prior_cam_from_world = ReadPriorEo(*b.config);
-  b.initial = orientation::InitialiseBlock(input, orientation::BlockOptions{});
+  b.initial = InitialiseSelfCalibrating(input, b.config->free_intrinsics, camera);
   for (const std::string& line : b.initial.log) spdlog::debug("adjust: {}: {}", b.config->id, line);
   const std::string& id = b.config->id;
   Note(s, "photo measurements '" + id + "': " + std::to_string(b.initial.cam_from_world.size()) + " of " +
               std::to_string(input.images.size()) + " images oriented without COLMAP (" + b.initial.frame + "), " +
               std::to_string(b.initial.points.size()) + " points, " + std::to_string(b.initial.outliers.size()) +
-              " measurements off by more than the RANSAC threshold at the start (kept: the bundle's loss and data snooping judge them)");
+              " measurements off by more than the RANSAC threshold at the start (kept: the bundle's loss and data snooping judge them)" +
+              (b.initial.log.empty() || b.initial.log.front().rfind("the start camera", 0) != 0 ? ""
+                                                                                               : "; " + b.initial.log.front()));
   for (const orientation::InitialOutlier& o : b.initial.outliers) {
     spdlog::info("adjust: photo measurements '{}': point {} in image {} off by {:.1f} px at the initialisation ({})", id,
                  o.point_id, o.image_id, o.error_px, o.stage);
@@ -236,12 +317,12 @@ void LoadPhotoMeasurements(JointState* s) {
   }
   b.camera_id = camera.camera_id;
   b.initial_params = camera.params;
-  s->scene.AddCamera(camera);
   if (!p.images.empty()) b.image_files = io::ReadImageList(p.images);
   std::vector<io::ImageMeasurement> all = ReadMeasurements(p, camera);
   AppendGcpMeasurements(p, camera, b.image_files, &all);
   const std::map<std::string, io::ControlPoint> control = ReadControl(*s, &b.check_reference);
-  Initialise(s, camera, all, control);
+  Initialise(s, &camera, all, control);  // the camera refined when the start camera orients too few images
+  s->scene.AddCamera(camera);
   FillScene(s, camera, all);
   for (const auto& [id, c] : control) {
     const auto it = b.point_of.find(id);
