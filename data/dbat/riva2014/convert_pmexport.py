@@ -60,17 +60,24 @@ import json
 import math
 import os
 import sys
+import textwrap
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SMART_ID_OFFSET = 10000
 
 NETS = [
-    # folder, export, control file, control sigma (m; 0 = fixed), nominal focal (mm)
-    ("net1", "net1-C404Z-2d.txt", "ctrlpts-2d.txt", 0.0),
-    ("net2", "net2-canon40d-2d.txt", "ctrlpts-2d.txt", 0.0),
-    ("net3", "net3-canon7d-2d.txt", "ctrlpts-2d.txt", 0.0),
-    ("net4", "net4-canon7d-3d.txt", "ctrlpts-3d-1.txt", 0.005),
-    ("net5", "net5-canon5d-3d.txt", "ctrlpts-3d-2.txt", 0.05),
+    # folder, export, control file, control sigma (m; 0 = fixed), why this sigma
+    ("net1", "net1-C404Z-2d.txt", "ctrlpts-2d.txt", 0.0, "as PhotoModeler holds them (its points equal the file's)"),
+    ("net2", "net2-canon40d-2d.txt", "ctrlpts-2d.txt", 0.0, "as PhotoModeler holds them (its points equal the file's)"),
+    ("net3", "net3-canon7d-2d.txt", "ctrlpts-2d.txt", 0.01,
+     "PhotoModeler holds them neither: its points differ from them by 1.35 mm RMS after a similarity; "
+     "weights this loose place the network without bending it"),
+    ("net4", "net4-canon7d-3d.txt", "ctrlpts-3d-1.txt", 0.005,
+     "PhotoModeler's points are in a frame of their own (scale 7.74) and differ from them by 1.68 mm RMS "
+     "after a similarity; the file states no sigma"),
+    ("net5", "net5-canon5d-3d.txt", "ctrlpts-3d-2.txt", 0.05,
+     "PhotoModeler's points are in a frame of their own (scale 158) and differ from them by 0.84 m RMS "
+     "after a similarity; the file states no sigma"),
 ]
 
 
@@ -255,14 +262,14 @@ def write_camera(path, pm, net):
         f.write(f"xp_mm: {w * cam['pitch'] / 2:.10g}\nyp_mm: {pm['camera'][4] / 2:.10g}\n")
 
 
-def write_project(folder, net, sigma_m, n_control):
-    datum = ("held fixed (PhotoModeler's calibration-sheet datum)" if sigma_m == 0
-             else f"weighted at {sigma_m} m per coordinate (the file states no sigma)")
+def write_project(folder, net, sigma_m, n_control, note):
+    datum = "held fixed" if sigma_m == 0 else f"weighted at {sigma_m} m per coordinate"
+    why = textwrap.wrap(f"{n_control} control points {datum}: {note}.", 92)
     with open(os.path.join(folder, "project.yaml"), "w") as f:
         f.write(f"# riva2014 {net}: PhotoModeler's calibration parameter set (c, Xp, Yp, Fw, K1, K2,\n"
                 "# P1, P2; K3 held at 0) self-calibrated from the nominal camera; every mark kept\n"
                 "# (no robust loss, no blunder excluded), sigma per mark from the export;\n"
-                f"# {n_control} control points {datum}.\n"
+                + "".join(f"# {line}\n" for line in why) +
                 "# Written by convert_pmexport.py.\n")
         f.write(f"mmba_project: 1\nname: riva2014_{net}\nframe: cartesian\n")
         f.write("control: {file: control.txt, columns: [id, x, y, z], "
@@ -297,12 +304,18 @@ def write_solution(path, pm, net, export, control_file, fit):
                     "sigma_kappa": ph["eo_sigma"][3]} for ph in pm["photos"]],
         "points": [{"id": int(o[0]), "xyz": o[1:4], "sigma": o[4:7]} for o in pm["objects"]],
     }
-    with open(path, "w") as f:
-        json.dump(sol, f, indent=1)
-        f.write("\n")
+    with open(path, "w") as f:  # one image, one point a line
+        items = []
+        for key, value in sol.items():
+            if isinstance(value, list):
+                rows = ",\n  ".join(json.dumps(v) for v in value)
+                items.append(f"{json.dumps(key)}: [\n  {rows}\n ]")
+            else:
+                items.append(f"{json.dumps(key)}: {json.dumps(value)}")
+        f.write("{\n " + ",\n ".join(items) + "\n}\n")
 
 
-def convert(net, export, control_file, sigma_m):
+def convert(net, export, control_file, sigma_m, note):
     pm = parse_export(os.path.join(HERE, "pmexports", export))
     smart = renumber_smart_points(pm)
     folder = os.path.join(HERE, net)
@@ -327,7 +340,7 @@ def convert(net, export, control_file, sigma_m):
             f.write(f"{cid}, {xyz[0]:.5f}, {xyz[1]:.5f}, {xyz[2]:.5f}\n")
     fit = similarity_rms([(pts[cid], xyz) for cid, _, xyz in control]) + (len(control),)
     write_camera(os.path.join(folder, "camera_nominal.yaml"), pm, net)
-    write_project(folder, net, sigma_m, len(control))
+    write_project(folder, net, sigma_m, len(control), note)
     write_solution(os.path.join(folder, "pm_solution.json"), pm, net, export, control_file, fit)
     rms, n = check_reprojection(pm)
     print(f"{net}: {len(pm['photos'])} photos, {len(pts)} points ({smart} SmartPoints "
@@ -339,8 +352,8 @@ def convert(net, export, control_file, sigma_m):
 
 def main():
     try:
-        for net, export, control_file, sigma_m in NETS:
-            convert(net, export, control_file, sigma_m)
+        for row in NETS:
+            convert(*row)
     except (FormatError, OSError, ValueError) as e:
         print(f"convert_pmexport: {e}", file=sys.stderr)
         return 2
