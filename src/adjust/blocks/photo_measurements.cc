@@ -201,32 +201,38 @@ sensors::Camera RefineStartCamera(const sensors::Camera& camera, const orientati
   return summary.IsSolutionUsable() && finite ? refined : camera;
 }
 
-/// The initial block; when the start camera leaves images unoriented or, with 3 or more
-/// control points, the block in an arbitrary frame, the block again with the camera refined
-/// on the first one (RefineStartCamera), kept when it orients more images or reaches the
-/// control frame. `camera` becomes the camera of the block kept.
+/// The initial block; while the camera leaves images unoriented or, with 3 or more control
+/// points, the block in an arbitrary frame, the block again with the camera refined on the
+/// previous one (RefineStartCamera; at most kCameraRounds times), kept while it orients more
+/// images or reaches the control frame. `camera` becomes the camera of the block kept.
 orientation::BlockResult InitialiseSelfCalibrating(orientation::BlockInput input, const std::vector<int>& free,
                                                    sensors::Camera* camera) {
+  constexpr int kCameraRounds = 3;
   input.camera = camera;
-  orientation::BlockResult first = orientation::InitialiseBlock(input, orientation::BlockOptions{});
+  orientation::BlockResult best = orientation::InitialiseBlock(input, orientation::BlockOptions{});
   const auto arbitrary = [&](const orientation::BlockResult& r) {
     return input.control.size() >= 3 && r.frame.find("arbitrary") != std::string::npos;
   };
-  if ((first.failed_images.empty() && !arbitrary(first)) || free.empty() || first.cam_from_world.size() < 2) {
-    return first;
+  std::vector<std::string> rounds;
+  for (int round = 0; round < kCameraRounds; ++round) {
+    if ((best.failed_images.empty() && !arbitrary(best)) || free.empty() || best.cam_from_world.size() < 2) break;
+    const sensors::Camera refined = RefineStartCamera(*camera, input, best, free);
+    input.camera = &refined;
+    orientation::BlockResult again = orientation::InitialiseBlock(input, orientation::BlockOptions{});
+    if (again.cam_from_world.size() < best.cam_from_world.size() ||
+        (again.cam_from_world.size() == best.cam_from_world.size() && arbitrary(again) >= arbitrary(best))) {
+      break;
+    }
+    rounds.push_back(std::to_string(best.cam_from_world.size()) + " images (" + best.frame + ")");
+    best = std::move(again);
+    *camera = refined;
   }
-  const sensors::Camera refined = RefineStartCamera(*camera, input, first, free);
-  input.camera = &refined;
-  orientation::BlockResult second = orientation::InitialiseBlock(input, orientation::BlockOptions{});
-  if (second.cam_from_world.size() < first.cam_from_world.size() ||
-      (second.cam_from_world.size() == first.cam_from_world.size() && arbitrary(second) >= arbitrary(first))) {
-    return first;
+  if (!rounds.empty()) {
+    std::string text = "the start camera refined on a first block of " + rounds[0];
+    for (size_t k = 1; k < rounds.size(); ++k) text += ", again on " + rounds[k];
+    best.log.insert(best.log.begin(), text + "; the block initialised again with it");
   }
-  second.log.insert(second.log.begin(), "the start camera refined on a first block of " +
-                                            std::to_string(first.cam_from_world.size()) + " images (" + first.frame +
-                                            "); the block initialised again with it");
-  *camera = refined;
-  return second;
+  return best;
 }
 
 /// Runs the initialisation and logs it; AdjustFailure when no image could be oriented.
