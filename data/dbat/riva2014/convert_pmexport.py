@@ -35,14 +35,14 @@ exterior orientation (check_reprojection below; RMS per net in the report it pri
   - the angles are in the order kappa, phi, omega and R = R1(omega) R2(phi) R3(kappa) takes
     the camera frame (x right, y up, z back) to the object frame, as mmba's omega-phi-kappa
     (docs/formats.md, Photogrammetric camera); the order omega, phi, kappa gives residuals
-    of 10^4 px on net1.
+    over 10^4 px on net1.
   - pixel coordinates: x right, y down, in pixels from the top-left corner of the image,
     written to markpts.txt unchanged. PhotoModeler's calibration of the same 21 images as
     net1 (data/dbat/camcaldemo/photomodeler) matches mmba's with these numbers taken as
     mmba pixels (Xp −0.12 σ, Yp −0.22 σ, docs/photogrammetry.md); half a pixel of offset
     would move Xp and Yp by 0.0016 mm = 1.8 σ. The camera values printed in the exports are
-    too coarse to decide this by themselves (their rounding alone makes 2-4 px of
-    residual on nets 2-4).
+    too coarse to decide this by themselves (with their rounding PhotoModeler's solution
+    reprojects with RMS 0.4 px on net1, 0.6 px on net3, 4 px on nets 2 and 4, 12 px on net5).
   - Xp = (1 + b1) xp and Fw = W · pitch · (1 + b1) with pitch = Fh / H (square pixels);
     Yp = yp; K1, K2, K3, P1, P2 as mmba's PHOTOGRAMMETRIC camera.
 
