@@ -183,6 +183,17 @@ void ControlPointsReport(const JointState& s, json* report) {
   }
 }
 
+/// ",a" with a the ENU azimuth `azimuth_deg` (from true north) from the CRS's grid north at the
+/// world point x: a − γ, γ the meridian convergence (grid north γ east of true north), in
+/// [0, 180) as an ellipse's axis.
+std::string GridAzimuth(const geodesy::CrsFrame& crs, const Eigen::Vector3d& x, double azimuth_deg) {
+  double a = std::fmod(azimuth_deg - crs.FactorsAtWorld(x).convergence_deg, 180.0);
+  if (a < 0) a += 180.0;
+  std::ostringstream out;
+  out << "," << std::setprecision(6) << a;
+  return out.str();
+}
+
 /// points.csv: the surveyed points in the world with σ and error ellipses.
 void WriteSurveyPoints(const JointState& s, const fs::path& stage) {
   const Project& project = *s.project;
@@ -190,7 +201,7 @@ void WriteSurveyPoints(const JointState& s, const fs::path& stage) {
   std::ostringstream points;
   points << "id,role,east_m,north_m,up_m,sigma_east_m,sigma_north_m,sigma_up_m,ellipse_a_m,ellipse_b_m,"
             "ellipse_azimuth_deg,latitude_deg,longitude_deg,height_m,utm_zone,utm_easting_m,utm_northing_m"
-         << (project.crs ? CrsColumns(*project.crs) : "") << "\n";
+         << (project.crs ? CrsColumns(*project.crs) + ",ellipse_azimuth_grid_deg" : "") << "\n";
   const std::optional<geodesy::CrsFrame> crs = ProjectCrsFrame(project);
   for (const survey::SurveyPoint& p : s.joint->points) {
     const bool check = std::count(project.check_points.begin(), project.check_points.end(), p.id) > 0;
@@ -204,7 +215,8 @@ void WriteSurveyPoints(const JointState& s, const fs::path& stage) {
     points << p.id << "," << role << "," << std::setprecision(12) << x.x() << "," << x.y() << "," << x.z() << ","
            << std::setprecision(6) << sigma.x() << "," << sigma.y() << "," << sigma.z() << ","
            << e["a"].get<double>() << "," << e["b"].get<double>() << "," << e["azimuth_deg"].get<double>() << ","
-           << Geo(s.plane, x) << (crs ? CrsValues(*crs, x) : "") << "\n";
+           << Geo(s.plane, x)
+           << (crs ? CrsValues(*crs, x) + GridAzimuth(*crs, x, e["azimuth_deg"].get<double>()) : "") << "\n";
   }
   WriteText(stage / "points.csv", points.str());
 }

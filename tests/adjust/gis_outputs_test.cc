@@ -6,6 +6,7 @@
 // positions are points.csv's and poses.csv's latitude and longitude. The same project with
 // `crs: EPSG:25832` (its network given in the CRS) writes the LAS in ETRS89 / UTM 32N, equal to
 // points.csv's CRS columns' conversion, and (checked by pyproj) to PROJ's own pipeline.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -335,6 +336,41 @@ TEST_F(GisOutputsTest, WithACrsTheLasIsInTheCrsAsPointsCsvAndAsPyprojConvertsIt)
     }
   }
   EXPECT_GT(scans, 0);
+  // points.csv's grid azimuth of the ellipse = its true azimuth + the grid bearing of true north
+  // at the point, which pyproj gives from two points 1e-5 deg of latitude apart.
+  {
+    int status = -1;
+    if (Shell("/usr/bin/python3 -c 'import pyproj'", &status), status == 0) {
+      std::ofstream(Root() / "north.py")
+          << "import pyproj,sys,math\n"
+             "t=pyproj.Transformer.from_crs('EPSG:4258','EPSG:25832',always_xy=True)\n"
+             "for l in sys.stdin:\n  lat,lon=map(float,l.split())\n"
+             "  e0,n0=t.transform(lon,lat)\n  e1,n1=t.transform(lon,lat+1e-5)\n"
+             "  print('%.8f'%math.degrees(math.atan2(e1-e0,n1-n0)))\n";
+      std::ofstream geodetic(Root() / "north.txt");
+      std::vector<std::string> ids;
+      for (const auto& [id, row] : csv) {
+        geodetic << row.at("latitude_deg") << " " << row.at("longitude_deg") << "\n";
+        ids.push_back(id);
+      }
+      geodetic.close();
+      const std::string out = Shell(
+          "/usr/bin/python3 " + (Root() / "north.py").string() + " < " + (Root() / "north.txt").string(), &status);
+      ASSERT_EQ(status, 0) << out;
+      std::istringstream bearings(out);
+      for (const std::string& id : ids) {
+        double north = 0.0;
+        ASSERT_TRUE(bearings >> north) << out;
+        const double expected = std::fmod(Cell(csv.at(id), "ellipse_azimuth_deg") + north + 360.0, 180.0);
+        const double got = Cell(csv.at(id), "ellipse_azimuth_grid_deg");
+        const double d = std::fmod(std::abs(got - expected), 180.0);
+        // Both azimuths are printed to 6 significant digits (0.001 deg above 100 deg); the
+        // convergence here is about 0.23 deg, so a sign error would show.
+        EXPECT_LT(std::min(d, 180.0 - d), 1.5e-3) << id << " grid bearing of north " << north;
+        EXPECT_GT(std::abs(north), 0.1);
+      }
+    }
+  }
   // ... and so are the LAS coordinates of the PLY's world points.
   const io::PointCloud ply = io::ReadPly((out_dir / "tie_points.ply").string());
   io::LasInfo info;

@@ -95,7 +95,8 @@ TEST_P(AdjustCrsTest, AdjustInTheCrsEqualsTheLocalFrameAdjustmentConvertedByPypr
   // The CRS named in the outputs: the CSV header and report.json.
   const std::string tag = std::string("epsg") + (place.code + 5);
   const std::string points = ReadFile(dir_ / "out_crs" / "points.csv");
-  EXPECT_NE(points.find(",easting_" + tag + "_m,northing_" + tag + "_m,height_" + tag + "_m\n"), std::string::npos)
+  EXPECT_NE(points.find(",easting_" + tag + "_m,northing_" + tag + "_m,height_" + tag + "_m,ellipse_azimuth_grid_deg\n"),
+            std::string::npos)
       << points.substr(0, 600);
   const std::string report = ReadFile(dir_ / "out_crs" / "report.json");
   EXPECT_NE(report.find("\"epsg\": " + std::string(place.code + 5)), std::string::npos);
