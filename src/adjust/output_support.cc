@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 
 #include "mmba/geometry/skew.h"
+#include "mmba/survey/result_json.h"
 
 namespace mmba::adjust::internal {
 
@@ -142,21 +143,9 @@ std::string CrsValues(const geodesy::CrsFrame& frame, const Eigen::Vector3d& poi
 }
 
 nlohmann::json CrsJson(const geodesy::Crs& crs) {
-  const std::string& id = crs.identifier();
-  nlohmann::json epsg = nullptr;
-  if (id.rfind("EPSG:", 0) == 0 && id.find('+') == std::string::npos) epsg = std::stoi(id.substr(5));
-  std::string columns = CrsColumns(crs).substr(1);
-  return {{"definition", crs.definition()},
-          {"identifier", id},
-          {"epsg", epsg},
-          {"name", crs.name()},
-          {"wkt", crs.wkt()},
-          {"axes", crs.is_geographic() ? "longitude_deg, latitude_deg, height_m" : "easting_m, northing_m, height_m"},
-          {"height_kind", geodesy::HeightKindName(crs.height_kind())},
-          {"geoid_grid", crs.geoid_grid().empty()
-                             ? nlohmann::json(nullptr)
-                             : nlohmann::json(std::filesystem::path(crs.geoid_grid()).filename().string())},
-          {"columns", columns}};
+  nlohmann::json json = survey::CrsToJson(crs);
+  json["columns"] = CrsColumns(crs).substr(1);
+  return json;
 }
 
 void WriteText(const std::filesystem::path& path, const std::string& text) {

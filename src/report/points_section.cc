@@ -1,5 +1,6 @@
 // report.html: every adjusted point with σ and its 95 % confidence ellipse, and the relative
 // precision between neighbouring points.
+#include <array>
 #include <cmath>
 #include <string>
 
@@ -24,18 +25,21 @@ void CloseLongTable(size_t rows, size_t fold_above, const std::string& csv, std:
   if (rows > fold_above) html << "</details>\n";
 }
 
+/// An entry's optional `ellipse` at 95 %: semi-axes a, b and the azimuth of a (degrees from
+/// north); NaN without one.
+std::array<double, 3> Ellipse95(const json& p, const std::string& path) {
+  const json* e = OptObject(p, "ellipse", path);
+  if (e == nullptr) return {NAN, NAN, NAN};
+  const std::string epath = Join(path, "ellipse");
+  const double to95 = EllipseFactorTo95(Num(*e, "confidence", epath), epath);
+  return {Num(*e, "a", epath) * to95, Num(*e, "b", epath) * to95, Num(*e, "azimuth_deg", epath)};
+}
+
 void RenderPointRow(const json& p, const std::string& path, std::ostringstream& html) {
   std::array<double, 3> xyz{NAN, NAN, NAN}, sigma{NAN, NAN, NAN};
   if (auto v = OptVec3(p, "adjusted", path)) xyz = *v;
   if (auto v = OptVec3(p, "sigma", path)) sigma = *v;
-  double a = NAN, b = NAN, azimuth = NAN;
-  if (const json* e = OptObject(p, "ellipse", path)) {
-    const std::string epath = Join(path, "ellipse");
-    const double to95 = EllipseFactorTo95(Num(*e, "confidence", epath), epath);
-    a = Num(*e, "a", epath) * to95;
-    b = Num(*e, "b", epath) * to95;
-    azimuth = Num(*e, "azimuth_deg", epath);
-  }
+  const auto [a, b, azimuth] = Ellipse95(p, path);
   html << "<tr>" << TdText(Esc(ReqString(p, "id", path))) << TdText(Esc(OptString(p, "role", path).value_or("")));
   for (int k = 0; k < 3; ++k) html << Td(FormatFixed(xyz[k], 4));
   for (int k = 0; k < 3; ++k) html << Td(Mm(sigma[k]));
@@ -81,14 +85,7 @@ void RenderRelativePrecision(const json& report, std::ostringstream& html) {
     const double d = Num(p, "distance_m", path), sd = Num(p, "sigma_distance_m", path);
     std::array<double, 3> sigma{NAN, NAN, NAN};
     if (auto v = OptVec3(p, "sigma", path)) sigma = *v;
-    double a = NAN, b = NAN, azimuth = NAN;
-    if (const json* e = OptObject(p, "ellipse", path)) {
-      const std::string epath = Join(path, "ellipse");
-      const double to95 = EllipseFactorTo95(Num(*e, "confidence", epath), epath);
-      a = Num(*e, "a", epath) * to95;
-      b = Num(*e, "b", epath) * to95;
-      azimuth = Num(*e, "azimuth_deg", epath);
-    }
+    const auto [a, b, azimuth] = Ellipse95(p, path);
     html << "<tr>" << TdText(Esc(ReqString(p, "from", path))) << TdText(Esc(ReqString(p, "to", path)))
          << Td(FormatFixed(d, 3)) << Td(Mm(sd, 2)) << Td(d > 0.0 ? FormatFixed(sd / d * 1e6, 1) : kDash);
     for (int k = 0; k < 3; ++k) html << Td(Mm(sigma[k], 2));

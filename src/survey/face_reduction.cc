@@ -5,8 +5,12 @@
 #include <map>
 #include <sstream>
 
+#include "survey/output_units_internal.h"
+
 namespace mmba::survey {
 namespace {
+
+using internal::Fixed;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kRadToMgon = 200.0e3 / kPi;
@@ -160,14 +164,6 @@ ReducedSet ReduceRound(const FieldBook& book, size_t s, int round, const std::ve
     pairs->push_back(pair);
   }
   return set;
-}
-
-std::string Fixed(double v, int digits) {
-  std::ostringstream out;
-  out.setf(std::ios::fixed);
-  out.precision(digits);
-  out << v;
-  return out.str();
 }
 
 /// Medians, means and σ of c and i of set-up `s`, and the pairs beyond the tolerances.
