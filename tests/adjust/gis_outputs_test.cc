@@ -44,21 +44,11 @@ const geodesy::Geodetic kOrigin{49.7, 9.3, 180.0};
 
 /// A CSV file's rows by their first column (the header, its first line, names the columns).
 std::map<std::string, std::map<std::string, std::string>> CsvRows(const fs::path& path) {
-  std::ifstream in(path);
   std::vector<std::string> names;
-  std::map<std::string, std::map<std::string, std::string>> rows;
-  for (std::string line; std::getline(in, line);) {
-    if (line.empty() || line[0] == '#') continue;
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    for (std::string cell; std::getline(ss, cell, ',');) cells.push_back(cell);
-    if (names.empty()) {
-      names = cells;
-      continue;
-    }
-    for (size_t i = 0; i < cells.size() && i < names.size(); ++i) rows[cells[0]][names[i]] = cells[i];
-  }
-  return rows;
+  const auto rows = testing_support::ReadCsvRows(path, &names);
+  std::map<std::string, std::map<std::string, std::string>> by_first;
+  for (const auto& row : rows) by_first[row.at(names.at(0))] = row;
+  return by_first;
 }
 
 double Cell(const std::map<std::string, std::string>& row, const std::string& name) { return std::stod(row.at(name)); }

@@ -35,27 +35,6 @@ using testing_support::ScratchRoot;
 
 constexpr double kDeg = M_PI / 180.0;
 
-/// Rows of a CSV written by mmba (comment lines skipped) as name → value by the header.
-std::vector<std::map<std::string, std::string>> ReadCsv(const fs::path& path) {
-  std::ifstream in(path);
-  std::vector<std::string> header;
-  std::vector<std::map<std::string, std::string>> rows;
-  for (std::string line; std::getline(in, line);) {
-    if (line.empty() || line[0] == '#') continue;
-    std::vector<std::string> fields;
-    std::stringstream ss(line);
-    for (std::string f; std::getline(ss, f, ',');) fields.push_back(f);
-    if (header.empty()) {
-      header = fields;
-      continue;
-    }
-    std::map<std::string, std::string> row;
-    for (size_t i = 0; i < header.size() && i < fields.size(); ++i) row[header[i]] = fields[i];
-    rows.push_back(row);
-  }
-  return rows;
-}
-
 Eigen::Vector3d Centre(const Rigid3d& cam_from_world) {
   return -(cam_from_world.rotation.conjugate() * cam_from_world.translation);
 }
@@ -149,7 +128,7 @@ TEST(PhotoMeasurementsDatum, InnerConstraintsOnASimulatedBlock) {
   const orientation::BlockResult initial = orientation::InitialiseBlock(block.input, orientation::BlockOptions{});
   std::map<std::string, Eigen::Vector3d> adjusted;
   double sum_variance = 0.0;
-  for (const auto& row : ReadCsv(dir / "out/sim_points.csv")) {
+  for (const auto& row : testing_support::ReadCsvRows(dir / "out/sim_points.csv")) {
     adjusted[row.at("point")] = {std::stod(row.at("x_m")), std::stod(row.at("y_m")), std::stod(row.at("z_m"))};
     for (const char* k : {"sigma_x_m", "sigma_y_m", "sigma_z_m"}) sum_variance += std::pow(std::stod(row.at(k)), 2);
   }
@@ -206,7 +185,7 @@ TEST(PhotoMeasurementsDatum, PointCovarianceEqualsTheMinimumNormInverse) {
   camera.camera_id = CameraId(1);
   scene.AddCamera(camera);
   std::map<std::string, ImageId> image_of;
-  for (const auto& row : ReadCsv(dir / "out/sim_images.csv")) {
+  for (const auto& row : testing_support::ReadCsvRows(dir / "out/sim_images.csv")) {
     const Eigen::Quaterniond q(std::stod(row.at("qw")), std::stod(row.at("qx")), std::stod(row.at("qy")), std::stod(row.at("qz")));
     const Eigen::Vector3d c(std::stod(row.at("x_m")), std::stod(row.at("y_m")), std::stod(row.at("z_m")));
     image_of[row.at("image")] = ImageId(image_of.size() + 1);
@@ -214,7 +193,7 @@ TEST(PhotoMeasurementsDatum, PointCovarianceEqualsTheMinimumNormInverse) {
   }
   std::map<std::string, Point3DId> point_of;
   std::map<std::string, Eigen::Vector3d> sigma;
-  for (const auto& row : ReadCsv(dir / "out/sim_points.csv")) {
+  for (const auto& row : testing_support::ReadCsvRows(dir / "out/sim_points.csv")) {
     point_of[row.at("point")] = Point3DId(point_of.size() + 1);
     scene.AddPoint(point_of.at(row.at("point")), {std::stod(row.at("x_m")), std::stod(row.at("y_m")), std::stod(row.at("z_m"))});
     sigma[row.at("point")] = {std::stod(row.at("sigma_x_m")), std::stod(row.at("sigma_y_m")), std::stod(row.at("sigma_z_m"))};
@@ -262,7 +241,7 @@ TEST(PhotoMeasurementsDatum, InnerConstraintsWithAScaleBar) {
   EXPECT_NE(datum.find("scale from 1 scale bar"), std::string::npos) << datum;
   const orientation::BlockResult initial = orientation::InitialiseBlock(block.input, orientation::BlockOptions{});
   std::map<std::string, Eigen::Vector3d> adjusted;
-  for (const auto& row : ReadCsv(dir / "out/sim_points.csv")) {
+  for (const auto& row : testing_support::ReadCsvRows(dir / "out/sim_points.csv")) {
     adjusted[row.at("point")] = {std::stod(row.at("x_m")), std::stod(row.at("y_m")), std::stod(row.at("z_m"))};
   }
   ASSERT_EQ(adjusted.size(), 80u);
@@ -339,7 +318,7 @@ TEST(PhotoMeasurementsDatum, RomaAgreesWithDbatAfterASimilarity) {
   const std::map<std::string, DbatStation> dbat = ReadDbatStations(roma / "result/report.txt");
   ASSERT_EQ(dbat.size(), 60u);
   std::map<std::string, Rigid3d> mmba;
-  for (const auto& row : ReadCsv(out / "roma_images.csv")) {
+  for (const auto& row : testing_support::ReadCsvRows(out / "roma_images.csv")) {
     const Eigen::Quaterniond q(std::stod(row.at("qw")), std::stod(row.at("qx")), std::stod(row.at("qy")), std::stod(row.at("qz")));
     const Eigen::Vector3d c(std::stod(row.at("x_m")), std::stod(row.at("y_m")), std::stod(row.at("z_m")));
     mmba[row.at("image")] = Rigid3d(q, -(q * c));

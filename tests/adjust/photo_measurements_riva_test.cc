@@ -30,33 +30,12 @@ namespace {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
+using testing_support::ReadCsvRows;
 using testing_support::ReadText;
 using testing_support::RunProject;
 using testing_support::ScratchRoot;
 
 const fs::path kRiva = fs::path(MMBA_SOURCE_DIR) / "data/dbat/riva2014";
-
-/// A CSV written by mmba adjust (comment lines first, then a header): column -> value per row.
-std::vector<std::map<std::string, std::string>> ReadCsv(const fs::path& file) {
-  std::istringstream in(ReadText(file));
-  std::vector<std::map<std::string, std::string>> rows;
-  std::vector<std::string> header;
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    std::vector<std::string> fields;
-    std::stringstream s(line);
-    for (std::string f; std::getline(s, f, ',');) fields.push_back(f);
-    if (header.empty()) {
-      header = fields;
-      continue;
-    }
-    std::map<std::string, std::string> row;
-    for (size_t k = 0; k < header.size() && k < fields.size(); ++k) row[header[k]] = fields[k];
-    rows.push_back(row);
-  }
-  return rows;
-}
 
 Eigen::Vector3d Xyz(const std::map<std::string, std::string>& row) {
   return {std::stod(row.at("x_m")), std::stod(row.at("y_m")), std::stod(row.at("z_m"))};
@@ -77,8 +56,8 @@ RivaRun Adjust(const std::string& net) {
   EXPECT_TRUE(outcome.ok) << outcome.status << ": " << outcome.reason;
   if (outcome.ok) {
     run.report = json::parse(ReadText(out / "report.json"));
-    for (const auto& row : ReadCsv(out / "pm_points.csv")) run.points[row.at("point")] = Xyz(row);
-    for (const auto& row : ReadCsv(out / "pm_images.csv")) run.centres[row.at("image")] = Xyz(row);
+    for (const auto& row : ReadCsvRows(out / "pm_points.csv")) run.points[row.at("point")] = Xyz(row);
+    for (const auto& row : ReadCsvRows(out / "pm_images.csv")) run.centres[row.at("image")] = Xyz(row);
   }
   run.pm = json::parse(ReadText(kRiva / net / "pm_solution.json"));
   fs::remove_all(out.parent_path());

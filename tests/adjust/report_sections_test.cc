@@ -53,14 +53,8 @@ void ExpectPointShapes(const json& points) {
   }
 }
 
-/// Data rows of a CSV (lines that are neither the # line nor the header).
-size_t DataRows(const fs::path& csv) {
-  std::istringstream in(ReadText(csv));
-  std::string line;
-  size_t rows = 0;
-  while (std::getline(in, line)) rows += !line.empty() && line[0] != '#';
-  return rows - 1;
-}
+/// Data rows of a CSV (the lines after its header).
+size_t DataRows(const fs::path& csv) { return testing_support::ReadCsvRows(csv).size(); }
 
 /// The page renders and holds the sections of the keys written.
 void ExpectSections(const json& report, const std::vector<std::string>& ids) {

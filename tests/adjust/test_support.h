@@ -4,9 +4,10 @@
 #include <unistd.h>
 
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -28,6 +29,30 @@ inline std::string ReadText(const std::filesystem::path& p) {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+/// The rows of a CSV that mmba writes (its header on the first line, comma-separated, no
+/// quoted fields) as column name → cell; `header` receives the column names.
+inline std::vector<std::map<std::string, std::string>> ReadCsvRows(const std::filesystem::path& path,
+                                                                   std::vector<std::string>* header = nullptr) {
+  std::istringstream in(ReadText(path));
+  std::vector<std::string> names;
+  std::vector<std::map<std::string, std::string>> rows;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty()) continue;
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    for (std::string cell; std::getline(ss, cell, ',');) cells.push_back(cell);
+    if (names.empty()) {
+      names = cells;
+      continue;
+    }
+    std::map<std::string, std::string> row;
+    for (size_t i = 0; i < names.size() && i < cells.size(); ++i) row[names[i]] = cells[i];
+    rows.push_back(std::move(row));
+  }
+  if (header) *header = names;
+  return rows;
 }
 
 using stats::Pearson;  ///< the colour tests' measure of agreement

@@ -204,9 +204,10 @@ sensors::Camera RefineStartCamera(const sensors::Camera& camera, const orientati
 /// The initial block; while the camera leaves images unoriented or, with 3 or more control
 /// points, the block in an arbitrary frame, the block again with the camera refined on the
 /// previous one (RefineStartCamera; at most kCameraRounds times), kept while it orients more
-/// images or reaches the control frame. `camera` becomes the camera of the block kept.
+/// images or reaches the control frame. `camera` becomes the camera of the block kept; `note`
+/// says how often it was refined (empty when never).
 orientation::BlockResult InitialiseSelfCalibrating(orientation::BlockInput input, const std::vector<int>& free,
-                                                   sensors::Camera* camera) {
+                                                   sensors::Camera* camera, std::string* note) {
   constexpr int kCameraRounds = 3;
   input.camera = camera;
   orientation::BlockResult best = orientation::InitialiseBlock(input, orientation::BlockOptions{});
@@ -230,7 +231,8 @@ orientation::BlockResult InitialiseSelfCalibrating(orientation::BlockInput input
   if (!rounds.empty()) {
     std::string text = "the start camera refined on a first block of " + rounds[0];
     for (size_t k = 1; k < rounds.size(); ++k) text += ", again on " + rounds[k];
-    best.log.insert(best.log.begin(), text + "; the block initialised again with it");
+    *note = text + "; the block initialised again with it";
+    best.log.insert(best.log.begin(), *note);
   }
   return best;
 }
@@ -247,15 +249,15 @@ void Initialise(JointState* s, sensors::Camera* camera, const std::vector<io::Im
   }
   for (const auto& [id, p] : control) input.control[id] = p.xyz_m;
   input.prior_cam_from_world = ReadPriorEo(*b.config);
-  b.initial = InitialiseSelfCalibrating(input, b.config->free_intrinsics, camera);
+  std::string camera_note;
+  b.initial = InitialiseSelfCalibrating(input, b.config->free_intrinsics, camera, &camera_note);
   for (const std::string& line : b.initial.log) spdlog::debug("adjust: {}: {}", b.config->id, line);
   const std::string& id = b.config->id;
   Note(s, "photo measurements '" + id + "': " + std::to_string(b.initial.cam_from_world.size()) + " of " +
               std::to_string(input.images.size()) + " images oriented without COLMAP (" + b.initial.frame + "), " +
               std::to_string(b.initial.points.size()) + " points, " + std::to_string(b.initial.outliers.size()) +
               " measurements off by more than the RANSAC threshold at the start (kept: the bundle's loss and data snooping judge them)" +
-              (b.initial.log.empty() || b.initial.log.front().rfind("the start camera", 0) != 0 ? ""
-                                                                                               : "; " + b.initial.log.front()));
+              (camera_note.empty() ? "" : "; " + camera_note));
   for (const orientation::InitialOutlier& o : b.initial.outliers) {
     spdlog::info("adjust: photo measurements '{}': point {} in image {} off by {:.1f} px at the initialisation ({})", id,
                  o.point_id, o.image_id, o.error_px, o.stage);
