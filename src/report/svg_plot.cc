@@ -1,5 +1,6 @@
 #include "mmba/report/svg_plot.h"
 
+#include "mmba/core/xml_escape.h"
 #include "mmba/report/label_layout.h"
 #include "report/svg_internal.h"
 
@@ -29,21 +30,7 @@ double ReferenceValue(ReferenceDensity density, int chi_dof, double x) {
 
 }  // namespace
 
-std::string HtmlEscape(const std::string& text) {
-  std::string out;
-  out.reserve(text.size() + 16);
-  for (char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
+std::string HtmlEscape(const std::string& text) { return XmlEscape(text); }
 
 std::string FormatFixed(double value, int decimals) {
   if (!std::isfinite(value)) return "\xE2\x80\x94";  // em dash

@@ -4,8 +4,9 @@
 
 namespace mmba {
 
-/// `text` as XML character data or a double-quoted attribute value: &, <, > and " as entity
-/// references (XML 1.0 §2.4 and §3.3.3); the rest, UTF-8 included, unchanged.
+/// `text` as XML or HTML character data or an attribute value in either quotes: &, <, >, " and
+/// ' as character references (XML 1.0 §2.4 and §3.3.3; &#39; as HTML 4 has no &apos;); the
+/// rest, UTF-8 included, unchanged.
 inline std::string XmlEscape(const std::string& text) {
   std::string out;
   out.reserve(text.size());
@@ -15,6 +16,7 @@ inline std::string XmlEscape(const std::string& text) {
       case '<': out += "&lt;"; break;
       case '>': out += "&gt;"; break;
       case '"': out += "&quot;"; break;
+      case '\'': out += "&#39;"; break;
       default: out += c;
     }
   }
