@@ -90,5 +90,30 @@ TEST_F(PhotoMeasurementsBadInput, TooFewPointsIsAReportedFailure) {
   EXPECT_THAT(outcome.reason, HasSubstr("no image could be oriented"));
 }
 
+// DBAT's camcaldemo with only two of the sheet's four corners as control: they fix no datum
+// (the rotation about their line is free) and, held, contradict the inner constraints of a
+// block without control: an input error naming the control file, nothing written.
+TEST(PhotoMeasurements, TwoControlPointsAreAnInputErrorNamingTheControlFile) {
+  const fs::path dir = ScratchRoot("pm_two_control");
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ofstream(dir / "control.txt") << "# id, label, x, y, z\n1001,CP1,0,1,0\n1002,CP2,1,1,0\n";
+  std::ofstream(dir / "p.yaml") << "mmba_project: 1\nframe: cartesian\n"
+                                   "control: {file: control.txt, columns: [id, label, x, y, z], sigma_m: 0}\n"
+                                   "sensors:\n  - {id: c, type: photo_measurements, camera: "
+                                << (kCamcal / "c4040z_nominal.yaml").string() << ", measurements: [{file: "
+                                << (kCamcal / "measurements/markpts.txt").string()
+                                << ", columns: [image, id, x, y, sxy]}], refine: [c, xp, yp, K1, K2, P1, P2]}\n";
+  try {
+    RunProject((dir / "p.yaml").string(), (dir / "out").string());
+    ADD_FAILURE() << "adjusted with two control points";
+  } catch (const InputError& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("control.txt:2: field 'control': found '2 control point(s) measured in "
+                                                 "the images (1001, 1002)', expected 3 or more"));
+  }
+  EXPECT_FALSE(fs::exists(dir / "out"));
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace mmba::adjust

@@ -304,6 +304,24 @@ void FillScene(JointState* s, const sensors::Camera& camera, const std::vector<i
   }
 }
 
+/// 1 or 2 control points measured in the images: an input error naming the control file. They
+/// fix no datum (2 points leave the rotation about their line free) and, held, contradict the
+/// inner constraints that a block without control takes.
+void CheckControlCount(const Project& project, const std::map<std::string, io::ControlPoint>& control,
+                       const std::map<std::string, Point3DId>& measured) {
+  std::vector<const io::ControlPoint*> used;
+  for (const auto& [id, c] : control) {
+    if (measured.count(id)) used.push_back(&c);
+  }
+  if (used.empty() || used.size() >= 3) return;
+  std::string ids;
+  for (const io::ControlPoint* c : used) ids += (ids.empty() ? "" : ", ") + c->id;
+  throw InputError(used.front()->file, used.front()->line, "control",
+                   std::to_string(used.size()) + " control point(s) measured in the images (" + ids + ")",
+                   "3 or more control points measured in 2+ images, or none (inner constraints" +
+                       std::string(project.scale_bars.empty() ? "" : " with the scale bars") + ")");
+}
+
 }  // namespace
 
 void LoadPhotoMeasurements(JointState* s) {
@@ -353,6 +371,7 @@ void LoadPhotoMeasurements(JointState* s) {
     }
     b.bar_points.push_back({b.point_of.at(bar.from), b.point_of.at(bar.to)});
   }
+  CheckControlCount(project, control, b.point_of);
   if (b.fixed_points.size() + b.control.size() / 3 >= 3) {
     b.datum = "control: " + std::to_string(b.fixed_points.size()) + " fixed, " + std::to_string(b.control.size() / 3) +
               " weighted points";
